@@ -1,0 +1,1 @@
+"""gmsh mesh builders and readers for rftfem."""

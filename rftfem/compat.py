@@ -1,0 +1,205 @@
+"""Every difference between the FEniCSx stacks rftfem runs on, in one place.
+
+The reference stack is Debian 12's dolfinx 0.5.2 (UFL 2022.2, PETSc 3.18); the
+current stack is dolfinx >= 0.10 (the ``dolfinx-solver-real`` wheel, conda-forge,
+FEniCS images). Differences are detected by feature (``hasattr``, ``try``), never
+by comparing version strings, so a stack in between works if its features do.
+
+Nothing outside this module imports ``basix.ufl``, ``dolfinx.io.gmsh(io)`` or
+touches ``Function.vector`` / ``x.petsc_vec``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+try:  # the dolfinx-solver-real wheel must be imported before dolfinx
+    import dolfinx_solver  # noqa: F401
+except ImportError:
+    pass
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.geometry
+import dolfinx.mesh
+import ufl
+from petsc4py import PETSc
+
+try:
+    import basix.ufl as _basix_ufl
+
+    _HAS_BASIX_UFL = hasattr(_basix_ufl, "element") and hasattr(_basix_ufl, "mixed_element")
+except ImportError:  # dolfinx 0.5: elements come from UFL
+    _basix_ufl = None
+    _HAS_BASIX_UFL = False
+
+ScalarType = PETSc.ScalarType
+
+
+# --- function spaces -------------------------------------------------------
+
+
+def _element(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
+    """A Lagrange/DG element on ``mesh``'s cell with the given value shape."""
+    if _HAS_BASIX_UFL:
+        kwargs = {"shape": shape} if shape else {}
+        if family in ("DG", "Discontinuous Lagrange"):
+            return _basix_ufl.element("Lagrange", mesh.basix_cell(), degree,
+                                      discontinuous=True, **kwargs)
+        return _basix_ufl.element(family, mesh.basix_cell(), degree, **kwargs)
+    cell = mesh.ufl_cell()
+    if family == "DG" and cell.cellname() in ("quadrilateral", "hexahedron"):
+        family = "DQ"
+    if shape:
+        return ufl.VectorElement(family, cell, degree, dim=shape[0])
+    return ufl.FiniteElement(family, cell, degree)
+
+
+def _functionspace(mesh, element):
+    if hasattr(dolfinx.fem, "functionspace"):
+        return dolfinx.fem.functionspace(mesh, element)
+    return dolfinx.fem.FunctionSpace(mesh, element)
+
+
+def function_space(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
+    """``family``/``degree`` space with value ``shape`` (``()`` scalar, ``(3,)`` vector)."""
+    return _functionspace(mesh, _element(mesh, family, degree, shape))
+
+
+def mixed_space(mesh, parts):
+    """Mixed space from ``[(family, degree, shape), ...]``."""
+    elements = [_element(mesh, f, k, s) for f, k, s in parts]
+    if _HAS_BASIX_UFL:
+        return _functionspace(mesh, _basix_ufl.mixed_element(elements))
+    return _functionspace(mesh, ufl.MixedElement(elements))
+
+
+def cell_dofs(V) -> np.ndarray:
+    """Cell-to-(blocked)-dof table of ``V`` as a (num_cells, dofs_per_cell) array."""
+    dm = V.dofmap.list
+    if isinstance(dm, np.ndarray):
+        return dm
+    return dm.array.reshape(-1, V.dofmap.dof_layout.num_dofs)  # AdjacencyList (0.5)
+
+
+def interpolation_points(V):
+    pts = V.element.interpolation_points
+    return pts() if callable(pts) else pts
+
+
+def expression(expr, V):
+    """A compiled expression evaluated at ``V``'s interpolation points."""
+    return dolfinx.fem.Expression(expr, interpolation_points(V))
+
+
+# --- forms and PETSc objects ------------------------------------------------
+
+
+def form(ufl_form, jit_options: dict | None = None):
+    """Compile a UFL form (list of forms allowed) to a dolfinx Form."""
+    import inspect
+
+    params = inspect.signature(dolfinx.fem.form).parameters
+    kwargs = {}
+    if jit_options:
+        kwargs["jit_options" if "jit_options" in params else "jit_params"] = jit_options
+    return dolfinx.fem.form(ufl_form, **kwargs)
+
+
+def petsc_vec(f) -> PETSc.Vec:
+    """The PETSc vector wrapping a Function's (owned + ghost) values."""
+    x = f.x
+    if hasattr(x, "petsc_vec"):
+        return x.petsc_vec
+    return f.vector
+
+
+def create_vector(L, V) -> PETSc.Vec:
+    """A ghosted PETSc vector for the linear form ``L`` on space ``V``."""
+    try:
+        return dolfinx.fem.petsc.create_vector(V)
+    except (TypeError, AttributeError, RuntimeError):
+        return dolfinx.fem.petsc.create_vector(L)
+
+
+def create_matrix(a) -> PETSc.Mat:
+    return dolfinx.fem.petsc.create_matrix(a)
+
+
+def assemble_vector(b, L):
+    dolfinx.fem.petsc.assemble_vector(b, L)
+
+
+def assemble_matrix(A, a, bcs):
+    dolfinx.fem.petsc.assemble_matrix(A, a, bcs=bcs)
+
+
+def apply_lifting(b, a, bcs, x0, scale):
+    """``b -= scale * A (g - x0)`` on the rows coupled to Dirichlet dofs."""
+    import inspect
+
+    params = inspect.signature(dolfinx.fem.petsc.apply_lifting).parameters
+    key = "alpha" if "alpha" in params else "scale"
+    dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{key: scale})
+
+
+def set_bc(b, bcs, x0=None, scale=1.0):
+    dolfinx.fem.petsc.set_bc(b, bcs, x0, scale)
+
+
+# --- geometry ---------------------------------------------------------------
+
+
+def colliding_cells(mesh, points: np.ndarray) -> list[np.ndarray]:
+    """For each row of ``points`` (N, 3): the local cells that contain it."""
+    tdim = mesh.topology.dim
+    geom = dolfinx.geometry
+    if hasattr(geom, "bb_tree"):
+        tree = geom.bb_tree(mesh, tdim)
+        candidates = geom.compute_collisions_points(tree, points)
+    else:
+        tree = geom.BoundingBoxTree(mesh, tdim)
+        candidates = geom.compute_collisions(tree, points)
+    cells = geom.compute_colliding_cells(mesh, candidates, points)
+    return [np.asarray(cells.links(i)) for i in range(points.shape[0])]
+
+
+# --- meshes -----------------------------------------------------------------
+
+
+def gmsh_model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
+    """(mesh, cell_tags, facet_tags) from a gmsh model built on ``rank``."""
+    try:
+        from dolfinx.io import gmsh as _gmshio  # dolfinx >= 0.10
+    except ImportError:
+        from dolfinx.io import gmshio as _gmshio  # dolfinx 0.5 - 0.9
+    out = _gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
+    if hasattr(out, "mesh"):  # MeshData (>= 0.10)
+        return out.mesh, out.cell_tags, out.facet_tags
+    return out[0], out[1], out[2]
+
+
+def create_meshtags(mesh, dim: int, entities: np.ndarray, values: np.ndarray):
+    order = np.argsort(entities)
+    return dolfinx.mesh.meshtags(mesh, dim, entities[order].astype(np.int32),
+                                 values[order].astype(np.int32))
+
+
+# --- versions ---------------------------------------------------------------
+
+
+def versions() -> dict:
+    import petsc4py
+
+    v = PETSc.Sys.getVersion()
+    return {
+        "dolfinx": dolfinx.__version__,
+        "ufl": getattr(ufl, "__version__", "unknown"),
+        "petsc": ".".join(str(i) for i in v),
+        "petsc4py": petsc4py.__version__,
+    }
+
+
+def has_mumps() -> bool:
+    return bool(PETSc.Sys.hasExternalPackage("mumps"))
