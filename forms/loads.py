@@ -1,0 +1,17 @@
+"""Dead edge loads (DESIGN.md §5): a force and a moment per unit reference length."""
+
+import ufl
+
+
+def edge_force_work(force, du, ds):
+    """``∫ f·δu ds`` for a force ``f`` per unit length."""
+    return ufl.dot(force, du) * ds
+
+
+def edge_moment_work(moment, d, dd, ds):
+    """``∫ M·(d × δd) ds`` for a moment ``M`` per unit length acting on the director.
+
+    With ``δd = δφ × d`` this is the work of ``M`` on the virtual rotation ``δφ``
+    less its drilling part (along ``d``), which the director cannot take.
+    """
+    return ufl.dot(moment, ufl.cross(d, dd)) * ds

@@ -1,0 +1,406 @@
+"""A scene turned into unknowns, state and UFL forms.
+
+The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
+the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
+``(a₁, a₂, dₙ)`` of the last converged step (DESIGN.md §4).  The triad is kept as
+three [P2]³ functions and rotated node by node after each converged step.
+
+Only the effects a scene asks for are built (DESIGN.md §5): ``Model.effects``
+names them, and each maps to its UFL virtual-work term.
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh as dmesh
+from petsc4py import PETSc
+
+from rftfem.forms import elasticity, inertia, kinematics, loads
+
+from . import compat
+from .errors import SceneError
+
+EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
+DISPLACEMENT_COMPONENTS = {"ux": 0, "uy": 1, "uz": 2}
+
+
+def ramp_scale(load: dict, t: float, end: float) -> float:
+    """Scale factor of a ``[[load]]`` at time ``t`` (SCENES.md: linear, constant, table)."""
+    kind = load.get("ramp", "linear")
+    if kind == "linear":
+        return t / end
+    if kind == "constant":
+        return 1.0
+    table = np.asarray(load["table"], dtype=float)
+    return float(np.interp(t, table[:, 0], table[:, 1]))
+
+
+class Model:
+    """Function spaces, state, material fields and forms of one scene."""
+
+    def __init__(self, scene: dict, body):
+        self.scene = scene
+        self.body = body
+        self.mesh = body.mesh
+        self.comm = self.mesh.comm
+        tdim = self.mesh.topology.dim
+        self.mesh.topology.create_connectivity(tdim - 1, tdim)
+        self.timings = {"compile": 0.0}
+
+        # unknowns and spaces
+        self.W = compat.mixed_space(self.mesh, [("Lagrange", 2, (3,)), ("Lagrange", 2, (2,))])
+        self.Vu, self.u_dofs = self.W.sub(0).collapse()
+        self.Vt, self.theta_dofs = self.W.sub(1).collapse()
+        self.u_dofs = np.asarray(self.u_dofs, dtype=np.int64)
+        self.theta_dofs = np.asarray(self.theta_dofs, dtype=np.int64)
+        self.w = fem.Function(self.W, name="w")
+        self._node_map = self._theta_to_u_nodes()
+
+        # stored state: displacement, velocity, acceleration of the last step
+        self.u_n = fem.Function(self.Vu, name="u_n")
+        self.v_n = fem.Function(self.Vu, name="v_n")
+        self.a_n = fem.Function(self.Vu, name="a_n")
+        self.displacement = fem.Function(self.Vu, name="displacement")
+
+        # reference director D and nodal triad (a1, a2, dn)
+        self.D = fem.Function(self.Vu, name="reference_director")
+        self.a1 = fem.Function(self.Vu, name="a1")
+        self.a2 = fem.Function(self.Vu, name="a2")
+        self.dn = fem.Function(self.Vu, name="director")
+        self._init_triad(np.asarray(scene["shell"]["axis"], dtype=float))
+
+        self._init_materials()
+        self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
+                     for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
+        self._build_effects()
+        self.bcs = self._build_bcs()
+
+    # --- set-up -----------------------------------------------------------
+
+    def _theta_to_u_nodes(self) -> np.ndarray:
+        """For each node of the θ space, the matching node of the u space.
+
+        Both collapsed spaces come from the same scalar P2 layout, so the k-th
+        node of a cell is the same point in both.
+        """
+        cu, ct = compat.cell_dofs(self.Vu), compat.cell_dofs(self.Vt)
+        bs_u, bs_t = self.Vu.dofmap.index_map_bs, self.Vt.dofmap.index_map_bs
+        assert bs_u == 3 and bs_t == 2 and cu.shape == ct.shape, "unexpected dof layout"
+        n_t = self.Vt.dofmap.index_map.size_local + self.Vt.dofmap.index_map.num_ghosts
+        node_map = np.full(n_t, -1, dtype=np.int64)
+        node_map[ct.ravel()] = cu.ravel()
+        assert (node_map >= 0).all()
+        return node_map
+
+    def _project_normal(self) -> np.ndarray:
+        """Nodal unit normals: L2 projection of the cell normal onto [P2]³, normalised."""
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        N = kinematics.unit_normal(G1, G2)
+        p, q = ufl.TrialFunction(self.Vu), ufl.TestFunction(self.Vu)
+        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 4})
+        a = self._compile(ufl.inner(p, q) * dx)
+        L = self._compile(ufl.inner(N, q) * dx)
+        A = fem.petsc.assemble_matrix(a)
+        A.assemble()
+        b = fem.petsc.assemble_vector(L)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOperators(A)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        if compat.has_mumps():
+            ksp.getPC().setFactorSolverType("mumps")
+        x = compat.petsc_vec(self.D)
+        ksp.solve(b, x)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        for obj in (ksp, A, b):
+            obj.destroy()
+        n = self.D.x.array.reshape(-1, 3)
+        return n / np.linalg.norm(n, axis=1)[:, None]
+
+    def _init_triad(self, axis: np.ndarray):
+        D = self._project_normal()
+        self.D.x.array[:] = D.ravel()
+        self.dn.x.array[:] = D.ravel()
+        a1 = axis[None, :] - (D @ axis)[:, None] * D
+        bad = np.linalg.norm(a1, axis=1) < 1e-6
+        if bad.any():  # material axis along the normal: take any tangent
+            other = np.where(np.abs(D[bad, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+            a1[bad] = other - np.sum(other * D[bad], axis=1)[:, None] * D[bad]
+        a1 /= np.linalg.norm(a1, axis=1)[:, None]
+        self.a1.x.array[:] = a1.ravel()
+        self.a2.x.array[:] = np.cross(D, a1).ravel()
+
+    def _cells_of(self, names) -> np.ndarray:
+        tags = [t for n in names for t in self.body.regions[n]]
+        ct = self.body.cell_tags
+        return np.unique(ct.indices[np.isin(ct.values, tags)]).astype(np.int32)
+
+    def _init_materials(self):
+        """Cellwise (DG0) E, ν, t, ρ: one compiled form serves every scene."""
+        V0 = compat.function_space(self.mesh, "DG", 0)
+        shell = self.scene["shell"]
+        dofs = compat.cell_dofs(V0)[:, 0]
+        self.material = {}
+        for key, name in (("E", "E"), ("nu", "nu"), ("thickness", "t"), ("density", "rho")):
+            f = fem.Function(V0, name=name)
+            f.x.array[:] = float(shell[key])
+            for part in shell.get("parts", []):
+                if key in part:
+                    f.x.array[dofs[self._cells_of([part["region"]])]] = float(part[key])
+            f.x.scatter_forward()
+            self.material[name] = f
+
+    # --- forms --------------------------------------------------------------
+
+    def _compile(self, ufl_form):
+        t0 = _time.perf_counter()
+        form = compat.form(ufl_form)
+        self.timings["compile"] += _time.perf_counter() - t0
+        return form
+
+    def kinematics(self):
+        """UFL kinematics of the current iterate (u, θ, d, g₁, g₂) and reference geometry."""
+        u, theta = ufl.split(self.w)
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        d = kinematics.director(theta, self.a1, self.a2, self.dn)
+        g1, g2 = kinematics.surface_basis(u, G1, G2)
+        return u, theta, d, g1, g2, G1, G2
+
+    def velocity(self, u):
+        c = self.coef
+        return c["cv"] * (u - self.u_n) + c["cv_v"] * self.v_n + c["cv_a"] * self.a_n
+
+    def acceleration(self, u):
+        """``a_{n+1−α_m}`` as a function of the unknown displacement."""
+        c = self.coef
+        return c["ca"] * (u - self.u_n) + c["ca_v"] * self.v_n + c["ca_a"] * self.a_n
+
+    def _build_effects(self):
+        scene, mat = self.scene, self.material
+        self.dx = ufl.Measure("dx", domain=self.mesh)
+        u, theta, d, g1, g2, G1, G2 = self.kinematics()
+        D = kinematics.unit(self.D)
+        strains = (kinematics.membrane_strain(g1, g2, G1, G2),
+                   kinematics.bending_strain(g1, g2, d, G1, G2, D),
+                   kinematics.shear_strain(g1, g2, d, G1, G2, D))
+        h = ufl.CellDiameter(self.mesh)
+        self.energy = elasticity.stored_energy(strains, G1, G2, mat["E"], mat["nu"], mat["t"],
+                                               self.dx, h)
+        w_test = ufl.TestFunction(self.W)
+        du, _ = ufl.split(w_test)
+        self.director = d
+
+        #: virtual work of every non-inertial effect, by name (DESIGN.md §5)
+        self.effects = {"elasticity": ufl.derivative(self.energy, self.w, w_test)}
+        self.inertia = None
+        if self._has_inertia():
+            self.inertia = inertia.inertia_work(mat["rho"], mat["t"], self.acceleration(u), du,
+                                                self.dx(metadata={"quadrature_degree": 4}))
+        self.load_terms = self._build_loads(du, d, w_test)
+        for kind in ("edge-force", "edge-moment"):
+            terms = [term for k, term in self.load_terms if k == kind]
+            if terms:
+                self.effects[kind] = -sum(terms[1:], terms[0])
+
+        forces = sum(list(self.effects.values())[1:], self.effects["elasticity"])
+        self.forces_ufl = forces
+        one_minus_af = 1 - self.coef["alpha_f"]
+        residual = one_minus_af * forces + (self.inertia if self.inertia is not None else 0)
+        self.jacobian_ufl = ufl.derivative(residual, self.w, ufl.TrialFunction(self.W))
+        self.forces_form = self._compile(forces)
+        self.inertia_form = self._compile(self.inertia) if self.inertia is not None else None
+        self.jacobian_form = self._compile(self.jacobian_ufl)
+
+    def _has_inertia(self) -> bool:
+        shell = self.scene["shell"]
+        rho = [shell["density"]] + [p["density"] for p in shell.get("parts", []) if "density" in p]
+        return self.scene["time"]["scheme"] in ("generalized-alpha", "hht") and max(rho) > 0
+
+    def active_effects(self) -> list[str]:
+        names = list(self.effects)
+        if self.inertia is not None:
+            names.insert(1, "inertia")
+        if self.scene.get("motion"):
+            names.append("prescribed-motion")
+        return names
+
+    # --- where-selectors ----------------------------------------------------
+
+    def facets_of(self, where: str, key: str) -> np.ndarray:
+        """Local boundary facets selected by an edge selector or a named curve group."""
+        tdim = self.mesh.topology.dim
+        if where in EDGE_SELECTORS:
+            axis = 0 if where[0] == "x" else 1
+            at = 0.0 if where[2] == "0" else (self.body.length if axis == 0 else self.body.width)
+            tol = 1e-8 * max(self.body.length, self.body.width)
+            facets = dmesh.locate_entities_boundary(
+                self.mesh, tdim - 1, lambda x: np.abs(x[axis] - at) < tol)
+        elif where in self.body.edges:
+            ft = self.body.facet_tags
+            facets = ft.indices[np.isin(ft.values, self.body.edges[where])]
+        elif where in self.body.regions or where == "all":
+            raise SceneError(f"{key}: '{where}' is a surface region; this needs an edge "
+                             f"({', '.join(EDGE_SELECTORS + tuple(self.body.edges))})")
+        else:
+            raise SceneError(f"{key}: unknown selector '{where}'; expected one of "
+                             f"{', '.join(self.selectors())}")
+        facets = np.unique(np.asarray(facets, dtype=np.int32))
+        if self.comm.allreduce(len(facets)) == 0:
+            raise SceneError(f"{key}: '{where}' selects no edge of the body")
+        return facets
+
+    def selectors(self) -> list[str]:
+        return ["all", *EDGE_SELECTORS, *self.body.regions, *self.body.edges]
+
+    def entities_of(self, where: str, key: str):
+        """(dim, local entities) selected by any ``where`` selector."""
+        tdim = self.mesh.topology.dim
+        if where == "all":
+            n = self.mesh.topology.index_map(tdim).size_local
+            n += self.mesh.topology.index_map(tdim).num_ghosts
+            return tdim, np.arange(n, dtype=np.int32)
+        if where in self.body.regions:
+            cells = self._cells_of([where])
+            if self.comm.allreduce(len(cells)) == 0:
+                raise SceneError(f"{key}: region '{where}' selects no cell")
+            return tdim, cells
+        return tdim - 1, self.facets_of(where, key)
+
+    # --- loads ----------------------------------------------------------------
+
+    def _build_loads(self, du, d, w_test):
+        """Edge forces and moments, per unit reference length of their edge."""
+        loads_ = self.scene.get("load", [])
+        self.load_values = []
+        if not loads_:
+            return []
+        tdim = self.mesh.topology.dim
+        wheres = sorted({ld["where"] for ld in loads_})
+        facet_sets = {w: self.facets_of(w, f"load.{[ld['where'] for ld in loads_].index(w)}.where")
+                      for w in wheres}
+        all_facets = np.concatenate(list(facet_sets.values()))
+        if len(np.unique(all_facets)) != len(all_facets):
+            raise SceneError("load: edge loads on overlapping edges must use the same 'where'")
+        tags = np.concatenate([np.full(len(facet_sets[w]), i + 1) for i, w in enumerate(wheres)])
+        ft = compat.create_meshtags(self.mesh, tdim - 1, all_facets, tags)
+        ds = ufl.Measure("ds", domain=self.mesh, subdomain_data=ft,
+                         metadata={"quadrature_degree": 4})
+        dd = ufl.derivative(d, self.w, w_test)
+        terms = []
+        for k, ld in enumerate(loads_):
+            tag = wheres.index(ld["where"]) + 1
+            length = self.comm.allreduce(fem.assemble_scalar(self._compile(
+                fem.Constant(self.mesh, PETSc.ScalarType(1.0)) * ds(tag))))
+            value = fem.Constant(self.mesh, np.zeros(3, dtype=PETSc.ScalarType))
+            self.load_values.append((ld, value, np.asarray(ld["value"], dtype=float) / length))
+            if ld["kind"] == "edge-force":
+                terms.append(("edge-force", loads.edge_force_work(value, du, ds(tag))))
+            else:
+                terms.append(("edge-moment", loads.edge_moment_work(value, d, dd, ds(tag))))
+        return terms
+
+    # --- boundary conditions -----------------------------------------------
+
+    def _build_bcs(self):
+        tdim = self.mesh.topology.dim
+        self._bc_functions = {}
+        bcs = []
+        for k, bnd in enumerate(self.scene.get("boundary", [])):
+            key = f"boundary.{k}.where"
+            dim, entities = self.entities_of(bnd["where"], key)
+            fix = set(bnd["fix"])
+            if "clamped" in fix:
+                fix = {"ux", "uy", "uz", "rotation"}
+            subs = [(self.W.sub(0).sub(DISPLACEMENT_COMPONENTS[c]), c) for c in sorted(fix)
+                    if c in DISPLACEMENT_COMPONENTS]
+            if "rotation" in fix:
+                subs += [(self.W.sub(1).sub(i), f"theta{i + 1}") for i in range(2)]
+            for sub, name in subs:
+                bc, n = self._zero_bc(sub, dim, entities, name)
+                if self.comm.allreduce(n) == 0:
+                    raise SceneError(f"{key}: '{bnd['where']}' matches no degree of freedom")
+                bcs.append(bc)
+        return bcs
+
+    def _zero_bc(self, sub, dim, entities, name):
+        if name not in self._bc_functions:
+            V, _ = sub.collapse()
+            self._bc_functions[name] = (V, fem.Function(V))
+        V, zero = self._bc_functions[name]
+        dofs = fem.locate_dofs_topological((sub, V), dim, entities)
+        return fem.dirichletbc(zero, dofs, sub), len(dofs[0])
+
+    # --- per-step updates ---------------------------------------------------
+
+    def set_coefficients(self, c):
+        for key in self.coef:
+            self.coef[key].value = getattr(c, key)
+
+    def set_time(self, t: float):
+        end = self.scene["time"]["end"]
+        for ld, const, per_length in self.load_values:
+            const.value[:] = per_length * ramp_scale(ld, t, end)
+
+    def reference_force(self) -> float:
+        """A force scale of the scene, for absolute Newton tolerances (DESIGN.md §7).
+
+        The largest of: the bending force ``D W / L²`` that bends the body by
+        order one, each total edge force, each edge moment over the length.
+        """
+        shell, L, W = self.scene["shell"], self.body.length, max(self.body.width, 1e-300)
+        E = max([shell["E"]] + [p["E"] for p in shell.get("parts", []) if "E" in p])
+        D = E * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
+        scales = [D * W / L**2]
+        for ld, _, per_length in self.load_values:
+            total = float(np.linalg.norm(ld["value"]))
+            scales.append(total if ld["kind"] == "edge-force" else total / L)
+        return max(scales)
+
+    def restore(self):
+        """Reset the iterate to the last converged state (θ = 0)."""
+        self.w.x.array[self.u_dofs] = self.u_n.x.array
+        self.w.x.array[self.theta_dofs] = 0.0
+
+    def update_triad(self):
+        """Rotate every nodal triad by the exact Rodrigues rotation of its θ; reset θ.
+
+        Done on owned and ghost nodes alike from the ghost-updated iterate, so
+        every copy of a node gets the identical value without communication.
+        """
+        theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
+        idx = self._node_map
+        a1 = self.a1.x.array.reshape(-1, 3)
+        a2 = self.a2.x.array.reshape(-1, 3)
+        dn = self.dn.x.array.reshape(-1, 3)
+        rot = theta[:, 0:1] * a1[idx] + theta[:, 1:2] * a2[idx]
+        for triad_vector in (a1, a2, dn):
+            triad_vector[idx] = rotate(triad_vector[idx], rot)
+        self.w.x.array[self.theta_dofs] = 0.0
+
+    def accept(self, scheme, dt: float):
+        """After convergence: update the state (u_n, v_n, a_n) and the triad."""
+        u = self.w.x.array[self.u_dofs]
+        du = u - self.u_n.x.array
+        v, a = scheme.update(du, self.v_n.x.array, self.a_n.x.array, dt)
+        self.v_n.x.array[:] = v
+        self.a_n.x.array[:] = a
+        self.u_n.x.array[:] = u
+        self.displacement.x.array[:] = u
+        self.update_triad()
+
+
+def rotate(v: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """Rodrigues: rotate rows of ``v`` by the rotation vectors in the rows of ``rot``."""
+    angle = np.linalg.norm(rot, axis=1)
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    c = np.cos(angle)
+    s = np.where(small, 1 - angle**2 / 6, np.sin(angle) / safe)
+    k = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(angle)) / safe**2)
+    cross = np.cross(rot, v)
+    dot = np.sum(rot * v, axis=1)
+    return c[:, None] * v + s[:, None] * cross + k[:, None] * dot[:, None] * rot

@@ -1,0 +1,93 @@
+"""The one place where PETSc options are chosen (DESIGN.md §7).
+
+Precedence, lowest first: the defaults below, the scene's ``[solver]`` table, the
+command line (``rftfem run scene.toml -snes_monitor -ksp_type gmres``).  All
+options live under one prefix per problem so several solvers can coexist.
+"""
+
+from __future__ import annotations
+
+from petsc4py import PETSc
+
+from . import compat
+
+PREFIX = "rftfem_"
+
+#: Relative to the scene's reference force (see ``Model.reference_force``).
+ATOL_FACTOR = 1e-10
+
+
+def defaults(reference_force: float) -> dict:
+    """Newton with full steps and a direct solver.
+
+    PETSc's default backtracking line search stalls on large-rotation shells
+    (the first full Newton step overshoots, the residual grows, ``bt`` backtracks
+    to tiny steps), so the line search is ``basic`` (full steps) and the time
+    loop cuts the step instead.  The divergence tolerance is off for the same
+    reason.  The Jacobian is non-symmetric (drag and magnetic couples are
+    non-conservative): LU by MUMPS where PETSc has it.
+    """
+    opts = {
+        "snes_type": "newtonls",
+        "snes_linesearch_type": "basic",
+        "snes_rtol": 1e-8,
+        "snes_atol": ATOL_FACTOR * reference_force,
+        "snes_stol": 0.0,
+        "snes_max_it": 25,
+        "snes_divergence_tolerance": -1,
+        "ksp_type": "preonly",
+        "pc_type": "lu",
+    }
+    if compat.has_mumps():
+        opts["pc_factor_mat_solver_type"] = "mumps"
+    return opts
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    return str(v)
+
+
+def parse_command_line(args: list[str]) -> dict:
+    """``["-snes_monitor", "-ksp_type", "gmres"]`` -> ``{"snes_monitor": "", "ksp_type": "gmres"}``."""
+    out, i = {}, 0
+    while i < len(args):
+        key = args[i].lstrip("-")
+        if key.startswith(PREFIX):
+            key = key[len(PREFIX):]
+        if i + 1 < len(args) and not args[i + 1].startswith("-"):
+            out[key] = args[i + 1]
+            i += 2
+        else:
+            out[key] = ""
+            i += 1
+    return out
+
+
+def merged(reference_force: float, scene_solver: dict | None = None,
+           command_line: list[str] | None = None) -> dict:
+    """Defaults, then the scene's ``[solver]``, then command-line options."""
+    opts = defaults(reference_force)
+    for key, value in (scene_solver or {}).items():
+        if value is False:
+            opts.pop(key, None)
+        else:
+            opts[key] = "" if value is True else value
+    opts.update(parse_command_line(command_line or []))
+    return opts
+
+
+def apply(opts: dict, prefix: str = PREFIX) -> None:
+    """Write ``opts`` into PETSc's options database under ``prefix``."""
+    db = PETSc.Options()
+    for key, value in opts.items():
+        db[prefix + key] = _value(value)
+
+
+def clear(opts: dict, prefix: str = PREFIX) -> None:
+    """Remove ``opts`` from the database (so runs in one process don't leak options)."""
+    db = PETSc.Options()
+    for key in opts:
+        if db.hasName(prefix + key):
+            db.delValue(prefix + key)

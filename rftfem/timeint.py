@@ -1,0 +1,131 @@
+"""Time-stepping schemes (DESIGN.md §6) as coefficient sets.
+
+Each scheme says how the velocity ``v_{n+1}`` and the inertia-weighted
+acceleration ``a_{n+1-α_m}`` depend on the unknown displacement ``u_{n+1}`` and
+the stored state ``(u_n, v_n, a_n)``, all linearly:
+
+    v_{n+1}      = cv (u_{n+1} − u_n) + cv_v v_n + cv_a a_n
+    a_{n+1−α_m}  = ca (u_{n+1} − u_n) + ca_v v_n + ca_a a_n
+
+and with which weight ``α_f`` the non-inertial forces of the last step enter
+the residual
+
+    R = M a_{n+1−α_m} + (1 − α_f) F(u_{n+1}, v_{n+1}, d_{n+1}, t_{n+1}) + α_f F_n.
+
+Averaging *forces* rather than states is what lets the director be updated
+multiplicatively (there is no meaningful "average director").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    cv: float = 0.0
+    cv_v: float = 0.0
+    cv_a: float = 0.0
+    ca: float = 0.0
+    ca_v: float = 0.0
+    ca_a: float = 0.0
+    alpha_f: float = 0.0
+
+
+class Scheme:
+    """Base class: a named scheme giving coefficients for a step size ``dt``."""
+
+    name = "static"
+    has_inertia = False
+    has_velocity = False
+
+    def coefficients(self, dt: float) -> Coefficients:
+        return Coefficients()
+
+    def update(self, du, v_n, a_n, dt):
+        """``(v_{n+1}, a_{n+1})`` after convergence, from ``du = u_{n+1} − u_n`` (arrays)."""
+        return 0.0 * v_n, 0.0 * a_n
+
+
+class Static(Scheme):
+    """Load stepping: no inertia, no velocity (drag-free and inertia-free scenes)."""
+
+
+class BackwardEuler(Scheme):
+    """First-order implicit scheme for scenes without inertia: ``v_{n+1} = (u_{n+1} − u_n)/dt``."""
+
+    name = "backward-euler"
+    has_velocity = True
+
+    def coefficients(self, dt):
+        return Coefficients(cv=1.0 / dt)
+
+    def update(self, du, v_n, a_n, dt):
+        return du / dt, 0.0 * a_n
+
+
+class GeneralizedAlpha(Scheme):
+    """Generalized-α of Chung & Hulbert (1993) with Newmark's relations.
+
+    From the spectral radius at infinity ``ρ∞ ∈ [0, 1]``:
+    ``α_m = (2ρ∞−1)/(ρ∞+1)``, ``α_f = ρ∞/(ρ∞+1)``, ``γ = ½ − α_m + α_f``,
+    ``β = ¼(1 − α_m + α_f)²``.  ρ∞ = 1 is the trapezoidal rule (no dissipation).
+    """
+
+    name = "generalized-alpha"
+    has_inertia = True
+    has_velocity = True
+
+    def __init__(self, rho_inf: float = 0.9):
+        r = float(rho_inf)
+        self.alpha_m = (2 * r - 1) / (r + 1)
+        self.alpha_f = r / (r + 1)
+        self._set_newmark()
+
+    def _set_newmark(self):
+        self.gamma = 0.5 - self.alpha_m + self.alpha_f
+        self.beta = 0.25 * (1 - self.alpha_m + self.alpha_f) ** 2
+
+    def coefficients(self, dt):
+        b, g, am = self.beta, self.gamma, self.alpha_m
+        # a_{n+1} = (u − u_n)/(β dt²) − v_n/(β dt) − (½ − β)/β a_n
+        a_u, a_v, a_a = 1 / (b * dt**2), -1 / (b * dt), -(0.5 - b) / b
+        # v_{n+1} = v_n + dt((1 − γ) a_n + γ a_{n+1})
+        v_u, v_v, v_a = g * dt * a_u, 1 + g * dt * a_v, dt * (1 - g) + g * dt * a_a
+        # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
+        return Coefficients(cv=v_u, cv_v=v_v, cv_a=v_a,
+                            ca=(1 - am) * a_u, ca_v=(1 - am) * a_v,
+                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f)
+
+    def update(self, du, v_n, a_n, dt):
+        b, g = self.beta, self.gamma
+        a_new = du / (b * dt**2) - v_n / (b * dt) - (0.5 - b) / b * a_n
+        v_new = v_n + dt * ((1 - g) * a_n + g * a_new)
+        return v_new, a_new
+
+
+class HHT(GeneralizedAlpha):
+    """Hilber-Hughes-Taylor α (the paper's choice, α = −0.05): ``α_m = 0``, ``α_f = −α``,
+    ``γ = ½ − α``, ``β = ¼(1 − α)²``."""
+
+    name = "hht"
+
+    def __init__(self, alpha: float = -0.05):
+        self.alpha_m = 0.0
+        self.alpha_f = -float(alpha)
+        self.gamma = 0.5 - float(alpha)
+        self.beta = 0.25 * (1 - float(alpha)) ** 2
+
+
+def make_scheme(time_section: dict) -> Scheme:
+    """The scheme named by a (validated, resolved) ``[time]`` section."""
+    name = time_section["scheme"]
+    if name == "generalized-alpha":
+        return GeneralizedAlpha(time_section.get("rho_inf", 0.9))
+    if name == "hht":
+        return HHT(time_section.get("alpha", -0.05))
+    if name == "backward-euler":
+        return BackwardEuler()
+    if name == "static":
+        return Static()
+    raise ValueError(f"unknown time scheme {name!r}")
