@@ -1,0 +1,808 @@
+"""Scenes: read a TOML scene, apply ``--set`` overrides, validate, fill defaults.
+
+The keys are the user-facing contract of SCENES.md. :func:`load_scene` returns a
+plain nested ``dict`` (JSON-serialisable, so it can be echoed in summary.json)
+in which every key of the schema is present:
+
+- scalars and arrays get their documented default;
+- optional arrays of tables (``boundary``, ``load``, ``motion``,
+  ``mesh.regions``, ``shell.parts``, ``output.probes``) default to ``[]``;
+- the optional effect tables ``fluid`` and ``magnetic`` are ``None`` when the
+  scene does not have them (``if scene["fluid"]:`` switches the effect);
+- keys that only apply to another variant are ``None`` (``mesh.file`` unless
+  ``kind = "gmsh"``, ``load.N.table`` unless ``ramp = "table"``, ``motion.N.values`` unless
+  ``kind = "table"``);
+- a ``shell.parts`` entry inherits every material value it does not set
+  (E, nu, thickness, density) from ``[shell]``;
+- ``time.scheme`` holds the resolved scheme (never ``"auto"``);
+- ``mesh.file`` is an absolute path; ``scene["_path"]`` is the absolute path of
+  the scene file.
+
+Every problem raises :class:`rftfem.errors.SceneError` with a one-line message
+that names the full key path (``load.0.value``), what was expected and what was
+found. Checks that need the mesh (gmsh physical-group names, a ``where`` that
+matches no dof) are left to the simulation module. Scenes are data: nothing in
+them is evaluated.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from rftfem.errors import SceneError
+
+__all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme",
+           "EDGE_SELECTORS", "SPECIAL_SELECTORS"]
+
+#: ``where`` selectors that always exist on a strip (besides region names).
+EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
+SPECIAL_SELECTORS = ("all",) + EDGE_SELECTORS
+
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
+_PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+_BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
+
+
+# --------------------------------------------------------------------------- text
+
+
+def _fmt(value: Any, limit: int = 60) -> str:
+    """Short TOML-like rendering of a value for messages."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, float):
+        text = repr(value)
+        if text.endswith(".0") and "e" not in text:
+            text = text[:-2]
+    elif isinstance(value, int):
+        text = str(value)
+    elif isinstance(value, str):
+        text = '"' + value.replace("\n", "\\n") + '"'
+    elif isinstance(value, list):
+        text = "[" + ", ".join(_fmt(v, limit) for v in value) + "]"
+    elif isinstance(value, dict):
+        text = "{" + ", ".join(f"{k} = {_fmt(v, limit)}" for k, v in value.items()) + "}"
+    elif value is None:
+        text = "nothing"
+    else:
+        text = str(value)
+    if len(text) > limit:
+        text = text[: limit - 3] + "..."
+    return text
+
+
+def _found(value: Any) -> str:
+    """'the string "abc"', 'the boolean true', '-0.1', 'a table', ..."""
+    if isinstance(value, bool):
+        return "the boolean " + _fmt(value)
+    if isinstance(value, str):
+        return "the string " + _fmt(value)
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        return f"an array of {len(value)} table(s)"
+    if isinstance(value, (int, float, list)):
+        return _fmt(value)
+    return f"a {type(value).__name__.replace('datetime', 'date-time')} value {_fmt(value)}"
+
+
+def _choices(options: Iterable[str]) -> str:
+    opts = [f'"{o}"' for o in options]
+    if len(opts) <= 2:
+        return " or ".join(opts)
+    return ", ".join(opts[:-1]) + " or " + opts[-1]
+
+
+def _suggest(word: str, options: Iterable[str], prefix: str = "") -> str:
+    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    return f" (did you mean '{prefix}{close[0]}'?)" if close else ""
+
+
+def _err(path: str, expected: str, value: Any, extra: str = "") -> SceneError:
+    return SceneError(f"{path}: expected {expected}, found {_found(value)}{extra}")
+
+
+def _join(path: str, key: str | int) -> str:
+    return f"{path}.{key}" if path else str(key)
+
+
+def _leaf_name(path: str) -> str:
+    for part in reversed(path.split(".")):
+        if not part.isdigit():
+            return part
+    return path
+
+
+# --------------------------------------------------------------------- validators
+# A validator is a callable (value, path) -> normalised value with an ``expected``
+# text used for "missing required key" messages.
+
+
+class _V:
+    expected = "a value"
+
+    def __call__(self, value: Any, path: str) -> Any:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+class _Str(_V):
+    def __init__(self, choices: tuple[str, ...] | None = None, name: bool = False,
+                 unavailable: dict[str, str] | None = None):
+        self.choices, self.name, self.unavailable = choices, name, unavailable or {}
+        if choices:
+            self.expected = _choices(choices)
+        elif name:
+            self.expected = "a name (letters, digits, '_' or '-', not starting with a digit)"
+        else:
+            self.expected = "a string"
+
+    def __call__(self, value, path):
+        if not isinstance(value, str):
+            raise _err(path, self.expected, value)
+        if value in self.unavailable:
+            raise SceneError(f"{path}: {_fmt(value)} {self.unavailable[value]}; "
+                             f"expected {self.expected}")
+        if self.choices and value not in self.choices:
+            hint = difflib.get_close_matches(value, self.choices, n=1, cutoff=0.6)
+            extra = f' (did you mean "{hint[0]}"?)' if hint else ""
+            raise _err(path, self.expected, value, extra)
+        if self.name and not _NAME_RE.match(value):
+            raise _err(path, self.expected, value)
+        if not self.choices and not self.name and not value.strip():
+            raise _err(path, "a non-empty string", value)
+        return value
+
+
+class _Num(_V):
+    """A finite float in a range; ints are accepted, bools are not numbers."""
+
+    def __init__(self, lo: float | None = None, hi: float | None = None,
+                 lo_open: bool = False, hi_open: bool = False, name: str | None = None):
+        self.lo, self.hi, self.lo_open, self.hi_open, self.name = lo, hi, lo_open, hi_open, name
+        self.expected = self._text("x")
+
+    def _text(self, name: str) -> str:
+        lo = None if self.lo is None else _fmt(float(self.lo))
+        hi = None if self.hi is None else _fmt(float(self.hi))
+        lop, hop = ("<" if self.lo_open else "<="), ("<" if self.hi_open else "<=")
+        if lo is not None and hi is not None:
+            return f"a number with {lo} {lop} {name} {hop} {hi}"
+        if lo is not None:
+            return f"a number {'>' if self.lo_open else '>='} {lo}"
+        if hi is not None:
+            return f"a number {hop} {hi}"
+        return "a number"
+
+    def __call__(self, value, path):
+        expected = self._text(self.name or _leaf_name(path))
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _err(path, expected, value)
+        x = float(value)
+        if not math.isfinite(x):
+            raise _err(path, "a finite number", value)
+        if self.lo is not None and (x < self.lo or (self.lo_open and x == self.lo)):
+            raise _err(path, expected, value)
+        if self.hi is not None and (x > self.hi or (self.hi_open and x == self.hi)):
+            raise _err(path, expected, value)
+        return x
+
+
+class _Int(_V):
+    def __init__(self, lo: int | None = None):
+        self.lo = lo
+        self.expected = "an integer" if lo is None else f"an integer >= {lo}"
+
+    def __call__(self, value, path):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise _err(path, self.expected, value)
+        if self.lo is not None and value < self.lo:
+            raise _err(path, self.expected, value)
+        return value
+
+
+class _Bool(_V):
+    expected = "true or false"
+
+    def __call__(self, value, path):
+        if not isinstance(value, bool):
+            raise _err(path, self.expected, value)
+        return value
+
+
+class _Vec(_V):
+    """A fixed-length list of floats."""
+
+    def __init__(self, n: int = 3, item: _V | None = None, nonzero: bool = False,
+                 some_positive: bool = False, expected: str | None = None):
+        self.n, self.item = n, item or _Num()
+        self.nonzero, self.some_positive = nonzero, some_positive
+        self.expected = expected or (f"{'a nonzero vector of ' if nonzero else ''}"
+                                     f"{n} numbers [x, y, z]" if n == 3 else f"{n} numbers")
+
+    def __call__(self, value, path):
+        if not isinstance(value, list) or len(value) != self.n:
+            raise _err(path, self.expected, value)
+        out = []
+        for i, v in enumerate(value):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise _err(path, self.expected, value)
+            try:
+                out.append(self.item(v, _join(path, i)))
+            except SceneError:
+                raise _err(path, self.expected, value) from None
+        if self.nonzero and not any(x != 0.0 for x in out):
+            raise _err(path, self.expected, value)
+        if self.some_positive and not any(x > 0.0 for x in out):
+            raise _err(path, self.expected, value)
+        return out
+
+
+class _Divisions(_V):
+    expected = "[n_length, n_width], two integers >= 1"
+
+    def __call__(self, value, path):
+        if (not isinstance(value, list) or len(value) != 2
+                or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)):
+            raise _err(path, self.expected, value)
+        return list(value)
+
+
+class _Pairs(_V):
+    """A piecewise-linear table: [[t, value], ...] with strictly increasing t."""
+
+    def __init__(self, what: str):
+        self.expected = f"a list of [t, {what}] number pairs with strictly increasing t"
+        self.pair = f"a [t, {what}] pair of numbers"
+
+    def __call__(self, value, path):
+        if not isinstance(value, list) or not value:
+            raise _err(path, self.expected, value)
+        out = []
+        for i, pair in enumerate(value):
+            if (not isinstance(pair, list) or len(pair) != 2
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                           or not math.isfinite(v) for v in pair)):
+                raise _err(_join(path, i), self.pair, pair)
+            t, s = float(pair[0]), float(pair[1])
+            if out and t <= out[-1][0]:
+                raise SceneError(f"{path}: expected strictly increasing times, found "
+                                 f"t = {_fmt(t)} after t = {_fmt(out[-1][0])} (entry {i})")
+            out.append([t, s])
+        return out
+
+
+class _Fix(_V):
+    options = ("ux", "uy", "uz", "rotation", "clamped")
+    expected = "a non-empty list of " + _choices(options)
+
+    def __call__(self, value, path):
+        if not isinstance(value, list) or not value:
+            raise _err(path, self.expected, value)
+        for i, v in enumerate(value):
+            if not isinstance(v, str) or v not in self.options:
+                extra = ""
+                if isinstance(v, str):
+                    hint = difflib.get_close_matches(v, self.options, n=1, cutoff=0.6)
+                    extra = f' (did you mean "{hint[0]}"?)' if hint else ""
+                raise _err(_join(path, i), "one of " + _choices(self.options), v, extra)
+        return list(value)
+
+
+class _Where(_V):
+    expected = ('a selector: "all", "x=0", "x=L", "y=0", "y=W", '
+                "or a region / physical-group name")
+
+    def __call__(self, value, path):
+        if not isinstance(value, str) or not value.strip() or value != value.strip():
+            raise _err(path, self.expected, value)
+        return value
+
+
+# ------------------------------------------------------------------------- schema
+
+
+class _Leaf:
+    def __init__(self, check: _V, default: Any = None, required: bool = False):
+        self.check, self.default, self.required = check, default, required
+
+
+class _Table:
+    """A TOML table with known keys. ``optional``: absent -> None (not filled)."""
+
+    def __init__(self, fields: dict[str, Any], required: bool = False, optional: bool = False):
+        self.fields, self.required, self.optional = fields, required, optional
+
+
+class _Array:
+    """An array of tables ([[name]]), each with the schema ``item``."""
+
+    def __init__(self, item: _Table, min_items: int = 0):
+        self.item, self.min_items = item, min_items
+
+
+class _Free:
+    """A table of PETSc options: any lowercase key, scalar values."""
+
+
+_POS = _Num(0.0, lo_open=True)
+_NONNEG = _Num(0.0)
+
+_PART_MATERIAL = ("E", "nu", "thickness", "density")
+
+SCHEMA = _Table({
+    "title": _Leaf(_Str(), required=True),
+    "mesh": _Table({
+        "kind": _Leaf(_Str(("strip", "gmsh"), unavailable={
+            "three-link": "is not available yet (it will come in a later version)"}), "strip"),
+        "length": _Leaf(_POS, 10.0),
+        "width": _Leaf(_POS, 1.0),
+        "divisions": _Leaf(_Divisions(), [16, 1]),
+        "cell": _Leaf(_Str(("quadrilateral", "triangle")), "quadrilateral"),
+        "file": _Leaf(_Str(), None),
+        "regions": _Array(_Table({
+            "name": _Leaf(_Str(name=True), required=True),
+            "x": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers"), required=True),
+        })),
+    }, required=True),
+    "shell": _Table({
+        "thickness": _Leaf(_POS, 0.1),
+        "E": _Leaf(_POS, 1.2e6),
+        "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True), 0.0),
+        "density": _Leaf(_NONNEG, 0.0),
+        "axis": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0]),
+        "parts": _Array(_Table({
+            "region": _Leaf(_Str(name=True), required=True),
+            "E": _Leaf(_POS),
+            "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True)),
+            "thickness": _Leaf(_POS),
+            "density": _Leaf(_NONNEG),
+        })),
+    }, required=True),
+    "time": _Table({
+        "end": _Leaf(_POS, 1.0),
+        "dt": _Leaf(_POS, 0.01),
+        "scheme": _Leaf(_Str(("auto", "generalized-alpha", "hht", "backward-euler", "static")),
+                        "auto"),
+        "rho_inf": _Leaf(_Num(0.0, 1.0), 0.9),
+        "alpha": _Leaf(_Num(-1.0 / 3.0, 0.0), -0.05),
+        "output_every": _Leaf(_Int(1), 1),
+        "max_cuts": _Leaf(_Int(0), 8),
+    }, required=True),
+    "boundary": _Array(_Table({
+        "where": _Leaf(_Where(), required=True),
+        "fix": _Leaf(_Fix(), required=True),
+    })),
+    "load": _Array(_Table({
+        "kind": _Leaf(_Str(("edge-moment", "edge-force")), required=True),
+        "where": _Leaf(_Where(), required=True),
+        "value": _Leaf(_Vec(), required=True),
+        "ramp": _Leaf(_Str(("linear", "constant", "table")), "linear"),
+        "table": _Leaf(_Pairs("scale")),
+    })),
+    "motion": _Array(_Table({
+        "where": _Leaf(_Where(), "all"),
+        "component": _Leaf(_Str(("ux", "uy", "uz")), required=True),
+        "kind": _Leaf(_Str(("travelling-wave", "table")), "travelling-wave"),
+        "amplitude": _Leaf(_Num(), 0.0),
+        "wavenumber": _Leaf(_Num(), 0.0),
+        "angular_frequency": _Leaf(_Num(), 0.0),
+        "origin": _Leaf(_Num(), 0.0),
+        "values": _Leaf(_Pairs("u")),
+    })),
+    "fluid": _Table({
+        "drag": _Leaf(_Vec(item=_NONNEG, some_positive=True,
+                           expected="3 numbers >= 0 [along axis, across, normal], "
+                                    "at least one > 0"), required=True),
+    }, optional=True),
+    "magnetic": _Table({
+        "parts": _Array(_Table({
+            "region": _Leaf(_Str(name=True), required=True),
+            "magnetization": _Leaf(_NONNEG, required=True),
+            "direction": _Leaf(_Vec(nonzero=True), required=True),
+        }), min_items=1),
+        "field": _Table({
+            "strength": _Leaf(_NONNEG, 0.0),
+            "ramp_time": _Leaf(_NONNEG, 0.0),
+            "direction": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0]),
+            "frequency": _Leaf(_Num(), 0.0),
+            "rotation_axis": _Leaf(_Vec(nonzero=True), [0.0, 0.0, 1.0]),
+        }),
+    }, optional=True),
+    "output": _Table({
+        "probes": _Array(_Table({
+            "name": _Leaf(_Str(name=True), required=True),
+            "at": _Leaf(_Vec(), required=True),
+        })),
+        "fields": _Leaf(_Bool(), True),
+    }),
+    "solver": _Free(),
+})
+
+
+def _section(path: str) -> str:
+    return f"[{path}]"
+
+
+def _validate_table(spec: _Table, raw: Any, path: str) -> dict:
+    if not isinstance(raw, dict):
+        raise _err(path, f"a table {_section(path)}", raw)
+    for key in raw:
+        if key not in spec.fields:
+            where = f"'{_join(path, key)}'"
+            raise SceneError(f"unknown key {where}"
+                             + (_suggest(key, spec.fields, path + "." if path else "")
+                                or f" (valid keys{' in ' + _section(path) if path else ''}: "
+                                   f"{', '.join(spec.fields)})"))
+    out: dict[str, Any] = {}
+    for key, sub in spec.fields.items():
+        sub_path = _join(path, key)
+        present = key in raw
+        value = raw.get(key)
+        if isinstance(sub, _Leaf):
+            if not present:
+                if sub.required:
+                    raise SceneError(f"missing required key '{sub_path}' "
+                                     f"(expected {sub.check.expected})")
+                out[key] = _copy(sub.default)
+            else:
+                out[key] = sub.check(value, sub_path)
+        elif isinstance(sub, _Table):
+            if not present:
+                if sub.required:
+                    raise SceneError(f"missing required section {_section(sub_path)}")
+                out[key] = None if sub.optional else _validate_table(sub, {}, sub_path)
+            else:
+                out[key] = _validate_table(sub, value, sub_path)
+        elif isinstance(sub, _Array):
+            out[key] = _validate_array(sub, value if present else [], sub_path)
+        elif isinstance(sub, _Free):
+            out[key] = _validate_free(value if present else {}, sub_path)
+    return out
+
+
+def _validate_array(spec: _Array, raw: Any, path: str) -> list:
+    if isinstance(raw, dict):
+        raise _err(path, f"an array of tables [[{path}]]", raw,
+                   f" (write [[{path}]], not [{path}])")
+    if not isinstance(raw, list) or any(not isinstance(v, dict) for v in raw):
+        raise _err(path, f"an array of tables [[{path}]]", raw)
+    if len(raw) < spec.min_items:
+        raise SceneError(f"{path}: expected at least {spec.min_items} [[{path}]] "
+                         f"entr{'y' if spec.min_items == 1 else 'ies'}, found {len(raw)}")
+    return [_validate_table(spec.item, item, _join(path, i)) for i, item in enumerate(raw)]
+
+
+def _validate_free(raw: Any, path: str) -> dict:
+    if not isinstance(raw, dict):
+        raise _err(path, f"a table {_section(path)} of PETSc options", raw)
+    out = {}
+    for key, value in raw.items():
+        kp = _join(path, key)
+        if not _PETSC_KEY_RE.match(key):
+            raise SceneError(f"{kp}: expected a PETSc option name without prefix or dash "
+                             f"(lowercase letters, digits, '_'), found '{key}'")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise _err(kp, "a finite number", value)
+        if not isinstance(value, (str, int, float, bool)):
+            raise _err(kp, "a string, number or boolean", value)
+        out[key] = value
+    return out
+
+
+def _copy(value: Any) -> Any:
+    if isinstance(value, list):
+        return [_copy(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _copy(v) for k, v in value.items()}
+    return value
+
+
+# ---------------------------------------------------------------- cross checks
+
+
+def _check_unique(items: list[dict], key: str, path: str, what: str) -> None:
+    seen: set[str] = set()
+    for i, item in enumerate(items):
+        name = item[key]
+        if name in seen:
+            raise SceneError(f"{path}.{i}.{key}: expected a unique {what} name, "
+                             f"found '{name}' a second time")
+        seen.add(name)
+
+
+def _region_names(scene: dict) -> list[str]:
+    return [r["name"] for r in scene["mesh"]["regions"]]
+
+
+def _check_region_ref(name: str, path: str, scene: dict) -> None:
+    """For strips, a part's region must be one of [[mesh.regions]]."""
+    if scene["mesh"]["kind"] != "strip":
+        return  # gmsh: checked against the file's physical groups later
+    names = _region_names(scene)
+    if name in names:
+        return
+    if not names:
+        raise SceneError(f"{path}: unknown region '{name}'; expected a name defined in "
+                         "[[mesh.regions]], but the scene defines none")
+    raise SceneError(f"{path}: unknown region '{name}'; expected one of: {', '.join(names)}"
+                     + _suggest(name, names))
+
+
+def _check_where(value: str, path: str, scene: dict) -> None:
+    if value in SPECIAL_SELECTORS or scene["mesh"]["kind"] != "strip":
+        return
+    valid = list(SPECIAL_SELECTORS) + _region_names(scene)
+    if value not in valid:
+        raise SceneError(f"{path}: unknown selector '{value}'; expected one of: "
+                         f"{', '.join(valid)}" + _suggest(value, valid))
+
+
+def _cross_check(scene: dict) -> None:
+    mesh, shell, time = scene["mesh"], scene["shell"], scene["time"]
+    strip = mesh["kind"] == "strip"
+    length, width = mesh["length"], mesh["width"]
+
+    # mesh
+    if mesh["kind"] == "gmsh" and mesh["file"] is None:
+        raise SceneError("missing required key 'mesh.file' (expected the path of a gmsh "
+                         'mesh, relative to the scene file, when mesh.kind = "gmsh")')
+    if mesh["kind"] != "gmsh":
+        mesh["file"] = None  # only read for gmsh meshes (lets --set mesh.kind=strip work)
+    regions = mesh["regions"]
+    _check_unique(regions, "name", "mesh.regions", "region")
+    for i, region in enumerate(regions):
+        if region["name"] in SPECIAL_SELECTORS:
+            raise SceneError(f"mesh.regions.{i}.name: expected a name other than the "
+                             f"selectors {', '.join(SPECIAL_SELECTORS)}, "
+                             f"found '{region['name']}'")
+        a, b = region["x"]
+        path = f"mesh.regions.{i}.x"
+        if a >= b:
+            raise SceneError(f"{path}: expected an interval [a, b] with a < b, found "
+                             f"{_fmt(region['x'])} (the region selects nothing)")
+        tol = 1e-9 * length
+        if strip and (a < -tol or b > length + tol):
+            nothing = b <= 0.0 or a >= length
+            raise SceneError(f"{path}: expected an interval [a, b] with 0 <= a < b <= "
+                             f"mesh.length = {_fmt(length)}, found {_fmt(region['x'])}"
+                             + (" (the region selects nothing)" if nothing else
+                                " (the region reaches outside the strip)"))
+
+    # shell parts: region references, inherited material values
+    for i, part in enumerate(shell["parts"]):
+        _check_region_ref(part["region"], f"shell.parts.{i}.region", scene)
+        for key in _PART_MATERIAL:
+            if part[key] is None:
+                part[key] = shell[key]
+    _check_unique(shell["parts"], "region", "shell.parts", "region")
+
+    # time
+    if time["dt"] > time["end"]:
+        raise SceneError(f"time.dt: expected a number <= time.end = {_fmt(time['end'])}, "
+                         f"found {_fmt(time['dt'])}")
+
+    # selectors
+    for section in ("boundary", "load", "motion"):
+        for i, item in enumerate(scene[section]):
+            _check_where(item["where"], f"{section}.{i}.where", scene)
+
+    # loads: table iff ramp = "table"
+    for i, load in enumerate(scene["load"]):
+        if load["ramp"] == "table" and load["table"] is None:
+            raise SceneError(f"missing required key 'load.{i}.table' (expected a list of "
+                             f"[t, scale] pairs, because load.{i}.ramp = \"table\")")
+        if load["ramp"] != "table" and load["table"] is not None:
+            raise SceneError(f"load.{i}.table: only used with ramp = \"table\", found "
+                             f"load.{i}.ramp = {_fmt(load['ramp'])}")
+
+    # motion: values iff kind = "table"
+    for i, motion in enumerate(scene["motion"]):
+        if motion["kind"] == "table" and motion["values"] is None:
+            raise SceneError(f"missing required key 'motion.{i}.values' (expected a list of "
+                             f"[t, u] pairs, because motion.{i}.kind = \"table\")")
+        if motion["kind"] != "table" and motion["values"] is not None:
+            raise SceneError(f"motion.{i}.values: only used with kind = \"table\", found "
+                             f"motion.{i}.kind = {_fmt(motion['kind'])}")
+
+    # magnetic parts
+    if scene["magnetic"] is not None:
+        for i, part in enumerate(scene["magnetic"]["parts"]):
+            _check_region_ref(part["region"], f"magnetic.parts.{i}.region", scene)
+        _check_unique(scene["magnetic"]["parts"], "region", "magnetic.parts", "region")
+
+    # probes
+    probes = scene["output"]["probes"]
+    _check_unique(probes, "name", "output.probes", "probe")
+    if strip:
+        tol = 1e-9 * length
+        for i, probe in enumerate(probes):
+            x, y, z = probe["at"]
+            if not (-tol <= x <= length + tol and -tol <= y <= width + tol and abs(z) <= tol):
+                raise SceneError(
+                    f"output.probes.{i}.at: probe outside the body: expected a point on the "
+                    f"strip (0 <= x <= {_fmt(length)}, 0 <= y <= {_fmt(width)}, z = 0), "
+                    f"found {_fmt(probe['at'])}")
+
+
+# ------------------------------------------------------------------ public API
+
+
+def apply_override(data: dict, text: str) -> None:
+    """Apply one ``--set a.b.c=VALUE`` to the raw scene ``data`` (in place).
+
+    VALUE is read as a TOML value; if it is not one but is a bare word
+    (``triangle``, ``x=L``, ``plate.msh``) it is taken as a string. Arrays of
+    tables are addressed by index (``load.0.value``). A path that is not in the
+    schema, or an index out of range, raises SceneError naming the path. Missing
+    tables on the way are created (``--set fluid.drag=[1,1,2]``).
+    """
+    key, sep, raw_value = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise SceneError(f"--set: expected KEY=VALUE (e.g. time.dt=0.005), found '{text}'")
+    value = _parse_value(key, raw_value.strip())
+    parts = key.split(".")
+    if any(not p for p in parts):
+        raise SceneError(f"--set {key}: expected a dotted key path like shell.thickness, "
+                         f"found an empty component")
+
+    spec: Any = SCHEMA
+    node: Any = data
+    path = ""
+    for n, part in enumerate(parts):
+        last = n == len(parts) - 1
+        here = _join(path, part)
+        if isinstance(spec, _Table):
+            if part not in spec.fields:
+                raise SceneError(f"--set: unknown key '{here}'"
+                                 + (_suggest(part, spec.fields, path + "." if path else "")
+                                    or f" (valid keys{' in ' + _section(path) if path else ''}:"
+                                       f" {', '.join(spec.fields)})"))
+            sub = spec.fields[part]
+            if last:
+                node[part] = value
+                return
+            if isinstance(sub, _Leaf):
+                raise SceneError(f"--set {key}: '{here}' is a value, not a table, so "
+                                 f"'{key}' does not exist")
+            if part not in node:
+                node[part] = [] if isinstance(sub, _Array) else {}
+            child = node[part]
+            if isinstance(sub, _Array):
+                if not isinstance(child, list):
+                    raise _err(here, f"an array of tables [[{here}]]", child)
+            elif not isinstance(child, dict):
+                raise _err(here, f"a table {_section(here)}", child)
+            spec, node, path = sub, child, here
+        elif isinstance(spec, _Array):
+            if not re.fullmatch(r"\d+", part):
+                raise SceneError(f"--set {key}: expected an index into [[{path}]] after "
+                                 f"'{path}', found '{part}'")
+            index = int(part)
+            if index >= len(node):
+                raise SceneError(f"--set {key}: index {index} out of range, the scene has "
+                                 f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}")
+            if last:
+                node[index] = value
+                return
+            if not isinstance(node[index], dict):
+                raise _err(here, "a table", node[index])
+            spec, node, path = spec.item, node[index], here
+        elif isinstance(spec, _Free):
+            if not last:
+                raise SceneError(f"--set {key}: '{here}' is a PETSc option, not a table")
+            node[part] = value
+            return
+
+
+def _parse_value(key: str, text: str) -> Any:
+    if "\n" not in text and "\r" not in text:
+        try:
+            parsed = tomllib.loads("v = " + text)
+        except tomllib.TOMLDecodeError:
+            parsed = None
+        if parsed is not None and list(parsed) == ["v"]:
+            return parsed["v"]
+    if _BARE_WORD_RE.match(text):
+        return text
+    raise SceneError(f"--set {key}: expected a TOML value (a number, true/false, "
+                     f"\"string\", [array] or bare word), found '{text}'")
+
+
+def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
+    """Read, override, validate and complete the scene in ``path`` (see module doc)."""
+    scene_path = Path(path).expanduser()
+    shown = str(path)
+    try:
+        data = scene_path.read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"scene file '{shown}' not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"scene file '{shown}': expected a TOML file, found a directory") \
+            from None
+    except OSError as exc:
+        raise SceneError(f"cannot read scene file '{shown}': {exc.strerror or exc}") from None
+    try:
+        raw = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file '{shown}': expected a UTF-8 TOML file, found "
+                         "binary or non-UTF-8 data") from None
+    except tomllib.TOMLDecodeError as exc:
+        msg = " ".join(str(exc).split())
+        raise SceneError(f"scene file '{shown}' is not valid TOML: {msg}") from None
+
+    for text in overrides:
+        apply_override(raw, text)
+
+    scene = _validate_table(SCHEMA, raw, "")
+    _cross_check(scene)
+    scene["time"]["scheme"] = resolved_scheme(scene)
+
+    folder = scene_path.resolve().parent
+    mesh = scene["mesh"]
+    if mesh["kind"] == "gmsh":
+        mesh_file = (folder / Path(mesh["file"]).expanduser()).resolve()
+        if not mesh_file.exists():
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which does not exist ({mesh_file})")
+        if not mesh_file.is_file():
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which is not a regular file ({mesh_file})")
+        try:
+            with open(mesh_file, "rb") as fh:
+                fh.read(1)
+        except OSError as exc:
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which cannot be read "
+                             f"({exc.strerror or exc})") from None
+        mesh["file"] = str(mesh_file)
+    scene["_path"] = str(scene_path.resolve())
+    return scene
+
+
+def _has_inertia(scene: dict) -> bool:
+    shell = scene.get("shell") or {}
+    if (shell.get("density") or 0.0) > 0.0:
+        return True
+    return any((part.get("density") or 0.0) > 0.0 for part in shell.get("parts") or [])
+
+
+def active_effects(scene: dict) -> list[str]:
+    """The effects the scene asks for, in a fixed order (DESIGN.md section 5)."""
+    effects = ["elasticity"]
+    if _has_inertia(scene):
+        effects.append("inertia")
+    if scene.get("fluid"):
+        effects.append("drag")
+    if scene.get("magnetic"):
+        effects.append("magnetic")
+    kinds = {load.get("kind") for load in scene.get("load") or []}
+    for kind in ("edge-force", "edge-moment"):
+        if kind in kinds:
+            effects.append(kind)
+    if scene.get("motion"):
+        effects.append("prescribed-motion")
+    return effects
+
+
+def resolved_scheme(scene: dict) -> str:
+    """``time.scheme`` with "auto" resolved: second order with inertia, first
+    order with drag only, load stepping otherwise."""
+    scheme = (scene.get("time") or {}).get("scheme", "auto")
+    inertia = _has_inertia(scene)
+    if scheme == "auto":
+        if inertia:
+            return "generalized-alpha"
+        return "backward-euler" if scene.get("fluid") else "static"
+    if scheme in ("generalized-alpha", "hht") and not inertia:
+        raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
+                         "shell.parts density > 0), found shell.density = "
+                         f"{_fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
+                         "\"backward-euler\", \"static\" or \"auto\"")
+    return scheme
