@@ -1,0 +1,103 @@
+#!/usr/bin/env bash
+# Developer entry point for rftfem. Every target first runs the set-up it
+# needs (scripts/setup.sh), which is quick when everything is in place.
+# Run ./dev.sh help for the list of targets.
+
+set -euo pipefail
+
+# What test-current runs (pytest arguments before the user's own). Narrow it
+# to a core subset here if the full non-slow suite becomes too long there.
+CURRENT_TEST_ARGS=(tests)
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$ROOT"
+
+# Open MPI refuses to run as root without these (containers, CI machines).
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+
+REF_VENV="$ROOT/.venv"
+CUR_VENV="$ROOT/.venv-current"
+
+usage() {
+    cat <<'EOF'
+usage: ./dev.sh TARGET [ARGS...]
+
+  demo                  run the default demo scene (demos/rollup.toml -> results/rollup)
+  test [PYTEST ARGS]    test suite on the reference stack (.venv), without `slow` tests
+  test-full [ARGS]      whole suite on the reference stack, `slow` tests included
+  test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
+  bench                 run benchmarks/*.py on the reference stack
+  setup [STACK]         only set up: reference (default), current or all
+  help                  this text
+
+Set-up is automatic: each target installs what it needs on first use
+(Debian packages, virtual environments, editable install of rftfem).
+EOF
+}
+
+setup() { bash "$ROOT/scripts/setup.sh" "$@"; }
+
+# Run pytest with the interpreter of venv $1; exit status 5 (nothing
+# collected) is reported and turned into a failure.
+run_pytest() {
+    local venv=$1; shift
+    local rc=0
+    # The venv's bin first on PATH, so `rftfem` and `mpirun` called by tests
+    # belong to the stack under test.
+    PATH="$venv/bin:$PATH" "$venv/bin/python" -m pytest "$@" || rc=$?
+    if [[ $rc -eq 5 ]]; then
+        echo "dev.sh: FAILED: pytest collected no tests (exit 5); a run that tests nothing does not pass" >&2
+        return 1
+    fi
+    return "$rc"
+}
+
+target="${1:-help}"
+if [[ $# -gt 0 ]]; then shift; fi
+
+case $target in
+    demo)
+        setup reference
+        if [[ ! -f demos/rollup.toml ]]; then
+            echo "dev.sh: demos/rollup.toml not found" >&2
+            exit 1
+        fi
+        PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/rftfem" run demos/rollup.toml --out results/rollup "$@"
+        ;;
+    test)
+        setup reference
+        run_pytest "$REF_VENV" "$@"
+        ;;
+    test-full)
+        setup reference
+        # Replaces pyproject's addopts (which deselect `slow`).
+        run_pytest "$REF_VENV" -o addopts='-ra' "$@"
+        ;;
+    test-current)
+        setup current
+        run_pytest "$CUR_VENV" "${CURRENT_TEST_ARGS[@]}" "$@"
+        ;;
+    bench)
+        setup reference
+        shopt -s nullglob
+        benches=(benchmarks/*.py)
+        if [[ ${#benches[@]} -eq 0 ]]; then
+            echo "dev.sh: no benchmarks (benchmarks/*.py does not exist yet); nothing to run"
+            exit 0
+        fi
+        for b in "${benches[@]}"; do
+            echo "== $b"
+            PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/python" "$b" "$@"
+        done
+        ;;
+    setup)
+        setup "${1:-reference}"
+        ;;
+    help|-h|--help)
+        usage
+        ;;
+    *)
+        echo "dev.sh: unknown target '$target' (try ./dev.sh help)" >&2
+        exit 2
+        ;;
+esac
