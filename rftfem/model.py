@@ -41,8 +41,9 @@ def ramp_scale(load: dict, t: float, end: float) -> float:
 class Model:
     """Function spaces, state, material fields and forms of one scene."""
 
-    def __init__(self, scene: dict, body):
+    def __init__(self, scene: dict, body, compile_forms: bool = True):
         self.scene = scene
+        self.compile_forms = compile_forms
         self.body = body
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -211,9 +212,12 @@ class Model:
         one_minus_af = 1 - self.coef["alpha_f"]
         residual = one_minus_af * forces + (self.inertia if self.inertia is not None else 0)
         self.jacobian_ufl = ufl.derivative(residual, self.w, ufl.TrialFunction(self.W))
-        self.forces_form = self._compile(forces)
-        self.inertia_form = self._compile(self.inertia) if self.inertia is not None else None
-        self.jacobian_form = self._compile(self.jacobian_ufl)
+        self.forces_form = self.inertia_form = self.jacobian_form = None
+        if self.compile_forms:
+            self.forces_form = self._compile(forces)
+            if self.inertia is not None:
+                self.inertia_form = self._compile(self.inertia)
+            self.jacobian_form = self._compile(self.jacobian_ufl)
 
     def _has_inertia(self) -> bool:
         shell = self.scene["shell"]
@@ -360,6 +364,25 @@ class Model:
             scales.append(total if ld["kind"] == "edge-force" else total / L)
         return max(scales)
 
+    def director_unit_error(self) -> float:
+        """``max | |d| − 1 |`` over all nodal directors (global)."""
+        d = self.dn.x.array.reshape(-1, 3)
+        local = float(np.abs(np.linalg.norm(d, axis=1) - 1).max()) if len(d) else 0.0
+        return self.comm.allreduce(local, op=_max_op())
+
+    def elastic_energy(self) -> float:
+        """Stored energy ``Π`` of the current iterate (compiled on first use)."""
+        if not hasattr(self, "_energy_form"):
+            self._energy_form = self._compile(self.energy)
+        return self.comm.allreduce(fem.assemble_scalar(self._energy_form))
+
+    def kinetic_energy(self) -> float:
+        """``½ ∫ ρ t v·v dA₀`` of the stored velocity ``v_n``."""
+        if not hasattr(self, "_kinetic_form"):
+            self._kinetic_form = self._compile(inertia.kinetic_energy(
+                self.material["rho"], self.material["t"], self.v_n, self.dx))
+        return self.comm.allreduce(fem.assemble_scalar(self._kinetic_form))
+
     def restore(self):
         """Reset the iterate to the last converged state (θ = 0)."""
         self.w.x.array[self.u_dofs] = self.u_n.x.array
@@ -391,6 +414,12 @@ class Model:
         self.u_n.x.array[:] = u
         self.displacement.x.array[:] = u
         self.update_triad()
+
+
+def _max_op():
+    from mpi4py import MPI
+
+    return MPI.MAX
 
 
 def rotate(v: np.ndarray, rot: np.ndarray) -> np.ndarray:

@@ -1,0 +1,164 @@
+"""Everything a run writes (SCENES.md "Outputs"): the one place for output.
+
+Only rank 0 writes CSV and JSON; rows are flushed as they are written, so a run
+that fails keeps everything up to its last good step.  Fields go to XDMF
+(displacement, director and, on magnetic parts, the magnetization direction),
+interpolated to first-order Lagrange, which XDMF and ParaView show directly.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time as _time
+from pathlib import Path
+
+import numpy as np
+from dolfinx import fem, io
+
+from . import compat
+from .errors import SceneError
+
+
+class Probes:
+    """Displacement of material points given in reference coordinates."""
+
+    def __init__(self, model, probes: list[dict]):
+        self.model = model
+        self.names = [p["name"] for p in probes]
+        comm = model.comm
+        points = np.array([p["at"] for p in probes], dtype=float).reshape(-1, 3)
+        self.points = points
+        n_owned = model.mesh.topology.index_map(model.mesh.topology.dim).size_local
+        self.cells = []
+        cells = compat.colliding_cells(model.mesh, points) if len(points) else []
+        for i, p in enumerate(probes):
+            local = [c for c in cells[i] if c < n_owned]
+            rank = comm.rank if local else comm.size
+            owner = comm.allreduce(rank, op=_min_op())
+            if owner == comm.size:
+                raise SceneError(f"output.probes.{i}.at: probe '{p['name']}' at {p['at']} "
+                                 "is outside the body")
+            self.cells.append(local[0] if owner == comm.rank else None)
+
+    def header(self) -> list[str]:
+        return [f"{n}_{c}" for n in self.names for c in ("ux", "uy", "uz")]
+
+    def values(self) -> np.ndarray:
+        """(n_probes, 3) displacements, on every rank."""
+        comm = self.model.comm
+        out = np.zeros((len(self.names), 3))
+        for i, cell in enumerate(self.cells):
+            if cell is not None:
+                out[i] = self.model.displacement.eval(self.points[i], np.array([cell], dtype=np.int32))
+        return comm.allreduce(out)
+
+
+def _min_op():
+    from mpi4py import MPI
+
+    return MPI.MIN
+
+
+class CsvLog:
+    """A CSV file written by rank 0, flushed after every row."""
+
+    def __init__(self, path: Path, header: list[str], comm):
+        self.rank = comm.rank
+        self.file = open(path, "w", encoding="utf-8") if self.rank == 0 else None
+        self.row(header)
+
+    def row(self, values):
+        if self.file is not None:
+            self.file.write(",".join(_fmt(v) for v in values) + "\n")
+            self.file.flush()
+
+    def close(self):
+        if self.file is not None:
+            self.file.close()
+
+
+def _fmt(v) -> str:
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return repr(float(v))
+
+
+class FieldWriter:
+    """Displacement, director (and magnetization direction) for ParaView, in XDMF."""
+
+    def __init__(self, model, path: Path, extra: dict | None = None):
+        mesh = model.mesh
+        self.model = model
+        V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
+        self.fields = {"displacement": (model.displacement, fem.Function(V1, name="displacement")),
+                       "director": (model.dn, fem.Function(V1, name="director"))}
+        for name, f in (extra or {}).items():
+            self.fields[name] = (f, fem.Function(V1, name=name))
+        self.file = io.XDMFFile(mesh.comm, str(path), "w")
+        self.file.write_mesh(mesh)
+
+    def write(self, t: float):
+        for source, target in self.fields.values():
+            target.interpolate(source)
+            self.file.write_function(target, t)
+
+    def close(self):
+        self.file.close()
+
+
+class Progress:
+    """A progress bar on a terminal; plain log lines otherwise or with ``quiet``."""
+
+    def __init__(self, end: float, comm, quiet: bool = False, stream=None):
+        self.end = end
+        self.stream = stream or sys.stdout
+        self.active = comm.rank == 0
+        self.bar = self.active and not quiet and self.stream.isatty()
+        self.t0 = _time.perf_counter()
+
+    def log(self, text: str):
+        if self.active:
+            if self.bar:
+                self.stream.write("\r\033[K")
+            self.stream.write(text + "\n")
+            self.stream.flush()
+
+    def update(self, t: float, step: int, newton: int, residual: float):
+        if not self.active:
+            return
+        elapsed = _time.perf_counter() - self.t0
+        eta = elapsed * (self.end - t) / t if t > 0 else float("nan")
+        if self.bar:
+            width = 30
+            done = int(width * min(t / self.end, 1.0))
+            self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] t = {t:.4g}/{self.end:.4g}"
+                              f"  step {step}  newton {newton}  eta {eta:.0f} s\033[K")
+            self.stream.flush()
+        else:
+            self.log(f"t = {t:.6g}  step {step}  newton {newton}  residual {residual:.3e}"
+                     f"  elapsed {elapsed:.1f} s")
+
+    def close(self):
+        if self.bar:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def write_json(path: Path, data: dict, comm):
+    if comm.rank == 0:
+        tmp = path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n", encoding="utf-8")
+        tmp.replace(path)
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")

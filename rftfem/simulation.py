@@ -1,0 +1,239 @@
+"""Running a scene: the time loop of DESIGN.md §6 with its outputs.
+
+The run starts at rest in static equilibrium with the loads and motions at
+t = 0 (for the usual ramps that start at zero this is the reference state), so
+the consistent initial acceleration is zero.  Each nominal step ``dt`` is then
+advanced by Newton solves; when SNES fails, the step is restored, halved and
+retried (at most ``time.max_cuts`` halvings), and after two good sub-steps the
+sub-step is doubled again until the nominal step is complete.  Every cut is
+logged and counted.  Outputs are rows per nominal step (every
+``time.output_every`` steps), so they do not depend on cuts.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from . import __version__, compat, petsc_options
+from .errors import RunFailed
+from .model import Model
+from .output import CsvLog, FieldWriter, Probes, Progress, write_json
+from .solver import StepSolver
+from .timeint import Static, make_scheme
+
+
+def _build(scene: dict, comm, compile_forms: bool = True):
+    from rftfem.meshes import build_body
+
+    scene_dir = Path(scene.get("_path", ".")).parent
+    body = build_body(comm, scene["mesh"], scene_dir)
+    return Model(scene, body, compile_forms=compile_forms)
+
+
+def check(scene: dict, comm=None) -> list[str]:
+    """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
+    comm = comm or MPI.COMM_WORLD
+    model = _build(scene, comm, compile_forms=False)
+    Probes(model, scene.get("output", {}).get("probes", []))
+    return model.active_effects()
+
+
+class Simulation:
+    """One run of a scene; ``observers`` are called as ``f(sim)`` after every step."""
+
+    def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
+                 petsc_args: list[str] | None = None, comm=None, observers=()):
+        self.scene = scene
+        self.comm = comm or MPI.COMM_WORLD
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.quiet = quiet
+        self.observers = list(observers)
+        _quiet_compilers()
+        t0 = _time.perf_counter()
+        self.model = _build(scene, self.comm)
+        self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
+        self.scheme = make_scheme(scene["time"])
+        self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),
+                                            petsc_args)
+        self.solver = StepSolver(self.model, self.options)
+        self.setup_time = _time.perf_counter() - t0
+        self.t = 0.0
+        self.step = 0
+        self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0}
+        self.wall = {"output": 0.0}
+        self.history = []  # (t, probe values) rows, as written to probes.csv
+
+    # --- one step ---------------------------------------------------------------
+
+    def _attempt(self, t_new: float, dt: float, scheme):
+        m = self.model
+        m.set_coefficients(scheme.coefficients(dt))
+        m.set_time(t_new)
+        ok, its, res, reason = self.solver.solve()
+        if ok and not math.isfinite(res):
+            ok, reason = False, "non-finite residual"
+        self.counts["newton_iterations"] += its
+        if not ok:
+            m.restore()
+            return False, its, res, reason
+        self.solver.store_forces()
+        m.accept(scheme, dt)
+        return True, its, res, reason
+
+    def _initial_equilibrium(self):
+        ok, its, res, reason = self._attempt(0.0, self.scene["time"]["dt"], Static())
+        if not ok:
+            raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})",
+                            0.0, 0)
+        # the run starts at rest: v = a = 0 whatever the scheme
+        self.model.v_n.x.array[:] = 0.0
+        self.model.a_n.x.array[:] = 0.0
+
+    def _advance(self, t_end: float, steps_log, progress):
+        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed."""
+        max_cuts = self.scene["time"]["max_cuts"]
+        dt = t_end - self.t
+        level, good = 0, 0
+        while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
+            dt = min(dt, t_end - self.t)
+            wall0 = _time.perf_counter()
+            ok, its, res, reason = self._attempt(self.t + dt, dt, self.scheme)
+            if ok:
+                self.t += dt
+                self.counts["steps"] += 1
+                steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0])
+                for f in self.observers:
+                    f(self)
+                good += 1
+                if level > 0 and good >= 2:
+                    dt, level, good = 2 * dt, level - 1, 0
+                continue
+            if level >= max_cuts:
+                raise RunFailed(f"SNES did not converge ({reason}, {its} iterations, residual "
+                                f"{res:.3e}) after {max_cuts} step halvings, dt = {dt:.3e}",
+                                self.t + dt, self.step)
+            self.counts["dt_cuts"] += 1
+            level, good = level + 1, 0
+            progress.log(f"step {self.step} at t = {self.t:.6g}: SNES {reason} after {its} "
+                         f"iterations; halving dt to {dt / 2:.3e}")
+            dt /= 2
+        self.t = t_end  # exact nominal time, free of round-off from the sub-steps
+
+    # --- the run -------------------------------------------------------------
+
+    def run(self) -> dict:
+        scene, comm = self.scene, self.comm
+        time_ = scene["time"]
+        out = self.out_dir
+        if out is not None and comm.rank == 0:
+            out.mkdir(parents=True, exist_ok=True)
+        comm.barrier()
+        summary = self._summary("running")
+        wall_start = _time.perf_counter()
+        progress = Progress(time_["end"], comm, self.quiet)
+        progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
+                     f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
+                     f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
+                     f" dofs on {comm.size} process(es)")
+        logs = self._open_outputs()
+        try:
+            self._initial_equilibrium()
+            self._write_output(logs, 0.0)
+            n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
+            for self.step in range(1, n_steps + 1):
+                self._advance(min(self.step * time_["dt"], time_["end"]), logs["steps"], progress)
+                if self.step % time_["output_every"] == 0 or self.step == n_steps:
+                    self._write_output(logs, self.t)
+                progress.update(self.t, self.step, self.counts["newton_iterations"],
+                                self.solver.snes.getFunctionNorm())
+            summary = self._summary("ok", wall_start)
+        except RunFailed as err:
+            summary = self._summary("failed", wall_start)
+            summary["failure"] = {"time": err.time, "step": err.step, "reason": err.reason}
+            raise
+        finally:
+            progress.close()
+            for log in logs.values():
+                log.close()
+            if out is not None:
+                write_json(out / "summary.json", summary, comm)
+        c = self.counts
+        progress.log(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
+                     f"{c['dt_cuts']} dt cuts, {summary['wall_s']['total']:.1f} s"
+                     + (f"; outputs in {out}" if out is not None else ""))
+        return summary
+
+    def _open_outputs(self) -> dict:
+        logs = {}
+        if self.out_dir is None:
+            return logs
+        logs["probes"] = CsvLog(self.out_dir / "probes.csv", ["time", *self.probes.header()],
+                                self.comm)
+        logs["steps"] = CsvLog(self.out_dir / "steps.csv",
+                               ["time", "dt", "newton_its", "residual", "wall_s"], self.comm)
+        if self.scene.get("output", {}).get("fields", True):
+            logs["fields"] = FieldWriter(self.model, self.out_dir / "fields.xdmf")
+        return logs
+
+    def _write_output(self, logs: dict, t: float):
+        t0 = _time.perf_counter()
+        values = self.probes.values()
+        self.history.append((t, values))
+        if "probes" in logs:
+            logs["probes"].row([t, *values.ravel()])
+        if "fields" in logs:
+            logs["fields"].write(t)
+        self.wall["output"] += _time.perf_counter() - t0
+
+    def _summary(self, status: str, wall_start: float | None = None) -> dict:
+        scene = {k: v for k, v in self.scene.items() if not k.startswith("_")}
+        total = (_time.perf_counter() - wall_start if wall_start else 0.0) + self.setup_time
+        timings = self.solver.timings
+        return {
+            "status": status,
+            "scene": scene,
+            "scene_file": self.scene.get("_path"),
+            "active_effects": self.model.active_effects(),
+            "scheme": self.scheme.name,
+            "versions": {"rftfem": __version__, **compat.versions()},
+            "mpi_size": self.comm.size,
+            "dofs": self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs,
+            "time_reached": self.t,
+            "counts": dict(self.counts),
+            "director_unit_error": self.model.director_unit_error(),
+            "wall_s": {"compile": self.model.timings["compile"], "assembly": timings["assembly"],
+                       "solve": timings["solve"], "output": self.wall["output"], "total": total},
+        }
+
+    def close(self):
+        self.solver.destroy()
+
+
+def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
+        petsc_args: list[str] | None = None, comm=None, observers=()) -> dict:
+    """Run a validated scene; write outputs to ``out_dir``; return the summary."""
+    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers)
+    try:
+        return sim.run()
+    finally:
+        sim.close()
+
+
+def probe_history(summary_or_sim) -> np.ndarray:
+    """(n_rows, 1 + 3 n_probes) array of the probe rows of a finished simulation."""
+    rows = summary_or_sim.history
+    return np.array([[t, *v.ravel()] for t, v in rows])
+
+
+def _quiet_compilers():
+    """FFCx/cffi log every compilation at INFO on some stacks: keep the terminal readable."""
+    for name in ("", "ffcx", "UFL", "cffi", "dolfinx"):
+        logger = logging.getLogger(name)
+        if logger.level == logging.NOTSET or logger.level < logging.WARNING:
+            logger.setLevel(logging.WARNING)
