@@ -1,0 +1,238 @@
+"""The ``rftfem`` command line (SCENES.md):
+
+    rftfem run SCENE.toml [--out DIR] [--set KEY=VALUE ...] [--quiet] [PETSc options]
+    rftfem check SCENE.toml [--set KEY=VALUE ...]
+
+Exit status: 0 success; 2 bad scene or bad option (one line on stderr, no
+traceback); 3 the run failed numerically (outputs so far are kept).
+
+For ``run``, arguments that start with one dash and a letter (``-snes_monitor``,
+``-ksp_type preonly``) are PETSc options: they are collected, each with its value
+when the next token does not start with '-', and handed to the simulation.
+
+Heavy modules (the simulation, dolfinx, mpi4py) are imported only when needed, so
+``rftfem check`` on a bad scene answers at once. Under MPI only rank 0 prints and
+every rank returns the same status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+from pathlib import Path
+
+from rftfem import __version__
+from rftfem.errors import RunFailed, SceneError
+
+_PETSC_OPTION = re.compile(r"^-[A-Za-z]")
+# Environment variables set by the common MPI launchers (Open MPI, MPICH/Hydra, PMIx, Slurm).
+_MPI_ENV = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK", "MPI_LOCALNRANKS")
+
+
+class _UsageError(Exception):
+    """Raised by the parser instead of printing a multi-line usage block."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit status 2 (handled in main)
+        raise _UsageError(f"{self.prog}: error: {' '.join(message.split())}")
+
+
+def _build_parser() -> _Parser:
+    parser = _Parser(
+        prog="rftfem",
+        description="Large-rotation shells in viscous fluid (RFT drag, magnetic couples) "
+                    "on FEniCSx. A scene is one TOML file (see SCENES.md).",
+        allow_abbrev=False,
+    )
+    parser.add_argument("--version", action="version", version=f"rftfem {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,
+                                parser_class=_Parser)
+
+    run = sub.add_parser(
+        "run", help="run a scene", allow_abbrev=False,
+        description="Run a scene and write probes.csv, steps.csv, summary.json and fields. "
+                    "Extra options with a single dash (-snes_monitor, -ksp_type preonly) "
+                    "are passed to PETSc.",
+        epilog="exit status: 0 ok, 2 bad scene or option, 3 the run failed numerically")
+    run.add_argument("scene", metavar="SCENE.toml", help="the scene file")
+    run.add_argument("--out", metavar="DIR", type=Path, default=None,
+                     help="output folder (default: results/<scene file stem>)")
+    run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                     dest="overrides",
+                     help="override one scene key, VALUE in TOML syntax "
+                          "(e.g. --set load.0.value=[0,52.36,0]); repeatable")
+    run.add_argument("--quiet", action="store_true",
+                     help="plain log lines instead of a progress bar")
+
+    check = sub.add_parser(
+        "check", help="validate a scene and print its active effects", allow_abbrev=False,
+        description="Validate a scene (including its mesh) and print the active effects "
+                    "and the time scheme.",
+        epilog="exit status: 0 ok, 2 bad scene or option")
+    check.add_argument("scene", metavar="SCENE.toml", help="the scene file")
+    check.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                       dest="overrides", help="override one scene key (TOML value); repeatable")
+    return parser
+
+
+def _split_petsc(argv: list[str]) -> tuple[list[str], list[str]]:
+    """Separate PETSc options (``-name [value]``) from the arguments of ``run``.
+
+    Only tokens after the ``run`` command are considered; the values of
+    ``--out``/``--set`` and everything after ``--`` are left alone. A value is
+    taken when the next token does not start with '-' (and is not a .toml file,
+    so ``rftfem run -snes_monitor scene.toml`` keeps its scene).
+    """
+    try:
+        start = next(i for i, tok in enumerate(argv) if not tok.startswith("-"))
+    except StopIteration:
+        return argv, []
+    if argv[start] != "run":
+        return argv, []
+    rest, petsc = list(argv[: start + 1]), []
+    i = start + 1
+    while i < len(argv):
+        tok = argv[i]
+        if tok == "--":
+            rest.extend(argv[i:])
+            break
+        if tok in ("--out", "--set") and i + 1 < len(argv):
+            rest.extend(argv[i: i + 2])
+            i += 2
+            continue
+        if _PETSC_OPTION.match(tok) and tok != "-h":
+            petsc.append(tok)
+            nxt = argv[i + 1] if i + 1 < len(argv) else None
+            if nxt is not None and not nxt.startswith("-") and not nxt.endswith(".toml"):
+                petsc.append(nxt)
+                i += 1
+        else:
+            rest.append(tok)
+        i += 1
+    return rest, petsc
+
+
+def _mpi_comm():
+    """COMM_WORLD if this process runs under an MPI launcher (or mpi4py is loaded)."""
+    if "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _MPI_ENV):
+        return None
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        return None
+    return MPI.COMM_WORLD
+
+
+class _Console:
+    """Prints on rank 0 only."""
+
+    def __init__(self):
+        self.comm = _mpi_comm()
+
+    def refresh(self):
+        if self.comm is None:
+            self.comm = _mpi_comm()
+
+    @property
+    def rank(self) -> int:
+        return 0 if self.comm is None else self.comm.rank
+
+    def out(self, text: str):
+        if self.rank == 0:
+            print(text, flush=True)
+
+    def err(self, text: str):
+        if self.rank == 0:
+            print(" ".join(text.split()), file=sys.stderr, flush=True)
+
+    def agree(self, status: int) -> int:
+        """The same exit status on every rank (the largest)."""
+        if self.comm is None or self.comm.size == 1:
+            return status
+        from mpi4py import MPI
+
+        return int(self.comm.allreduce(status, op=MPI.MAX))
+
+
+def _default_out(scene_file: str) -> Path:
+    return Path("results") / Path(scene_file).stem
+
+
+def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
+    from rftfem.scene import load_scene
+
+    out_dir = args.out if args.out is not None else _default_out(args.scene)
+    try:
+        scene = load_scene(args.scene, args.overrides)
+        from rftfem.simulation import run as run_simulation
+
+        console.refresh()  # the simulation brought in mpi4py
+        run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args)
+        status = 0
+    except SceneError as exc:
+        console.refresh()
+        console.err(f"rftfem: error: {exc}")
+        status = SceneError.exit_status
+    except RunFailed as exc:
+        console.refresh()
+        console.err(f"rftfem: {exc}; outputs so far are in {out_dir}")
+        status = RunFailed.exit_status
+    if status == 0 and not args.quiet:
+        console.out(f"rftfem: done, outputs in {out_dir}")
+    return console.agree(status)
+
+
+def _cmd_check(args, console: _Console) -> int:
+    from rftfem.scene import active_effects, load_scene
+
+    try:
+        scene = load_scene(args.scene, args.overrides)
+        try:
+            from rftfem.simulation import check as check_simulation
+        except ImportError:  # the simulation module is not there yet: scene-only check
+            check_simulation = active_effects
+        effects = list(check_simulation(scene))
+        console.refresh()
+    except SceneError as exc:
+        console.refresh()
+        console.err(f"rftfem: error: {exc}")
+        return console.agree(SceneError.exit_status)
+    console.out(f"scene OK: {scene['title']}")
+    console.out("active effects: " + ", ".join(effects))
+    console.out(f"scheme: {scene['time']['scheme']}")
+    return console.agree(0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``rftfem`` and ``python -m rftfem``; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    console = _Console()
+    rest, petsc_args = _split_petsc(argv)
+    try:
+        args = _build_parser().parse_args(rest)
+    except _UsageError as exc:
+        console.err(str(exc))
+        return 2
+    except SystemExit as exc:  # --help, --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    try:
+        if args.command == "run":
+            return _cmd_run(args, petsc_args, console)
+        return _cmd_check(args, console)
+    except KeyboardInterrupt:
+        console.err("rftfem: interrupted")
+        return 130
+    except Exception:
+        # A bug, not a bad scene: keep the traceback. Under MPI with several ranks,
+        # abort the job so the other ranks do not wait forever in a collective call.
+        console.refresh()
+        if console.comm is not None and console.comm.size > 1:
+            import traceback
+
+            traceback.print_exc()
+            sys.stderr.flush()
+            console.comm.Abort(1)
+        raise

@@ -1,0 +1,201 @@
+"""The command line: exit statuses, one-line errors, PETSc options, check output."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from rftfem import cli
+from rftfem.errors import RunFailed, SceneError
+
+BAD = Path(__file__).parent / "scenes_bad"
+BAD_SCENES = sorted(BAD.glob("*.toml"))
+
+GOOD = """
+title = "cli cantilever"
+[mesh]
+length = 10.0
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+[time]
+end = 1.0
+dt = 0.5
+[[boundary]]
+where = "x=0"
+fix = ["clamped"]
+[[load]]
+kind = "edge-moment"
+where = "x=L"
+value = [0.0, 0.1, 0.0]
+[[output.probes]]
+name = "tip"
+at = [10.0, 0.5, 0.0]
+"""
+
+
+def rftfem(*args, cwd=None, timeout=60):
+    return subprocess.run([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def assert_one_line_error(proc, *words):
+    assert proc.returncode == 2, (proc.returncode, proc.stderr)
+    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].strip(), proc.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    return lines[0]
+
+
+def expected_words(path: Path) -> list[str]:
+    return [s.strip() for s in path.read_text().splitlines()[0].split(":", 1)[1].split("|")]
+
+
+@pytest.fixture
+def good(tmp_path):
+    p = tmp_path / "good.toml"
+    p.write_text(GOOD)
+    return p
+
+
+# ------------------------------------------------------------ subprocesses
+
+
+def test_enough_malformed_kinds():
+    assert len(BAD_SCENES) >= 10
+
+
+@pytest.mark.parametrize("path", BAD_SCENES, ids=lambda p: p.stem)
+def test_check_bad_scene(path):
+    line = assert_one_line_error(rftfem("check", path, cwd=BAD), *expected_words(path))
+    assert line.startswith("rftfem: error: ")
+
+
+def test_run_bad_scene_exits_2_without_running(tmp_path):
+    path = BAD / "negative_thickness.toml"
+    assert_one_line_error(rftfem("run", path, "-snes_monitor", cwd=tmp_path), "shell.thickness")
+    assert not (tmp_path / "results").exists()
+
+
+def test_bad_set_path(good):
+    line = assert_one_line_error(rftfem("check", good, "--set", "mesh.lenght=3"), "mesh.lenght")
+    assert "mesh.length" in line
+    assert_one_line_error(rftfem("check", good, "--set", "load.4.value=[0,1,0]"), "load.4.value")
+    assert_one_line_error(rftfem("check", good, "--set", "shell.nu=0.5"), "shell.nu")
+
+
+def test_unknown_options(good):
+    assert_one_line_error(rftfem("check", good, "--frobnicate"), "--frobnicate")
+    # PETSc options only make sense for `run`
+    assert_one_line_error(rftfem("check", good, "-snes_monitor"), "-snes_monitor")
+    assert_one_line_error(rftfem("run", good, "--out"), "--out")
+    assert_one_line_error(rftfem("explode", good), "explode")
+    assert_one_line_error(rftfem(), "COMMAND")
+    assert_one_line_error(rftfem("check"), "SCENE.toml")
+
+
+def test_help():
+    for args in (["--help"], ["run", "--help"], ["check", "--help"]):
+        proc = rftfem(*args)
+        assert proc.returncode == 0 and "usage: rftfem" in proc.stdout
+
+
+def test_check_good_scene(good):
+    proc = rftfem("check", good, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert "scene OK: cli cantilever" in lines
+    assert "active effects: elasticity, edge-moment" in lines
+    assert "scheme: static" in lines
+
+
+# ------------------------------------------------------------- in process
+
+
+def test_split_petsc_options():
+    rest, petsc = cli._split_petsc(
+        ["run", "-snes_monitor", "a.toml", "--set", "time.dt=0.1", "-ksp_type", "preonly",
+         "--quiet", "-pc_factor_mat_solver_type", "mumps", "-snes_view", "--out", "o"])
+    assert rest == ["run", "a.toml", "--set", "time.dt=0.1", "--quiet", "--out", "o"]
+    assert petsc == ["-snes_monitor", "-ksp_type", "preonly", "-pc_factor_mat_solver_type",
+                     "mumps", "-snes_view"]
+    assert cli._split_petsc(["check", "a.toml", "-snes_monitor"]) == \
+        (["check", "a.toml", "-snes_monitor"], [])
+
+
+@pytest.fixture
+def fake_simulation(monkeypatch):
+    """A stand-in rftfem.simulation that records its calls."""
+    module = types.ModuleType("rftfem.simulation")
+    module.calls = []
+    module.outcome = None
+
+    def run(scene, out_dir, quiet, petsc_args):
+        module.calls.append(("run", scene, out_dir, quiet, petsc_args))
+        if module.outcome is not None:
+            raise module.outcome
+        return {"status": "ok"}
+
+    def check(scene):
+        module.calls.append(("check", scene))
+        if module.outcome is not None:
+            raise module.outcome
+        return ["elasticity", "edge-moment"]
+
+    module.run, module.check = run, check
+    monkeypatch.setitem(sys.modules, "rftfem.simulation", module)
+    return module
+
+
+def test_run_passes_scene_out_dir_and_petsc_args(good, fake_simulation, tmp_path, monkeypatch,
+                                                 capsys):
+    monkeypatch.chdir(tmp_path)
+    status = cli.main(["run", str(good), "--set", "time.dt=0.25", "--quiet",
+                       "-snes_monitor", "-ksp_type", "preonly"])
+    assert status == 0
+    kind, scene, out_dir, quiet, petsc = fake_simulation.calls[0]
+    assert scene["time"]["dt"] == 0.25
+    assert out_dir == Path("results") / "good"
+    assert quiet is True and petsc == ["-snes_monitor", "-ksp_type", "preonly"]
+    assert cli.main(["run", str(good), "--out", "elsewhere"]) == 0
+    assert fake_simulation.calls[1][2] == Path("elsewhere")
+    assert fake_simulation.calls[1][3] is False
+
+
+def test_run_failed_exits_3(good, fake_simulation, capsys):
+    fake_simulation.outcome = RunFailed("SNES diverged after 8 dt cuts", 0.375, 12)
+    assert cli.main(["run", str(good), "--out", "out/x"]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith("rftfem: run failed at t = 0.375 (step 12): SNES diverged")
+    assert err.rstrip().endswith("; outputs so far are in " + str(Path("out/x")))
+
+
+def test_scene_error_from_simulation_exits_2(good, fake_simulation, capsys):
+    fake_simulation.outcome = SceneError("boundary.0.where: 'left' matches no physical group")
+    assert cli.main(["check", str(good)]) == 2
+    assert cli.main(["run", str(good)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["rftfem: error: boundary.0.where: 'left' matches no physical group"] * 2
+
+
+def test_check_uses_simulation_check(good, fake_simulation, capsys):
+    assert cli.main(["check", str(good)]) == 0
+    assert fake_simulation.calls[0][0] == "check"
+    out = capsys.readouterr().out.splitlines()
+    assert out == ["scene OK: cli cantilever", "active effects: elasticity, edge-moment",
+                   "scheme: static"]
+
+
+def test_check_falls_back_without_simulation_module(good, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "rftfem.simulation", None)  # import -> ImportError
+    assert cli.main(["check", str(good), "--set", "shell.density=1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out == ["scene OK: cli cantilever", "active effects: elasticity, inertia, edge-moment",
+                   "scheme: generalized-alpha"]
