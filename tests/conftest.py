@@ -1,0 +1,57 @@
+"""Shared helpers: run a scene in-process, find the stack's mpirun."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMOS = ROOT / "demos"
+
+
+def run_scene(scene_file, *overrides, out_dir=None, observers=(), petsc_args=None):
+    """Load ``scene_file`` with ``--set`` style overrides, run it, return the Simulation."""
+    from rftfem.scene import load_scene
+    from rftfem.simulation import Simulation
+
+    scene = load_scene(scene_file, list(overrides))
+    sim = Simulation(scene, out_dir=out_dir, quiet=True, petsc_args=petsc_args,
+                     observers=observers)
+    try:
+        sim.summary = sim.run()
+    finally:
+        sim.close()
+    return sim
+
+
+def rows_at(sim, times, probe=0):
+    """Probe displacement rows (n, 3) at the given output times."""
+    t = np.array([row[0] for row in sim.history])
+    out = []
+    for ti in times:
+        i = int(np.argmin(np.abs(t - ti)))
+        assert abs(t[i] - ti) < 1e-9, f"no output row at t = {ti}"
+        out.append(sim.history[i][1][probe])
+    return np.array(out)
+
+
+def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture
+def mpirun():
+    """The mpirun of the running stack (next to the interpreter first, then PATH)."""
+    here = Path(sys.executable).parent / "mpirun"
+    exe = str(here) if here.exists() else shutil.which("mpirun")
+    if exe is None:
+        pytest.fail("mpirun not found: the FEniCSx stack's MPI launcher is required")
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return exe, env

@@ -1,0 +1,136 @@
+"""Published shell benchmarks, run through scenes (REFERENCES.md A, B, C, E and the twist).
+
+Each test prints the figure it reached, so `pytest -s` (or -rA) shows the margin.
+"""
+
+import numpy as np
+import pytest
+
+from conftest import DEMOS, rows_at, run_scene
+
+# --- A. Cantilever under end shear (Sze, Liu & Lo 2004, 3.1) -----------------
+
+SZE_SHEAR = {  # P/Pmax: (-u, w)
+    0.10: (0.103, 1.309),
+    0.25: (0.563, 3.015),
+    0.50: (1.604, 4.933),
+    0.75: (2.541, 6.031),
+    1.00: (3.286, 6.698),
+}
+
+
+def test_end_shear_matches_sze_at_every_row(tmp_path):
+    """Tolerance: 1 % of w at every row, 16x1 quadrilaterals (REFERENCES.md A)."""
+    sim = run_scene(DEMOS / "end_shear.toml", out_dir=tmp_path)
+    loads = sorted(SZE_SHEAR)
+    tip = rows_at(sim, loads)
+    for p, (ux, _, uz) in zip(loads, tip):
+        ref_u, ref_w = SZE_SHEAR[p]
+        err = abs(uz - ref_w) / ref_w
+        print(f"P/Pmax = {p:4.2f}: -u = {-ux:.4f} ({ref_u}), w = {uz:.4f} ({ref_w}), "
+              f"w error {100 * err:.3f} %")
+        assert err < 0.01, f"P/Pmax = {p}: w = {uz:.4f}, reference {ref_w}"
+    assert sim.summary["counts"]["dt_cuts"] == 0
+
+
+# --- B. Roll-up by an end moment (Sze 3.2; exact) ----------------------------
+
+
+def rollup_tip(fraction, L=12.0):
+    """Exact tip displacement (u, w) when M = fraction * Mmax (moment about +Y)."""
+    theta = 2 * np.pi * fraction
+    return np.array([L / theta * np.sin(theta) - L, -(L / theta) * (1 - np.cos(theta))])
+
+
+def _rollup_errors(sim, fractions):
+    errors = []
+    for f, (ux, _, uz) in zip(fractions, rows_at(sim, fractions)):  # demo: M/Mmax = t
+        errors.append(np.hypot(*(np.array([ux, uz]) - rollup_tip(f))) / 12.0)
+        print(f"M/Mmax = {f}: tip error {100 * errors[-1]:.3f} % of L")
+    return errors
+
+
+def test_rollup_tip_on_the_exact_circle(tmp_path):
+    """Tip within 0.5 % of L at M/Mmax = 0.25, 0.5, 0.75, 1 (demo mesh, 16x1 quadrilaterals);
+    the demo goes on to two full turns (2 Mmax), which must converge."""
+    sim = run_scene(DEMOS / "rollup.toml", out_dir=tmp_path)
+    errors = _rollup_errors(sim, [0.25, 0.5, 0.75, 1.0, 2.0])
+    assert max(errors[:4]) < 0.005
+    assert sim.t == pytest.approx(2.0) and sim.summary["status"] == "ok"
+    assert sim.summary["counts"]["dt_cuts"] == 0
+    assert sim.summary["director_unit_error"] < 1e-12
+
+
+def test_rollup_two_full_turns_on_a_finer_mesh(tmp_path):
+    """At 2 Mmax the 16x1 mesh is at 0.75 % of L; 32x1 must be within 0.5 %."""
+    sim = run_scene(DEMOS / "rollup.toml", "mesh.divisions=[32, 1]", out_dir=tmp_path)
+    assert _rollup_errors(sim, [2.0])[0] < 0.005
+
+
+# --- C. Elastica (exact), tip load ----------------------------------------------
+
+ELASTICA = {1: (0.30172, 0.05643), 2: (0.49346, 0.16064), 5: (0.71379, 0.38763),
+            10: (0.81061, 0.55500)}
+
+
+def test_elastica_tip_load(tmp_path):
+    """(w/L, 1 - x/L) within 0.5 % for PL²/EI = 1, 2, 5, 10 (EI = 100, L = 10: P = PL²/EI)."""
+    sim = run_scene(DEMOS / "end_shear.toml", "load.0.value=[0.0, 0.0, 10.0]", "time.end=10.0",
+                    "time.dt=0.25", "mesh.divisions=[32, 1]", out_dir=tmp_path)
+    for k, (ux, _, uz) in zip(ELASTICA, rows_at(sim, list(ELASTICA))):
+        w_ref, u_ref = ELASTICA[k]
+        ew, eu = abs(uz / 10 - w_ref) / w_ref, abs(-ux / 10 - u_ref) / u_ref
+        print(f"PL²/EI = {k}: w/L = {uz / 10:.5f} ({w_ref}), 1 - x/L = {-ux / 10:.5f} ({u_ref}); "
+              f"errors {100 * ew:.3f} %, {100 * eu:.3f} %")
+        assert ew < 0.005 and eu < 0.005
+
+
+# --- E. Locking ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("slenderness", [100, 1000])
+def test_no_shear_or_membrane_locking(tmp_path, slenderness):
+    """Linear tip deflection PL³/(3EI) within 1 % for L/t = 100 and 1000 on one mesh (16x1)."""
+    L, E, w = 10.0, 1.2e6, 1.0
+    t = L / slenderness
+    EI = E * w * t**3 / 12
+    P = 1e-4 * 3 * EI / L**2  # deflection 1e-4 L: linear regime
+    sim = run_scene(DEMOS / "end_shear.toml", f"shell.thickness={t}", f"load.0.value=[0, 0, {P}]",
+                    "load.0.ramp=constant", "time.end=1.0", "time.dt=1.0", out_dir=tmp_path)
+    uz = sim.history[-1][1][0][2]
+    exact = P * L**3 / (3 * EI)
+    err = abs(uz - exact) / exact
+    print(f"L/t = {slenderness}: w = {uz:.6e}, PL³/3EI = {exact:.6e}, error {100 * err:.3f} %")
+    assert err < 0.01
+
+
+# --- Twist ---------------------------------------------------------------------------
+
+
+def end_rotation(sim):
+    """Unwrapped rotation (rad) of the free end about X, from its two corner probes."""
+    d = np.array([row[1][1] - row[1][0] for row in sim.history]) + np.array([0.0, 1.0, 0.0])
+    return np.unwrap(np.arctan2(d[:, 2], d[:, 1]))
+
+
+def test_small_twist_matches_linear_torsion(tmp_path):
+    """End rotation T L / (G J), J = w t³/3 (1 − 0.63 t/w), within 5 %."""
+    T, L, w, t, E = 1.0, 10.0, 1.0, 0.1, 1.2e6
+    sim = run_scene(DEMOS / "twist.toml", f"load.0.value=[{T}, 0, 0]", "time.dt=0.5",
+                    out_dir=tmp_path)
+    J = w * t**3 / 3 * (1 - 0.63 * t / w)
+    exact = T * L / (E / 2 * J)
+    phi = end_rotation(sim)[-1]
+    err = abs(phi - exact) / exact
+    print(f"end rotation {phi:.6f} rad, T L/(G J) = {exact:.6f} rad, error {100 * err:.2f} %")
+    assert err < 0.05
+
+
+def test_twist_passes_180_and_360_degrees_without_failed_step(tmp_path):
+    sim = run_scene(DEMOS / "twist.toml", out_dir=tmp_path)
+    phi = np.degrees(end_rotation(sim))
+    print(f"end rotation at t = 1: {phi[-1]:.1f} deg; steps {sim.summary['counts']}")
+    assert phi.max() > 360.0
+    assert np.all(np.diff(phi) > 0), "the twist must grow monotonically with the torque"
+    assert sim.summary["counts"]["dt_cuts"] == 0
+    assert sim.summary["director_unit_error"] < 1e-12
