@@ -44,6 +44,11 @@ class Model:
     def __init__(self, scene: dict, body, compile_forms: bool = True):
         self.scene = scene
         self.compile_forms = compile_forms
+        for key, what in (("fluid", "resistive-force drag"), ("magnetic", "magnetic couples"),
+                          ("motion", "prescribed motion")):
+            if scene.get(key):
+                raise SceneError(f"{key}: {what} is not available in this version of rftfem "
+                                 "(planned); remove the section to run the rest of the scene")
         self.body = body
         self.mesh = body.mesh
         self.comm = self.mesh.comm
