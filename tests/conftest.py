@@ -10,6 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import rftfem  # noqa: F401  (first: sets up the FEniCSx stack, see rftfem/__init__.py)
+
 ROOT = Path(__file__).resolve().parents[1]
 DEMOS = ROOT / "demos"
 
