@@ -1,1 +1,101 @@
-"""gmsh mesh builders and readers for rftfem."""
+"""gmsh mesh builders and readers for rftfem.
+
+Every body is a :class:`Body`: a dolfinx surface mesh in 3D (tdim 2, gdim 3)
+with cell tags (regions) and facet tags (named edges), the names of both, and
+the extents of the reference body in X and Y.
+
+- :func:`build_strip` -- a structured strip in the XY plane with x-bands as
+  regions and the four sides as named edges (``kind = "strip"``);
+- :func:`read_gmsh` -- a user ``.msh`` file whose named physical surfaces are
+  the regions and named physical curves the edges (``kind = "gmsh"``);
+- :func:`build_body` -- the ``[mesh]`` table of a scene (SCENES.md) to a Body.
+
+gmsh runs on rank 0 only; dolfinx distributes the mesh over the communicator.
+The names (``regions``, ``edges``) and extents are the same on every rank.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from rftfem.errors import SceneError
+
+
+@dataclass
+class Body:
+    """A reference body: mesh, tags and their names.
+
+    ``regions[name]`` lists the cell-tag values that make up the region (a
+    region may be made of several tagged pieces, and a cell may belong to
+    several regions); ``edges[name]`` lists facet-tag values the same way.
+    Integrate over a region with ``dx(tuple(body.regions[name]))`` and over an
+    edge with ``ds(tuple(body.edges[name]))``.
+    """
+
+    mesh: object  # dolfinx.mesh.Mesh, tdim 2, gdim 3
+    cell_tags: object  # dolfinx MeshTags on cells; every cell has a positive tag
+    facet_tags: object  # dolfinx MeshTags on facets of the named edges (may be empty)
+    regions: dict[str, list[int]] = field(default_factory=dict)
+    edges: dict[str, list[int]] = field(default_factory=dict)
+    length: float = 0.0  # extent in X of the reference body (global)
+    width: float = 0.0  # extent in Y of the reference body (global)
+
+
+from .gmsh_file import read_gmsh  # noqa: E402
+from .strip import build_strip  # noqa: E402
+
+__all__ = ["Body", "build_strip", "read_gmsh", "build_body"]
+
+
+_STRIP_DEFAULTS = {"length": 12.0, "width": 1.0, "divisions": [16, 1], "cell": "quadrilateral"}
+
+
+def build_body(comm, mesh_section: dict, scene_dir=None) -> Body:
+    """The scene's ``[mesh]`` table (SCENES.md) as a Body; collective on ``comm``.
+
+    ``kind`` (default ``"strip"``):
+
+    - ``"strip"``: :func:`build_strip` from ``length`` (default 12.0),
+      ``width`` (1.0), ``divisions`` (``[16, 1]``), ``cell``
+      (``"quadrilateral"``) and ``[[mesh.regions]]`` tables ``{name, x}``;
+    - ``"gmsh"``: :func:`read_gmsh` of ``file``, relative to ``scene_dir``
+      (the scene file's folder) unless absolute. Regions are the file's named
+      physical surfaces, so ``mesh.regions`` is refused there.
+
+    Bad values raise a one-line ``SceneError`` naming the ``mesh.*`` key.
+    """
+    import os
+
+    if not isinstance(mesh_section, dict):
+        raise SceneError(f"mesh: expected a table, found {mesh_section!r}")
+    kind = mesh_section.get("kind", "strip")
+    if kind == "strip":
+        get = lambda key: mesh_section.get(key, _STRIP_DEFAULTS[key])  # noqa: E731
+        raw = mesh_section.get("regions", [])
+        if not isinstance(raw, (list, tuple)):
+            raise SceneError(f"mesh.regions: expected an array of tables, found {raw!r}")
+        regions = []
+        for i, item in enumerate(raw):
+            if not isinstance(item, dict):
+                raise SceneError(f"mesh.regions.{i}: expected a table {{name, x}}, found {item!r}")
+            for key in ("name", "x"):
+                if key not in item:
+                    raise SceneError(f"mesh.regions.{i}.{key}: required")
+            band = item["x"]
+            if not isinstance(band, (list, tuple)) or len(band) != 2:
+                raise SceneError(f"mesh.regions.{i}.x: expected [x0, x1], found {band!r}")
+            regions.append((item["name"], tuple(band)))
+        return build_strip(comm, get("length"), get("width"), get("divisions"),
+                           get("cell"), regions)
+    if kind == "gmsh":
+        path = mesh_section.get("file")
+        if not isinstance(path, str) or not path:
+            raise SceneError(f"mesh.file: required for kind = \"gmsh\" (a .msh path), "
+                             f"found {path!r}")
+        if mesh_section.get("regions"):
+            raise SceneError("mesh.regions: x bands are for kind = \"strip\"; with kind = "
+                             "\"gmsh\" the named physical surfaces of the file are the regions")
+        if scene_dir is not None and not os.path.isabs(path):
+            path = os.path.join(os.fspath(scene_dir), path)
+        return read_gmsh(comm, path)
+    raise SceneError(f"mesh.kind: expected \"strip\" or \"gmsh\", found {kind!r}")

@@ -1,0 +1,264 @@
+"""Read a user's gmsh ``.msh`` surface mesh into a :class:`~rftfem.meshes.Body`.
+
+Also home of the gmsh plumbing shared with :mod:`.strip`: a rank-0 gmsh
+session that leaves someone else's gmsh as it found it, and the collective
+step that turns the rank-0 gmsh model into a distributed dolfinx mesh.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from contextlib import nullcontext
+
+import numpy as np
+
+from rftfem.compat import create_meshtags, gmsh_model_to_mesh
+from rftfem.errors import SceneError
+
+# gmsh element types rftfem reads as surface cells: 3-node and 6-node
+# triangles, 4-node and 9-node quadrilaterals (geometry degree 1 or 2).
+_SURFACE_TYPES = {2: "3-node triangle", 3: "4-node quadrilateral",
+                  9: "6-node triangle", 10: "9-node quadrilateral"}
+_TRIANGLES = {2, 9}
+
+
+# --- gmsh session (rank 0) ---------------------------------------------------
+
+
+def _gmsh_is_initialized(gmsh) -> bool:
+    # TODO(compat): gmsh >= 4.9 has isInitialized(); gmsh 4.8 (Debian 12) does
+    # not. There an uninitialized gmsh answers an empty model list (an
+    # initialized one always has a model) after complaining on stderr, which is
+    # silenced here at the file-descriptor level (the message comes from C++).
+    if hasattr(gmsh, "isInitialized"):
+        return bool(gmsh.isInitialized())
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            try:
+                return len(gmsh.model.list()) > 0
+            except Exception:  # after finalize(): "Could not get last error"
+                return False
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _gmsh_initialize(gmsh) -> None:
+    # TODO(compat): gmsh >= 4.11 takes interruptible= (True replaces Python's
+    # SIGINT handler, so Ctrl-C would kill the run without cleanup); 4.8 does not.
+    import inspect
+
+    kwargs = {"readConfigFiles": False}
+    if "interruptible" in inspect.signature(gmsh.initialize).parameters:
+        kwargs["interruptible"] = False
+    gmsh.initialize(**kwargs)
+
+
+class _GmshSession:
+    """A fresh, current gmsh model for the ``with`` block; everything restored after.
+
+    Initializes gmsh only if nobody has (and then finalizes it on exit);
+    otherwise leaves it initialized, removes only its own model, restores the
+    previously current model and every option it set (``options``, plus a
+    silent terminal).
+    """
+
+    _count = 0
+
+    def __init__(self, options: dict[str, float] | None = None):
+        self.options = {"General.Terminal": 0.0, **(options or {})}
+
+    def __enter__(self):
+        import gmsh
+
+        self.gmsh = gmsh
+        self.started = not _gmsh_is_initialized(gmsh)
+        if self.started:
+            _gmsh_initialize(gmsh)
+        self.saved = {k: gmsh.option.getNumber(k) for k in self.options}
+        for k, v in self.options.items():
+            gmsh.option.setNumber(k, v)
+        self.previous = gmsh.model.getCurrent()
+        _GmshSession._count += 1
+        self.name = f"rftfem-{os.getpid()}-{_GmshSession._count}"
+        gmsh.model.add(self.name)
+        return gmsh
+
+    def __exit__(self, *exc):
+        gmsh = self.gmsh
+        try:
+            if self.name in gmsh.model.list():
+                gmsh.model.setCurrent(self.name)
+                gmsh.model.remove()
+        finally:
+            if self.started:
+                gmsh.finalize()
+            else:
+                for k, v in self.saved.items():
+                    gmsh.option.setNumber(k, v)
+                if self.previous in gmsh.model.list():
+                    gmsh.model.setCurrent(self.previous)
+        return False
+
+
+def _model_to_body(comm, prepare, options=None):
+    """Collective: ``prepare(gmsh)`` on rank 0, then the dolfinx mesh on all ranks.
+
+    ``prepare`` fills the current (fresh) gmsh model and returns
+    ``(regions, edges)``; a :class:`SceneError` it raises is raised on every
+    rank (no rank is left waiting). Returns ``(mesh, cell_tags, facet_tags,
+    regions, edges)``.
+    """
+    root = comm.rank == 0
+    with (_GmshSession(options) if root else nullcontext()) as gmsh:
+        result = None
+        if root:
+            try:
+                result = ("ok", prepare(gmsh))
+            except SceneError as e:
+                result = ("scene", str(e))
+            except Exception as e:  # a bug or a gmsh failure: still tell every rank
+                result = ("error", f"{type(e).__name__}: {e}")
+        status, payload = comm.bcast(result, root=0)
+        if status == "scene":
+            raise SceneError(payload)
+        if status == "error":
+            raise RuntimeError(f"building the mesh with gmsh failed: {payload}")
+        mesh, cell_tags, facet_tags = gmsh_model_to_mesh(gmsh.model if root else None,
+                                                         comm, 0, 3)
+    if facet_tags is None:  # dolfinx >= 0.10 gives None when no curve is tagged
+        facet_tags = _empty_meshtags(mesh, mesh.topology.dim - 1)
+    regions, edges = payload
+    return mesh, cell_tags, facet_tags, regions, edges
+
+
+def _empty_meshtags(mesh, dim):
+    # TODO(compat): compat.gmsh_model_to_mesh could return these itself.
+    mesh.topology.create_entities(dim)
+    empty = np.empty(0, dtype=np.int32)
+    return create_meshtags(mesh, dim, empty, empty)
+
+
+# --- reading a .msh file -------------------------------------------------------
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _fail(path: str, what: str):
+    raise SceneError(f"mesh.file: {what} ('{path}')")
+
+
+def _prepare_file(gmsh, path: str):
+    """Rank 0: load ``path`` into the current model, check it, return names."""
+    if not path.lower().endswith(".msh"):
+        # other extensions may be run by gmsh as .geo scripts: scenes are data
+        _fail(path, "expected a gmsh mesh file ending in .msh")
+    if not os.path.isfile(path):
+        _fail(path, "no such file")
+    try:
+        gmsh.merge(path)
+    except Exception as e:
+        _fail(path, f"gmsh cannot read it as a mesh: {_one_line(e)}")
+    model = gmsh.model
+
+    groups = model.getPhysicalGroups()
+    if any(dim == 3 for dim, _ in groups):
+        _fail(path, "has physical volumes; expected a surface mesh (2D elements in 3D)")
+    if len(model.mesh.getElementTypes(2)) == 0:
+        _fail(path, "is not a surface mesh: it has no 2D elements")
+    surfaces = [tag for dim, tag in groups if dim == 2]
+    if not surfaces:
+        _fail(path, "has no physical surface; name the surfaces that make the body "
+                    "(Physical Surface(\"name\") = {...})")
+
+    regions: dict[str, list[int]] = {}
+    owner: dict[int, int] = {}  # surface entity -> physical surface
+    types: set[int] = set()
+    for tag in surfaces:
+        name = model.getPhysicalName(2, tag)
+        for entity in model.getEntitiesForPhysicalGroup(2, tag):
+            entity = int(entity)
+            if entity in owner:
+                _fail(path, f"surface {entity} is in two physical surfaces "
+                            f"({owner[entity]} and {tag}); each cell must be in one")
+            owner[entity] = tag
+            types.update(int(t) for t in model.mesh.getElementTypes(2, entity))
+        if name:
+            regions.setdefault(name, []).append(int(tag))
+    if not regions:
+        _fail(path, "has no named physical surface")
+    bad = sorted(types - set(_SURFACE_TYPES))
+    if bad:
+        names = ", ".join(model.mesh.getElementProperties(t)[0] for t in bad)
+        _fail(path, f"has unsupported 2D elements ({names}); use 3- or 6-node triangles "
+                    "or 4- or 9-node quadrilaterals")
+    if len(types) != 1:
+        names = " and ".join(_SURFACE_TYPES[t] for t in sorted(types))
+        _fail(path, f"mixes {names} cells in its physical surfaces; use one cell type")
+    if not any(len(model.mesh.getElements(2, e)[0]) for e in owner):
+        _fail(path, "its physical surfaces hold no elements")
+
+    # Surfaces in no physical surface: drop them (and their mesh) here, so that
+    # every dolfinx version builds the same mesh from the tagged cells.
+    untagged = [(2, t) for _, t in model.getEntities(2) if t not in owner]
+    if untagged:
+        model.removeEntities(untagged, recursive=False)
+    model.mesh.renumberNodes()  # dolfinx wants node tags 1..N
+
+    edges: dict[str, list[int]] = {}
+    for dim, tag in groups:
+        if dim == 1:
+            name = model.getPhysicalName(1, tag)
+            if name:
+                edges.setdefault(name, []).append(int(tag))
+    return regions, edges
+
+
+def _extents(comm, mesh) -> tuple[float, float]:
+    from mpi4py import MPI
+
+    x = mesh.geometry.x
+    out = []
+    for k in (0, 1):
+        lo = float(x[:, k].min()) if x.shape[0] else math.inf
+        hi = float(x[:, k].max()) if x.shape[0] else -math.inf
+        out.append(comm.allreduce(hi, op=MPI.MAX) - comm.allreduce(lo, op=MPI.MIN))
+    return out[0], out[1]
+
+
+def read_gmsh(comm, path):
+    """Read a gmsh ``.msh`` surface mesh (2D elements in 3D) into a Body.
+
+    The file may hold a curved surface and second-order geometry (6-node
+    triangles or 9-node quadrilaterals); one cell type per file. Named physical
+    surfaces become ``regions`` (name -> physical tags), named physical curves
+    become ``edges`` and the facet tags. Unnamed physical groups still tag
+    cells/facets but get no name.
+
+    Only cells in a physical surface are in the mesh: surfaces that no
+    physical surface contains are dropped with their elements (gmsh/dolfinx
+    behaviour; done explicitly here so every dolfinx version agrees). A
+    surface entity may belong to one physical surface only (each cell carries
+    one tag). The normal of each cell follows the node order in the file.
+
+    ``length`` and ``width`` are the global bounding-box extents in X and Y.
+    The file is read on rank 0; names are broadcast. Errors (not a ``.msh``
+    name, missing or unreadable file, no 2D elements, no named physical
+    surface, mixed or unsupported cell types) raise a one-line
+    ``SceneError("mesh.file: ...")`` on every rank.
+    """
+    path = os.fspath(path)
+    mesh, cell_tags, facet_tags, regions, edges = _model_to_body(
+        comm, lambda gmsh: _prepare_file(gmsh, path))
+    length, width = _extents(comm, mesh)
+    from . import Body
+
+    return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
+                regions=regions, edges=edges, length=length, width=width)

@@ -1,0 +1,416 @@
+"""Meshes: strips and gmsh files as Bodies (areas, tags, names, orientation, errors, MPI)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rftfem import compat  # noqa: F401  (imports dolfinx the right way first)
+
+import dolfinx.fem  # noqa: E402
+import ufl  # noqa: E402
+from mpi4py import MPI  # noqa: E402
+
+from rftfem.errors import SceneError  # noqa: E402
+from rftfem.meshes import Body, build_body, build_strip, read_gmsh  # noqa: E402
+from rftfem.meshes.strip import share_divisions  # noqa: E402
+
+COMM = MPI.COMM_WORLD
+DATA = Path(__file__).parent / "data"
+
+
+# --- helpers -------------------------------------------------------------------
+
+
+def _sum(value):
+    return COMM.allreduce(value, op=MPI.SUM)
+
+
+def cell_values(mesh, expr):
+    """``∫_cell expr dx`` for every owned cell (one DG0 vector assembly)."""
+    V = compat.function_space(mesh, "DG", 0)
+    v = ufl.TestFunction(V)
+    b = dolfinx.fem.assemble_vector(compat.form(expr * v * ufl.dx))
+    return np.asarray(b.array)[: mesh.topology.index_map(mesh.topology.dim).size_local].copy()
+
+
+def owned_tags(body: Body):
+    """Cell tag of every owned cell (0 if untagged)."""
+    n = body.mesh.topology.index_map(2).size_local
+    tags = np.zeros(n, dtype=np.int64)
+    keep = body.cell_tags.indices < n
+    tags[body.cell_tags.indices[keep]] = body.cell_tags.values[keep]
+    return tags
+
+
+def areas(body: Body):
+    """Global total area and area of each named region."""
+    one = dolfinx.fem.Constant(body.mesh, 1.0)
+    per_cell = cell_values(body.mesh, one)
+    tags = owned_tags(body)
+    total = _sum(float(per_cell.sum()))
+    regions = {name: _sum(float(per_cell[np.isin(tags, ids)].sum()))
+               for name, ids in body.regions.items()}
+    return total, regions
+
+
+def edge_lengths(body: Body):
+    ds = ufl.Measure("ds", domain=body.mesh, subdomain_data=body.facet_tags)
+    one = dolfinx.fem.Constant(body.mesh, 1.0)
+    return {name: _sum(dolfinx.fem.assemble_scalar(compat.form(one * ds(tuple(ids)))))
+            for name, ids in body.edges.items()}
+
+
+def normal_z(mesh):
+    """Per owned cell: ∫ (G1×G2)_z/|G1×G2| dx and the cell area."""
+    J = ufl.Jacobian(mesh)
+    n = ufl.cross(J[:, 0], J[:, 1])
+    nz = cell_values(mesh, n[2] / ufl.sqrt(ufl.dot(n, n)))
+    area = cell_values(mesh, dolfinx.fem.Constant(mesh, 1.0))
+    return nz, area
+
+
+def num_cells(body: Body) -> int:
+    return body.mesh.topology.index_map(2).size_global
+
+
+def write_quarter_cylinder(path, radius=2.0, height=3.0, order=1, quads=True,
+                           physical=True, named=True, extra_surface=False):
+    """A quarter of a cylinder of axis Y: x² + z² = R², x, z ≥ 0, 0 ≤ y ≤ H.
+
+    Named groups: surface "shell" (tag 5), curves "bottom" (y = 0, tag 11) and
+    "top" (y = H, tag 12). ``extra_surface`` adds a unit square at x ∈ [5, 6]
+    that is in no physical group (saved with Mesh.SaveAll).
+    """
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("quarter-cylinder")
+        geo = gmsh.model.geo
+        centre = geo.addPoint(0, 0, 0)
+        arc = geo.addCircleArc(geo.addPoint(radius, 0, 0), centre, geo.addPoint(0, 0, radius))
+        out = geo.extrude([(1, arc)], 0, height, 0, numElements=[4], recombine=quads)
+        top, surface = out[0][1], out[1][1]
+        if extra_surface:
+            p = [geo.addPoint(x, y, 0) for x, y in ((5, 0), (6, 0), (6, 1), (5, 1))]
+            lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
+            geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        gmsh.model.mesh.setTransfiniteCurve(arc, 9)
+        if physical:
+            gmsh.model.addPhysicalGroup(2, [surface], 5)
+            gmsh.model.addPhysicalGroup(1, [arc], 11)
+            gmsh.model.addPhysicalGroup(1, [top], 12)
+            if named:
+                gmsh.model.setPhysicalName(2, 5, "shell")
+                gmsh.model.setPhysicalName(1, 11, "bottom")
+                gmsh.model.setPhysicalName(1, 12, "top")
+        gmsh.model.mesh.generate(2)
+        if order > 1:
+            gmsh.model.mesh.setOrder(order)
+        gmsh.option.setNumber("Mesh.SaveAll", 1 if extra_surface else 0)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+@pytest.fixture(scope="module")
+def msh_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("msh")
+    write_quarter_cylinder(d / "qc_q1.msh")
+    write_quarter_cylinder(d / "qc_q2.msh", order=2)
+    write_quarter_cylinder(d / "qc_t2.msh", order=2, quads=False)
+    write_quarter_cylinder(d / "qc_extra.msh", extra_surface=True)
+    write_quarter_cylinder(d / "qc_unnamed.msh", named=False)
+    write_quarter_cylinder(d / "qc_nogroups.msh", physical=False)
+    (d / "garbage.msh").write_text("this is not\na mesh file\n")
+    (d / "empty.msh").write_text("")
+    (d / "plate.geo").write_text("Point(1) = {0, 0, 0};\n")
+    return d
+
+
+# --- division sharing ----------------------------------------------------------
+
+
+def test_share_divisions():
+    assert share_divisions([1.0, 9.0], 16) == [2, 14]  # 1.6 -> 2, 14.4 -> 14
+    assert share_divisions([10.0], 7) == [7]
+    assert share_divisions([1.0, 1.0, 1.0], 2) == [1, 1, 1]  # fewer than segments
+    assert share_divisions([0.01, 10.0, 0.01], 10) == [1, 8, 1]  # at least one each
+    for lengths, nx in (([1, 2, 3, 4], 13), ([0.3, 0.3, 9.4], 5), ([2.5, 2.5, 5], 3)):
+        n = share_divisions(lengths, nx)
+        assert sum(n) == nx and min(n) >= 1
+
+
+# --- strips --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("cell, per_rect", [("quadrilateral", 1), ("triangle", 2)])
+def test_strip_area_cells_edges_orientation(cell, per_rect):
+    L, W, nx, ny = 10.0, 2.0, 16, 2
+    body = build_strip(COMM, L, W, [nx, ny], cell, regions=[("end1", (0.0, 1.0))])
+    mesh = body.mesh
+    assert (mesh.topology.dim, mesh.geometry.dim) == (2, 3)
+    assert (body.length, body.width) == (L, W)
+    assert num_cells(body) == per_rect * nx * ny
+
+    total, regions = areas(body)
+    assert total == pytest.approx(L * W, rel=1e-12)
+    # rounding case: [0, 1] of 10 gets round(1.6) = 2 of the 16 divisions
+    assert regions == {"end1": pytest.approx(1.0 * W, rel=1e-12)}
+    tags = owned_tags(body)
+    assert _sum(int(np.isin(tags, body.regions["end1"]).sum())) == per_rect * 2 * ny
+    assert tags.min(initial=1) >= 1  # every cell tagged with a positive int
+
+    assert set(body.edges) == {"x=0", "x=L", "y=0", "y=W"}
+    lengths = edge_lengths(body)
+    assert lengths["x=0"] == pytest.approx(W) and lengths["x=L"] == pytest.approx(W)
+    assert lengths["y=0"] == pytest.approx(L) and lengths["y=W"] == pytest.approx(L)
+
+    nz, area = normal_z(mesh)  # every cell: G1 × G2 along +Z
+    assert np.allclose(nz, area, rtol=1e-12, atol=0.0)
+    assert np.all(area > 0)
+    assert np.allclose(mesh.geometry.x[:, 2], 0.0)
+
+
+def test_strip_overlapping_regions_and_segment_tags():
+    regions = [("a", (0.0, 6.0)), ("b", (4.0, 10.0)), ("tip", (9.5, 10.0))]
+    body = build_strip(COMM, 10.0, 1.0, [20, 1], "quadrilateral", regions)
+    # segments [0,4] [4,6] [6,9.5] [9.5,10] -> tags 1..4, 8/4/7/1 divisions
+    assert body.regions == {"a": [1, 2], "b": [2, 3, 4], "tip": [4]}
+    total, region_areas = areas(body)
+    assert total == pytest.approx(10.0)
+    assert region_areas == pytest.approx({"a": 6.0, "b": 6.0, "tip": 0.5})
+    tags = owned_tags(body)
+    counts = [_sum(int((tags == t).sum())) for t in (1, 2, 3, 4)]
+    assert counts == [8, 4, 7, 1]
+
+
+def test_strip_without_regions_and_coarse_division():
+    body = build_strip(COMM, 3.0, 0.5, [1, 1], "triangle",
+                       regions=[("r", (1.0, 2.0))])  # nx < segments: one each
+    assert num_cells(body) == 2 * 3
+    total, region_areas = areas(body)
+    assert total == pytest.approx(1.5) and region_areas["r"] == pytest.approx(0.5)
+    plain = build_strip(COMM, 3.0, 0.5, [3, 1])
+    assert plain.regions == {} and num_cells(plain) == 3
+    assert set(np.unique(owned_tags(plain))) <= {1}
+
+
+@pytest.mark.parametrize("kwargs, key", [
+    (dict(regions=[("r", (-1.0, 1.0))]), "mesh.regions.0.x"),
+    (dict(regions=[("r", (2.0, 1.0))]), "mesh.regions.0.x"),
+    (dict(regions=[("r", (0.0, 1.0)), ("r", (1.0, 2.0))]), "mesh.regions.1.name"),
+    (dict(regions=[("x=0", (0.0, 1.0))]), "mesh.regions.0.name"),
+    (dict(divisions=[0, 1]), "mesh.divisions"),
+    (dict(divisions=[4.5, 1]), "mesh.divisions"),
+    (dict(cell="hexahedron"), "mesh.cell"),
+    (dict(length=-1.0), "mesh.length"),
+])
+def test_strip_bad_arguments(kwargs, key):
+    args = dict(length=10.0, width=1.0, divisions=[4, 1], cell="quadrilateral", regions=())
+    args.update(kwargs)
+    with pytest.raises(SceneError) as err:
+        build_strip(COMM, **args)
+    assert str(err.value).startswith(key + ":") and "\n" not in str(err.value)
+
+
+def test_gmsh_left_as_found():
+    """A gmsh someone else initialized stays initialized, with its model and options."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.model.add("users-model")
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("Mesh.ElementOrder", 2)
+        body = build_strip(COMM, 2.0, 1.0, [2, 1])
+        assert body.mesh.geometry.x.shape[0] == 6  # degree 1 despite the user's option
+        assert gmsh.model.getCurrent() == "users-model"
+        assert gmsh.option.getNumber("Mesh.ElementOrder") == 2
+        assert gmsh.model.list().count("users-model") == 1 and len(gmsh.model.list()) == 2
+    finally:
+        gmsh.finalize()
+
+
+# --- gmsh files ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name, cells, rel", [
+    ("qc_q1.msh", 32, 2e-3), ("qc_q2.msh", 32, 1e-5), ("qc_t2.msh", 64, 1e-5),
+])
+def test_read_curved_surface(msh_dir, name, cells, rel):
+    body = read_gmsh(COMM, msh_dir / name)
+    R, H = 2.0, 3.0
+    assert (body.mesh.topology.dim, body.mesh.geometry.dim) == (2, 3)
+    assert num_cells(body) == cells
+    # geometry nodes: 9 x 5 grid (P1), 17 x 9 grid (P2; diagonal midpoints are grid points)
+    nodes = _sum(body.mesh.geometry.index_map().size_local)
+    assert nodes == {"qc_q1.msh": 9 * 5, "qc_q2.msh": 17 * 9, "qc_t2.msh": 17 * 9}[name]
+    assert body.regions == {"shell": [5]} and body.edges == {"bottom": [11], "top": [12]}
+    assert (body.length, body.width) == (pytest.approx(R), pytest.approx(H))
+    total, regions = areas(body)
+    exact = 0.5 * math.pi * R * H
+    assert total == pytest.approx(exact, rel=rel)
+    assert regions["shell"] == pytest.approx(total, rel=1e-12)
+    lengths = edge_lengths(body)
+    assert lengths["bottom"] == pytest.approx(0.5 * math.pi * R, rel=rel)
+    assert lengths["top"] == pytest.approx(0.5 * math.pi * R, rel=rel)
+
+
+def test_read_drops_cells_in_no_physical_surface(msh_dir):
+    body = read_gmsh(COMM, msh_dir / "qc_extra.msh")
+    assert num_cells(body) == 32
+    assert (body.length, body.width) == (pytest.approx(2.0), pytest.approx(3.0))
+
+
+def test_read_hand_written_msh22():
+    body = read_gmsh(COMM, DATA / "two_quads_v22.msh")
+    assert body.regions == {"left": [1], "right": [2]} and body.edges == {"clamp": [3]}
+    total, regions = areas(body)
+    assert total == pytest.approx(2.0) and regions == pytest.approx({"left": 1.0, "right": 1.0})
+    assert edge_lengths(body) == {"clamp": pytest.approx(1.0)}
+    nz, area = normal_z(body.mesh)
+    assert np.allclose(nz, area)
+
+
+@pytest.mark.parametrize("name, words", [
+    ("garbage.msh", "cannot read"),
+    ("empty.msh", "cannot read"),
+    ("missing.msh", "no such file"),
+    ("qc_nogroups.msh", "no physical surface"),
+    ("qc_unnamed.msh", "no named physical surface"),
+    ("plate.geo", ".msh"),
+])
+def test_read_bad_files(msh_dir, name, words):
+    with pytest.raises(SceneError) as err:
+        read_gmsh(COMM, msh_dir / name)
+    message = str(err.value)
+    assert message.startswith("mesh.file: ") and words in message
+    assert "\n" not in message and name in message
+
+
+# --- scenes' [mesh] tables ------------------------------------------------------
+
+
+def test_build_body_dispatch(msh_dir):
+    strip = build_body(COMM, {"kind": "strip", "length": 4.0, "width": 1.0,
+                              "divisions": [8, 1], "cell": "triangle",
+                              "regions": [{"name": "end1", "x": [0.0, 1.0]}]})
+    assert strip.regions == {"end1": [1]} and num_cells(strip) == 16
+    curved = build_body(COMM, {"kind": "gmsh", "file": "qc_q1.msh"}, scene_dir=msh_dir)
+    assert curved.regions == {"shell": [5]}
+    for section, key in (({"kind": "three-links"}, "mesh.kind"),
+                         ({"kind": "gmsh"}, "mesh.file"),
+                         ({"kind": "gmsh", "file": "nope.msh"}, "mesh.file"),
+                         ({"kind": "strip", "length": 1.0, "regions": [{"x": [0, 1]}]},
+                          "mesh.regions.0.name"),
+                         ({"kind": "strip", "length": 1.0, "divisions": [1]}, "mesh.divisions")):
+        with pytest.raises(SceneError) as err:
+            build_body(COMM, section, scene_dir=msh_dir)
+        assert str(err.value).startswith(key + ":")
+
+
+# --- MPI -------------------------------------------------------------------------
+
+MPI_SCRIPT = """
+import json, sys
+from mpi4py import MPI
+sys.path.insert(0, {tests!r})
+import test_meshes as t
+from rftfem.meshes import build_strip, read_gmsh
+
+comm = MPI.COMM_WORLD
+out = {{"size": comm.size}}
+for cell in ("quadrilateral", "triangle"):
+    body = build_strip(comm, 10.0, 2.0, [16, 2], cell,
+                       regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))])
+    out[cell] = [t.areas(body), t.edge_lengths(body), t.num_cells(body), body.regions]
+body = read_gmsh(comm, {msh!r})
+out["gmsh"] = [t.areas(body), t.edge_lengths(body), t.num_cells(body), body.regions,
+               [body.length, body.width]]
+try:
+    read_gmsh(comm, {bad!r})
+except t.SceneError as e:
+    out["bad"] = str(e)
+if comm.rank == 0:
+    print("RESULT " + json.dumps(out))
+"""
+
+
+def _mpirun():
+    """An mpirun of the MPI that mpi4py uses, or None."""
+    if os.environ.get("RFTFEM_MPIRUN"):
+        return os.environ["RFTFEM_MPIRUN"]
+    vendor = MPI.get_vendor()[0]
+    marks = ("Open MPI", "OpenRTE") if "Open MPI" in vendor else ("HYDRA", "MPICH")
+    here = Path(sys.executable).parent
+    candidates = [here / "mpirun", here / "mpiexec",
+                  shutil.which("mpirun"), shutil.which("mpiexec")]
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            try:
+                text = subprocess.run([str(c), "--version"], capture_output=True, text=True,
+                                      timeout=30).stdout
+            except (OSError, subprocess.SubprocessError):
+                continue
+            if any(m in text for m in marks):
+                return str(c)
+    return None
+
+
+def _serial(msh):
+    out = {}
+    for cell in ("quadrilateral", "triangle"):
+        body = build_strip(COMM, 10.0, 2.0, [16, 2], cell,
+                           regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))])
+        out[cell] = [areas(body), edge_lengths(body), num_cells(body), body.regions]
+    body = read_gmsh(COMM, msh)
+    out["gmsh"] = [areas(body), edge_lengths(body), num_cells(body), body.regions,
+                   [body.length, body.width]]
+    return json.loads(json.dumps(out))  # tuples -> lists, as from the subprocess
+
+
+@pytest.mark.mpi
+def test_mpirun_two_ranks_match_serial(msh_dir, tmp_path):
+    if COMM.size > 1:
+        pytest.skip("already running under MPI")
+    mpirun = _mpirun()
+    if mpirun is None:
+        pytest.skip(f"no mpirun found for {MPI.get_vendor()[0]}")
+    msh = str(msh_dir / "qc_q2.msh")
+    script = tmp_path / "mpi_meshes.py"
+    script.write_text(MPI_SCRIPT.format(tests=str(Path(__file__).parent), msh=msh,
+                                        bad=str(msh_dir / "garbage.msh")))
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPIR_"))}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMPI_MCA_rmaps_base_oversubscribe="1")
+    proc = subprocess.run([mpirun, "-n", "2", sys.executable, str(script)], env=env,
+                          capture_output=True, text=True, timeout=120)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+    assert proc.returncode == 0 and lines, proc.stdout[-2000:] + proc.stderr[-2000:]
+    parallel = json.loads(lines[0][len("RESULT "):])
+    assert parallel.pop("size") == 2
+    assert parallel.pop("bad").startswith("mesh.file: ")
+    serial = _serial(msh)
+    for key in serial:
+        (p_total, p_regions), p_edges, p_cells, p_names = parallel[key][:4]
+        (s_total, s_regions), s_edges, s_cells, s_names = serial[key][:4]
+        assert p_cells == s_cells and p_names == s_names
+        assert p_total == pytest.approx(s_total, rel=1e-12)
+        assert p_regions == pytest.approx(s_regions, rel=1e-12)
+        assert p_edges == pytest.approx(s_edges, rel=1e-12)
+    assert parallel["gmsh"][4] == pytest.approx(serial["gmsh"][4], rel=1e-12)
