@@ -27,6 +27,21 @@ _TRIANGLES = {2, 9}
 # --- gmsh session (rank 0) ---------------------------------------------------
 
 
+def _import_gmsh():
+    # TODO(compat): importing gmsh 4.8 sets SIGINT to SIG_DFL (Ctrl-C would kill
+    # the run without cleanup or outputs); put Python's handler back.
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    handler = signal.getsignal(signal.SIGINT) if main else None
+    import gmsh
+
+    if main and handler is not None and signal.getsignal(signal.SIGINT) is not handler:
+        signal.signal(signal.SIGINT, handler)
+    return gmsh
+
+
 def _gmsh_is_initialized(gmsh) -> bool:
     # TODO(compat): gmsh >= 4.9 has isInitialized(); gmsh 4.8 (Debian 12) does
     # not. There an uninitialized gmsh answers an empty model list (an
@@ -74,8 +89,7 @@ class _GmshSession:
         self.options = {"General.Terminal": 0.0, **(options or {})}
 
     def __enter__(self):
-        import gmsh
-
+        gmsh = _import_gmsh()
         self.gmsh = gmsh
         self.started = not _gmsh_is_initialized(gmsh)
         if self.started:
