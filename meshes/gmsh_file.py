@@ -21,7 +21,6 @@ from rftfem.errors import SceneError
 # triangles, 4-node and 9-node quadrilaterals (geometry degree 1 or 2).
 _SURFACE_TYPES = {2: "3-node triangle", 3: "4-node quadrilateral",
                   9: "6-node triangle", 10: "9-node quadrilateral"}
-_TRIANGLES = {2, 9}
 
 
 # --- gmsh session (rank 0) ---------------------------------------------------
