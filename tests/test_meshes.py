@@ -388,7 +388,7 @@ def test_mpirun_two_ranks_match_serial(msh_dir, tmp_path):
         pytest.skip("already running under MPI")
     mpirun = _mpirun()
     if mpirun is None:
-        pytest.skip(f"no mpirun found for {MPI.get_vendor()[0]}")
+        pytest.fail(f"no mpirun found for {MPI.get_vendor()[0]}")
     msh = str(msh_dir / "qc_q2.msh")
     script = tmp_path / "mpi_meshes.py"
     script.write_text(MPI_SCRIPT.format(tests=str(Path(__file__).parent), msh=msh,
