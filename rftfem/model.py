@@ -18,7 +18,7 @@ import ufl
 from dolfinx import fem, mesh as dmesh
 from petsc4py import PETSc
 
-from rftfem.forms import elasticity, inertia, kinematics, loads
+from rftfem.forms import drag, elasticity, inertia, kinematics, loads
 
 from . import compat
 from .errors import SceneError
@@ -44,11 +44,9 @@ class Model:
     def __init__(self, scene: dict, body, compile_forms: bool = True):
         self.scene = scene
         self.compile_forms = compile_forms
-        for key, what in (("fluid", "resistive-force drag"), ("magnetic", "magnetic couples"),
-                          ("motion", "prescribed motion")):
-            if scene.get(key):
-                raise SceneError(f"{key}: {what} is not available in this version of rftfem "
-                                 "(planned); remove the section to run the rest of the scene")
+        if scene.get("magnetic"):
+            raise SceneError("magnetic: magnetic couples are not available in this version of "
+                             "rftfem (planned); remove the section to run the rest of the scene")
         self.body = body
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -82,7 +80,9 @@ class Model:
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
                      for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
         self._build_effects()
-        self.bcs = self._build_bcs()
+        self.fixed_bcs = self._build_bcs()
+        self.motions = self._build_motions()
+        self.bcs = self.fixed_bcs + [m.bc for m in self.motions]
 
     # --- set-up -----------------------------------------------------------
 
@@ -206,6 +206,8 @@ class Model:
         if self._has_inertia():
             self.inertia = inertia.inertia_work(mat["rho"], mat["t"], self.acceleration(u), du,
                                                 self.dx(metadata={"quadrature_degree": 4}))
+        if self.scene.get("fluid"):
+            self.effects["drag"] = self._drag(drag.drag_work, self.velocity(u), du)
         self.load_terms = self._build_loads(du, d, w_test)
         for kind in ("edge-force", "edge-moment"):
             terms = [term for k, term in self.load_terms if k == kind]
@@ -224,6 +226,36 @@ class Model:
                 self.inertia_form = self._compile(self.inertia)
             self.jacobian_form = self._compile(self.jacobian_ufl)
 
+    def _drag(self, term, *args):
+        """A drag form (``forms.drag``) of the current iterate with the scene's coefficients."""
+        if not hasattr(self, "drag_coefficients"):
+            C = np.asarray(self.scene["fluid"]["drag"], dtype=PETSc.ScalarType)
+            axis = np.asarray(self.scene["shell"]["axis"], dtype=PETSc.ScalarType)
+            self.drag_coefficients = fem.Constant(self.mesh, C)
+            self.material_axis = fem.Constant(self.mesh, axis / np.linalg.norm(axis))
+        u, _, _, g1, g2, G1, G2 = self.kinematics()
+        # F_s = I + grad(u) acts only on tangent vectors here, where it equals grad(x)
+        F_s = ufl.Identity(3) + ufl.grad(u)
+        C = self.drag_coefficients
+        return term([C[0], C[1], C[2]], F_s, self.material_axis, *args, g1, g2, G1, G2,
+                    self.dx(metadata={"quadrature_degree": 4}))
+
+    def drag_power(self) -> float:
+        """Power dissipated by the drag, ``∫ (C̃ v)·v J dA₀`` (global), in the current
+        configuration with the stored velocity ``v_n`` (after a step: its end state)."""
+        if not hasattr(self, "_drag_power_form"):
+            self._drag_power_form = self._compile(self._drag(drag.drag_power, self.v_n))
+        return self.comm.allreduce(fem.assemble_scalar(self._drag_power_form))
+
+    def drag_force(self) -> np.ndarray:
+        """Total drag force on the body ``∫ C̃ v J dA₀`` (global), in the current
+        configuration with the stored velocity ``v_n``."""
+        if not hasattr(self, "_drag_force_forms"):
+            self._drag_force_forms = [self._compile(f) for f in
+                                      self._drag(drag.drag_force, self.v_n)]
+        return np.array([self.comm.allreduce(fem.assemble_scalar(f))
+                         for f in self._drag_force_forms])
+
     def _has_inertia(self) -> bool:
         shell = self.scene["shell"]
         rho = [shell["density"]] + [p["density"] for p in shell.get("parts", []) if "density" in p]
@@ -233,7 +265,7 @@ class Model:
         names = list(self.effects)
         if self.inertia is not None:
             names.insert(1, "inertia")
-        if self.scene.get("motion"):
+        if self.motions:
             names.append("prescribed-motion")
         return names
 
@@ -317,6 +349,7 @@ class Model:
     def _build_bcs(self):
         tdim = self.mesh.topology.dim
         self._bc_functions = {}
+        self._fixed_dofs = []
         bcs = []
         for k, bnd in enumerate(self.scene.get("boundary", [])):
             key = f"boundary.{k}.where"
@@ -336,12 +369,49 @@ class Model:
         return bcs
 
     def _zero_bc(self, sub, dim, entities, name):
+        V, zero = self._component_space(sub, name)
+        dofs = fem.locate_dofs_topological((sub, V), dim, entities)
+        self._fixed_dofs.append((np.asarray(dofs[0]), name))
+        return fem.dirichletbc(zero, dofs, sub), len(dofs[0])
+
+    # --- prescribed motion ----------------------------------------------------
+
+    def _build_motions(self) -> list["Motion"]:
+        """One time-dependent Dirichlet condition per ``[[motion]]`` (DESIGN.md §5).
+
+        The value lives in a Function on the collapsed component space and is
+        interpolated at every time the solver visits (:meth:`set_time`).
+        """
+        motions = []
+        fixed = {}
+        for bc_dofs, name in self._fixed_dofs:
+            fixed.setdefault(name, []).append(bc_dofs)
+        for k, spec in enumerate(self.scene.get("motion", [])):
+            key = f"motion.{k}"
+            dim, entities = self.entities_of(spec["where"], key + ".where")
+            component = spec["component"]
+            sub = self.W.sub(0).sub(DISPLACEMENT_COMPONENTS[component])
+            V, _ = self._component_space(sub, component)
+            dofs = fem.locate_dofs_topological((sub, V), dim, entities)
+            if self.comm.allreduce(len(dofs[0])) == 0:
+                raise SceneError(f"{key}.where: '{spec['where']}' matches no degree of freedom")
+            for other in fixed.get(component, []):
+                clash = self.comm.allreduce(int(np.isin(dofs[0], other).sum()))
+                if clash:
+                    raise SceneError(f"{key}: {component} is both prescribed here and fixed by a "
+                                     f"[[boundary]] at {clash} dofs; a dof takes one condition")
+            fixed.setdefault(component, []).append(np.asarray(dofs[0]))
+            value = fem.Function(V, name=f"motion_{k}")
+            X = V.tabulate_dof_coordinates()[:, 0]
+            motions.append(Motion(spec, value, np.asarray(dofs[0]), np.asarray(dofs[1]), X,
+                                  fem.dirichletbc(value, dofs, sub)))
+        return motions
+
+    def _component_space(self, sub, name):
         if name not in self._bc_functions:
             V, _ = sub.collapse()
             self._bc_functions[name] = (V, fem.Function(V))
-        V, zero = self._bc_functions[name]
-        dofs = fem.locate_dofs_topological((sub, V), dim, entities)
-        return fem.dirichletbc(zero, dofs, sub), len(dofs[0])
+        return self._bc_functions[name]
 
     # --- per-step updates ---------------------------------------------------
 
@@ -353,6 +423,8 @@ class Model:
         end = self.scene["time"]["end"]
         for ld, const, per_length in self.load_values:
             const.value[:] = per_length * ramp_scale(ld, t, end)
+        for motion in self.motions:
+            motion.set(t)
 
     def reference_force(self) -> float:
         """A force scale of the scene, for absolute Newton tolerances (DESIGN.md §7).
@@ -367,7 +439,16 @@ class Model:
         for ld, _, per_length in self.load_values:
             total = float(np.linalg.norm(ld["value"]))
             scales.append(total if ld["kind"] == "edge-force" else total / L)
+        if self.scene.get("fluid") and self.motions:
+            # drag on the whole body moving at the fastest prescribed speed
+            speed = max(m.speed_scale(self.scene["time"]["end"]) for m in self.motions)
+            scales.append(max(self.scene["fluid"]["drag"]) * self.area() * speed)
         return max(scales)
+
+    def area(self) -> float:
+        """Reference area of the body, ``∫ dA₀``."""
+        one = fem.Constant(self.mesh, PETSc.ScalarType(1.0))
+        return self.comm.allreduce(fem.assemble_scalar(self._compile(one * self.dx)))
 
     def director_unit_error(self) -> float:
         """``max | |d| − 1 |`` over all nodal directors (global)."""
@@ -419,6 +500,41 @@ class Model:
         self.u_n.x.array[:] = u
         self.displacement.x.array[:] = u
         self.update_triad()
+
+
+class Motion:
+    """A prescribed displacement component (SCENES.md ``[[motion]]``) and its Dirichlet value.
+
+    ``travelling-wave``: ``u = amplitude sin(wavenumber (X − origin) + angular_frequency t)``
+    with ``X`` the reference X coordinate of each dof; ``table``: piecewise linear
+    in time, the same value at every selected dof.
+    """
+
+    def __init__(self, spec, value, dofs, value_dofs, X, bc):
+        self.spec, self.value, self.dofs, self.value_dofs, self.X, self.bc = (
+            spec, value, dofs, value_dofs, X, bc)
+
+    def at(self, t: float, X):
+        s = self.spec
+        if s["kind"] == "table":
+            table = np.asarray(s["values"], dtype=float)
+            return np.full_like(X, np.interp(t, table[:, 0], table[:, 1]))
+        return s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
+                                       + s["angular_frequency"] * t)
+
+    def set(self, t: float):
+        self.value.x.array[self.value_dofs] = self.at(t, self.X[self.value_dofs])
+
+    def speed_scale(self, end: float) -> float:
+        """The largest speed this motion prescribes (for the solver's force scale)."""
+        s = self.spec
+        if s["kind"] == "table":
+            table = np.asarray(s["values"], dtype=float)
+            if len(table) < 2:
+                return 0.0
+            rates = np.abs(np.diff(table[:, 1]) / np.maximum(np.diff(table[:, 0]), 1e-300))
+            return float(rates.max())
+        return abs(s["amplitude"] * s["angular_frequency"])
 
 
 def _max_op():

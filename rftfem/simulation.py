@@ -25,7 +25,7 @@ from .errors import RunFailed
 from .model import Model
 from .output import CsvLog, FieldWriter, Probes, Progress, write_json
 from .solver import StepSolver
-from .timeint import Static, make_scheme
+from .timeint import BackwardEuler, Static, make_scheme
 
 
 def _build(scene: dict, comm, compile_forms: bool = True):
@@ -87,13 +87,25 @@ class Simulation:
         return True, its, res, reason
 
     def _initial_equilibrium(self):
-        ok, its, res, reason = self._attempt(0.0, self.scene["time"]["dt"], Static())
+        """Equilibrium with the t = 0 loads and motions; the run then starts at rest.
+
+        With drag the body may be free (no Dirichlet condition on its rigid
+        motions), and a static solve would be singular.  The t = 0 solve then
+        carries the drag of reaching that state from the reference in one step
+        ``dt`` (backward Euler): a viscous regularisation that leaves the body
+        where the fluid lets it go.  Either way the run starts at rest
+        (``v = a = 0``), and the forces kept for the first step are those at rest.
+        """
+        m, dt = self.model, self.scene["time"]["dt"]
+        start = BackwardEuler() if "drag" in m.effects else Static()
+        ok, its, res, reason = self._attempt(0.0, dt, start)
         if not ok:
             raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})",
                             0.0, 0)
-        # the run starts at rest: v = a = 0 whatever the scheme
-        self.model.v_n.x.array[:] = 0.0
-        self.model.a_n.x.array[:] = 0.0
+        m.v_n.x.array[:] = 0.0
+        m.a_n.x.array[:] = 0.0
+        m.set_coefficients(Static().coefficients(dt))
+        self.solver.store_forces()
 
     def _advance(self, t_end: float, steps_log, progress):
         """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed."""
@@ -107,7 +119,8 @@ class Simulation:
             if ok:
                 self.t += dt
                 self.counts["steps"] += 1
-                steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0])
+                if steps_log is not None:
+                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0])
                 for f in self.observers:
                     f(self)
                 good += 1
@@ -147,7 +160,8 @@ class Simulation:
             self._write_output(logs, 0.0)
             n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
             for self.step in range(1, n_steps + 1):
-                self._advance(min(self.step * time_["dt"], time_["end"]), logs["steps"], progress)
+                self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
+                              progress)
                 if self.step % time_["output_every"] == 0 or self.step == n_steps:
                     self._write_output(logs, self.t)
                 progress.update(self.t, self.step, self.counts["newton_iterations"],

@@ -1,0 +1,69 @@
+"""Resistive-force-theory drag (DESIGN.md §5; the paper's eq. 7-9 and 14).
+
+The fluid acts on the mid-surface with a local, anisotropic traction
+proportional to its velocity ``v``.  In the current configuration
+
+    e₁ = F_s E₁* / |F_s E₁*|        (material axis, pushed forward)
+    e₃ = g₁ × g₂ / |g₁ × g₂|        (current normal)
+    e₂ = e₃ × e₁
+    C̃  = C₁ e₁⊗e₁ + C₂ e₂⊗e₂ + C₃ e₃⊗e₃
+
+and the drag does the virtual work ``∫ (C̃ v)·δu J dA₀`` with the area ratio
+``J = |g₁ × g₂| / |G₁ × G₂|`` (current area per reference area).  ``e₁`` is a
+unit tangent and ``e₃`` the unit normal, so the frame is orthonormal.  The
+traction depends on the state through ``v``, the frame and ``J``; its Jacobian
+(not symmetric) comes from ``ufl.derivative`` on the whole term.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from .kinematics import area_ratio, unit, unit_normal
+
+
+def tangent_axis(axis, G1, G2):
+    """The material axis ``E₁*`` projected onto the reference tangent plane.
+
+    A scene gives the axis as one constant vector; on a curved (or rotated)
+    reference surface only its tangential part is a material direction.
+    """
+    N = unit_normal(G1, G2)
+    return axis - ufl.dot(axis, N) * N
+
+
+def drag_frame(F_s, axis, g1, g2):
+    """Orthonormal current frame ``(e₁, e₂, e₃)`` of the paper's eq. 9."""
+    e1 = unit(F_s * axis)
+    e3 = unit_normal(g1, g2)
+    return e1, ufl.cross(e3, e1), e3
+
+
+def drag_tensor(coefficients, frame):
+    """``C̃ = Σ Cᵢ eᵢ⊗eᵢ`` from ``(C₁, C₂, C₃)`` and the frame ``(e₁, e₂, e₃)``."""
+    return sum(c * ufl.outer(e, e) for c, e in zip(coefficients, frame))
+
+
+def drag_traction(coefficients, frame, velocity):
+    """RFT traction per current area, ``C̃ v`` (resisting: it enters the residual with +)."""
+    return ufl.dot(drag_tensor(coefficients, frame), velocity)
+
+
+def drag_work(coefficients, F_s, axis, velocity, du, g1, g2, G1, G2, dx):
+    """Virtual work of the drag, ``∫ (C̃ v)·δu J dA₀`` (DESIGN.md §5)."""
+    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
+    J = area_ratio(g1, g2, G1, G2)
+    return ufl.dot(drag_traction(coefficients, frame, velocity), du) * J * dx
+
+
+def drag_power(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
+    """Dissipated power ``∫ (C̃ v)·v J dA₀`` (≥ 0 for Cᵢ ≥ 0)."""
+    return drag_work(coefficients, F_s, axis, velocity, velocity, g1, g2, G1, G2, dx)
+
+
+def drag_force(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
+    """The three components of the total drag force ``∫ C̃ v J dA₀`` (scalar forms)."""
+    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
+    J = area_ratio(g1, g2, G1, G2)
+    traction = drag_traction(coefficients, frame, velocity)
+    return [traction[i] * J * dx for i in range(3)]

@@ -1,0 +1,215 @@
+"""Resistive-force drag (DESIGN.md §5, issue 3): terminal velocities, reactions,
+frame objectivity, dissipation, and the effect switch."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run_scene, write_scene
+
+#: RFT coefficients (N·s/mm³) deliberately all different, so a wrong axis shows
+DRAG = (1.0e-3, 2.0e-3, 4.0e-3)
+FORCE = 1.0e-3  # N, total
+LENGTH, WIDTH = 4.0, 1.0
+
+STRIP = f"""
+title = "stiff free strip in a viscous fluid"
+[mesh]
+kind = "strip"
+length = {LENGTH}
+width = {WIDTH}
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+E = 1.0e6
+nu = 0.3
+[time]
+end = 0.3
+dt = 0.1
+[fluid]
+drag = {list(DRAG)}
+"""
+
+
+def _pull(where: tuple[str, str], direction) -> str:
+    """Half the total force on each end: no net moment about the centre."""
+    value = list(0.5 * FORCE * np.asarray(direction, dtype=float))
+    return "".join(f"""
+[[load]]
+kind = "edge-force"
+where = "{w}"
+value = {value}
+ramp = "constant"
+""" for w in where)
+
+
+class MeanVelocity:
+    """Observer: the mean nodal velocity after each step (rigid translation: all equal)."""
+
+    def __init__(self):
+        self.rows = []
+
+    def __call__(self, sim):
+        v = sim.model.v_n.x.array.reshape(-1, 3)
+        self.rows.append((v.mean(axis=0), np.ptp(v, axis=0)))
+
+
+@pytest.mark.parametrize("i", [0, 1, 2], ids=["along", "across", "normal"])
+def test_terminal_velocity_along_frame_directions(tmp_path, i):
+    """A free strip pulled by a constant force F along e_i moves at F / (C_i A)."""
+    direction = np.eye(3)[i]
+    scene = write_scene(tmp_path, STRIP + _pull(("x=0", "x=L"), direction))
+    observe = MeanVelocity()
+    sim = run_scene(scene, observers=[observe])
+    assert sim.summary["active_effects"] == ["elasticity", "drag", "edge-force"]
+    v, spread = observe.rows[-1]
+    exact = FORCE / (DRAG[i] * LENGTH * WIDTH)
+    print(f"e{i + 1}: v = {v}, exact {exact}, nodal spread {spread}")
+    assert abs(v[i] / exact - 1) < 0.005
+    assert np.abs(np.delete(v, i)).max() < 0.005 * exact
+    # and the drag balances the pull: ∫ C̃ v J dA₀ = F e_i
+    assert np.allclose(sim.model.drag_force(), FORCE * direction, rtol=0, atol=0.005 * FORCE)
+
+
+def _rotation():
+    """30° about X, then 30° about Z."""
+    c, s = math.cos(math.pi / 6), math.sin(math.pi / 6)
+    Rx = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    Rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    return Rz @ Rx
+
+
+def _write_rotated_strip(path, R):
+    """The 4 × 1 strip as a gmsh file, rotated by R: surface "strip", ends "head"/"tail"."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("rotated-strip")
+        geo = gmsh.model.geo
+        corners = [R @ np.array(p) for p in
+                   ((0, 0, 0), (LENGTH, 0, 0), (LENGTH, WIDTH, 0), (0, WIDTH, 0))]
+        pts = [geo.addPoint(*p) for p in corners]
+        lines = [geo.addLine(pts[k], pts[(k + 1) % 4]) for k in range(4)]
+        surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        for line, n in zip(lines, (5, 2, 5, 2)):
+            gmsh.model.mesh.setTransfiniteCurve(line, n)
+        gmsh.model.mesh.setTransfiniteSurface(surface)
+        gmsh.model.mesh.setRecombine(2, surface)
+        for dim, tags, tag, name in ((2, [surface], 1, "strip"), (1, [lines[1]], 2, "head"),
+                                     (1, [lines[3]], 3, "tail")):
+            gmsh.model.addPhysicalGroup(dim, tags, tag)
+            gmsh.model.setPhysicalName(dim, tag, name)
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.parametrize("i", [0, 1, 2], ids=["along", "across", "normal"])
+def test_terminal_velocity_is_frame_objective(tmp_path, i):
+    """The same strip rotated 30° about X and then about Z, with its material axis
+    rotated alike: the terminal velocity is F / (C_i A) along the rotated e_i."""
+    R = _rotation()
+    _write_rotated_strip(tmp_path / "strip.msh", R)
+    direction = R @ np.eye(3)[i]
+    text = STRIP.replace('kind = "strip"', 'kind = "gmsh"\nfile = "strip.msh"')
+    text = text.replace("nu = 0.3", f"nu = 0.3\naxis = {list(R[:, 0])}")
+    scene = write_scene(tmp_path, text + _pull(("head", "tail"), direction))
+    observe = MeanVelocity()
+    run_scene(scene, observers=[observe])
+    v, _ = observe.rows[-1]
+    exact = FORCE / (DRAG[i] * LENGTH * WIDTH)
+    print(f"rotated e{i + 1}: v = {v}, exact {exact} along {direction}")
+    assert abs(v @ direction / exact - 1) < 0.005
+    assert np.linalg.norm(v - (v @ direction) * direction) < 0.005 * exact
+
+
+def test_reaction_of_a_strip_translating_at_prescribed_velocity(tmp_path):
+    """Every node moves at a prescribed constant velocity: the reaction taken from
+    the assembled residual (the sum of its displacement rows) is C̃ v A."""
+    velocity = np.array([0.3, -0.2, 0.5])
+    motions = "".join(f"""
+[[motion]]
+where = "all"
+component = "{c}"
+kind = "table"
+values = [[0.0, 0.0], [1.0, {vc}]]
+""" for c, vc in zip(("ux", "uy", "uz"), velocity))
+    reactions = []
+
+    def reaction(sim):
+        F = sim.solver.F_n.getArray()  # forces at the converged state; serial run
+        reactions.append(F[sim.model.u_dofs].reshape(-1, 3).sum(axis=0))
+
+    sim = run_scene(write_scene(tmp_path, STRIP + motions), observers=[reaction])
+    exact = np.asarray(DRAG) * velocity * LENGTH * WIDTH
+    print(f"reaction {reactions[-1]}, exact {exact}")
+    for r in reactions:
+        assert np.allclose(r, exact, rtol=0.005, atol=0)
+    assert np.allclose(sim.model.drag_force(), exact, rtol=0.005, atol=0)
+
+
+def test_drag_residual_vanishes_at_rest(tmp_path):
+    """For a deformed, rotated body at rest (u = u_n, v_n = a_n = 0) the drag term
+    assembles to exactly zero; moving it makes the term non-zero."""
+    from mpi4py import MPI
+
+    from rftfem import compat
+    from rftfem.meshes import build_body
+    from rftfem.model import Model
+    from rftfem.scene import load_scene
+    from rftfem.timeint import make_scheme
+
+    scene = load_scene(write_scene(tmp_path, STRIP.replace("E = 1.0e6", "E = 1.0e6\n"
+                                                           "density = 1.0e-6")))
+    model = Model(scene, build_body(MPI.COMM_SELF, scene["mesh"]), compile_forms=False)
+    model.set_coefficients(make_scheme(scene["time"]).coefficients(0.1))
+    drag = compat.form(model.effects["drag"])
+    rng = np.random.default_rng(3)
+    for _ in range(2):  # rotate the triad far from the reference
+        model.w.x.array[:] = rng.uniform(-1, 1, len(model.w.x.array))
+        model.update_triad()
+    u = rng.uniform(-0.5, 0.5, len(model.u_dofs))
+    model.u_n.x.array[:] = u
+    model.w.x.array[model.u_dofs] = u
+
+    def norm():
+        b = compat.create_vector(drag, model.W)
+        compat.assemble_vector(b, drag)
+        value = b.norm()
+        b.destroy()
+        return value
+
+    assert norm() == 0.0
+    model.w.x.array[model.u_dofs] += 1e-3
+    assert norm() > 0.0
+
+
+def test_drag_form_absent_without_fluid(tmp_path):
+    """Without [fluid] the drag is neither built nor compiled (no drag coefficients
+    among the compiled forces' constants); with it, it is."""
+    from mpi4py import MPI
+
+    from rftfem.meshes import build_body
+    from rftfem.model import Model
+    from rftfem.scene import load_scene
+
+    def constants(text):
+        scene = load_scene(write_scene(tmp_path, text))
+        model = Model(scene, build_body(MPI.COMM_SELF, scene["mesh"]), compile_forms=False)
+        values = [np.atleast_1d(c.value) for c in model.forces_ufl.constants()]
+        return model, values
+
+    dry, values = constants(STRIP.split("[fluid]")[0] + _pull(("x=L",), [1, 0, 0]))
+    assert "drag" not in dry.effects and "drag" not in dry.active_effects()
+    assert not hasattr(dry, "drag_coefficients")
+    assert not any(len(v) == 3 and np.allclose(v, DRAG) for v in values)
+    wet, values = constants(STRIP + _pull(("x=L",), [1, 0, 0]))
+    assert wet.active_effects() == ["elasticity", "drag", "edge-force"]
+    assert any(len(v) == 3 and np.allclose(v, DRAG) for v in values)
