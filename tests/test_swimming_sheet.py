@@ -1,0 +1,117 @@
+"""The swimming sheet (REFERENCES.md F, the paper's section 4.1) on the CI-sized mesh,
+its dissipation, its parallel run, and the exact RFT speed the demo compares with."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import DEMOS, ROOT, run_scene
+
+SCENE = DEMOS / "swimming_sheet.toml"
+EXACT_I = 0.49763        # REFERENCES.md F, cases I-III
+PERIOD = 2 * np.pi / 100.0
+TAU = 1.0e-8 * 0.1 / 3.0e-9
+
+
+def _demo_module():
+    spec = importlib.util.spec_from_file_location("swimming_sheet", DEMOS / "swimming_sheet.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _front_x(sim):
+    t = np.array([row[0] for row in sim.history])
+    x = np.array([row[1][0][0] for row in sim.history])
+    return t, x
+
+
+def test_exact_rft_speed_of_the_demo():
+    """The demo's exact-RFT formula gives REFERENCES.md F's values and, for small
+    amplitude, the leading-order speed ½ ω k b² (C₃ − C₁)/C₁."""
+    demo = _demo_module()
+    for b, vw, exact in ((0.15, 200, 0.49763), (0.15, 400, 0.99526), (0.075, 400, 0.24994)):
+        assert demo.exact_speed(b, 0.5, 0.5 * vw) == pytest.approx(exact, abs=5e-6)
+    b, k, w = 1e-3, 0.5, 100.0
+    leading = 0.5 * w * k * b**2 * (5.67e-9 - 3.0e-9) / 3.0e-9
+    assert demo.exact_speed(b, k, w) == pytest.approx(leading, rel=1e-6)
+
+
+def test_swimming_sheet_case_I_on_4x20(tmp_path):
+    """Case I on the 4×20 mesh (the demo scene as shipped: dt = period/32) swims at
+    the exact RFT speed 0.49763 within 1 %, measured over 8 whole wave periods
+    after 10 τ; the drag dissipates at every step (power ≥ 0)."""
+    powers = []
+    sim = run_scene(SCENE, "time.output_every=1", "output.fields=false", out_dir=tmp_path,
+                    observers=[lambda s: powers.append(s.model.drag_power())])
+    assert sim.summary["status"] == "ok"
+    assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag",
+                                             "prescribed-motion"]
+    t, x = _front_x(sim)
+    t0, t1 = 54 * PERIOD, 62 * PERIOD
+    assert t0 >= 10 * TAU
+    i0, i1 = (int(np.argmin(abs(t - ti))) for ti in (t0, t1))
+    assert abs(t[i0] - t0) < 1e-9 and abs(t[i1] - t1) < 1e-9
+    velocity = (x[i1] - x[i0]) / (t1 - t0)
+    paper_window = (np.interp(2.0, t, x) - np.interp(1.5, t, x)) / 0.5
+    powers = np.array(powers)
+    print(f"case I 4x20: U = {velocity:.5f} ({100 * (velocity / EXACT_I - 1):+.2f} %), paper "
+          f"window {paper_window:.5f} ({100 * (paper_window / EXACT_I - 1):+.2f} %), "
+          f"power min {powers.min():.3e} max {powers.max():.3e}, "
+          f"{sim.summary['counts']}")
+    assert abs(velocity / EXACT_I - 1) < 0.01
+    assert len(powers) == sim.summary["counts"]["steps"] and powers.max() > 0
+    assert powers.min() >= 0.0
+    assert sim.summary["director_unit_error"] < 1e-10
+
+
+@pytest.mark.mpi
+def test_swimming_sheet_mpirun_matches_serial(tmp_path, mpirun):
+    """`mpirun -n 2` on the 4×20 sheet gives the serial swimming speed to 1e-6
+    (8 periods, speed over the last 4)."""
+    exe, env = mpirun
+    overrides = [f"time.end={8 * PERIOD!r}", "time.output_every=1", "output.fields=false"]
+    speeds = {}
+    for n in (1, 2):
+        out = tmp_path / f"np{n}"
+        cmd = [sys.executable, "-m", "rftfem", "run", str(SCENE), "--out", str(out), "--quiet"]
+        for o in overrides:
+            cmd += ["--set", o]
+        if n > 1:
+            cmd = [exe, "-n", str(n), *cmd]
+        done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True,
+                              timeout=1200)
+        assert done.returncode == 0, done.stderr[-2000:]
+        data = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
+        t, x = data[:, 0], data[:, 1]
+        i0, i1 = int(np.argmin(abs(t - 4 * PERIOD))), len(t) - 1
+        speeds[n] = (x[i1] - x[i0]) / (t[i1] - t[i0])
+    print(f"speeds serial / np 2: {speeds}")
+    assert speeds[1] > 0.1
+    assert abs(speeds[2] / speeds[1] - 1) < 1e-6
+
+
+@pytest.mark.slow
+def test_swimming_sheet_demo_table(tmp_path):
+    """The demo's full table (cases I-V, REFERENCES.md F): every transient-free speed
+    on 4×50 or finer within 0.5 % of exact RFT, ratios IV/II and V/IV within 0.5 %
+    (the demo checks and sets its exit status; the test also reads its table)."""
+    done = subprocess.run([sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2",
+                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True)
+    print(done.stdout[-4000:])
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    import csv
+
+    rows = {r["case"]: r for r in csv.DictReader(open(tmp_path / "table.csv"))}
+    assert set(rows) == {"I", "II", "III", "IV", "V"}
+    for case in ("II", "III", "IV", "V"):
+        assert abs(float(rows[case]["err_periods_pct"])) <= 0.5
+    ratio = float(rows["IV"]["U_periods"]) / float(rows["II"]["U_periods"])
+    assert ratio == pytest.approx(2.0, rel=0.005)
+    ratio = float(rows["V"]["U_periods"]) / float(rows["IV"]["U_periods"])
+    assert ratio == pytest.approx(0.25113, rel=0.005)
