@@ -135,6 +135,15 @@ def assemble_matrix(A, a, bcs):
     dolfinx.fem.petsc.assemble_matrix(A, a, bcs=bcs)
 
 
+def apply_lifting(b, a, bcs, x0, scale):
+    """``b -= scale * A (g - x0)`` on the rows coupled to Dirichlet dofs."""
+    import inspect
+
+    params = inspect.signature(dolfinx.fem.petsc.apply_lifting).parameters
+    key = "alpha" if "alpha" in params else "scale"
+    dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{key: scale})
+
+
 def set_bc(b, bcs, x0=None, scale=1.0):
     dolfinx.fem.petsc.set_bc(b, bcs, x0, scale)
 

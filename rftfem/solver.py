@@ -6,9 +6,8 @@ The residual of a step is
 
 with ``F`` the sum of the non-inertial effects (one compiled form), the inertia
 term compiled only when the scene has inertia, and ``F_n`` the force vector kept
-from the last converged step.  Rows of Dirichlet dofs hold ``x − g``; each solve
-starts from an iterate that already takes the Dirichlet values of the new time,
-so the Newton updates of those dofs are zero and no lifting is assembled.
+from the last converged step.  Rows of Dirichlet dofs hold ``x − g``; the lifting
+of the Dirichlet increment is assembled only while the iterate misses the values.
 """
 
 from __future__ import annotations
@@ -38,6 +37,7 @@ class StepSolver:
         self.A = compat.create_matrix(model.jacobian_form)
         self.timings = {"assembly": 0.0, "solve": 0.0}
         self.evaluations = 0
+        self.liftings = 0
 
         petsc_options.apply(options)
         self.snes = PETSc.SNES().create(model.comm)
@@ -88,9 +88,21 @@ class StepSolver:
         if m.inertia_form is not None:
             self._assemble(self.work, m.inertia_form)
             b.axpy(1.0, self.work)
-        # Dirichlet rows hold x − g.  Newton starts from an iterate that meets
-        # every Dirichlet value (see solve), and those rows keep the update at
-        # zero, so no lifting term is needed on the other rows.
+        # Dirichlet rows hold x − g.  Where the iterate does not meet the values
+        # yet (the first residual of a step with moving Dirichlet values), the
+        # other rows get the lifting A (g − x): the first Newton update then
+        # spreads the prescribed increment through the body.  Newton meets the
+        # values exactly in that update, so later residuals skip the assembly.
+        with self.work.localForm() as local:
+            local.set(0.0)
+        compat.set_bc(self.work, m.bcs, x, -1.0)
+        if self.work.norm(PETSc.NormType.NORM_INFINITY) > 0.0:
+            with self.work.localForm() as local:
+                local.set(0.0)
+            compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
+            self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
+            b.axpy(1.0, self.work)
+            self.liftings += 1
         compat.set_bc(b, m.bcs, x, -1.0)
         self.timings["assembly"] += _time.perf_counter() - t0
 
@@ -110,7 +122,6 @@ class StepSolver:
         a0 = self.timings["assembly"]
         w = compat.petsc_vec(self.model.w)
         w.copy(self.x)
-        compat.set_bc(self.x, self.model.bcs)  # start from the prescribed values
         self.snes.solve(None, self.x)
         self._sync(self.x)
         reason = self.snes.getConvergedReason()
