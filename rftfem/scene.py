@@ -800,6 +800,10 @@ def resolved_scheme(scene: dict) -> str:
         if inertia:
             return "generalized-alpha"
         return "backward-euler" if scene.get("fluid") else "static"
+    if scheme == "static" and scene.get("fluid"):
+        raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
+                         "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
+                         "density) or \"auto\", or remove [fluid]")
     if scheme in ("generalized-alpha", "hht") and not inertia:
         raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
                          "shell.parts density > 0), found shell.density = "
