@@ -18,7 +18,7 @@ import ufl
 from dolfinx import fem, mesh as dmesh
 from petsc4py import PETSc
 
-from rftfem.forms import drag, elasticity, inertia, kinematics, loads
+from rftfem.forms import drag, elasticity, inertia, kinematics, loads, magnetic
 
 from . import compat
 from .errors import SceneError
@@ -44,9 +44,6 @@ class Model:
     def __init__(self, scene: dict, body, compile_forms: bool = True):
         self.scene = scene
         self.compile_forms = compile_forms
-        if scene.get("magnetic"):
-            raise SceneError("magnetic: magnetic couples are not available in this version of "
-                             "rftfem (planned); remove the section to run the rest of the scene")
         self.body = body
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -208,6 +205,8 @@ class Model:
                                                 self.dx(metadata={"quadrature_degree": 4}))
         if self.scene.get("fluid"):
             self.effects["drag"] = self._drag(drag.drag_work, self.velocity(u), du)
+        if self.scene.get("magnetic"):
+            self.effects["magnetic"] = -self._build_magnetic(w_test)
         self.load_terms = self._build_loads(du, d, w_test)
         for kind in ("edge-force", "edge-moment"):
             terms = [term for k, term in self.load_terms if k == kind]
@@ -255,6 +254,62 @@ class Model:
                                       self._drag(drag.drag_force, self.v_n)]
         return np.array([self.comm.allreduce(fem.assemble_scalar(f))
                          for f in self._drag_force_forms])
+
+    def _build_magnetic(self, w_test):
+        """Magnetic virtual work over the magnetized cells (DESIGN.md §5).
+
+        The remanent magnetization ``m q₀`` of every part is stored cellwise
+        (DG0 vector); the form is integrated over the parts' cells only.
+        """
+        mag, tdim = self.scene["magnetic"], self.mesh.topology.dim
+        V = compat.function_space(self.mesh, "DG", 0, (3,))
+        self.remanence = fem.Function(V, name="remanent_magnetization")
+        dofs = compat.cell_dofs(V)[:, 0]
+        owner = {}
+        for i, part in enumerate(mag["parts"]):
+            cells = self._cells_of([part["region"]])
+            for j, other in owner.items():
+                if self.comm.allreduce(int(np.isin(cells, other).sum())):
+                    raise SceneError(f"magnetic.parts.{i}.region: '{part['region']}' overlaps "
+                                     f"magnetic.parts.{j}.region; a cell has one magnetization")
+            owner[i] = cells
+            q0 = np.asarray(part["direction"], dtype=float)
+            values = part["magnetization"] * q0 / np.linalg.norm(q0)
+            array = self.remanence.x.array.reshape(-1, 3)
+            array[dofs[cells]] = values
+        self.remanence.x.scatter_forward()
+        cells = np.unique(np.concatenate(list(owner.values()))).astype(np.int32)
+        tags = compat.create_meshtags(self.mesh, tdim, cells, np.ones(len(cells), dtype=np.int32))
+        self.dx_magnetic = ufl.Measure("dx", domain=self.mesh, subdomain_data=tags,
+                                       metadata={"quadrature_degree": 4})(1)
+        self.field = fem.Constant(self.mesh, np.zeros(3, dtype=PETSc.ScalarType))
+        u, _, d, g1, g2, G1, G2 = self.kinematics()
+        M = self.remanence
+        m = ufl.sqrt(ufl.dot(M, M))
+        F = kinematics.deformation_gradient(g1, g2, d, G1, G2, kinematics.unit_normal(G1, G2))
+        q = magnetic.magnetization_direction(F, M / m)
+        self.magnetization_ufl = F * M * m / ufl.sqrt(ufl.dot(F * M, F * M) + 1e-300)
+        dq = ufl.derivative(q, self.w, w_test)
+        J = kinematics.area_ratio(g1, g2, G1, G2)
+        return magnetic.magnetic_work(self.material["t"], m, self.field, dq, J, self.dx_magnetic)
+
+    def field_at(self, t: float) -> np.ndarray:
+        """The applied field ``b(t)`` of ``[magnetic.field]`` (SCENES.md).
+
+        Phase 1 (``t ≤ ramp_time``): strength ramps linearly from 0 along
+        ``direction``.  Phase 2: full strength, rotating right-handedly about
+        ``rotation_axis`` at ``frequency`` Hz from ``direction``.
+        """
+        f = self.scene["magnetic"]["field"]
+        direction = np.asarray(f["direction"], dtype=float)
+        direction /= np.linalg.norm(direction)
+        ramp = f["ramp_time"]
+        if t <= ramp:
+            return f["strength"] * (t / ramp if ramp > 0 else 1.0) * direction
+        axis = np.asarray(f["rotation_axis"], dtype=float)
+        axis /= np.linalg.norm(axis)
+        angle = 2 * np.pi * f["frequency"] * (t - ramp)
+        return f["strength"] * rotate(direction[None, :], angle * axis[None, :])[0]
 
     def _has_inertia(self) -> bool:
         shell = self.scene["shell"]
@@ -425,6 +480,8 @@ class Model:
             const.value[:] = per_length * ramp_scale(ld, t, end)
         for motion in self.motions:
             motion.set(t)
+        if self.scene.get("magnetic"):
+            self.field.value[:] = self.field_at(t)
 
     def reference_force(self) -> float:
         """A force scale of the scene, for absolute Newton tolerances (DESIGN.md §7).
@@ -439,16 +496,30 @@ class Model:
         for ld, _, per_length in self.load_values:
             total = float(np.linalg.norm(ld["value"]))
             scales.append(total if ld["kind"] == "edge-force" else total / L)
+        if self.scene.get("magnetic"):
+            # the largest couple of one part, t m B A, as a force over the length
+            f = self.scene["magnetic"]["field"]
+            for part in self.scene["magnetic"]["parts"]:
+                area = self.area(self._cells_of([part["region"]]))
+                scales.append(shell["thickness"] * part["magnetization"] * f["strength"]
+                              * area / L)
         if self.scene.get("fluid") and self.motions:
             # drag on the whole body moving at the fastest prescribed speed
             speed = max(m.speed_scale(self.scene["time"]["end"]) for m in self.motions)
             scales.append(max(self.scene["fluid"]["drag"]) * self.area() * speed)
         return max(scales)
 
-    def area(self) -> float:
-        """Reference area of the body, ``∫ dA₀``."""
+    def area(self, cells=None) -> float:
+        """Reference area ``∫ dA₀`` of the body, or of the given local cells."""
         one = fem.Constant(self.mesh, PETSc.ScalarType(1.0))
-        return self.comm.allreduce(fem.assemble_scalar(self._compile(one * self.dx)))
+        if cells is None:
+            return self.comm.allreduce(fem.assemble_scalar(self._compile(one * self.dx)))
+        n = self.mesh.topology.index_map(self.mesh.topology.dim).size_local
+        cells = np.asarray(cells)[np.asarray(cells) < n].astype(np.int32)  # owned only
+        tags = compat.create_meshtags(self.mesh, self.mesh.topology.dim, cells,
+                                      np.ones(len(cells), dtype=np.int32))
+        dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=tags)
+        return self.comm.allreduce(fem.assemble_scalar(self._compile(one * dx(1))))
 
     def director_unit_error(self) -> float:
         """``max | |d| − 1 |`` over all nodal directors (global)."""

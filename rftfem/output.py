@@ -95,8 +95,9 @@ class FieldWriter:
         V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
         self.fields = {"displacement": (model.displacement, fem.Function(V1, name="displacement")),
                        "director": (model.dn, fem.Function(V1, name="director"))}
-        for name, f in (extra or {}).items():
-            self.fields[name] = (f, fem.Function(V1, name=name))
+        for name, f in (extra or {}).items():  # Functions, or UFL expressions of the state
+            source = f if isinstance(f, fem.Function) else compat.expression(f, V1)
+            self.fields[name] = (source, fem.Function(V1, name=name))
         self.file = io.XDMFFile(mesh.comm, str(path), "w")
         self.file.write_mesh(mesh)
 

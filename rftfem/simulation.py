@@ -192,7 +192,10 @@ class Simulation:
         logs["steps"] = CsvLog(self.out_dir / "steps.csv",
                                ["time", "dt", "newton_its", "residual", "wall_s"], self.comm)
         if self.scene.get("output", {}).get("fields", True):
-            logs["fields"] = FieldWriter(self.model, self.out_dir / "fields.xdmf")
+            extra = {}
+            if "magnetic" in self.model.effects:
+                extra["magnetization"] = self.model.magnetization_ufl  # m q, 0 off the parts
+            logs["fields"] = FieldWriter(self.model, self.out_dir / "fields.xdmf", extra)
         return logs
 
     def _write_output(self, logs: dict, t: float):
@@ -245,9 +248,23 @@ def probe_history(summary_or_sim) -> np.ndarray:
     return np.array([[t, *v.ravel()] for t, v in rows])
 
 
+class _CompilerChatter(logging.Filter):
+    """Drops the INFO lines (gcc command lines) that distutils/setuptools log on the
+    root logger while cffi builds a JIT module; their build also resets the root
+    level, so a level alone does not keep them quiet."""
+
+    def filter(self, record):
+        where = record.pathname.replace("\\", "/")
+        return record.levelno >= logging.WARNING or not any(
+            part in where for part in ("/distutils/", "/setuptools/", "/cffi/"))
+
+
 def _quiet_compilers():
     """FFCx/cffi log every compilation at INFO on some stacks: keep the terminal readable."""
     for name in ("", "ffcx", "UFL", "cffi", "dolfinx"):
         logger = logging.getLogger(name)
         if logger.level == logging.NOTSET or logger.level < logging.WARNING:
             logger.setLevel(logging.WARNING)
+    root = logging.getLogger()
+    if not any(isinstance(f, _CompilerChatter) for f in root.filters):
+        root.addFilter(_CompilerChatter())

@@ -1,0 +1,41 @@
+"""Magnetic body couples on hard-magnetic parts (DESIGN.md §5; the paper's eq. 16).
+
+A hard-magnetic material fibre carries a remanent magnetization of magnitude
+``m`` (per volume) along a material direction ``q₀``.  It is convected by the
+shell's deformation gradient ``F = F_s + d ⊗ N``:
+
+    q = F q₀ / |F q₀|
+
+and an external field ``b`` does the virtual work
+
+    δW_mag = ∫_Ωm t m b·δq J dA₀,
+
+with ``t`` the thickness and ``J`` the area ratio.  Since ``|q| = 1``,
+``δq = δφ × q`` and ``b·δq = (q × b)·δφ``: the couple ``t m q × b`` per area on the
+virtual rotation of the fibre.  ``δq`` is ``ufl.derivative`` of ``q``; the
+Jacobian is ``ufl.derivative`` of the whole term (not symmetric).
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from .kinematics import unit
+
+
+def magnetization_direction(F, q0):
+    """Current direction of the magnetized fibre, ``q = F q₀ / |F q₀|``."""
+    return unit(F * q0)
+
+
+def magnetic_work(t, m, b, dq, J, dx):
+    """Virtual work of the field on the magnetized parts, ``∫ t m b·δq J dA₀``.
+
+    ``dx`` must be restricted to the magnetic subdomains.
+    """
+    return t * m * ufl.dot(b, dq) * J * dx
+
+
+def magnetic_couple(t, m, q, b):
+    """Couple per reference-area element, ``t m q × b`` (for diagnostics)."""
+    return t * m * ufl.cross(q, b)
