@@ -36,7 +36,7 @@ drag = {list(DRAG)}
 
 def _pull(where: tuple[str, str], direction) -> str:
     """Half the total force on each end: no net moment about the centre."""
-    value = list(0.5 * FORCE * np.asarray(direction, dtype=float))
+    value = [float(v) for v in 0.5 * FORCE * np.asarray(direction, dtype=float)]
     return "".join(f"""
 [[load]]
 kind = "edge-force"
@@ -119,7 +119,7 @@ def test_terminal_velocity_is_frame_objective(tmp_path, i):
     _write_rotated_strip(tmp_path / "strip.msh", R)
     direction = R @ np.eye(3)[i]
     text = STRIP.replace('kind = "strip"', 'kind = "gmsh"\nfile = "strip.msh"')
-    text = text.replace("nu = 0.3", f"nu = 0.3\naxis = {list(R[:, 0])}")
+    text = text.replace("nu = 0.3", f"nu = 0.3\naxis = {[float(v) for v in R[:, 0]]}")
     scene = write_scene(tmp_path, text + _pull(("head", "tail"), direction))
     observe = MeanVelocity()
     run_scene(scene, observers=[observe])
