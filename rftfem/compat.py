@@ -201,5 +201,14 @@ def versions() -> dict:
     }
 
 
+def petsc_unlimited() -> int:
+    """The value that switches a PETSc tolerance off.
+
+    PETSc ≥ 3.22 has ``PETSC_UNLIMITED`` (−3) and reads −1 as "the default"
+    (a divergence tolerance of 1e4); older versions switch off with −1.
+    """
+    return int(getattr(PETSc, "UNLIMITED", -1))
+
+
 def has_mumps() -> bool:
     return bool(PETSc.Sys.hasExternalPackage("mumps"))

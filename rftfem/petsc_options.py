@@ -37,7 +37,7 @@ def defaults(reference_force: float) -> dict:
         "snes_atol": ATOL_FACTOR * reference_force,
         "snes_stol": 1e-10,
         "snes_max_it": 25,
-        "snes_divergence_tolerance": -1,
+        "snes_divergence_tolerance": compat.petsc_unlimited(),
         "ksp_type": "preonly",
         "pc_type": "lu",
     }
