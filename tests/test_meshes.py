@@ -30,8 +30,8 @@ DATA = Path(__file__).parent / "data"
 # --- helpers -------------------------------------------------------------------
 
 
-def _sum(value):
-    return COMM.allreduce(value, op=MPI.SUM)
+def _sum(value, comm=COMM):
+    return comm.allreduce(value, op=MPI.SUM)
 
 
 def cell_values(mesh, expr):
@@ -56,8 +56,9 @@ def areas(body: Body):
     one = dolfinx.fem.Constant(body.mesh, 1.0)
     per_cell = cell_values(body.mesh, one)
     tags = owned_tags(body)
-    total = _sum(float(per_cell.sum()))
-    regions = {name: _sum(float(per_cell[np.isin(tags, ids)].sum()))
+    comm = body.mesh.comm
+    total = _sum(float(per_cell.sum()), comm)
+    regions = {name: _sum(float(per_cell[np.isin(tags, ids)].sum()), comm)
                for name, ids in body.regions.items()}
     return total, regions
 
@@ -65,7 +66,8 @@ def areas(body: Body):
 def edge_lengths(body: Body):
     ds = ufl.Measure("ds", domain=body.mesh, subdomain_data=body.facet_tags)
     one = dolfinx.fem.Constant(body.mesh, 1.0)
-    return {name: _sum(dolfinx.fem.assemble_scalar(compat.form(one * ds(tuple(ids)))))
+    return {name: _sum(dolfinx.fem.assemble_scalar(compat.form(one * ds(tuple(ids)))),
+                       body.mesh.comm)
             for name, ids in body.edges.items()}
 
 
@@ -329,21 +331,9 @@ import json, sys
 from mpi4py import MPI
 sys.path.insert(0, {tests!r})
 import test_meshes as t
-from rftfem.meshes import build_strip, read_gmsh
 
 comm = MPI.COMM_WORLD
-out = {{"size": comm.size}}
-for cell in ("quadrilateral", "triangle"):
-    body = build_strip(comm, 10.0, 2.0, [16, 2], cell,
-                       regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))])
-    out[cell] = [t.areas(body), t.edge_lengths(body), t.num_cells(body), body.regions]
-body = read_gmsh(comm, {msh!r})
-out["gmsh"] = [t.areas(body), t.edge_lengths(body), t.num_cells(body), body.regions,
-               [body.length, body.width]]
-try:
-    read_gmsh(comm, {bad!r})
-except t.SceneError as e:
-    out["bad"] = str(e)
+out = dict(t.measure(comm, {msh!r}, {bad!r}), size=comm.size)
 if comm.rank == 0:
     print("RESULT " + json.dumps(out))
 """
@@ -370,41 +360,54 @@ def _mpirun():
     return None
 
 
-def _serial(msh):
+def measure(comm, msh, bad):
+    """Areas, edge lengths, cell counts and region tags of two strips and a gmsh
+    file built on ``comm``, and the message for an unreadable file."""
     out = {}
     for cell in ("quadrilateral", "triangle"):
-        body = build_strip(COMM, 10.0, 2.0, [16, 2], cell,
+        body = build_strip(comm, 10.0, 2.0, [16, 2], cell,
                            regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))])
         out[cell] = [areas(body), edge_lengths(body), num_cells(body), body.regions]
-    body = read_gmsh(COMM, msh)
+    body = read_gmsh(comm, msh)
     out["gmsh"] = [areas(body), edge_lengths(body), num_cells(body), body.regions,
                    [body.length, body.width]]
+    try:
+        read_gmsh(comm, bad)
+    except SceneError as err:
+        out["bad"] = str(err)
     return json.loads(json.dumps(out))  # tuples -> lists, as from the subprocess
 
 
 @pytest.mark.mpi
 def test_mpirun_two_ranks_match_serial(msh_dir, tmp_path):
+    """Meshes built on 2 ranks give the serial areas, lengths, counts and tags.
+
+    From a serial pytest, the 2-rank run is ``mpirun -n 2`` of a small script.
+    When pytest itself runs under mpirun, the parallel side is the world
+    communicator of this process and the serial side ``COMM_SELF``.
+    """
+    msh, bad = str(msh_dir / "qc_q2.msh"), str(msh_dir / "garbage.msh")
     if COMM.size > 1:
-        pytest.skip("already running under MPI")
-    mpirun = _mpirun()
-    if mpirun is None:
-        pytest.fail(f"no mpirun found for {MPI.get_vendor()[0]}")
-    msh = str(msh_dir / "qc_q2.msh")
-    script = tmp_path / "mpi_meshes.py"
-    script.write_text(MPI_SCRIPT.format(tests=str(Path(__file__).parent), msh=msh,
-                                        bad=str(msh_dir / "garbage.msh")))
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPIR_"))}
-    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               OMPI_MCA_rmaps_base_oversubscribe="1")
-    proc = subprocess.run([mpirun, "-n", "2", sys.executable, str(script)], env=env,
-                          capture_output=True, text=True, timeout=120)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
-    assert proc.returncode == 0 and lines, proc.stdout[-2000:] + proc.stderr[-2000:]
-    parallel = json.loads(lines[0][len("RESULT "):])
-    assert parallel.pop("size") == 2
+        parallel = dict(measure(COMM, msh, bad), size=COMM.size)
+    else:
+        mpirun = _mpirun()
+        if mpirun is None:
+            pytest.fail(f"no mpirun found for {MPI.get_vendor()[0]}")
+        script = tmp_path / "mpi_meshes.py"
+        script.write_text(MPI_SCRIPT.format(tests=str(Path(__file__).parent), msh=msh, bad=bad))
+        env = {k: v for k, v in os.environ.items()
+               if not k.startswith(("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPIR_"))}
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OMPI_MCA_rmaps_base_oversubscribe="1")
+        proc = subprocess.run([mpirun, "-n", "2", sys.executable, str(script)], env=env,
+                              capture_output=True, text=True, timeout=120)
+        lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
+        assert proc.returncode == 0 and lines, proc.stdout[-2000:] + proc.stderr[-2000:]
+        parallel = json.loads(lines[0][len("RESULT "):])
+    assert parallel.pop("size") == (COMM.size if COMM.size > 1 else 2)
     assert parallel.pop("bad").startswith("mesh.file: ")
-    serial = _serial(msh)
+    serial = measure(MPI.COMM_SELF, msh, bad)
+    assert serial.pop("bad").startswith("mesh.file: ")
     for key in serial:
         (p_total, p_regions), p_edges, p_cells, p_names = parallel[key][:4]
         (s_total, s_regions), s_edges, s_cells, s_names = serial[key][:4]
