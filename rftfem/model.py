@@ -137,7 +137,12 @@ class Model:
         self.a1.x.array[:] = a1.ravel()
         self.a2.x.array[:] = np.cross(D, a1).ravel()
 
-    def _cells_of(self, names) -> np.ndarray:
+    def _cells_of(self, names, key: str = "region") -> np.ndarray:
+        """Local cells of the named regions; an unknown name is a SceneError at ``key``."""
+        for n in names:
+            if n not in self.body.regions:
+                known = ", ".join(sorted(self.body.regions)) or "none"
+                raise SceneError(f"{key}: unknown region '{n}'; the mesh's regions are: {known}")
         tags = [t for n in names for t in self.body.regions[n]]
         ct = self.body.cell_tags
         return np.unique(ct.indices[np.isin(ct.values, tags)]).astype(np.int32)
@@ -151,9 +156,10 @@ class Model:
         for key, name in (("E", "E"), ("nu", "nu"), ("thickness", "t"), ("density", "rho")):
             f = fem.Function(V0, name=name)
             f.x.array[:] = float(shell[key])
-            for part in shell.get("parts", []):
+            for i, part in enumerate(shell.get("parts", [])):
                 if key in part:
-                    f.x.array[dofs[self._cells_of([part["region"]])]] = float(part[key])
+                    cells = self._cells_of([part["region"]], f"shell.parts.{i}.region")
+                    f.x.array[dofs[cells]] = float(part[key])
             f.x.scatter_forward()
             self.material[name] = f
 
@@ -267,7 +273,7 @@ class Model:
         dofs = compat.cell_dofs(V)[:, 0]
         owner = {}
         for i, part in enumerate(mag["parts"]):
-            cells = self._cells_of([part["region"]])
+            cells = self._cells_of([part["region"]], f"magnetic.parts.{i}.region")
             for j, other in owner.items():
                 if self.comm.allreduce(int(np.isin(cells, other).sum())):
                     raise SceneError(f"magnetic.parts.{i}.region: '{part['region']}' overlaps "
@@ -278,7 +284,11 @@ class Model:
             array = self.remanence.x.array.reshape(-1, 3)
             array[dofs[cells]] = values
         self.remanence.x.scatter_forward()
-        cells = np.unique(np.concatenate(list(owner.values()))).astype(np.int32)
+        # parts switched off (magnetization 0, e.g. in a sweep) are left out of
+        # the measure: q = F q₀ needs q₀ = M/|M|
+        magnetized = [owner[i] for i, part in enumerate(mag["parts"])
+                      if part["magnetization"] > 0]
+        cells = np.unique(np.concatenate(magnetized or [np.empty(0, np.int32)])).astype(np.int32)
         tags = compat.create_meshtags(self.mesh, tdim, cells, np.ones(len(cells), dtype=np.int32))
         self.dx_magnetic = ufl.Measure("dx", domain=self.mesh, subdomain_data=tags,
                                        metadata={"quadrature_degree": 4})(1)
@@ -457,8 +467,8 @@ class Model:
                                      f"[[boundary]] at {clash} dofs; a dof takes one condition")
             fixed.setdefault(component, []).append(np.asarray(dofs[0]))
             value = fem.Function(V, name=f"motion_{k}")
-            X = V.tabulate_dof_coordinates()[:, 0]
-            motions.append(Motion(spec, value, np.asarray(dofs[0]), np.asarray(dofs[1]), X,
+            X = V.tabulate_dof_coordinates()[np.asarray(dofs[1]), 0]
+            motions.append(Motion(spec, value, np.asarray(dofs[1]), X,
                                   fem.dirichletbc(value, dofs, sub)))
         return motions
 
@@ -581,26 +591,27 @@ class Motion:
     in time, the same value at every selected dof.
     """
 
-    def __init__(self, spec, value, dofs, value_dofs, X, bc):
-        self.spec, self.value, self.dofs, self.value_dofs, self.X, self.bc = (
-            spec, value, dofs, value_dofs, X, bc)
+    def __init__(self, spec, value, value_dofs, X, bc):
+        """``value_dofs``: the selected dofs of ``value``; ``X``: their reference X."""
+        self.spec, self.value, self.value_dofs, self.X, self.bc = spec, value, value_dofs, X, bc
+        if spec["kind"] == "table":
+            self.table = np.asarray(spec["values"], dtype=float)
 
     def at(self, t: float, X):
         s = self.spec
         if s["kind"] == "table":
-            table = np.asarray(s["values"], dtype=float)
-            return np.full_like(X, np.interp(t, table[:, 0], table[:, 1]))
+            return np.full_like(X, np.interp(t, self.table[:, 0], self.table[:, 1]))
         return s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
                                        + s["angular_frequency"] * t)
 
     def set(self, t: float):
-        self.value.x.array[self.value_dofs] = self.at(t, self.X[self.value_dofs])
+        self.value.x.array[self.value_dofs] = self.at(t, self.X)
 
     def speed_scale(self, end: float) -> float:
         """The largest speed this motion prescribes (for the solver's force scale)."""
         s = self.spec
         if s["kind"] == "table":
-            table = np.asarray(s["values"], dtype=float)
+            table = self.table
             if len(table) < 2:
                 return 0.0
             rates = np.abs(np.diff(table[:, 1]) / np.maximum(np.diff(table[:, 0]), 1e-300))

@@ -37,7 +37,6 @@ class StepSolver:
         self.A = compat.create_matrix(model.jacobian_form)
         self.timings = {"assembly": 0.0, "solve": 0.0}
         self.evaluations = 0
-        self.liftings = 0
 
         petsc_options.apply(options)
         self.snes = PETSc.SNES().create(model.comm)
@@ -102,7 +101,6 @@ class StepSolver:
             compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
             self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
             b.axpy(1.0, self.work)
-            self.liftings += 1
         compat.set_bc(b, m.bcs, x, -1.0)
         self.timings["assembly"] += _time.perf_counter() - t0
 
