@@ -261,6 +261,29 @@ class Model:
         return np.array([self.comm.allreduce(fem.assemble_scalar(f))
                          for f in self._drag_force_forms])
 
+    def centroid(self) -> np.ndarray:
+        """Area-weighted mean of the current positions, ``∫ x dA₀ / ∫ dA₀`` (global)."""
+        if not hasattr(self, "_centroid_forms"):
+            x = ufl.SpatialCoordinate(self.mesh) + self.kinematics()[0]
+            self._centroid_forms = [self._compile(x[i] * self.dx) for i in range(3)]
+        return np.array([self.comm.allreduce(fem.assemble_scalar(f))
+                         for f in self._centroid_forms]) / self.area()
+
+    def rotational_drag(self, axis) -> float:
+        """RFT drag coefficient ``ζ`` of a rigid rotation of the current shape about
+        ``axis`` through the centroid: the dissipated power at unit rate,
+        ``∫ (C̃ v)·v J dA₀`` with ``v = a × (x − x_c)`` (N·mm·s)."""
+        if not hasattr(self, "_spin_drag_form"):
+            self._spin_axis = fem.Constant(self.mesh, np.zeros(3, dtype=PETSc.ScalarType))
+            self._spin_centre = fem.Constant(self.mesh, np.zeros(3, dtype=PETSc.ScalarType))
+            x = ufl.SpatialCoordinate(self.mesh) + self.kinematics()[0]
+            v = ufl.cross(self._spin_axis, x - self._spin_centre)
+            self._spin_drag_form = self._compile(self._drag(drag.drag_power, v))
+        axis = np.asarray(axis, dtype=float)
+        self._spin_axis.value[:] = axis / np.linalg.norm(axis)
+        self._spin_centre.value[:] = self.centroid()
+        return self.comm.allreduce(fem.assemble_scalar(self._spin_drag_form))
+
     def _build_magnetic(self, w_test):
         """Magnetic virtual work over the magnetized cells (DESIGN.md §5).
 
@@ -301,7 +324,19 @@ class Model:
         self.magnetization_ufl = F * M * m / ufl.sqrt(ufl.dot(F * M, F * M) + 1e-300)
         dq = ufl.derivative(q, self.w, w_test)
         J = kinematics.area_ratio(g1, g2, G1, G2)
+        self._moment_ufl = magnetic.magnetic_moment(self.material["t"], m, q, J, self.dx_magnetic)
         return magnetic.magnetic_work(self.material["t"], m, self.field, dq, J, self.dx_magnetic)
+
+    def magnetic_moment(self) -> np.ndarray:
+        """Total magnetic moment ``∫ t m q J dA₀`` of the current iterate (global, A·mm²).
+
+        The field's torque on a rigid body is ``Q × b``; the field's work over a
+        step is ``b·ΔQ`` to first order (the couple's virtual work is ``b·δq``).
+        """
+        if not hasattr(self, "_moment_forms"):
+            self._moment_forms = [self._compile(c) for c in self._moment_ufl]
+        return np.array([self.comm.allreduce(fem.assemble_scalar(f))
+                         for f in self._moment_forms])
 
     def field_at(self, t: float) -> np.ndarray:
         """The applied field ``b(t)`` of ``[magnetic.field]`` (SCENES.md).
