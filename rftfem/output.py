@@ -54,6 +54,36 @@ class Probes:
         return comm.allreduce(out)
 
 
+class BodyLog:
+    """Whole-body diagnostics, one row per output step (``body.csv``): the centroid
+    and the energies always; the drag power with ``[fluid]``; the field and the
+    total magnetic moment with ``[magnetic]``.  Every value is global."""
+
+    def __init__(self, model):
+        self.model = model
+        self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
+        if model._has_inertia():
+            self.columns.append("kinetic_energy")
+        if "drag" in model.effects:
+            self.columns.append("drag_power")
+        if "magnetic" in model.effects:
+            self.columns += ["field_x", "field_y", "field_z", "moment_x", "moment_y", "moment_z"]
+
+    def header(self) -> list[str]:
+        return self.columns
+
+    def values(self, t: float) -> list[float]:
+        m = self.model
+        row = [*m.centroid(), m.elastic_energy()]
+        if "kinetic_energy" in self.columns:
+            row.append(m.kinetic_energy())
+        if "drag_power" in self.columns:
+            row.append(m.drag_power())
+        if "field_x" in self.columns:
+            row += [*m.field_at(t), *m.magnetic_moment()]
+        return row
+
+
 def _min_op():
     from mpi4py import MPI
 

@@ -23,7 +23,7 @@ from mpi4py import MPI
 from . import __version__, compat, petsc_options
 from .errors import RunFailed
 from .model import Model
-from .output import CsvLog, FieldWriter, Probes, Progress, write_json
+from .output import BodyLog, CsvLog, FieldWriter, Probes, Progress, write_json
 from .solver import StepSolver
 from .timeint import BackwardEuler, Static, make_scheme
 
@@ -191,6 +191,8 @@ class Simulation:
                                 self.comm)
         logs["steps"] = CsvLog(self.out_dir / "steps.csv",
                                ["time", "dt", "newton_its", "residual", "wall_s"], self.comm)
+        self.body = BodyLog(self.model)
+        logs["body"] = CsvLog(self.out_dir / "body.csv", ["time", *self.body.header()], self.comm)
         if self.scene.get("output", {}).get("fields", True):
             extra = {}
             if "magnetic" in self.model.effects:
@@ -204,6 +206,8 @@ class Simulation:
         self.history.append((t, values))
         if "probes" in logs:
             logs["probes"].row([t, *values.ravel()])
+        if "body" in logs:
+            logs["body"].row([t, *self.body.values(t)])
         if "fields" in logs:
             logs["fields"].write(t)
         self.wall["output"] += _time.perf_counter() - t0

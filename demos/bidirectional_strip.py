@@ -1,0 +1,295 @@
+"""The bidirectional magnetic strip of the paper's section 4.3 (REFERENCES.md I).
+
+A strip with oppositely magnetized ends sits in a field that first ramps along
++X (phase 1): the anti-aligned end flips over and the strip takes a chiral
+shape.  Then the field rotates about Z (phase 2) and the strip swims along Z.
+Ramping along −X instead flips the other end, gives the shape of opposite hand,
+and the strip swims the other way.  ``demos/bidirectional_strip.toml`` explains
+the parameters; this script runs both protocols and shows the three behaviours:
+
+* ``shape_phase1.png``: the strip at the end of phase 1, both protocols;
+* ``trajectory.png`` and ``trajectory.csv``: the centroid along the rotation axis;
+* ``groups.md``: the magneto-elastic number, the sperm number, and the
+  rigid-rotor step-out estimate of the phase-1 shape, ``f_c = |Q⊥| B / (2π ζ)``,
+  with Q the total magnetic moment and ζ the RFT drag of a rigid rotation about
+  the axis (both computed on the deformed shape);
+* with ``--sweep DIR``: the speed-against-frequency plot of the runs that
+  ``demos/strip_sweep.sh`` made in DIR, with the step-out marked (``sweep.png``).
+
+    python3 demos/bidirectional_strip.py                     # both protocols
+    python3 demos/bidirectional_strip.py --set mesh.divisions=[10,2]
+    mpirun -n 2 python3 demos/bidirectional_strip.py
+    demos/strip_sweep.sh                                     # then it calls --sweep
+
+Exit status 1 when the two protocols do not swim in opposite senses with net
+displacements over the last two field periods within 5 % of each other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+SCENE = HERE / "bidirectional_strip.toml"
+PROTOCOLS = {"+X": [1.0, 0.0, 0.0], "-X": [-1.0, 0.0, 0.0]}
+
+
+# --- the dimensionless groups ------------------------------------------------------
+
+
+def groups(scene: dict) -> dict:
+    """Magneto-elastic number ``Mn = m B t A_end L / (D W)`` (one end's couple
+    against the strip's bending stiffness, per length) and sperm number
+    ``Sp = L (C₃ ω / D)^¼`` at the scene's frequency; D = E t³ / (12 (1 − ν²))."""
+    shell, mesh, field = scene["shell"], scene["mesh"], scene["magnetic"]["field"]
+    t, L, W = shell["thickness"], mesh["length"], mesh["width"]
+    D = shell["E"] * t**3 / (12 * (1 - shell["nu"] ** 2))
+    part = scene["magnetic"]["parts"][0]
+    region = next(r for r in mesh["regions"] if r["name"] == part["region"])
+    end_area = (region["x"][1] - region["x"][0]) * W
+    couple = part["magnetization"] * field["strength"] * t * end_area
+    omega = 2 * math.pi * field.get("frequency", 0.0)
+    return {"magneto_elastic_number": couple * L / (D * W),
+            "sperm_number": L * (scene["fluid"]["drag"][2] * omega / D) ** 0.25,
+            "end_couple_Nmm": couple}
+
+
+class Phase1:
+    """Observer: at the end of phase 1, the shape (gathered on rank 0) and the
+    rigid-rotor step-out estimate ``f_c = |Q⊥| B / (2π ζ)`` of that shape."""
+
+    def __init__(self, scene: dict):
+        self.field = scene["magnetic"]["field"]
+        self.axis = np.asarray(self.field["rotation_axis"], dtype=float)
+        self.axis /= np.linalg.norm(self.axis)
+        self.shape, self.f_c = None, None
+
+    def __call__(self, sim):
+        if self.f_c is not None or sim.t < self.field["ramp_time"] - 1e-12:
+            return
+        m = sim.model
+        Q = m.magnetic_moment()
+        q_perp = np.linalg.norm(Q - (Q @ self.axis) * self.axis)
+        self.f_c = q_perp * self.field["strength"] / m.rotational_drag(self.axis) / (2 * math.pi)
+        X = m.Vu.tabulate_dof_coordinates()
+        x = X + m.displacement.x.array.reshape(-1, 3)[: len(X)]
+        parts = m.comm.gather(x, root=0)
+        self.shape = np.concatenate(parts) if parts is not None else None
+
+
+class Centroid:
+    """Observer: the centroid after every step."""
+
+    def __init__(self):
+        self.rows = [(0.0, None)]
+
+    def __call__(self, sim):
+        self.rows.append((sim.t, sim.model.centroid()))
+
+
+def run_protocol(name: str, overrides: list[str], out: Path, comm):
+    """One protocol in-process; returns (Phase1, Centroid, scene)."""
+    from rftfem.scene import load_scene
+    from rftfem.simulation import Simulation
+
+    direction = PROTOCOLS[name]
+    scene = load_scene(SCENE, [*overrides, f"magnetic.field.direction={direction}"])
+    phase1, centroid = Phase1(scene), Centroid()
+    sim = Simulation(scene, out_dir=out / f"protocol{name}", quiet=True, comm=comm,
+                     observers=[phase1, centroid])
+    centroid.rows[0] = (0.0, sim.model.centroid())
+    try:
+        sim.run()
+    finally:
+        sim.close()
+    return phase1, centroid, scene
+
+
+def net_displacement(rows, axis, t0: float, t1: float) -> float:
+    """Centroid displacement along ``axis`` between the rows nearest t0 and t1."""
+    t = np.array([r[0] for r in rows])
+    c = np.array([r[1] for r in rows])
+    i0, i1 = int(np.argmin(abs(t - t0))), int(np.argmin(abs(t - t1)))
+    return float((c[i1] - c[i0]) @ axis)
+
+
+# --- plots -------------------------------------------------------------------------
+
+
+def plot_shapes(shapes: dict, path: Path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(9, 4.5))
+    for k, (name, x) in enumerate(shapes.items()):
+        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
+        ax.scatter(x[:, 0], x[:, 1], x[:, 2], c=x[:, 2], cmap="coolwarm", s=6)
+        c, half = x.mean(axis=0), 0.6 * np.ptp(x, axis=0).max()
+        ax.set_xlim(c[0] - half, c[0] + half)
+        ax.set_ylim(c[1] - half, c[1] + half)
+        ax.set_zlim(c[2] - half, c[2] + half)
+        ax.set_title(f"field along {name}: end of phase 1")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def plot_trajectories(curves: dict, ramp: float, path: Path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for name, (t, z) in curves.items():
+        ax.plot(t, z, label=f"field ramped along {name}")
+    ax.axvline(ramp, color="grey", ls=":", lw=1)
+    ax.text(ramp, ax.get_ylim()[1], " rotation starts", va="top", fontsize=8, color="grey")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("centroid along the rotation axis (mm)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+# --- the frequency sweep -----------------------------------------------------------
+
+
+def sweep_row(folder: Path) -> dict:
+    """Mean speed along the axis over the second half of phase 2, and the mean
+    slip of the moment behind the field (turns per field turn) over that window."""
+    scene = json.loads((folder / "summary.json").read_text())["scene"]
+    field = scene["magnetic"]["field"]
+    axis = np.asarray(field["rotation_axis"], dtype=float)
+    axis /= np.linalg.norm(axis)
+    with open(folder / "body.csv", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    t = np.array([float(r["time"]) for r in rows])
+    c = np.array([[float(r[f"centroid_{k}"]) for k in "xyz"] for r in rows])
+    b = np.array([[float(r[f"field_{k}"]) for k in "xyz"] for r in rows])
+    q = np.array([[float(r[f"moment_{k}"]) for k in "xyz"] for r in rows])
+    window = t >= 0.5 * (field["ramp_time"] + t[-1])
+    t0, t1 = t[window][0], t[-1]
+    speed = float((c[window][-1] - c[window][0]) @ axis / (t1 - t0))
+    # angle of field and moment about the axis, unwrapped: the moment loses turns
+    # against the field only above step-out
+    e1 = np.cross(axis, [1.0, 0, 0]) if abs(axis[0]) < 0.9 else np.cross(axis, [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    angle = [np.unwrap(np.arctan2(v[window] @ e2, v[window] @ e1)) for v in (b, q)]
+    turns = (angle[0][-1] - angle[0][0]) / (2 * math.pi)
+    lost = ((angle[0][-1] - angle[1][-1]) - (angle[0][0] - angle[1][0])) / (2 * math.pi)
+    return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300)}
+
+
+def sweep(folder: Path, estimate: float | None) -> int:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = sorted((p for p in folder.iterdir() if (p / "body.csv").exists()
+                   and (p / "summary.json").exists()), key=lambda p: sweep_row(p)["frequency"])
+    if not runs:
+        print(f"bidirectional_strip: no runs with body.csv and summary.json in {folder}",
+              file=sys.stderr)
+        return 2
+    rows = [sweep_row(p) for p in runs]
+    f = np.array([r["frequency"] for r in rows])
+    v = np.array([r["speed"] for r in rows])
+    slipping = np.array([r["slip"] > 0.05 for r in rows])
+    with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
+        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn\n")
+        for r in rows:
+            out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f}\n")
+    fig, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(f, np.abs(v), "o-", color="C0", label="|mean speed| along the axis")
+    ax.plot(f[slipping], np.abs(v[slipping]), "x", color="C3", ms=10,
+            label="moment slips behind the field")
+    if slipping.any() and (~slipping).any():
+        below = f[~slipping][f[~slipping] < f[slipping].min()]
+        if below.size:
+            ax.axvspan(below.max(), f[slipping].min(), color="C3", alpha=0.15,
+                       label="step-out (simulated)")
+    if estimate:
+        ax.axvline(estimate, color="grey", ls="--", label=f"rigid-rotor estimate {estimate:.0f} Hz")
+    ax.set_xlabel("field frequency f (Hz)")
+    ax.set_ylabel("mean swimming speed (mm/s)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(folder / "sweep.png", dpi=110)
+    for r in rows:
+        print(f"f = {r['frequency']:6.2f} Hz: mean speed {r['speed']:+9.4f} mm/s, "
+              f"slip {r['slip']:.3f} turn per field turn")
+    print(f"wrote {folder / 'sweep.csv'} and {folder / 'sweep.png'}")
+    return 0
+
+
+# --- main --------------------------------------------------------------------------
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=Path("results/bidirectional_strip"))
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE", help="scene override, as for rftfem run")
+    parser.add_argument("--sweep", type=Path, metavar="DIR",
+                        help="only plot the sweep made by demos/strip_sweep.sh in DIR")
+    parser.add_argument("--estimate", type=float, help="step-out estimate to mark (Hz)")
+    args = parser.parse_args(argv)
+    if args.sweep:
+        return sweep(args.sweep, args.estimate)
+
+    import rftfem  # noqa: F401  (sets up the FEniCSx stack)
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    results = {name: run_protocol(name, args.overrides, args.out, comm) for name in PROTOCOLS}
+    scene = results["+X"][2]
+    field = scene["magnetic"]["field"]
+    axis = np.asarray(field["rotation_axis"], dtype=float)
+    axis /= np.linalg.norm(axis)
+    end, period = scene["time"]["end"], 1.0 / field["frequency"]
+    net = {name: net_displacement(r[1].rows, axis, end - 2 * period, end)
+           for name, r in results.items()}
+    g = groups(scene)
+    f_c = results["+X"][0].f_c
+    if comm.rank != 0:
+        return 0
+    args.out.mkdir(parents=True, exist_ok=True)
+    lines = [
+        f"| quantity | value |", "|---|---|",
+        f"| magneto-elastic number m B t A_end L / (D W) | {g['magneto_elastic_number']:.3g} |",
+        f"| sperm number L (C₃ ω / D)^¼ at f = {field['frequency']:g} Hz | {g['sperm_number']:.3g} |",
+        f"| rigid-rotor step-out estimate of the phase-1 shape | {f_c:.3g} Hz |",
+    ] + [f"| net displacement along the axis, last two periods, field along {n} | {d:+.4f} mm |"
+         for n, d in net.items()]
+    (args.out / "groups.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+    with open(args.out / "trajectory.csv", "w", encoding="utf-8") as f:
+        f.write("time," + ",".join(f"centroid_along_axis_{n}" for n in PROTOCOLS) + "\n")
+        for rows in zip(*(r[1].rows for r in results.values())):
+            f.write(f"{rows[0][0]!r}," + ",".join(f"{float(r[1] @ axis)!r}" for r in rows) + "\n")
+    plot_shapes({n: r[0].shape for n, r in results.items()}, args.out / "shape_phase1.png")
+    curves = {n: (np.array([row[0] for row in r[1].rows]),
+                  np.array([row[1] @ axis for row in r[1].rows])) for n, r in results.items()}
+    plot_trajectories(curves, field["ramp_time"], args.out / "trajectory.png")
+    print(f"wrote groups.md, trajectory.csv, shape_phase1.png, trajectory.png in {args.out}")
+    a, b = net["+X"], net["-X"]
+    if not (a * b < 0 and abs(abs(a) / abs(b) - 1) <= 0.05):
+        print(f"bidirectional_strip: FAILED: the protocols should swim in opposite senses "
+              f"with equal magnitudes (5 %); got {a:+.4f} and {b:+.4f} mm", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Frequency sweep of the bidirectional magnetic strip (demos/bidirectional_strip.toml):
+# one `rftfem run --set magnetic.field.frequency=F` per frequency, then the plot of
+# mean swimming speed against F with the step-out marked (sweep.png, sweep.csv).
+#
+#   demos/strip_sweep.sh                       # serial, into results/strip_sweep
+#   NP=2 demos/strip_sweep.sh                  # each run under mpirun -n 2
+#   FREQS="2 4 8" PERIODS=6 demos/strip_sweep.sh results/my_sweep --set mesh.divisions=[30,4]
+#
+# Each run lasts phase 1 plus PERIODS field periods (default 8) with STEPS steps per
+# period (default 50); the speed is measured over the second half of phase 2.
+# Runs that already finished (summary.json says "ok") are not repeated.
+set -euo pipefail
+
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+SCENE="$HERE/bidirectional_strip.toml"
+OUT="${1:-results/strip_sweep}"
+[[ $# -gt 0 ]] && shift
+FREQS="${FREQS:-2 4 8 12 16 20 24 32 40}"
+PERIODS="${PERIODS:-8}"
+STEPS="${STEPS:-50}"
+NP="${NP:-1}"
+PYTHON="${PYTHON:-python3}"
+
+launcher=()
+if [[ "$NP" -gt 1 ]]; then
+    launcher=(mpirun -n "$NP")
+fi
+ramp=$(grep -E '^ramp_time' "$SCENE" | head -1 | sed -E 's/^ramp_time *= *([0-9.eE+-]+).*/\1/')
+
+mkdir -p "$OUT"
+for f in $FREQS; do
+    dir="$OUT/f$f"
+    if [[ -f "$dir/summary.json" ]] && grep -q '"status": "ok"' "$dir/summary.json"; then
+        echo "f = $f Hz: done before, kept ($dir)"
+        continue
+    fi
+    end=$(awk -v r="$ramp" -v f="$f" -v n="$PERIODS" 'BEGIN { printf "%.10g", r + n / f }')
+    dt=$(awk -v f="$f" -v s="$STEPS" 'BEGIN { printf "%.10g", 1 / (f * s) }')
+    echo "f = $f Hz: t_end = $end s, dt = $dt s -> $dir"
+    # a failed run (exit 3) keeps its outputs; the sweep goes on and the plot uses
+    # what each run wrote
+    "${launcher[@]}" rftfem run "$SCENE" --out "$dir" --quiet \
+        --set "magnetic.field.frequency=$f" --set "time.end=$end" --set "time.dt=$dt" \
+        --set "time.output_every=1" "$@" || echo "f = $f Hz: run failed (see $dir/summary.json)"
+done
+"$PYTHON" "$HERE/bidirectional_strip.py" --sweep "$OUT"
