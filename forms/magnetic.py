@@ -28,6 +28,13 @@ def magnetization_direction(F, q0):
     return unit(F * q0)
 
 
+def magnetization(F, M):
+    """Current magnetization ``m q = |M| F M / |F M|`` from the remanent ``M = m q₀``;
+    zero where ``M`` is (off the magnetic parts), so it can be written everywhere."""
+    FM = F * M
+    return ufl.sqrt(ufl.dot(M, M)) * FM / ufl.sqrt(ufl.dot(FM, FM) + 1e-300)
+
+
 def magnetic_work(t, m, b, dq, J, dx):
     """Virtual work of the field on the magnetized parts, ``∫ t m b·δq J dA₀``.
 

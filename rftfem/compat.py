@@ -96,14 +96,16 @@ def expression(expr, V):
 # --- forms and PETSc objects ------------------------------------------------
 
 
-def form(ufl_form, jit_options: dict | None = None):
-    """Compile a UFL form (list of forms allowed) to a dolfinx Form."""
+def _keyword(function, new: str, old: str) -> str:
+    """The name ``function`` uses for an argument renamed between versions."""
     import inspect
 
-    params = inspect.signature(dolfinx.fem.form).parameters
-    kwargs = {}
-    if jit_options:
-        kwargs["jit_options" if "jit_options" in params else "jit_params"] = jit_options
+    return new if new in inspect.signature(function).parameters else old
+
+
+def form(ufl_form, jit_options: dict | None = None):
+    """Compile a UFL form (list of forms allowed) to a dolfinx Form."""
+    kwargs = {_JIT_KEY: jit_options} if jit_options else {}
     return dolfinx.fem.form(ufl_form, **kwargs)
 
 
@@ -137,11 +139,7 @@ def assemble_matrix(A, a, bcs):
 
 def apply_lifting(b, a, bcs, x0, scale):
     """``b -= scale * A (g - x0)`` on the rows coupled to Dirichlet dofs."""
-    import inspect
-
-    params = inspect.signature(dolfinx.fem.petsc.apply_lifting).parameters
-    key = "alpha" if "alpha" in params else "scale"
-    dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{key: scale})
+    dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{_LIFTING_KEY: scale})
 
 
 def set_bc(b, bcs, x0=None, scale=1.0):
@@ -212,3 +210,9 @@ def petsc_unlimited() -> int:
 
 def has_mumps() -> bool:
     return bool(PETSc.Sys.hasExternalPackage("mumps"))
+
+
+# arguments renamed between dolfinx versions, detected once: jit_params → jit_options,
+# scale → alpha (apply_lifting)
+_JIT_KEY = _keyword(dolfinx.fem.form, "jit_options", "jit_params")
+_LIFTING_KEY = _keyword(dolfinx.fem.petsc.apply_lifting, "alpha", "scale")

@@ -21,6 +21,7 @@ from petsc4py import PETSc
 from rftfem.forms import drag, elasticity, inertia, kinematics, loads, magnetic
 
 from . import compat
+from . import scene as scene_rules
 from .errors import SceneError
 
 EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
@@ -321,7 +322,7 @@ class Model:
         m = ufl.sqrt(ufl.dot(M, M))
         F = kinematics.deformation_gradient(g1, g2, d, G1, G2, kinematics.unit_normal(G1, G2))
         q = magnetic.magnetization_direction(F, M / m)
-        self.magnetization_ufl = F * M * m / ufl.sqrt(ufl.dot(F * M, F * M) + 1e-300)
+        self.magnetization_ufl = magnetic.magnetization(F, M)
         dq = ufl.derivative(q, self.w, w_test)
         J = kinematics.area_ratio(g1, g2, G1, G2)
         self._moment_ufl = magnetic.magnetic_moment(self.material["t"], m, q, J, self.dx_magnetic)
@@ -357,9 +358,7 @@ class Model:
         return f["strength"] * rotate(direction[None, :], angle * axis[None, :])[0]
 
     def _has_inertia(self) -> bool:
-        shell = self.scene["shell"]
-        rho = [shell["density"]] + [p["density"] for p in shell.get("parts", []) if "density" in p]
-        return self.scene["time"]["scheme"] in ("generalized-alpha", "hht") and max(rho) > 0
+        return scene_rules.has_inertia(self.scene)
 
     def active_effects(self) -> list[str]:
         names = list(self.effects)
@@ -558,7 +557,10 @@ class Model:
         """Reference area ``∫ dA₀`` of the body, or of the given local cells."""
         one = fem.Constant(self.mesh, PETSc.ScalarType(1.0))
         if cells is None:
-            return self.comm.allreduce(fem.assemble_scalar(self._compile(one * self.dx)))
+            if not hasattr(self, "_area"):  # a reference quantity: computed once
+                self._area = self.comm.allreduce(
+                    fem.assemble_scalar(self._compile(one * self.dx)))
+            return self._area
         n = self.mesh.topology.index_map(self.mesh.topology.dim).size_local
         cells = np.asarray(cells)[np.asarray(cells) < n].astype(np.int32)  # owned only
         tags = compat.create_meshtags(self.mesh, self.mesh.topology.dim, cells,

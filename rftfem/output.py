@@ -62,7 +62,7 @@ class BodyLog:
     def __init__(self, model):
         self.model = model
         self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
-        if model._has_inertia():
+        if model.inertia is not None:
             self.columns.append("kinetic_energy")
         if "drag" in model.effects:
             self.columns.append("drag_power")

@@ -534,6 +534,16 @@ def _check_region_ref(name: str, path: str, scene: dict) -> None:
                      + _suggest(name, names))
 
 
+def _table_iff(entry: dict, path: str, switch: str, key: str, what: str):
+    """``entry[key]`` is required when ``entry[switch] == "table"`` and refused otherwise."""
+    if entry[switch] == "table" and entry[key] is None:
+        raise SceneError(f"missing required key '{path}.{key}' (expected a list of {what}, "
+                         f"because {path}.{switch} = \"table\")")
+    if entry[switch] != "table" and entry[key] is not None:
+        raise SceneError(f"{path}.{key}: only used with {switch} = \"table\", found "
+                         f"{path}.{switch} = {_fmt(entry[switch])}")
+
+
 def _check_where(value: str, path: str, scene: dict) -> None:
     if value in SPECIAL_SELECTORS or scene["mesh"]["kind"] != "strip":
         return
@@ -592,23 +602,11 @@ def _cross_check(scene: dict) -> None:
         for i, item in enumerate(scene[section]):
             _check_where(item["where"], f"{section}.{i}.where", scene)
 
-    # loads: table iff ramp = "table"
+    # a table of values exactly when the entry says it is a table
     for i, load in enumerate(scene["load"]):
-        if load["ramp"] == "table" and load["table"] is None:
-            raise SceneError(f"missing required key 'load.{i}.table' (expected a list of "
-                             f"[t, scale] pairs, because load.{i}.ramp = \"table\")")
-        if load["ramp"] != "table" and load["table"] is not None:
-            raise SceneError(f"load.{i}.table: only used with ramp = \"table\", found "
-                             f"load.{i}.ramp = {_fmt(load['ramp'])}")
-
-    # motion: values iff kind = "table"
+        _table_iff(load, f"load.{i}", "ramp", "table", "[t, scale] pairs")
     for i, motion in enumerate(scene["motion"]):
-        if motion["kind"] == "table" and motion["values"] is None:
-            raise SceneError(f"missing required key 'motion.{i}.values' (expected a list of "
-                             f"[t, u] pairs, because motion.{i}.kind = \"table\")")
-        if motion["kind"] != "table" and motion["values"] is not None:
-            raise SceneError(f"motion.{i}.values: only used with kind = \"table\", found "
-                             f"motion.{i}.kind = {_fmt(motion['kind'])}")
+        _table_iff(motion, f"motion.{i}", "kind", "values", "[t, u] pairs")
 
     # magnetic parts
     if scene["magnetic"] is not None:
@@ -766,7 +764,13 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
     return scene
 
 
-def _has_inertia(scene: dict) -> bool:
+def has_inertia(scene: dict) -> bool:
+    """Inertia is an effect when some part has density and the scheme is second
+    order in time (the one definition, for ``check`` and for the model)."""
+    return _has_density(scene) and resolved_scheme(scene) in ("generalized-alpha", "hht")
+
+
+def _has_density(scene: dict) -> bool:
     shell = scene.get("shell") or {}
     if (shell.get("density") or 0.0) > 0.0:
         return True
@@ -776,7 +780,7 @@ def _has_inertia(scene: dict) -> bool:
 def active_effects(scene: dict) -> list[str]:
     """The effects the scene asks for, in a fixed order (DESIGN.md section 5)."""
     effects = ["elasticity"]
-    if _has_inertia(scene):
+    if has_inertia(scene):
         effects.append("inertia")
     if scene.get("fluid"):
         effects.append("drag")
@@ -795,7 +799,7 @@ def resolved_scheme(scene: dict) -> str:
     """``time.scheme`` with "auto" resolved: second order with inertia, first
     order with drag only, load stepping otherwise."""
     scheme = (scene.get("time") or {}).get("scheme", "auto")
-    inertia = _has_inertia(scene)
+    inertia = _has_density(scene)
     if scheme == "auto":
         if inertia:
             return "generalized-alpha"

@@ -54,7 +54,10 @@ class StepSolver:
     # --- assembly -------------------------------------------------------------
 
     def _sync(self, x):
-        """Copy the SNES iterate into the model's mixed function (owned + ghosts)."""
+        """Copy the SNES iterate into the model's mixed function (owned + ghosts).
+
+        The iterate's own ghosts are updated too: the lifting reads ``x`` with them.
+        """
         x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
         w = compat.petsc_vec(self.model.w)
         x.copy(w)

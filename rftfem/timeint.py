@@ -86,22 +86,26 @@ class GeneralizedAlpha(Scheme):
         self.gamma = 0.5 - self.alpha_m + self.alpha_f
         self.beta = 0.25 * (1 - self.alpha_m + self.alpha_f) ** 2
 
+    def _newmark(self, dt):
+        """Newmark's relations as coefficients on (u − u_n, v_n, a_n):
+        ``a_{n+1} = (u − u_n)/(β dt²) − v_n/(β dt) − (½ − β)/β a_n`` and
+        ``v_{n+1} = v_n + dt((1 − γ) a_n + γ a_{n+1})``."""
+        b, g = self.beta, self.gamma
+        a = (1 / (b * dt**2), -1 / (b * dt), -(0.5 - b) / b)
+        v = (g * dt * a[0], 1 + g * dt * a[1], dt * (1 - g) + g * dt * a[2])
+        return v, a
+
     def coefficients(self, dt):
-        b, g, am = self.beta, self.gamma, self.alpha_m
-        # a_{n+1} = (u − u_n)/(β dt²) − v_n/(β dt) − (½ − β)/β a_n
-        a_u, a_v, a_a = 1 / (b * dt**2), -1 / (b * dt), -(0.5 - b) / b
-        # v_{n+1} = v_n + dt((1 − γ) a_n + γ a_{n+1})
-        v_u, v_v, v_a = g * dt * a_u, 1 + g * dt * a_v, dt * (1 - g) + g * dt * a_a
+        (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
+        am = self.alpha_m
         # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
         return Coefficients(cv=v_u, cv_v=v_v, cv_a=v_a,
                             ca=(1 - am) * a_u, ca_v=(1 - am) * a_v,
                             ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f)
 
     def update(self, du, v_n, a_n, dt):
-        b, g = self.beta, self.gamma
-        a_new = du / (b * dt**2) - v_n / (b * dt) - (0.5 - b) / b * a_n
-        v_new = v_n + dt * ((1 - g) * a_n + g * a_new)
-        return v_new, a_new
+        (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
+        return v_u * du + v_v * v_n + v_a * a_n, a_u * du + a_v * v_n + a_a * a_n
 
 
 class HHT(GeneralizedAlpha):
@@ -113,8 +117,7 @@ class HHT(GeneralizedAlpha):
     def __init__(self, alpha: float = -0.05):
         self.alpha_m = 0.0
         self.alpha_f = -float(alpha)
-        self.gamma = 0.5 - float(alpha)
-        self.beta = 0.25 * (1 - float(alpha)) ** 2
+        self._set_newmark()       # γ = ½ + α_f, β = ¼(1 + α_f)²
 
 
 def make_scheme(time_section: dict) -> Scheme:
