@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Frequency sweep of the bidirectional magnetic strip (demos/bidirectional_strip.toml):
 # one `rftfem run --set magnetic.field.frequency=F` per frequency, then the plot of
-# mean swimming speed against F with the step-out marked (sweep.png, sweep.csv).
+# mean swimming speed against F with the speed peak and any stepped-out run (the
+# moment slips behind the field) marked (sweep.png, sweep.csv).  The rigid-rotor
+# step-out estimate of this scene is 287 Hz: add frequencies above it to FREQS to
+# see step-out itself (each costs 50 steps per period, the ramp included).
 #
 #   demos/strip_sweep.sh                       # serial, into results/strip_sweep
 #   NP=2 demos/strip_sweep.sh                  # each run under mpirun -n 2

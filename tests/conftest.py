@@ -57,3 +57,24 @@ def mpirun():
         pytest.fail("mpirun not found: the FEniCSx stack's MPI launcher is required")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     return exe, env
+
+
+@pytest.fixture
+def cli_run(mpirun):
+    """``cli_run(scene, out, sets, np=1)``: ``rftfem run SCENE --out OUT --quiet --set …``
+    in a subprocess, under ``mpirun -n np`` when np > 1; asserts exit 0, returns ``out``."""
+    import subprocess
+
+    exe, env = mpirun
+
+    def run(scene, out, sets=(), np=1):
+        cmd = [sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out), "--quiet"]
+        cmd += [arg for s in sets for arg in ("--set", s)]
+        if np > 1:
+            cmd = [exe, "-n", str(np), *cmd]
+        done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True,
+                              timeout=1200)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+        return Path(out)
+
+    return run

@@ -4,7 +4,8 @@ strip steps out above a frequency and keeps going, and mpirun matches serial."""
 
 from __future__ import annotations
 
-import math
+import csv
+import functools
 import subprocess
 import sys
 
@@ -33,19 +34,29 @@ class Track:
         return z[int(np.argmin(abs(t - t1)))] - z[int(np.argmin(abs(t - t0)))]
 
 
-def swim(frequency, periods, steps_per_period, direction=(1.0, 0.0, 0.0), *extra):
+@functools.lru_cache(maxsize=None)
+def swim(frequency, periods, steps_per_period, direction=(1.0, 0.0, 0.0)):
+    """Run the demo scene for phase 1 and ``periods`` field periods (each distinct
+    run once per test session: the 10 Hz +X run serves two tests)."""
     end = RAMP + periods / frequency
     track = Track()
     sim = run_scene(SCENE, f"magnetic.field.frequency={float(frequency)}", f"time.end={end!r}",
                     f"time.dt={1 / (frequency * steps_per_period)!r}",
-                    f"magnetic.field.direction={list(direction)}", *extra, observers=[track])
+                    f"magnetic.field.direction={list(direction)}", observers=[track])
     return sim, track, end
 
 
 def test_opposite_protocols_swim_opposite_ways():
     """Field ramped along +X, then along −X: net displacements along the rotation
     axis over the last two field periods have opposite signs and magnitudes within
-    5 % (REFERENCES.md I), and are a real swim (over 1 mm in two periods)."""
+    5 % (issue 4's acceptance), and are a real swim: over 1 mm in two periods
+    (reached: 3.946 mm, 0.39 body lengths).
+
+    With q₀(end2) = −q₀(end1) the −X protocol is the +X one inverted through the
+    strip's centre, so here the magnitudes agree to round-off, and that is
+    asserted too (1e-6): a term that breaks the symmetry (a sign, a frame that
+    depends on the normal's orientation) would show.  What the physics has to
+    get right is that there is a swim at all, and its sense."""
     f = 10.0
     net = {}
     for direction in ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0)):
@@ -57,15 +68,21 @@ def test_opposite_protocols_swim_opposite_ways():
           f"−X {net[-1.0]:+.5f} mm")
     assert net[1.0] * net[-1.0] < 0
     assert abs(abs(net[1.0]) / abs(net[-1.0]) - 1) < 0.05
+    assert abs(net[1.0] + net[-1.0]) < 1e-6 * abs(net[1.0])
     assert min(abs(net[1.0]), abs(net[-1.0])) > 1.0
 
 
-def test_step_out_keeps_running_and_slows():
-    """At 40 Hz (above step-out) the run completes without a failed step or NaN,
-    and its mean speed is below half the speed at 10 Hz, under step-out."""
+def test_high_frequency_keeps_running_and_slows():
+    """At 40 Hz the run completes (no failed step, no NaN) and the mean speed is
+    below half the speed at 10 Hz (reached: 0.68 against 19.7 mm/s).
+
+    This is not yet the issue's "above step-out" case: the rigid-rotor estimate of
+    the phase-1 shape (the demo's groups.md) is 287 Hz, and at 40 Hz the total
+    moment still follows the field.  The speed drops because the strip no longer
+    holds its chiral shape at this sperm number (≈ 3.2)."""
     speeds = {}
     for f, periods in ((10.0, 3), (40.0, 8)):
-        sim, track, end = swim(f, periods, 50)
+        sim, track, end = swim(f, periods, 50, (1.0, 0.0, 0.0))
         # dt cuts are retried steps, not failed ones; the run must reach its end
         print(f"{f} Hz: counts {sim.summary['counts']}")
         assert sim.summary["status"] == "ok" and sim.t == pytest.approx(end)
@@ -76,24 +93,14 @@ def test_step_out_keeps_running_and_slows():
     assert abs(speeds[40.0]) < 0.5 * abs(speeds[10.0])
 
 
-def test_strip_mpirun_matches_serial(tmp_path, mpirun):
+def test_strip_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the strip (phase 1 and one field period at 10 Hz) gives the
     serial centroid path (body.csv) to 1e-6 mm."""
-    exe, env = mpirun
     overrides = ["magnetic.field.frequency=10.0", "time.end=0.2", "time.dt=0.002",
                  "time.output_every=5", "output.fields=false"]
     paths = {}
     for n in (1, 2):
-        out = tmp_path / f"np{n}"
-        cmd = [sys.executable, "-m", "rftfem", "run", str(SCENE), "--out", str(out), "--quiet"]
-        for o in overrides:
-            cmd += ["--set", o]
-        if n > 1:
-            cmd = [exe, "-n", str(n), *cmd]
-        done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True,
-                              timeout=1200)
-        assert done.returncode == 0, done.stderr[-2000:]
-        import csv
+        out = cli_run(SCENE, tmp_path / f"np{n}", overrides, np=n)
 
         rows = list(csv.DictReader(open(out / "body.csv", encoding="utf-8")))
         paths[n] = np.array([[float(r[f"centroid_{k}"]) for k in "xyz"] for r in rows])

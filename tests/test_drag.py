@@ -14,6 +14,9 @@ from conftest import run_scene, write_scene
 DRAG = (1.0e-3, 2.0e-3, 4.0e-3)
 FORCE = 1.0e-3  # N, total
 LENGTH, WIDTH = 4.0, 1.0
+#: a rigid translation is exact in the discretisation: only the Newton tolerance
+#: and round-off separate it from F / (C A) (reached: ≤ 4e-9 relative)
+TOL = 1.0e-6
 
 STRIP = f"""
 title = "stiff free strip in a viscous fluid"
@@ -59,7 +62,8 @@ class MeanVelocity:
 
 @pytest.mark.parametrize("i", [0, 1, 2], ids=["along", "across", "normal"])
 def test_terminal_velocity_along_frame_directions(tmp_path, i):
-    """A free strip pulled by a constant force F along e_i moves at F / (C_i A)."""
+    """A free strip pulled by a constant force F along e_i moves at F / (C_i A), every
+    node alike (no inertia: the balance holds at every step, to round-off)."""
     direction = np.eye(3)[i]
     scene = write_scene(tmp_path, STRIP + _pull(("x=0", "x=L"), direction))
     observe = MeanVelocity()
@@ -68,10 +72,11 @@ def test_terminal_velocity_along_frame_directions(tmp_path, i):
     v, spread = observe.rows[-1]
     exact = FORCE / (DRAG[i] * LENGTH * WIDTH)
     print(f"e{i + 1}: v = {v}, exact {exact}, nodal spread {spread}")
-    assert abs(v[i] / exact - 1) < 0.005
-    assert np.abs(np.delete(v, i)).max() < 0.005 * exact
+    assert abs(v[i] / exact - 1) < TOL
+    assert np.abs(np.delete(v, i)).max() < TOL * exact
+    assert spread.max() < TOL * exact
     # and the drag balances the pull: ∫ C̃ v J dA₀ = F e_i
-    assert np.allclose(sim.model.drag_force(), FORCE * direction, rtol=0, atol=0.005 * FORCE)
+    assert np.allclose(sim.model.drag_force(), FORCE * direction, rtol=0, atol=TOL * FORCE)
 
 
 def _rotation():
@@ -126,8 +131,8 @@ def test_terminal_velocity_is_frame_objective(tmp_path, i):
     v, _ = observe.rows[-1]
     exact = FORCE / (DRAG[i] * LENGTH * WIDTH)
     print(f"rotated e{i + 1}: v = {v}, exact {exact} along {direction}")
-    assert abs(v @ direction / exact - 1) < 0.005
-    assert np.linalg.norm(v - (v @ direction) * direction) < 0.005 * exact
+    assert abs(v @ direction / exact - 1) < TOL
+    assert np.linalg.norm(v - (v @ direction) * direction) < TOL * exact
 
 
 def test_reaction_of_a_strip_translating_at_prescribed_velocity(tmp_path):
@@ -151,8 +156,8 @@ values = [[0.0, 0.0], [1.0, {vc}]]
     exact = np.asarray(DRAG) * velocity * LENGTH * WIDTH
     print(f"reaction {reactions[-1]}, exact {exact}")
     for r in reactions:
-        assert np.allclose(r, exact, rtol=0.005, atol=0)
-    assert np.allclose(sim.model.drag_force(), exact, rtol=0.005, atol=0)
+        assert np.allclose(r, exact, rtol=TOL, atol=0)
+    assert np.allclose(sim.model.drag_force(), exact, rtol=TOL, atol=0)
 
 
 def test_drag_residual_vanishes_at_rest(tmp_path):

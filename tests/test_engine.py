@@ -49,18 +49,11 @@ def test_director_stays_unit_after_1000_steps_of_a_spinning_end(tmp_path):
 
 
 @pytest.mark.mpi
-def test_two_processes_reproduce_the_serial_probe_history(tmp_path, mpirun):
+def test_two_processes_reproduce_the_serial_probe_history(tmp_path, cli_run):
     """Roll-up, 10 steps: `mpirun -n 2` gives the serial probes to 1e-8 relative."""
-    exe, env = mpirun
-    common = ["-m", "rftfem", "run", str(DEMOS / "rollup.toml"), "--quiet",
-              "--set", "time.end=0.5", "--set", "output.fields=false"]
-    serial = subprocess.run([sys.executable, *common, "--out", str(tmp_path / "serial")],
-                            capture_output=True, text=True, timeout=600, cwd=ROOT)
-    assert serial.returncode == 0, serial.stderr
-    parallel = subprocess.run([exe, "-n", "2", sys.executable, *common,
-                               "--out", str(tmp_path / "mpi")],
-                              capture_output=True, text=True, timeout=600, cwd=ROOT, env=env)
-    assert parallel.returncode == 0, parallel.stdout + parallel.stderr
+    sets = ["time.end=0.5", "output.fields=false"]
+    cli_run(DEMOS / "rollup.toml", tmp_path / "serial", sets)
+    cli_run(DEMOS / "rollup.toml", tmp_path / "mpi", sets, np=2)
     a = np.loadtxt(tmp_path / "serial" / "probes.csv", delimiter=",", skiprows=1)
     b = np.loadtxt(tmp_path / "mpi" / "probes.csv", delimiter=",", skiprows=1)
     assert a.shape == b.shape == (11, 4)

@@ -43,11 +43,13 @@ def test_exact_rft_speed_of_the_demo():
 
 
 def test_swimming_sheet_case_I_on_4x20(tmp_path):
-    """Case I on the 4×20 mesh (the demo scene as shipped: dt = period/32) swims at
-    the exact RFT speed 0.49763 within 1 %, measured over 8 whole wave periods
-    after 10 τ; the drag dissipates at every step (power ≥ 0)."""
+    """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
+    swims at the exact RFT speed 0.49763 within 0.5 % (REFERENCES.md F: on 4×50 or
+    coarser), measured over 8 whole wave periods after 10 τ (reached: +0.34 %);
+    the drag dissipates at every step (power ≥ 0)."""
     powers = []
-    sim = run_scene(SCENE, "time.output_every=1", "output.fields=false", out_dir=tmp_path,
+    sim = run_scene(SCENE, "time.output_every=1", "output.fields=false",
+                    f"time.dt={PERIOD / 48!r}", out_dir=tmp_path,
                     observers=[lambda s: powers.append(s.model.drag_power())])
     assert sim.summary["status"] == "ok"
     assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag",
@@ -64,29 +66,20 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
           f"window {paper_window:.5f} ({100 * (paper_window / EXACT_I - 1):+.2f} %), "
           f"power min {powers.min():.3e} max {powers.max():.3e}, "
           f"{sim.summary['counts']}")
-    assert abs(velocity / EXACT_I - 1) < 0.01
+    assert abs(velocity / EXACT_I - 1) < 0.005
     assert len(powers) == sim.summary["counts"]["steps"] and powers.max() > 0
     assert powers.min() >= 0.0
     assert sim.summary["director_unit_error"] < 1e-10
 
 
 @pytest.mark.mpi
-def test_swimming_sheet_mpirun_matches_serial(tmp_path, mpirun):
+def test_swimming_sheet_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the 4×20 sheet gives the serial swimming speed to 1e-6
     (8 periods, speed over the last 4)."""
-    exe, env = mpirun
     overrides = [f"time.end={8 * PERIOD!r}", "time.output_every=1", "output.fields=false"]
     speeds = {}
     for n in (1, 2):
-        out = tmp_path / f"np{n}"
-        cmd = [sys.executable, "-m", "rftfem", "run", str(SCENE), "--out", str(out), "--quiet"]
-        for o in overrides:
-            cmd += ["--set", o]
-        if n > 1:
-            cmd = [exe, "-n", str(n), *cmd]
-        done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True,
-                              timeout=1200)
-        assert done.returncode == 0, done.stderr[-2000:]
+        out = cli_run(SCENE, tmp_path / f"np{n}", overrides, np=n)
         data = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
         t, x = data[:, 0], data[:, 1]
         i0, i1 = int(np.argmin(abs(t - 4 * PERIOD))), len(t) - 1
@@ -99,7 +92,7 @@ def test_swimming_sheet_mpirun_matches_serial(tmp_path, mpirun):
 @pytest.mark.slow
 def test_swimming_sheet_demo_table(tmp_path):
     """The demo's full table (cases I-V, REFERENCES.md F): every transient-free speed
-    on 4×50 or finer within 0.5 % of exact RFT, ratios IV/II and V/IV within 0.5 %
+    within 0.5 % of exact RFT, on every mesh including 4×20, ratios IV/II and V/IV within 0.5 %
     (the demo checks and sets its exit status; the test also reads its table)."""
     done = subprocess.run([sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2",
                            "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True)
@@ -109,9 +102,9 @@ def test_swimming_sheet_demo_table(tmp_path):
 
     rows = {r["case"]: r for r in csv.DictReader(open(tmp_path / "table.csv"))}
     assert set(rows) == {"I", "II", "III", "IV", "V"}
-    for case in ("II", "III", "IV", "V"):
+    for case in ("I", "II", "III", "IV", "V"):
         assert abs(float(rows[case]["err_periods_pct"])) <= 0.5
     ratio = float(rows["IV"]["U_periods"]) / float(rows["II"]["U_periods"])
     assert ratio == pytest.approx(2.0, rel=0.005)
     ratio = float(rows["V"]["U_periods"]) / float(rows["IV"]["U_periods"])
-    assert ratio == pytest.approx(0.25113, rel=0.005)
+    assert ratio == pytest.approx(0.24994 / 0.99526, rel=0.005)  # REFERENCES.md F, V / IV
