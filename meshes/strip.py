@@ -69,7 +69,8 @@ def _check_regions(regions, length: float):
             raise SceneError(f"{key}.x: expected two numbers [x0, x1], found {list(band)!r}")
         x0, x1 = float(x0), float(x1)
         if not (math.isfinite(x0) and math.isfinite(x1)) or x1 - x0 <= tol:
-            raise SceneError(f"{key}.x: expected x0 < x1, found [{x0:g}, {x1:g}]")
+            raise SceneError(f"{key}.x: expected an interval [x0, x1] with x1 − x0 > "
+                             f"{tol:.3g} (1e-9 of the length), found [{x0:g}, {x1:g}]")
         if x0 < -tol or x1 > length + tol:
             raise SceneError(f"{key}.x: [{x0:g}, {x1:g}] is not inside the strip "
                              f"[0, {length:g}]")

@@ -72,7 +72,9 @@ class Model:
         self.a1 = fem.Function(self.Vu, name="a1")
         self.a2 = fem.Function(self.Vu, name="a2")
         self.dn = fem.Function(self.Vu, name="director")
-        self._init_triad(np.asarray(scene["shell"]["axis"], dtype=float))
+        axis = np.asarray(scene["shell"]["axis"], dtype=float)
+        axis /= np.abs(axis).max()
+        self._init_triad(axis / np.linalg.norm(axis))
 
         self._init_materials()
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
@@ -131,6 +133,10 @@ class Model:
         self.dn.x.array[:] = D.ravel()
         a1 = axis[None, :] - (D @ axis)[:, None] * D
         bad = np.linalg.norm(a1, axis=1) < 1e-6
+        if self.scene.get("fluid") and self.comm.allreduce(int(bad.sum())):
+            raise SceneError(f"shell.axis: expected a direction not along the shell normal (the "
+                             f"drag frame needs a tangent axis), found {self.scene['shell']['axis']}, along the "
+                             f"normal at {self.comm.allreduce(int(bad.sum()))} nodes")
         if bad.any():  # material axis along the normal: take any tangent
             other = np.where(np.abs(D[bad, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
             a1[bad] = other - np.sum(other * D[bad], axis=1)[:, None] * D[bad]
@@ -482,9 +488,9 @@ class Model:
         interpolated at every time the solver visits (:meth:`set_time`).
         """
         motions = []
-        fixed = {}
+        fixed = {}  # component -> [(who holds them, dofs)]
         for bc_dofs, name in self._fixed_dofs:
-            fixed.setdefault(name, []).append(bc_dofs)
+            fixed.setdefault(name, []).append(("a [[boundary]]", bc_dofs))
         for k, spec in enumerate(self.scene.get("motion", [])):
             key = f"motion.{k}"
             dim, entities = self.entities_of(spec["where"], key + ".where")
@@ -494,12 +500,13 @@ class Model:
             dofs = fem.locate_dofs_topological((sub, V), dim, entities)
             if self.comm.allreduce(len(dofs[0])) == 0:
                 raise SceneError(f"{key}.where: '{spec['where']}' matches no degree of freedom")
-            for other in fixed.get(component, []):
+            for holder, other in fixed.get(component, []):
                 clash = self.comm.allreduce(int(np.isin(dofs[0], other).sum()))
                 if clash:
-                    raise SceneError(f"{key}: {component} is both prescribed here and fixed by a "
-                                     f"[[boundary]] at {clash} dofs; a dof takes one condition")
-            fixed.setdefault(component, []).append(np.asarray(dofs[0]))
+                    how = "fixed by" if holder.startswith("a ") else "already prescribed by"
+                    raise SceneError(f"{key}: {component} is both prescribed here and {how} "
+                                     f"{holder} at {clash} dofs; a dof takes one condition")
+            fixed.setdefault(component, []).append((key, np.asarray(dofs[0])))
             value = fem.Function(V, name=f"motion_{k}")
             X = V.tabulate_dof_coordinates()[np.asarray(dofs[1]), 0]
             motions.append(Motion(spec, value, np.asarray(dofs[1]), X,

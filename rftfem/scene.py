@@ -183,7 +183,10 @@ class _Num(_V):
         expected = self._text(self.name or _leaf_name(path))
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise _err(path, expected, value)
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:
+            x = math.inf  # an integer too large for a float
         if not math.isfinite(x):
             raise _err(path, "a finite number", value)
         if self.lo is not None and (x < self.lo or (self.lo_open and x == self.lo)):
@@ -238,6 +241,10 @@ class _Vec(_V):
                 raise _err(path, self.expected, value) from None
         if self.nonzero and not any(x != 0.0 for x in out):
             raise _err(path, self.expected, value)
+        if self.nonzero and not 1e-100 < max(abs(x) for x in out) < 1e100:
+            # a direction: its length must survive squaring in double precision
+            raise _err(path, "a direction of moderate length (largest entry between 1e-100 "
+                             "and 1e100)", value)
         if self.some_positive and not any(x > 0.0 for x in out):
             raise _err(path, self.expected, value)
         return out
@@ -331,6 +338,16 @@ class _Free:
 
 
 _POS = _Num(0.0, lo_open=True)
+
+#: the most time steps a scene may ask for (time.end / time.dt)
+MAX_STEPS = 1e9
+
+
+def _unit(v) -> tuple[float, float, float]:
+    scale = max(abs(x) for x in v)
+    w = [x / scale for x in v]
+    n = math.hypot(*w)
+    return tuple(x / n for x in w)
 _NONNEG = _Num(0.0)
 
 _PART_MATERIAL = ("E", "nu", "thickness", "density")
@@ -596,6 +613,22 @@ def _cross_check(scene: dict) -> None:
     if time["dt"] > time["end"]:
         raise SceneError(f"time.dt: expected a number <= time.end = {_fmt(time['end'])}, "
                          f"found {_fmt(time['dt'])}")
+    if time["end"] / time["dt"] > MAX_STEPS:
+        raise SceneError(f"time.dt: expected at most {MAX_STEPS:.0e} steps up to time.end = "
+                         f"{_fmt(time['end'])}, found dt = {_fmt(time['dt'])} "
+                         f"({time['end'] / time['dt']:.1e} steps)")
+
+    # a rotating field needs an axis across its direction
+    field = (scene["magnetic"] or {}).get("field")
+    if field and field["frequency"] != 0.0:
+        b, a = (_unit(field["direction"]), _unit(field["rotation_axis"]))
+        cross = (b[1] * a[2] - b[2] * a[1], b[2] * a[0] - b[0] * a[2], b[0] * a[1] - b[1] * a[0])
+        if math.hypot(*cross) <= 1e-9:
+            raise SceneError(
+                f"magnetic.field.rotation_axis: expected an axis not parallel to "
+                f"magnetic.field.direction = {_fmt(field['direction'])} (the field would not "
+                f"rotate at frequency = {_fmt(field['frequency'])}), found "
+                f"{_fmt(field['rotation_axis'])}")
 
     # selectors
     for section in ("boundary", "load", "motion"):

@@ -21,7 +21,7 @@ import numpy as np
 from mpi4py import MPI
 
 from . import __version__, compat, petsc_options
-from .errors import RunFailed
+from .errors import RunFailed, SceneError
 from .model import Model
 from .output import BodyLog, CsvLog, FieldWriter, Probes, Progress, write_json
 from .solver import StepSolver
@@ -44,6 +44,24 @@ def check(scene: dict, comm=None) -> list[str]:
     return model.active_effects()
 
 
+def _make_out_dir(out: Path | None, comm):
+    """Make the output folder on rank 0; a path that cannot be one is a usage error
+    on every rank."""
+    if out is None:
+        return
+    error = None
+    if comm.rank == 0:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            error = f"--out {out}: expected a folder (or a path where one can be made), found a file"
+        except OSError as exc:
+            error = f"--out {out}: cannot make this folder ({exc.strerror or exc})"
+    error = comm.bcast(error, root=0)
+    if error:
+        raise SceneError(error)
+
+
 class Simulation:
     """One run of a scene; ``observers`` are called as ``f(sim)`` after every step."""
 
@@ -52,6 +70,7 @@ class Simulation:
         self.scene = scene
         self.comm = comm or MPI.COMM_WORLD
         self.out_dir = Path(out_dir) if out_dir is not None else None
+        _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
         _quiet_compilers()
@@ -144,9 +163,6 @@ class Simulation:
         scene, comm = self.scene, self.comm
         time_ = scene["time"]
         out = self.out_dir
-        if out is not None and comm.rank == 0:
-            out.mkdir(parents=True, exist_ok=True)
-        comm.barrier()
         summary = self._summary("running")
         wall_start = _time.perf_counter()
         progress = Progress(time_["end"], comm, self.quiet)

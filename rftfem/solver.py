@@ -12,11 +12,13 @@ of the Dirichlet increment is assembled only while the iterate misses the values
 
 from __future__ import annotations
 
+import math
 import time as _time
 
 from petsc4py import PETSc
 
 from . import compat, petsc_options
+from .errors import SceneError
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
@@ -43,8 +45,12 @@ class StepSolver:
         self.snes.setOptionsPrefix(petsc_options.PREFIX)
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A)
-        self.snes.setFromOptions()
-        self.snes.getKSP().setFromOptions()
+        try:
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
+        except PETSc.Error as exc:
+            raise SceneError(f"solver: PETSc rejected an option of [solver] or the command "
+                             f"line: {petsc_message(exc)}") from None
 
     def destroy(self):
         petsc_options.clear(self.options)
@@ -123,7 +129,11 @@ class StepSolver:
         a0 = self.timings["assembly"]
         w = compat.petsc_vec(self.model.w)
         w.copy(self.x)
-        self.snes.solve(None, self.x)
+        try:
+            self.snes.solve(None, self.x)
+        except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
+            self._sync(self.x)
+            return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
         self._sync(self.x)
         reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
@@ -139,3 +149,10 @@ class StepSolver:
 def _reason_name(reason: int) -> str:
     names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
     return names.get(reason, str(reason))
+
+
+def petsc_message(exc) -> str:
+    """The last line of PETSc's own error text (what went wrong), else the error code."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    text = lines[-1] if lines else ""
+    return text[4:] if text.startswith("[0] ") else (text or repr(exc))

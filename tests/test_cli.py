@@ -199,3 +199,16 @@ def test_check_falls_back_without_simulation_module(good, monkeypatch, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out == ["scene OK: cli cantilever", "active effects: elasticity, inertia, edge-moment",
                    "scheme: generalized-alpha"]
+
+
+def test_run_rejects_bad_petsc_option_and_out(tmp_path, good):
+    """A PETSc option PETSc does not know, and an --out that is a file: exit 2 with
+    one line each (not a petsc4py or OSError traceback)."""
+    line = assert_one_line_error(rftfem("run", good, "--out", tmp_path / "o", "--set",
+                                        "solver.pc_type=bogus", timeout=300), "solver", "bogus")
+    assert "PETSc rejected" in line
+    (tmp_path / "afile").write_text("not a folder")
+    assert_one_line_error(rftfem("run", good, "--out", tmp_path / "afile", timeout=300),
+                          "--out", "found a file")
+    assert_one_line_error(rftfem("run", good, "--out", tmp_path / "afile" / "sub", timeout=300),
+                          "--out", "cannot make this folder")
