@@ -40,6 +40,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "bidirectional_strip.toml"
 PROTOCOLS = {"+X": [1.0, 0.0, 0.0], "-X": [-1.0, 0.0, 0.0]}
+#: seconds after the ramp before a sweep run's speed is measured (strip_sweep.sh)
+SETTLE = 0.1
 
 
 # --- the dimensionless groups ------------------------------------------------------
@@ -165,9 +167,12 @@ def plot_trajectories(curves: dict, ramp: float, path: Path):
 # --- the frequency sweep -----------------------------------------------------------
 
 
-def sweep_row(folder: Path) -> dict:
-    """Mean speed along the axis over the second half of phase 2, and the mean
-    slip of the moment behind the field (turns per field turn) over that window."""
+def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
+    """Mean speed along the axis from ``settle`` seconds after the ramp to the end
+    of the run, and the mean slip of the moment behind the field (turns per field
+    turn) over that window.  The settling time keeps the strip's last curling after
+    the ramp out of the speed: it moves the centroid along the axis by about
+    0.3 mm, which over a few periods at a high frequency would read as a fast swim."""
     scene = json.loads((folder / "summary.json").read_text())["scene"]
     field = scene["magnetic"]["field"]
     axis = np.asarray(field["rotation_axis"], dtype=float)
@@ -178,7 +183,9 @@ def sweep_row(folder: Path) -> dict:
     c = np.array([[float(r[f"centroid_{k}"]) for k in "xyz"] for r in rows])
     b = np.array([[float(r[f"field_{k}"]) for k in "xyz"] for r in rows])
     q = np.array([[float(r[f"moment_{k}"]) for k in "xyz"] for r in rows])
-    window = t >= 0.5 * (field["ramp_time"] + t[-1])
+    window = t >= field["ramp_time"] + settle - 1e-12
+    if window.sum() < 2:
+        raise ValueError(f"{folder}: the run ends before {settle} s after the ramp")
     t0, t1 = t[window][0], t[-1]
     speed = float((c[window][-1] - c[window][0]) @ axis / (t1 - t0))
     # angle of field and moment about the axis, unwrapped: the moment loses turns
@@ -192,18 +199,23 @@ def sweep_row(folder: Path) -> dict:
     return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300)}
 
 
-def sweep(folder: Path, estimate: float | None) -> int:
+def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    runs = sorted((p for p in folder.iterdir() if (p / "body.csv").exists()
-                   and (p / "summary.json").exists()), key=lambda p: sweep_row(p)["frequency"])
-    if not runs:
-        print(f"bidirectional_strip: no runs with body.csv and summary.json in {folder}",
+    rows = []
+    for run in sorted(p for p in folder.iterdir()
+                      if (p / "body.csv").exists() and (p / "summary.json").exists()):
+        try:
+            rows.append(sweep_row(run, settle))
+        except ValueError as error:   # a run that failed early: say so, plot the others
+            print(f"bidirectional_strip: left out of the sweep: {error}", file=sys.stderr)
+    if not rows:
+        print(f"bidirectional_strip: no usable runs (body.csv and summary.json) in {folder}",
               file=sys.stderr)
         return 2
-    rows = [sweep_row(p) for p in runs]
+    rows.sort(key=lambda r: r["frequency"])
     f = np.array([r["frequency"] for r in rows])
     v = np.array([r["speed"] for r in rows])
     # step-out: the moment loses turns against the field.  The speed may peak well
@@ -246,9 +258,12 @@ def main(argv=None) -> int:
     parser.add_argument("--sweep", type=Path, metavar="DIR",
                         help="only plot the sweep made by demos/strip_sweep.sh in DIR")
     parser.add_argument("--estimate", type=float, help="step-out estimate to mark (Hz)")
+    parser.add_argument("--settle", type=float, default=SETTLE,
+                        help=f"seconds after the ramp left out of the sweep's speeds "
+                             f"(default {SETTLE})")
     args = parser.parse_args(argv)
     if args.sweep:
-        return sweep(args.sweep, args.estimate)
+        return sweep(args.sweep, args.estimate, args.settle)
 
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
     from mpi4py import MPI

@@ -10,9 +10,13 @@
 #   NP=2 demos/strip_sweep.sh                  # each run under mpirun -n 2
 #   FREQS="2 4 8" PERIODS=6 demos/strip_sweep.sh results/my_sweep --set mesh.divisions=[30,4]
 #
-# Each run lasts phase 1 plus PERIODS field periods (default 8) with STEPS steps per
-# period (default 50); the speed is measured over the second half of phase 2.
-# Runs that already finished (summary.json says "ok") are not repeated.
+# Phase 2 of each run starts with SETTLE seconds (default 0.1) in which the strip
+# finishes curling after the ramp (in a static field its centroid still moves
+# 0.3 mm along the axis in the first 0.05 s after the ramp, and settles within
+# 0.1 s).  The speed and the slip are measured over the window that follows:
+# PERIODS field periods (default 8), but at least WINDOW seconds (default 0.1).
+# STEPS steps per period (default 50), the ramp included.  Runs that already
+# finished (summary.json says "ok") are not repeated.
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -21,6 +25,8 @@ OUT="${1:-results/strip_sweep}"
 [[ $# -gt 0 ]] && shift
 FREQS="${FREQS:-2 4 8 12 16 20 24 32 40}"
 PERIODS="${PERIODS:-8}"
+SETTLE="${SETTLE:-0.1}"
+WINDOW="${WINDOW:-0.1}"
 STEPS="${STEPS:-50}"
 NP="${NP:-1}"
 PYTHON="${PYTHON:-python3}"
@@ -38,7 +44,8 @@ for f in $FREQS; do
         echo "f = $f Hz: done before, kept ($dir)"
         continue
     fi
-    end=$(awk -v r="$ramp" -v f="$f" -v n="$PERIODS" 'BEGIN { printf "%.10g", r + n / f }')
+    end=$(awk -v r="$ramp" -v s="$SETTLE" -v w="$WINDOW" -v f="$f" -v n="$PERIODS" \
+        'BEGIN { m = n / f; if (m < w) m = w; printf "%.10g", r + s + m }')
     dt=$(awk -v f="$f" -v s="$STEPS" 'BEGIN { printf "%.10g", 1 / (f * s) }')
     echo "f = $f Hz: t_end = $end s, dt = $dt s -> $dir"
     # a failed run (exit 3) keeps its outputs; the sweep goes on and the plot uses
@@ -47,4 +54,4 @@ for f in $FREQS; do
         --set "magnetic.field.frequency=$f" --set "time.end=$end" --set "time.dt=$dt" \
         --set "time.output_every=1" "$@" || echo "f = $f Hz: run failed (see $dir/summary.json)"
 done
-"$PYTHON" "$HERE/bidirectional_strip.py" --sweep "$OUT"
+"$PYTHON" "$HERE/bidirectional_strip.py" --sweep "$OUT" --settle "$SETTLE"
