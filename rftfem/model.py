@@ -16,6 +16,7 @@ import time as _time
 import numpy as np
 import ufl
 from dolfinx import fem, mesh as dmesh
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from rftfem.forms import drag, elasticity, inertia, kinematics, loads, magnetic
@@ -598,6 +599,13 @@ class Model:
         """Reset the iterate to the last converged state (θ = 0)."""
         self.w.x.array[self.u_dofs] = self.u_n.x.array
         self.w.x.array[self.theta_dofs] = 0.0
+
+    def largest_rotation_increment(self) -> float:
+        """The largest nodal rotation increment ``|θ|`` of the iterate, in radians
+        (over all processes; ``a₁, a₂`` are orthonormal, so ``|θ|² = θ¹² + θ²²``)."""
+        theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
+        local = float(np.sqrt((theta**2).sum(axis=1)).max()) if len(theta) else 0.0
+        return self.comm.allreduce(local, op=MPI.MAX)
 
     def update_triad(self):
         """Rotate every nodal triad by the exact Rodrigues rotation of its θ; reset θ.

@@ -390,6 +390,7 @@ SCHEMA = _Table({
         "alpha": _Leaf(_Num(-1.0 / 3.0, 0.0), -0.05),
         "output_every": _Leaf(_Int(1), 1),
         "max_cuts": _Leaf(_Int(0), 8),
+        "max_rotation": _Leaf(_POS, 0.2),
     }, required=True),
     "boundary": _Array(_Table({
         "where": _Leaf(_Where(), required=True),

@@ -5,7 +5,12 @@ t = 0 (for the usual ramps that start at zero this is the reference state), so
 the consistent initial acceleration is zero.  Each nominal step ``dt`` is then
 advanced by Newton solves; when SNES fails, the step is restored, halved and
 retried (at most ``time.max_cuts`` halvings), and after two good sub-steps the
-sub-step is doubled again until the nominal step is complete.  Every cut is
+sub-step is doubled again until the nominal step is complete.  In time (not in
+static load steps) a converged step that turns some director by more than
+``time.max_rotation`` is cut the same way: it has not resolved the motion.  A
+magnetized end that flips over does so within ~1e-4 s, far faster than the
+field turns, and steps that jump across such a flip left the strip in states
+from which no step size converged.  Every cut is
 logged and counted.  Outputs are rows per nominal step (every
 ``time.output_every`` steps), so they do not depend on cuts.
 """
@@ -90,13 +95,17 @@ class Simulation:
 
     # --- one step ---------------------------------------------------------------
 
-    def _attempt(self, t_new: float, dt: float, scheme):
+    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True):
         m = self.model
         m.set_coefficients(scheme.coefficients(dt))
         m.set_time(t_new)
         ok, its, res, reason = self.solver.solve()
         if ok and not math.isfinite(res):
             ok, reason = False, "non-finite residual"
+        if ok and limit_rotation and scheme.has_velocity:
+            turn, limit = m.largest_rotation_increment(), self.scene["time"]["max_rotation"]
+            if turn > limit:
+                ok, reason = False, f"a director turned {turn:.3g} rad > time.max_rotation = {limit:g}"
         self.counts["newton_iterations"] += its
         if not ok:
             m.restore()
@@ -117,7 +126,7 @@ class Simulation:
         """
         m, dt = self.model, self.scene["time"]["dt"]
         start = BackwardEuler() if "drag" in m.effects else Static()
-        ok, its, res, reason = self._attempt(0.0, dt, start)
+        ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
         if not ok:
             raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})",
                             0.0, 0)
@@ -147,12 +156,12 @@ class Simulation:
                     dt, level, good = 2 * dt, level - 1, 0
                 continue
             if level >= max_cuts:
-                raise RunFailed(f"SNES did not converge ({reason}, {its} iterations, residual "
+                raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
                                 f"{res:.3e}) after {max_cuts} step halvings, dt = {dt:.3e}",
                                 self.t + dt, self.step)
             self.counts["dt_cuts"] += 1
             level, good = level + 1, 0
-            progress.log(f"step {self.step} at t = {self.t:.6g}: SNES {reason} after {its} "
+            progress.log(f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
                          f"iterations; halving dt to {dt / 2:.3e}")
             dt /= 2
         self.t = t_end  # exact nominal time, free of round-off from the sub-steps

@@ -92,7 +92,8 @@ def test_minimal_scene_gets_every_default(write):
     assert s["shell"] == {"thickness": 0.1, "E": 1.2e6, "nu": 0.0, "density": 0.0,
                           "axis": [1.0, 0.0, 0.0], "parts": []}
     assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "rho_inf": 0.9,
-                         "alpha": -0.05, "output_every": 1, "max_cuts": 8}
+                         "alpha": -0.05, "output_every": 1, "max_cuts": 8,
+                         "max_rotation": 0.2}
     assert s["boundary"] == [] and s["load"] == [] and s["motion"] == []
     assert s["fluid"] is None and s["magnetic"] is None
     assert s["output"] == {"probes": [], "fields": True}
