@@ -49,11 +49,16 @@ def drag_traction(coefficients, frame, velocity):
     return ufl.dot(drag_tensor(coefficients, frame), velocity)
 
 
+def _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2):
+    """``C̃ v J``: the traction in the current frame times the area ratio."""
+    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
+    return drag_traction(coefficients, frame, velocity) * area_ratio(g1, g2, G1, G2)
+
+
 def drag_work(coefficients, F_s, axis, velocity, du, g1, g2, G1, G2, dx):
     """Virtual work of the drag, ``∫ (C̃ v)·δu J dA₀`` (DESIGN.md §5)."""
-    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
-    J = area_ratio(g1, g2, G1, G2)
-    return ufl.dot(drag_traction(coefficients, frame, velocity), du) * J * dx
+    traction = _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2)
+    return ufl.dot(traction, du) * dx
 
 
 def drag_power(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
@@ -63,7 +68,5 @@ def drag_power(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
 
 def drag_force(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
     """The three components of the total drag force ``∫ C̃ v J dA₀`` (scalar forms)."""
-    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
-    J = area_ratio(g1, g2, G1, G2)
-    traction = drag_traction(coefficients, frame, velocity)
-    return [traction[i] * J * dx for i in range(3)]
+    traction = _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2)
+    return [traction[i] * dx for i in range(3)]

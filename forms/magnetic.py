@@ -43,11 +43,6 @@ def magnetic_work(t, m, b, dq, J, dx):
     return t * m * ufl.dot(b, dq) * J * dx
 
 
-def magnetic_couple(t, m, q, b):
-    """Couple per reference-area element, ``t m q × b`` (for diagnostics)."""
-    return t * m * ufl.cross(q, b)
-
-
 def magnetic_moment(t, m, q, J, dx):
     """Components of the body's total moment ``∫ t m q J dA₀`` (three scalar forms)."""
     return [t * m * q[i] * J * dx for i in range(3)]

@@ -73,17 +73,17 @@ class Model:
         self.a1 = fem.Function(self.Vu, name="a1")
         self.a2 = fem.Function(self.Vu, name="a2")
         self.dn = fem.Function(self.Vu, name="director")
-        axis = np.asarray(scene["shell"]["axis"], dtype=float)
-        axis /= np.abs(axis).max()
-        self._init_triad(axis / np.linalg.norm(axis))
+        #: the unit material axis E₁* (shell.axis): the triad's a₁ and the drag frame
+        self.axis = np.array(scene_rules.unit_vector(scene["shell"]["axis"]))
+        self._init_triad(self.axis)
 
         self._init_materials()
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
                      for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
         self._build_effects()
-        self.fixed_bcs = self._build_bcs()
-        self.motions = self._build_motions()
-        self.bcs = self.fixed_bcs + [m.bc for m in self.motions]
+        fixed = self._build_bcs()
+        self.motions = self._build_motions()  # checks clashes with the fixed dofs
+        self.bcs = fixed + [m.bc for m in self.motions]
 
     # --- set-up -----------------------------------------------------------
 
@@ -243,9 +243,8 @@ class Model:
         """A drag form (``forms.drag``) of the current iterate with the scene's coefficients."""
         if not hasattr(self, "drag_coefficients"):
             C = np.asarray(self.scene["fluid"]["drag"], dtype=PETSc.ScalarType)
-            axis = np.asarray(self.scene["shell"]["axis"], dtype=PETSc.ScalarType)
             self.drag_coefficients = fem.Constant(self.mesh, C)
-            self.material_axis = fem.Constant(self.mesh, axis / np.linalg.norm(axis))
+            self.material_axis = fem.Constant(self.mesh, self.axis.astype(PETSc.ScalarType))
         u, _, _, g1, g2, G1, G2 = self.kinematics()
         # F_s = I + grad(u) acts only on tangent vectors here, where it equals grad(x)
         F_s = ufl.Identity(3) + ufl.grad(u)
@@ -354,13 +353,11 @@ class Model:
         ``rotation_axis`` at ``frequency`` Hz from ``direction``.
         """
         f = self.scene["magnetic"]["field"]
-        direction = np.asarray(f["direction"], dtype=float)
-        direction /= np.linalg.norm(direction)
+        direction, axis = (np.array(scene_rules.unit_vector(f[key]))
+                           for key in ("direction", "rotation_axis"))
         ramp = f["ramp_time"]
         if t <= ramp:
             return f["strength"] * (t / ramp if ramp > 0 else 1.0) * direction
-        axis = np.asarray(f["rotation_axis"], dtype=float)
-        axis /= np.linalg.norm(axis)
         angle = 2 * np.pi * f["frequency"] * (t - ramp)
         return f["strength"] * rotate(direction[None, :], angle * axis[None, :])[0]
 
@@ -580,7 +577,7 @@ class Model:
         """``max | |d| − 1 |`` over all nodal directors (global)."""
         d = self.dn.x.array.reshape(-1, 3)
         local = float(np.abs(np.linalg.norm(d, axis=1) - 1).max()) if len(d) else 0.0
-        return self.comm.allreduce(local, op=_max_op())
+        return self.comm.allreduce(local, op=MPI.MAX)
 
     def elastic_energy(self) -> float:
         """Stored energy ``Π`` of the current iterate (compiled on first use)."""
@@ -669,12 +666,6 @@ class Motion:
             rates = np.abs(np.diff(table[:, 1]) / np.maximum(np.diff(table[:, 0]), 1e-300))
             return float(rates.max())
         return abs(s["amplitude"] * s["angular_frequency"])
-
-
-def _max_op():
-    from mpi4py import MPI
-
-    return MPI.MAX
 
 
 def rotate(v: np.ndarray, rot: np.ndarray) -> np.ndarray:

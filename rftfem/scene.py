@@ -343,11 +343,14 @@ _POS = _Num(0.0, lo_open=True)
 MAX_STEPS = 1e9
 
 
-def _unit(v) -> tuple[float, float, float]:
+def unit_vector(v) -> tuple[float, float, float]:
+    """``v / |v|`` for a nonzero 3-vector of any finite size (scaled first: no overflow)."""
     scale = max(abs(x) for x in v)
     w = [x / scale for x in v]
     n = math.hypot(*w)
     return tuple(x / n for x in w)
+
+
 _NONNEG = _Num(0.0)
 
 _PART_MATERIAL = ("E", "nu", "thickness", "density")
@@ -622,7 +625,7 @@ def _cross_check(scene: dict) -> None:
     # a rotating field needs an axis across its direction
     field = (scene["magnetic"] or {}).get("field")
     if field and field["frequency"] != 0.0:
-        b, a = (_unit(field["direction"]), _unit(field["rotation_axis"]))
+        b, a = (unit_vector(field["direction"]), unit_vector(field["rotation_axis"]))
         cross = (b[1] * a[2] - b[2] * a[1], b[2] * a[0] - b[0] * a[2], b[0] * a[1] - b[1] * a[0])
         if math.hypot(*cross) <= 1e-9:
             raise SceneError(

@@ -157,7 +157,8 @@ class Simulation:
                 continue
             if level >= max_cuts:
                 raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
-                                f"{res:.3e}) after {max_cuts} step halvings, dt = {dt:.3e}",
+                                f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
+                                f"dt = {dt:.3e}",
                                 self.t + dt, self.step)
             self.counts["dt_cuts"] += 1
             level, good = level + 1, 0

@@ -101,15 +101,18 @@ class StepSolver:
         # other rows get the lifting A (g − x): the first Newton update then
         # spreads the prescribed increment through the body.  Newton meets the
         # values exactly in that update, so later residuals skip the assembly.
-        with self.work.localForm() as local:
-            local.set(0.0)
-        compat.set_bc(self.work, m.bcs, x, -1.0)
-        if self.work.norm(PETSc.NormType.NORM_INFINITY) > 0.0:
+        # Fixed conditions (zero values) are always met: the iterate starts from the
+        # last state and Newton updates are zero there; only motions can be missed.
+        if m.motions:
             with self.work.localForm() as local:
                 local.set(0.0)
-            compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
-            self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
-            b.axpy(1.0, self.work)
+            compat.set_bc(self.work, m.bcs, x, -1.0)
+            if self.work.norm(PETSc.NormType.NORM_INFINITY) > 0.0:
+                with self.work.localForm() as local:
+                    local.set(0.0)
+                compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
+                self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
+                b.axpy(1.0, self.work)
         compat.set_bc(b, m.bcs, x, -1.0)
         self.timings["assembly"] += _time.perf_counter() - t0
 
