@@ -31,6 +31,20 @@ def run_scene(scene_file, *overrides, out_dir=None, observers=(), petsc_args=Non
     return sim
 
 
+def build_model(scene_text, tmp_path, overrides=(), comm=None, compile_forms=False):
+    """A ``Model`` of a scene text (written into ``tmp_path``), serial unless ``comm``
+    is given; forms are not compiled unless asked (checks on the UFL only)."""
+    from mpi4py import MPI
+
+    from rftfem.meshes import build_body
+    from rftfem.model import Model
+    from rftfem.scene import load_scene
+
+    scene = load_scene(write_scene(tmp_path, scene_text), list(overrides))
+    return Model(scene, build_body(comm or MPI.COMM_SELF, scene["mesh"]),
+                 compile_forms=compile_forms)
+
+
 def rows_at(sim, times, probe=0):
     """Probe displacement rows (n, 3) at the given output times."""
     t = np.array([row[0] for row in sim.history])

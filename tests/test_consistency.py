@@ -5,7 +5,7 @@ import pytest
 import ufl
 from dolfinx import fem
 
-from conftest import write_scene
+from conftest import build_model, write_scene
 from rftfem import compat
 from rftfem.model import Model
 from rftfem.meshes import build_body
@@ -124,9 +124,8 @@ def test_drag_alone_taylor_remainder(tmp_path):
     """The drag term alone (frame, area ratio and velocity all depend on the state):
     its ``ufl.derivative`` Jacobian passes the same Taylor test, and the term is
     not symmetric (RFT is non-conservative)."""
-    scene = load_scene(write_scene(tmp_path, SCENE))
-    model = Model(scene, build_body(model_comm(), scene["mesh"]), compile_forms=False)
-    model.set_coefficients(make_scheme(scene["time"]).coefficients(0.01))
+    model = build_model(SCENE, tmp_path)
+    model.set_coefficients(make_scheme(model.scene["time"]).coefficients(0.01))
     rng = np.random.default_rng(7)
     for f in (model.u_n, model.v_n, model.a_n):
         f.x.array[:] = rng.uniform(-0.1, 0.1, len(f.x.array))

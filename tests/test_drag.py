@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import run_scene, write_scene
+from conftest import build_model, run_scene, write_scene
 
 #: RFT coefficients (N·s/mm³) deliberately all different, so a wrong axis shows
 DRAG = (1.0e-3, 2.0e-3, 4.0e-3)
@@ -163,18 +163,11 @@ values = [[0.0, 0.0], [1.0, {vc}]]
 def test_drag_residual_vanishes_at_rest(tmp_path):
     """For a deformed, rotated body at rest (u = u_n, v_n = a_n = 0) the drag term
     assembles to exactly zero; moving it makes the term non-zero."""
-    from mpi4py import MPI
-
     from rftfem import compat
-    from rftfem.meshes import build_body
-    from rftfem.model import Model
-    from rftfem.scene import load_scene
     from rftfem.timeint import make_scheme
 
-    scene = load_scene(write_scene(tmp_path, STRIP.replace("E = 1.0e6", "E = 1.0e6\n"
-                                                           "density = 1.0e-6")))
-    model = Model(scene, build_body(MPI.COMM_SELF, scene["mesh"]), compile_forms=False)
-    model.set_coefficients(make_scheme(scene["time"]).coefficients(0.1))
+    model = build_model(STRIP.replace("E = 1.0e6", "E = 1.0e6\ndensity = 1.0e-6"), tmp_path)
+    model.set_coefficients(make_scheme(model.scene["time"]).coefficients(0.1))
     drag = compat.form(model.effects["drag"])
     rng = np.random.default_rng(3)
     for _ in range(2):  # rotate the triad far from the reference
@@ -199,15 +192,8 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
 def test_drag_form_absent_without_fluid(tmp_path):
     """Without [fluid] the drag is neither built nor compiled (no drag coefficients
     among the compiled forces' constants); with it, it is."""
-    from mpi4py import MPI
-
-    from rftfem.meshes import build_body
-    from rftfem.model import Model
-    from rftfem.scene import load_scene
-
     def constants(text):
-        scene = load_scene(write_scene(tmp_path, text))
-        model = Model(scene, build_body(MPI.COMM_SELF, scene["mesh"]), compile_forms=False)
+        model = build_model(text, tmp_path)
         values = [np.atleast_1d(c.value) for c in model.forces_ufl.constants()]
         return model, values
 

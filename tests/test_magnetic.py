@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import run_scene, write_scene
+from conftest import build_model, run_scene, write_scene
 
 LENGTH, THICKNESS, E = 10.0, 0.1, 1.2e4        # EI = E w t³/12 = 1 N·mm² for w = 1
 
@@ -79,7 +79,7 @@ def elastica_tip(lam: float, psi: float, n: int = 4000):
 
 
 class TipDirector:
-    """Observer: the director at the node nearest the tip corner (serial)."""
+    """Observer: director and displacement at the middle of the tip edge (serial)."""
 
     def __init__(self):
         self.rows = []
@@ -96,7 +96,8 @@ class TipDirector:
 def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
     """A cantilever magnetized along its axis, in a uniform field at ψ to it, bends
     towards alignment; tip angle and tip position match the hard-magnetic elastica
-    (shooting, independent of the FE code) within 1 %."""
+    (shooting, independent of the FE code) within 1 % (issue 4), each coordinate
+    relative to its own value (20×1; reached about 3e-5)."""
     psi = math.radians(psi_deg)
     direction = [math.cos(psi), 0.0, math.sin(psi)]
     observe = TipDirector()
@@ -114,7 +115,7 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
           f"elastica {math.degrees(theta):.3f}°; tip (x, z)/L FE ({x_fe:.4f}, {z_fe:.4f}) vs "
           f"({x:.4f}, {z:.4f})")
     assert abs(theta_fe / theta - 1) < 0.01
-    assert abs(x_fe - x) < 0.01 and abs(z_fe - z) < 0.01
+    assert abs(x_fe / x - 1) < 0.01 and abs(z_fe / z - 1) < 0.01
     assert 0 < theta < psi
 
 
@@ -135,21 +136,11 @@ def test_field_protocol():
 def test_magnetic_form_absent_without_magnetic(tmp_path):
     """Without [magnetic] nothing magnetic is built or compiled; with it, the
     remanence field enters the compiled forces."""
-    from mpi4py import MPI
-
-    from rftfem.meshes import build_body
-    from rftfem.model import Model
-    from rftfem.scene import load_scene
-
-    def build(text):
-        scene = load_scene(write_scene(tmp_path, text))
-        return Model(scene, build_body(MPI.COMM_SELF, scene["mesh"]), compile_forms=False)
-
-    dry = build(CANTILEVER.split("[magnetic]")[0])
+    dry = build_model(CANTILEVER.split("[magnetic]")[0], tmp_path)
     assert "magnetic" not in dry.effects and not hasattr(dry, "remanence")
     names = [c.name for c in dry.forces_ufl.coefficients()]
     assert "remanent_magnetization" not in names
-    wet = build(CANTILEVER)
+    wet = build_model(CANTILEVER, tmp_path)
     assert wet.active_effects() == ["elasticity", "magnetic"]
     assert "remanent_magnetization" in [c.name for c in wet.forces_ufl.coefficients()]
 
@@ -398,12 +389,8 @@ def test_rigid_rotor_diagnostics(tmp_path):
     plate's centre, and ``magnetic_moment`` is t m A q₀."""
     from mpi4py import MPI
 
-    from rftfem.meshes import build_body
-    from rftfem.model import Model
-    from rftfem.scene import load_scene
-
-    scene = load_scene(write_scene(tmp_path, PLATE), ["time.end=1.0", "time.dt=0.1"])
-    model = Model(scene, build_body(MPI.COMM_WORLD, scene["mesh"]))
+    model = build_model(PLATE, tmp_path, ["time.end=1.0", "time.dt=0.1"], comm=MPI.COMM_WORLD,
+                        compile_forms=True)
     assert np.allclose(model.centroid(), [PLATE_L / 2, PLATE_W / 2, 0.0], atol=1e-12)
     for axis, zeta in AXES.values():
         assert abs(model.rotational_drag(axis) / zeta - 1) < 1e-10
