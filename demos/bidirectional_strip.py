@@ -170,10 +170,12 @@ def plot_trajectories(curves: dict, ramp: float, path: Path):
 def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
     """Mean speed along the axis from ``settle`` seconds after the ramp to the end
     of the run, and the mean slip of the moment behind the field (turns per field
-    turn) over that window.  The settling time keeps the strip's last curling after
+    turn) over that window, and the run's status (a failed run is measured up to
+    where it stopped, and marked).  The settling time keeps the strip's last curling after
     the ramp out of the speed: it moves the centroid along the axis by about
     0.3 mm, which over a few periods at a high frequency would read as a fast swim."""
-    scene = json.loads((folder / "summary.json").read_text())["scene"]
+    summary = json.loads((folder / "summary.json").read_text())
+    scene = summary["scene"]
     field = scene["magnetic"]["field"]
     axis = np.asarray(field["rotation_axis"], dtype=float)
     axis /= np.linalg.norm(axis)
@@ -196,7 +198,8 @@ def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
     angle = [np.unwrap(np.arctan2(v[window] @ e2, v[window] @ e1)) for v in (b, q)]
     turns = (angle[0][-1] - angle[0][0]) / (2 * math.pi)
     lost = ((angle[0][-1] - angle[1][-1]) - (angle[0][0] - angle[1][0])) / (2 * math.pi)
-    return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300)}
+    return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300),
+            "status": summary["status"], "end": float(t1)}
 
 
 def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
@@ -224,15 +227,20 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     slipping = np.array([r["slip"] > 0.05 for r in rows])
     peak = int(np.argmax(np.abs(v)))
     with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
-        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn\n")
+        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s\n")
         for r in rows:
-            out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f}\n")
+            out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f},{r['status']},"
+                      f"{r['end']:.6g}\n")
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot(f, np.abs(v), "o-", color="C0", label="|mean speed| along the axis")
     ax.plot(f[peak], abs(v[peak]), "*", color="C1", ms=12, label="speed peak")
     if slipping.any():
         ax.plot(f[slipping], np.abs(v[slipping]), "x", color="C3", ms=10,
                 label="stepped out: the moment slips behind the field")
+    failed = np.array([r["status"] != "ok" for r in rows])
+    if failed.any():
+        ax.plot(f[failed], np.abs(v[failed]), "s", mfc="none", color="k", ms=10,
+                label="run failed: measured up to where it stopped")
     if estimate:
         ax.axvline(estimate, color="grey", ls="--", label=f"rigid-rotor estimate {estimate:.0f} Hz")
     ax.set_xlabel("field frequency f (Hz)")
@@ -241,8 +249,9 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     fig.tight_layout()
     fig.savefig(folder / "sweep.png", dpi=110)
     for r in rows:
+        failed = "" if r["status"] == "ok" else f"  (run FAILED at t = {r['end']:.4g} s)"
         print(f"f = {r['frequency']:6.2f} Hz: mean speed {r['speed']:+9.4f} mm/s, "
-              f"slip {r['slip']:.3f} turn per field turn")
+              f"slip {r['slip']:.3f} turn per field turn{failed}")
     print(f"wrote {folder / 'sweep.csv'} and {folder / 'sweep.png'}")
     return 0
 
