@@ -66,6 +66,14 @@ def rotation_coefficients(s):
     return c, sc, vc
 
 
+def convected_axis(u, axis, N):
+    """The material axis carried by the deformation: ``F_s A_t`` with ``A_t`` the
+    reference axis ``A`` projected onto the reference tangent plane (normal ``N``)
+    and ``F_s = I + grad u`` the surface deformation gradient."""
+    A_t = axis - ufl.dot(axis, N) * N
+    return A_t + ufl.grad(u) * A_t
+
+
 def rotation_vector(theta, a1, a2):
     """Rotation increment ``θ = θ¹ a₁ + θ² a₂`` from its two components (DESIGN §4)."""
     return theta[0] * a1 + theta[1] * a2

@@ -3,7 +3,8 @@
 The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
 the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
 ``(a₁, a₂, dₙ)`` of the last converged step (DESIGN.md §4).  The triad is kept as
-three [P2]³ functions and rotated node by node after each converged step.
+three [P2]³ functions, rotated node by node after each converged step, and its
+in-plane pair turned about dₙ onto the convected material axis (``update_triad``).
 
 Only the effects a scene asks for are built (DESIGN.md §5): ``Model.effects``
 names them, and each maps to its UFL virtual-work term.
@@ -75,7 +76,9 @@ class Model:
         self.dn = fem.Function(self.Vu, name="director")
         #: the unit material axis E₁* (shell.axis): the triad's a₁ and the drag frame
         self.axis = np.array(scene_rules.unit_vector(scene["shell"]["axis"]))
+        self._nodal = NodalProjection(self.Vu, self._compile)
         self._init_triad(self.axis)
+        self._convected_axis = self._convected_axis_form() if compile_forms else None
 
         self._init_materials()
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
@@ -105,27 +108,8 @@ class Model:
     def _project_normal(self) -> np.ndarray:
         """Nodal unit normals: L2 projection of the cell normal onto [P2]³, normalised."""
         G1, G2 = kinematics.covariant_basis(self.mesh)
-        N = kinematics.unit_normal(G1, G2)
-        p, q = ufl.TrialFunction(self.Vu), ufl.TestFunction(self.Vu)
-        dx = ufl.dx(domain=self.mesh, metadata={"quadrature_degree": 4})
-        a = self._compile(ufl.inner(p, q) * dx)
-        L = self._compile(ufl.inner(N, q) * dx)
-        A = fem.petsc.assemble_matrix(a)
-        A.assemble()
-        b = fem.petsc.assemble_vector(L)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        ksp = PETSc.KSP().create(self.comm)
-        ksp.setOperators(A)
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        if compat.has_mumps():
-            ksp.getPC().setFactorSolverType("mumps")
-        x = compat.petsc_vec(self.D)
-        ksp.solve(b, x)
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        for obj in (ksp, A, b):
-            obj.destroy()
-        n = self.D.x.array.reshape(-1, 3)
+        n = self._nodal.project(self._compile(ufl.inner(kinematics.unit_normal(G1, G2),
+                                                        self._nodal.test) * self._nodal.dx))
         return n / np.linalg.norm(n, axis=1)[:, None]
 
     def _init_triad(self, axis: np.ndarray):
@@ -144,6 +128,15 @@ class Model:
         a1 /= np.linalg.norm(a1, axis=1)[:, None]
         self.a1.x.array[:] = a1.ravel()
         self.a2.x.array[:] = np.cross(D, a1).ravel()
+
+    def _convected_axis_form(self):
+        """Compiled L2 right-hand side of the convected material axis (kinematics.
+        convected_axis) at the converged displacement: the in-plane reference for the
+        nodal triads (``update_triad``)."""
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        A = ufl.as_vector([float(c) for c in self.axis])
+        t = kinematics.convected_axis(self.u_n, A, kinematics.unit_normal(G1, G2))
+        return self._compile(ufl.inner(t, self._nodal.test) * self._nodal.dx)
 
     def _cells_of(self, names, key: str = "region") -> np.ndarray:
         """Local cells of the named regions; an unknown name is a SceneError at ``key``."""
@@ -605,10 +598,21 @@ class Model:
         return self.comm.allreduce(local, op=MPI.MAX)
 
     def update_triad(self):
-        """Rotate every nodal triad by the exact Rodrigues rotation of its θ; reset θ.
+        """Rotate every nodal triad by the exact Rodrigues rotation of its θ; reset θ;
+        then turn ``(a₁, a₂)`` about ``dₙ`` onto the convected material axis.
 
-        Done on owned and ghost nodes alike from the ghost-updated iterate, so
-        every copy of a node gets the identical value without communication.
+        The rotations have no drilling part, so a triad carried through many turns
+        picks up an in-plane twist that depends on the path its director took
+        (holonomy): after ~14 turns of the strip in a 64 Hz field, neighbouring
+        nodes of one cell had ``a₁`` up to 180° apart.  ``θ¹, θ²`` are interpolated
+        between nodes as components, so such frames make the interpolated
+        rotation meaningless and leave θ almost free at single nodes.  Choosing
+        ``a₁`` along the projected convected axis ``F_s A`` keeps the frames as
+        smooth as the deformation; ``dₙ``, and with θ = 0 the whole current state,
+        is unchanged by that choice.
+
+        Done on owned and ghost nodes alike from ghost-updated values, so every
+        copy of a node gets the identical triad without further communication.
         """
         theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
         idx = self._node_map
@@ -619,6 +623,10 @@ class Model:
         for triad_vector in (a1, a2, dn):
             triad_vector[idx] = rotate(triad_vector[idx], rot)
         self.w.x.array[self.theta_dofs] = 0.0
+        if self._convected_axis is not None:
+            along = in_plane_frame(self._nodal.project(self._convected_axis), dn, a1)
+            a1[:] = along
+            a2[:] = np.cross(dn, along)
 
     def accept(self, scheme, dt: float):
         """After convergence: update the state (u_n, v_n, a_n) and the triad."""
@@ -666,6 +674,53 @@ class Motion:
             rates = np.abs(np.diff(table[:, 1]) / np.maximum(np.diff(table[:, 0]), 1e-300))
             return float(rates.max())
         return abs(s["amplitude"] * s["angular_frequency"])
+
+
+def in_plane_frame(t: np.ndarray, dn: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """Rows of ``t`` projected onto the planes normal to the rows of ``dn`` and
+    normalised; where ``t`` lies (almost) along ``dn`` the row of ``fallback``."""
+    p = t - np.sum(t * dn, axis=1)[:, None] * dn
+    size = np.linalg.norm(p, axis=1)
+    ok = size > 1e-3 * np.linalg.norm(t, axis=1)
+    out = np.array(fallback, dtype=float)
+    out[ok] = p[ok] / size[ok, None]
+    return out
+
+
+class NodalProjection:
+    """L2 projection onto a [P2]³ space with its mass matrix factorised once (LU)."""
+
+    def __init__(self, V, compile_form):
+        self.V = V
+        self.test = ufl.TestFunction(V)
+        self.dx = ufl.dx(domain=V.mesh, metadata={"quadrature_degree": 4})
+        mass = compile_form(ufl.inner(ufl.TrialFunction(V), self.test) * self.dx)
+        self.A = fem.petsc.assemble_matrix(mass)
+        self.A.assemble()
+        self.ksp = PETSc.KSP().create(V.mesh.comm)
+        self.ksp.setOperators(self.A)
+        self.ksp.setType("preonly")
+        self.ksp.getPC().setType("lu")
+        if compat.has_mumps():
+            self.ksp.getPC().setFactorSolverType("mumps")
+        self.result = fem.Function(V)
+        self.b = compat.petsc_vec(self.result).duplicate()  # ghosted like the result
+
+    def project(self, rhs) -> np.ndarray:
+        """Nodal values (owned and ghost), shape (nodes, 3), of the projection whose
+        compiled right-hand side is ``rhs``."""
+        with self.b.localForm() as local:
+            local.set(0.0)
+        compat.assemble_vector(self.b, rhs)
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        x = compat.petsc_vec(self.result)
+        self.ksp.solve(self.b, x)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        return self.result.x.array.reshape(-1, 3).copy()
+
+    def destroy(self):
+        for obj in (self.ksp, self.A, self.b):
+            obj.destroy()
 
 
 def rotate(v: np.ndarray, rot: np.ndarray) -> np.ndarray:

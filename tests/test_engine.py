@@ -48,6 +48,65 @@ def test_director_stays_unit_after_1000_steps_of_a_spinning_end(tmp_path):
     assert sim.summary["director_unit_error"] < 1e-10
 
 
+def _largest_frame_angle(model) -> float:
+    """The largest angle (degrees) between the a₁ of two nodes of one cell, each
+    a₁ taken into the other node's tangent plane."""
+    from rftfem import compat
+
+    a1 = model.a1.x.array.reshape(-1, 3)
+    dn = model.dn.x.array.reshape(-1, 3)
+    worst = 0.0
+    for nodes in compat.cell_dofs(model.Vu):
+        for i in nodes:
+            v = a1[nodes] - (a1[nodes] @ dn[i])[:, None] * dn[i]
+            v /= np.linalg.norm(v, axis=1)[:, None]
+            worst = max(worst, float(np.degrees(np.arccos(np.clip(v @ a1[i], -1, 1))).max()))
+    return worst
+
+
+def test_triad_update_realigns_drifted_frames(tmp_path):
+    """After the Rodrigues rotation, update_triad turns (a₁, a₂) about dₙ onto the
+    convected material axis (README, rotations).  In-plane frames scrambled about
+    dₙ, as a long spin leaves them (up to 180° apart within one cell), come back
+    smooth and equal to the frames of the run; dₙ and the state (the force vector
+    at θ = 0) are unchanged."""
+    from rftfem.model import rotate
+    from rftfem.scene import load_scene
+    from rftfem.simulation import Simulation
+
+    scene = load_scene(DEMOS / "rollup.toml", ["time.end=0.5", "output.fields=false"])
+    sim = Simulation(scene, quiet=True)
+    try:
+        sim.run()
+        m = sim.model
+        a1_run, dn_run = m.a1.x.array.copy(), m.dn.x.array.copy()
+        forces = sim.solver.F_n.duplicate()
+        sim.solver.assemble_forces(forces)
+        before = forces.getArray().copy()
+        smooth = _largest_frame_angle(m)
+
+        dn = dn_run.reshape(-1, 3)
+        spin = np.random.default_rng(4).uniform(-np.pi, np.pi, len(dn))[:, None] * dn
+        for f in (m.a1, m.a2):
+            f.x.array[:] = rotate(f.x.array.reshape(-1, 3), spin).ravel()
+        scrambled = _largest_frame_angle(m)
+        m.update_triad()  # θ = 0: no rotation, only the realignment
+        realigned = _largest_frame_angle(m)
+        sim.solver.assemble_forces(forces)
+        after = forces.getArray()
+        print(f"largest a1 angle within a cell: run {smooth:.2e}°, scrambled {scrambled:.1f}°, "
+              f"realigned {realigned:.2e}°; force change {np.abs(after - before).max():.1e}")
+        assert scrambled > 90 and smooth < 1 and realigned < 1
+        assert np.array_equal(m.dn.x.array, dn_run)
+        assert np.abs(m.a1.x.array - a1_run).max() < 1e-10
+        a1, a2 = m.a1.x.array.reshape(-1, 3), m.a2.x.array.reshape(-1, 3)
+        assert np.abs(np.sum(a1 * dn, axis=1)).max() < 1e-12
+        assert np.abs(a2 - np.cross(dn, a1)).max() < 1e-12
+        assert np.abs(after - before).max() <= 1e-12 * np.abs(before).max()
+    finally:
+        sim.close()
+
+
 @pytest.mark.mpi
 def test_two_processes_reproduce_the_serial_probe_history(tmp_path, cli_run):
     """Roll-up, 10 steps: `mpirun -n 2` gives the serial probes to 1e-8 relative."""
