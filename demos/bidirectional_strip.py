@@ -232,17 +232,21 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
             out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f},{r['status']},"
                       f"{r['end']:.6g}\n")
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(f, np.abs(v), "o-", color="C0", label="|mean speed| along the axis")
-    ax.plot(f[peak], abs(v[peak]), "*", color="C1", ms=12, label="speed peak")
+    # signed: the direction along the axis may change with f
+    ax.axhline(0.0, color="grey", lw=0.6)
+    ax.plot(f, v, "o-", color="C0", label="mean speed along the rotation axis")
+    ax.plot(f[peak], v[peak], "*", color="C1", ms=12, label="fastest")
     if slipping.any():
-        ax.plot(f[slipping], np.abs(v[slipping]), "x", color="C3", ms=10,
+        ax.plot(f[slipping], v[slipping], "x", color="C3", ms=10,
                 label="stepped out: the moment slips behind the field")
     failed = np.array([r["status"] != "ok" for r in rows])
     if failed.any():
-        ax.plot(f[failed], np.abs(v[failed]), "s", mfc="none", color="k", ms=10,
+        ax.plot(f[failed], v[failed], "s", mfc="none", color="k", ms=10,
                 label="run failed: measured up to where it stopped")
     if estimate:
         ax.axvline(estimate, color="grey", ls="--", label=f"rigid-rotor estimate {estimate:.0f} Hz")
+    if f.min() > 0 and f.max() / f.min() > 8:
+        ax.set_xscale("log", base=2)
     ax.set_xlabel("field frequency f (Hz)")
     ax.set_ylabel("mean swimming speed (mm/s)")
     ax.legend(fontsize=8)
