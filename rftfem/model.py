@@ -628,6 +628,13 @@ class Model:
             a1[:] = along
             a2[:] = np.cross(dn, along)
 
+    def destroy(self):
+        """Free the model's own PETSc objects (the nodal projection's matrix and
+        factorisation).  Forms and functions stay usable for inspection; a triad
+        update after this rotates the triads but no longer realigns them."""
+        self._nodal.destroy()
+        self._convected_axis = None
+
     def accept(self, scheme, dt: float):
         """After convergence: update the state (u_n, v_n, a_n) and the triad."""
         u = self.w.x.array[self.u_dofs]

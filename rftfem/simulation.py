@@ -260,6 +260,7 @@ class Simulation:
 
     def close(self):
         self.solver.destroy()
+        self.model.destroy()
 
 
 def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
