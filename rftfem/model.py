@@ -22,7 +22,7 @@ from petsc4py import PETSc
 
 from rftfem.forms import drag, elasticity, inertia, kinematics, loads, magnetic
 
-from . import compat
+from . import compat, petsc_options
 from . import scene as scene_rules
 from .errors import SceneError
 
@@ -704,12 +704,7 @@ class NodalProjection:
         mass = compile_form(ufl.inner(ufl.TrialFunction(V), self.test) * self.dx)
         self.A = fem.petsc.assemble_matrix(mass)
         self.A.assemble()
-        self.ksp = PETSc.KSP().create(V.mesh.comm)
-        self.ksp.setOperators(self.A)
-        self.ksp.setType("preonly")
-        self.ksp.getPC().setType("lu")
-        if compat.has_mumps():
-            self.ksp.getPC().setFactorSolverType("mumps")
+        self.ksp = petsc_options.direct_solver(self.A)
         self.result = fem.Function(V)
         self.b = compat.petsc_vec(self.result).duplicate()  # ghosted like the result
 

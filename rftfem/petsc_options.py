@@ -46,6 +46,19 @@ def defaults(reference_force: float) -> dict:
     return opts
 
 
+def direct_solver(A: PETSc.Mat) -> PETSc.KSP:
+    """A KSP that solves with ``A`` exactly (LU, MUMPS where PETSc has it), for the
+    auxiliary projections of the model; not influenced by user options.  The
+    factorisation is computed at the first solve and reused."""
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    if compat.has_mumps():
+        ksp.getPC().setFactorSolverType("mumps")
+    return ksp
+
+
 def _value(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
