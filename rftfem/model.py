@@ -67,7 +67,6 @@ class Model:
         self.u_n = fem.Function(self.Vu, name="u_n")
         self.v_n = fem.Function(self.Vu, name="v_n")
         self.a_n = fem.Function(self.Vu, name="a_n")
-        self.displacement = fem.Function(self.Vu, name="displacement")
 
         # reference director D and nodal triad (a1, a2, dn)
         self.D = fem.Function(self.Vu, name="reference_director")
@@ -628,6 +627,11 @@ class Model:
             a1[:] = along
             a2[:] = np.cross(dn, along)
 
+    @property
+    def displacement(self):
+        """The displacement of the last converged step (the Function ``u_n``)."""
+        return self.u_n
+
     def destroy(self):
         """Free the model's own PETSc objects (the nodal projection's matrix and
         factorisation).  Forms and functions stay usable for inspection; a triad
@@ -643,7 +647,6 @@ class Model:
         self.v_n.x.array[:] = v
         self.a_n.x.array[:] = a
         self.u_n.x.array[:] = u
-        self.displacement.x.array[:] = u
         self.update_triad()
 
 
