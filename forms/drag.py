@@ -19,22 +19,13 @@ from __future__ import annotations
 
 import ufl
 
-from .kinematics import area_ratio, unit, unit_normal
+from .kinematics import area_ratio, convected_axis, unit, unit_normal
 
 
-def tangent_axis(axis, G1, G2):
-    """The material axis ``E₁*`` projected onto the reference tangent plane.
-
-    A scene gives the axis as one constant vector; on a curved (or rotated)
-    reference surface only its tangential part is a material direction.
-    """
-    N = unit_normal(G1, G2)
-    return axis - ufl.dot(axis, N) * N
-
-
-def drag_frame(F_s, axis, g1, g2):
-    """Orthonormal current frame ``(e₁, e₂, e₃)`` of the paper's eq. 9."""
-    e1 = unit(F_s * axis)
+def drag_frame(convected, g1, g2):
+    """Orthonormal current frame ``(e₁, e₂, e₃)`` of the paper's eq. 9, from the
+    convected material axis ``F_s E₁*`` (``kinematics.convected_axis``)."""
+    e1 = unit(convected)
     e3 = unit_normal(g1, g2)
     return e1, ufl.cross(e3, e1), e3
 
@@ -51,7 +42,7 @@ def drag_traction(coefficients, frame, velocity):
 
 def _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2):
     """``C̃ v J``: the traction in the current frame times the area ratio."""
-    frame = drag_frame(F_s, tangent_axis(axis, G1, G2), g1, g2)
+    frame = drag_frame(convected_axis(F_s, axis, G1, G2), g1, g2)
     return drag_traction(coefficients, frame, velocity) * area_ratio(g1, g2, G1, G2)
 
 

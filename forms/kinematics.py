@@ -66,12 +66,25 @@ def rotation_coefficients(s):
     return c, sc, vc
 
 
-def convected_axis(u, axis, N):
-    """The material axis carried by the deformation: ``F_s A_t`` with ``A_t`` the
-    reference axis ``A`` projected onto the reference tangent plane (normal ``N``)
-    and ``F_s = I + grad u`` the surface deformation gradient."""
-    A_t = axis - ufl.dot(axis, N) * N
-    return A_t + ufl.grad(u) * A_t
+def surface_deformation_gradient(u):
+    """``F_s = I + grad u``; on tangent vectors, where it is used, it equals ``grad x``."""
+    return ufl.Identity(3) + ufl.grad(u)
+
+
+def tangent_axis(axis, G1, G2):
+    """The material axis ``E₁*`` projected onto the reference tangent plane.
+
+    A scene gives the axis as one constant vector; on a curved (or rotated)
+    reference surface only its tangential part is a material direction.
+    """
+    N = unit_normal(G1, G2)
+    return axis - ufl.dot(axis, N) * N
+
+
+def convected_axis(F_s, axis, G1, G2):
+    """The material axis carried by the deformation, ``F_s E₁*`` with ``E₁*`` taken
+    tangent (``tangent_axis``); not normalised."""
+    return F_s * tangent_axis(axis, G1, G2)
 
 
 def rotation_vector(theta, a1, a2):

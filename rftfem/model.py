@@ -75,6 +75,7 @@ class Model:
         self.dn = fem.Function(self.Vu, name="director")
         #: the unit material axis E₁* (shell.axis): the triad's a₁ and the drag frame
         self.axis = np.array(scene_rules.unit_vector(scene["shell"]["axis"]))
+        self.material_axis = fem.Constant(self.mesh, self.axis.astype(PETSc.ScalarType))
         self._nodal = NodalProjection(self.Vu, self._compile)
         self._init_triad(self.axis)
         self._convected_axis = self._convected_axis_form() if compile_forms else None
@@ -133,8 +134,8 @@ class Model:
         convected_axis) at the converged displacement: the in-plane reference for the
         nodal triads (``update_triad``)."""
         G1, G2 = kinematics.covariant_basis(self.mesh)
-        A = ufl.as_vector([float(c) for c in self.axis])
-        t = kinematics.convected_axis(self.u_n, A, kinematics.unit_normal(G1, G2))
+        F_s = kinematics.surface_deformation_gradient(self.u_n)
+        t = kinematics.convected_axis(F_s, self.material_axis, G1, G2)
         return self._compile(ufl.inner(t, self._nodal.test) * self._nodal.dx)
 
     def _cells_of(self, names, key: str = "region") -> np.ndarray:
@@ -236,10 +237,8 @@ class Model:
         if not hasattr(self, "drag_coefficients"):
             C = np.asarray(self.scene["fluid"]["drag"], dtype=PETSc.ScalarType)
             self.drag_coefficients = fem.Constant(self.mesh, C)
-            self.material_axis = fem.Constant(self.mesh, self.axis.astype(PETSc.ScalarType))
         u, _, _, g1, g2, G1, G2 = self.kinematics()
-        # F_s = I + grad(u) acts only on tangent vectors here, where it equals grad(x)
-        F_s = ufl.Identity(3) + ufl.grad(u)
+        F_s = kinematics.surface_deformation_gradient(u)
         C = self.drag_coefficients
         return term([C[0], C[1], C[2]], F_s, self.material_axis, *args, g1, g2, G1, G2,
                     self.dx(metadata={"quadrature_degree": 4}))
