@@ -66,16 +66,39 @@ def run(frequency: float, divisions: tuple[int, int], steps: int) -> dict:
             "status": summary["status"], "speed": track.speed_z(RAMP + SETTLE, end)}
 
 
+def _positive(kind):
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, found '{text}'") from None
+        if not 0 < value < float("inf"):
+            raise argparse.ArgumentTypeError(f"expected a finite number > 0, found '{text}'")
+        return value
+    return parse
+
+
+def _divisions(text: str) -> tuple[int, int]:
+    """``"20x4"`` -> ``(20, 4)``; anything else is an argparse error, not a traceback."""
+    try:
+        nx, ny = (int(n) for n in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected divisions like 20x4, found '{text}'") from None
+    if nx < 1 or ny < 1:
+        raise argparse.ArgumentTypeError(f"expected positive divisions, found '{text}'")
+    return nx, ny
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--frequency", type=float, default=4.0, help="field frequency (Hz)")
-    parser.add_argument("--steps", type=int, nargs="+", default=[25, 50, 100],
+    parser.add_argument("--frequency", type=_positive(float), default=4.0, help="field frequency (Hz)")
+    parser.add_argument("--steps", type=_positive(int), nargs="+", default=[25, 50, 100],
                         help="steps per field period on the demo mesh")
-    parser.add_argument("--meshes", nargs="+", default=["20x4", "40x8"],
+    parser.add_argument("--meshes", nargs="+", type=_divisions, default=["20x4", "40x8"],
                         help="meshes (divisions along x y); the finer ones at 50 steps per period")
     parser.add_argument("--out", type=Path, default=Path("results/benchmarks"))
     args = parser.parse_args(argv)
-    meshes = [tuple(int(n) for n in m.split("x")) for m in args.meshes]
+    meshes = [m if isinstance(m, tuple) else _divisions(m) for m in args.meshes]
 
     cases = [(meshes[0], s) for s in args.steps] + [(m, 50) for m in meshes[1:]]
     rows = []

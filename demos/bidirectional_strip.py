@@ -42,6 +42,8 @@ SCENE = HERE / "bidirectional_strip.toml"
 PROTOCOLS = {"+X": [1.0, 0.0, 0.0], "-X": [-1.0, 0.0, 0.0]}
 #: seconds after the ramp before a sweep run's speed is measured (strip_sweep.sh)
 SETTLE = 0.1
+#: slip (turns lost per field turn) above which a run counts as stepped out
+STEPPED_OUT_SLIP = 0.05
 
 
 # --- the dimensionless groups ------------------------------------------------------
@@ -224,7 +226,7 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     # step-out: the moment loses turns against the field.  The speed may peak well
     # below it, when the strip no longer holds its chiral shape at a high sperm
     # number while its magnetized ends still follow the field.
-    slipping = np.array([r["slip"] > 0.05 for r in rows])
+    slipping = np.array([r["slip"] > STEPPED_OUT_SLIP for r in rows])
     peak = int(np.argmax(np.abs(v)))
     with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
         out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s\n")

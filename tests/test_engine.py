@@ -68,8 +68,8 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
     """After the Rodrigues rotation, update_triad turns (a₁, a₂) about dₙ onto the
     convected material axis (README, rotations).  In-plane frames scrambled about
     dₙ, as a long spin leaves them (up to 180° apart within one cell), come back
-    smooth and equal to the frames of the run; dₙ and the state (the force vector
-    at θ = 0) are unchanged."""
+    smooth and equal to the frames of the run, along the rolled strip's tangent;
+    dₙ and the state (the force vector at θ = 0) are unchanged."""
     from rftfem.model import rotate
     from rftfem.scene import load_scene
     from rftfem.simulation import Simulation
@@ -102,6 +102,9 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
         a1, a2 = m.a1.x.array.reshape(-1, 3), m.a2.x.array.reshape(-1, 3)
         assert np.abs(np.sum(a1 * dn, axis=1)).max() < 1e-12
         assert np.abs(a2 - np.cross(dn, a1)).max() < 1e-12
+        # the strip rolls about Y: the convected axis X stays in the XZ plane, so
+        # a₁ is the tangent Y × dₙ (not merely some smooth in-plane direction)
+        assert np.abs(a1 - np.cross([0.0, 1.0, 0.0], dn)).max() < 1e-8
         assert np.abs(after - before).max() <= 1e-12 * np.abs(before).max()
     finally:
         sim.close()
