@@ -5,13 +5,23 @@ plain nested ``dict`` (JSON-serialisable, so it can be echoed in summary.json)
 in which every key of the schema is present:
 
 - scalars and arrays get their documented default;
-- optional arrays of tables (``boundary``, ``load``, ``motion``,
+- optional arrays of tables (``boundary``, ``load``, ``motion``, ``hinge``,
   ``mesh.regions``, ``shell.parts``, ``output.probes``) default to ``[]``;
 - the optional effect tables ``fluid`` and ``magnetic`` are ``None`` when the
   scene does not have them (``if scene["fluid"]:`` switches the effect);
 - keys that only apply to another variant are ``None`` (``mesh.file`` unless
-  ``kind = "gmsh"``, ``load.N.table`` unless ``ramp = "table"``, ``motion.N.values`` unless
-  ``kind = "table"``);
+  ``kind = "gmsh"``, ``mesh.link_width`` and ``mesh.hinge_stiffness`` unless
+  ``kind = "three-link"``, ``load.N.table`` unless ``ramp = "table"``,
+  ``motion.N.values`` unless ``kind = "table"``);
+- ``mesh.width`` is the body's width: 1.0 by default, ``3 * link_width`` for
+  ``kind = "three-link"`` (where a user-given ``mesh.width`` is refused; the
+  defaults there are ``link_width = 0.5``, ``hinge_stiffness = 0.0``);
+- a ``mesh.regions`` entry has ``x`` and/or ``y`` (an interval); the one it does
+  not give is ``None``. A three-link mesh has the built-in regions ``left``,
+  ``middle`` and ``right`` (not listed in ``mesh.regions``, not redefinable)
+  and the built-in hinges at ``y = w`` and ``y = 2w`` (``hinge-left``,
+  ``hinge-right``; not listed in ``hinge``);
+- a ``hinge`` entry's ``stiffness`` defaults to 0.0 (a free hinge);
 - a ``shell.parts`` entry inherits every material value it does not set
   (E, nu, thickness, density) from ``[shell]``;
 - ``time.scheme`` holds the resolved scheme (never ``"auto"``);
@@ -38,15 +48,24 @@ from typing import Any, Iterable
 from rftfem.errors import SceneError
 
 __all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme",
-           "EDGE_SELECTORS", "SPECIAL_SELECTORS"]
+           "EDGE_SELECTORS", "SPECIAL_SELECTORS", "THREE_LINK_REGIONS", "THREE_LINK_HINGES",
+           "hinge_line"]
 
 #: ``where`` selectors that always exist on a strip (besides region names).
 EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
 SPECIAL_SELECTORS = ("all",) + EDGE_SELECTORS
+#: the built-in regions (across Y: left, middle, right) and hinge lines of a three-link body
+THREE_LINK_REGIONS = ("left", "middle", "right")
+THREE_LINK_HINGES = ("hinge-left", "hinge-right")
+#: mesh kinds made of straight lines x = const, y = const (strip-like rectangles)
+_LINED_KINDS = ("strip", "three-link")
+_BODY = {"strip": "strip", "three-link": "three-link body", "gmsh": "body"}
 
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
 _PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 _BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
+#: a straight line of a strip-like mesh, ``x=c`` or ``y=c`` (no spaces, c a finite number)
+_LINE_RE = re.compile(r"^([xy])=([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)$")
 
 
 # --------------------------------------------------------------------------- text
@@ -302,8 +321,12 @@ class _Fix(_V):
 
 
 class _Where(_V):
-    expected = ('a selector: "all", "x=0", "x=L", "y=0", "y=W", '
+    expected = ('a selector: "all", "x=0", "x=L", "y=0", "y=W", a [[hinge]] line, '
                 "or a region / physical-group name")
+
+    def __init__(self, expected: str | None = None):
+        if expected:
+            self.expected = expected
 
     def __call__(self, value, path):
         if not isinstance(value, str) or not value.strip() or value != value.strip():
@@ -358,16 +381,18 @@ _PART_MATERIAL = ("E", "nu", "thickness", "density")
 SCHEMA = _Table({
     "title": _Leaf(_Str(), required=True),
     "mesh": _Table({
-        "kind": _Leaf(_Str(("strip", "gmsh"), unavailable={
-            "three-link": "is not available yet (it will come in a later version)"}), "strip"),
+        "kind": _Leaf(_Str(("strip", "gmsh", "three-link")), "strip"),
         "length": _Leaf(_POS, 10.0),
-        "width": _Leaf(_POS, 1.0),
+        "width": _Leaf(_POS, None),  # 1.0, or 3 * link_width: filled by _cross_check
+        "link_width": _Leaf(_POS, None),  # 0.5 for three-link: filled by _cross_check
+        "hinge_stiffness": _Leaf(_NONNEG, None),  # 0.0 for three-link: filled likewise
         "divisions": _Leaf(_Divisions(), [16, 1]),
         "cell": _Leaf(_Str(("quadrilateral", "triangle")), "quadrilateral"),
         "file": _Leaf(_Str(), None),
         "regions": _Array(_Table({
             "name": _Leaf(_Str(name=True), required=True),
-            "x": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers"), required=True),
+            "x": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers")),
+            "y": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers")),
         })),
     }, required=True),
     "shell": _Table({
@@ -384,6 +409,11 @@ SCHEMA = _Table({
             "density": _Leaf(_NONNEG),
         })),
     }, required=True),
+    "hinge": _Array(_Table({
+        "where": _Leaf(_Where('a hinge line: "x=c" or "y=c" (c a number), '
+                              "or a physical curve name"), required=True),
+        "stiffness": _Leaf(_NONNEG, 0.0),
+    })),
     "time": _Table({
         "end": _Leaf(_POS, 1.0),
         "dt": _Leaf(_POS, 0.01),
@@ -538,12 +568,14 @@ def _check_unique(items: list[dict], key: str, path: str, what: str) -> None:
 
 
 def _region_names(scene: dict) -> list[str]:
-    return [r["name"] for r in scene["mesh"]["regions"]]
+    """The region names of a strip-like mesh: built-in (three-link) then [[mesh.regions]]."""
+    builtin = list(THREE_LINK_REGIONS) if scene["mesh"]["kind"] == "three-link" else []
+    return builtin + [r["name"] for r in scene["mesh"]["regions"]]
 
 
 def _check_region_ref(name: str, path: str, scene: dict) -> None:
-    """For strips, a part's region must be one of [[mesh.regions]]."""
-    if scene["mesh"]["kind"] != "strip":
+    """For strip-like meshes, a part's region must be built in or one of [[mesh.regions]]."""
+    if scene["mesh"]["kind"] not in _LINED_KINDS:
         return  # gmsh: checked against the file's physical groups later
     names = _region_names(scene)
     if name in names:
@@ -565,45 +597,161 @@ def _table_iff(entry: dict, path: str, switch: str, key: str, what: str):
                          f"{path}.{switch} = {_fmt(entry[switch])}")
 
 
+def hinge_line(where: str) -> tuple[str, float] | None:
+    """``("x", c)`` or ``("y", c)`` for a line selector ``"x=c"`` / ``"y=c"`` with c a
+    finite number (``"y=0.5"``, ``"x=-1e-3"``); ``None`` for anything else."""
+    match = _LINE_RE.match(where)
+    if not match:
+        return None
+    c = float(match.group(2))
+    return (match.group(1), c) if math.isfinite(c) else None
+
+
+def _selectors(scene: dict) -> list[str]:
+    """The ``where`` selectors of a strip-like mesh: special ones, the three-link's hinge
+    lines, the [[hinge]] lines, then region names."""
+    valid = list(SPECIAL_SELECTORS)
+    if scene["mesh"]["kind"] == "three-link":
+        valid += THREE_LINK_HINGES
+    valid += [h["where"] for h in scene["hinge"] if h["where"] not in valid]
+    return valid + _region_names(scene)
+
+
 def _check_where(value: str, path: str, scene: dict) -> None:
-    if value in SPECIAL_SELECTORS or scene["mesh"]["kind"] != "strip":
+    if value in SPECIAL_SELECTORS or scene["mesh"]["kind"] not in _LINED_KINDS:
         return
-    valid = list(SPECIAL_SELECTORS) + _region_names(scene)
+    valid = _selectors(scene)
     if value not in valid:
         raise SceneError(f"{path}: unknown selector '{value}'; expected one of: "
                          f"{', '.join(valid)}" + _suggest(value, valid))
 
 
-def _cross_check(scene: dict) -> None:
-    mesh, shell, time = scene["mesh"], scene["shell"], scene["time"]
-    strip = mesh["kind"] == "strip"
-    length, width = mesh["length"], mesh["width"]
-
-    # mesh
-    if mesh["kind"] == "gmsh" and mesh["file"] is None:
+def _check_mesh(mesh: dict) -> None:
+    """Fill the kind-dependent keys of [mesh] and check its regions."""
+    kind = mesh["kind"]
+    three = kind == "three-link"
+    if kind == "gmsh" and mesh["file"] is None:
         raise SceneError("missing required key 'mesh.file' (expected the path of a gmsh "
                          'mesh, relative to the scene file, when mesh.kind = "gmsh")')
-    if mesh["kind"] != "gmsh":
+    if kind != "gmsh":
         mesh["file"] = None  # only read for gmsh meshes (lets --set mesh.kind=strip work)
+    if three:
+        if mesh["width"] is not None:
+            raise SceneError("mesh.width: expected no mesh.width with mesh.kind = "
+                             '"three-link" (set mesh.link_width: the body is 3 * link_width '
+                             f"wide), found mesh.width = {_fmt(mesh['width'])}")
+        if mesh["link_width"] is None:
+            mesh["link_width"] = 0.5
+        if mesh["hinge_stiffness"] is None:
+            mesh["hinge_stiffness"] = 0.0
+        mesh["width"] = 3.0 * mesh["link_width"]
+        if not math.isfinite(mesh["width"]):
+            raise _err("mesh.link_width", "a number whose triple (the body's width) is "
+                       "finite", mesh["link_width"])
+    else:
+        if mesh["width"] is None:
+            mesh["width"] = 1.0
+        # only read for three-link meshes (lets --set mesh.kind=strip work)
+        mesh["link_width"] = mesh["hinge_stiffness"] = None
+
     regions = mesh["regions"]
     _check_unique(regions, "name", "mesh.regions", "region")
+    extent = {"x": (mesh["length"], "mesh.length"),
+              "y": (mesh["width"], "3 * mesh.link_width" if three else "mesh.width")}
     for i, region in enumerate(regions):
-        if region["name"] in SPECIAL_SELECTORS:
+        name = region["name"]
+        if three and name in THREE_LINK_REGIONS + THREE_LINK_HINGES:
             raise SceneError(f"mesh.regions.{i}.name: expected a name other than the "
-                             f"selectors {', '.join(SPECIAL_SELECTORS)}, "
-                             f"found '{region['name']}'")
-        a, b = region["x"]
-        path = f"mesh.regions.{i}.x"
-        if a >= b:
-            raise SceneError(f"{path}: expected an interval [a, b] with a < b, found "
-                             f"{_fmt(region['x'])} (the region selects nothing)")
-        tol = 1e-9 * length
-        if strip and (a < -tol or b > length + tol):
-            nothing = b <= 0.0 or a >= length
-            raise SceneError(f"{path}: expected an interval [a, b] with 0 <= a < b <= "
-                             f"mesh.length = {_fmt(length)}, found {_fmt(region['x'])}"
-                             + (" (the region selects nothing)" if nothing else
-                                " (the region reaches outside the strip)"))
+                             "three-link mesh's built-in regions and hinge lines "
+                             f"{', '.join(THREE_LINK_REGIONS + THREE_LINK_HINGES)}, "
+                             f"found '{name}'")
+        if name in SPECIAL_SELECTORS:
+            raise SceneError(f"mesh.regions.{i}.name: expected a name other than the "
+                             f"selectors {', '.join(SPECIAL_SELECTORS)}, found '{name}'")
+        if region["x"] is None and region["y"] is None:
+            raise SceneError(f"mesh.regions.{i}: expected x = [a, b] and/or y = [a, b], "
+                             f"found neither in region '{name}'")
+        for axis in ("x", "y"):
+            band = region[axis]
+            if band is None:
+                continue
+            a, b = band
+            path = f"mesh.regions.{i}.{axis}"
+            if a >= b:
+                raise SceneError(f"{path}: expected an interval [a, b] with a < b, found "
+                                 f"{_fmt(band)} (the region selects nothing)")
+            size, size_key = extent[axis]
+            tol = 1e-9 * size
+            if kind in _LINED_KINDS and (a < -tol or b > size + tol):
+                nothing = b <= 0.0 or a >= size
+                raise SceneError(f"{path}: expected an interval [a, b] with 0 <= a < b <= "
+                                 f"{size_key} = {_fmt(size)}, found {_fmt(band)}"
+                                 + (" (the region selects nothing)" if nothing else
+                                    f" (the region reaches outside the {_BODY[kind]})"))
+
+
+def _check_hinges(scene: dict) -> None:
+    """[[hinge]] lines: well formed, inside the body, one hinge per line."""
+    mesh = scene["mesh"]
+    kind = mesh["kind"]
+    lined = kind in _LINED_KINDS
+    three = kind == "three-link"
+    extent = {"x": mesh["length"], "y": mesh["width"]}
+    hinged: list[tuple[str, float, str]] = []  # (axis, c, description) of each hinge line
+    if three:
+        w = mesh["link_width"]
+        hinged += [("y", w, f"the built-in hinge-left at y = {_fmt(w)}"),
+                   ("y", 2.0 * w, f"the built-in hinge-right at y = {_fmt(2.0 * w)}")]
+    named: dict[str, int] = {}  # gmsh physical curve names
+    builtin_hint = "; the three-link mesh hinges it already: set mesh.hinge_stiffness for " \
+                   "its built-in hinges"
+    for i, hinge in enumerate(scene["hinge"]):
+        where = hinge["where"]
+        path = f"hinge.{i}.where"
+        if three and where in THREE_LINK_HINGES:
+            w = mesh["link_width"] * (1.0 if where == "hinge-left" else 2.0)
+            raise SceneError(f"{path}: two hinges on one line ({_fmt(where)} and the built-in "
+                             f"{where} at y = {_fmt(w)}){builtin_hint}")
+        on_boundary = f"{path}: {_fmt(where)} lies on the body's boundary; a hinge joins two sides"
+        if where in ("x=L", "y=W"):
+            axis = where[0]
+            raise SceneError(on_boundary + (f" (expected {axis}=c with 0 < c < "
+                                            f"{_fmt(extent[axis])})" if lined else ""))
+        line = hinge_line(where)
+        if line is None:
+            if lined or re.match(r"^[xy]\s*=", where):
+                raise _err(path, 'a hinge line "x=c" or "y=c" with c a number (like "y=0.5")'
+                           + ("" if lined else " or a physical curve name"), where)
+            if where in named:  # a gmsh physical curve, checked against the file later
+                raise SceneError(f"{path}: two hinges on one line ({_fmt(where)} and "
+                                 f"hinge.{named[where]}.where = {_fmt(where)})")
+            named[where] = i
+            continue
+        axis, c = line
+        tol = 0.0
+        if lined:
+            size = extent[axis]
+            tol = 1e-9 * size
+            if c < -tol or c > size + tol:
+                raise SceneError(f"{path}: {_fmt(where)} is not a line of the mesh: the body "
+                                 f"spans {axis} in [0, {_fmt(size)}]")
+            if c <= tol or c >= size - tol:
+                raise SceneError(on_boundary + f" (expected {axis}=c with 0 < c < {_fmt(size)})")
+        for other_axis, other, text in hinged:
+            if other_axis == axis and abs(c - other) <= tol:
+                raise SceneError(f"{path}: two hinges on one line ({_fmt(where)} and {text})"
+                                 + (builtin_hint if text.startswith("the built-in") else
+                                    "; expected one [[hinge]] per line"))
+        hinged.append((axis, c, f"hinge.{i}.where = {_fmt(where)}"))
+
+
+def _cross_check(scene: dict) -> None:
+    mesh, shell, time = scene["mesh"], scene["shell"], scene["time"]
+
+    _check_mesh(mesh)
+    lined = mesh["kind"] in _LINED_KINDS
+    length, width = mesh["length"], mesh["width"]
+    _check_hinges(scene)
 
     # shell parts: region references, inherited material values
     for i, part in enumerate(shell["parts"]):
@@ -654,15 +802,15 @@ def _cross_check(scene: dict) -> None:
     # probes
     probes = scene["output"]["probes"]
     _check_unique(probes, "name", "output.probes", "probe")
-    if strip:
+    if lined:
         tol = 1e-9 * length
         for i, probe in enumerate(probes):
             x, y, z = probe["at"]
             if not (-tol <= x <= length + tol and -tol <= y <= width + tol and abs(z) <= tol):
                 raise SceneError(
                     f"output.probes.{i}.at: probe outside the body: expected a point on the "
-                    f"strip (0 <= x <= {_fmt(length)}, 0 <= y <= {_fmt(width)}, z = 0), "
-                    f"found {_fmt(probe['at'])}")
+                    f"{_BODY[mesh['kind']]} (0 <= x <= {_fmt(length)}, "
+                    f"0 <= y <= {_fmt(width)}, z = 0), found {_fmt(probe['at'])}")
 
 
 # ------------------------------------------------------------------ public API
@@ -817,6 +965,14 @@ def _has_density(scene: dict) -> bool:
 def active_effects(scene: dict) -> list[str]:
     """The effects the scene asks for, in a fixed order (DESIGN.md section 5)."""
     effects = ["elasticity"]
+    hinges = scene.get("hinge") or []
+    mesh = scene.get("mesh") or {}
+    three = mesh.get("kind") == "three-link"
+    if hinges or three:
+        effects.append("hinge")
+    if (any((h.get("stiffness") or 0.0) > 0.0 for h in hinges)
+            or (three and (mesh.get("hinge_stiffness") or 0.0) > 0.0)):
+        effects.append("hinge-spring")
     if has_inertia(scene):
         effects.append("inertia")
     if scene.get("fluid"):

@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from rftfem.errors import SceneError
-from rftfem.scene import active_effects, apply_override, load_scene, resolved_scheme
+from rftfem.scene import (active_effects, apply_override, hinge_line, load_scene,
+                          resolved_scheme)
 
 BAD = Path(__file__).parent / "scenes_bad"
 #: fixtures whose error needs the mesh (second line "# found by: rftfem check") are
@@ -87,14 +88,15 @@ def test_minimal_scene_gets_every_default(write):
     p = write(MINIMAL)
     s = load_scene(p)
     assert s["_path"] == str(p.resolve())
-    assert s["mesh"] == {"kind": "strip", "length": 10.0, "width": 1.0, "divisions": [16, 1],
+    assert s["mesh"] == {"kind": "strip", "length": 10.0, "width": 1.0, "link_width": None,
+                         "hinge_stiffness": None, "divisions": [16, 1],
                          "cell": "quadrilateral", "file": None, "regions": []}
     assert s["shell"] == {"thickness": 0.1, "E": 1.2e6, "nu": 0.0, "density": 0.0,
                           "axis": [1.0, 0.0, 0.0], "parts": []}
     assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "rho_inf": 0.9,
                          "alpha": -0.05, "output_every": 1, "max_cuts": 8,
                          "max_rotation": 0.2}
-    assert s["boundary"] == [] and s["load"] == [] and s["motion"] == []
+    assert s["boundary"] == [] and s["load"] == [] and s["motion"] == [] and s["hinge"] == []
     assert s["fluid"] is None and s["magnetic"] is None
     assert s["output"] == {"probes": [], "fields": True}
     assert s["solver"] == {}
@@ -367,6 +369,246 @@ def test_scene_file_problems(tmp_path):
     binary = tmp_path / "binary.toml"
     binary.write_bytes(b"\xff\xfe\x00\x01title")
     assert "binary.toml" in scene_error(binary)
+
+
+THREE_LINK = """
+title = "three-link"
+[mesh]
+kind = "three-link"
+length = 5.0
+divisions = [10, 2]
+[shell]
+[time]
+"""
+
+
+def test_three_link_defaults_and_width(write):
+    s = load_scene(write(THREE_LINK))
+    assert s["mesh"] == {"kind": "three-link", "length": 5.0, "width": 1.5, "link_width": 0.5,
+                         "hinge_stiffness": 0.0, "divisions": [10, 2],
+                         "cell": "quadrilateral", "file": None, "regions": []}
+    assert s["hinge"] == []
+    s = load_scene(write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2"])
+    assert s["mesh"]["width"] == pytest.approx(1.2) and s["mesh"]["hinge_stiffness"] == 2.0
+    # the three-link keys are dropped for another kind, as mesh.file is
+    s = load_scene(write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2",
+                                       "mesh.kind=strip"])
+    assert s["mesh"]["width"] == 1.0
+    assert s["mesh"]["link_width"] is None and s["mesh"]["hinge_stiffness"] is None
+    # the width of a three-link body comes from link_width only
+    msg = scene_error(write(GOOD), ["mesh.kind=three-link", "mesh.width=1.5"])
+    assert msg.startswith("mesh.width:") and "mesh.link_width" in msg
+    assert scene_error(write(THREE_LINK), ["mesh.link_width=-1"]).startswith("mesh.link_width:")
+    assert scene_error(write(THREE_LINK), ["mesh.link_width=1e308"]) \
+        .startswith("mesh.link_width:")
+    msg = scene_error(write(THREE_LINK), ["mesh.hinge_stiffness=-1"])
+    assert msg.startswith("mesh.hinge_stiffness:") and ">= 0" in msg
+    msg = scene_error(write(THREE_LINK), ["mesh.kind=three-links"])
+    assert msg.startswith("mesh.kind:") and 'did you mean "three-link"' in msg
+
+
+def test_three_link_probes_span_three_links(write):
+    probe = '[[output.probes]]\nname = "p"\nat = [5.0, {y}, 0.0]\n'
+    assert load_scene(write(THREE_LINK + probe.format(y=1.5)))["output"]["probes"][0]["at"] \
+        == [5.0, 1.5, 0.0]
+    msg = scene_error(write(THREE_LINK + probe.format(y=1.6)))
+    assert msg.startswith("output.probes.0.at:") and "0 <= y <= 1.5" in msg
+
+
+def test_y_bands_and_rectangles(write):
+    s = load_scene(write(MINIMAL + """
+[[mesh.regions]]
+name = "band"
+y = [0.0, 0.5]
+[[mesh.regions]]
+name = "corner"
+x = [0, 1]
+y = [0.5, 1]
+"""))
+    assert s["mesh"]["regions"] == [{"name": "band", "x": None, "y": [0.0, 0.5]},
+                                    {"name": "corner", "x": [0.0, 1.0], "y": [0.5, 1.0]}]
+    assert load_scene(write(GOOD))["mesh"]["regions"][0]["y"] is None
+    msg = scene_error(write(GOOD), ["mesh.regions.0.y=[0.5, 0.5]"])
+    assert msg.startswith("mesh.regions.0.y:") and "selects nothing" in msg
+    msg = scene_error(write(GOOD), ["mesh.regions.0.y=[0.5, 1.2]"])
+    assert msg.startswith("mesh.regions.0.y:") and "mesh.width = 1" in msg
+    msg = scene_error(write(GOOD), ["mesh.regions.0.y=[0, 1, 2]"])
+    assert msg.startswith("mesh.regions.0.y:") and "interval" in msg
+    # the y band follows the width given by --set
+    s = load_scene(write(GOOD), ["mesh.regions.0.y=[0.5, 1.2]", "mesh.width=1.2"])
+    assert s["mesh"]["regions"][0]["y"] == [0.5, 1.2]
+    # three-link: y bands against 3 * link_width, built-in names refused
+    region = '[[mesh.regions]]\nname = "{name}"\ny = [{a}, {b}]\n'
+    s = load_scene(write(THREE_LINK + region.format(name="edge", a=1.2, b=1.5)))
+    assert s["mesh"]["regions"][0]["y"] == [1.2, 1.5]
+    msg = scene_error(write(THREE_LINK + region.format(name="edge", a=1.2, b=1.6)))
+    assert msg.startswith("mesh.regions.0.y:") and "3 * mesh.link_width = 1.5" in msg
+    for name in ("left", "middle", "right", "hinge-left", "hinge-right"):
+        msg = scene_error(write(THREE_LINK + region.format(name=name, a=0, b=1)))
+        assert msg.startswith("mesh.regions.0.name:") and f"found '{name}'" in msg
+    # on a strip those names are ordinary region names
+    s = load_scene(write(MINIMAL + region.format(name="middle", a=0.25, b=0.75)))
+    assert s["mesh"]["regions"][0]["name"] == "middle"
+
+
+def test_three_link_built_in_regions_are_references(write):
+    s = load_scene(write(THREE_LINK + """
+[[shell.parts]]
+region = "middle"
+E = 10.0
+[magnetic]
+[[magnetic.parts]]
+region = "left"
+magnetization = 1.0
+direction = [0, 1, 0]
+[[magnetic.parts]]
+region = "right"
+magnetization = 1.0
+direction = [0, -1, 0]
+"""))
+    assert s["shell"]["parts"][0]["region"] == "middle"
+    assert [p["region"] for p in s["magnetic"]["parts"]] == ["left", "right"]
+    # on a strip they are not regions
+    msg = scene_error(write(GOOD.replace('region = "end1"', 'region = "middle"')))
+    assert msg.startswith("shell.parts.0.region:") and "unknown region 'middle'" in msg
+
+
+def test_hinge_defaults_and_numbers(write):
+    s = load_scene(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\n'))
+    assert s["hinge"] == [{"where": "y=0.5", "stiffness": 0.0}]
+    for where in ("x=6", "x=6.", "x=.5", "x=+6.5", "y=5e-1", "y=5E-1", "x=1.1e+1",
+                  "x=11.999"):
+        s = load_scene(write(GOOD + f'[[hinge]]\nwhere = "{where}"\nstiffness = 2\n'))
+        assert s["hinge"] == [{"where": where, "stiffness": 2.0}]
+    assert hinge_line("y=5e-1") == ("y", 0.5) and hinge_line("x=-1") == ("x", -1.0)
+    for where in ("x=abc", "x = 1", "x=1e999", "z=1", "x=", "x=1,5", "end1", "x=0x1"):
+        assert hinge_line(where) is None
+        msg = scene_error(write(GOOD + f'[[hinge]]\nwhere = "{where}"\n'))
+        assert msg.startswith("hinge.0.where:") and '"x=c" or "y=c"' in msg, msg
+    msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\nstiffness = -1e-9\n'))
+    assert msg.startswith("hinge.0.stiffness:") and ">= 0" in msg
+    msg = scene_error(write(GOOD + '[[hinge]]\nstiffness = 1\n'))
+    assert "hinge.0.where" in msg and msg.startswith("missing required key")
+    msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\nangle = 1\n'))
+    assert "hinge.0.angle" in msg
+
+
+@pytest.mark.parametrize("where, words", [
+    ("x=0", ["lies on the body's boundary", "a hinge joins two sides", "0 < c < 12"]),
+    ("x=12", ["lies on the body's boundary"]),
+    ("x=L", ["lies on the body's boundary", "0 < c < 12"]),
+    ("y=0", ["lies on the body's boundary", "0 < c < 1"]),
+    ("y=W", ["lies on the body's boundary"]),
+    ("y=1.0", ["lies on the body's boundary"]),
+    ("y=0.999999999999", ["lies on the body's boundary"]),  # within 1e-9 of the width
+    ("x=-0.0", ["lies on the body's boundary"]),
+    ("x=13", ['"x=13" is not a line of the mesh', "the body spans x in [0, 12]"]),
+    ("y=-0.5", ['"y=-0.5" is not a line of the mesh', "the body spans y in [0, 1]"]),
+])
+def test_hinge_must_lie_inside_the_body(write, where, words):
+    msg = scene_error(write(GOOD + f'[[hinge]]\nwhere = "{where}"\n'))
+    assert msg.startswith("hinge.0.where:"), msg
+    for w in words:
+        assert w in msg, msg
+
+
+def test_two_hinges_on_one_line(write):
+    two = '[[hinge]]\nwhere = "{}"\n[[hinge]]\nwhere = "{}"\n'
+    for a, b in (("y=0.5", "y=0.5"), ("y=0.5", "y=0.50"), ("x=3", "x=3.000000000001")):
+        msg = scene_error(write(GOOD + two.format(a, b)))
+        assert msg.startswith("hinge.1.where: two hinges on one line"), msg
+        assert f'hinge.0.where = "{a}"' in msg
+    s = load_scene(write(GOOD + two.format("x=3", "y=0.5") + two.format("x=3.01", "y=0.25")))
+    assert [h["where"] for h in s["hinge"]] == ["x=3", "y=0.5", "x=3.01", "y=0.25"]
+    # three-link: its built-in hinges at y = w and 2w are lines already
+    hinge = '[[hinge]]\nwhere = "{}"\n'
+    for where in ("y=0.5", "y=1", "y=1.0000000000001", "hinge-left", "hinge-right"):
+        msg = scene_error(write(THREE_LINK + hinge.format(where)))
+        assert msg.startswith("hinge.0.where: two hinges on one line"), msg
+        assert "mesh.hinge_stiffness" in msg
+    # the lines follow mesh.link_width
+    msg = scene_error(write(THREE_LINK + hinge.format("y=0.5")), ["mesh.link_width=0.25"])
+    assert msg.startswith("hinge.0.where: two hinges on one line") and "y = 0.5" in msg
+    msg = scene_error(write(THREE_LINK + hinge.format("y=0.8")), ["mesh.link_width=0.25"])
+    assert msg.startswith("hinge.0.where:") and "the body spans y in [0, 0.75]" in msg
+    s = load_scene(write(THREE_LINK + hinge.format("y=0.25") + hinge.format("x=2.5")))
+    assert [h["where"] for h in s["hinge"]] == ["y=0.25", "x=2.5"]
+
+
+def test_gmsh_hinges_are_curve_names_or_lines(tmp_path):
+    (tmp_path / "plate.msh").write_text("x")
+    p = tmp_path / "s.toml"
+    text = MINIMAL.replace("[mesh]", '[mesh]\nkind = "gmsh"\nfile = "plate.msh"')
+    hinge = '[[hinge]]\nwhere = "{}"\n'
+    p.write_text(text + hinge.format("fold 1") + hinge.format("x=40") + hinge.format("x=-2"))
+    s = load_scene(p)
+    assert [h["where"] for h in s["hinge"]] == ["fold 1", "x=40", "x=-2"]
+    for hinges, words in ((("fold", "fold"), ["hinge.1.where", "two hinges on one line"]),
+                          (("x=1", "x=1.0"), ["hinge.1.where", "two hinges on one line"]),
+                          (("x=L",), ["hinge.0.where", "boundary"]),
+                          (("x=one",), ["hinge.0.where", "physical curve name"])):
+        p.write_text(text + "".join(hinge.format(h) for h in hinges))
+        msg = scene_error(p)
+        for w in words:
+            assert w in msg, msg
+
+
+def test_hinge_lines_are_selectors(write):
+    s = load_scene(write(GOOD + """
+[[hinge]]
+where = "y=0.5"
+[[hinge]]
+where = "x=6"
+stiffness = 1.0
+[[motion]]
+where = "x=6"
+component = "uz"
+"""), ["boundary.0.where=y=0.5", "load.0.where=x=6"])
+    assert (s["boundary"][0]["where"], s["load"][0]["where"], s["motion"][0]["where"]) \
+        == ("y=0.5", "x=6", "x=6")
+    # a line that is not a hinge is not a selector; the message lists the hinge lines
+    msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\n'), ["load.0.where=y=0.50"])
+    assert msg.startswith("load.0.where: unknown selector 'y=0.50'")
+    assert "y=W, y=0.5, end1" in msg and "did you mean 'y=0.5'" in msg
+    assert scene_error(write(GOOD), ["load.0.where=hinge-left"]).startswith("load.0.where:")
+
+
+def test_three_link_selectors(write):
+    scene = THREE_LINK + """
+[[hinge]]
+where = "x=2.5"
+[[mesh.regions]]
+name = "tip"
+x = [4.5, 5.0]
+"""
+    for where in ("hinge-left", "hinge-right", "left", "middle", "right", "x=2.5", "tip",
+                  "y=W", "all"):
+        s = load_scene(write(scene + f'[[boundary]]\nwhere = "{where}"\nfix = ["uz"]\n'
+                                     f'[[motion]]\nwhere = "{where}"\ncomponent = "uz"\n'))
+        assert s["boundary"][0]["where"] == s["motion"][0]["where"] == where
+    msg = scene_error(write(scene + '[[boundary]]\nwhere = "midle"\nfix = ["uz"]\n'))
+    assert msg == ("boundary.0.where: unknown selector 'midle'; expected one of: all, x=0, "
+                   "x=L, y=0, y=W, hinge-left, hinge-right, x=2.5, left, middle, right, tip "
+                   "(did you mean 'middle'?)")
+
+
+def test_hinge_effects(write):
+    hinge = '[[hinge]]\nwhere = "y=0.5"\nstiffness = {}\n'
+    assert active_effects(load_scene(write(GOOD))) == ["elasticity", "edge-moment"]
+    assert active_effects(load_scene(write(GOOD + hinge.format(0)))) == \
+        ["elasticity", "hinge", "edge-moment"]
+    s = load_scene(write(GOOD + hinge.format(0) + hinge.replace("0.5", "0.25").format(1e-3)),
+                   ["shell.density=1"])
+    assert active_effects(s) == ["elasticity", "hinge", "hinge-spring", "inertia", "edge-moment"]
+    assert active_effects(load_scene(write(THREE_LINK))) == ["elasticity", "hinge"]
+    s = load_scene(write(THREE_LINK), ["mesh.hinge_stiffness=0.5"])
+    assert active_effects(s) == ["elasticity", "hinge", "hinge-spring"]
+    # mesh.hinge_stiffness is dropped with the three-link kind
+    s = load_scene(write(THREE_LINK), ["mesh.hinge_stiffness=0.5", "mesh.kind=strip"])
+    assert active_effects(s) == ["elasticity"]
+    # plain dicts (as summary.json echoes them)
+    assert active_effects({"mesh": {"kind": "three-link", "hinge_stiffness": 1.0}}) == \
+        ["elasticity", "hinge", "hinge-spring"]
 
 
 def test_gmsh_mesh_file_changed_by_override(tmp_path):
