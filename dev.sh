@@ -75,7 +75,9 @@ case $target in
         ;;
     test-current)
         setup current
-        run_pytest "$CUR_VENV" "${CURRENT_TEST_ARGS[@]}" "$@"
+        # the default selection only when no test paths or options are given
+        if [[ $# -eq 0 ]]; then set -- "${CURRENT_TEST_ARGS[@]}"; fi
+        run_pytest "$CUR_VENV" "$@"
         ;;
     bench)
         setup reference

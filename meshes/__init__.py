@@ -1,17 +1,21 @@
 """gmsh mesh builders and readers for rftfem.
 
 Every body is a :class:`Body`: a dolfinx surface mesh in 3D (tdim 2, gdim 3)
-with cell tags (regions) and facet tags (named edges), the names of both, and
-the extents of the reference body in X and Y.
+with cell tags (regions) and facet tags (named edges and hinge lines), the
+names of both, and the extents of the reference body in X and Y.
 
-- :func:`build_strip` -- a structured strip in the XY plane with x-bands as
-  regions and the four sides as named edges (``kind = "strip"``);
+- :func:`build_strip` -- a structured strip in the XY plane, a grid of
+  rectangles cut at region limits (x and/or y bands) and hinge lines, with the
+  four sides and the hinge lines as named edges (``kind = "strip"``);
+- :func:`build_three_link` -- three links side by side along Y joined by the
+  hinge lines ``"hinge-left"`` and ``"hinge-right"`` (``kind = "three-link"``);
 - :func:`read_gmsh` -- a user ``.msh`` file whose named physical surfaces are
   the regions and named physical curves the edges (``kind = "gmsh"``);
 - :func:`build_body` -- the ``[mesh]`` table of a scene (SCENES.md) to a Body.
 
 gmsh runs on rank 0 only; dolfinx distributes the mesh over the communicator.
-The names (``regions``, ``edges``) and extents are the same on every rank.
+The names (``regions``, ``edges``, ``hinges``) and extents are the same on
+every rank.
 """
 
 from __future__ import annotations
@@ -29,7 +33,9 @@ class Body:
     region may be made of several tagged pieces, and a cell may belong to
     several regions); ``edges[name]`` lists facet-tag values the same way.
     Integrate over a region with ``dx(tuple(body.regions[name]))`` and over an
-    edge with ``ds(tuple(body.edges[name]))``.
+    edge with ``ds(tuple(body.edges[name]))``. Hinge lines are named edges
+    too, of interior facets (``dS``). ``hinges`` names the built-in hinge
+    lines of the mesh kind (three-link: ``["hinge-left", "hinge-right"]``).
     """
 
     mesh: object  # dolfinx.mesh.Mesh, tdim 2, gdim 3
@@ -39,28 +45,67 @@ class Body:
     edges: dict[str, list[int]] = field(default_factory=dict)
     length: float = 0.0  # extent in X of the reference body (global)
     width: float = 0.0  # extent in Y of the reference body (global)
+    hinges: list[str] = field(default_factory=list)  # built-in hinge line names (in edges)
 
 
 from .gmsh_file import read_gmsh  # noqa: E402
 from .strip import build_strip  # noqa: E402
+from .three_link import build_three_link  # noqa: E402
 
-__all__ = ["Body", "build_strip", "read_gmsh", "build_body"]
-
-
-_STRIP_DEFAULTS = {"length": 12.0, "width": 1.0, "divisions": [16, 1], "cell": "quadrilateral"}
+__all__ = ["Body", "build_strip", "build_three_link", "read_gmsh", "build_body"]
 
 
-def build_body(comm, mesh_section: dict, scene_dir=None) -> Body:
+_DEFAULTS = {
+    "strip": {"length": 12.0, "width": 1.0, "divisions": [16, 1], "cell": "quadrilateral"},
+    "three-link": {"length": 12.0, "link_width": 0.5, "divisions": [10, 2],
+                   "cell": "quadrilateral"},
+}
+
+
+def _regions(raw) -> list:
+    """``[[mesh.regions]]`` tables ``{name, x, y}`` as ``[(name, xband, yband)]``."""
+    if not isinstance(raw, (list, tuple)):
+        raise SceneError(f"mesh.regions: expected an array of tables, found {raw!r}")
+    regions = []
+    for i, item in enumerate(raw):
+        if not isinstance(item, dict):
+            raise SceneError(f"mesh.regions.{i}: expected a table {{name, x, y}}, found {item!r}")
+        if "name" not in item:
+            raise SceneError(f"mesh.regions.{i}.name: required")
+        bands = [item.get("x"), item.get("y")]
+        if bands == [None, None]:
+            raise SceneError(f"mesh.regions.{i}: expected x = [a, b] and/or y = [a, b]")
+        for k, axis in enumerate("xy"):
+            band = bands[k]
+            if band is not None:
+                if not isinstance(band, (list, tuple)) or len(band) != 2:
+                    raise SceneError(f"mesh.regions.{i}.{axis}: expected [{axis}0, {axis}1], "
+                                     f"found {band!r}")
+                bands[k] = tuple(band)
+        regions.append((item["name"], *bands))
+    return regions
+
+
+def build_body(comm, mesh_section: dict, scene_dir=None, hinges=()) -> Body:
     """The scene's ``[mesh]`` table (SCENES.md) as a Body; collective on ``comm``.
 
     ``kind`` (default ``"strip"``):
 
     - ``"strip"``: :func:`build_strip` from ``length`` (default 12.0),
       ``width`` (1.0), ``divisions`` (``[16, 1]``), ``cell``
-      (``"quadrilateral"``) and ``[[mesh.regions]]`` tables ``{name, x}``;
+      (``"quadrilateral"``) and ``[[mesh.regions]]`` tables ``{name, x, y}``
+      (``x = [a, b]`` and/or ``y = [a, b]``);
+    - ``"three-link"``: :func:`build_three_link` from ``length`` (12.0),
+      ``link_width`` (0.5), ``divisions`` (``[10, 2]``: along X, across each
+      link), ``cell`` and ``[[mesh.regions]]`` as for strips;
     - ``"gmsh"``: :func:`read_gmsh` of ``file``, relative to ``scene_dir``
       (the scene file's folder) unless absolute. Regions are the file's named
       physical surfaces, so ``mesh.regions`` is refused there.
+
+    ``hinges``: the ``where`` strings of the scene's ``[[hinge]]`` tables;
+    strips and three-link meshes cut and name the lines ``"x=c"`` / ``"y=c"``
+    (errors name ``hinge.N.where``); for ``"gmsh"`` they are ignored here
+    (hinges there are named physical curves of the file, resolved later).
 
     Bad values raise a one-line ``SceneError`` naming the ``mesh.*`` key.
     """
@@ -69,33 +114,25 @@ def build_body(comm, mesh_section: dict, scene_dir=None) -> Body:
     if not isinstance(mesh_section, dict):
         raise SceneError(f"mesh: expected a table, found {mesh_section!r}")
     kind = mesh_section.get("kind", "strip")
-    if kind == "strip":
-        get = lambda key: mesh_section.get(key, _STRIP_DEFAULTS[key])  # noqa: E731
-        raw = mesh_section.get("regions", [])
-        if not isinstance(raw, (list, tuple)):
-            raise SceneError(f"mesh.regions: expected an array of tables, found {raw!r}")
-        regions = []
-        for i, item in enumerate(raw):
-            if not isinstance(item, dict):
-                raise SceneError(f"mesh.regions.{i}: expected a table {{name, x}}, found {item!r}")
-            for key in ("name", "x"):
-                if key not in item:
-                    raise SceneError(f"mesh.regions.{i}.{key}: required")
-            band = item["x"]
-            if not isinstance(band, (list, tuple)) or len(band) != 2:
-                raise SceneError(f"mesh.regions.{i}.x: expected [x0, x1], found {band!r}")
-            regions.append((item["name"], tuple(band)))
-        return build_strip(comm, get("length"), get("width"), get("divisions"),
-                           get("cell"), regions)
+    if kind in ("strip", "three-link"):
+        get = lambda key: mesh_section.get(key, _DEFAULTS[kind][key])  # noqa: E731
+        regions = _regions(mesh_section.get("regions", []))
+        if kind == "strip":
+            return build_strip(comm, get("length"), get("width"), get("divisions"),
+                               get("cell"), regions, hinges)
+        return build_three_link(comm, get("length"), get("link_width"), get("divisions"),
+                                get("cell"), regions, hinges)
     if kind == "gmsh":
         path = mesh_section.get("file")
         if not isinstance(path, str) or not path:
             raise SceneError(f"mesh.file: required for kind = \"gmsh\" (a .msh path), "
                              f"found {path!r}")
         if mesh_section.get("regions"):
-            raise SceneError("mesh.regions: x bands are for kind = \"strip\"; with kind = "
-                             "\"gmsh\" the named physical surfaces of the file are the regions")
+            raise SceneError("mesh.regions: x/y bands are for kind = \"strip\" or "
+                             "\"three-link\"; with kind = \"gmsh\" the named physical "
+                             "surfaces of the file are the regions")
         if scene_dir is not None and not os.path.isabs(path):
             path = os.path.join(os.fspath(scene_dir), path)
         return read_gmsh(comm, path)
-    raise SceneError(f"mesh.kind: expected \"strip\" or \"gmsh\", found {kind!r}")
+    raise SceneError(f"mesh.kind: expected \"strip\", \"three-link\" or \"gmsh\", "
+                     f"found {kind!r}")

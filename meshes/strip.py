@@ -1,8 +1,15 @@
-"""Structured strip ``[0, L] x [0, W]`` in the plane Z = 0, built with gmsh."""
+"""Structured strips in the plane Z = 0, built with gmsh as a grid of rectangles.
+
+:func:`build_strip` makes ``[0, L] x [0, W]``; :func:`grid_body` is the grid
+builder it shares with :mod:`.three_link` (cuts in X and Y at region limits and
+hinge lines, one transfinite surface and one cell tag per rectangle).
+"""
 
 from __future__ import annotations
 
+import bisect
 import math
+import re
 from numbers import Integral, Real
 
 from rftfem.errors import SceneError
@@ -15,6 +22,8 @@ CELLS = ("quadrilateral", "triangle")
 # gmsh options the strip depends on (global in gmsh: set and restored around the build)
 _OPTIONS = {"Mesh.ElementOrder": 1, "Mesh.RecombineAll": 0,
             "Mesh.SubdivisionAlgorithm": 0, "Mesh.Smoothing": 0}
+
+_HINGE = re.compile(r"\s*([xy])\s*=\s*(\S+)\s*")
 
 
 def share_divisions(lengths, nx: int) -> list[int]:
@@ -45,91 +54,245 @@ def share_divisions(lengths, nx: int) -> list[int]:
     return n
 
 
-def _check_regions(regions, length: float):
-    """Validated ``[(name, x0, x1)]`` clipped to ``[0, L]``; SceneError otherwise."""
-    tol = 1e-9 * length
+# --- arguments -------------------------------------------------------------------
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, Real) and not isinstance(v, bool)
+
+
+def check_size(key: str, v) -> float:
+    """``v`` as a positive finite float; ``SceneError("mesh.<key>: ...")`` otherwise."""
+    if not _is_number(v) or not (math.isfinite(v) and v > 0):
+        raise SceneError(f"mesh.{key}: expected a positive number, found {v!r}")
+    return float(v)
+
+
+def check_divisions(divisions, names: str) -> tuple[int, int]:
+    """``divisions`` as two positive ints; ``names`` (e.g. ``"[nx, ny]"``) for the message."""
+    try:
+        a, b = divisions
+        ok = all(isinstance(n, Integral) and not isinstance(n, bool) and n >= 1 for n in (a, b))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise SceneError(f"mesh.divisions: expected two positive integers {names}, "
+                         f"found {divisions!r}")
+    return int(a), int(b)
+
+
+def check_cell(cell) -> None:
+    if cell not in CELLS:
+        raise SceneError(f"mesh.cell: expected \"quadrilateral\" or \"triangle\", found {cell!r}")
+
+
+def _check_band(key: str, band, axis: str, extent: float):
+    """A band ``[a, b]`` along ``axis`` validated and clipped to ``[0, extent]``."""
+    tol = 1e-9 * extent
+    try:
+        a, b = band
+    except (TypeError, ValueError):
+        raise SceneError(f"{key}: expected two numbers [{axis}0, {axis}1], "
+                         f"found {band!r}") from None
+    if not (_is_number(a) and _is_number(b)):
+        raise SceneError(f"{key}: expected two numbers [{axis}0, {axis}1], found {list(band)!r}")
+    a, b = float(a), float(b)
+    what = "length" if axis == "x" else "width"
+    if not (math.isfinite(a) and math.isfinite(b)) or b - a <= tol:
+        raise SceneError(f"{key}: expected an interval [{axis}0, {axis}1] with {axis}1 − {axis}0 "
+                         f"> {tol:.3g} (1e-9 of the {what}), found [{a:g}, {b:g}]")
+    if a < -tol or b > extent + tol:
+        raise SceneError(f"{key}: [{a:g}, {b:g}] is not inside the body: it spans {axis} in "
+                         f"[0, {extent:g}]")
+    return min(max(a, 0.0), extent), min(max(b, 0.0), extent)
+
+
+def _check_regions(regions, length: float, width: float, reserved=()):
+    """Validated ``[(name, xband or None, yband or None)]`` clipped to the body.
+
+    An item is ``(name, xband, yband)`` or the older ``(name, xband)``; names
+    in ``reserved`` (built-in regions) are refused like the edge names.
+    """
     out, seen = [], set()
     for i, item in enumerate(regions):
         key = f"mesh.regions.{i}"
         try:
-            name, band = item
-            x0, x1 = band
+            name, xband, yband = (*item, None) if len(item) == 2 else item
         except (TypeError, ValueError):
-            raise SceneError(f"{key}: expected a name and an interval x = [x0, x1], "
-                             f"found {item!r}") from None
+            raise SceneError(f"{key}: expected a name and bands x = [x0, x1] and/or "
+                             f"y = [y0, y1], found {item!r}") from None
         if not isinstance(name, str) or not name:
             raise SceneError(f"{key}.name: expected a non-empty string, found {name!r}")
         if name in seen:
             raise SceneError(f"{key}.name: region '{name}' is defined twice")
         if name in EDGE_TAGS:
-            raise SceneError(f"{key}.name: '{name}' is the name of a strip edge; "
+            raise SceneError(f"{key}.name: '{name}' is the name of an edge of the body; "
+                             "choose another region name")
+        if name in reserved:
+            raise SceneError(f"{key}.name: '{name}' is a built-in region of this mesh; "
                              "choose another region name")
         seen.add(name)
-        if not all(isinstance(v, Real) and not isinstance(v, bool) for v in (x0, x1)):
-            raise SceneError(f"{key}.x: expected two numbers [x0, x1], found {list(band)!r}")
-        x0, x1 = float(x0), float(x1)
-        if not (math.isfinite(x0) and math.isfinite(x1)) or x1 - x0 <= tol:
-            raise SceneError(f"{key}.x: expected an interval [x0, x1] with x1 − x0 > "
-                             f"{tol:.3g} (1e-9 of the length), found [{x0:g}, {x1:g}]")
-        if x0 < -tol or x1 > length + tol:
-            raise SceneError(f"{key}.x: [{x0:g}, {x1:g}] is not inside the strip "
-                             f"[0, {length:g}]")
-        out.append((name, min(max(x0, 0.0), length), min(max(x1, 0.0), length)))
+        if xband is None and yband is None:
+            raise SceneError(f"{key}: expected x = [a, b] and/or y = [a, b]")
+        if xband is not None:
+            xband = _check_band(f"{key}.x", xband, "x", length)
+        if yband is not None:
+            yband = _check_band(f"{key}.y", yband, "y", width)
+        out.append((name, xband, yband))
     return out
 
 
-def _breakpoints(bands, length: float) -> list[float]:
-    """0, L and every region limit, sorted; limits closer than 1e-9 L merged."""
-    tol = 1e-9 * length
-    xs = [0.0]
-    for x in sorted(v for _, a, b in bands for v in (a, b)):
-        if x - xs[-1] > tol and length - x > tol:
-            xs.append(x)
-    xs.append(length)
-    return xs
+def _check_hinges(hinges, length: float, width: float, builtin=()):
+    """Hinge lines ``[(axis, c, name)]``: the ``builtin`` ones, then ``hinges``.
+
+    ``builtin`` is ``[(axis, c, name)]`` (already valid); each of ``hinges`` is
+    a selector ``"x=c"`` / ``"y=c"`` named as written. SceneError naming
+    ``hinge.N.where`` for a bad form, a line outside or on the boundary of the
+    body, or a second hinge on one line (within 1e-9 of the extent).
+    """
+    if isinstance(hinges, (str, bytes)):
+        raise SceneError(f"hinge: expected a list of \"x=c\" / \"y=c\" lines, found {hinges!r}")
+    extent = {"x": length, "y": width}
+    lines = [(axis, c, name, name) for axis, c, name in builtin]  # + label for messages
+    for i, where in enumerate(hinges):
+        key = f"hinge.{i}.where"
+        match = _HINGE.fullmatch(where) if isinstance(where, str) else None
+        try:
+            c = float(match.group(2)) if match else math.nan
+        except ValueError:
+            c = math.nan
+        if not math.isfinite(c):
+            raise SceneError(f"{key}: expected \"x=c\" or \"y=c\" (a line of the mesh) with c "
+                             f"a finite number, found {where!r}")
+        axis = match.group(1)
+        size, tol = extent[axis], 1e-9 * extent[axis]
+        if c < -tol or c > size + tol:
+            raise SceneError(f"{key}: \"{where}\" is not a line of the mesh: the body spans "
+                             f"{axis} in [0, {size:g}]")
+        if abs(c) <= tol or abs(c - size) <= tol:
+            raise SceneError(f"{key}: \"{where}\" lies on the body's boundary; "
+                             "a hinge joins two sides")
+        for other_axis, other, _, label in lines:
+            if other_axis == axis and abs(other - c) <= tol:
+                raise SceneError(f"{key}: two hinges on one line: {label} and {key}")
+        lines.append((axis, c, where, key))
+    return [(axis, c, name) for axis, c, name, _ in lines]
 
 
-def _prepare_strip(gmsh, length, width, xs, nseg, ny, quads, bands):
+# --- the grid --------------------------------------------------------------------
+
+
+def _cuts(extent: float, fixed, limits) -> list[float]:
+    """0, ``extent``, the ``fixed`` lines and the region ``limits``, sorted.
+
+    A limit within 1e-9 of the extent of a cut already kept (0, the extent, a
+    fixed line or a smaller limit) is merged into it.
+    """
+    tol = 1e-9 * extent
+    cuts = sorted({0.0, extent, *fixed})
+    for v in sorted(limits):
+        k = bisect.bisect_left(cuts, v)
+        if all(abs(v - cuts[j]) > tol for j in (k - 1, k) if 0 <= j < len(cuts)):
+            cuts.insert(k, v)
+    return cuts
+
+
+def _share(cuts, groups) -> list[int]:
+    """Divisions of the segments between ``cuts``: each group ``(a, b, n)``
+    (``a``, ``b`` being cuts) shares ``n`` among its segments (:func:`share_divisions`)."""
+    out = []
+    for a, b, n in groups:
+        i, j = cuts.index(a), cuts.index(b)
+        out += share_divisions([q - p for p, q in zip(cuts[i:j], cuts[i + 1:j + 1])], n)
+    return out
+
+
+def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines):
+    """Rank 0: the grid of rectangles, its tags and names in the current model."""
     geo = gmsh.model.geo
-    m = len(nseg)
-    bottom = [geo.addPoint(x, 0.0, 0.0) for x in xs]
-    top = [geo.addPoint(x, width, 0.0) for x in xs]
-    lb = [geo.addLine(bottom[i], bottom[i + 1]) for i in range(m)]
-    lt = [geo.addLine(top[i], top[i + 1]) for i in range(m)]
-    lv = [geo.addLine(bottom[i], top[i]) for i in range(m + 1)]
-    surfaces = []
-    for i in range(m):
-        # counter-clockwise seen from +Z: the surface (and cell) normal is +Z
-        loop = geo.addCurveLoop([lb[i], lv[i + 1], -lt[i], -lv[i]])
-        surfaces.append(geo.addPlaneSurface([loop]))
+    mx, my = len(nxs), len(nys)
+    p = [[geo.addPoint(x, y, 0.0) for x in xs] for y in ys]  # p[j][i] at (x_i, y_j)
+    h = [[geo.addLine(p[j][i], p[j][i + 1]) for i in range(mx)] for j in range(my + 1)]
+    v = [[geo.addLine(p[j][i], p[j + 1][i]) for j in range(my)] for i in range(mx + 1)]
+    surfaces = {}  # cell tag -> (surface, i, j); rectangle (i, j) has tag j * mx + i + 1
+    for j in range(my):
+        for i in range(mx):
+            # counter-clockwise seen from +Z: the surface (and cell) normal is +Z
+            loop = geo.addCurveLoop([h[j][i], v[i + 1][j], -h[j + 1][i], -v[i][j]])
+            surfaces[j * mx + i + 1] = (geo.addPlaneSurface([loop]), i, j)
     geo.synchronize()
     mesh = gmsh.model.mesh
-    for i in range(m):
-        mesh.setTransfiniteCurve(lb[i], nseg[i] + 1)
-        mesh.setTransfiniteCurve(lt[i], nseg[i] + 1)
-    for line in lv:
-        mesh.setTransfiniteCurve(line, ny + 1)
-    for i, s in enumerate(surfaces):
-        mesh.setTransfiniteSurface(s, cornerTags=[bottom[i], bottom[i + 1], top[i + 1], top[i]])
+    for j in range(my + 1):
+        for i in range(mx):
+            mesh.setTransfiniteCurve(h[j][i], nxs[i] + 1)
+    for i in range(mx + 1):
+        for j in range(my):
+            mesh.setTransfiniteCurve(v[i][j], nys[j] + 1)
+    model = gmsh.model
+    for tag, (s, i, j) in surfaces.items():
+        mesh.setTransfiniteSurface(s, cornerTags=[p[j][i], p[j][i + 1],
+                                                  p[j + 1][i + 1], p[j + 1][i]])
         if quads:
             mesh.setRecombine(2, s)
-    model = gmsh.model
-    for i, s in enumerate(surfaces):
-        model.addPhysicalGroup(2, [s], i + 1)
-        model.setPhysicalName(2, i + 1, f"segment{i + 1}")
-    for name, lines in (("x=0", [lv[0]]), ("x=L", [lv[m]]), ("y=0", lb), ("y=W", lt)):
-        model.addPhysicalGroup(1, lines, EDGE_TAGS[name])
-        model.setPhysicalName(1, EDGE_TAGS[name], name)
+        model.addPhysicalGroup(2, [s], tag)
+        model.setPhysicalName(2, tag, f"rectangle{i + 1}-{j + 1}")
+    curves = {"x=0": v[0], "x=L": v[mx], "y=0": h[0], "y=W": h[my]}
+    for axis, c, name in lines:
+        curves[name] = v[xs.index(c)] if axis == "x" else h[ys.index(c)]
+    edges = {}
+    for tag, (name, group) in enumerate(curves.items(), start=1):
+        model.addPhysicalGroup(1, group, tag)
+        model.setPhysicalName(1, tag, name)
+        edges[name] = [tag]
     mesh.generate(2)
 
-    regions = {}
-    for name, a, b in bands:
-        regions[name] = [i + 1 for i in range(m) if a <= 0.5 * (xs[i] + xs[i + 1]) <= b]
-    edges = {name: [tag] for name, tag in EDGE_TAGS.items()}
-    return regions, edges
+    def inside(band, a, b):
+        return band is None or band[0] <= 0.5 * (a + b) <= band[1]
+
+    names = {name: [tag for tag, (_, i, j) in surfaces.items()
+                    if inside(xband, xs[i], xs[i + 1]) and inside(yband, ys[j], ys[j + 1])]
+             for name, xband, yband in regions}
+    return names, edges
 
 
-def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=()):
+def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges,
+              builtin_lines=(), builtin_regions=()):
+    """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles.
+
+    Checked arguments except ``regions`` and ``hinges`` (user input, checked
+    here). The X cuts (0, L, x hinge lines, region x limits) share ``nx``; the
+    Y cuts share divisions by ``ygroups`` ``[(y0, y1, n)]`` (consecutive, from
+    0 to ``width``; inner limits must be built-in lines). ``builtin_lines``
+    ``[(axis, c, name)]`` are named hinge lines that come first (facet tags 5,
+    6, ...), ``builtin_regions`` ``[(name, xband, yband)]`` regions that come
+    first and whose names users may not take. Returns a Body whose ``hinges``
+    are the built-in line names.
+    """
+    bands = _check_regions(regions, length, width, [name for name, _, _ in builtin_regions])
+    lines = _check_hinges(hinges, length, width, builtin_lines)
+    all_regions = list(builtin_regions) + bands
+
+    def limits(k):
+        return [v for r in all_regions if r[k] is not None for v in r[k]]
+
+    xs = _cuts(length, [c for axis, c, _ in lines if axis == "x"], limits(1))
+    ys = _cuts(width, [c for axis, c, _ in lines if axis == "y"], limits(2))
+    nxs = _share(xs, [(0.0, length, nx)])
+    nys = _share(ys, ygroups)
+
+    mesh, cell_tags, facet_tags, names, edges = _model_to_body(
+        comm,
+        lambda gmsh: _prepare_grid(gmsh, xs, nxs, ys, nys, cell == "quadrilateral",
+                                   all_regions, lines),
+        options=_OPTIONS)
+    from . import Body
+
+    return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
+                regions=names, edges=edges, length=length, width=width,
+                hinges=[name for _, _, name in builtin_lines])
+
+
+def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=(), hinges=()):
     """A structured strip ``x in [0, L], y in [0, W]`` at Z = 0 as a Body.
 
     ``divisions = [nx, ny]``: elements along X and Y; ``cell`` is
@@ -138,48 +301,33 @@ def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=()
     degree 1. Every cell's normal ``G1 x G2`` (columns of the Jacobian) points
     to +Z.
 
-    ``regions``: ``[(name, (x0, x1)), ...]`` bands across the strip, which may
-    overlap. The strip is cut at every region limit into segments (limits
-    closer than 1e-9 L count as one) and the ``nx`` divisions are shared among
-    the segments in proportion to their lengths by largest-remainder rounding
-    with at least one element each (:func:`share_divisions`): the total is
-    exactly ``nx`` when ``nx`` is at least the number of segments, otherwise
-    every segment has one element. Hence every region is a union of whole
-    cells and its area is exact.
+    ``regions``: ``[(name, xband, yband), ...]`` with ``xband = (x0, x1)`` a
+    band across the strip, ``yband = (y0, y1)`` a band along it, either one
+    ``None`` (not both); both given is a rectangle. ``(name, xband)`` is an x
+    band. Regions may overlap. ``hinges``: selectors ``"x=c"`` / ``"y=c"``,
+    inner lines of the strip.
 
-    Tags: segment ``k`` (1, 2, ... from x = 0 up) has cell tag ``k``, whether
-    or not a region covers it; ``regions[name]`` lists the tags of the
-    segments inside the band. Facet tags: ``"x=0"`` 1, ``"x=L"`` 2, ``"y=0"``
-    3, ``"y=W"`` 4, in ``edges``.
+    The strip is cut in X at every region x limit and x hinge line, and in Y
+    at every y limit and y hinge line (limits closer than 1e-9 of the extent
+    count as one; a hinge line wins) into a grid of rectangles. The ``nx``
+    divisions are shared among the X segments and ``ny`` among the Y segments
+    in proportion to their lengths (:func:`share_divisions`): the totals are
+    exactly ``nx`` and ``ny`` unless there are more segments than divisions
+    (then one element each). Every region is a union of whole cells, its area
+    exact.
 
-    Bad arguments raise ``SceneError`` naming the ``mesh.*`` scene key.
+    Tags: rectangle ``(i, j)`` (``i``-th X segment, ``j``-th Y segment, from
+    0) has cell tag ``j * mx + i + 1`` (``mx`` X segments);
+    ``regions[name]`` lists the tags of the rectangles whose centre is in all
+    the given bands. Facet tags (``edges``): ``"x=0"`` 1, ``"x=L"`` 2,
+    ``"y=0"`` 3, ``"y=W"`` 4, then each hinge selector, named as written, 5,
+    6, ... in order (every grid line at that coordinate, from side to side;
+    interior facets).
+
+    Bad arguments raise ``SceneError`` naming the ``mesh.*`` scene key, or
+    ``hinge.N.where`` (``N`` the index in ``hinges``).
     """
-    for key, v in (("length", length), ("width", width)):
-        if not isinstance(v, Real) or isinstance(v, bool) or not (math.isfinite(v) and v > 0):
-            raise SceneError(f"mesh.{key}: expected a positive number, found {v!r}")
-    length, width = float(length), float(width)
-    try:
-        nx, ny = divisions
-        ok = all(isinstance(n, Integral) and not isinstance(n, bool) and n >= 1 for n in (nx, ny))
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise SceneError(f"mesh.divisions: expected two positive integers [nx, ny], "
-                         f"found {divisions!r}")
-    nx, ny = int(nx), int(ny)
-    if cell not in CELLS:
-        raise SceneError(f"mesh.cell: expected \"quadrilateral\" or \"triangle\", found {cell!r}")
-
-    bands = _check_regions(regions, length)
-    xs = _breakpoints(bands, length)
-    nseg = share_divisions([b - a for a, b in zip(xs[:-1], xs[1:])], nx)
-
-    mesh, cell_tags, facet_tags, names, edges = _model_to_body(
-        comm,
-        lambda gmsh: _prepare_strip(gmsh, length, width, xs, nseg, ny,
-                                    cell == "quadrilateral", bands),
-        options=_OPTIONS)
-    from . import Body
-
-    return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
-                regions=names, edges=edges, length=length, width=width)
+    length, width = check_size("length", length), check_size("width", width)
+    nx, ny = check_divisions(divisions, "[nx, ny]")
+    check_cell(cell)
+    return grid_body(comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges)

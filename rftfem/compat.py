@@ -172,10 +172,27 @@ def gmsh_model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
         from dolfinx.io import gmsh as _gmshio  # dolfinx >= 0.10
     except ImportError:
         from dolfinx.io import gmshio as _gmshio  # dolfinx 0.5 - 0.9
-    out = _gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
+    out = _gmshio.model_to_mesh(model, comm, rank, gdim=gdim, **_shared_facet_partitioner())
     if hasattr(out, "mesh"):  # MeshData (>= 0.10)
         return out.mesh, out.cell_tags, out.facet_tags
     return out[0], out[1], out[2]
+
+
+def _shared_facet_partitioner() -> dict:
+    """``partitioner=`` keeping both cells of every facet on the processes that share
+    it (ghost mode ``shared_facet``), which interior-facet integrals (``dS``, the
+    spring hinges) need across a partition.  dolfinx >= 0.10 defaults to no ghost
+    cells and its ``create_cell_partitioner(mode, max_facet_to_cell_links)`` takes
+    the mode; 0.6-0.9 take the mode alone; 0.5 passes the mode to ``create_mesh``
+    instead, and its gmsh reader already asks for ``shared_facet``."""
+    make = getattr(dolfinx.mesh, "create_cell_partitioner", None)
+    mode = dolfinx.mesh.GhostMode.shared_facet
+    for args in ((mode, 2), (mode,)):
+        try:
+            return {"partitioner": make(*args)}
+        except TypeError:
+            continue
+    return {}
 
 
 def create_meshtags(mesh, dim: int, entities: np.ndarray, values: np.ndarray):
