@@ -20,9 +20,9 @@ from dolfinx import fem, mesh as dmesh
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from rftfem.forms import drag, elasticity, inertia, kinematics, loads, magnetic
+from rftfem.forms import drag, elasticity, hinge, inertia, kinematics, loads, magnetic
 
-from . import compat, petsc_options
+from . import compat, hinges, petsc_options
 from . import scene as scene_rules
 from .errors import SceneError
 
@@ -54,25 +54,46 @@ class Model:
         self.mesh.topology.create_connectivity(tdim - 1, tdim)
         self.timings = {"compile": 0.0}
 
-        # unknowns and spaces
-        self.W = compat.mixed_space(self.mesh, [("Lagrange", 2, (3,)), ("Lagrange", 2, (2,))])
+        # hinges cut the body into panels; panels that touch get different colours,
+        # and each colour has its own rotation field and triad (forms/hinge.py)
+        self.hinges = hinges.resolve(self, scene)
+        self.n_colours, self.colours = 1, None
+        if self.hinges:
+            cut = np.unique(np.concatenate([h.facets for h in self.hinges]))
+            labels = hinges.panel_labels(self.mesh, cut)
+            self.colours, self.n_colours = hinges.colour_panels(self.mesh, labels, cut,
+                                                                self.hinges)
+        #: χ_c, 1 on the cells of colour c (DG0), when there is more than one colour
+        self.colour_indicators = (hinges.indicators(self.mesh, self.colours, self.n_colours)
+                                  if self.n_colours > 1 else None)
+
+        # unknowns and spaces: u, then one θ per colour
+        self.W = compat.mixed_space(self.mesh, [("Lagrange", 2, (3,))]
+                                    + [("Lagrange", 2, (2,))] * self.n_colours)
         self.Vu, self.u_dofs = self.W.sub(0).collapse()
-        self.Vt, self.theta_dofs = self.W.sub(1).collapse()
         self.u_dofs = np.asarray(self.u_dofs, dtype=np.int64)
-        self.theta_dofs = np.asarray(self.theta_dofs, dtype=np.int64)
+        self.Vt, self.theta_dofs_of, self._node_maps = None, [], []
+        for c in range(self.n_colours):
+            Vt, dofs = self.W.sub(1 + c).collapse()
+            if c == 0:
+                self.Vt = Vt
+            self.theta_dofs_of.append(np.asarray(dofs, dtype=np.int64))
+            self._node_maps.append(self._theta_to_u_nodes(Vt))
+        #: every rotation dof of the mixed space, in (θ¹, θ²) pairs
+        self.theta_dofs = np.concatenate(self.theta_dofs_of)
         self.w = fem.Function(self.W, name="w")
-        self._node_map = self._theta_to_u_nodes()
 
         # stored state: displacement, velocity, acceleration of the last step
         self.u_n = fem.Function(self.Vu, name="u_n")
         self.v_n = fem.Function(self.Vu, name="v_n")
         self.a_n = fem.Function(self.Vu, name="a_n")
 
-        # reference director D and nodal triad (a1, a2, dn)
+        # reference director D and a nodal triad (a1, a2, dn) per colour
         self.D = fem.Function(self.Vu, name="reference_director")
-        self.a1 = fem.Function(self.Vu, name="a1")
-        self.a2 = fem.Function(self.Vu, name="a2")
-        self.dn = fem.Function(self.Vu, name="director")
+        self.triads = [tuple(fem.Function(self.Vu, name=f"{n}{'' if c == 0 else f'_{c}'}")
+                             for n in ("a1", "a2", "director"))
+                       for c in range(self.n_colours)]
+        self.a1, self.a2, self.dn = self.triads[0]
         #: the unit material axis E₁* (shell.axis): the triad's a₁ and the drag frame
         self.axis = np.array(scene_rules.unit_vector(scene["shell"]["axis"]))
         self.material_axis = fem.Constant(self.mesh, self.axis.astype(PETSc.ScalarType))
@@ -84,22 +105,22 @@ class Model:
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
                      for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
         self._build_effects()
-        fixed = self._build_bcs()
+        fixed = self._build_bcs() + self._inactive_rotation_bcs()
         self.motions = self._build_motions()  # checks clashes with the fixed dofs
         self.bcs = fixed + [m.bc for m in self.motions]
 
     # --- set-up -----------------------------------------------------------
 
-    def _theta_to_u_nodes(self) -> np.ndarray:
-        """For each node of the θ space, the matching node of the u space.
+    def _theta_to_u_nodes(self, Vt) -> np.ndarray:
+        """For each node of the θ space ``Vt``, the matching node of the u space.
 
         Both collapsed spaces come from the same scalar P2 layout, so the k-th
         node of a cell is the same point in both.
         """
-        cu, ct = compat.cell_dofs(self.Vu), compat.cell_dofs(self.Vt)
-        bs_u, bs_t = self.Vu.dofmap.index_map_bs, self.Vt.dofmap.index_map_bs
+        cu, ct = compat.cell_dofs(self.Vu), compat.cell_dofs(Vt)
+        bs_u, bs_t = self.Vu.dofmap.index_map_bs, Vt.dofmap.index_map_bs
         assert bs_u == 3 and bs_t == 2 and cu.shape == ct.shape, "unexpected dof layout"
-        n_t = self.Vt.dofmap.index_map.size_local + self.Vt.dofmap.index_map.num_ghosts
+        n_t = Vt.dofmap.index_map.size_local + Vt.dofmap.index_map.num_ghosts
         node_map = np.full(n_t, -1, dtype=np.int64)
         node_map[ct.ravel()] = cu.ravel()
         assert (node_map >= 0).all()
@@ -115,7 +136,6 @@ class Model:
     def _init_triad(self, axis: np.ndarray):
         D = self._project_normal()
         self.D.x.array[:] = D.ravel()
-        self.dn.x.array[:] = D.ravel()
         a1 = axis[None, :] - (D @ axis)[:, None] * D
         bad = np.linalg.norm(a1, axis=1) < 1e-6
         if self.scene.get("fluid") and self.comm.allreduce(int(bad.sum())):
@@ -126,17 +146,30 @@ class Model:
             other = np.where(np.abs(D[bad, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
             a1[bad] = other - np.sum(other * D[bad], axis=1)[:, None] * D[bad]
         a1 /= np.linalg.norm(a1, axis=1)[:, None]
-        self.a1.x.array[:] = a1.ravel()
-        self.a2.x.array[:] = np.cross(D, a1).ravel()
+        for t1, t2, dn in self.triads:
+            dn.x.array[:] = D.ravel()
+            t1.x.array[:] = a1.ravel()
+            t2.x.array[:] = np.cross(D, a1).ravel()
 
-    def _convected_axis_form(self):
-        """Compiled L2 right-hand side of the convected material axis (kinematics.
-        convected_axis) at the converged displacement: the in-plane reference for the
-        nodal triads (``update_triad``)."""
+    def _convected_axis_form(self) -> list:
+        """Compiled L2 right-hand sides of the convected material axis (kinematics.
+        convected_axis) at the converged displacement, one per colour: the in-plane
+        reference for each colour's nodal triads (``update_triad``).
+
+        On a hinged body each colour takes the axis from its own cells only: at a
+        hinge node the axis carried by the two sides differs once the hinge folds
+        (unless it runs along the hinge), and a frame averaged over both sides
+        is consistent with neither.  Mixed frames within a cell make the
+        component-wise interpolated θ a distorted rotation, which resisted the
+        fold of an oblique crease (a free-edge moment folded it 0.68 rad instead
+        of π/2).  Only the direction of the projection is used, so the global
+        mass matrix serves every colour."""
         G1, G2 = kinematics.covariant_basis(self.mesh)
         F_s = kinematics.surface_deformation_gradient(self.u_n)
         t = kinematics.convected_axis(F_s, self.material_axis, G1, G2)
-        return self._compile(ufl.inner(t, self._nodal.test) * self._nodal.dx)
+        weights = self.colour_indicators or [1]
+        return [self._compile(ufl.inner(chi * t, self._nodal.test) * self._nodal.dx)
+                for chi in weights]
 
     def _cells_of(self, names, key: str = "region") -> np.ndarray:
         """Local cells of the named regions; an unknown name is a SceneError at ``key``."""
@@ -174,11 +207,15 @@ class Model:
 
     def kinematics(self):
         """UFL kinematics of the current iterate (u, θ, d, g₁, g₂) and reference geometry."""
-        u, theta = ufl.split(self.w)
+        u, *thetas = ufl.split(self.w)
         G1, G2 = kinematics.covariant_basis(self.mesh)
-        d = kinematics.director(theta, self.a1, self.a2, self.dn)
+        directors = [kinematics.director(theta, *triad)
+                     for theta, triad in zip(thetas, self.triads)]
+        d = directors[0]
+        if self.n_colours > 1:
+            d = hinge.panel_director(self.colour_indicators, directors)
         g1, g2 = kinematics.surface_basis(u, G1, G2)
-        return u, theta, d, g1, g2, G1, G2
+        return u, thetas[0], d, g1, g2, G1, G2
 
     def velocity(self, u):
         c = self.coef
@@ -201,11 +238,16 @@ class Model:
         self.energy = elasticity.stored_energy(strains, G1, G2, mat["E"], mat["nu"], mat["t"],
                                                self.dx, h)
         w_test = ufl.TestFunction(self.W)
-        du, _ = ufl.split(w_test)
+        du = ufl.split(w_test)[0]
         self.director = d
 
         #: virtual work of every non-inertial effect, by name (DESIGN.md §5)
         self.effects = {"elasticity": ufl.derivative(self.energy, self.w, w_test)}
+        springs = [h for h in self.hinges if h.stiffness > 0]
+        if springs:
+            self.spring_energy = self._hinge_springs(u, d)
+            self.energy = self.energy + self.spring_energy
+            self.effects["hinge-spring"] = ufl.derivative(self.spring_energy, self.w, w_test)
         self.inertia = None
         if self._has_inertia():
             self.inertia = inertia.inertia_work(mat["rho"], mat["t"], self.acceleration(u), du,
@@ -231,6 +273,21 @@ class Model:
             if self.inertia is not None:
                 self.inertia_form = self._compile(self.inertia)
             self.jacobian_form = self._compile(self.jacobian_ufl)
+
+    def _hinge_springs(self, u, d):
+        """``Σ ½ k ∫ φ² ds`` over the spring hinges (forms/hinge.py)."""
+        dS = hinges.facet_measure(self.mesh, self.hinges)
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        N = kinematics.unit_normal(G1, G2)
+        tangent = hinge.hinge_tangent(kinematics.surface_deformation_gradient(u)("+"), N("+"),
+                                      ufl.FacetNormal(self.mesh)("+"))
+        angle = hinge.fold_angle(d("-"), d("+"), tangent)
+        self.fold_angle_ufl = (angle, dS)
+        self.hinge_stiffness = [fem.Constant(self.mesh, PETSc.ScalarType(h.stiffness))
+                                for h in self.hinges]
+        return sum(hinge.hinge_spring_energy(k, angle, dS(i + 1))
+                   for i, (h, k) in enumerate(zip(self.hinges, self.hinge_stiffness))
+                   if h.stiffness > 0)
 
     def _drag(self, term, *args):
         """A drag form (``forms.drag``) of the current iterate with the scene's coefficients."""
@@ -356,19 +413,33 @@ class Model:
         return scene_rules.has_inertia(self.scene)
 
     def active_effects(self) -> list[str]:
-        names = list(self.effects)
+        """Effect names in the order of ``scene.active_effects``."""
+        names = ["elasticity"]
+        if self.hinges:
+            names.append("hinge")
+        names += [name for name in self.effects if name != "elasticity"]
         if self.inertia is not None:
-            names.insert(1, "inertia")
+            names.insert(1 + int(bool(self.hinges)) + int("hinge-spring" in names), "inertia")
         if self.motions:
             names.append("prescribed-motion")
         return names
 
     # --- where-selectors ----------------------------------------------------
 
-    def facets_of(self, where: str, key: str) -> np.ndarray:
-        """Local boundary facets selected by an edge selector or a named curve group."""
+    def facets_of(self, where: str, key: str, line: bool = False) -> np.ndarray:
+        """Local facets selected by an edge selector or a named curve group; with
+        ``line`` (hinges) also ``"x=c"`` / ``"y=c"``: the facets on that line."""
         tdim = self.mesh.topology.dim
-        if where in EDGE_SELECTORS:
+        at_line = scene_rules.hinge_line(where) if line and where not in self.body.edges else None
+        if at_line:
+            axis, at = "xy".index(at_line[0]), at_line[1]
+            tol = 1e-8 * max(self.body.length, self.body.width)
+            facets = dmesh.locate_entities(self.mesh, tdim - 1,
+                                           lambda x: np.abs(x[axis] - at) < tol)
+            if self.comm.allreduce(len(facets)) == 0:
+                raise SceneError(f"{key}: '{where}' is not a line of the mesh (no cell edge "
+                                 "lies on it)")
+        elif where in EDGE_SELECTORS:
             axis = 0 if where[0] == "x" else 1
             at = 0.0 if where[2] == "0" else (self.body.length if axis == 0 else self.body.width)
             tol = 1e-8 * max(self.body.length, self.body.width)
@@ -417,6 +488,12 @@ class Model:
         wheres = sorted({ld["where"] for ld in loads_})
         facet_sets = {w: self.facets_of(w, f"load.{[ld['where'] for ld in loads_].index(w)}.where")
                       for w in wheres}
+        boundary = dmesh.exterior_facet_indices(self.mesh.topology)
+        for w, facets in facet_sets.items():
+            if self.comm.allreduce(int((~np.isin(facets, boundary)).sum())):
+                k = [ld["where"] for ld in loads_].index(w)
+                raise SceneError(f"load.{k}.where: '{w}' runs inside the body (a hinge or an "
+                                 "interior curve); edge loads act on the body's boundary edges")
         all_facets = np.concatenate(list(facet_sets.values()))
         if len(np.unique(all_facets)) != len(all_facets):
             raise SceneError("load: edge loads on overlapping edges must use the same 'where'")
@@ -451,15 +528,55 @@ class Model:
             fix = set(bnd["fix"])
             if "clamped" in fix:
                 fix = {"ux", "uy", "uz", "rotation"}
-            subs = [(self.W.sub(0).sub(DISPLACEMENT_COMPONENTS[c]), c) for c in sorted(fix)
-                    if c in DISPLACEMENT_COMPONENTS]
+            # (component, sub-space, its name, entities)
+            subs = [(c, self.W.sub(0).sub(DISPLACEMENT_COMPONENTS[c]), c, entities)
+                    for c in sorted(fix) if c in DISPLACEMENT_COMPONENTS]
             if "rotation" in fix:
-                subs += [(self.W.sub(1).sub(i), f"theta{i + 1}") for i in range(2)]
-            for sub, name in subs:
-                bc, n = self._zero_bc(sub, dim, entities, name)
+                # each colour's rotation on the selected entities of its own panels:
+                # a clamped link leaves the director across its hinge free
+                for c in range(self.n_colours):
+                    own = self._entities_of_colour(dim, entities, c)
+                    subs += [(f"theta{i + 1}", self.W.sub(1 + c).sub(i), f"theta{i + 1}_{c}",
+                              own) for i in range(2)]
+            counts = {}
+            for component, sub, name, ents in subs:
+                bc, n = self._zero_bc(sub, dim, ents, name)
+                counts[component] = counts.get(component, 0) + n
+                bcs.append(bc)
+            for n in counts.values():
                 if self.comm.allreduce(n) == 0:
                     raise SceneError(f"{key}: '{bnd['where']}' matches no degree of freedom")
-                bcs.append(bc)
+        return bcs
+
+    def _entities_of_colour(self, dim, entities, c):
+        """The cells (dim = tdim) of colour ``c`` among ``entities``, or the facets
+        among them that touch a local cell of colour ``c``."""
+        if self.n_colours == 1:
+            return entities
+        tdim = self.mesh.topology.dim
+        if dim == tdim:
+            return entities[self.colours[entities] == c]
+        f2c = self.mesh.topology.connectivity(tdim - 1, tdim)
+        keep = [f for f in entities if (self.colours[f2c.links(f)] == c).any()]
+        return np.asarray(keep, dtype=np.int32)
+
+    def _inactive_rotation_bcs(self):
+        """θ_c = 0 away from the cells of colour c: there it does not enter any form."""
+        if self.n_colours == 1:
+            return []
+        tdim = self.mesh.topology.dim
+        bcs = []
+        for c in range(self.n_colours):
+            for i in range(2):
+                sub = self.W.sub(1 + c).sub(i)
+                V, zero = self._component_space(sub, f"theta{i + 1}_{c}")
+                own = fem.locate_dofs_topological((sub, V), tdim,
+                                                  hinges.cells_of_colour(self.colours, c))
+                other = fem.locate_dofs_topological(
+                    (sub, V), tdim, np.nonzero(self.colours != c)[0].astype(np.int32))
+                keep = ~np.isin(other[0], own[0])
+                dofs = [np.asarray(other[0])[keep], np.asarray(other[1])[keep]]
+                bcs.append(fem.dirichletbc(zero, dofs, sub))
         return bcs
 
     def _zero_bc(self, sub, dim, entities, name):
@@ -565,10 +682,25 @@ class Model:
         return self.comm.allreduce(fem.assemble_scalar(self._compile(one * dx(1))))
 
     def director_unit_error(self) -> float:
-        """``max | |d| − 1 |`` over all nodal directors (global)."""
-        d = self.dn.x.array.reshape(-1, 3)
+        """``max | |d| − 1 |`` over all nodal directors of every colour (global)."""
+        d = np.concatenate([dn.x.array.reshape(-1, 3) for _, _, dn in self.triads])
         local = float(np.abs(np.linalg.norm(d, axis=1) - 1).max()) if len(d) else 0.0
         return self.comm.allreduce(local, op=MPI.MAX)
+
+    def nodal_director(self):
+        """The nodal directors as one [P2]³ Function (for output).  On a hinged body a
+        node on a hinge has one director per side; there the highest colour's is shown."""
+        if self.n_colours == 1:
+            return self.dn
+        if not hasattr(self, "_director_out"):
+            self._director_out = fem.Function(self.Vu, name="director")
+            dofs = compat.cell_dofs(self.Vu)
+            self._colour_nodes = [np.unique(dofs[hinges.cells_of_colour(self.colours, c)])
+                                  for c in range(self.n_colours)]
+        out = self._director_out.x.array.reshape(-1, 3)
+        for (_, _, dn), nodes in zip(self.triads, self._colour_nodes):
+            out[nodes] = dn.x.array.reshape(-1, 3)[nodes]
+        return self._director_out
 
     def elastic_energy(self) -> float:
         """Stored energy ``Π`` of the current iterate (compiled on first use)."""
@@ -590,7 +722,8 @@ class Model:
 
     def largest_rotation_increment(self) -> float:
         """The largest nodal rotation increment ``|θ|`` of the iterate, in radians
-        (over all processes; ``a₁, a₂`` are orthonormal, so ``|θ|² = θ¹² + θ²²``)."""
+        (over all processes and colours; ``a₁, a₂`` are orthonormal, so
+        ``|θ|² = θ¹² + θ²²``)."""
         theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
         local = float(np.sqrt((theta**2).sum(axis=1)).max()) if len(theta) else 0.0
         return self.comm.allreduce(local, op=MPI.MAX)
@@ -607,24 +740,23 @@ class Model:
         rotation meaningless and leave θ almost free at single nodes.  Choosing
         ``a₁`` along the projected convected axis ``F_s A`` keeps the frames as
         smooth as the deformation; ``dₙ``, and with θ = 0 the whole current state,
-        is unchanged by that choice.
+        is unchanged by that choice.  A hinged body has one triad per colour.
 
         Done on owned and ghost nodes alike from ghost-updated values, so every
         copy of a node gets the identical triad without further communication.
         """
-        theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
-        idx = self._node_map
-        a1 = self.a1.x.array.reshape(-1, 3)
-        a2 = self.a2.x.array.reshape(-1, 3)
-        dn = self.dn.x.array.reshape(-1, 3)
-        rot = theta[:, 0:1] * a1[idx] + theta[:, 1:2] * a2[idx]
-        for triad_vector in (a1, a2, dn):
-            triad_vector[idx] = rotate(triad_vector[idx], rot)
+        for c, (dofs, idx, (t1, t2, tn)) in enumerate(zip(self.theta_dofs_of, self._node_maps,
+                                                           self.triads)):
+            theta = self.w.x.array[dofs].reshape(-1, 2)
+            a1, a2, dn = (f.x.array.reshape(-1, 3) for f in (t1, t2, tn))
+            rot = theta[:, 0:1] * a1[idx] + theta[:, 1:2] * a2[idx]
+            for triad_vector in (a1, a2, dn):
+                triad_vector[idx] = rotate(triad_vector[idx], rot)
+            if self._convected_axis is not None:
+                along = self._nodal.project(self._convected_axis[c])
+                a1[:] = in_plane_frame(along, dn, a1)
+                a2[:] = np.cross(dn, a1)
         self.w.x.array[self.theta_dofs] = 0.0
-        if self._convected_axis is not None:
-            along = in_plane_frame(self._nodal.project(self._convected_axis), dn, a1)
-            a1[:] = along
-            a2[:] = np.cross(dn, along)
 
     @property
     def displacement(self):

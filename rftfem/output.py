@@ -124,7 +124,7 @@ class FieldWriter:
         self.model = model
         V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
         self.fields = {"displacement": (model.displacement, fem.Function(V1, name="displacement")),
-                       "director": (model.dn, fem.Function(V1, name="director"))}
+                       "director": (model.nodal_director(), fem.Function(V1, name="director"))}
         for name, f in (extra or {}).items():  # Functions, or UFL expressions of the state
             source = f if isinstance(f, fem.Function) else compat.expression(f, V1)
             self.fields[name] = (source, fem.Function(V1, name=name))
@@ -132,6 +132,7 @@ class FieldWriter:
         self.file.write_mesh(mesh)
 
     def write(self, t: float):
+        self.model.nodal_director()  # refreshed from the triads (hinged bodies)
         for source, target in self.fields.values():
             target.interpolate(source)
             self.file.write_function(target, t)

@@ -33,18 +33,20 @@ from .solver import StepSolver
 from .timeint import BackwardEuler, Static, make_scheme
 
 
-def _build(scene: dict, comm, compile_forms: bool = True):
+def build_model(scene: dict, comm, compile_forms: bool = True) -> Model:
+    """The scene's body (its hinge lines cut into strip meshes) and its Model."""
     from rftfem.meshes import build_body
 
     scene_dir = Path(scene.get("_path", ".")).parent
-    body = build_body(comm, scene["mesh"], scene_dir)
+    lines = [h["where"] for h in scene.get("hinge") or []]
+    body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
     return Model(scene, body, compile_forms=compile_forms)
 
 
 def check(scene: dict, comm=None) -> list[str]:
     """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
     comm = comm or MPI.COMM_WORLD
-    model = _build(scene, comm, compile_forms=False)
+    model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
     return model.active_effects()
 
@@ -80,7 +82,7 @@ class Simulation:
         self.observers = list(observers)
         _quiet_compilers()
         t0 = _time.perf_counter()
-        self.model = _build(scene, self.comm)
+        self.model = build_model(scene, self.comm)
         self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
         self.scheme = make_scheme(scene["time"])
         self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),

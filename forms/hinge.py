@@ -1,0 +1,59 @@
+"""Hinges: jointed panels and the rotational spring of a hinge line
+(README, "Jointed bodies: hinges").
+
+A hinge line splits the mid-surface into panels that share their displacement
+(one continuous ``u``) but not their director: each side carries its own.  The
+panels are coloured so that two panels meeting at a hinge differ, and a cell of
+colour ``c`` takes its director from colour ``c``'s rotation field and triad:
+
+    d = Σ_c χ_c d_c,      χ_c = 1 on the cells of colour c, 0 elsewhere (DG0)
+
+A spring hinge of stiffness ``k`` (per unit length, on the fold angle) stores
+
+    Π_h = ½ k ∫_hinge φ² ds,      φ = 2 atan(s / (1 + c)),   s = (d⁻ × d⁺)·τ,  c = d⁻·d⁺
+
+with ``d±`` the two sides' directors at the line and ``τ`` its current unit
+tangent, ``F_s T`` normalised, ``T`` the reference tangent.  ``φ`` is the signed
+angle between the two directors about the line; the reference surface is
+smooth across the hinge, so ``φ = 0`` there.  A free hinge (``k = 0``) adds
+nothing: it carries force but no moment about its line.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from .kinematics import unit
+
+
+def panel_director(indicators, directors):
+    """``d = Σ_c χ_c d_c``: the director of the colour each cell belongs to
+    (written as a choice, so no product of two colours' directors is formed)."""
+    d = directors[0]
+    for chi, dc in zip(indicators[1:], directors[1:]):
+        d = ufl.conditional(ufl.gt(chi, 0.5), dc, d)
+    return d
+
+
+def hinge_tangent(F_s, N, n):
+    """Current unit tangent of a line of the mid-surface, ``F_s T / |F_s T|``, with
+    the reference tangent ``T = N × n`` from the cell normal ``N`` and the in-surface
+    facet normal ``n`` (restrict all three to one side)."""
+    return unit(F_s * ufl.cross(N, n))
+
+
+def fold_angle(d_minus, d_plus, tangent):
+    """Signed angle ``φ`` from ``d⁻`` to ``d⁺`` about ``tangent``.
+
+    For unit directors turning about the line, ``s = (d⁻ × d⁺)·τ = sin φ`` and
+    ``c = d⁻·d⁺ = cos φ``, and the half-angle formula ``φ = 2 atan(s / (1 + c))``
+    gives the angle in (−π, π), smooth at 0 (only a fold of ±180° is singular).
+    """
+    s = ufl.dot(ufl.cross(d_minus, d_plus), tangent)
+    c = ufl.dot(d_minus, d_plus)
+    return 2 * ufl.atan(s / (1 + c))
+
+
+def hinge_spring_energy(stiffness, angle, dS):
+    """``½ k ∫ φ² ds`` over the hinge line(s) of ``dS`` (interior facets)."""
+    return 0.5 * stiffness * angle**2 * dS
