@@ -236,14 +236,15 @@ def test_purcell_square_loop_matches_rigid_links():
 
 def test_reciprocal_loop_goes_nowhere():
     """Scallop theorem: the out-and-back loop at the same amplitude moves the rigid
-    swimmer less than 1e-3 of the square loop's displacement per cycle
-    (reached: 2e-4, the time-stepping error)."""
+    swimmer less than 1e-3 of the square loop's displacement per cycle; asserted
+    tighter, 5e-4 (reached: 1.7e-4, the time-stepping error).  A velocity with
+    memory, v = Δu/dt + v_n/2, gives 8e-4 and fails here."""
     wl, wr = reciprocal_loop(0.1, 3)
     sim = run_scene(SCALLOP, f"motion.0.values={wl}", f"motion.1.values={wr}")
     rows = _corner_rows(sim)
     per_cycle = abs(rows[-1, 1]) / 3
     print(f"reciprocal: {per_cycle:.3e} mm per cycle; square: {abs(PURCELL_Y[0]):.3e}")
-    assert per_cycle < 1e-3 * abs(PURCELL_Y[0])
+    assert per_cycle < 5e-4 * abs(PURCELL_Y[0])
 
 
 
@@ -427,21 +428,29 @@ from rftfem.simulation import build_model
 model = build_model(load_scene(sys.argv[1], sys.argv[2:]), MPI.COMM_WORLD)
 n = model.mesh.topology.index_map(1).size_local
 owners = [MPI.COMM_WORLD.allgather(int((h.facets < n).sum()) > 0) for h in model.hinges]
+colours = {r: set().union(*MPI.COMM_WORLD.allgather(set(model.colours[model._cells_of([r])])))
+           for r in ("left", "middle", "right")}
+one_each = all(len(c) == 1 for c in colours.values())
 if MPI.COMM_WORLD.rank == 0:
-    print("CUT" if any(sum(o) > 1 for o in owners) else "UNCUT")
+    print("CUT" if any(sum(o) > 1 for o in owners) else "UNCUT",
+          "PANELS" if one_each and colours["left"] != colours["middle"] != colours["right"]
+          else f"MIXED {colours}")
 """
 
 
 @pytest.mark.mpi
 def test_three_link_mpirun_matches_serial(tmp_path, cli_run, mpirun):
     """One square cycle of the Purcell swimmer on 2 processes whose partition cuts a
-    hinge line (checked) gives the serial probe rows to 1e-8 mm."""
+    hinge line (checked) gives the serial probe rows to 1e-8 mm, and each link is
+    one panel of one colour across the processes, neighbours differing (checked
+    directly: nothing varies along X here, so a link wrongly split in two at the
+    partition would not show in the probes)."""
     exe, env = mpirun
     sets = ["time.end=1.0", "time.dt=0.0125", "mesh.divisions=[8, 1]", "output.fields=false"]
     done = subprocess.run([exe, "-n", "2", sys.executable, "-c", PARTITION, str(SCALLOP), *sets],
                           env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    assert done.stdout.split()[-1] == "CUT"
+    assert done.stdout.split()[-2:] == ["CUT", "PANELS"], done.stdout[-500:]
     rows = {}
     for n in (1, 2):
         out = cli_run(SCALLOP, tmp_path / f"np{n}", sets, np=n)
@@ -452,3 +461,34 @@ def test_three_link_mpirun_matches_serial(tmp_path, cli_run, mpirun):
           f"{np.abs(rows[2] - rows[1]).max():.2e} mm")
     assert moved > 0.01
     assert np.abs(rows[2] - rows[1]).max() < 1e-8
+
+
+# --- the demos as shipped ------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_three_link_demo(tmp_path):
+    """The paper's cases I-IV, each with and without inertia, run to completion and
+    write their Table 4 analogue, groups and plot; without inertia the rigid-link
+    case I obeys the scallop theorem (corner moves < 1e-4 mm in 9 cycles)."""
+    done = subprocess.run([sys.executable, str(DEMOS / "three_link.py"), "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True)
+    print(done.stdout[-3000:])
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    for name in ("table4.csv", "groups.md", "three_link.png"):
+        assert (tmp_path / name).stat().st_size > 0
+    with open(tmp_path / "table4.csv", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 9
+    assert max(abs(float(r["I (no inertia)"])) for r in rows) < 1e-4
+
+
+@pytest.mark.slow
+def test_scallop_demo(tmp_path):
+    """The scallop study as shipped: it checks the rigid square loop against the exact
+    result (2 %) and the rigid out-and-back loop (1e-3 of it) itself (exit status)."""
+    done = subprocess.run([sys.executable, str(DEMOS / "scallop.py"), "--out", str(tmp_path)],
+                          cwd=ROOT, capture_output=True, text=True)
+    print(done.stdout[-3000:])
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert (tmp_path / "scallop.png").stat().st_size > 0
