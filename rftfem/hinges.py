@@ -21,7 +21,6 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx import mesh as dmesh
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
@@ -192,7 +191,3 @@ def facet_measure(mesh, hinges: list[Hinge]):
 
 def cells_of_colour(colours: np.ndarray, c: int) -> np.ndarray:
     return np.nonzero(colours == c)[0].astype(np.int32)
-
-
-def global_max(comm, value: float) -> float:
-    return comm.allreduce(value, op=MPI.MAX)
