@@ -75,6 +75,19 @@ def _build_parser() -> _Parser:
     check.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     check.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
                        dest="overrides", help="override one scene key (TOML value); repeatable")
+
+    # render and collect own their options (light modules: pyvista and the
+    # simulation are imported only when the command runs)
+    from rftfem import collect, render_cli
+
+    render_cli.add_arguments(sub.add_parser(
+        "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
+        allow_abbrev=False, description=render_cli.DESCRIPTION,
+        epilog="exit status: 0 ok, 2 bad option or results folder"))
+    collect.add_arguments(sub.add_parser(
+        "collect", help="one table row per run folder of a parameter study",
+        allow_abbrev=False, description=collect.DESCRIPTION,
+        epilog="exit status: 0 ok, 2 bad option or folder"))
     return parser
 
 
@@ -206,6 +219,22 @@ def _cmd_check(args, console: _Console) -> int:
     return console.agree(0)
 
 
+def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
+    """``render`` and ``collect``: post-processing of results folders (serial)."""
+    if petsc_args:
+        console.err(f"rftfem {args.command}: error: unrecognized arguments: {' '.join(petsc_args)}")
+        return 2
+    if args.command == "render":
+        from rftfem.render_cli import main as tool
+    else:
+        from rftfem.collect import main as tool
+    try:
+        return tool(args, console)
+    except SceneError as exc:
+        console.err(f"rftfem {args.command}: error: {exc}")
+        return SceneError.exit_status
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``rftfem`` and ``python -m rftfem``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -221,6 +250,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             return _cmd_run(args, petsc_args, console)
+        if args.command in ("render", "collect"):
+            return _cmd_tool(args, petsc_args, console)
         return _cmd_check(args, console)
     except KeyboardInterrupt:
         console.err("rftfem: interrupted")

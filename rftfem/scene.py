@@ -471,6 +471,7 @@ SCHEMA = _Table({
             "at": _Leaf(_Vec(), required=True),
         })),
         "fields": _Leaf(_Bool(), True),
+        "render": _Leaf(_Str(("none", "png", "mp4", "gif")), "none"),
     }),
     "solver": _Free(),
 })
@@ -946,6 +947,7 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
                              f"({exc.strerror or exc})") from None
         mesh["file"] = str(mesh_file)
     scene["_path"] = str(scene_path.resolve())
+    scene["_overrides"] = list(overrides)
     return scene
 
 

@@ -248,6 +248,7 @@ class Simulation:
             "status": status,
             "scene": scene,
             "scene_file": self.scene.get("_path"),
+            "overrides": list(self.scene.get("_overrides", [])),
             "active_effects": self.model.active_effects(),
             "scheme": self.scheme.name,
             "versions": {"rftfem": __version__, **compat.versions()},
