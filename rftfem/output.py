@@ -9,6 +9,8 @@ interpolated to first-order Lagrange, which XDMF and ParaView show directly.
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
 import time as _time
 from pathlib import Path
@@ -142,26 +144,57 @@ class FieldWriter:
 
 
 class Progress:
-    """A progress bar on a terminal; plain log lines otherwise or with ``quiet``."""
+    """What a run tells while it runs, on rank 0.
 
-    def __init__(self, end: float, comm, quiet: bool = False, stream=None):
+    - on a terminal: a progress bar redrawn in place after every step;
+    - elsewhere (CI, cluster logs, a pipe): a plain line at most every
+      ``interval`` seconds (default 5 s, or ``RFTFEM_LOG_INTERVAL``), so a run of
+      many cheap steps does not fill its log;
+    - ``quiet``: only what :meth:`final` says; errors go to stderr as always.
+
+    Notices (:meth:`log`: the opening line, step cuts) are printed unless quiet.
+    A hand-written bar rather than tqdm or rich: it is twenty lines, works the
+    same on both stacks and under MPI (one rank prints), and needs no package.
+    """
+
+    def __init__(self, end: float, comm, quiet: bool = False, stream=None,
+                 interval: float | None = None):
         self.end = end
         self.stream = stream or sys.stdout
         self.active = comm.rank == 0
+        self.quiet = quiet
         self.bar = self.active and not quiet and self.stream.isatty()
+        if interval is None:
+            try:
+                interval = float(os.environ.get("RFTFEM_LOG_INTERVAL", "5"))
+            except ValueError:
+                interval = 5.0
+        self.interval = interval
         self.t0 = _time.perf_counter()
+        self.last_line = -math.inf
+
+    def _write(self, text: str):
+        if self.bar:
+            self.stream.write("\r\033[K")
+        self.stream.write(text + "\n")
+        self.stream.flush()
 
     def log(self, text: str):
+        """A notice: printed unless quiet."""
+        if self.active and not self.quiet:
+            self._write(text)
+
+    def final(self, text: str):
+        """The run's last line: always printed."""
         if self.active:
-            if self.bar:
-                self.stream.write("\r\033[K")
-            self.stream.write(text + "\n")
-            self.stream.flush()
+            self.close()
+            self._write(text)
 
     def update(self, t: float, step: int, newton: int, residual: float):
-        if not self.active:
+        if not self.active or self.quiet:
             return
-        elapsed = _time.perf_counter() - self.t0
+        now = _time.perf_counter()
+        elapsed = now - self.t0
         eta = elapsed * (self.end - t) / t if t > 0 else float("nan")
         if self.bar:
             width = 30
@@ -169,14 +202,45 @@ class Progress:
             self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] t = {t:.4g}/{self.end:.4g}"
                               f"  step {step}  newton {newton}  eta {eta:.0f} s\033[K")
             self.stream.flush()
-        else:
-            self.log(f"t = {t:.6g}  step {step}  newton {newton}  residual {residual:.3e}"
-                     f"  elapsed {elapsed:.1f} s")
+        elif now - self.last_line >= self.interval:
+            self.last_line = now
+            self._write(f"t = {t:.6g}/{self.end:.6g}  step {step}  newton {newton}  "
+                        f"residual {residual:.3e}  elapsed {elapsed:.1f} s  eta {eta:.0f} s")
 
     def close(self):
         if self.bar:
             self.stream.write("\n")
             self.stream.flush()
+            self.bar = False
+
+
+#: environment variables by which MPI launchers tell a process it is one of a job's ranks
+_MPI_ENV_PREFIXES = ("OMPI_COMM_WORLD", "OMPI_MCA_orte", "OMPI_MCA_ess", "OMPI_FILE_LOCATION",
+                     "PMIX_", "PMI_", "HYDRA_", "MPI_LOCAL", "SLURM_PROCID")
+
+
+def render_in_child(folder: Path, kind: str, comm, progress: Progress) -> None:
+    """``output.render``: draw ``folder/render.<kind>`` with ``rftfem render`` in a
+    child process of rank 0 (pyvista must not share a process with dolfinx, see
+    :mod:`rftfem.compat_render`). The child is not an MPI rank: the launcher's
+    variables are left out of its environment. A failed drawing is reported, and
+    the run's own status is kept."""
+    import subprocess
+
+    if comm.rank == 0:
+        out = Path(folder) / f"render.{kind}"
+        env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENV_PREFIXES)}
+        cmd = [sys.executable, "-m", "rftfem", "render", str(folder), "--out", str(out)]
+        proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True,
+                              text=True)
+        if proc.returncode == 0:
+            progress.log(f"rendered {out}")
+        else:
+            lines = (proc.stderr or proc.stdout).strip().splitlines()
+            why = lines[-1] if lines else f"exit status {proc.returncode}"
+            print(f"rftfem: warning: output.render: {out} not drawn: {why}", file=sys.stderr,
+                  flush=True)
+    comm.Barrier()
 
 
 def write_json(path: Path, data: dict, comm):

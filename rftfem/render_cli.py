@@ -1,11 +1,86 @@
-"""``rftfem render`` options (placeholder, being written)."""
+"""``rftfem render``: its options and their checks (light: pyvista is imported
+only once the options are good, by :mod:`rftfem.render`)."""
 
-DESCRIPTION = "Draw a finished run."
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rftfem.errors import SceneError
+
+DESCRIPTION = (
+    "Draw a finished (or failed, or running) run from its results folder: the deformed "
+    "body coloured by a field, the reference body faintly, axes and the time. A .png "
+    "shows one frame (the last by default); a .mp4 or .gif film shows every output "
+    "frame (every Nth when there are many). Works the same on results of serial and "
+    "mpirun runs. Renders off-screen: no display needed.")
+
+VIEWS = ("iso", "xy", "xz", "yz", "follow")
+FORMATS = (".png", ".mp4", ".gif")
 
 
-def add_arguments(parser):
-    parser.add_argument("results", metavar="RESULTS_DIR")
+def add_arguments(parser: argparse.ArgumentParser):
+    parser.add_argument("results", metavar="RESULTS_DIR",
+                        help="a run's output folder (with fields.xdmf and summary.json)")
+    parser.add_argument("--out", metavar="FILE", type=Path, default=None,
+                        help="picture or film to write: .png, .mp4 or .gif "
+                             "(default: RESULTS_DIR/render.png)")
+    parser.add_argument("--color", metavar="FIELD", default=None,
+                        help="colour by: displacement (magnitude), ux, uy, uz, director_x, "
+                             "director_y, director_z, magnetization (component along "
+                             "shell.axis, with arrows; magnetic runs only) or none "
+                             "(default: magnetization on magnetic runs, else displacement)")
+    parser.add_argument("--time", metavar="T", type=float, default=None,
+                        help="for a .png: the output time to draw (the nearest written "
+                             "frame; default: the last)")
+    parser.add_argument("--view", choices=VIEWS, default="iso",
+                        help="camera: iso (default), xy (from +z), xz (from -y), yz (from +x), "
+                             "or follow (iso, moving with the centroid)")
+    parser.add_argument("--trail", metavar="PROBE", default=None,
+                        help="draw the path of the centroid (--trail centroid) or of a probe "
+                             "up to the frame's time (default: the centroid with "
+                             "--view follow, none otherwise)")
+    parser.add_argument("--fps", metavar="N", type=float, default=None,
+                        help="film frame rate (default: so that the film lasts 4-12 s)")
+    parser.add_argument("--every", metavar="N", type=int, default=None,
+                        help="film: use every Nth output frame (default: at most 360 frames)")
+    parser.add_argument("--size", metavar="WxH", default="1024x768",
+                        help="picture size in pixels (default 1024x768)")
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise SceneError(f"--size: expected WIDTHxHEIGHT in pixels (e.g. 1024x768), "
+                         f"found '{text}'") from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise SceneError(f"--size: expected 16 to 8192 pixels each way, found '{text}'")
+    return w, h
 
 
 def main(args, console) -> int:
-    raise NotImplementedError
+    results = Path(args.results)
+    if not results.is_dir():
+        raise SceneError(f"results folder '{results}' not found")
+    out = args.out if args.out is not None else results / "render.png"
+    if out.suffix.lower() not in FORMATS:
+        raise SceneError(f"--out {out}: expected a .png, .mp4 or .gif file name")
+    if out.is_dir():
+        raise SceneError(f"--out {out}: is a folder; expected a file name")
+    if not out.parent.exists() if str(out.parent) else False:
+        raise SceneError(f"--out {out}: folder '{out.parent}' does not exist")
+    if args.time is not None and out.suffix.lower() != ".png":
+        raise SceneError("--time: only for a picture (.png); a film shows the whole run")
+    if args.fps is not None and not (0.1 <= args.fps <= 120):
+        raise SceneError(f"--fps: expected a number from 0.1 to 120, found {args.fps:g}")
+    if args.every is not None and args.every < 1:
+        raise SceneError(f"--every: expected an integer >= 1, found {args.every}")
+    size = _size(args.size)
+
+    from rftfem.render import render  # pyvista and VTK: only now
+
+    done = render(results, out, color=args.color, time=args.time, view=args.view,
+                  trail=args.trail, fps=args.fps, every=args.every, size=size)
+    console.out(f"rftfem render: wrote {out} ({done.describe()})")
+    return 0

@@ -28,7 +28,8 @@ from mpi4py import MPI
 from . import __version__, compat, petsc_options
 from .errors import RunFailed, SceneError
 from .model import Model
-from .output import BodyLog, CsvLog, FieldWriter, Probes, Progress, write_json
+from .output import (BodyLog, CsvLog, FieldWriter, Probes, Progress, render_in_child,
+                     write_json)
 from .solver import StepSolver
 from .timeint import BackwardEuler, Static, make_scheme
 
@@ -43,9 +44,17 @@ def build_model(scene: dict, comm, compile_forms: bool = True) -> Model:
     return Model(scene, body, compile_forms=compile_forms)
 
 
+def _check_output(scene: dict):
+    output = scene.get("output", {})
+    if output.get("render", "none") != "none" and not output.get("fields", True):
+        raise SceneError(f"output.render = \"{output['render']}\" draws the fields: "
+                         "it needs output.fields = true")
+
+
 def check(scene: dict, comm=None) -> list[str]:
     """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
     comm = comm or MPI.COMM_WORLD
+    _check_output(scene)
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
     return model.active_effects()
@@ -80,6 +89,7 @@ class Simulation:
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
+        _check_output(scene)
         _quiet_compilers()
         t0 = _time.perf_counter()
         self.model = build_model(scene, self.comm)
@@ -205,8 +215,11 @@ class Simulation:
                 log.close()
             if out is not None:
                 write_json(out / "summary.json", summary, comm)
+                render = scene.get("output", {}).get("render", "none")
+                if render != "none" and "fields" in logs:
+                    render_in_child(out, render, comm, progress)
         c = self.counts
-        progress.log(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
+        progress.final(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
                      f"{c['dt_cuts']} dt cuts, {summary['wall_s']['total']:.1f} s"
                      + (f"; outputs in {out}" if out is not None else ""))
         return summary

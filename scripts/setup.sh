@@ -29,10 +29,14 @@ cd "$ROOT"
 
 REF_PYTHON=/usr/bin/python3
 REF_VENV="$ROOT/.venv"
+# EGL and Mesa's DRI drivers: off-screen rendering by the vtk wheel (pyvista)
+# without a display. Without them VTK crashes at its first render.
+RENDER_APT=(libegl1 libgl1-mesa-dri)
 REF_APT=(
     python3-dolfinx-real python3-gmsh openmpi-bin
     python3-venv python3-pip python3-setuptools
     python3-matplotlib python3-pytest
+    "${RENDER_APT[@]}"
 )
 
 CUR_VENV="$ROOT/.venv-current"
@@ -44,6 +48,7 @@ CUR_APT=(
     gcc libc6-dev
     libglu1-mesa libgl1 libx11-6 libxext6 libxrender1 libxcursor1 libxfixes3
     libxft2 libxinerama1 libfontconfig1 libgomp1 libstdc++6 zlib1g
+    "${RENDER_APT[@]}"
 )
 
 STAMP_NAME=.rftfem-setup-stamp
@@ -148,11 +153,24 @@ setup_reference() {
     fi
     rm -f "$REF_VENV/$STAMP_NAME"
 
-    step "reference: pip install -e '.[test]' into .venv"
-    "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-build-isolation -e '.[test]'
+    # Debian's numpy (and matplotlib, pillow) must stay: dolfinx and petsc4py are
+    # built against them. pip gets them as constraints, so the pure-Python
+    # extras (pyvista, imageio) are chosen to fit instead of replacing them.
+    local constraints="$REF_VENV/debian-constraints.txt"
+    "$REF_PYTHON" - >"$constraints" <<'PY'
+import importlib.metadata as md
+for name in ("numpy", "matplotlib", "pillow"):
+    try:
+        print(f"{name}=={md.version(name)}")
+    except md.PackageNotFoundError:
+        pass
+PY
+    step "reference: pip install -e '.[test]' into .venv (constraints: $(tr '\n' ' ' <"$constraints"))"
+    "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-build-isolation \
+        -c "$constraints" -e '.[test]'
 
-    step "reference: checking that dolfinx, gmsh and rftfem import"
-    "$REF_VENV/bin/python" -c 'import dolfinx, gmsh, petsc4py, mpi4py, rftfem; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__)'
+    step "reference: checking that dolfinx, gmsh, pyvista and rftfem import"
+    "$REF_VENV/bin/python" -c 'import rftfem.render, dolfinx, gmsh, petsc4py, mpi4py; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$REF_VENV/$STAMP_NAME"
     say "reference: ready ($((SECONDS - t)) s)"
@@ -233,8 +251,8 @@ setup_current() {
     step "current: pip install -e '.[test]' ${CUR_PIP[*]} into .venv-current"
     "$CUR_VENV/bin/python" -m pip install "${pip_flags[@]}" -e '.[test]' "${CUR_PIP[@]}"
 
-    step "current: checking that dolfinx_solver, dolfinx, gmsh and rftfem import"
-    "$CUR_VENV/bin/python" -c 'import dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, rftfem; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__)'
+    step "current: checking that dolfinx_solver, dolfinx, gmsh, pyvista and rftfem import"
+    "$CUR_VENV/bin/python" -c 'import rftfem.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$CUR_VENV/$STAMP_NAME"
     say "current: ready ($((SECONDS - t)) s)"

@@ -98,7 +98,7 @@ def test_minimal_scene_gets_every_default(write):
                          "max_rotation": 0.2}
     assert s["boundary"] == [] and s["load"] == [] and s["motion"] == [] and s["hinge"] == []
     assert s["fluid"] is None and s["magnetic"] is None
-    assert s["output"] == {"probes": [], "fields": True}
+    assert s["output"] == {"probes": [], "fields": True, "render": "none"}
     assert s["solver"] == {}
 
 
