@@ -1,4 +1,4 @@
-"""The bidirectional magnetic strip of the paper's section 4.3 (REFERENCES.md I).
+"""The bidirectional magnetic strip of the paper's section 4.3 (docs/verification.md case I).
 
 A strip with oppositely magnetized ends sits in a field that first ramps along
 +X (phase 1): the anti-aligned end flips over and the strip takes a chiral

@@ -20,7 +20,7 @@ against time, with the exact-RFT slope), and one run folder per case.
     python3 demos/swimming_sheet.py --reuse         # table and plot again, no rerun
 
 Exit status 1 when a transient-free speed is off its exact value by more than
-0.5 % on any mesh (REFERENCES.md F asks for it on 4×50 or coarser; finer meshes
+0.5 % on any mesh (docs/verification.md case F asks for it on 4×50 or coarser; finer meshes
 must do no worse), or a ratio IV/II or V/IV by more than 0.5 %.
 """
 
@@ -58,7 +58,8 @@ CASES = {
 
 
 def exact_speed(b: float, k: float, omega: float, c1: float = C1, c3: float = C3) -> float:
-    """Exact RFT speed of a sheet with transverse wave ``b sin(kX + ωt)`` (REFERENCES.md F):
+    """Exact RFT speed of a sheet with transverse wave ``b sin(kX + ωt)``
+    (docs/verification.md case F):
 
         U = (C₃ − C₁) k ω b² ⟨cos²φ / √(1+s²)⟩ / ⟨(C₁ + C₃ s²) / √(1+s²)⟩,  s = k b cos φ
 
@@ -213,7 +214,7 @@ def write_tables(rows: list[dict], out: Path):
 
 
 def check(rows: list[dict], tol_pct: float = 0.5) -> bool:
-    """REFERENCES.md F: ≤ 0.5 % on every mesh (4×50 or coarser, and finer ones must do
+    """docs/verification.md case F: ≤ 0.5 % on every mesh (4×50 or coarser, and finer ones must do
     no worse), ratios IV/II and V/IV within 0.5 %."""
     ok = True
     by_case = {r["case"]: r for r in rows}

@@ -1,1 +1,1 @@
-"""UFL forms of rftfem, one module per effect (DESIGN.md sections 3-5)."""
+"""UFL forms of rftfem, one module per effect (docs/model.md §3-5)."""

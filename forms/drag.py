@@ -1,4 +1,4 @@
-"""Resistive-force-theory drag (DESIGN.md §5; the paper's eq. 7-9 and 14).
+"""Resistive-force-theory drag (docs/model.md §5.4; the paper's eq. 7-9 and 14).
 
 The fluid acts on the mid-surface with a local, anisotropic traction
 proportional to its velocity ``v``.  In the current configuration
@@ -47,7 +47,7 @@ def _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, 
 
 
 def drag_work(coefficients, F_s, axis, velocity, du, g1, g2, G1, G2, dx):
-    """Virtual work of the drag, ``∫ (C̃ v)·δu J dA₀`` (DESIGN.md §5)."""
+    """Virtual work of the drag, ``∫ (C̃ v)·δu J dA₀`` (docs/model.md §5.4)."""
     traction = _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2)
     return ufl.dot(traction, du) * dx
 

@@ -1,4 +1,4 @@
-"""Stored energy of the Reissner-Mindlin shell and its locking cure (DESIGN.md §3).
+"""Stored energy of the Reissner-Mindlin shell and its locking cure (docs/model.md §3).
 
     ψ = ½ t ε:C:ε + ½ (t³/12) κ:C:κ + ½ t k_s μ γ_a A^{ab} γ_b
     C(e) = E/(1−ν²) [ν tr(A⁻¹e) A⁻¹ + (1−ν) A⁻¹ e A⁻¹],   μ = E/(2(1+ν)),  k_s = 5/6

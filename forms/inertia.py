@@ -1,4 +1,4 @@
-"""Translational inertia (DESIGN.md §5): ``∫ ρ t a·δu dA₀``.
+"""Translational inertia (docs/model.md §5.3): ``∫ ρ t a·δu dA₀``.
 
 Rotary inertia of the director is neglected: it is of order t²/L² of the
 translational inertia for the thin shells this code is for.

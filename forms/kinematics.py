@@ -1,4 +1,4 @@
-"""Shell kinematics (DESIGN.md sections 3 and 4), written in UFL.
+"""Shell kinematics (docs/model.md §3 and §4), written in UFL.
 
 The reference mid-surface is the mesh itself (tdim 2 in gdim 3).  Greek indices
 run over the two reference-cell coordinates; every 2x2 tensor here is a matrix of
@@ -34,7 +34,7 @@ def unit_normal(a1, a2):
 
 
 def area_ratio(g1, g2, G1, G2):
-    """Current over reference area element ``|g_1 x g_2| / |G_1 x G_2|`` (DESIGN §5)."""
+    """Current over reference area element ``|g_1 x g_2| / |G_1 x G_2|`` (docs/model.md §5.4)."""
     n, N = ufl.cross(g1, g2), ufl.cross(G1, G2)
     return ufl.sqrt(ufl.dot(n, n) / ufl.dot(N, N))
 
@@ -88,12 +88,12 @@ def convected_axis(F_s, axis, G1, G2):
 
 
 def rotation_vector(theta, a1, a2):
-    """Rotation increment ``θ = θ¹ a₁ + θ² a₂`` from its two components (DESIGN §4)."""
+    """Rotation increment ``θ = θ¹ a₁ + θ² a₂`` from its two components (docs/model.md §4.1)."""
     return theta[0] * a1 + theta[1] * a2
 
 
 def director(theta, a1, a2, dn):
-    """Current director ``d = cos|θ| dₙ + (sin|θ|/|θ|) θ × dₙ`` (DESIGN §4).
+    """Current director ``d = cos|θ| dₙ + (sin|θ|/|θ|) θ × dₙ`` (docs/model.md §4.2).
 
     ``(a1, a2, dn)`` is the nodal triad of the last converged step, interpolated;
     ``dn`` is normalised where interpolated.  ``θ`` has no drilling component, so
@@ -140,7 +140,8 @@ def shear_strain(g1, g2, d, G1, G2, D):
 
 
 def deformation_gradient(g1, g2, d, G1, G2, N):
-    """Shell deformation gradient ``F = F_s + d ⊗ N`` (DESIGN §5), as ``g_a ⊗ G^a + d ⊗ N``."""
+    """Shell deformation gradient ``F = F_s + d ⊗ N`` (docs/model.md §3.1), as
+    ``g_a ⊗ G^a + d ⊗ N``."""
     A_inv = ufl.inv(metric(G1, G2))
     G_up1 = A_inv[0, 0] * G1 + A_inv[0, 1] * G2
     G_up2 = A_inv[1, 0] * G1 + A_inv[1, 1] * G2

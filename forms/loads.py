@@ -1,4 +1,4 @@
-"""Dead edge loads (DESIGN.md §5): a force and a moment per unit reference length."""
+"""Dead edge loads (docs/model.md §5.6): a force and a moment per unit reference length."""
 
 import ufl
 

@@ -1,4 +1,4 @@
-"""Magnetic body couples on hard-magnetic parts (DESIGN.md §5; the paper's eq. 16).
+"""Magnetic body couples on hard-magnetic parts (docs/model.md §5.5; the paper's eq. 16).
 
 A hard-magnetic material fibre carries a remanent magnetization of magnitude
 ``m`` (per volume) along a material direction ``q₀``.  It is convected by the

@@ -11,7 +11,7 @@ names of both, and the extents of the reference body in X and Y.
   hinge lines ``"hinge-left"`` and ``"hinge-right"`` (``kind = "three-link"``);
 - :func:`read_gmsh` -- a user ``.msh`` file whose named physical surfaces are
   the regions and named physical curves the edges (``kind = "gmsh"``);
-- :func:`build_body` -- the ``[mesh]`` table of a scene (SCENES.md) to a Body.
+- :func:`build_body` -- the ``[mesh]`` table of a scene (docs/scenes.md) to a Body.
 
 gmsh runs on rank 0 only; dolfinx distributes the mesh over the communicator.
 The names (``regions``, ``edges``, ``hinges``) and extents are the same on
@@ -87,7 +87,7 @@ def _regions(raw) -> list:
 
 
 def build_body(comm, mesh_section: dict, scene_dir=None, hinges=()) -> Body:
-    """The scene's ``[mesh]`` table (SCENES.md) as a Body; collective on ``comm``.
+    """The scene's ``[mesh]`` table (docs/scenes.md) as a Body; collective on ``comm``.
 
     ``kind`` (default ``"strip"``):
 

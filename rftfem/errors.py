@@ -1,4 +1,5 @@
-"""The two ways a run ends early, each with its own exit status (SCENES.md)."""
+"""The two ways a run ends early, each with its own exit status (docs/scenes.md,
+"Command line")."""
 
 
 class SceneError(ValueError):

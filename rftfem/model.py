@@ -2,11 +2,11 @@
 
 The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
 the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
-``(a₁, a₂, dₙ)`` of the last converged step (DESIGN.md §4).  The triad is kept as
+``(a₁, a₂, dₙ)`` of the last converged step (docs/model.md §4).  The triad is kept as
 three [P2]³ functions, rotated node by node after each converged step, and its
 in-plane pair turned about dₙ onto the convected material axis (``update_triad``).
 
-Only the effects a scene asks for are built (DESIGN.md §5): ``Model.effects``
+Only the effects a scene asks for are built (docs/model.md §5): ``Model.effects``
 names them, and each maps to its UFL virtual-work term.
 """
 
@@ -31,7 +31,7 @@ DISPLACEMENT_COMPONENTS = {"ux": 0, "uy": 1, "uz": 2}
 
 
 def ramp_scale(load: dict, t: float, end: float) -> float:
-    """Scale factor of a ``[[load]]`` at time ``t`` (SCENES.md: linear, constant, table)."""
+    """Scale factor of a ``[[load]]`` at time ``t`` (docs/scenes.md: linear, constant, table)."""
     kind = load.get("ramp", "linear")
     if kind == "linear":
         return t / end
@@ -241,7 +241,7 @@ class Model:
         du = ufl.split(w_test)[0]
         self.director = d
 
-        #: virtual work of every non-inertial effect, by name (DESIGN.md §5)
+        #: virtual work of every non-inertial effect, by name (docs/model.md §5)
         self.effects = {"elasticity": ufl.derivative(self.energy, self.w, w_test)}
         springs = [h for h in self.hinges if h.stiffness > 0]
         if springs:
@@ -340,7 +340,7 @@ class Model:
         return self.comm.allreduce(fem.assemble_scalar(self._spin_drag_form))
 
     def _build_magnetic(self, w_test):
-        """Magnetic virtual work over the magnetized cells (DESIGN.md §5).
+        """Magnetic virtual work over the magnetized cells (docs/model.md §5.5).
 
         The remanent magnetization ``m q₀`` of every part is stored cellwise
         (DG0 vector); the form is integrated over the parts' cells only.
@@ -394,7 +394,7 @@ class Model:
                          for f in self._moment_forms])
 
     def field_at(self, t: float) -> np.ndarray:
-        """The applied field ``b(t)`` of ``[magnetic.field]`` (SCENES.md).
+        """The applied field ``b(t)`` of ``[magnetic.field]`` (docs/scenes.md).
 
         Phase 1 (``t ≤ ramp_time``): strength ramps linearly from 0 along
         ``direction``.  Phase 2: full strength, rotating right-handedly about
@@ -588,7 +588,7 @@ class Model:
     # --- prescribed motion ----------------------------------------------------
 
     def _build_motions(self) -> list["Motion"]:
-        """One time-dependent Dirichlet condition per ``[[motion]]`` (DESIGN.md §5).
+        """One time-dependent Dirichlet condition per ``[[motion]]`` (docs/model.md §5.7).
 
         The value lives in a Function on the collapsed component space and is
         interpolated at every time the solver visits (:meth:`set_time`).
@@ -641,7 +641,7 @@ class Model:
             self.field.value[:] = self.field_at(t)
 
     def reference_force(self) -> float:
-        """A force scale of the scene, for absolute Newton tolerances (DESIGN.md §7).
+        """A force scale of the scene, for absolute Newton tolerances (docs/model.md §7).
 
         The largest of: the bending force ``D W / L²`` that bends the body by
         order one, each total edge force, each edge moment over the length.
@@ -782,7 +782,7 @@ class Model:
 
 
 class Motion:
-    """A prescribed displacement component (SCENES.md ``[[motion]]``) and its Dirichlet value.
+    """A prescribed displacement component (docs/scenes.md ``[[motion]]``) and its Dirichlet value.
 
     ``travelling-wave``: ``u = amplitude sin(wavenumber (X − origin) + angular_frequency t)``
     with ``X`` the reference X coordinate of each dof; ``table``: piecewise linear

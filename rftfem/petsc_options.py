@@ -1,4 +1,4 @@
-"""The one place where PETSc options are chosen (DESIGN.md §7).
+"""The one place where PETSc options are chosen (docs/model.md §7).
 
 Precedence, lowest first: the defaults below, the scene's ``[solver]`` table, the
 command line (``rftfem run scene.toml -snes_monitor -ksp_type gmres``).  All

@@ -1,4 +1,4 @@
-"""PETSc SNES around the model's residual (DESIGN.md §6-7).
+"""PETSc SNES around the model's residual (docs/model.md §6-7).
 
 The residual of a step is
 

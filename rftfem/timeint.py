@@ -1,4 +1,4 @@
-"""Time-stepping schemes (DESIGN.md §6) as coefficient sets.
+"""Time-stepping schemes (docs/model.md §6) as coefficient sets.
 
 Each scheme says how the velocity ``v_{n+1}`` and the inertia-weighted
 acceleration ``a_{n+1-α_m}`` depend on the unknown displacement ``u_{n+1}`` and

@@ -1,4 +1,4 @@
-"""The bidirectional magnetic strip (REFERENCES.md I, issue 4), on the demo scene
+"""The bidirectional magnetic strip (docs/verification.md case I, issue 4), on the demo scene
 with short runs: the two protocols swim in opposite senses with equal speeds, the
 strip steps out above a frequency and its run keeps going and slows, and mpirun
 matches serial."""

@@ -1,4 +1,4 @@
-"""Resistive-force drag (DESIGN.md §5, issue 3): terminal velocities, reactions,
+"""Resistive-force drag (docs/model.md §5.4, issue 3): terminal velocities, reactions,
 frame objectivity, dissipation, and the effect switch."""
 
 from __future__ import annotations

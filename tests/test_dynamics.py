@@ -1,4 +1,5 @@
-"""Free vibration of a cantilever strip: first frequency (REFERENCES.md D) and energy."""
+"""Free vibration of a cantilever strip: first frequency (docs/verification.md case D)
+and energy."""
 
 import numpy as np
 import pytest

@@ -205,7 +205,8 @@ def _corner_rows(sim):
     return np.array(out)
 
 
-#: REFERENCES H: after 1, 2, 3 square cycles (A = 0.1): centre Y and middle-link angle
+#: docs/verification.md case H: after 1, 2, 3 square cycles (A = 0.1): centre Y and
+#: middle-link angle
 PURCELL_Y = (-1.29213e-3, -2.58349e-3, -3.87332e-3)
 PURCELL_ANGLE = (-4.8837e-3, -9.7661e-3, -1.46456e-2)
 

@@ -1,4 +1,4 @@
-"""Magnetic body couples (DESIGN.md §5, issue 4): the field protocol, the static
+"""Magnetic body couples (docs/model.md §5.5, issue 4): the field protocol, the static
 hard-magnetic elastica, and the effect switch."""
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ def test_magnetic_form_absent_without_magnetic(tmp_path):
     assert "remanent_magnetization" in [c.name for c in wet.forces_ufl.coefficients()]
 
 
-# --- REFERENCES.md G: a rigid magnetic plate in a rotating field (Adler) -----------
+# --- docs/verification.md case G: a rigid magnetic plate in a rotating field (Adler)
 
 PLATE_L, PLATE_W, PLATE_T = 2.0, 1.0, 0.1
 # C₃ (N·s/mm³); C₁ = C₂ = 2 C₃, so that a coefficient used for the wrong spin
@@ -153,7 +153,7 @@ PLATE_L, PLATE_W, PLATE_T = 2.0, 1.0, 0.1
 # in-plane axis is unstable (tilting out of the plane grows from round-off,
 # 1e-14 to 5e-5 in three slip cycles) and after ~8 turns the plate no longer
 # moves as Adler's planar solution (+51 % mean rate at ω/ω_c = 1.2): that is
-# three-dimensional physics, outside REFERENCES.md G.
+# three-dimensional physics, outside docs/verification.md case G.
 DRAG = 1.0e-3
 MB = 2 * math.pi * DRAG / 0.24      # m B: spin about the normal has ω_c = π rad/s
 
@@ -221,7 +221,7 @@ class PlateAngle:
 @pytest.mark.parametrize("axis_name", list(AXES))
 @pytest.mark.parametrize("ratio", [0.5, 0.9, 1.2, 2.0])
 def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
-    """REFERENCES.md G: below ω_c the plate follows the field with lag
+    """docs/verification.md case G: below ω_c the plate follows the field with lag
     sin α = ω/ω_c; above, its mean rate is ω − √(ω² − ω_c²) (2 %).  About the
     in-plane axis the plate (and its director) turns at least 5 times, with no
     failed step and | |d| − 1 | < 1e-10 at the end."""
@@ -385,7 +385,7 @@ def test_energy_bookkeeping_in_rotating_field(tmp_path):
 
 def test_rigid_rotor_diagnostics(tmp_path):
     """The diagnostics behind the demo's step-out estimate, on the flat plate:
-    ``rotational_drag`` is ζ of REFERENCES.md G about both axes, ``centroid`` the
+    ``rotational_drag`` is ζ of docs/verification.md case G about both axes, ``centroid`` the
     plate's centre, and ``magnetic_moment`` is t m A q₀."""
     from mpi4py import MPI
 

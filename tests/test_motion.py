@@ -1,4 +1,4 @@
-"""Prescribed motion (SCENES.md [[motion]]): values reach the selected dofs at every
+"""Prescribed motion (docs/scenes.md [[motion]]): values reach the selected dofs at every
 step, on edges and regions, for tables and travelling waves, any component."""
 
 from __future__ import annotations

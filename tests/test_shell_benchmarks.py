@@ -1,4 +1,5 @@
-"""Published shell benchmarks, run through scenes (REFERENCES.md A, B, C, E and the twist).
+"""Published shell benchmarks, run through scenes (docs/verification.md cases A, B, C, E
+and the twist).
 
 Each test prints the figure it reached, so `pytest -s` (or -rA) shows the margin.
 """
@@ -20,7 +21,7 @@ SZE_SHEAR = {  # P/Pmax: (-u, w)
 
 
 def test_end_shear_matches_sze_at_every_row(tmp_path):
-    """Tolerance: 1 % of w at every row, 16x1 quadrilaterals (REFERENCES.md A)."""
+    """Tolerance: 1 % of w at every row, 16x1 quadrilaterals (docs/verification.md case A)."""
     sim = run_scene(DEMOS / "end_shear.toml", out_dir=tmp_path)
     loads = sorted(SZE_SHEAR)
     tip = rows_at(sim, loads)

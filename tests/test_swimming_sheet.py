@@ -1,4 +1,4 @@
-"""The swimming sheet (REFERENCES.md F, the paper's section 4.1) on the CI-sized mesh,
+"""The swimming sheet (docs/verification.md case F, the paper's section 4.1) on the CI-sized mesh,
 its dissipation, its parallel run, and the exact RFT speed the demo compares with."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from conftest import DEMOS, ROOT, run_scene
 
 SCENE = DEMOS / "swimming_sheet.toml"
-EXACT_I = 0.49763        # REFERENCES.md F, cases I-III
+EXACT_I = 0.49763        # docs/verification.md case F, cases I-III
 PERIOD = 2 * np.pi / 100.0
 TAU = 1.0e-8 * 0.1 / 3.0e-9
 
@@ -32,7 +32,7 @@ def _front_x(sim):
 
 
 def test_exact_rft_speed_of_the_demo():
-    """The demo's exact-RFT formula gives REFERENCES.md F's values and, for small
+    """The demo's exact-RFT formula gives docs/verification.md case F's values and, for small
     amplitude, the leading-order speed ½ ω k b² (C₃ − C₁)/C₁."""
     demo = _demo_module()
     for b, vw, exact in ((0.15, 200, 0.49763), (0.15, 400, 0.99526), (0.075, 400, 0.24994)):
@@ -44,7 +44,7 @@ def test_exact_rft_speed_of_the_demo():
 
 def test_swimming_sheet_case_I_on_4x20(tmp_path):
     """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
-    swims at the exact RFT speed 0.49763 within 0.5 % (REFERENCES.md F: on 4×50 or
+    swims at the exact RFT speed 0.49763 within 0.5 % (docs/verification.md case F: on 4×50 or
     coarser), measured over 8 whole wave periods after 10 τ (reached: +0.34 %);
     the drag dissipates at every step (power ≥ 0)."""
     powers = []
@@ -91,7 +91,7 @@ def test_swimming_sheet_mpirun_matches_serial(tmp_path, cli_run):
 
 @pytest.mark.slow
 def test_swimming_sheet_demo_table(tmp_path):
-    """The demo's full table (cases I-V, REFERENCES.md F): every transient-free speed
+    """The demo's full table (cases I-V, docs/verification.md case F): every transient-free speed
     within 0.5 % of exact RFT, on every mesh including 4×20, ratios IV/II and V/IV within 0.5 %
     (the demo checks and sets its exit status; the test also reads its table)."""
     done = subprocess.run([sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2",
@@ -107,4 +107,5 @@ def test_swimming_sheet_demo_table(tmp_path):
     ratio = float(rows["IV"]["U_periods"]) / float(rows["II"]["U_periods"])
     assert ratio == pytest.approx(2.0, rel=0.005)
     ratio = float(rows["V"]["U_periods"]) / float(rows["IV"]["U_periods"])
-    assert ratio == pytest.approx(0.24994 / 0.99526, rel=0.005)  # REFERENCES.md F, V / IV
+    # docs/verification.md case F: exact V / IV
+    assert ratio == pytest.approx(0.24994 / 0.99526, rel=0.005)
