@@ -1,6 +1,8 @@
 """Scenes: read a TOML scene, apply ``--set`` overrides, validate, fill defaults.
 
-The keys are the user-facing contract of SCENES.md. :func:`load_scene` returns a
+The keys are the user-facing contract documented in docs/scenes.md, whose "Scene
+keys" part is generated from :data:`SCHEMA` (``python -m rftfem.scene_reference``):
+every key carries its meaning (``doc``) and unit here. :func:`load_scene` returns a
 plain nested ``dict`` (JSON-serialisable, so it can be echoed in summary.json)
 in which every key of the schema is present:
 
@@ -149,6 +151,10 @@ class _V:
     def __call__(self, value: Any, path: str) -> Any:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def describe(self, name: str) -> str:
+        """The accepted values of a key called ``name`` (for the scene reference)."""
+        return self.expected
+
 
 class _Str(_V):
     def __init__(self, choices: tuple[str, ...] | None = None, name: bool = False,
@@ -197,6 +203,9 @@ class _Num(_V):
         if hi is not None:
             return f"a number {hop} {hi}"
         return "a number"
+
+    def describe(self, name: str) -> str:
+        return self._text(self.name or name)
 
     def __call__(self, value, path):
         expected = self._text(self.name or _leaf_name(path))
@@ -337,27 +346,47 @@ class _Where(_V):
 # ------------------------------------------------------------------------- schema
 
 
+# Every node of the schema carries ``doc`` (what the key means, one or two
+# sentences) and leaves a ``unit`` where they have one: the scene reference in
+# docs/scenes.md is generated from them (rftfem/scene_reference.py), which
+# refuses a key without ``doc``. Units are dimensions ("length", "force/length²"),
+# since a scene uses consistent units of the user's choice. ``default_doc`` says
+# in words what a leaf whose default is not a plain value gets (filled in by the
+# cross checks, inherited, or only used with another key's value).
+
+
 class _Leaf:
-    def __init__(self, check: _V, default: Any = None, required: bool = False):
+    def __init__(self, check: _V, default: Any = None, required: bool = False, *,
+                 doc: str = "", unit: str = "", default_doc: str | None = None):
         self.check, self.default, self.required = check, default, required
+        self.doc, self.unit, self.default_doc = doc, unit, default_doc
 
 
 class _Table:
     """A TOML table with known keys. ``optional``: absent -> None (not filled)."""
 
-    def __init__(self, fields: dict[str, Any], required: bool = False, optional: bool = False):
+    def __init__(self, fields: dict[str, Any], required: bool = False, optional: bool = False,
+                 *, doc: str = ""):
         self.fields, self.required, self.optional = fields, required, optional
+        self.doc = doc
 
 
 class _Array:
     """An array of tables ([[name]]), each with the schema ``item``."""
 
-    def __init__(self, item: _Table, min_items: int = 0):
+    def __init__(self, item: _Table, min_items: int = 0, *, doc: str = ""):
         self.item, self.min_items = item, min_items
+        self.doc = doc
 
 
 class _Free:
     """A table of PETSc options: any lowercase key, scalar values."""
+
+    expected = ("any PETSc option name without prefix or dash (lowercase letters, digits, "
+                "'_'); a string, number or boolean")
+
+    def __init__(self, *, doc: str = ""):
+        self.doc = doc
 
 
 _POS = _Num(0.0, lo_open=True)
@@ -378,103 +407,273 @@ _NONNEG = _Num(0.0)
 
 _PART_MATERIAL = ("E", "nu", "thickness", "density")
 
+_INTERVAL = "an interval [a, b] of 2 numbers"
+_MOMENT_PER_LENGTH_RAD = "force·length/(length·rad)"
+_INHERITED = "inherited from [shell]"
+
 SCHEMA = _Table({
-    "title": _Leaf(_Str(), required=True),
+    "title": _Leaf(_Str(), required=True,
+                   doc="A free-text name of the scene; `rftfem check` and the first log line "
+                       "of a run show it."),
     "mesh": _Table({
-        "kind": _Leaf(_Str(("strip", "gmsh", "three-link")), "strip"),
-        "length": _Leaf(_POS, 10.0),
-        "width": _Leaf(_POS, None),  # 1.0, or 3 * link_width: filled by _cross_check
-        "link_width": _Leaf(_POS, None),  # 0.5 for three-link: filled by _cross_check
-        "hinge_stiffness": _Leaf(_NONNEG, None),  # 0.0 for three-link: filled likewise
-        "divisions": _Leaf(_Divisions(), [16, 1]),
-        "cell": _Leaf(_Str(("quadrilateral", "triangle")), "quadrilateral"),
-        "file": _Leaf(_Str(), None),
+        "kind": _Leaf(_Str(("strip", "gmsh", "three-link")), "strip",
+                      doc='How the body is made. "strip": the rectangle [0, length] × '
+                          '[0, width] in the plane Z = 0. "three-link": three strips side by '
+                          "side along Y, joined along X by two built-in hinges (regions left, "
+                          'middle, right; hinge lines hinge-left, hinge-right). "gmsh": the '
+                          "surface mesh in `mesh.file`, flat or curved."),
+        "length": _Leaf(_POS, 10.0, unit="length",
+                        doc="Extent of a strip or three-link body along X (the links' "
+                            "length). Not used with a gmsh mesh."),
+        # 1.0, or 3 * link_width: filled by _cross_check
+        "width": _Leaf(_POS, None, unit="length",
+                       default_doc='1.0; with kind = "three-link" it is 3 × link_width and '
+                                   "may not be set",
+                       doc="Extent of a strip along Y. Not used with a gmsh mesh."),
+        # 0.5 for three-link: filled by _cross_check
+        "link_width": _Leaf(_POS, None, unit="length",
+                            default_doc='none: only with kind = "three-link", where it is 0.5',
+                            doc="Width of each link of a three-link body across Y; the body "
+                                "spans Y in [0, 3 link_width]."),
+        # 0.0 for three-link: filled likewise
+        "hinge_stiffness": _Leaf(_NONNEG, None, unit=_MOMENT_PER_LENGTH_RAD,
+                                 default_doc='none: only with kind = "three-link", where it '
+                                             "is 0.0",
+                                 doc="Rotational spring of both built-in hinges of a "
+                                     "three-link body, as `[[hinge]].stiffness`; 0 leaves "
+                                     "them free."),
+        "divisions": _Leaf(_Divisions(), [16, 1],
+                           doc="Number of cells along X and across Y (three-link: across "
+                               "each link). Region limits and hinge lines add cuts. Not used "
+                               "with a gmsh mesh."),
+        "cell": _Leaf(_Str(("quadrilateral", "triangle")), "quadrilateral",
+                      doc="Cell shape of a strip or three-link mesh; the unknowns are "
+                          "second order either way (Q2 or P2). A gmsh file brings its own "
+                          "cells."),
+        "file": _Leaf(_Str(), None,
+                      default_doc='none: required only with kind = "gmsh"',
+                      doc="The gmsh .msh file, relative to the scene file's folder unless "
+                          "absolute. Its named physical surfaces are the regions, its named "
+                          "physical curves are edges for `where` and hinge lines."),
         "regions": _Array(_Table({
-            "name": _Leaf(_Str(name=True), required=True),
-            "x": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers")),
-            "y": _Leaf(_Vec(2, expected="an interval [a, b] of 2 numbers")),
-        })),
-    }, required=True),
+            "name": _Leaf(_Str(name=True), required=True,
+                          doc="The region's name, unique; not a selector (all, x=0, x=L, "
+                              "y=0, y=W) nor a built-in three-link name."),
+            "x": _Leaf(_Vec(2, expected=_INTERVAL), unit="length",
+                       default_doc="none: the region spans all of X (give x, y or both)",
+                       doc="The band a ≤ X ≤ b of reference coordinates, inside "
+                           "[0, mesh.length]."),
+            "y": _Leaf(_Vec(2, expected=_INTERVAL), unit="length",
+                       default_doc="none: the region spans all of Y (give x, y or both)",
+                       doc="The band a ≤ Y ≤ b of reference coordinates, inside the body's "
+                           "width."),
+        }), doc="Named parts of a strip or three-link body: the cells inside a band of X, of "
+                "Y, or both. The mesh is cut along the band limits. A region can carry "
+                "`[[shell.parts]]` and `[[magnetic.parts]]` values and serves as a `where` "
+                "selector. Refused with a gmsh mesh, whose physical surfaces are the "
+                "regions."),
+    }, required=True,
+        doc="The body in its reference (unloaded) state: the shell's mid-surface, its mesh "
+            "and its named regions and edges."),
     "shell": _Table({
-        "thickness": _Leaf(_POS, 0.1),
-        "E": _Leaf(_POS, 1.2e6),
-        "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True), 0.0),
-        "density": _Leaf(_NONNEG, 0.0),
-        "axis": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0]),
+        "thickness": _Leaf(_POS, 0.1, unit="length", doc="Shell thickness."),
+        "E": _Leaf(_POS, 1.2e6, unit="force/length²", doc="Young's modulus."),
+        "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True), 0.0,
+                    doc="Poisson's ratio."),
+        "density": _Leaf(_NONNEG, 0.0, unit="mass/length³",
+                         doc="Mass per volume, with mass in force·time²/length (t/mm³ for "
+                             "N, mm, s). Above 0 (here or in a part) the body has inertia "
+                             "and the automatic scheme is generalized-alpha."),
+        "axis": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0],
+                      doc="The material axis E1* in reference coordinates (normalised, not "
+                          "along the normal). The drag frame follows it: C1 acts along the "
+                          "axis as the body carries it, C2 across it in the surface."),
         "parts": _Array(_Table({
-            "region": _Leaf(_Str(name=True), required=True),
-            "E": _Leaf(_POS),
-            "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True)),
-            "thickness": _Leaf(_POS),
-            "density": _Leaf(_NONNEG),
-        })),
-    }, required=True),
+            "region": _Leaf(_Str(name=True), required=True,
+                            doc="The region (of `[[mesh.regions]]`, a built-in three-link "
+                                "region or a gmsh physical surface); one part per region."),
+            "E": _Leaf(_POS, unit="force/length²", default_doc=_INHERITED,
+                       doc="Young's modulus on the region."),
+            "nu": _Leaf(_Num(-1.0, 0.5, lo_open=True, hi_open=True), default_doc=_INHERITED,
+                        doc="Poisson's ratio on the region."),
+            "thickness": _Leaf(_POS, unit="length", default_doc=_INHERITED,
+                               doc="Thickness on the region."),
+            "density": _Leaf(_NONNEG, unit="mass/length³", default_doc=_INHERITED,
+                             doc="Density on the region."),
+        }), doc="Material values that differ on a region; a part takes what it leaves out "
+                "from [shell]."),
+    }, required=True,
+        doc="The material (isotropic, plane stress) and thickness of the shell."),
     "hinge": _Array(_Table({
         "where": _Leaf(_Where('a hinge line: "x=c" or "y=c" (c a number), '
-                              "or a physical curve name"), required=True),
-        "stiffness": _Leaf(_NONNEG, 0.0),
-    })),
+                              "or a physical curve name"), required=True,
+                       doc='The line: "x=c" or "y=c" strictly inside a strip or three-link '
+                           "body (the mesh is cut there), or a named physical curve of a "
+                           "gmsh mesh, straight or curved. One hinge per line."),
+        "stiffness": _Leaf(_NONNEG, 0.0, unit=_MOMENT_PER_LENGTH_RAD,
+                           doc="Rotational spring on the fold angle, per unit length of the "
+                               "line; 0 is a free hinge."),
+    }), doc="Lines along which the body folds: the displacement stays continuous, each side "
+            "has its own director, so the line passes forces but no moment about itself "
+            "(unless it has a spring). The name of the line (its `where`) is then a `where` "
+            "selector as well."),
     "time": _Table({
-        "end": _Leaf(_POS, 1.0),
-        "dt": _Leaf(_POS, 0.01),
+        "end": _Leaf(_POS, 1.0, unit="time",
+                     doc='The time the run stops at; linear load ramps reach their full value '
+                         'there. With scheme = "static" time is only a load parameter.'),
+        "dt": _Leaf(_POS, 0.01, unit="time",
+                    doc="The nominal step, at most `end`: the run makes ceil(end / dt) steps, "
+                        "the last one ending at `end`. A step that fails is halved and "
+                        "retried, then grown back."),
         "scheme": _Leaf(_Str(("auto", "generalized-alpha", "hht", "backward-euler", "static")),
-                        "auto"),
-        "rho_inf": _Leaf(_Num(0.0, 1.0), 0.9),
-        "alpha": _Leaf(_Num(-1.0 / 3.0, 0.0), -0.05),
-        "output_every": _Leaf(_Int(1), 1),
-        "max_cuts": _Leaf(_Int(0), 8),
-        "max_rotation": _Leaf(_POS, 0.2),
-    }, required=True),
+                        "auto",
+                        doc='The time integrator. "generalized-alpha" and "hht" are second '
+                            'order and need density; "backward-euler" is first order, for '
+                            'drag without inertia; "static" steps the loads with no velocity '
+                            '(refused with [fluid]). "auto" takes generalized-alpha with '
+                            "density, backward-euler with [fluid] alone, static otherwise."),
+        "rho_inf": _Leaf(_Num(0.0, 1.0), 0.9,
+                         doc="Generalized-alpha's spectral radius at infinite frequency: 1 "
+                             "damps nothing, smaller values damp the highest frequencies "
+                             "more. Used by generalized-alpha only."),
+        "alpha": _Leaf(_Num(-1.0 / 3.0, 0.0), -0.05,
+                       doc="The α of the HHT scheme; 0 is the trapezoidal rule, more "
+                           "negative values damp high frequencies. Used by hht only."),
+        "output_every": _Leaf(_Int(1), 1,
+                              doc="Write a row of probes.csv and body.csv, and the fields, "
+                                  "every this many nominal steps (and after the last one)."),
+        "max_cuts": _Leaf(_Int(0), 8,
+                          doc="How many times one step may be halved before the run fails "
+                              "(exit status 3)."),
+        "max_rotation": _Leaf(_POS, 0.2, unit="rad",
+                              doc="The most any director may turn within one converged step "
+                                  "of a scheme with velocity (not static); a step that turns "
+                                  "one further is halved, as it would skip fast motion."),
+    }, required=True, doc="Time span, step and integration scheme."),
     "boundary": _Array(_Table({
-        "where": _Leaf(_Where(), required=True),
-        "fix": _Leaf(_Fix(), required=True),
-    })),
+        "where": _Leaf(_Where(), required=True,
+                       doc="Where: all, an edge (x=0, x=L, y=0, y=W, a gmsh physical "
+                           "curve), a hinge line or a region."),
+        "fix": _Leaf(_Fix(), required=True,
+                     doc="What is held at zero: the displacement components ux, uy, uz "
+                         '(global axes) and "rotation" (the director keeps its reference '
+                         'direction); "clamped" is all four.'),
+    }), doc="Degrees of freedom held at zero for the whole run."),
     "load": _Array(_Table({
-        "kind": _Leaf(_Str(("edge-moment", "edge-force")), required=True),
-        "where": _Leaf(_Where(), required=True),
-        "value": _Leaf(_Vec(), required=True),
-        "ramp": _Leaf(_Str(("linear", "constant", "table")), "linear"),
-        "table": _Leaf(_Pairs("scale")),
-    })),
+        "kind": _Leaf(_Str(("edge-moment", "edge-force")), required=True,
+                      doc='"edge-force": a force on the edge; "edge-moment": a couple on the '
+                          "edge's directors (its part about the director does nothing)."),
+        "where": _Leaf(_Where(), required=True,
+                       doc="The boundary edge: x=0, x=L, y=0, y=W or a gmsh physical curve "
+                           "(not a hinge or another line inside the body)."),
+        "value": _Leaf(_Vec(), required=True, unit="force; force·length for edge-moment",
+                       doc="The total over the edge in global axes, spread evenly along the "
+                           "edge's reference length and multiplied by the ramp's scale. The "
+                           "load keeps its direction as the body moves (dead load)."),
+        "ramp": _Leaf(_Str(("linear", "constant", "table")), "linear",
+                      doc='The scale in time: "linear" t / time.end, "constant" 1, "table" '
+                          "interpolated in `table`."),
+        "table": _Leaf(_Pairs("scale"), unit="[time, 1]",
+                       default_doc='none: required only with ramp = "table"',
+                       doc="The scale, piecewise linear in time; before the first and after "
+                           "the last time it keeps the end value."),
+    }), doc="Dead loads on boundary edges."),
     "motion": _Array(_Table({
-        "where": _Leaf(_Where(), "all"),
-        "component": _Leaf(_Str(("ux", "uy", "uz")), required=True),
-        "kind": _Leaf(_Str(("travelling-wave", "table")), "travelling-wave"),
-        "amplitude": _Leaf(_Num(), 0.0),
-        "wavenumber": _Leaf(_Num(), 0.0),
-        "angular_frequency": _Leaf(_Num(), 0.0),
-        "origin": _Leaf(_Num(), 0.0),
-        "values": _Leaf(_Pairs("u")),
-    })),
+        "where": _Leaf(_Where(), "all",
+                       doc="Where, as for `[[boundary]].where`."),
+        "component": _Leaf(_Str(("ux", "uy", "uz")), required=True,
+                           doc="The displacement component prescribed (global axes)."),
+        "kind": _Leaf(_Str(("travelling-wave", "table")), "travelling-wave",
+                      doc='"travelling-wave": u = amplitude sin(wavenumber (X − origin) + '
+                          "angular_frequency t), with X each node's reference X coordinate; "
+                          '"table": one value on the whole selection, interpolated in '
+                          "`values`."),
+        "amplitude": _Leaf(_Num(), 0.0, unit="length",
+                           doc="The wave's amplitude (travelling-wave)."),
+        "wavenumber": _Leaf(_Num(), 0.0, unit="rad/length",
+                            doc="The wave number (travelling-wave); with a positive "
+                                "angular_frequency the wave runs towards −X."),
+        "angular_frequency": _Leaf(_Num(), 0.0, unit="rad/time",
+                                   doc="The angular frequency (travelling-wave)."),
+        "origin": _Leaf(_Num(), 0.0, unit="length",
+                        doc="The reference X where the wave's phase is zero at t = 0 "
+                            "(travelling-wave)."),
+        "values": _Leaf(_Pairs("u"), unit="[time, length]",
+                        default_doc='none: required only with kind = "table"',
+                        doc="The displacement, piecewise linear in time; before the first "
+                            "and after the last time it keeps the end value."),
+    }), doc="A displacement component prescribed in time on a selection (a moving "
+            "Dirichlet condition). A degree of freedom takes one condition: a motion where a "
+            "`[[boundary]]` or another motion already holds the component is refused."),
     "fluid": _Table({
         "drag": _Leaf(_Vec(item=_NONNEG, some_positive=True,
                            expected="3 numbers >= 0 [along axis, across, normal], "
-                                    "at least one > 0"), required=True),
-    }, optional=True),
+                                    "at least one > 0"), required=True,
+                      unit="force·time/length³",
+                      doc="The drag coefficients [C1, C2, C3]: along the material axis "
+                          "(`shell.axis`) as the body carries it, across it in the surface, "
+                          "and along the current normal. The traction per current area is "
+                          "the sum of Ci (ei·v) ei over the three directions."),
+    }, optional=True,
+        doc="Resistive-force-theory drag of the surrounding fluid: a traction proportional "
+            "to the local velocity."),
     "magnetic": _Table({
         "parts": _Array(_Table({
-            "region": _Leaf(_Str(name=True), required=True),
-            "magnetization": _Leaf(_NONNEG, required=True),
-            "direction": _Leaf(_Vec(nonzero=True), required=True),
-        }), min_items=1),
+            "region": _Leaf(_Str(name=True), required=True,
+                            doc="The magnetized region; a cell takes one magnetization."),
+            "magnetization": _Leaf(_NONNEG, required=True, unit="current/length",
+                                   doc="The size of the remanent magnetization; 0 switches "
+                                       "the part off."),
+            "direction": _Leaf(_Vec(nonzero=True), required=True,
+                               doc="The magnetization's direction in the reference state "
+                                   "(normalised); it turns with the material fibre."),
+        }), min_items=1, doc="The magnetized regions of the body."),
         "field": _Table({
-            "strength": _Leaf(_NONNEG, 0.0),
-            "ramp_time": _Leaf(_NONNEG, 0.0),
-            "direction": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0]),
-            "frequency": _Leaf(_Num(), 0.0),
-            "rotation_axis": _Leaf(_Vec(nonzero=True), [0.0, 0.0, 1.0]),
-        }),
-    }, optional=True),
+            "strength": _Leaf(_NONNEG, 0.0, unit="force/(current·length)",
+                              doc="The size of the applied flux density once ramped up "
+                                  "(tesla in SI units; 1 mT is 1e-6 N/(A·mm))."),
+            "ramp_time": _Leaf(_NONNEG, 0.0, unit="time",
+                               doc="The time the field takes to grow linearly from 0 to "
+                                   "`strength` along `direction`; 0 starts at full "
+                                   "strength."),
+            "direction": _Leaf(_Vec(nonzero=True), [1.0, 0.0, 0.0],
+                               doc="The field's direction during the ramp and when it starts "
+                                   "to turn (normalised)."),
+            "frequency": _Leaf(_Num(), 0.0, unit="1/time",
+                               doc="Turns per unit time after `ramp_time` (Hz with "
+                                   "seconds), right-handed about `rotation_axis`; negative "
+                                   "turns the other way, 0 keeps the field still."),
+            "rotation_axis": _Leaf(_Vec(nonzero=True), [0.0, 0.0, 1.0],
+                                   doc="The axis the field turns about (normalised); not "
+                                       "parallel to `direction` when the frequency is not "
+                                       "0."),
+        }, doc="The applied field, uniform in space: first it ramps up along a direction, "
+               "then it turns about an axis."),
+    }, optional=True,
+        doc="Couples of an applied magnetic field on magnetized (hard-magnetic) regions."),
     "output": _Table({
         "probes": _Array(_Table({
-            "name": _Leaf(_Str(name=True), required=True),
-            "at": _Leaf(_Vec(), required=True),
-        })),
-        "fields": _Leaf(_Bool(), True),
-        "render": _Leaf(_Str(("none", "png", "mp4", "gif")), "none"),
-    }),
-    "solver": _Free(),
-})
+            "name": _Leaf(_Str(name=True), required=True,
+                          doc="The probe's columns in probes.csv are NAME_ux, NAME_uy, "
+                              "NAME_uz; unique."),
+            "at": _Leaf(_Vec(), required=True, unit="length",
+                        doc="The material point, in reference coordinates; on a strip or "
+                            "three-link body it must lie on the body (z = 0)."),
+        }), doc="Material points whose displacement goes to probes.csv."),
+        "fields": _Leaf(_Bool(), True,
+                        doc="Write fields.xdmf and fields.h5 (displacement, director, "
+                            "magnetization) for ParaView."),
+        "render": _Leaf(_Str(("none", "png", "mp4", "gif")), "none",
+                        doc="When the run ends (also when it fails), draw render.png, "
+                            "render.mp4 or render.gif in the output folder with `rftfem "
+                            'render` and its defaults; "none" draws nothing. Needs '
+                            "`output.fields = true`; a drawing that fails only warns."),
+    }, doc="What a run writes besides steps.csv, body.csv and summary.json."),
+    "solver": _Free(doc="PETSc options of the nonlinear solve, named without prefix or dash "
+                        "(snes_rtol, ksp_type, pc_type, ...). They replace rftfem's defaults; "
+                        "PETSc options on the `rftfem run` command line replace them in "
+                        "turn."),
+}, doc="The top level of the scene file.")
 
 
 def _section(path: str) -> str:
@@ -965,7 +1164,7 @@ def _has_density(scene: dict) -> bool:
 
 
 def active_effects(scene: dict) -> list[str]:
-    """The effects the scene asks for, in a fixed order (DESIGN.md section 5)."""
+    """The effects the scene asks for, in a fixed order (docs/model.md, effects)."""
     effects = ["elasticity"]
     hinges = scene.get("hinge") or []
     mesh = scene.get("mesh") or {}
