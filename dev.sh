@@ -22,7 +22,8 @@ usage() {
     cat <<'EOF'
 usage: ./dev.sh TARGET [ARGS...]
 
-  demo                  run the default demo scene (demos/rollup.toml -> results/rollup)
+  demo                  run the default demo scene (demos/rollup.toml -> results/rollup),
+                        then draw its picture and film (rollup.png, rollup.mp4)
   test [PYTEST ARGS]    test suite on the reference stack (.venv), without `slow` tests
   test-full [ARGS]      whole suite on the reference stack, `slow` tests included
   test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
@@ -63,6 +64,9 @@ case $target in
             exit 1
         fi
         PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/rftfem" run demos/rollup.toml --out results/rollup "$@"
+        # its picture and film, drawn off-screen from the results folder
+        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.png --view xz
+        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.mp4 --view xz
         ;;
     test)
         setup reference

@@ -315,6 +315,11 @@ def main(argv=None) -> int:
                   np.array([row[1] @ axis for row in r[1].rows])) for n, r in results.items()}
     plot_trajectories(curves, field["ramp_time"], args.out / "trajectory.png")
     print(f"wrote groups.md, trajectory.csv, shape_phase1.png, trajectory.png in {args.out}")
+    # a picture and a film of each protocol, drawn by `rftfem render`
+    from rftfem.render_cli import draw_picture_and_film
+
+    for name in PROTOCOLS:
+        draw_picture_and_film(args.out / f"protocol{name}", "strip", "--view", "follow")
     a, b = net["+X"], net["-X"]
     if not (a * b < 0 and abs(abs(a) / abs(b) - 1) <= 0.05):
         print(f"bidirectional_strip: FAILED: the protocols should swim in opposite senses "

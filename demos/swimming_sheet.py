@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
+from rftfem.render_cli import draw_picture_and_film
+
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "swimming_sheet.toml"
 
@@ -112,8 +114,7 @@ def run_case(case: str, settings: dict, out: Path, launcher: list[str], reuse: b
            "--set", f"motion.0.angular_frequency={settings['omega']!r}",
            "--set", f"time.dt={settings['dt']!r}",
            "--set", f"time.end={settings['end']!r}",
-           "--set", "time.output_every=1",
-           "--set", "output.fields=false"]
+           "--set", "time.output_every=1"]
     print(f"case {case}: {' '.join(cmd[len(launcher):])}", flush=True)
     log = out / f"case_{case}.log"
     with open(log, "w") as stream:
@@ -182,6 +183,9 @@ def main(argv=None) -> int:
     write_tables(rows, args.out)
     ok = check(rows)
     plot(curves, args.out / "front_corner.png")
+    # a picture and a film of the first case: the wave, seen from a camera that
+    # follows the sheet, with the centroid's path
+    draw_picture_and_film(folders[cases[0]], "sheet", "--view", "follow")
     return 0 if ok else 1
 
 

@@ -123,6 +123,10 @@ def main(argv=None) -> int:
     print("\n".join(lines))
     _plot(curves, args.out / "three_link.png")
     print(f"wrote {args.out / 'table4.csv'}, groups.md and three_link.png")
+    # a picture and a film of the first case, drawn by `rftfem render`
+    from rftfem.render_cli import draw_picture_and_film
+
+    draw_picture_and_film(args.out / f"case_{args.cases[0]}", "swimmer", "--view", "follow")
     if failed:
         print("failed runs: " + ", ".join(failed))
         return 1

@@ -1,4 +1,4 @@
-"""The ``rftfem`` command line (SCENES.md):
+"""The ``rftfem`` command line (docs/scenes.md "Command line"):
 
     rftfem run SCENE.toml [--out DIR] [--set KEY=VALUE ...] [--quiet] [PETSc options]
     rftfem check SCENE.toml [--set KEY=VALUE ...]
@@ -44,7 +44,7 @@ def _build_parser() -> _Parser:
     parser = _Parser(
         prog="rftfem",
         description="Large-rotation shells in viscous fluid (RFT drag, magnetic couples) "
-                    "on FEniCSx. A scene is one TOML file (see SCENES.md).",
+                    "on FEniCSx. A scene is one TOML file (see docs/scenes.md).",
         allow_abbrev=False,
     )
     parser.add_argument("--version", action="version", version=f"rftfem {__version__}")

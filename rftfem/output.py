@@ -1,4 +1,4 @@
-"""Everything a run writes (SCENES.md "Outputs"): the one place for output.
+"""Everything a run writes (docs/scenes.md "Outputs"): the one place for output.
 
 Only rank 0 writes CSV and JSON; rows are flushed as they are written, so a run
 that fails keeps everything up to its last good step.  Fields go to XDMF
@@ -214,25 +214,16 @@ class Progress:
             self.bar = False
 
 
-#: environment variables by which MPI launchers tell a process it is one of a job's ranks
-_MPI_ENV_PREFIXES = ("OMPI_COMM_WORLD", "OMPI_MCA_orte", "OMPI_MCA_ess", "OMPI_FILE_LOCATION",
-                     "PMIX_", "PMI_", "HYDRA_", "MPI_LOCAL", "SLURM_PROCID")
-
-
 def render_in_child(folder: Path, kind: str, comm, progress: Progress) -> None:
     """``output.render``: draw ``folder/render.<kind>`` with ``rftfem render`` in a
     child process of rank 0 (pyvista must not share a process with dolfinx, see
-    :mod:`rftfem.compat_render`). The child is not an MPI rank: the launcher's
-    variables are left out of its environment. A failed drawing is reported, and
-    the run's own status is kept."""
-    import subprocess
+    :mod:`rftfem.compat_render`). A failed drawing is reported, and the run's
+    own status is kept."""
+    from .render_cli import draw_in_child
 
     if comm.rank == 0:
         out = Path(folder) / f"render.{kind}"
-        env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENV_PREFIXES)}
-        cmd = [sys.executable, "-m", "rftfem", "render", str(folder), "--out", str(out)]
-        proc = subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True,
-                              text=True)
+        proc = draw_in_child(folder, out)
         if proc.returncode == 0:
             progress.log(f"rendered {out}")
         else:

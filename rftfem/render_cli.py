@@ -4,6 +4,9 @@ only once the options are good, by :mod:`rftfem.render`)."""
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 from rftfem.errors import SceneError
@@ -84,3 +87,38 @@ def main(args, console) -> int:
                   trail=args.trail, fps=args.fps, every=args.every, size=size)
     console.out(f"rftfem render: wrote {out} ({done.describe()})")
     return 0
+
+
+#: environment variables by which MPI launchers tell a process it is one of a job's ranks
+_MPI_ENV_PREFIXES = ("OMPI_COMM_WORLD", "OMPI_MCA_orte", "OMPI_MCA_ess", "OMPI_FILE_LOCATION",
+                     "PMIX_", "PMI_", "HYDRA_", "MPI_LOCAL", "SLURM_PROCID")
+
+
+def draw_in_child(results, out, *options: str) -> subprocess.CompletedProcess:
+    """Run ``rftfem render RESULTS --out OUT OPTIONS...`` in a child process.
+
+    For scripts that have imported dolfinx (demos, a run's ``output.render``):
+    pyvista cannot join such a process (see :mod:`rftfem.compat_render`). The
+    child is not an MPI rank: the launcher's variables are left out of its
+    environment. Returns the finished process (``returncode``, ``stderr``).
+    """
+    env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_ENV_PREFIXES)}
+    cmd = [sys.executable, "-m", "rftfem", "render", str(results), "--out", str(out), *options]
+    return subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True)
+
+
+def draw_picture_and_film(results, stem: str, *options: str) -> list[Path]:
+    """``STEM.png`` (last frame) and ``STEM.mp4`` (whole run) in ``results``: what
+    each demo leaves for a look. Prints one line per file; a failure is reported,
+    not raised (the numbers of a demo matter more than its pictures)."""
+    made = []
+    for suffix in (".png", ".mp4"):
+        out = Path(results) / f"{stem}{suffix}"
+        done = draw_in_child(results, out, *options)
+        if done.returncode == 0:
+            made.append(out)
+            print(f"drew {out}")
+        else:
+            lines = (done.stderr or done.stdout).strip().splitlines()
+            print(f"could not draw {out}: {lines[-1] if lines else done.returncode}")
+    return made

@@ -1,4 +1,4 @@
-"""Running a scene: the time loop of DESIGN.md §6 with its outputs.
+"""Running a scene: the time loop of docs/model.md §6 with its outputs.
 
 The run starts at rest in static equilibrium with the loads and motions at
 t = 0 (for the usual ramps that start at zero this is the reference state), so
