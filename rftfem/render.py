@@ -48,6 +48,9 @@ _VIEWS = {
 
 # ------------------------------------------------------------------ the run
 
+_XINCLUDE = 'xmlns:xi="http://www.w3.org/2001/XInclude"'
+_BAD_XINCLUDE = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
+
 
 def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     """Header and rows of a CSV that rftfem wrote (a partial last line is dropped)."""
@@ -85,6 +88,7 @@ class RunFields:
         except (OSError, ValueError) as exc:
             raise SceneError(f"{summary}: cannot be read ({exc})") from None
         self.scene = self.summary.get("scene") or {}
+        xdmf = self._readable(xdmf)
         try:
             self.reader = pv.get_reader(str(xdmf))
             self.times = np.array(self.reader.time_values, dtype=float)
@@ -102,6 +106,28 @@ class RunFields:
         self.reference = blocks[names.index("displacement")].copy()
         self.reference.clear_data()
         self.reference_points = np.array(self.reference.points, dtype=float)
+
+    def _readable(self, xdmf: Path) -> Path:
+        """``xdmf``, or a repaired copy of it in a temporary folder.
+
+        Some dolfinx versions write the XInclude namespace as ``https://...``;
+        XML parsers know only ``http://www.w3.org/2001/XInclude``, leave every
+        time step without its mesh, and VTK's reader then crashes. rftfem
+        repairs its own files when a run closes them; a run that stopped
+        before that (killed, or written by an older rftfem) is read through a
+        repaired copy whose data paths point at the original ``fields.h5``.
+        """
+        text = xdmf.read_text(encoding="utf-8", errors="replace")
+        if _BAD_XINCLUDE not in text:
+            return xdmf
+        import tempfile
+
+        self._tmp = tempfile.TemporaryDirectory(prefix="rftfem-render-")
+        h5 = str((xdmf.parent / "fields.h5").resolve())
+        text = text.replace(_BAD_XINCLUDE, _XINCLUDE).replace(">fields.h5:", f">{h5}:")
+        copy = Path(self._tmp.name) / "fields.xdmf"
+        copy.write_text(text, encoding="utf-8")
+        return copy
 
     def frame(self, i: int) -> dict[str, np.ndarray]:
         """The point fields of frame ``i`` (float arrays of shape (n_points, 3))."""

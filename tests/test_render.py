@@ -196,3 +196,20 @@ def test_scene_output_render_draws_at_the_end(tmp_path):
     assert done.stdout.strip().splitlines() == [done.stdout.strip()]  # quiet: one line
     bad = _rftfem("check", ROLLUP, "--set", 'output.render="png"', "--set", "output.fields=false")
     _one_line_error(bad, "output.render", "output.fields")
+
+
+def test_fields_file_has_the_xinclude_namespace_parsers_know(serial_run, tmp_path):
+    """dolfinx 0.11 writes the XInclude namespace as https://...; ParaView and VTK
+    then see no mesh in any time step. A finished run's file is repaired, and
+    a file left unrepaired (a killed run) is read through a repaired copy."""
+    import shutil
+
+    text = (serial_run / "fields.xdmf").read_text()
+    assert 'xmlns:xi="http://www.w3.org/2001/XInclude"' in text
+    broken = tmp_path / "killed"
+    shutil.copytree(serial_run, broken)
+    (broken / "fields.xdmf").write_text(text.replace("http://www.w3.org/2001/XInclude",
+                                                     "https://www.w3.org/2001/XInclude"))
+    info = render_png(broken, tmp_path / "killed.png")
+    check_picture(tmp_path / "killed.png", info, broken)
+    assert "https://" in (broken / "fields.xdmf").read_text()  # the user's file is not touched
