@@ -6,6 +6,9 @@
 # The default frequencies reach past step-out: the moment followed the field at
 # 64 Hz and slipped at 128 Hz (the rigid-rotor estimate, 287 Hz, is higher).
 # Each run costs 50 steps per period, the ramp included: 128 Hz about 4 minutes.
+# Outputs in the sweep folder: runs.csv (`rftfem collect`: one row per run with its
+# status and failure reason, frequency, counts, wall time and mean speed along Z),
+# sweep.csv and sweep.png (demos/bidirectional_strip.py --sweep: speed and slip).
 #
 #   demos/strip_sweep.sh                       # serial, into results/strip_sweep
 #   NP=2 demos/strip_sweep.sh                  # each run under mpirun -n 2
@@ -55,4 +58,21 @@ for f in $FREQS; do
         --set "magnetic.field.frequency=$f" --set "time.end=$end" --set "time.dt=$dt" \
         --set "time.output_every=1" "$@" || echo "f = $f Hz: run failed (see $dir/summary.json)"
 done
+
+# The table of the runs (rftfem collect): the speed is the mean rate of the centroid
+# along Z, the scene's rotation axis, from SETTLE seconds after the ramp to the end
+# of the run (where a failed run stopped; empty if it stopped before the window).
+start=$(awk -v r="$ramp" -v s="$SETTLE" 'BEGIN { printf "%.10g", r + s }')
+runs=()
+for f in $FREQS; do
+    if [[ -f "$OUT/f$f/summary.json" || -f "$OUT/f$f/body.csv" ]]; then
+        runs+=("$OUT/f$f")
+    fi
+done
+if [[ ${#runs[@]} -gt 0 ]]; then
+    rftfem collect "${runs[@]}" --out "$OUT/runs.csv" \
+        --quantity "mean_speed_mm_s=rate(centroid_z, $start)"
+fi
+# The plot, and the slip of the moment behind the field (unwrapped angles of
+# body.csv's field and moment about the axis), by the demo's own code
 "$PYTHON" "$HERE/bidirectional_strip.py" --sweep "$OUT" --settle "$SETTLE"
