@@ -34,8 +34,10 @@ pv = import_pyvista()
 
 BACKGROUND = "white"
 REFERENCE_COLOR = "#b0b0b0"
-#: the largest number of frames a film gets without --every
+#: the largest number of frames a film gets without --every (an MP4 is streamed to
+#: ffmpeg; a GIF is held in memory by its encoder until it is written: fewer)
 MAX_FILM_FRAMES = 360
+MAX_GIF_FRAMES = 120
 #: iso view direction (from the focal point towards the camera) and up vector
 _VIEWS = {
     "iso": ((1.0, -1.6, 1.1), (0.0, 0.0, 1.0)),
@@ -234,8 +236,9 @@ class Rendered:
                 f"{self.fps:g} frames/s, colour {self.color}")
 
 
-def _film_plan(n: int, every: int | None, fps: float | None) -> tuple[np.ndarray, float]:
-    stride = every or max(1, math.ceil(n / MAX_FILM_FRAMES))
+def _film_plan(n: int, every: int | None, fps: float | None,
+               most: int = MAX_FILM_FRAMES) -> tuple[np.ndarray, float]:
+    stride = every or max(1, math.ceil(n / most))
     idx = np.arange(0, n, stride)
     if idx[-1] != n - 1:
         idx = np.append(idx, n - 1)  # the film always ends on the last frame
@@ -309,7 +312,8 @@ def render(results, out, color: str | None = None, time: float | None = None,
     path = run.path_of(trail) if trail and trail != "none" else None
 
     if film:
-        idx, fps = _film_plan(len(run.times), every, fps)
+        most = MAX_GIF_FRAMES if out.suffix.lower() == ".gif" else MAX_FILM_FRAMES
+        idx, fps = _film_plan(len(run.times), every, fps, most)
     else:
         idx, fps = np.array([len(run.times) - 1 if time is None else run.nearest(time)]), None
     lo, hi, extent, (smin, smax) = _bounds_and_range(run, idx, color)

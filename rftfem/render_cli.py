@@ -46,7 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser):
     parser.add_argument("--fps", metavar="N", type=float, default=None,
                         help="film frame rate (default: so that the film lasts 4-12 s)")
     parser.add_argument("--every", metavar="N", type=int, default=None,
-                        help="film: use every Nth output frame (default: at most 360 frames)")
+                        help="film: use every Nth output frame (default: at most 360 frames in "
+                             "an MP4, 120 in a GIF)")
     parser.add_argument("--size", metavar="WxH", default="1024x768",
                         help="picture size in pixels (default 1024x768)")
 
