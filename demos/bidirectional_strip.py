@@ -105,7 +105,8 @@ def run_protocol(name: str, overrides: list[str], out: Path, comm):
     from rftfem.simulation import Simulation
 
     direction = PROTOCOLS[name]
-    scene = load_scene(SCENE, [*overrides, f"magnetic.field.direction={direction}"])
+    title = f'title="Bidirectional magnetic strip (paper section 4.3), field along {name}"'
+    scene = load_scene(SCENE, [title, *overrides, f"magnetic.field.direction={direction}"])
     phase1, centroid = Phase1(scene), Centroid()
     sim = Simulation(scene, out_dir=out / f"protocol{name}", quiet=True, comm=comm,
                      observers=[phase1, centroid])

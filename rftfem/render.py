@@ -33,6 +33,8 @@ from rftfem.errors import SceneError
 pv = import_pyvista()
 
 BACKGROUND = "white"
+#: some ambient light, so that faces seen edge-on or from behind keep their colour
+_LIGHTING = {"ambient": 0.3, "diffuse": 0.75, "specular": 0.1}
 REFERENCE_COLOR = "#b0b0b0"
 #: the largest number of frames a film gets without --every (an MP4 is streamed to
 #: ffmpeg; a GIF is held in memory by its encoder until it is written: fewer)
@@ -228,6 +230,8 @@ class Rendered:
     fps: float | None = None
     #: pixel (column, row from the top) of each probe's position at the last frame drawn
     probe_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: pixel of each probe's reference position (where it would be undeformed)
+    reference_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def describe(self) -> str:
         if self.fps is None:
@@ -247,19 +251,40 @@ def _film_plan(n: int, every: int | None, fps: float | None,
     return idx, fps
 
 
-def _bounds_and_range(run: RunFields, idx, color: str):
+@dataclass
+class _Survey:
+    """What a pass over the frames finds, before anything is drawn."""
+
+    lo: np.ndarray          # box of everything drawn: reference, deformed body, trail
+    hi: np.ndarray
+    body_size: float        # largest diagonal of the deformed body (the follow camera)
+    srange: tuple[float, float]  # range of the colour field over the run
+
+
+def _survey(run: RunFields, idx, color: str, path) -> _Survey:
+    """Box of the frames drawn, and the colour range over the whole run (a still
+    picture and a film of the same run share their colours)."""
     lo, hi = run.reference_points.min(axis=0), run.reference_points.max(axis=0)
+    body_size = 0.0
+    n = len(run.times)
+    every = np.arange(0, n, max(1, math.ceil(n / MAX_FILM_FRAMES)))
+    drawn = set(int(i) for i in idx)
     smin, smax = np.inf, -np.inf
-    size = float(np.linalg.norm(hi - lo))
-    for i in idx:
+    for i in sorted(drawn | set(int(i) for i in every) | {n - 1}):
         frame = run.frame(i)
-        x = run.reference_points + frame["displacement"]
-        lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
-        size = max(size, float(np.linalg.norm(x.max(axis=0) - x.min(axis=0))))
         s = _scalars(color, frame, run)
         if s is not None and len(s):
             smin, smax = min(smin, float(s.min())), max(smax, float(s.max()))
-    return lo, hi, size, (smin, smax)
+        if i in drawn:
+            x = run.reference_points + frame["displacement"]
+            lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
+            body_size = max(body_size, float(np.linalg.norm(np.ptp(x, axis=0))))
+    if path is not None:
+        t_last = float(run.times[max(drawn)])
+        shown = path[1][path[0] <= t_last + 1e-12 * max(1.0, abs(t_last))]
+        if len(shown):
+            lo, hi = np.minimum(lo, shown.min(axis=0)), np.maximum(hi, shown.max(axis=0))
+    return _Survey(lo, hi, max(body_size, 1e-12), (smin, smax))
 
 
 def _clim(color: str, smin: float, smax: float):
@@ -268,22 +293,62 @@ def _clim(color: str, smin: float, smax: float):
     if color in ("ux", "uy", "uz", "magnetization") or color.startswith("director_"):
         m = max(abs(smin), abs(smax), 1e-30)
         return (-m, m)  # signed: symmetric about zero
+    if color == "displacement":
+        smin = 0.0  # a magnitude: from zero, not from round-off
     if smax - smin < 1e-12 * max(1.0, abs(smax)):
         return (smin, smin + max(1e-12, abs(smin) * 1e-6))
     return (smin, smax)
 
 
-def _place_camera(plotter, view: str, lo, hi, size: float, center=None):
+def _tick_format(clim) -> str:
+    """Enough significant digits that the colour bar's labels differ."""
+    lo, hi = clim
+    span, scale = hi - lo, max(abs(lo), abs(hi))
+    digits = 3 if span <= 0 else max(3, min(7, math.ceil(math.log10(scale / span)) + 3))
+    return f"%.{digits}g"
+
+
+#: the part of the picture's width the body may use (the colour bar has the rest)
+_USABLE_WIDTH = 0.8
+
+
+def _place_camera(plotter, view: str, lo, hi, center=None, size: float | None = None):
+    """Aim the camera along the view's direction so that the box [lo, hi] (or, with
+    ``center`` and ``size``, a ball of diameter ``size`` there) fills the picture
+    left of the colour bar. Axis views are parallel projections."""
+    cam = plotter.camera
     direction, up = _VIEWS[view]
-    center = (lo + hi) / 2 if center is None else np.asarray(center)
-    d = _unit(direction)
-    radius = max(0.5 * size, 1e-6)
-    distance = radius / math.tan(math.radians(plotter.camera.view_angle / 2)) * 1.15
-    plotter.camera.focal_point = tuple(center)
-    plotter.camera.position = tuple(center + distance * d)
-    plotter.camera.up = up
-    plotter.camera.clipping_range = (max(distance - 4 * radius, 1e-6 * distance),
-                                     distance + 4 * radius)
+    d, up = _unit(direction), _unit(up)
+    right = np.cross(up, d)
+    right /= np.linalg.norm(right)
+    up = np.cross(d, right)
+    if center is None:
+        center = (np.asarray(lo) + np.asarray(hi)) / 2
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])]) - center
+        half_w = float(np.abs(corners @ right).max())
+        half_h = float(np.abs(corners @ up).max())
+        depth = float(np.abs(corners @ d).max())
+    else:
+        center = np.asarray(center)
+        half_w = half_h = depth = 0.5 * size
+    w, h = plotter.window_size
+    aspect = _USABLE_WIDTH * w / h
+    half = max(half_h, half_w / aspect, 1e-9) * 1.08
+    parallel = view in ("xy", "xz", "yz")
+    cam.SetParallelProjection(parallel)
+    if parallel:
+        cam.parallel_scale = half
+        distance = 2.0 * depth + half
+    else:
+        distance = depth + half / math.tan(math.radians(cam.view_angle / 2))
+    cam.focal_point = tuple(center)
+    cam.position = tuple(center + distance * d)
+    cam.up = tuple(up)
+    # the body drawn left of centre, clear of the colour bar on the right
+    cam.SetWindowCenter(1.0 - _USABLE_WIDTH, 0.0)
+    cam.clipping_range = (max(distance - 2 * depth - half, 1e-6 * distance),
+                          distance + 2 * depth + half)
 
 
 def _pixel(plotter, point) -> tuple[float, float]:
@@ -316,8 +381,8 @@ def render(results, out, color: str | None = None, time: float | None = None,
         idx, fps = _film_plan(len(run.times), every, fps, most)
     else:
         idx, fps = np.array([len(run.times) - 1 if time is None else run.nearest(time)]), None
-    lo, hi, extent, (smin, smax) = _bounds_and_range(run, idx, color)
-    clim = _clim(color, smin, smax)
+    survey = _survey(run, idx, color, path)
+    clim = _clim(color, *survey.srange)
 
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -328,8 +393,7 @@ def render(results, out, color: str | None = None, time: float | None = None,
 
     plotter = pv.Plotter(off_screen=True, window_size=list(size))
     try:
-        return _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent,
-                     path, trail, size)
+        return _draw(plotter, run, out, film, idx, fps, color, clim, view, survey, path, size)
     except Exception:
         out.unlink(missing_ok=True)
         raise
@@ -337,7 +401,7 @@ def render(results, out, color: str | None = None, time: float | None = None,
         plotter.close()
 
 
-def _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent, path, trail,
+def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: _Survey, path,
           size) -> Rendered:
     plotter.set_background(BACKGROUND)
     title = run.scene.get("title", run.folder.name)
@@ -353,20 +417,28 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent, 
     s = _scalars(color, first, run)
     if s is None:
         plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, show_edges=True,
-                         edge_color="#2a4f75")
+                         edge_color="#2a4f75", **_LIGHTING)
     else:
         body.point_data[color] = s
         cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
         plotter.add_mesh(body, scalars=color, clim=clim, cmap=cmap, smooth_shading=True,
-                         show_edges=True, edge_color="#303030",
+                         show_edges=True, edge_color="#303030", **_LIGHTING,
                          scalar_bar_args={"title": _LABELS.get(color, color), "color": "black",
-                                          "fmt": "%.3g",
+                                          "fmt": _tick_format(clim),
                                           "vertical": True, "position_x": 0.86,
                                           "position_y": 0.25, "height": 0.5, "width": 0.06})
+    # the body's outline as lines: visible also where the surface is seen edge-on
+    # (a flat sheet's wave from the side)
+    outline = reference_edges.copy()
+    where = {tuple(p): k for k, p in enumerate(run.reference_points)}
+    outline_ids = np.array([where.get(tuple(p), 0) for p in np.asarray(outline.points, float)],
+                           dtype=int)
+    outline.points = body.points[outline_ids]
+    plotter.add_mesh(outline, color="#202020", line_width=2)
     arrows = None
     if color == "magnetization":  # arrows on the magnetized points only
         magnetized = np.linalg.norm(first["magnetization"], axis=1) > 0.0
-        arrow_length = 0.05 * max(extent, 1e-9)
+        arrow_length = 0.05 * survey.body_size
         arrows = plotter.add_mesh(_arrows(body.points, first["magnetization"], magnetized,
                                           arrow_length), color="black")
     trail_mesh = None
@@ -374,19 +446,28 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent, 
         trail_mesh = pv.PolyData(path[1][:1].copy())
         plotter.add_mesh(trail_mesh, color="#d62728", line_width=3, render_lines_as_tubes=False)
     plotter.show_axes()
-    _place_camera(plotter, view, lo, hi, extent,
-                  center=_centroid(body.points) if view == "follow" else None)
+    follow = view == "follow"
+
+    def aim(points):
+        if follow:
+            _place_camera(plotter, view, None, None, _centroid(points), 1.15 * survey.body_size)
+        else:
+            _place_camera(plotter, view, survey.lo, survey.hi)
+
+    aim(body.points)
 
     if film:
         if out.suffix.lower() == ".gif":
             plotter.open_gif(str(out), fps=fps)
         else:
-            plotter.open_movie(str(out), framerate=fps, quality=6)
+            # even sizes suffice for H.264; the default (16) would resize the frames
+            plotter.open_movie(str(out), framerate=fps, quality=6, macro_block_size=2)
     times = []
     for n, i in enumerate(idx):
         t = float(run.times[i])
         frame = first if n == 0 else run.frame(i)
         body.points = run.reference_points + frame["displacement"]
+        outline.points = body.points[outline_ids]
         s = _scalars(color, frame, run)
         if s is not None:
             body.point_data[color] = s
@@ -399,8 +480,8 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent, 
             pts = path[1][keep] if keep.any() else path[1][:1]
             line = pv.lines_from_points(pts) if len(pts) > 1 else pv.PolyData(pts)
             trail_mesh.copy_from(line)
-        if view == "follow":
-            _place_camera(plotter, view, lo, hi, extent, center=_centroid(body.points))
+        if follow:
+            aim(body.points)
         stamp.SetText(1, f"t = {t:.4g}")
         times.append(t)
         if film:
@@ -411,8 +492,10 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, lo, hi, extent, 
         plotter.screenshot(str(out))
     for name, x in run.probe_positions(times[-1]).items():
         probe_pixels[name] = _pixel(plotter, x)
+    reference_pixels = {p["name"]: _pixel(plotter, p["at"])
+                        for p in (run.scene.get("output") or {}).get("probes", [])}
     return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
-                    fps=fps, probe_pixels=probe_pixels)
+                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels)
 
 
 def _arrows(points, vectors, where, length: float):

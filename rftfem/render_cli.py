@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser):
                              "or follow (iso, moving with the centroid)")
     parser.add_argument("--trail", metavar="PROBE", default=None,
                         help="draw the path of the centroid (--trail centroid) or of a probe "
-                             "up to the frame's time (default: the centroid with "
+                             "up to the frame's time, or none (default: the centroid with "
                              "--view follow, none otherwise)")
     parser.add_argument("--fps", metavar="N", type=float, default=None,
                         help="film frame rate (default: so that the film lasts 4-12 s)")
@@ -60,6 +60,9 @@ def _size(text: str) -> tuple[int, int]:
                          f"found '{text}'") from None
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise SceneError(f"--size: expected 16 to 8192 pixels each way, found '{text}'")
+    if w % 2 or h % 2:
+        raise SceneError(f"--size: expected even numbers of pixels (films need them), "
+                         f"found '{text}'")
     return w, h
 
 

@@ -68,7 +68,8 @@ _RENDER = """
 import json, sys
 from rftfem.render import render
 r = render(sys.argv[1], sys.argv[2], time=None if sys.argv[3] == "last" else float(sys.argv[3]))
-print(json.dumps({"pixels": r.probe_pixels, "times": r.times, "size": r.size}))
+print(json.dumps({"pixels": r.probe_pixels, "reference_pixels": r.reference_pixels,
+                  "times": r.times, "size": r.size}))
 """
 
 
@@ -103,6 +104,13 @@ def check_picture(png: Path, info: dict, run: Path):
     window = coloured[max(r - 3, 0):r + 4, max(c - 3, 0):c + 4]
     assert window.any(), (f"no body at the tip's pixel ({col:.0f}, {row:.0f}); tip at "
                           f"{tip_position(run, info['times'][-1])}")
+    # and no body where the tip would be undeformed (it has moved far from there)
+    col0, row0 = info["reference_pixels"]["tip"]
+    assert np.hypot(col - col0, row - row0) > 50
+    c0, r0 = int(round(col0)), int(round(row0))
+    if 0 <= r0 < img.shape[0] and 0 <= c0 < img.shape[1]:
+        window = coloured[max(r0 - 3, 0):r0 + 4, max(c0 - 3, 0):c0 + 4]
+        assert not window.any(), f"body drawn at the tip's reference position ({col0:.0f}, {row0:.0f})"
     return img
 
 
