@@ -65,8 +65,8 @@ case $target in
         fi
         PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/rftfem" run demos/rollup.toml --out results/rollup "$@"
         # its picture and film, drawn off-screen from the results folder
-        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.png --view xz
-        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.mp4 --view xz
+        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.png --color director_z
+        "$REF_VENV/bin/rftfem" render results/rollup --out results/rollup/rollup.mp4 --color director_z
         ;;
     test)
         setup reference
