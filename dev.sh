@@ -5,9 +5,10 @@
 
 set -euo pipefail
 
-# What test-current runs (pytest arguments before the user's own). Narrow it
-# to a core subset here if the full non-slow suite becomes too long there.
-CURRENT_TEST_ARGS=(tests)
+# What test-current runs when given no arguments: the suite without the `slow`
+# reproductions (pyproject's addopts) and without the `long` ones, which the
+# reference leg runs; together the two legs stay within CI's time.
+CURRENT_TEST_ARGS=(tests -m "not slow and not long")
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$ROOT"
@@ -27,6 +28,7 @@ usage: ./dev.sh TARGET [ARGS...]
   test [PYTEST ARGS]    test suite on the reference stack (.venv), without `slow` tests
   test-full [ARGS]      whole suite on the reference stack, `slow` tests included
   test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
+                        and `long` (e.g. ./dev.sh test-current -m long runs those)
   bench                 run benchmarks/*.py on the reference stack
   setup [STACK]         only set up: reference (default), current or all
   help                  this text

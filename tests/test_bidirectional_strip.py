@@ -47,6 +47,7 @@ def swim(frequency, periods, steps_per_period, direction=(1.0, 0.0, 0.0)):
     return sim, track, end
 
 
+@pytest.mark.long
 def test_opposite_protocols_swim_opposite_ways():
     """Field ramped along +X, then along −X: net displacements along the rotation
     axis over the last two field periods have opposite signs and magnitudes within
@@ -94,6 +95,7 @@ def _demo_module():
     return module
 
 
+@pytest.mark.long
 def test_above_step_out_completes_and_slows(tmp_path):
     """Issue 4's step-out acceptance on the demo scene, runs as the sweep makes
     them: at F_UNDER the total moment follows the field (|slip| < 0.05 turn per
@@ -119,6 +121,7 @@ def test_above_step_out_completes_and_slows(tmp_path):
     assert abs(rows[F_OVER]["speed"]) < abs(rows[F_UNDER]["speed"])
 
 
+@pytest.mark.long
 @pytest.mark.mpi
 def test_strip_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the strip (phase 1 and one field period at 10 Hz) gives the

@@ -258,6 +258,7 @@ def _load_demo():
     return demo
 
 
+@pytest.mark.long
 def test_soft_arms_break_the_scallop_theorem():
     """Stokes regime, out-and-back loop of amplitude A = 0.2 (0.4 link widths):
     with soft outer links at Sp = 2 the swimmer moves, per cycle (the last of 3),

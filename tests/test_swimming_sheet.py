@@ -42,6 +42,7 @@ def test_exact_rft_speed_of_the_demo():
     assert demo.exact_speed(b, k, w) == pytest.approx(leading, rel=1e-6)
 
 
+@pytest.mark.long
 def test_swimming_sheet_case_I_on_4x20(tmp_path):
     """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
     swims at the exact RFT speed 0.49763 within 0.5 % (docs/verification.md case F: on 4×50 or
@@ -72,6 +73,7 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
     assert sim.summary["director_unit_error"] < 1e-10
 
 
+@pytest.mark.long
 @pytest.mark.mpi
 def test_swimming_sheet_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the 4×20 sheet gives the serial swimming speed to 1e-6
