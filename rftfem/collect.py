@@ -321,7 +321,7 @@ class RunFolder:
             if not path.is_file():
                 self._tables[name] = None
             else:
-                self._tables[name] = _read_csv(path)
+                self._tables[name] = read_csv(path)
         return self._tables[name]
 
     def columns(self) -> dict[str, list[str]]:
@@ -351,7 +351,7 @@ class RunFolder:
         return data[:, header.index("time")], data[:, header.index(column)]
 
 
-def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
+def read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     """Header and rows (floats) of a run's CSV file.  Rows that are not complete
     (a run killed while writing) are left out; rows must be in time order."""
     with open(path, encoding="utf-8", newline="") as f:

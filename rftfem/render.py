@@ -19,7 +19,6 @@ this module imports pyvista, and must be imported before dolfinx in a process
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rftfem.collect import read_csv as _read_csv
 from rftfem.compat_render import import_pyvista
 from rftfem.errors import SceneError
 
@@ -54,23 +54,6 @@ _VIEWS = {
 
 _XINCLUDE = 'xmlns:xi="http://www.w3.org/2001/XInclude"'
 _BAD_XINCLUDE = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
-
-
-def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
-    """Header and rows of a CSV that rftfem wrote (a partial last line is dropped)."""
-    with open(path, newline="", encoding="utf-8") as fh:
-        rows = list(csv.reader(fh))
-    if not rows:
-        return [], np.zeros((0, 0))
-    header, data = rows[0], []
-    for r in rows[1:]:
-        try:
-            values = [float(v) for v in r]
-        except ValueError:
-            continue
-        if len(values) == len(header):
-            data.append(values)
-    return header, np.array(data, dtype=float).reshape(-1, len(header))
 
 
 class RunFields:
