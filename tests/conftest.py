@@ -62,6 +62,34 @@ def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     return path
 
 
+def _silent_exit(done) -> bool:
+    """Exit status 1 and nothing from rftfem or Python: no one-line error, no traceback."""
+    text = done.stdout + done.stderr
+    return done.returncode == 1 and "rftfem" not in text and "Traceback" not in text
+
+
+def run_command(cmd, **kwargs):
+    """``subprocess.run`` of an rftfem command (output captured as text), launched
+    once more if it exited 1 having said nothing.
+
+    Every way rftfem fails prints why: a one-line error, a traceback, or MPI's
+    report naming the rank. Twice in about a thousand launches on the test
+    machine a process exited 1 with no output of its own (a serial `rftfem
+    check`, rank 0 of an `mpirun -n 2 rftfem run`), and no rerun (150 tries)
+    did it again: something below Python (the MPI launcher, a C library calling
+    exit) that the suite cannot see. Such a launch is repeated once with a
+    warning (shown in pytest's warnings summary); a second one fails the test.
+    """
+    import subprocess
+    import warnings
+
+    done = subprocess.run(cmd, capture_output=True, text=True, **kwargs)
+    if _silent_exit(done):
+        warnings.warn(f"silent exit 1 of {' '.join(map(str, cmd))!r}; launched again")
+        done = subprocess.run(cmd, capture_output=True, text=True, **kwargs)
+    return done
+
+
 @pytest.fixture
 def mpirun():
     """The mpirun of the running stack (next to the interpreter first, then PATH)."""
@@ -86,8 +114,7 @@ def cli_run(mpirun):
         cmd += [arg for s in sets for arg in ("--set", s)]
         if np > 1:
             cmd = [exe, "-n", str(np), *cmd]
-        done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True,
-                              timeout=1200)
+        done = run_command(cmd, env=env, cwd=ROOT, timeout=1200)
         assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
         return Path(out)
 

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import types
 from pathlib import Path
 
 import pytest
 
+from conftest import run_command
 from rftfem import cli
 from rftfem.errors import RunFailed, SceneError
 
@@ -39,8 +39,8 @@ at = [10.0, 0.5, 0.0]
 
 
 def rftfem(*args, cwd=None, timeout=60):
-    return subprocess.run([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=timeout)
+    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
+                       timeout=timeout)
 
 
 def assert_one_line_error(proc, *words):
