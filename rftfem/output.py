@@ -143,24 +143,7 @@ class FieldWriter:
     def close(self):
         self.file.close()
         if self.model.comm.rank == 0:
-            repair_xdmf(self.path)
-
-
-def repair_xdmf(path: Path):
-    """Give an XDMF file the XInclude namespace that XML parsers know.
-
-    dolfinx 0.11 writes ``xmlns:xi="https://www.w3.org/2001/XInclude"``; the
-    namespace is ``http://...`` and nothing else, so ParaView's and VTK's
-    readers ignore every ``xi:include`` (the time steps lose their mesh; VTK
-    crashes). Detected by content: files that are right are left alone.
-    """
-    text = path.read_text(encoding="utf-8")
-    bad = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
-    if bad in text:
-        tmp = path.with_suffix(".xdmf.tmp")
-        tmp.write_text(text.replace(bad, 'xmlns:xi="http://www.w3.org/2001/XInclude"'),
-                       encoding="utf-8")
-        tmp.replace(path)
+            compat.repair_xdmf_namespace(self.path)
 
 
 class Progress:
