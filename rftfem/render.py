@@ -135,20 +135,25 @@ class RunFields:
                              f"[{lo:g}, {hi:g}]")
         return int(np.argmin(np.abs(self.times - t)))
 
+    def _log(self, name: str, why: str) -> tuple[list[str], np.ndarray]:
+        """Header and rows of the run's ``name`` CSV log; a missing or headerless
+        file is a one-line error naming ``why`` it was wanted."""
+        path = self.folder / name
+        if not path.is_file():
+            raise SceneError(f"{why}: {path} is missing")
+        return _read_csv(path)
+
     def path_of(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         """(times, positions) of the centroid or of a probe, from the CSV logs."""
         if name == "centroid":
-            header, rows = _read_csv(self.folder / "body.csv") \
-                if (self.folder / "body.csv").is_file() else ([], np.zeros((0, 0)))
-            if not header:
-                raise SceneError(f"--trail centroid: {self.folder}/body.csv is missing")
+            header, rows = self._log("body.csv", "--trail centroid")
             cols = [header.index(f"centroid_{c}") for c in "xyz"]
             return rows[:, 0], rows[:, cols]
         probes = {p["name"]: p["at"] for p in (self.scene.get("output") or {}).get("probes", [])}
         if name not in probes:
             known = ", ".join(["centroid", *probes]) or "centroid"
             raise SceneError(f"--trail {name}: no such probe in this run (known: {known})")
-        header, rows = _read_csv(self.folder / "probes.csv")
+        header, rows = self._log("probes.csv", f"--trail {name}")
         cols = [header.index(f"{name}_u{c}") for c in "xyz"]
         return rows[:, 0], rows[:, cols] + np.asarray(probes[name], dtype=float)
 
@@ -156,7 +161,10 @@ class RunFields:
         """Current positions of every probe at the probe row nearest ``t``."""
         out = {}
         for p in (self.scene.get("output") or {}).get("probes", []):
-            times, xs = self.path_of(p["name"])
+            try:
+                times, xs = self.path_of(p["name"])
+            except SceneError:  # no probes.csv (yet): nothing to report, the picture stands
+                return {}
             if len(times):
                 out[p["name"]] = xs[int(np.argmin(np.abs(times - t)))]
         return out

@@ -75,7 +75,7 @@ def main(args, console) -> int:
         raise SceneError(f"--out {out}: expected a .png, .mp4 or .gif file name")
     if out.is_dir():
         raise SceneError(f"--out {out}: is a folder; expected a file name")
-    if not out.parent.exists() if str(out.parent) else False:
+    if not out.parent.is_dir():
         raise SceneError(f"--out {out}: folder '{out.parent}' does not exist")
     if args.time is not None and out.suffix.lower() != ".png":
         raise SceneError("--time: only for a picture (.png); a film shows the whole run")

@@ -949,6 +949,10 @@ def _cross_check(scene: dict) -> None:
     mesh, shell, time = scene["mesh"], scene["shell"], scene["time"]
 
     _check_mesh(mesh)
+    output = scene["output"]
+    if output["render"] != "none" and not output["fields"]:
+        raise SceneError(f'output.render = "{output["render"]}" draws the fields: '
+                         "it needs output.fields = true")
     lined = mesh["kind"] in _LINED_KINDS
     length, width = mesh["length"], mesh["width"]
     _check_hinges(scene)

@@ -44,17 +44,9 @@ def build_model(scene: dict, comm, compile_forms: bool = True) -> Model:
     return Model(scene, body, compile_forms=compile_forms)
 
 
-def _check_output(scene: dict):
-    output = scene.get("output", {})
-    if output.get("render", "none") != "none" and not output.get("fields", True):
-        raise SceneError(f"output.render = \"{output['render']}\" draws the fields: "
-                         "it needs output.fields = true")
-
-
 def check(scene: dict, comm=None) -> list[str]:
     """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
     comm = comm or MPI.COMM_WORLD
-    _check_output(scene)
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
     return model.active_effects()
@@ -89,7 +81,6 @@ class Simulation:
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
-        _check_output(scene)
         _quiet_compilers()
         t0 = _time.perf_counter()
         self.model = build_model(scene, self.comm)

@@ -193,6 +193,14 @@ def test_bad_input_exits_2_with_one_line(serial_run, tmp_path):
     _one_line_error(_rftfem("render", serial_run, "--size", "big"), "--size")
     _one_line_error(_rftfem("render", serial_run, "--out", tmp_path / "f.mp4", "--time", "1"),
                     "--time")
+    # a folder without its probe log still draws; a probe trail then says what is missing
+    import shutil
+
+    partial = tmp_path / "partial"
+    shutil.copytree(serial_run, partial)
+    (partial / "probes.csv").unlink()
+    assert _rftfem("render", partial, "--out", tmp_path / "p.png").returncode == 0
+    _one_line_error(_rftfem("render", partial, "--trail", "tip"), "probes.csv", "missing")
 
 
 def test_scene_output_render_draws_at_the_end(tmp_path):
