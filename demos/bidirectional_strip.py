@@ -82,7 +82,7 @@ class Phase1:
         m = sim.model
         Q = m.magnetic_moment()
         q_perp = np.linalg.norm(Q - (Q @ self.axis) * self.axis)
-        self.f_c = q_perp * self.field["strength"] / m.rotational_drag(self.axis) / (2 * math.pi)
+        self.f_c = q_perp * self.field["strength"] / m["drag"].rotational(self.axis) / (2 * math.pi)
         X = m.Vu.tabulate_dof_coordinates()
         x = X + m.displacement.x.array.reshape(-1, 3)[: len(X)]
         parts = m.comm.gather(x, root=0)

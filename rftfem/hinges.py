@@ -25,6 +25,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .errors import SceneError
+from .selectors import facets_of
 
 
 @dataclass
@@ -58,7 +59,7 @@ def resolve(model, scene: dict) -> list[Hinge]:
     boundary = dmesh.exterior_facet_indices(mesh.topology)
     hinges, owner = [], {}
     for key, where, k in hinge_specs(scene, model.body):
-        facets = model.facets_of(where, key, line=True)
+        facets = facets_of(model.body, where, key, line=True)
         on_boundary = model.comm.allreduce(int(np.isin(facets, boundary).sum()))
         if on_boundary:
             raise SceneError(f"{key}: '{where}' lies on the body's boundary ({on_boundary} "
@@ -191,3 +192,35 @@ def facet_measure(mesh, hinges: list[Hinge]):
 
 def cells_of_colour(colours: np.ndarray, c: int) -> np.ndarray:
     return np.nonzero(colours == c)[0].astype(np.int32)
+
+
+def entities_of_colour(model, dim: int, entities: np.ndarray, c: int) -> np.ndarray:
+    """The cells (``dim`` = tdim) of colour ``c`` among ``entities``, or the facets
+    among them that touch a local cell of colour ``c``."""
+    if model.n_colours == 1:
+        return entities
+    tdim = model.mesh.topology.dim
+    if dim == tdim:
+        return entities[model.colours[entities] == c]
+    f2c = model.mesh.topology.connectivity(tdim - 1, tdim)
+    return np.asarray([f for f in entities if (model.colours[f2c.links(f)] == c).any()],
+                      dtype=np.int32)
+
+
+def inactive_rotation_bcs(model) -> list:
+    """θ_c = 0 away from the cells of colour c: there it does not enter any form."""
+    if model.n_colours == 1:
+        return []
+    tdim = model.mesh.topology.dim
+    bcs = []
+    for c in range(model.n_colours):
+        for i in range(2):
+            sub = model.W.sub(1 + c).sub(i)
+            V, zero = model.dirichlet.space(sub, f"theta{i + 1}_{c}")
+            own = fem.locate_dofs_topological((sub, V), tdim, cells_of_colour(model.colours, c))
+            other = fem.locate_dofs_topological(
+                (sub, V), tdim, np.nonzero(model.colours != c)[0].astype(np.int32))
+            keep = ~np.isin(other[0], own[0])
+            dofs = [np.asarray(other[0])[keep], np.asarray(other[1])[keep]]
+            bcs.append(fem.dirichletbc(zero, dofs, sub))
+    return bcs

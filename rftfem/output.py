@@ -20,6 +20,7 @@ from dolfinx import fem, io
 
 from . import compat
 from .errors import SceneError
+from .selectors import owned_cells
 
 
 class Probes:
@@ -28,20 +29,12 @@ class Probes:
     def __init__(self, model, probes: list[dict]):
         self.model = model
         self.names = [p["name"] for p in probes]
-        comm = model.comm
-        points = np.array([p["at"] for p in probes], dtype=float).reshape(-1, 3)
-        self.points = points
-        n_owned = model.mesh.topology.index_map(model.mesh.topology.dim).size_local
-        self.cells = []
-        cells = compat.colliding_cells(model.mesh, points) if len(points) else []
-        for i, p in enumerate(probes):
-            local = [c for c in cells[i] if c < n_owned]
-            rank = comm.rank if local else comm.size
-            owner = comm.allreduce(rank, op=_min_op())
-            if owner == comm.size:
+        self.points = np.array([p["at"] for p in probes], dtype=float).reshape(-1, 3)
+        self.cells, on_body = owned_cells(model.mesh, self.points)
+        for i, (p, inside) in enumerate(zip(probes, on_body)):
+            if not inside:
                 raise SceneError(f"output.probes.{i}.at: probe '{p['name']}' at {p['at']} "
                                  "is outside the body")
-            self.cells.append(local[0] if owner == comm.rank else None)
 
     def header(self) -> list[str]:
         return [f"{n}_{c}" for n in self.names for c in ("ux", "uy", "uz")]
@@ -58,18 +51,14 @@ class Probes:
 
 class BodyLog:
     """Whole-body diagnostics, one row per output step (``body.csv``): the centroid
-    and the energies always; the drag power with ``[fluid]``; the field and the
-    total magnetic moment with ``[magnetic]``.  Every value is global."""
+    and the stored energy, then the columns of each active effect (the kinetic
+    energy with inertia, the drag power, the field and the magnetic moment, ...).
+    Every value is global."""
 
     def __init__(self, model):
         self.model = model
         self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
-        if model.inertia is not None:
-            self.columns.append("kinetic_energy")
-        if "drag" in model.effects:
-            self.columns.append("drag_power")
-        if "magnetic" in model.effects:
-            self.columns += ["field_x", "field_y", "field_z", "moment_x", "moment_y", "moment_z"]
+        self.columns += [c for comp in model.components for c in comp.columns]
 
     def header(self) -> list[str]:
         return self.columns
@@ -77,19 +66,9 @@ class BodyLog:
     def values(self, t: float) -> list[float]:
         m = self.model
         row = [*m.centroid(), m.elastic_energy()]
-        if "kinetic_energy" in self.columns:
-            row.append(m.kinetic_energy())
-        if "drag_power" in self.columns:
-            row.append(m.drag_power())
-        if "field_x" in self.columns:
-            row += [*m.field_at(t), *m.magnetic_moment()]
+        for comp in m.components:
+            row += comp.values(t)
         return row
-
-
-def _min_op():
-    from mpi4py import MPI
-
-    return MPI.MIN
 
 
 class CsvLog:

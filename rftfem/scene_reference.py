@@ -30,6 +30,7 @@ import sys
 from pathlib import Path
 from typing import Any, Iterator
 
+from rftfem import schema as _schema
 from rftfem import scene as _scene
 
 #: docs/scenes.md of the source tree this module belongs to
@@ -114,14 +115,14 @@ def walk(schema: Any = None) -> Iterator[tuple[str, Any]]:
     def visit(table, display):
         for key, sub in table.fields.items():
             path = _join(display, key)
-            if isinstance(sub, _scene._Array):
+            if isinstance(sub, _schema.Array):
                 item = f"[[{path}]]"
                 yield item, sub
                 yield from visit(sub.item, item)
-            elif isinstance(sub, _scene._Table):
+            elif isinstance(sub, _schema.Table):
                 yield path, sub
                 yield from visit(sub, path)
-            elif isinstance(sub, _scene._Free):
+            elif isinstance(sub, _schema.Free):
                 yield path, sub
                 yield path + ".*", sub
             else:
@@ -134,7 +135,7 @@ def documented_paths(schema: Any = None) -> list[str]:
     """Every key path the reference lists (tables as ``[mesh]``, arrays as ``[[load]]``)."""
     out = []
     for path, node in walk(schema):
-        if isinstance(node, _scene._Leaf) or path.endswith(".*"):
+        if isinstance(node, _schema.Leaf) or path.endswith(".*"):
             out.append(path)
         else:
             out.append(_heading(path))
@@ -142,12 +143,12 @@ def documented_paths(schema: Any = None) -> list[str]:
 
 
 def _status(node: Any) -> str:
-    if isinstance(node, _scene._Array):
+    if isinstance(node, _schema.Array):
         if node.min_items:
             n = node.min_items
             return f"Array of tables, at least {n} entr{'y' if n == 1 else 'ies'}."
         return "Optional array of tables, any number of entries."
-    if isinstance(node, _scene._Free):
+    if isinstance(node, _schema.Free):
         return "Optional table."
     if node.required:
         return "Required table."
@@ -169,24 +170,34 @@ def scene_keys_markdown(schema: Any = None) -> str:
     def table_section(display, node, title, text):
         rows: list[str] = []
         sections.append((title, text, rows))
-        fields = node.item.fields if isinstance(node, _scene._Array) else node.fields
+        fields = node.item.fields if isinstance(node, _schema.Array) else node.fields
         for key, sub in fields.items():
             path = _join(display, key)
-            if isinstance(sub, _scene._Leaf):
+            if isinstance(sub, _schema.Leaf):
                 doc = _require_doc(sub, path)
                 rows.append("| " + " | ".join([
                     f"`{path}`", _cell(sub.check.describe(key)), _cell(_default(sub, path)),
                     _cell(sub.unit or "—"), _cell(doc)]) + " |")
         for key, sub in fields.items():
             path = _join(display, key)
-            if isinstance(sub, _scene._Array):
+            if isinstance(sub, _schema.Kinds):
+                item = f"[[{path}]]"
+                table_section(item, _schema.Table(sub.common), f"`{item}`",
+                              f"{_status(sub)} {_require_doc(sub, item)}")
+                for kind, fields in sub.kinds.items():
+                    text = sub.kind_docs.get(kind) or ""
+                    if not text:
+                        raise UndocumentedKey(f"{item} kind '{kind}' has no doc")
+                    table_section(item, _schema.Table(fields),
+                                  f'`{item}` with kind = "{kind}"', text)
+            elif isinstance(sub, _schema.Array):
                 item = f"[[{path}]]"
                 table_section(item, sub, f"`{item}`",
                               f"{_status(sub)} {_require_doc(sub, item)}")
-            elif isinstance(sub, _scene._Table):
+            elif isinstance(sub, _schema.Table):
                 table_section(path, sub, f"`[{path}]`",
                               f"{_status(sub)} {_require_doc(sub, path)}")
-            elif isinstance(sub, _scene._Free):
+            elif isinstance(sub, _schema.Free):
                 doc = _require_doc(sub, path)
                 sections.append((f"`[{path}]`", f"{_status(sub)} {doc}", [
                     "| " + " | ".join([f"`{path}.*`", _cell(sub.expected),

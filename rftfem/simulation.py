@@ -128,7 +128,7 @@ class Simulation:
         (``v = a = 0``), and the forces kept for the first step are those at rest.
         """
         m, dt = self.model, self.scene["time"]["dt"]
-        start = BackwardEuler() if "drag" in m.effects else Static()
+        start = BackwardEuler() if m.get("drag") else Static()
         ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
         if not ok:
             raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})",
@@ -226,9 +226,8 @@ class Simulation:
         self.body = BodyLog(self.model)
         logs["body"] = CsvLog(self.out_dir / "body.csv", ["time", *self.body.header()], self.comm)
         if self.scene.get("output", {}).get("fields", True):
-            extra = {}
-            if "magnetic" in self.model.effects:
-                extra["magnetization"] = self.model.magnetization_ufl  # m q, 0 off the parts
+            extra = {name: f for comp in self.model.components
+                     for name, f in comp.fields().items()}
             logs["fields"] = FieldWriter(self.model, self.out_dir / "fields.xdmf", extra)
         return logs
 

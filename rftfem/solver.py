@@ -103,7 +103,7 @@ class StepSolver:
         # values exactly in that update, so later residuals skip the assembly.
         # Fixed conditions (zero values) are always met: the iterate starts from the
         # last state and Newton updates are zero there; only motions can be missed.
-        if m.motions:
+        if m.has_moving_bcs:
             with self.work.localForm() as local:
                 local.set(0.0)
             compat.set_bc(self.work, m.bcs, x, -1.0)

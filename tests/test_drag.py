@@ -76,7 +76,7 @@ def test_terminal_velocity_along_frame_directions(tmp_path, i):
     assert np.abs(np.delete(v, i)).max() < TOL * exact
     assert spread.max() < TOL * exact
     # and the drag balances the pull: ∫ C̃ v J dA₀ = F e_i
-    assert np.allclose(sim.model.drag_force(), FORCE * direction, rtol=0, atol=TOL * FORCE)
+    assert np.allclose(sim.model["drag"].force(), FORCE * direction, rtol=0, atol=TOL * FORCE)
 
 
 def _rotation():
@@ -157,7 +157,7 @@ values = [[0.0, 0.0], [1.0, {vc}]]
     print(f"reaction {reactions[-1]}, exact {exact}")
     for r in reactions:
         assert np.allclose(r, exact, rtol=TOL, atol=0)
-    assert np.allclose(sim.model.drag_force(), exact, rtol=TOL, atol=0)
+    assert np.allclose(sim.model["drag"].force(), exact, rtol=TOL, atol=0)
 
 
 def test_drag_residual_vanishes_at_rest(tmp_path):

@@ -67,7 +67,7 @@ def _energies(tmp_path, rho_inf, periods=10, steps_per_period=40):
     energy = []
 
     def record(sim):
-        energy.append((sim.model.elastic_energy(), sim.model.kinetic_energy()))
+        energy.append((sim.model.elastic_energy(), sim.model["inertia"].kinetic_energy()))
 
     scene = write_scene(tmp_path, RELEASE.replace("[16, 1]", "[8, 1]"))
     run_scene(scene, f"time.rho_inf={rho_inf}", f"time.end={periods * PERIOD}",

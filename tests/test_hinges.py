@@ -426,11 +426,12 @@ import sys
 from mpi4py import MPI
 import rftfem
 from rftfem.scene import load_scene
+from rftfem.selectors import cells_of
 from rftfem.simulation import build_model
 model = build_model(load_scene(sys.argv[1], sys.argv[2:]), MPI.COMM_WORLD)
 n = model.mesh.topology.index_map(1).size_local
 owners = [MPI.COMM_WORLD.allgather(int((h.facets < n).sum()) > 0) for h in model.hinges]
-colours = {r: set().union(*MPI.COMM_WORLD.allgather(set(model.colours[model._cells_of([r])])))
+colours = {r: set().union(*MPI.COMM_WORLD.allgather(set(model.colours[cells_of(model.body, [r])])))
            for r in ("left", "middle", "right")}
 one_each = all(len(c) == 1 for c in colours.values())
 if MPI.COMM_WORLD.rank == 0:

@@ -339,8 +339,8 @@ class EnergyBook:
     elastic and kinetic energies, step by step."""
 
     def __init__(self, model):
-        self.t, self.Q, self.P = 0.0, model.magnetic_moment(), 0.0
-        self.E0 = model.elastic_energy() + model.kinetic_energy()
+        self.t, self.Q, self.P = 0.0, model["magnetic"].moment(), 0.0
+        self.E0 = model.elastic_energy() + model["inertia"].kinetic_energy()
         self.work = self.dissipation = 0.0
         self.rows = []
 
@@ -393,6 +393,6 @@ def test_rigid_rotor_diagnostics(tmp_path):
                         compile_forms=True)
     assert np.allclose(model.centroid(), [PLATE_L / 2, PLATE_W / 2, 0.0], atol=1e-12)
     for axis, zeta in AXES.values():
-        assert abs(model.rotational_drag(axis) / zeta - 1) < 1e-10
-    moment = model.magnetic_moment()
+        assert abs(model["drag"].rotational(axis) / zeta - 1) < 1e-10
+    moment = model["magnetic"].moment()
     assert np.allclose(moment, [MB / 1.0e-3 * PLATE_T * PLATE_L * PLATE_W, 0, 0], rtol=1e-12)

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from rftfem import scene, scene_reference
-from rftfem.scene import _Array, _Leaf, _Num, _Str, _Table
+from rftfem.schema import Array, Free, Leaf, Num, Str, Table
 from rftfem.scene_reference import UndocumentedKey
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,22 +50,22 @@ def test_hand_written_sections_are_there():
 
 
 def test_generator_refuses_a_leaf_without_doc():
-    schema = _Table({
-        "title": _Leaf(_Str(), required=True, doc="the name"),
-        "speed": _Leaf(_Num(), 1.0),  # no doc
+    schema = Table({
+        "title": Leaf(Str(), required=True, doc="the name"),
+        "speed": Leaf(Num(), 1.0),  # no doc
     }, doc="top")
     with pytest.raises(UndocumentedKey, match=r"'speed' has no doc"):
         scene_reference.scene_keys_markdown(schema)
 
 
 def test_generator_refuses_undocumented_keys_at_any_depth():
-    documented = {"a": _Leaf(_Num(), 1.0, doc="a number")}
+    documented = {"a": Leaf(Num(), 1.0, doc="a number")}
     cases = {
-        "[[parts]].size": _Table({"parts": _Array(_Table({
-            "size": _Leaf(_Num(), 1.0)}), doc="parts")}, doc="top"),
-        "[[parts]]": _Table({"parts": _Array(_Table(dict(documented)))}, doc="top"),
-        "box": _Table({"box": _Table(dict(documented))}, doc="top"),
-        "(the top level)": _Table(dict(documented)),
+        "[[parts]].size": Table({"parts": Array(Table({
+            "size": Leaf(Num(), 1.0)}), doc="parts")}, doc="top"),
+        "[[parts]]": Table({"parts": Array(Table(dict(documented)))}, doc="top"),
+        "box": Table({"box": Table(dict(documented))}, doc="top"),
+        "(the top level)": Table(dict(documented)),
     }
     for path, schema in cases.items():
         with pytest.raises(UndocumentedKey) as info:
@@ -74,7 +74,7 @@ def test_generator_refuses_undocumented_keys_at_any_depth():
 
 
 def test_generator_refuses_an_optional_leaf_without_default_text():
-    schema = _Table({"file": _Leaf(_Str(), None, doc="a path")}, doc="top")
+    schema = Table({"file": Leaf(Str(), None, doc="a path")}, doc="top")
     with pytest.raises(UndocumentedKey, match="'file' has no default and no default_doc"):
         scene_reference.scene_keys_markdown(schema)
     schema.fields["file"].default_doc = "none: only with kind = \"gmsh\""
@@ -85,7 +85,7 @@ def test_a_key_added_to_the_validator_fails_the_reference(monkeypatch, tmp_path)
     """A key the validator accepts but the reference does not list: no doc -> the
     generator fails; with a doc but not regenerated -> the document is stale."""
     motion = scene.SCHEMA.fields["motion"].item.fields
-    monkeypatch.setitem(motion, "phase", _Leaf(_Num(), 0.0))
+    monkeypatch.setitem(motion, "phase", Leaf(Num(), 0.0))
     path = tmp_path / "scene.toml"
     path.write_text('title = "t"\n[mesh]\n[shell]\n[time]\n'
                     '[[motion]]\ncomponent = "uz"\nphase = 0.5\n')
@@ -93,7 +93,7 @@ def test_a_key_added_to_the_validator_fails_the_reference(monkeypatch, tmp_path)
     with pytest.raises(UndocumentedKey, match=r"'\[\[motion\]\]\.phase' has no doc"):
         scene_reference.scene_keys_markdown()
 
-    monkeypatch.setitem(motion, "phase", _Leaf(_Num(), 0.0, unit="rad", doc="phase shift"))
+    monkeypatch.setitem(motion, "phase", Leaf(Num(), 0.0, unit="rad", doc="phase shift"))
     text = DOC.read_text(encoding="utf-8")
     keys = scene_reference.scene_keys_markdown()
     assert "`[[motion]].phase`" in keys
@@ -118,7 +118,7 @@ def test_every_schema_key_is_in_the_document():
 
 @pytest.mark.parametrize("path, default", [
     (p, n.default) for p, n in scene_reference.walk()
-    if isinstance(n, _Leaf) and not n.required and not n.default_doc])
+    if isinstance(n, Leaf) and not n.required and not n.default_doc])
 def test_listed_defaults_read_back_as_the_defaults(path, default):
     """The default the reference prints is valid TOML for the real default."""
     assert tomllib.loads(f"v = {scene_reference._toml(default)}")["v"] == default
@@ -147,7 +147,7 @@ def _used_keys(data: dict, display: str, free: set[str]):
 @pytest.mark.parametrize("demo", DEMOS, ids=[p.name for p in DEMOS])
 def test_every_key_of_a_demo_scene_is_in_the_reference(demo):
     free = {p for p, n in scene_reference.walk()
-            if isinstance(n, scene._Free) and not p.endswith(".*")}
+            if isinstance(n, Free) and not p.endswith(".*")}
     listed = set(scene_reference.documented_paths())
     keys = scene_reference.extract(DOC.read_text(encoding="utf-8"))["scene keys"]
     used = sorted(set(_used_keys(tomllib.loads(demo.read_text(encoding="utf-8")), "", free)))

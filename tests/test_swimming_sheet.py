@@ -51,7 +51,7 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
     powers = []
     sim = run_scene(SCENE, "time.output_every=1", "output.fields=false",
                     f"time.dt={PERIOD / 48!r}", out_dir=tmp_path,
-                    observers=[lambda s: powers.append(s.model.drag_power())])
+                    observers=[lambda s: powers.append(s.model["drag"].power())])
     assert sim.summary["status"] == "ok"
     assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag",
                                              "prescribed-motion"]

@@ -1,0 +1,120 @@
+"""What every effect component has: :class:`Effect`, and the keys all loads share.
+
+An effect is one term of the virtual-work balance (docs/model.md §5), or one
+kind of condition on the unknowns, together with everything a scene, a run and
+its outputs need to know about it.  Its class says what it owns in a scene and
+when the scene asks for it; an instance, built by the :class:`~rftfem.model.Model`
+only for a scene that asks for it, holds its coefficients and gives its UFL
+terms, Dirichlet conditions and diagnostics.  Every method has a default that
+does nothing, so a component writes only what its effect has.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rftfem.schema import Leaf, Pairs, Str, table_iff
+
+
+class Effect:
+    """One effect: its scene keys and checks, its terms, its outputs."""
+
+    #: the name ``rftfem check`` and summary.json list when the effect is active
+    name = ""
+    #: top-level scene keys the effect owns, ``{key: schema node}``
+    keys: dict = {}
+    #: the ``[[load]]`` kinds it handles: ``{kind: {key: Leaf}}``, and a sentence each
+    load_kinds: dict = {}
+    kind_docs: dict = {}
+
+    # --- the scene (no mesh) -------------------------------------------------
+
+    @classmethod
+    def active(cls, scene: dict) -> bool:
+        """Whether the scene asks for this effect (then the Model builds it)."""
+        return False
+
+    @classmethod
+    def names(cls, scene: dict) -> list[str]:
+        """The active effect names it reports, in order."""
+        return [cls.name] if cls.name and cls.active(scene) else []
+
+    @classmethod
+    def check(cls, scene: dict) -> None:
+        """Checks of its keys against the rest of the scene (after the schema)."""
+
+    # --- the model ------------------------------------------------------------
+
+    def __init__(self, model):
+        self.model = model
+        self.scene = model.scene
+
+    def energy(self):
+        """A stored energy (UFL scalar form) whose derivative is a force, or None."""
+
+    def forces(self):
+        """Virtual work of its other non-inertial forces, internal minus external, or None."""
+
+    def inertia(self):
+        """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
+
+    def bcs(self) -> list:
+        """Dirichlet conditions it imposes."""
+        return []
+
+    #: whether its Dirichlet values change in time
+    moving = False
+
+    def set_time(self, t: float) -> None:
+        """Set its time-dependent values to time ``t``."""
+
+    def force_scales(self) -> list[float]:
+        """Force scales of the scene it contributes to the Newton tolerances (§7)."""
+        return []
+
+    # --- outputs ----------------------------------------------------------------
+
+    #: its body.csv columns
+    columns: list[str] = []
+
+    def values(self, t: float) -> list[float]:
+        """Its body.csv values at time ``t`` (global, on every rank)."""
+        return []
+
+    def fields(self) -> dict:
+        """Extra fields.xdmf fields: ``{name: Function or UFL vector expression}``."""
+        return {}
+
+
+# --------------------------------------------------------------------- loads
+
+#: the keys every ``[[load]]`` has, whatever its kind (``kind`` first)
+LOAD_KIND_DOC = "What the load is; its kind decides its other keys (below)."
+RAMP = Leaf(Str(("linear", "constant", "table")), "linear",
+            doc='The scale in time: "linear" t / time.end, "constant" 1, "table" '
+                "interpolated in `table`.")
+TABLE = Leaf(Pairs("scale"), unit="[time, 1]",
+             default_doc='none: required only with ramp = "table"',
+             doc="The scale, piecewise linear in time; before the first and after the last "
+                 "time it keeps the end value.")
+
+
+def loads_of(scene: dict, kinds) -> list[tuple[int, dict]]:
+    """``(index, entry)`` of the scene's ``[[load]]`` entries of the given kinds."""
+    return [(i, ld) for i, ld in enumerate(scene.get("load") or []) if ld.get("kind") in kinds]
+
+
+def check_ramp(load: dict, path: str) -> None:
+    """A ``table`` exactly when ``ramp = "table"``."""
+    table_iff(load, path, "ramp", "table", "[t, scale] pairs")
+
+
+def ramp_scale(load: dict, t: float, end: float) -> float:
+    """Scale factor of a ``[[load]]`` at time ``t``: linear t / end, constant 1, or the table."""
+    kind = load.get("ramp", "linear")
+    if kind == "linear":
+        return t / end
+    if kind == "constant":
+        return 1.0
+    table = np.asarray(load["table"], dtype=float)
+    return float(np.interp(t, table[:, 0], table[:, 1]))

@@ -1,0 +1,113 @@
+"""Resistive-force-theory drag (docs/model.md §5.4), the scene's ``[fluid]``.
+
+The traction ``C̃ v`` per current area resists the local velocity; its virtual
+work comes from ``forms.drag``.  The component also gives the drag's power
+(a body.csv column), the total drag force and the rotational drag coefficient
+of the current shape, which the demos and tests measure.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+
+from rftfem.forms import drag
+from rftfem.schema import NONNEGATIVE, Leaf, Table, Vec
+
+from .base import Effect
+
+
+class Drag(Effect):
+    name = "drag"
+    keys = {
+    "fluid": Table({
+        "drag": Leaf(Vec(item=NONNEGATIVE, some_positive=True,
+                           expected="3 numbers >= 0 [along axis, across, normal], "
+                                    "at least one > 0"), required=True,
+                      unit="force·time/length³",
+                      doc="The drag coefficients [C1, C2, C3]: along the material axis "
+                          "(`shell.axis`) as the body carries it, across it in the surface, "
+                          "and along the current normal. The traction per current area is "
+                          "the sum of Ci (ei·v) ei over the three directions."),
+    }, optional=True,
+        doc="Resistive-force-theory drag of the surrounding fluid: a traction proportional "
+            "to the local velocity."),
+    }
+    columns = ["drag_power"]
+
+    @classmethod
+    def active(cls, scene):
+        return bool(scene.get("fluid"))
+
+    def __init__(self, model):
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        super().__init__(model)
+        if model.triad.axis_along_normal:
+            raise model.axis_error("the drag frame needs a tangent axis")
+        C = np.asarray(self.scene["fluid"]["drag"], dtype=PETSc.ScalarType)
+        self.coefficients = fem.Constant(model.mesh, C)
+        self._forms = {}
+        self._spin = None
+
+    def _term(self, term, *args):
+        """A ``forms.drag`` term of the current iterate with the scene's coefficients."""
+        m, C = self.model, self.coefficients
+        k = m.kinematics()
+        return term([C[0], C[1], C[2]], k.F_s, m.material_axis, *args, k.g1, k.g2, k.G1, k.G2,
+                    m.dx(metadata={"quadrature_degree": 4}))
+
+    def forces(self):
+        k = self.model.kinematics()
+        return self._term(drag.drag_work, self.model.velocity(k.u), k.du)
+
+    def force_scales(self):
+        """Drag on the whole body moving at the fastest prescribed speed."""
+        motion = self.model.get("prescribed-motion")
+        if motion is None:
+            return []
+        return [max(self.scene["fluid"]["drag"]) * self.model.area() * motion.speed_scale()]
+
+    def _assembled(self, name, build):
+        m = self.model
+        if name not in self._forms:
+            form = build()
+            self._forms[name] = ([m.compile(f) for f in form] if isinstance(form, list)
+                                 else m.compile(form))
+        return self._forms[name]
+
+    def power(self) -> float:
+        """Power dissipated by the drag, ``∫ (C̃ v)·v J dA₀`` (global), in the current
+        configuration with the stored velocity ``v_n`` (after a step: its end state)."""
+        return self.model.assemble_scalar(
+            self._assembled("power", lambda: self._term(drag.drag_power, self.model.v_n)))
+
+    def force(self) -> np.ndarray:
+        """Total drag force on the body ``∫ C̃ v J dA₀`` (global), in the current
+        configuration with the stored velocity ``v_n``."""
+        forms = self._assembled("force", lambda: self._term(drag.drag_force, self.model.v_n))
+        return np.array([self.model.assemble_scalar(f) for f in forms])
+
+    def rotational(self, axis) -> float:
+        """RFT drag coefficient ``ζ`` of a rigid rotation of the current shape about
+        ``axis`` through the centroid: the dissipated power at unit rate,
+        ``∫ (C̃ v)·v J dA₀`` with ``v = a × (x − x_c)`` (force·length·time)."""
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        m = self.model
+        if self._spin is None:
+            axis_c, centre = (fem.Constant(m.mesh, np.zeros(3, dtype=PETSc.ScalarType))
+                              for _ in range(2))
+            x = ufl.SpatialCoordinate(m.mesh) + m.kinematics().u
+            v = ufl.cross(axis_c, x - centre)
+            self._spin = (axis_c, centre, m.compile(self._term(drag.drag_power, v)))
+        axis_c, centre, form = self._spin
+        axis = np.asarray(axis, dtype=float)
+        axis_c.value[:] = axis / np.linalg.norm(axis)
+        centre.value[:] = m.centroid()
+        return m.assemble_scalar(form)
+
+    def values(self, t):
+        return [self.power()]
