@@ -191,6 +191,11 @@ class Model:
                 self.inertia_form = self.compile(self.inertia)
             self.jacobian_form = self.compile(self.jacobian_ufl)
 
+    def add_nodal_forces(self, F: np.ndarray):
+        """Add the components' nodal forces to the local array of an assembled ``F``."""
+        for comp in self.components:
+            comp.add_nodal_forces(F)
+
     # --- per-step updates ---------------------------------------------------
 
     def set_coefficients(self, c):

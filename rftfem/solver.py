@@ -73,6 +73,9 @@ class StepSolver:
         with vec.localForm() as local:
             local.set(0.0)
         compat.assemble_vector(vec, form)
+        if form is self.model.forces_form:  # point forces join F before the ghost sums
+            with vec.localForm() as local:
+                self.model.add_nodal_forces(local.array)
         vec.ghostUpdate(addv=_ADD, mode=_REVERSE)
 
     def assemble_forces(self, out=None):

@@ -21,9 +21,18 @@ from .hinge import Hinges
 from .inertia import Inertia
 from .magnetic import Magnetic
 from .motion import Motions
+from .point_force import PointForce
 
 REGISTRY: tuple[type[Effect], ...] = (
-    Elasticity, Hinges, Inertia, Drag, Magnetic, EdgeLoads, Boundaries, Motions,
+    Elasticity,
+    Hinges,
+    Inertia,
+    Drag,
+    Magnetic,
+    EdgeLoads,
+    PointForce,
+    Boundaries,
+    Motions,
 )
 
 

@@ -58,6 +58,11 @@ class Effect:
     def inertia(self):
         """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
 
+    def add_nodal_forces(self, F: np.ndarray) -> None:
+        """Add forces given at nodes, not as a UFL form, to the local array of ``F``
+        (internal minus external, like :meth:`forces`): a point force is the one case.
+        Dead, so they add nothing to the Jacobian."""
+
     def bcs(self) -> list:
         """Dirichlet conditions it imposes."""
         return []
