@@ -22,6 +22,7 @@ from .inertia import Inertia
 from .magnetic import Magnetic
 from .motion import Motions
 from .point_force import PointForce
+from .pressure import Pressure
 
 REGISTRY: tuple[type[Effect], ...] = (
     Elasticity,
@@ -31,6 +32,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     Magnetic,
     EdgeLoads,
     PointForce,
+    Pressure,
     Boundaries,
     Motions,
 )

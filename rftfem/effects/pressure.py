@@ -1,0 +1,87 @@
+"""A follower pressure: ``[[load]]`` of kind ``pressure``.
+
+The pressure ``p`` acts along the current normal of the surface on the current
+area, so per reference area it is ``p g₁ × g₂ / |G₁ × G₂|`` and its virtual work
+is ``∫ p (g₁ × g₂)·δu / |G₁ × G₂| dA₀`` over the region (docs/model.md §5.6).
+It turns and stretches with the surface; its load stiffness comes from
+``ufl.derivative`` of this term, like every other Jacobian.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+
+from rftfem.errors import SceneError
+from rftfem.forms.pressure import follower_pressure_work
+from rftfem.schema import Leaf, Num, Where
+from rftfem.selectors import check_where, entities_of
+
+from .base import Effect, check_ramp, loads_of, ramp_scale
+
+KIND = "pressure"
+
+
+class Pressure(Effect):
+    name = KIND
+    load_kinds = {KIND: {
+        "where": Leaf(Where('"all" or a region name'), "all",
+                      doc="The surface it acts on: all of it, or a region."),
+        "value": Leaf(Num(), required=True, unit="force/length²",
+                      doc="The pressure, multiplied by the ramp's scale; positive pushes "
+                          "along the current normal (the side the reference normal points "
+                          "to)."),
+    }}
+    kind_docs = {KIND: "A pressure on a surface region, normal to the current surface and "
+                       "acting on its current area (a follower load)."}
+
+    @classmethod
+    def active(cls, scene):
+        return bool(loads_of(scene, (KIND,)))
+
+    @classmethod
+    def check(cls, scene):
+        for i, load in loads_of(scene, (KIND,)):
+            check_where(load["where"], f"load.{i}.where", scene)
+            check_ramp(load, f"load.{i}")
+
+    def __init__(self, model):
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        from rftfem import compat
+
+        super().__init__(model)
+        mesh, tdim = model.mesh, model.mesh.topology.dim
+        self.entries = loads_of(self.scene, (KIND,))
+        cells, tags = [], []
+        for n, (i, ld) in enumerate(self.entries):
+            dim, entities = entities_of(model.body, ld["where"], f"load.{i}.where")
+            if dim != tdim:
+                raise SceneError(f"load.{i}.where: '{ld['where']}' is an edge; a pressure "
+                                 'acts on a surface: "all" or a region')
+            cells.append(entities)
+            tags.append(np.full(len(entities), n + 1, dtype=np.int32))
+        # one measure, one tag per load (a cell may carry several pressures)
+        k = model.kinematics()
+        self.pressures = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in self.entries]
+        terms = []
+        for n, (c, tag) in enumerate(zip(cells, tags)):
+            ct = compat.create_meshtags(mesh, tdim, c.astype(np.int32), tag)
+            dx = ufl.Measure("dx", domain=mesh, subdomain_data=ct,
+                             metadata={"quadrature_degree": 4})(n + 1)
+            terms.append(follower_pressure_work(self.pressures[n], k.g1, k.g2, k.G1, k.G2,
+                                                k.du, dx))
+        self._work = -sum(terms[1:], terms[0])
+
+    def forces(self):
+        return self._work
+
+    def set_time(self, t):
+        end = self.scene["time"]["end"]
+        for (_, ld), value in zip(self.entries, self.pressures):
+            value.value = ld["value"] * ramp_scale(ld, t, end)
+
+    def force_scales(self):
+        """The pressure times the body's area."""
+        return [abs(ld["value"]) * self.model.area() for _, ld in self.entries]
