@@ -23,6 +23,7 @@ from .magnetic import Magnetic
 from .motion import Motions
 from .point_force import PointForce
 from .pressure import Pressure
+from .gravity import Gravity
 
 REGISTRY: tuple[type[Effect], ...] = (
     Elasticity,
@@ -33,6 +34,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     EdgeLoads,
     PointForce,
     Pressure,
+    Gravity,
     Boundaries,
     Motions,
 )
