@@ -80,7 +80,7 @@ class Phase1:
         if self.f_c is not None or sim.t < self.field["ramp_time"] - 1e-12:
             return
         m = sim.model
-        Q = m.magnetic_moment()
+        Q = m["magnetic"].moment()
         q_perp = np.linalg.norm(Q - (Q @ self.axis) * self.axis)
         self.f_c = q_perp * self.field["strength"] / m["drag"].rotational(self.axis) / (2 * math.pi)
         X = m.Vu.tabulate_dof_coordinates()

@@ -53,7 +53,7 @@ def _largest_frame_angle(model) -> float:
     a₁ taken into the other node's tangent plane."""
     from rftfem import compat
 
-    a1 = model.a1.x.array.reshape(-1, 3)
+    a1 = model.triads[0][0].x.array.reshape(-1, 3)
     dn = model.dn.x.array.reshape(-1, 3)
     worst = 0.0
     for nodes in compat.cell_dofs(model.Vu):
@@ -79,7 +79,7 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
     try:
         sim.run()
         m = sim.model
-        a1_run, dn_run = m.a1.x.array.copy(), m.dn.x.array.copy()
+        a1_run, dn_run = m.triads[0][0].x.array.copy(), m.dn.x.array.copy()
         forces = sim.solver.F_n.duplicate()
         sim.solver.assemble_forces(forces)
         before = forces.getArray().copy()
@@ -87,7 +87,7 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
 
         dn = dn_run.reshape(-1, 3)
         spin = np.random.default_rng(4).uniform(-np.pi, np.pi, len(dn))[:, None] * dn
-        for f in (m.a1, m.a2):
+        for f in (m.triads[0][0], m.triads[0][1]):
             f.x.array[:] = rotate(f.x.array.reshape(-1, 3), spin).ravel()
         scrambled = _largest_frame_angle(m)
         m.update_triad()  # θ = 0: no rotation, only the realignment
@@ -98,8 +98,8 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
               f"realigned {realigned:.2e}°; force change {np.abs(after - before).max():.1e}")
         assert scrambled > 90 and smooth < 1 and realigned < 1
         assert np.array_equal(m.dn.x.array, dn_run)
-        assert np.abs(m.a1.x.array - a1_run).max() < 1e-10
-        a1, a2 = m.a1.x.array.reshape(-1, 3), m.a2.x.array.reshape(-1, 3)
+        assert np.abs(m.triads[0][0].x.array - a1_run).max() < 1e-10
+        a1, a2 = m.triads[0][0].x.array.reshape(-1, 3), m.triads[0][1].x.array.reshape(-1, 3)
         assert np.abs(np.sum(a1 * dn, axis=1)).max() < 1e-12
         assert np.abs(a2 - np.cross(dn, a1)).max() < 1e-12
         # the strip rolls about Y: the convected axis X stays in the XZ plane, so

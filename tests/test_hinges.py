@@ -104,7 +104,7 @@ class TieAndFold:
         if self.forms is None:
             dS = hinges.facet_measure(m.mesh, m.hinges)
             u = m.u_n
-            d = m.director
+            d = m.kinematics().d
             length = compat.form(fem.Constant(m.mesh, 1.0) * dS)
             self.length = m.comm.allreduce(fem.assemble_scalar(length))
             self.forms = [compat.form(ufl.dot(u("+") - u("-"), u("+") - u("-")) * dS),

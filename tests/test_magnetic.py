@@ -346,11 +346,13 @@ class EnergyBook:
 
     def __call__(self, sim):
         m = sim.model
-        Q, P = m.magnetic_moment(), m.drag_power()
-        self.work += 0.5 * (m.field_at(self.t) + m.field_at(sim.t)) @ (Q - self.Q)
+        Q, P = m["magnetic"].moment(), m["drag"].power()
+        field = m["magnetic"].field_at
+        self.work += 0.5 * (field(self.t) + field(sim.t)) @ (Q - self.Q)
         self.dissipation += 0.5 * (self.P + P) * (sim.t - self.t)
-        stored = m.elastic_energy() + m.kinetic_energy() - self.E0
-        self.rows.append((sim.t, self.work, self.dissipation, stored, m.kinetic_energy()))
+        kinetic = m["inertia"].kinetic_energy()
+        stored = m.elastic_energy() + kinetic - self.E0
+        self.rows.append((sim.t, self.work, self.dissipation, stored, kinetic))
         self.t, self.Q, self.P = sim.t, Q, P
 
 

@@ -79,8 +79,8 @@ def test_free_strip_in_drag_moves_at_p_over_c3(tmp_path):
     normal at p / C₃ from the first step (backward Euler is exact here)."""
     scene = CANTILEVER.replace('[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n', "")
     scene += "[fluid]\ndrag = [1.0e-6, 2.0e-6, 4.0e-6]\n"
-    sim = run_scene(write_scene(tmp_path, scene), "time.dt=0.25", "load.0.value=2.0e-6",
-                    "load.0.ramp=constant", out_dir=tmp_path / "out")
+    run_scene(write_scene(tmp_path, scene), "time.dt=0.25", "load.0.value=2.0e-6",
+              "load.0.ramp=constant", out_dir=tmp_path / "out")
     body = np.genfromtxt(tmp_path / "out" / "body.csv", delimiter=",", names=True)
     v = np.diff(body["centroid_z"]) / np.diff(body["time"])
     print(f"centroid speeds {v}, p / C3 = {2.0e-6 / 4.0e-6}")
