@@ -6,6 +6,7 @@ drag settles at the terminal velocity ``(ρ − ρ_f) t g / C₃`` with buoyancy
 """
 
 import numpy as np
+import pytest
 
 from conftest import run_scene, write_scene
 
@@ -71,3 +72,13 @@ def test_terminal_velocity_in_drag_with_buoyancy(tmp_path):
     terminal = -(RHO - rho_f) * T * G / c3
     print(f"final speed {v[-1]:.8f} mm/s, terminal {terminal:.8f} mm/s")
     assert abs(v[-1] / terminal - 1) < 1e-6
+
+
+def test_weight_on_at_the_start_of_a_free_body_says_why_it_fails(tmp_path):
+    """In vacuum a free body has no equilibrium under a weight already on at t = 0:
+    the run fails at once and says what to change."""
+    from rftfem.errors import RunFailed
+
+    with pytest.raises(RunFailed, match="nothing holds this body, so the loads must start "
+                                        "at zero"):
+        run_scene(write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant")
