@@ -54,8 +54,8 @@ class Hinges(Effect):
     def active(cls, scene):
         """A hinge with a spring (the hinges themselves are the Model's topology)."""
         mesh = scene.get("mesh") or {}
-        return (any((h.get("stiffness") or 0.0) > 0.0 for h in scene.get("hinge") or [])
-                or (mesh.get("kind") == "three-link" and (mesh.get("hinge_stiffness") or 0.0) > 0.0))
+        built_in = mesh.get("kind") == "three-link" and (mesh.get("hinge_stiffness") or 0.0) > 0
+        return built_in or any((h.get("stiffness") or 0.0) > 0.0 for h in scene.get("hinge") or [])
 
     @classmethod
     def check(cls, scene):
@@ -80,7 +80,8 @@ class Hinges(Effect):
                 w = mesh["link_width"] * (1.0 if where == "hinge-left" else 2.0)
                 raise SceneError(f"{path}: two hinges on one line ({fmt(where)} and the built-in "
                                  f"{where} at y = {fmt(w)}){builtin_hint}")
-            on_boundary = f"{path}: {fmt(where)} lies on the body's boundary; a hinge joins two sides"
+            on_boundary = (f"{path}: {fmt(where)} lies on the body's boundary; a hinge joins two "
+                           "sides")
             if where in ("x=L", "y=W"):
                 axis = where[0]
                 raise SceneError(on_boundary + (f" (expected {axis}=c with 0 < c < "
