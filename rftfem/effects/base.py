@@ -104,6 +104,34 @@ TABLE = Leaf(Pairs("scale"), unit="[time, 1]",
                  "time it keeps the end value.")
 
 
+class Load(Effect):
+    """An effect made of the ``[[load]]`` entries of its ``load_kinds``: active when
+    the scene has one, each entry's ramp checked, the entries kept as
+    :attr:`entries` (``(index, entry)``, the index as in the scene)."""
+
+    @classmethod
+    def active(cls, scene):
+        return bool(loads_of(scene, cls.load_kinds))
+
+    @classmethod
+    def check(cls, scene):
+        for i, load in loads_of(scene, cls.load_kinds):
+            check_ramp(load, f"load.{i}")
+            cls.check_entry(load, f"load.{i}", scene)
+
+    @classmethod
+    def check_entry(cls, load: dict, path: str, scene: dict) -> None:
+        """Checks of one entry (at ``path``) against the rest of the scene."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.entries = loads_of(self.scene, self.load_kinds)
+
+    def scale(self, load: dict, t: float) -> float:
+        """The entry's ramp at time ``t``."""
+        return ramp_scale(load, t, self.scene["time"]["end"])
+
+
 def loads_of(scene: dict, kinds) -> list[tuple[int, dict]]:
     """``(index, entry)`` of the scene's ``[[load]]`` entries of the given kinds."""
     return [(i, ld) for i, ld in enumerate(scene.get("load") or []) if ld.get("kind") in kinds]

@@ -16,7 +16,7 @@ from rftfem.forms import loads
 from rftfem.schema import Leaf, Vec, Where
 from rftfem.selectors import check_where, facets_of
 
-from .base import Effect, check_ramp, loads_of, ramp_scale
+from .base import Load, loads_of
 
 _WHERE = Leaf(Where(), required=True,
               doc="The boundary edge: x=0, x=L, y=0, y=W or a gmsh physical curve (not a "
@@ -27,7 +27,8 @@ _VALUE_DOC = ("The total over the edge in global axes, spread evenly along the e
 KINDS = ("edge-moment", "edge-force")
 
 
-class EdgeLoads(Effect):
+class EdgeLoads(Load):
+    name = "edge-loads"
     load_kinds = {
         "edge-moment": {"where": _WHERE,
                         "value": Leaf(Vec(), required=True, unit="force·length",
@@ -42,19 +43,13 @@ class EdgeLoads(Effect):
     }
 
     @classmethod
-    def active(cls, scene):
-        return bool(loads_of(scene, KINDS))
-
-    @classmethod
     def names(cls, scene):
         kinds = {ld["kind"] for _, ld in loads_of(scene, KINDS)}
         return [k for k in ("edge-force", "edge-moment") if k in kinds]
 
     @classmethod
-    def check(cls, scene):
-        for i, load in loads_of(scene, KINDS):
-            check_where(load["where"], f"load.{i}.where", scene)
-            check_ramp(load, f"load.{i}")
+    def check_entry(cls, load, path, scene):
+        check_where(load["where"], f"{path}.where", scene)
 
     def __init__(self, model):
         """Edge forces and moments, per unit reference length of their edge."""
@@ -66,9 +61,8 @@ class EdgeLoads(Effect):
 
         super().__init__(model)
         mesh, comm = model.mesh, model.comm
-        entries = loads_of(self.scene, KINDS)
         first = {}  # where -> the index of its first load, for messages
-        for i, ld in entries:
+        for i, ld in self.entries:
             first.setdefault(ld["where"], i)
         wheres = sorted(first)
         facet_sets = {w: facets_of(model.body, w, f"load.{first[w]}.where") for w in wheres}
@@ -87,13 +81,13 @@ class EdgeLoads(Effect):
         k = model.kinematics()
         dd = ufl.derivative(k.d, model.w, k.w_test)
         one = fem.Constant(mesh, PETSc.ScalarType(1.0))
-        #: (scene entry, its Constant value per length at scale 1 ...)
-        self.values_of, terms = [], []
-        for _, ld in entries:
+        #: (scene entry, its Constant, its value per unit length at scale 1)
+        self.per_length, terms = [], []
+        for _, ld in self.entries:
             tag = wheres.index(ld["where"]) + 1
             length = model.assemble_scalar(model.compile(one * ds(tag)))
             value = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
-            self.values_of.append((ld, value, np.asarray(ld["value"], dtype=float) / length))
+            self.per_length.append((ld, value, np.asarray(ld["value"], dtype=float) / length))
             if ld["kind"] == "edge-force":
                 terms.append(loads.edge_force_work(value, k.du, ds(tag)))
             else:
@@ -104,12 +98,11 @@ class EdgeLoads(Effect):
         return self._work
 
     def set_time(self, t):
-        end = self.scene["time"]["end"]
-        for ld, value, per_length in self.values_of:
-            value.value[:] = per_length * ramp_scale(ld, t, end)
+        for ld, value, per_length in self.per_length:
+            value.value[:] = per_length * self.scale(ld, t)
 
     def force_scales(self):
         """Each total edge force, and each edge moment over the length."""
         L = self.model.body.length
         return [float(np.linalg.norm(ld["value"])) / (1.0 if ld["kind"] == "edge-force" else L)
-                for ld, _, _ in self.values_of]
+                for ld, _, _ in self.per_length]

@@ -13,12 +13,12 @@ import numpy as np
 from rftfem.forms.gravity import body_force_work
 from rftfem.schema import NONNEGATIVE, Leaf, Vec
 
-from .base import Effect, check_ramp, loads_of, ramp_scale
+from .base import Load
 
 KIND = "gravity"
 
 
-class Gravity(Effect):
+class Gravity(Load):
     name = KIND
     load_kinds = {KIND: {
         "value": Leaf(Vec(), required=True, unit="length/time²",
@@ -31,21 +31,11 @@ class Gravity(Effect):
     kind_docs = {KIND: "The weight of the shell, less its buoyancy: a body force "
                        "(ρ − ρ_f) t g per reference area."}
 
-    @classmethod
-    def active(cls, scene):
-        return bool(loads_of(scene, (KIND,)))
-
-    @classmethod
-    def check(cls, scene):
-        for i, load in loads_of(scene, (KIND,)):
-            check_ramp(load, f"load.{i}")
-
     def __init__(self, model):
         from dolfinx import fem
         from petsc4py import PETSc
 
         super().__init__(model)
-        self.entries = loads_of(self.scene, (KIND,))
         mat, k = model.material, model.kinematics()
         self.accelerations = [fem.Constant(model.mesh, np.zeros(3, dtype=PETSc.ScalarType))
                        for _ in self.entries]
@@ -58,9 +48,8 @@ class Gravity(Effect):
         return self._work
 
     def set_time(self, t):
-        end = self.scene["time"]["end"]
         for (_, ld), g in zip(self.entries, self.accelerations):
-            g.value[:] = np.asarray(ld["value"], dtype=float) * ramp_scale(ld, t, end)
+            g.value[:] = np.asarray(ld["value"], dtype=float) * self.scale(ld, t)
 
     def force_scales(self):
         """The largest net weight, |ρ − ρ_f| t |g| A, with ρ the densest part's."""

@@ -17,12 +17,12 @@ from rftfem.errors import SceneError
 from rftfem.schema import Leaf, Vec, fmt
 from rftfem.selectors import BODY_NAME, LINED_KINDS, owned_cells
 
-from .base import Effect, check_ramp, loads_of, ramp_scale
+from .base import Load
 
 KIND = "point-force"
 
 
-class PointForce(Effect):
+class PointForce(Load):
     name = KIND
     load_kinds = {KIND: {
         "at": Leaf(Vec(), required=True, unit="length",
@@ -36,23 +36,17 @@ class PointForce(Effect):
                        "benchmarks); the displacement right under it depends on the mesh."}
 
     @classmethod
-    def active(cls, scene):
-        return bool(loads_of(scene, (KIND,)))
-
-    @classmethod
-    def check(cls, scene):
+    def check_entry(cls, load, path, scene):
         mesh = scene["mesh"]
-        for i, load in loads_of(scene, (KIND,)):
-            check_ramp(load, f"load.{i}")
-            if mesh["kind"] in LINED_KINDS:
-                x, y, z = load["at"]
-                tol = 1e-9 * mesh["length"]
-                if not (-tol <= x <= mesh["length"] + tol and -tol <= y <= mesh["width"] + tol
-                        and abs(z) <= tol):
-                    raise SceneError(
-                        f"load.{i}.at: point outside the body: expected a point on the "
-                        f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(mesh['length'])}, "
-                        f"0 <= y <= {fmt(mesh['width'])}, z = 0), found {fmt(load['at'])}")
+        if mesh["kind"] in LINED_KINDS:
+            x, y, z = load["at"]
+            tol = 1e-9 * mesh["length"]
+            if not (-tol <= x <= mesh["length"] + tol and -tol <= y <= mesh["width"] + tol
+                    and abs(z) <= tol):
+                raise SceneError(
+                    f"{path}.at: point outside the body: expected a point on the "
+                    f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(mesh['length'])}, "
+                    f"0 <= y <= {fmt(mesh['width'])}, z = 0), found {fmt(load['at'])}")
 
     def __init__(self, model):
         from dolfinx import fem
@@ -60,7 +54,6 @@ class PointForce(Effect):
         from rftfem import compat
 
         super().__init__(model)
-        self.entries = loads_of(self.scene, (KIND,))
         points = np.array([ld["at"] for _, ld in self.entries], dtype=float)
         cells, on_body = owned_cells(model.mesh, points)
         node_dofs = compat.cell_dofs(model.Vu)
@@ -87,9 +80,8 @@ class PointForce(Effect):
         self.t = t
 
     def add_nodal_forces(self, F):
-        end = self.scene["time"]["end"]
         for (_, ld), (dofs, phi) in zip(self.entries, self.weights):
-            force = ramp_scale(ld, self.t, end) * np.asarray(ld["value"], dtype=float)
+            force = self.scale(ld, self.t) * np.asarray(ld["value"], dtype=float)
             np.add.at(F, dofs, -phi[:, None] * force[None, :])
 
     def force_scales(self):

@@ -17,12 +17,12 @@ from rftfem.forms.pressure import follower_pressure_work
 from rftfem.schema import Leaf, Num, Where
 from rftfem.selectors import check_where, entities_of
 
-from .base import Effect, check_ramp, loads_of, ramp_scale
+from .base import Load
 
 KIND = "pressure"
 
 
-class Pressure(Effect):
+class Pressure(Load):
     name = KIND
     load_kinds = {KIND: {
         "where": Leaf(Where('"all" or a region name'), "all",
@@ -36,14 +36,8 @@ class Pressure(Effect):
                        "acting on its current area (a follower load)."}
 
     @classmethod
-    def active(cls, scene):
-        return bool(loads_of(scene, (KIND,)))
-
-    @classmethod
-    def check(cls, scene):
-        for i, load in loads_of(scene, (KIND,)):
-            check_where(load["where"], f"load.{i}.where", scene)
-            check_ramp(load, f"load.{i}")
+    def check_entry(cls, load, path, scene):
+        check_where(load["where"], f"{path}.where", scene)
 
     def __init__(self, model):
         from dolfinx import fem
@@ -53,7 +47,6 @@ class Pressure(Effect):
 
         super().__init__(model)
         mesh, tdim = model.mesh, model.mesh.topology.dim
-        self.entries = loads_of(self.scene, (KIND,))
         cells, tags = [], []
         for n, (i, ld) in enumerate(self.entries):
             dim, entities = entities_of(model.body, ld["where"], f"load.{i}.where")
@@ -78,9 +71,8 @@ class Pressure(Effect):
         return self._work
 
     def set_time(self, t):
-        end = self.scene["time"]["end"]
         for (_, ld), value in zip(self.entries, self.pressures):
-            value.value = ld["value"] * ramp_scale(ld, t, end)
+            value.value = ld["value"] * self.scale(ld, t)
 
     def force_scales(self):
         """The pressure times the body's area."""
