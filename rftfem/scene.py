@@ -1,10 +1,15 @@
 """Scenes: read a TOML scene, apply ``--set`` overrides, validate, fill defaults.
 
 The keys are the user-facing contract documented in docs/scenes.md, whose "Scene
-keys" part is generated from :data:`SCHEMA` (``python -m rftfem.scene_reference``):
-every key carries its meaning (``doc``) and unit here. :func:`load_scene` returns a
-plain nested ``dict`` (JSON-serialisable, so it can be echoed in summary.json)
-in which every key of the schema is present:
+keys" part is generated from :data:`SCHEMA` (``python -m rftfem.scene_reference``).
+This module owns the file-level rules: reading the file, ``--set``, the tables
+``title``, ``[shell]``, ``[time]``, ``[output]`` and ``[solver]`` with their cross
+checks (``[mesh]`` lives in :mod:`rftfem.scene_mesh`). Every effect component
+(:mod:`rftfem.effects`) brings its own keys (``[fluid]``, ``[magnetic]``,
+``[[hinge]]``, ``[[boundary]]``, ``[[motion]]``, and its ``[[load]]`` kinds) and
+checks them. :func:`load_scene` returns a plain nested ``dict``
+(JSON-serialisable, so it can be echoed in summary.json) in which every key of
+the schema is present:
 
 - scalars and arrays get their documented default;
 - optional arrays of tables (``boundary``, ``load``, ``motion``, ``hinge``,
@@ -14,16 +19,10 @@ in which every key of the schema is present:
 - keys that only apply to another variant are ``None`` (``mesh.file`` unless
   ``kind = "gmsh"``, ``mesh.link_width`` and ``mesh.hinge_stiffness`` unless
   ``kind = "three-link"``, ``load.N.table`` unless ``ramp = "table"``,
-  ``motion.N.values`` unless ``kind = "table"``);
+  ``motion.N.values`` unless ``kind = "table"``); a ``[[load]]`` entry has the
+  keys of its kind only;
 - ``mesh.width`` is the body's width: 1.0 by default, ``3 * link_width`` for
-  ``kind = "three-link"`` (where a user-given ``mesh.width`` is refused; the
-  defaults there are ``link_width = 0.5``, ``hinge_stiffness = 0.0``);
-- a ``mesh.regions`` entry has ``x`` and/or ``y`` (an interval); the one it does
-  not give is ``None``. A three-link mesh has the built-in regions ``left``,
-  ``middle`` and ``right`` (not listed in ``mesh.regions``, not redefinable)
-  and the built-in hinges at ``y = w`` and ``y = 2w`` (``hinge-left``,
-  ``hinge-right``; not listed in ``hinge``);
-- a ``hinge`` entry's ``stiffness`` defaults to 0.0 (a free hinge);
+  ``kind = "three-link"``;
 - a ``shell.parts`` entry inherits every material value it does not set
   (E, nu, thickness, density) from ``[shell]``;
 - ``time.scheme`` holds the resolved scheme (never ``"auto"``);
@@ -33,8 +32,8 @@ in which every key of the schema is present:
 Every problem raises :class:`rftfem.errors.SceneError` with a one-line message
 that names the full key path (``load.0.value``), what was expected and what was
 found. Checks that need the mesh (gmsh physical-group names, a ``where`` that
-matches no dof) are left to the simulation module. Scenes are data: nothing in
-them is evaluated.
+matches no dof) are left to the model and its components. Scenes are data:
+nothing in them is evaluated.
 """
 
 from __future__ import annotations

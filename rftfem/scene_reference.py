@@ -85,7 +85,8 @@ def _require_doc(node: Any, path: str) -> str:
     doc = (getattr(node, "doc", "") or "").strip()
     if not doc:
         raise UndocumentedKey(f"scene key '{path}' has no doc: give its schema node in "
-                              "rftfem/scene.py a doc=\"...\" (what it means), then run "
+                              "rftfem/scene.py, scene_mesh.py or its effect's module in rftfem/effects a "
+                              "doc=\"...\" (what it means), then run "
                               f"{REGENERATE}")
     return doc
 
@@ -97,7 +98,7 @@ def _default(leaf: Any, path: str) -> str:
         return leaf.default_doc
     if leaf.default is None:
         raise UndocumentedKey(f"scene key '{path}' has no default and no default_doc: say "
-                              "in rftfem/scene.py what a scene without it gets "
+                              "in its schema node what a scene without it gets "
                               "(default_doc=\"...\")")
     return f"`{_toml(leaf.default)}`"
 
@@ -207,7 +208,7 @@ def scene_keys_markdown(schema: Any = None) -> str:
 
     table_section("", schema, "Top level", _require_doc(schema, "(the top level)"))
     out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from "
-           "rftfem/scene.py -->", ""]
+           "the schema (rftfem/scene.py, rftfem/scene_mesh.py, rftfem/effects) -->", ""]
     for title, text, rows in sections:
         out += [f"### {title}", "", " ".join(text.split()), ""]
         if rows:
@@ -317,7 +318,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m rftfem.scene_reference",
         description="Rewrite the generated parts of docs/scenes.md (scene keys from "
-                    "rftfem/scene.py, command line from rftfem/cli.py).")
+                    "the schema, command line from rftfem/cli.py).")
     ap.add_argument("--check", action="store_true",
                     help="change nothing; exit 1 if the document is out of date")
     ap.add_argument("--file", type=Path, default=DOC_PATH, help=f"default: {DOC_PATH}")
