@@ -45,6 +45,7 @@ class Model:
         self.mesh.topology.create_connectivity(tdim - 1, tdim)
         self.timings = {"compile": 0.0}
         self.dx = ufl.Measure("dx", domain=self.mesh)
+        self._kinematics = None
 
         # hinges cut the body into panels; panels that touch get different colours,
         # and each colour has its own rotation field and triad (forms/hinge.py)
@@ -140,20 +141,23 @@ class Model:
         return self.comm.allreduce(fem.assemble_scalar(form))
 
     def kinematics(self) -> SimpleNamespace:
-        """UFL kinematics of the current iterate: ``u``, the rotations ``thetas``, the
-        director ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and the test
-        functions ``w_test`` (all unknowns) and ``du`` (its displacement part)."""
-        u, *thetas = ufl.split(self.w)
-        G1, G2 = kinematics.covariant_basis(self.mesh)
-        directors = [kinematics.director(theta, *triad)
-                     for theta, triad in zip(thetas, self.triads)]
-        d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
-             else directors[0])
-        g1, g2 = kinematics.surface_basis(u, G1, G2)
-        w_test = ufl.TestFunction(self.W)
-        return SimpleNamespace(u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
-                               F_s=kinematics.surface_deformation_gradient(u),
-                               w_test=w_test, du=ufl.split(w_test)[0])
+        """UFL kinematics of the current iterate (built once): ``u``, the rotations
+        ``thetas``, the director ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and
+        the test functions ``w_test`` (all unknowns) and ``du`` (its displacement part)."""
+        if self._kinematics is None:
+            u, *thetas = ufl.split(self.w)
+            G1, G2 = kinematics.covariant_basis(self.mesh)
+            directors = [kinematics.director(theta, *triad)
+                         for theta, triad in zip(thetas, self.triads)]
+            d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
+                 else directors[0])
+            g1, g2 = kinematics.surface_basis(u, G1, G2)
+            w_test = ufl.TestFunction(self.W)
+            self._kinematics = SimpleNamespace(
+                u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
+                F_s=kinematics.surface_deformation_gradient(u), w_test=w_test,
+                du=ufl.split(w_test)[0])
+        return self._kinematics
 
     def velocity(self, u):
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
@@ -168,16 +172,16 @@ class Model:
     def _sum_terms(self):
         """Stored energy, forces ``F(w)`` (every non-inertial effect), inertia, and the
         step's Jacobian ``∂/∂w [(1 − α_f) F + inertia]`` (docs/model.md §5, §6)."""
-        w_test = ufl.TestFunction(self.W)
-        energies = [(c, c.energy()) for c in self.components]
-        energies = [(c, e) for c, e in energies if e is not None]
-        self.energy = sum((e for _, e in energies[1:]), energies[0][1])
+        w_test = self.kinematics().w_test
+        energies = [c.energy() for c in self.components]
+        self.energy = sum((e for e in energies if e is not None), 0)
         #: virtual work of every non-inertial effect, by component name
-        self.effects = {c.name: ufl.derivative(e, self.w, w_test) for c, e in energies}
-        for c in self.components:
-            work = c.forces()
-            if work is not None:
-                self.effects[c.name] = work
+        self.effects = {}
+        for c, energy in zip(self.components, energies):
+            terms = [ufl.derivative(energy, self.w, w_test)] if energy is not None else []
+            terms += [work for work in [c.forces()] if work is not None]
+            if terms:
+                self.effects[c.name] = sum(terms[1:], terms[0])
         inertia = [c.inertia() for c in self.components if c.inertia() is not None]
         self.inertia = sum(inertia[1:], inertia[0]) if inertia else None
         terms = list(self.effects.values())

@@ -51,7 +51,7 @@ from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, Array, Bool, Free, 
                            Num, Str, Table, Vec, check_unique, err, fmt, join, section, suggest,
                            validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
-from rftfem.selectors import BODY_NAME, LINED_KINDS, check_region_ref, hinge_line
+from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 
 __all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme", "hinge_line",
            "SCHEMA"]
@@ -164,13 +164,7 @@ SCHEMA.fields = dict(sorted(SCHEMA.fields.items(), key=lambda item: (
     len(_READING_ORDER) + (item[0] in ("output", "solver")) + (item[0] == "solver"))))
 
 
-
-
 # ---------------------------------------------------------------- cross checks
-
-
-
-
 
 
 def _cross_check(scene: dict) -> None:
@@ -181,8 +175,6 @@ def _cross_check(scene: dict) -> None:
     if output["render"] != "none" and not output["fields"]:
         raise SceneError(f'output.render = "{output["render"]}" draws the fields: '
                          "it needs output.fields = true")
-    lined = mesh["kind"] in LINED_KINDS
-    length, width = mesh["length"], mesh["width"]
 
     # shell parts: region references, inherited material values
     for i, part in enumerate(shell["parts"]):
@@ -206,15 +198,8 @@ def _cross_check(scene: dict) -> None:
     # probes
     probes = scene["output"]["probes"]
     check_unique(probes, "name", "output.probes", "probe")
-    if lined:
-        tol = 1e-9 * length
-        for i, probe in enumerate(probes):
-            x, y, z = probe["at"]
-            if not (-tol <= x <= length + tol and -tol <= y <= width + tol and abs(z) <= tol):
-                raise SceneError(
-                    f"output.probes.{i}.at: probe outside the body: expected a point on the "
-                    f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(length)}, "
-                    f"0 <= y <= {fmt(width)}, z = 0), found {fmt(probe['at'])}")
+    for i, probe in enumerate(probes):
+        check_on_body(probe["at"], f"output.probes.{i}.at", "probe", scene)
 
 
 # ------------------------------------------------------------------ public API

@@ -99,7 +99,6 @@ class Free:
         self.doc = doc
 
 
-
 #: the most time steps a scene may ask for (time.end / time.dt)
 MAX_STEPS = 1e9
 
@@ -110,7 +109,6 @@ def unit_vector(v) -> tuple[float, float, float]:
     w = [x / scale for x in v]
     n = math.hypot(*w)
     return tuple(x / n for x in w)
-
 
 
 def section(path: str) -> str:
@@ -162,7 +160,7 @@ def _validate_kinds(spec: Kinds, raw: Any, path: str) -> list:
     for i, item in enumerate(raw):
         here = join(path, i)
         kind = item.get("kind")
-        if kind not in spec.kinds:  # the kind's own check gives the message
+        if not isinstance(kind, str) or kind not in spec.kinds:  # its own check says why
             out.append(validate_table(spec.item, item, here))
             continue
         table = spec.table_of(kind)

@@ -17,7 +17,7 @@ import re
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.schema import suggest
+from rftfem.schema import fmt, suggest
 
 #: ``where`` selectors that always exist on a strip (besides region names).
 EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
@@ -80,6 +80,20 @@ def check_where(value: str, path: str, scene: dict) -> None:
         raise SceneError(f"{path}: unknown selector '{value}'; expected one of: "
                          f"{', '.join(valid)}" + suggest(value, valid))
 
+
+def check_on_body(point, path: str, what: str, scene: dict) -> None:
+    """A material point of a strip-like body (a probe, a point force) must lie on it,
+    at z = 0; points of a gmsh body are checked on the mesh."""
+    mesh = scene["mesh"]
+    if mesh["kind"] not in LINED_KINDS:
+        return
+    length, width = mesh["length"], mesh["width"]
+    tol = 1e-9 * length
+    x, y, z = point
+    if not (-tol <= x <= length + tol and -tol <= y <= width + tol and abs(z) <= tol):
+        raise SceneError(f"{path}: {what} outside the body: expected a point on the "
+                         f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(length)}, "
+                         f"0 <= y <= {fmt(width)}, z = 0), found {fmt(point)}")
 
 
 # ------------------------------------------------------------------ on a mesh
@@ -170,3 +184,17 @@ def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
         cells.append(int(local[0]) if owner == comm.rank else None)
         on_body.append(owner < comm.size)
     return cells, on_body
+
+
+def indicator(mesh, cells: np.ndarray, name: str):
+    """A DG0 Function, 1 on the given local cells and 0 elsewhere: a region in a form
+    over the plain ``dx`` (one form may hold cell integrals of one tagging only)."""
+    from dolfinx import fem
+
+    from rftfem import compat
+
+    V0 = compat.function_space(mesh, "DG", 0)
+    chi = fem.Function(V0, name=name)
+    chi.x.array[compat.cell_dofs(V0)[np.asarray(cells, dtype=np.int32), 0]] = 1.0
+    chi.x.scatter_forward()
+    return chi

@@ -131,9 +131,9 @@ class Simulation:
         start = BackwardEuler() if m.get("drag") else Static()
         ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
         if not ok:
+            free = not (self.scene["boundary"] or self.scene["motion"] or m.get("drag"))
             hint = ("; nothing holds this body, so the loads must start at zero (a ramp "
-                    "from 0) unless a [fluid] holds it" if not m.bcs and not m.get("drag")
-                    else "")
+                    "from 0) unless a [fluid] holds it" if free else "")
             raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})"
                             + hint, 0.0, 0)
         m.v_n.x.array[:] = 0.0

@@ -10,7 +10,7 @@ import pytest
 
 from conftest import run_scene, write_scene
 
-RHO, T, G = 1.0e-9, 0.1, 9810.0
+RHO, T, G, END = 1.0e-9, 0.1, 9810.0, 0.1
 FREE_STRIP = f"""
 title = "a free strip under gravity"
 [mesh]
@@ -23,7 +23,7 @@ E = 1.2e6
 nu = 0.3
 density = {RHO}
 [time]
-end = 0.1
+end = {END}
 dt = 0.002
 [[load]]
 kind = "gravity"
@@ -42,7 +42,7 @@ def _fall_error(tmp_path, dt):
     run_scene(write_scene(tmp_path, FREE_STRIP), f"time.dt={dt}", "solver.snes_atol=1e-18",
               out_dir=out)
     body = _body(out)
-    exact = -G * body["time"]**3 / (6 * 0.1)
+    exact = -G * body["time"]**3 / (6 * END)
     assert np.abs(body["centroid_x"] - 1.0).max() < 1e-8 * abs(exact[-1])  # straight down
     assert body["elastic_energy"].max() < 1e-12 * RHO * T * G * abs(exact[-1])  # flat
     return np.abs(body["centroid_z"] - exact).max() / abs(exact[-1])
@@ -72,6 +72,36 @@ def test_terminal_velocity_in_drag_with_buoyancy(tmp_path):
     terminal = -(RHO - rho_f) * T * G / c3
     print(f"final speed {v[-1]:.8f} mm/s, terminal {terminal:.8f} mm/s")
     assert abs(v[-1] / terminal - 1) < 1e-6
+
+
+def test_weight_is_cellwise_net_of_buoyancy(tmp_path):
+    """The total force of the gravity term is g Σ (ρᵢ − ρ_f) tᵢ Aᵢ over the shell and a
+    part with its own density and thickness (round-off)."""
+    from conftest import build_model
+
+    from rftfem import compat
+
+    scene = FREE_STRIP + """
+[[mesh.regions]]
+name = "heavy"
+x = [0.0, 0.5]
+[[shell.parts]]
+region = "heavy"
+density = 3.0e-9
+thickness = 0.2
+"""
+    model = build_model(scene, tmp_path, ["load.0.ramp=constant",
+                                          "load.0.fluid_density=0.5e-9"])
+    model.set_time(0.0)
+    form = compat.form(model.effects["gravity"])
+    b = compat.create_vector(form, model.W)
+    compat.assemble_vector(b, form)
+    total = -b.getArray()[model.u_dofs].reshape(-1, 3).sum(axis=0)
+    b.destroy()
+    width = 0.5
+    exact = -G * ((3.0e-9 - 0.5e-9) * 0.2 * 0.5 * width + (RHO - 0.5e-9) * T * 1.5 * width)
+    print(f"total weight {total}, exact z {exact:.6e}")
+    assert np.allclose(total, [0.0, 0.0, exact], rtol=0, atol=1e-12 * abs(exact))
 
 
 def test_weight_on_at_the_start_of_a_free_body_says_why_it_fails(tmp_path):

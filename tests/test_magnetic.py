@@ -121,12 +121,12 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
 
 def test_field_protocol():
     """b(t): linear ramp along `direction`, then right-handed rotation about the axis."""
-    from rftfem.model import Model
+    from rftfem.effects.magnetic import Magnetic
 
     scene = {"magnetic": {"field": {"strength": 2.0, "ramp_time": 0.5,
                                     "direction": [2.0, 0.0, 0.0], "frequency": 4.0,
                                     "rotation_axis": [0.0, 0.0, 3.0]}}}
-    field_at = Model.field_at.__get__(type("M", (), {"scene": scene})())
+    field_at = Magnetic.field_at.__get__(type("M", (), {"scene": scene})())
     assert np.allclose(field_at(0.25), [1.0, 0, 0])
     assert np.allclose(field_at(0.5), [2.0, 0, 0])
     assert np.allclose(field_at(0.5 + 1 / 16), [0, 2.0, 0], atol=1e-12)  # quarter turn: +Y
@@ -137,7 +137,7 @@ def test_magnetic_form_absent_without_magnetic(tmp_path):
     """Without [magnetic] nothing magnetic is built or compiled; with it, the
     remanence field enters the compiled forces."""
     dry = build_model(CANTILEVER.split("[magnetic]")[0], tmp_path)
-    assert "magnetic" not in dry.effects and not hasattr(dry, "remanence")
+    assert "magnetic" not in dry.effects and dry.get("magnetic") is None
     names = [c.name for c in dry.forces_ufl.coefficients()]
     assert "remanent_magnetization" not in names
     wet = build_model(CANTILEVER, tmp_path)

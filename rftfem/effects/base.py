@@ -74,7 +74,7 @@ class Effect:
         """Set its time-dependent values to time ``t``."""
 
     def force_scales(self) -> list[float]:
-        """Force scales of the scene it contributes to the Newton tolerances (§7)."""
+        """Force scales it adds to the Newton tolerances (docs/model.md §7.3)."""
         return []
 
     # --- outputs ----------------------------------------------------------------
@@ -93,8 +93,8 @@ class Effect:
 
 # --------------------------------------------------------------------- loads
 
-#: the keys every ``[[load]]`` has, whatever its kind (``kind`` first)
 LOAD_KIND_DOC = "What the load is; its kind decides its other keys (below)."
+#: the keys every ``[[load]]`` has besides ``kind``, whatever its kind
 RAMP = Leaf(Str(("linear", "constant", "table")), "linear",
             doc='The scale in time: "linear" t / time.end, "constant" 1, "table" '
                 "interpolated in `table`.")

@@ -73,7 +73,7 @@ class EdgeLoads(Load):
                                  "or an interior curve); edge loads act on the body's boundary "
                                  "edges")
         all_facets = np.concatenate(list(facet_sets.values()))
-        if len(np.unique(all_facets)) != len(all_facets):
+        if comm.allreduce(int(len(np.unique(all_facets)) != len(all_facets))):
             raise SceneError("load: edge loads on overlapping edges must use the same 'where'")
         tags = np.concatenate([np.full(len(facet_sets[w]), i + 1) for i, w in enumerate(wheres)])
         ft = compat.create_meshtags(mesh, mesh.topology.dim - 1, all_facets, tags)

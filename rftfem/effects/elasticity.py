@@ -1,4 +1,4 @@
-"""Elasticity of the shell (docs/model.md §5.1): the stored energy Π of its
+"""Elasticity of the shell (docs/model.md §3, §5.2): the stored energy Π of its
 membrane, bending and transverse-shear strains.  Always active; the material
 values come from ``[shell]`` and ``[[shell.parts]]`` (cellwise fields of the Model).
 """

@@ -52,9 +52,9 @@ class Gravity(Load):
             g.value[:] = np.asarray(ld["value"], dtype=float) * self.scale(ld, t)
 
     def force_scales(self):
-        """The largest net weight, |ρ − ρ_f| t |g| A, with ρ the densest part's."""
+        """The largest net weight |ρ − ρ_f| t |g| A over the shell and its parts."""
         shell = self.scene["shell"]
-        rho = max([shell["density"]] + [p["density"] for p in shell["parts"]])
-        return [abs(rho - ld["fluid_density"]) * shell["thickness"]
+        return [max(abs(p["density"] - ld["fluid_density"]) * p["thickness"]
+                    for p in [shell, *shell["parts"]])
                 * float(np.linalg.norm(ld["value"])) * self.model.area()
                 for _, ld in self.entries]

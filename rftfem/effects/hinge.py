@@ -1,5 +1,5 @@
 """Hinges (``[[hinge]]`` and the three-link mesh's built-in lines) and their
-rotational springs (docs/model.md §5.2).
+rotational springs (docs/model.md §5.8).
 
 A hinge line lets the director jump: the Model gives each colour of panels its
 own rotation field (rftfem/hinges.py finds panels and colours).  What this

@@ -15,7 +15,7 @@ import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.schema import Leaf, Vec, fmt
-from rftfem.selectors import BODY_NAME, LINED_KINDS, owned_cells
+from rftfem.selectors import check_on_body, owned_cells
 
 from .base import Load
 
@@ -37,16 +37,7 @@ class PointForce(Load):
 
     @classmethod
     def check_entry(cls, load, path, scene):
-        mesh = scene["mesh"]
-        if mesh["kind"] in LINED_KINDS:
-            x, y, z = load["at"]
-            tol = 1e-9 * mesh["length"]
-            if not (-tol <= x <= mesh["length"] + tol and -tol <= y <= mesh["width"] + tol
-                    and abs(z) <= tol):
-                raise SceneError(
-                    f"{path}.at: point outside the body: expected a point on the "
-                    f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(mesh['length'])}, "
-                    f"0 <= y <= {fmt(mesh['width'])}, z = 0), found {fmt(load['at'])}")
+        check_on_body(load["at"], f"{path}.at", "point", scene)
 
     def __init__(self, model):
         from dolfinx import fem

@@ -9,13 +9,10 @@ It turns and stretches with the surface; its load stiffness comes from
 
 from __future__ import annotations
 
-import numpy as np
-import ufl
-
 from rftfem.errors import SceneError
 from rftfem.forms.pressure import follower_pressure_work
 from rftfem.schema import Leaf, Num, Where
-from rftfem.selectors import check_where, entities_of
+from rftfem.selectors import check_where, entities_of, indicator
 
 from .base import Load
 
@@ -43,28 +40,22 @@ class Pressure(Load):
         from dolfinx import fem
         from petsc4py import PETSc
 
-        from rftfem import compat
-
         super().__init__(model)
-        mesh, tdim = model.mesh, model.mesh.topology.dim
-        cells, tags = [], []
-        for n, (i, ld) in enumerate(self.entries):
-            dim, entities = entities_of(model.body, ld["where"], f"load.{i}.where")
+        tdim = model.mesh.topology.dim
+        k = model.kinematics()
+        dx = model.dx(metadata={"quadrature_degree": 4})
+        self.pressures, terms = [], []
+        for i, ld in self.entries:
+            dim, cells = entities_of(model.body, ld["where"], f"load.{i}.where")
             if dim != tdim:
                 raise SceneError(f"load.{i}.where: '{ld['where']}' is an edge; a pressure "
                                  'acts on a surface: "all" or a region')
-            cells.append(entities)
-            tags.append(np.full(len(entities), n + 1, dtype=np.int32))
-        # one measure, one tag per load (a cell may carry several pressures)
-        k = model.kinematics()
-        self.pressures = [fem.Constant(mesh, PETSc.ScalarType(0.0)) for _ in self.entries]
-        terms = []
-        for n, (c, tag) in enumerate(zip(cells, tags)):
-            ct = compat.create_meshtags(mesh, tdim, c.astype(np.int32), tag)
-            dx = ufl.Measure("dx", domain=mesh, subdomain_data=ct,
-                             metadata={"quadrature_degree": 4})(n + 1)
-            terms.append(follower_pressure_work(self.pressures[n], k.g1, k.g2, k.G1, k.G2,
-                                                k.du, dx))
+            # the region as a 0/1 field, so that every load (and the magnetic parts' own
+            # measure) can share one form
+            region = indicator(model.mesh, cells, f"pressure_{i}_region")
+            p = fem.Constant(model.mesh, PETSc.ScalarType(0.0))
+            self.pressures.append(p)
+            terms.append(follower_pressure_work(p * region, k.g1, k.g2, k.G1, k.G2, k.du, dx))
         self._work = -sum(terms[1:], terms[0])
 
     def forces(self):
