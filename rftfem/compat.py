@@ -75,6 +75,13 @@ def mixed_space(mesh, parts):
     return _functionspace(mesh, ufl.MixedElement(elements))
 
 
+def collapse(sub):
+    """``sub.collapse()`` as (space, the sub-space's dofs in the parent as one flat int64
+    array): dolfinx 0.5 gives a list of ints, 0.11 a list holding one array."""
+    V, dofs = sub.collapse()
+    return V, np.asarray(dofs, dtype=np.int64).reshape(-1)
+
+
 def cell_dofs(V) -> np.ndarray:
     """Cell-to-(blocked)-dof table of ``V`` as a (num_cells, dofs_per_cell) array."""
     dm = V.dofmap.list

@@ -62,9 +62,8 @@ class Model:
         # unknowns: u, then one θ per colour; the state of the last step
         self.W = compat.mixed_space(self.mesh, [("Lagrange", 2, (3,))]
                                     + [("Lagrange", 2, (2,))] * self.n_colours)
-        self.Vu, u_dofs = self.W.sub(0).collapse()
-        self.u_dofs = np.asarray(u_dofs, dtype=np.int64)
-        self.theta_dofs_of = [np.asarray(self.W.sub(1 + c).collapse()[1], dtype=np.int64)
+        self.Vu, self.u_dofs = compat.collapse(self.W.sub(0))
+        self.theta_dofs_of = [compat.collapse(self.W.sub(1 + c))[1]
                               for c in range(self.n_colours)]
         #: every rotation dof of the mixed space, in (θ¹, θ²) pairs
         self.theta_dofs = np.concatenate(self.theta_dofs_of)

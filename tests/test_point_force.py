@@ -50,7 +50,7 @@ def test_nodal_vector_carries_the_force_and_its_moment(tmp_path):
     """Σ f_i = P and Σ X_i f_i = X_p P to round-off at a point inside a cell (the shape
     functions are a partition of unity and reproduce linear fields)."""
     at, force = [3.3, 0.37, 0.0], np.array([0.2, -0.7, 1.3])
-    model = build_model(CANTILEVER, tmp_path, [f"load.0.at={at}", f"load.0.value={list(force)}",
+    model = build_model(CANTILEVER, tmp_path, [f"load.0.at={at}", f"load.0.value={force.tolist()}",
                                                "load.0.ramp=constant"])
     model.set_time(0.5)
     F = np.zeros(len(model.w.x.array))
