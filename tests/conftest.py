@@ -83,6 +83,7 @@ def run_command(cmd, **kwargs):
     import subprocess
     import warnings
 
+    kwargs.setdefault("timeout", 1800)  # a hung launch fails its test, not the whole run
     done = subprocess.run(cmd, capture_output=True, text=True, **kwargs)
     if _silent_exit(done):
         warnings.warn(f"silent exit 1 of {' '.join(map(str, cmd))!r}; launched again")

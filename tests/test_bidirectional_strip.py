@@ -146,7 +146,8 @@ def test_bidirectional_strip_demo(tmp_path):
     """The demo as shipped: both protocols, 8 periods at 4 Hz; it checks opposite
     senses and 5 % itself (exit status) and writes its figures."""
     done = subprocess.run([sys.executable, str(DEMOS / "bidirectional_strip.py"),
-                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True)
+                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=3 * 3600)  # slow: both protocols, about an hour
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     for name in ("groups.md", "trajectory.csv", "shape_phase1.png", "trajectory.png"):

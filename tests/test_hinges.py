@@ -413,7 +413,7 @@ def test_hinge_selectors_that_are_not_hinge_lines(tmp_path, mpirun):
     for i, (text, key, words) in enumerate(cases):
         scene = write_scene(tmp_path, text, name=f"bad{i}.toml")
         done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene)], env=env,
-                              cwd=ROOT, capture_output=True, text=True)
+                              cwd=ROOT, capture_output=True, text=True, timeout=600)
         lines = done.stderr.strip().splitlines()
         assert done.returncode == 2, done.stdout + done.stderr
         assert len(lines) == 1 and key in lines[0] and words in lines[0], lines
@@ -475,7 +475,7 @@ def test_three_link_demo(tmp_path):
     write their Table 4 analogue, groups and plot; without inertia the rigid-link
     case I obeys the scallop theorem (corner moves < 1e-4 mm in 9 cycles)."""
     done = subprocess.run([sys.executable, str(DEMOS / "three_link.py"), "--out", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True)
+                          cwd=ROOT, capture_output=True, text=True, timeout=3 * 3600)
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     for name in ("table4.csv", "groups.md", "three_link.png"):
@@ -491,7 +491,7 @@ def test_scallop_demo(tmp_path):
     """The scallop study as shipped: it checks the rigid square loop against the exact
     result (2 %) and the rigid out-and-back loop (1e-3 of it) itself (exit status)."""
     done = subprocess.run([sys.executable, str(DEMOS / "scallop.py"), "--out", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True)
+                          cwd=ROOT, capture_output=True, text=True, timeout=2 * 3600)
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert (tmp_path / "scallop.png").stat().st_size > 0

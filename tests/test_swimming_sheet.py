@@ -97,7 +97,8 @@ def test_swimming_sheet_demo_table(tmp_path):
     within 0.5 % of exact RFT, on every mesh including 4×20, ratios IV/II and V/IV within 0.5 %
     (the demo checks and sets its exit status; the test also reads its table)."""
     done = subprocess.run([sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2",
-                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True)
+                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=4 * 3600)
     print(done.stdout[-4000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     import csv
