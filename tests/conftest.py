@@ -106,8 +106,6 @@ def mpirun():
 def cli_run(mpirun):
     """``cli_run(scene, out, sets, np=1)``: ``rftfem run SCENE --out OUT --quiet --set …``
     in a subprocess, under ``mpirun -n np`` when np > 1; asserts exit 0, returns ``out``."""
-    import subprocess
-
     exe, env = mpirun
 
     def run(scene, out, sets=(), np=1):

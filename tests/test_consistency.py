@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 import ufl
-from dolfinx import fem
 
 from conftest import build_model, write_scene
 from rftfem import compat

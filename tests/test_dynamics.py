@@ -2,7 +2,6 @@
 and energy."""
 
 import numpy as np
-import pytest
 
 from conftest import run_scene, write_scene
 

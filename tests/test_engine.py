@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import DEMOS, ROOT, run_scene
+from conftest import DEMOS, run_scene
 
 
 def test_static_scene_compiles_no_inertia(tmp_path):
