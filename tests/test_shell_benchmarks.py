@@ -117,17 +117,38 @@ def end_rotation(sim):
     return np.unwrap(np.arctan2(d[:, 2], d[:, 1]))
 
 
-def test_small_twist_matches_linear_torsion(tmp_path):
-    """End rotation T L / (G J), J = w t³/3 (1 − 0.63 t/w), within 5 %."""
-    T, L, w, t, E = 1.0, 10.0, 1.0, 0.1, 1.2e6
-    sim = run_scene(DEMOS / "twist.toml", f"load.0.value=[{T}, 0, 0]", "time.dt=0.5",
-                    out_dir=tmp_path)
-    J = w * t**3 / 3 * (1 - 0.63 * t / w)
-    exact = T * L / (E / 2 * J)
-    phi = end_rotation(sim)[-1]
-    err = abs(phi - exact) / exact
-    print(f"end rotation {phi:.6f} rad, T L/(G J) = {exact:.6f} rad, error {100 * err:.2f} %")
-    assert err < 0.05
+def test_small_twist_rate_matches_saint_venant_torsion(tmp_path):
+    """Away from the ends, a small torque T twists the strip at the rate T/(G J) of
+    Saint-Venant's torsion of a thin rectangle, J = w t³/3 (1 − 0.630 t/w)
+    (Timoshenko & Goodier, Theory of Elasticity, §109; the (t/w)⁵ term is 1e-6 here).
+    The Reissner–Mindlin shell's own value, J = w t³/3 (1 − 2t/(√10 w) tanh(√10 w/2t))
+    with k_s = 5/6 (its free-edge shear layer), is 0.03 % from it. Rate from the
+    sections at X = 4 and 8 (the clamped end stiffens the first width or so, and the
+    end rotation is 2.3 % below T L/(G J)): within 0.5 %, reached 0.11 % (20x4)."""
+    text = (DEMOS / "twist.toml").read_text() + "".join(f"""
+[[output.probes]]
+name = "{name}"
+at = [{x}, {y}, 0.0]
+""" for name, x, y in (("a0", 4.0, 0.0), ("a1", 4.0, 1.0), ("b0", 8.0, 0.0), ("b1", 8.0, 1.0)))
+    scene = tmp_path / "twist.toml"
+    scene.write_text(text)
+    torque = 1.0
+    sim = run_scene(scene, f"load.0.value=[{torque}, 0, 0]", "time.dt=0.5", out_dir=tmp_path)
+    shell, mesh = sim.scene["shell"], sim.scene["mesh"]
+    t, w = shell["thickness"], mesh["width"]
+    G = shell["E"] / (2 * (1 + shell["nu"]))
+    u = sim.history[-1][1]  # probes: corner0, corner1, a0, a1, b0, b1
+
+    def section_rotation(i, j):
+        d = u[j] - u[i] + np.array([0.0, w, 0.0])
+        return np.arctan2(d[2], d[1])
+
+    rate = (section_rotation(4, 5) - section_rotation(2, 3)) / 4.0
+    J = w * t**3 / 3 * (1 - 0.630 * t / w)
+    exact = torque / (G * J)
+    err = abs(rate - exact) / exact
+    print(f"twist rate {rate:.6e} rad/mm, T/(G J) = {exact:.6e}, error {100 * err:.3f} %")
+    assert err < 0.005
 
 
 def test_twist_passes_180_and_360_degrees_without_failed_step(tmp_path):
