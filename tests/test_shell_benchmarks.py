@@ -159,3 +159,46 @@ def test_twist_passes_180_and_360_degrees_without_failed_step(tmp_path):
     assert np.all(np.diff(phi) > 0), "the twist must grow monotonically with the torque"
     assert sim.summary["counts"]["dt_cuts"] == 0
     assert sim.summary["director_unit_error"] < 1e-12
+
+
+# --- A and B on P2 triangles -------------------------------------------------------
+
+
+def test_end_shear_on_triangles(tmp_path):
+    """Sze 3.1 on 16x1 strips cut into P2 triangles: w within 1 % at every row
+    (reached ≤ 0.06 %), −u within 1 % or the table's last digit."""
+    sim = run_scene(DEMOS / "end_shear.toml", "mesh.cell=triangle", out_dir=tmp_path)
+    loads = sorted(SZE_SHEAR)
+    for p, (ux, _, uz) in zip(loads, rows_at(sim, loads)):
+        ref_u, ref_w = SZE_SHEAR[p]
+        print(f"triangles, P/Pmax = {p:4.2f}: -u = {-ux:.4f} ({ref_u}), w = {uz:.4f} ({ref_w})")
+        assert abs(uz - ref_w) / ref_w < 0.01
+        assert abs(-ux - ref_u) <= max(0.01 * ref_u, 1e-3)
+
+
+def _rollup_until(fraction):
+    """Overrides that stop the roll-up demo at M = fraction Mmax with M/Mmax = t still
+    (the demo ramps to 2 Mmax at t = 2)."""
+    import tomllib
+
+    two_mmax = tomllib.loads((DEMOS / "rollup.toml").read_text())["load"][0]["value"][1]
+    return (f"time.end={fraction}", f"load.0.value=[0.0, {two_mmax / 2 * fraction!r}, 0.0]")
+
+
+def test_rollup_on_triangles_to_three_quarters(tmp_path):
+    """Sze 3.2 on 32x1 P2 triangles: the tip on the exact circle within 0.5 % of L up
+    to M/Mmax = 0.75 (reached ≤ 0.03 %)."""
+    sim = run_scene(DEMOS / "rollup.toml", "mesh.cell=triangle", "mesh.divisions=[32, 1]",
+                    *_rollup_until(0.75), out_dir=tmp_path)
+    errors = _rollup_errors(sim, [0.25, 0.5, 0.75])
+    assert max(errors) < 0.005
+
+
+@pytest.mark.xfail(strict=True, reason="known: on P2 triangles the rolling strip leaves its "
+                   "plane from M/Mmax ≈ 0.8 (the tip drifts 1.5 mm along Y by Mmax) and the "
+                   "run fails near 1.5 Mmax; quadrilaterals stay planar")
+def test_rollup_on_triangles_closes_the_circle(tmp_path):
+    """At M = Mmax the tip is back at the clamp (0.5 % of L), as on quadrilaterals."""
+    sim = run_scene(DEMOS / "rollup.toml", "mesh.cell=triangle", "mesh.divisions=[32, 1]",
+                    *_rollup_until(1.0), out_dir=tmp_path)
+    assert _rollup_errors(sim, [1.0])[0] < 0.005
