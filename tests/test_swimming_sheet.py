@@ -42,16 +42,51 @@ def test_exact_rft_speed_of_the_demo():
     assert demo.exact_speed(b, k, w) == pytest.approx(leading, rel=1e-6)
 
 
+def exact_rft_power(b, k, omega, speed, c1, c3, area):
+    """Period-mean power the RFT drag dissipates on the sheet waving as
+    u_z = b sin φ and swimming at ``speed`` along X (docs/verification.md case F's
+    force balance, the same kinematics): with q = b ω cos φ the transverse velocity
+    and s = k b cos φ the slope, per reference area
+    [C₁ (U + s q)² + C₃ (q − s U)²] / √(1 + s²), averaged over φ, times the area."""
+    phi = np.linspace(0, 2 * np.pi, 4001)[:-1]
+    q, s = b * omega * np.cos(phi), k * b * np.cos(phi)
+    density = (c1 * (speed + s * q) ** 2 + c3 * (q - s * speed) ** 2) / np.sqrt(1 + s**2)
+    return density.mean() * area
+
+
+def test_drag_power_of_the_waving_sheet(tmp_path):
+    """The drag power averaged over whole wave periods (2 to 6, dt = T/48) is the exact
+    RFT dissipation of the waving sheet within 1 % (reached: +0.18 %). It is set by the
+    transverse motion (C₃ q²), so the speed, still rising here, hardly enters."""
+    import tomllib
+
+    scene = tomllib.loads(SCENE.read_text())
+    motion, mesh = scene["motion"][0], scene["mesh"]
+    c1, _, c3 = scene["fluid"]["drag"]
+    period = 2 * np.pi / motion["angular_frequency"]
+    powers = []
+    sim = run_scene(SCENE, f"time.end={6 * period!r}", f"time.dt={period / 48!r}",
+                    "output.fields=false",
+                    observers=[lambda s: powers.append((s.t, s.model["drag"].power()))])
+    t, p = np.array(powers).T
+    window = (t > 2 * period + 1e-9) & (t <= 6 * period + 1e-9)
+    assert window.sum() == 4 * 48
+    exact = exact_rft_power(motion["amplitude"], motion["wavenumber"],
+                            motion["angular_frequency"], EXACT_I, c1, c3,
+                            mesh["length"] * mesh["width"])
+    mean = p[window].mean()
+    print(f"mean drag power {mean:.6e} (force·length/time), exact RFT {exact:.6e} "
+          f"({100 * (mean / exact - 1):+.3f} %); {sim.summary['counts']}")
+    assert abs(mean / exact - 1) < 0.01
+
+
 @pytest.mark.long
 def test_swimming_sheet_case_I_on_4x20(tmp_path):
     """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
     swims at the exact RFT speed 0.49763 within 0.5 % (docs/verification.md case F: on 4×50 or
-    coarser), measured over 8 whole wave periods after 10 τ (reached: +0.34 %);
-    the drag dissipates at every step (power ≥ 0)."""
-    powers = []
+    coarser), measured over 8 whole wave periods after 10 τ (reached: +0.34 %)."""
     sim = run_scene(SCENE, "time.output_every=1", "output.fields=false",
-                    f"time.dt={PERIOD / 48!r}", out_dir=tmp_path,
-                    observers=[lambda s: powers.append(s.model["drag"].power())])
+                    f"time.dt={PERIOD / 48!r}", out_dir=tmp_path)
     assert sim.summary["status"] == "ok"
     assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag",
                                              "prescribed-motion"]
@@ -62,14 +97,10 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
     assert abs(t[i0] - t0) < 1e-9 and abs(t[i1] - t1) < 1e-9
     velocity = (x[i1] - x[i0]) / (t1 - t0)
     paper_window = (np.interp(2.0, t, x) - np.interp(1.5, t, x)) / 0.5
-    powers = np.array(powers)
     print(f"case I 4x20: U = {velocity:.5f} ({100 * (velocity / EXACT_I - 1):+.2f} %), paper "
           f"window {paper_window:.5f} ({100 * (paper_window / EXACT_I - 1):+.2f} %), "
-          f"power min {powers.min():.3e} max {powers.max():.3e}, "
           f"{sim.summary['counts']}")
     assert abs(velocity / EXACT_I - 1) < 0.005
-    assert len(powers) == sim.summary["counts"]["steps"] and powers.max() > 0
-    assert powers.min() >= 0.0
     assert sim.summary["director_unit_error"] < 1e-10
 
 
