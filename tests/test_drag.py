@@ -249,3 +249,21 @@ def test_drag_on_a_deformed_translating_strip(tmp_path, case):
         exact = _exact_drag_force(F, rotation, velocity, LENGTH * WIDTH)
         print(f"{case}: drag force {got}, exact {exact}")
         assert np.allclose(got, exact, rtol=0, atol=1e-12 * np.linalg.norm(exact))
+
+
+def test_free_body_start_is_one_backward_euler_step(tmp_path):
+    """A free strip in drag has no static equilibrium under a force on at t = 0: the
+    t = 0 solve is one backward-Euler step dt from the reference (docs/model.md §6.7),
+    so the first output row already has the strip moved F dt / (C A), and then it moves
+    at F / (C A) (all to 1e-6)."""
+    direction = np.eye(3)[2]
+    scene = write_scene(tmp_path, STRIP + _pull(("x=0", "x=L"), direction))
+    sim = run_scene(scene, out_dir=tmp_path / "out")
+    body = np.genfromtxt(tmp_path / "out" / "body.csv", delimiter=",", names=True)
+    speed = FORCE / (DRAG[2] * LENGTH * WIDTH)
+    dt = sim.scene["time"]["dt"]
+    print(f"z at t = 0: {body['centroid_z'][0]:.6e} (F dt/(C A) = {speed * dt:.6e}); "
+          f"then z = {body['centroid_z']}")
+    assert body["time"][0] == 0.0
+    assert abs(body["centroid_z"][0] / (speed * dt) - 1) < TOL
+    assert np.allclose(body["centroid_z"], speed * (body["time"] + dt), rtol=TOL, atol=0)
