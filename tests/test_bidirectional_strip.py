@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import importlib.util
+import tomllib
 import subprocess
 import sys
 
@@ -16,7 +17,7 @@ import pytest
 from conftest import DEMOS, ROOT, run_scene
 
 SCENE = DEMOS / "bidirectional_strip.toml"
-RAMP = 0.1
+RAMP = tomllib.loads(SCENE.read_text())["magnetic"]["field"]["ramp_time"]
 #: just under and above step-out on the demo scene (demos/strip_sweep.sh, README)
 F_UNDER, F_OVER = 64.0, 128.0
 

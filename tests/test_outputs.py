@@ -17,13 +17,14 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import tomllib
 
 import numpy as np
 import pytest
 
 from conftest import DEMOS, ROOT, run_scene
 
-TIP = np.array([12.0, 0.5, 0.0])
+TIP = np.array(tomllib.loads((DEMOS / "rollup.toml").read_text())["output"]["probes"][0]["at"])
 
 
 @pytest.fixture(scope="module")

@@ -83,7 +83,10 @@ def render_png(run: Path, out: Path, time="last") -> dict:
 def tip_position(run: Path, t: float) -> np.ndarray:
     rows = np.loadtxt(run / "probes.csv", delimiter=",", skiprows=1)
     row = rows[np.argmin(abs(rows[:, 0] - t))]
-    return np.array([12.0, 0.5, 0.0]) + row[1:4]
+    import tomllib
+
+    tip = tomllib.loads(ROLLUP.read_text())["output"]["probes"][0]["at"]
+    return np.array(tip) + row[1:4]
 
 
 def check_picture(png: Path, info: dict, run: Path):
