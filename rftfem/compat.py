@@ -75,6 +75,17 @@ def mixed_space(mesh, parts):
     return _functionspace(mesh, ufl.MixedElement(elements))
 
 
+def geometry_cells(mesh) -> tuple[np.ndarray, int]:
+    """The geometry nodes of every cell as a (num_cells, nodes) array, and the
+    geometry's degree (1: straight cells, 2: curved ones from a second-order gmsh
+    file); dolfinx 0.5 gives an AdjacencyList, 0.11 an array."""
+    g = mesh.geometry
+    cmap = g.cmap() if callable(g.cmap) else g.cmap
+    dm = g.dofmap
+    cells = dm if isinstance(dm, np.ndarray) else dm.array.reshape(-1, dm.links(0).size)
+    return cells, int(cmap.degree)
+
+
 def collapse(sub):
     """``sub.collapse()`` as (space, the sub-space's dofs in the parent as one flat int64
     array): dolfinx 0.5 gives a list of ints, 0.11 a list holding one array."""

@@ -5,11 +5,35 @@ values come from ``[shell]`` and ``[[shell.parts]]`` (cellwise fields of the Mod
 
 from __future__ import annotations
 
+import numpy as np
 import ufl
 
 from rftfem.forms import elasticity, kinematics
 
 from .base import Effect
+
+
+def cell_diameter(mesh):
+    """h of the shear and membrane weight t²/h² (forms.elasticity): UFL's
+    ``CellDiameter``, the largest distance between a cell's vertices, where UFL can
+    compute it (straight cells); on curved cells (a second-order gmsh file) the same
+    distance from the vertex nodes, as a cellwise field."""
+    from dolfinx import fem
+
+    from rftfem import compat
+
+    cells, degree = compat.geometry_cells(mesh)
+    if degree == 1:
+        return ufl.CellDiameter(mesh)
+    corners = 3 if mesh.topology.cell_type.name == "triangle" else 4
+    x = mesh.geometry.x[cells[:, :corners]]  # vertices come first in each cell's nodes
+    pairs = [(i, j) for i in range(corners) for j in range(i + 1, corners)]
+    h = np.max([np.linalg.norm(x[:, i] - x[:, j], axis=1) for i, j in pairs], axis=0)
+    V0 = compat.function_space(mesh, "DG", 0)
+    field = fem.Function(V0, name="cell_diameter")
+    field.x.array[compat.cell_dofs(V0)[: len(h), 0]] = h
+    field.x.scatter_forward()
+    return field
 
 
 class Elasticity(Effect):
@@ -27,7 +51,7 @@ class Elasticity(Effect):
                    kinematics.bending_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
                    kinematics.shear_strain(k.g1, k.g2, k.d, k.G1, k.G2, D))
         self._energy = elasticity.stored_energy(strains, k.G1, k.G2, mat["E"], mat["nu"],
-                                                mat["t"], model.dx, ufl.CellDiameter(model.mesh))
+                                                mat["t"], model.dx, cell_diameter(model.mesh))
 
     def energy(self):
         return self._energy
