@@ -90,3 +90,15 @@ def test_symmetry_input_errors(tmp_path, text, words):
                         symmetry=f'[[boundary]]\nwhere = "y=W"\n{text}')
     with pytest.raises(SceneError, match=words.replace("[", r"\[")):
         load_scene(write_scene(tmp_path, scene))
+
+
+@pytest.mark.mpi
+def test_half_model_under_mpirun(tmp_path, cli_run):
+    """The half model on two processes gives the serial tip (1e-10 of it): the plane's
+    nodes are classified on every process from the same triads."""
+    scene = write_scene(tmp_path, FULL.format(width=0.5, across=1, symmetry=SYMMETRY,
+                                              force=FORCE / 2))
+    serial = run_scene(scene).history[-1][1]
+    out = cli_run(scene, tmp_path / "mpi", np=2)
+    row = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)[-1][1:].reshape(-1, 3)
+    assert np.abs(row - serial).max() < 1e-10 * np.abs(serial).max()
