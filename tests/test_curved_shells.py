@@ -187,6 +187,19 @@ def test_pinched_ring(tmp_path, cylinder_mesh):
     assert abs(u[0, 2] / crown - 1) < 0.01 and abs(u[1, 0] / side - 1) < 0.01
 
 
+#: a roof or cylinder quarter from quarter_roof: rigid diaphragm, the planes x = 0, y = 0
+ROOF_SUPPORTS = '''[[boundary]]
+where = "diaphragm"
+fix = ["uy", "uz"]
+[[boundary]]
+where = "sym_x"
+symmetry = [1.0, 0.0, 0.0]
+[[boundary]]
+where = "crown"
+symmetry = [0.0, 1.0, 0.0]
+'''
+
+
 def test_scordelis_lo_roof(tmp_path):
     """Vertical displacement at the middle of the free edge, 0.3024 per unit of the
     self weight 90 (Belytschko et al. 1985; tests/data/obstacle_course.md), within
@@ -212,16 +225,7 @@ axis = [1.0, 0.0, 0.0]
 scheme = "static"
 end = 1.0
 dt = 1.0
-[[boundary]]
-where = "diaphragm"
-fix = ["uy", "uz"]
-[[boundary]]
-where = "sym_x"
-symmetry = [1.0, 0.0, 0.0]
-[[boundary]]
-where = "crown"
-symmetry = [0.0, 1.0, 0.0]
-[[load]]
+{ROOF_SUPPORTS}[[load]]
 kind = "gravity"
 value = [0.0, 0.0, {-scale}]
 [[output.probes]]
@@ -241,7 +245,7 @@ def test_pinched_cylinder(tmp_path):
     (reached −0.41 %). A point load is singular on a Reissner–Mindlin shell: the
     value creeps up with refinement (+1.2 % on 16 × 16)."""
     quarter_roof(tmp_path / "octant.msh", 300.0, 300.0, 90.0, 8)
-    scene = write_scene(tmp_path, """
+    scene = write_scene(tmp_path, f"""
 title = "pinched cylinder, an octant"
 [mesh]
 kind = "gmsh"
@@ -254,16 +258,7 @@ axis = [1.0, 0.0, 0.0]
 [time]
 end = 1.0
 dt = 1.0
-[[boundary]]
-where = "diaphragm"
-fix = ["uy", "uz"]
-[[boundary]]
-where = "sym_x"
-symmetry = [1.0, 0.0, 0.0]
-[[boundary]]
-where = "crown"
-symmetry = [0.0, 1.0, 0.0]
-[[boundary]]
+{ROOF_SUPPORTS}[[boundary]]
 where = "free_edge"
 symmetry = [0.0, 0.0, 1.0]
 [[load]]
