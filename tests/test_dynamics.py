@@ -211,6 +211,7 @@ def test_observed_order_of_each_scheme(tmp_path, scheme, order):
     assert abs(observed - order) < 0.15
 
 
+@pytest.mark.long
 def test_energy_after_a_large_rotation_release(tmp_path):
     """The cantilever bent by a tip moment ramped to M = ¼ Mmax over one period, then
     released over half a period, swings with directors past 89°; once the load is off,

@@ -57,6 +57,7 @@ def exact_rft_power(b, k, omega, speed, c1, c3, area):
     return density.mean() * area
 
 
+@pytest.mark.long
 def test_drag_power_of_the_waving_sheet(tmp_path):
     """The drag power averaged over whole wave periods (2 to 6, dt = T/48) is the exact
     RFT dissipation of the waving sheet within 1 % (reached: +0.18 %). It is set by the
