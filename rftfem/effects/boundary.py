@@ -125,16 +125,19 @@ class Boundaries(Effect):
         if model.comm.allreduce(count) == 0:
             raise SceneError(f"{key}.where: '{bnd['where']}' matches no degree of freedom")
         self._bcs.append(bc)
-        nodes = _NodeLookup(model.Vu)
         bad = 0
         for c, (a1, a2, dn) in enumerate(model.triads):
             own = hinges.entities_of_colour(model, dim, entities, c)
             frames = [f.x.array.reshape(-1, 3) for f in (a1, a2, dn)]
+            # a θ dof of the mixed space -> its node of the u space: θ is stored in
+            # (θ¹, θ²) pairs per node (Model.theta_dofs_of), the triad maps the nodes
+            pair = np.full(len(model.w.x.array), -1, dtype=np.int64)
+            pair[model.theta_dofs_of[c]] = np.arange(len(model.theta_dofs_of[c]))
             for i in range(2):
                 sub = model.W.sub(1 + c).sub(i)
                 V, zero = model.dirichlet.space(sub, f"theta{i + 1}_{c}")
                 dofs = fem.locate_dofs_topological((sub, V), dim, own)
-                at = nodes.of(V.tabulate_dof_coordinates()[np.asarray(dofs[1])])
+                at = model.triad.node_maps[c][pair[np.asarray(dofs[0])] // 2]
                 t = np.cross(frames[2][at], n)
                 size = np.linalg.norm(t, axis=1)
                 along = np.abs(np.sum(frames[i][at] * t, axis=1))
@@ -152,17 +155,3 @@ class Boundaries(Effect):
 
     def bcs(self):
         return self._bcs
-
-
-class _NodeLookup:
-    """The node of a [P2]³ space at given coordinates (the spaces share nodes)."""
-
-    def __init__(self, V):
-        X = V.tabulate_dof_coordinates()
-        self.scale = max(float(np.abs(X).max()), 1.0) * 1e-9
-        self.index = {tuple(np.round(x / self.scale).astype(np.int64)): i
-                      for i, x in enumerate(X)}
-
-    def of(self, points) -> np.ndarray:
-        return np.array([self.index[tuple(np.round(p / self.scale).astype(np.int64))]
-                         for p in points], dtype=np.int64)
