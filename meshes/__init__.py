@@ -36,6 +36,8 @@ class Body:
     edge with ``ds(tuple(body.edges[name]))``. Hinge lines are named edges
     too, of interior facets (``dS``). ``hinges`` names the built-in hinge
     lines of the mesh kind (three-link: ``["hinge-left", "hinge-right"]``).
+    ``points[name]`` holds the reference coordinates (k, 3) of a gmsh file's named
+    physical point group, each a vertex of the mesh.
     """
 
     mesh: object  # dolfinx.mesh.Mesh, tdim 2, gdim 3
@@ -43,6 +45,7 @@ class Body:
     facet_tags: object  # dolfinx MeshTags on facets of the named edges (may be empty)
     regions: dict[str, list[int]] = field(default_factory=dict)
     edges: dict[str, list[int]] = field(default_factory=dict)
+    points: dict[str, object] = field(default_factory=dict)  # name -> (k, 3) coordinates
     length: float = 0.0  # extent in X of the reference body (global)
     width: float = 0.0  # extent in Y of the reference body (global)
     hinges: list[str] = field(default_factory=list)  # built-in hinge line names (in edges)

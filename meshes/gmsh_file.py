@@ -122,10 +122,10 @@ class _GmshSession:
 def _model_to_body(comm, prepare, options=None):
     """Collective: ``prepare(gmsh)`` on rank 0, then the dolfinx mesh on all ranks.
 
-    ``prepare`` fills the current (fresh) gmsh model and returns
-    ``(regions, edges)``; a :class:`SceneError` it raises is raised on every
-    rank (no rank is left waiting). Returns ``(mesh, cell_tags, facet_tags,
-    regions, edges)``.
+    ``prepare`` fills the current (fresh) gmsh model and returns a tuple of
+    names (``(regions, edges)``, a file's also its points); a :class:`SceneError`
+    it raises is raised on every rank (no rank is left waiting). Returns
+    ``(mesh, cell_tags, facet_tags, *names)``.
     """
     root = comm.rank == 0
     with (_GmshSession(options) if root else nullcontext()) as gmsh:
@@ -146,8 +146,7 @@ def _model_to_body(comm, prepare, options=None):
                                                          comm, 0, 3)
     if facet_tags is None:  # dolfinx >= 0.10 gives None when no curve is tagged
         facet_tags = _empty_meshtags(mesh, mesh.topology.dim - 1)
-    regions, edges = payload
-    return mesh, cell_tags, facet_tags, regions, edges
+    return (mesh, cell_tags, facet_tags, *payload)
 
 
 def _empty_meshtags(mesh, dim):
@@ -226,12 +225,15 @@ def _prepare_file(gmsh, path: str):
     model.mesh.renumberNodes()  # dolfinx wants node tags 1..N
 
     edges: dict[str, list[int]] = {}
+    points: dict[str, np.ndarray] = {}
     for dim, tag in groups:
-        if dim == 1:
-            name = model.getPhysicalName(1, tag)
-            if name:
-                edges.setdefault(name, []).append(int(tag))
-    return regions, edges
+        name = model.getPhysicalName(dim, tag)
+        if dim == 1 and name:
+            edges.setdefault(name, []).append(int(tag))
+        elif dim == 0 and name:
+            xyz = np.asarray(model.mesh.getNodesForPhysicalGroup(0, tag)[1]).reshape(-1, 3)
+            points[name] = np.vstack([points.get(name, np.empty((0, 3))), xyz])
+    return regions, edges, points
 
 
 def _extents(comm, mesh) -> tuple[float, float]:
@@ -252,7 +254,8 @@ def read_gmsh(comm, path):
     The file may hold a curved surface and second-order geometry (6-node
     triangles or 9-node quadrilaterals); one cell type per file. Named physical
     surfaces become ``regions`` (name -> physical tags), named physical curves
-    become ``edges`` and the facet tags. Unnamed physical groups still tag
+    become ``edges`` and the facet tags, named physical points ``points`` (name ->
+    their coordinates: supports for a rigid mode). Unnamed physical groups still tag
     cells/facets but get no name.
 
     Only cells in a physical surface are in the mesh: surfaces that no
@@ -268,10 +271,10 @@ def read_gmsh(comm, path):
     ``SceneError("mesh.file: ...")`` on every rank.
     """
     path = os.fspath(path)
-    mesh, cell_tags, facet_tags, regions, edges = _model_to_body(
+    mesh, cell_tags, facet_tags, regions, edges, points = _model_to_body(
         comm, lambda gmsh: _prepare_file(gmsh, path))
     length, width = _extents(comm, mesh)
     from . import Body
 
     return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
-                regions=regions, edges=edges, length=length, width=width)
+                regions=regions, edges=edges, points=points, length=length, width=width)

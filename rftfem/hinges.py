@@ -196,13 +196,14 @@ def cells_of_colour(colours: np.ndarray, c: int) -> np.ndarray:
 
 def entities_of_colour(model, dim: int, entities: np.ndarray, c: int) -> np.ndarray:
     """The cells (``dim`` = tdim) of colour ``c`` among ``entities``, or the facets
-    among them that touch a local cell of colour ``c``."""
+    (vertices) among them that touch a local cell of colour ``c``."""
     if model.n_colours == 1:
         return entities
     tdim = model.mesh.topology.dim
     if dim == tdim:
         return entities[model.colours[entities] == c]
-    f2c = model.mesh.topology.connectivity(tdim - 1, tdim)
+    model.mesh.topology.create_connectivity(dim, tdim)
+    f2c = model.mesh.topology.connectivity(dim, tdim)
     return np.asarray([f for f in entities if (model.colours[f2c.links(f)] == c).any()],
                       dtype=np.int32)
 

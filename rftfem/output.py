@@ -98,17 +98,21 @@ def _fmt(v) -> str:
 
 
 class FieldWriter:
-    """Displacement, director (and magnetization direction) for ParaView, in XDMF."""
+    """Displacement, director (and magnetization direction) for ParaView, in XDMF.
+
+    The fields live on the mesh's geometry nodes (XDMF stores one value per node):
+    the vertices of a straight mesh, all nine or six nodes of a curved
+    (second-order) gmsh mesh, which ParaView then draws as curved cells."""
 
     def __init__(self, model, path: Path, extra: dict | None = None):
         mesh = model.mesh
         self.model = model
-        V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
-        self.fields = {"displacement": (model.displacement, fem.Function(V1, name="displacement")),
-                       "director": (model.nodal_director(), fem.Function(V1, name="director"))}
+        V = compat.function_space(mesh, "Lagrange", compat.geometry_cells(mesh)[1], (3,))
+        self.fields = {"displacement": (model.displacement, fem.Function(V, name="displacement")),
+                       "director": (model.nodal_director(), fem.Function(V, name="director"))}
         for name, f in (extra or {}).items():  # Functions, or UFL expressions of the state
-            source = f if isinstance(f, fem.Function) else compat.expression(f, V1)
-            self.fields[name] = (source, fem.Function(V1, name=name))
+            source = f if isinstance(f, fem.Function) else compat.expression(f, V)
+            self.fields[name] = (source, fem.Function(V, name=name))
         self.path = Path(path)
         self.file = io.XDMFFile(mesh.comm, str(path), "w")
         self.file.write_mesh(mesh)

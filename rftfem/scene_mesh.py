@@ -53,7 +53,8 @@ MESH = Table({
                   default_doc='none: required only with kind = "gmsh"',
                   doc="The gmsh .msh file, relative to the scene file's folder unless "
                       "absolute. Its named physical surfaces are the regions, its named "
-                      "physical curves are edges for `where` and hinge lines."),
+                      "physical curves are edges for `where` and hinge lines, its named "
+                      "physical points are points a [[boundary]] or [[motion]] may hold."),
     "regions": Array(Table({
         "name": Leaf(Str(name=True), required=True,
                       doc="The region's name, unique; not a selector (all, x=0, x=L, "

@@ -2,10 +2,10 @@
 
 Selectors are ``"all"``, the edges ``"x=0"``, ``"x=L"``, ``"y=0"``, ``"y=W"`` of a
 strip-like body, the lines ``"x=c"`` / ``"y=c"`` of hinges, region names
-(``[[mesh.regions]]``, the three-link's built-in links, gmsh physical surfaces)
-and gmsh physical curves.  The first half of this module checks selectors in a
-scene before any mesh exists; the second half finds the cells and facets they
-select on a built body (dolfinx is imported there only, so checking a scene
+(``[[mesh.regions]]``, the three-link's built-in links, gmsh physical surfaces),
+gmsh physical curves and gmsh physical points.  The first half of this module
+checks selectors in a scene before any mesh exists; the second half finds the
+cells, facets and vertices they select on a built body (dolfinx is imported there only, so checking a scene
 stays light).
 """
 
@@ -112,7 +112,7 @@ def cells_of(body, names, key: str = "region") -> np.ndarray:
 
 def mesh_selectors(body) -> list[str]:
     """Every selector of a built body."""
-    return ["all", *EDGE_SELECTORS, *body.regions, *body.edges]
+    return ["all", *EDGE_SELECTORS, *body.regions, *body.edges, *body.points]
 
 
 def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
@@ -138,8 +138,9 @@ def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
     elif where in body.edges:
         ft = body.facet_tags
         facets = ft.indices[np.isin(ft.values, body.edges[where])]
-    elif where in body.regions or where == "all":
-        raise SceneError(f"{key}: '{where}' is a surface region; this needs an edge "
+    elif where in body.regions or where == "all" or where in body.points:
+        what = "a point" if where in body.points else "a surface region"
+        raise SceneError(f"{key}: '{where}' is {what}; this needs an edge "
                          f"({', '.join(EDGE_SELECTORS + tuple(body.edges))})")
     else:
         raise SceneError(f"{key}: unknown selector '{where}'; expected one of "
@@ -150,11 +151,36 @@ def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
     return facets
 
 
+def vertices_of(body, where: str, key: str) -> np.ndarray:
+    """Local vertices at the coordinates of a named point group (a gmsh physical
+    point); each of its points must be a vertex of the body."""
+    from dolfinx import mesh as dmesh
+
+    points = np.asarray(body.points[where], dtype=float).reshape(-1, 3)
+    tol = 1e-8 * max(body.length, body.width, 1e-300)
+    found = np.zeros(len(points), dtype=bool)
+
+    def near(x):
+        close = np.linalg.norm(x.T[:, None, :] - points[None, :, :], axis=2) < tol
+        found[:] |= close.any(axis=0)
+        return close.any(axis=1)
+
+    vertices = dmesh.locate_entities(body.mesh, 0, near)
+    everywhere = body.mesh.comm.allreduce(found.astype(int))
+    missing = points[np.asarray(everywhere) == 0]
+    if len(missing):
+        raise SceneError(f"{key}: point '{where}' at {fmt(list(missing[0]))} is not a "
+                         "vertex of the body")
+    return np.unique(np.asarray(vertices, dtype=np.int32))
+
+
 def entities_of(body, where: str, key: str):
     """(dim, local entities) selected by any ``where`` selector: cells for "all" and
-    regions, facets otherwise."""
+    regions, vertices for a named point, facets otherwise."""
     mesh = body.mesh
     tdim = mesh.topology.dim
+    if where in body.points and where not in body.regions and where not in body.edges:
+        return 0, vertices_of(body, where, key)
     if where == "all":
         n = mesh.topology.index_map(tdim).size_local + mesh.topology.index_map(tdim).num_ghosts
         return tdim, np.arange(n, dtype=np.int32)

@@ -56,6 +56,38 @@ def rows_at(sim, times, probe=0):
     return np.array(out)
 
 
+_READ_FIELDS = """
+import json, sys
+import numpy as np
+from rftfem.render_view import RunFields
+run = RunFields(sys.argv[1])
+point = np.array(json.loads(sys.argv[2]))
+i = int(np.argmin(np.linalg.norm(run.reference_points - point, axis=1)))
+rows = []
+for k, t in enumerate(run.times):
+    f = run.frame(k)
+    d = np.linalg.norm(f["director"], axis=1)
+    rows.append([float(t), *map(float, f["displacement"][i]), float(np.abs(d - 1).max())])
+print(json.dumps({"distance": float(np.linalg.norm(run.reference_points[i] - point)),
+                  "rows": rows}))
+"""
+
+
+def fields_at(out_dir, point):
+    """fields.xdmf of a run, read back with VTK's XDMF reader in a child process
+    (dolfinx 0.5 and VTK cannot share one): the distance from ``point`` to the
+    nearest written node, and per written time [t, ux, uy, uz, max | |d| - 1 |]."""
+    import json
+    import subprocess
+
+    done = subprocess.run([sys.executable, "-c", _READ_FIELDS, str(out_dir),
+                           json.dumps([float(x) for x in point])],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    back = json.loads(done.stdout.strip().splitlines()[-1])
+    return back["distance"], np.array(back["rows"])
+
+
 def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     path = tmp_path / name
     path.write_text(text, encoding="utf-8")

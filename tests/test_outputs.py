@@ -15,14 +15,12 @@ One coarse roll-up (two full turns in 40 load steps) is run once; then:
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import tomllib
 
 import numpy as np
 import pytest
 
-from conftest import DEMOS, ROOT, run_scene
+from conftest import DEMOS, fields_at, run_scene
 
 TIP = np.array(tomllib.loads((DEMOS / "rollup.toml").read_text())["output"]["probes"][0]["at"])
 
@@ -71,35 +69,14 @@ def test_probes_and_body_rows_at_every_output_time(rollup):
                        last, rtol=0, atol=1e-15)
 
 
-_READ_BACK = """
-import json, sys
-import numpy as np
-from rftfem.render_view import RunFields
-run = RunFields(sys.argv[1])
-tip = np.array(json.loads(sys.argv[2]))
-i_tip = int(np.argmin(np.linalg.norm(run.reference_points - tip, axis=1)))
-rows = []
-for i, t in enumerate(run.times):
-    f = run.frame(i)
-    d = np.linalg.norm(f["director"], axis=1)
-    rows.append([float(t), *map(float, f["displacement"][i_tip]), float(np.abs(d - 1).max())])
-print(json.dumps({"distance": float(np.linalg.norm(run.reference_points[i_tip] - tip)),
-                  "rows": rows}))
-"""
-
-
 def test_fields_file_holds_what_the_probes_saw(rollup):
     """At the tip's vertex the written P1 displacement equals the probe's (the P2 field
     interpolated at a vertex is its nodal value), at every output time, to single
     precision: dolfinx writes the DataItems without a Precision attribute, and VTK's
     XDMF reader (ParaView's too) then reads the float64 data as float32."""
     _, out = rollup
-    done = subprocess.run([sys.executable, "-c", _READ_BACK, str(out), json.dumps(TIP.tolist())],
-                          capture_output=True, text=True, timeout=600, cwd=ROOT)
-    assert done.returncode == 0, done.stderr[-2000:]
-    back = json.loads(done.stdout.strip().splitlines()[-1])
-    assert back["distance"] < 1e-12  # the probe sits on a vertex
-    rows = np.array(back["rows"])
+    distance, rows = fields_at(out, TIP)
+    assert distance < 1e-12  # the probe sits on a vertex
     probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
     assert rows.shape[0] == probes.shape[0]
     assert np.allclose(rows[:, 0], probes[:, 0], atol=1e-12)

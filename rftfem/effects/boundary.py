@@ -34,7 +34,8 @@ class Boundaries(Effect):
         "boundary": Array(Table({
             "where": Leaf(Where(), required=True,
                           doc="Where: all, an edge (x=0, x=L, y=0, y=W, a gmsh physical "
-                              "curve), a hinge line or a region; an edge for symmetry."),
+                              "curve), a hinge line, a region or a gmsh physical point (to "
+                              "hold a rigid motion); an edge for symmetry."),
             "fix": Leaf(Fix(), None, default_doc=_EITHER,
                         doc="What is held at zero: the displacement components ux, uy, uz "
                             '(global axes) and "rotation" (the director keeps its reference '
@@ -115,9 +116,10 @@ class Boundaries(Effect):
         model = self.model
         key = f"boundary.{k}"
         dim, entities = entities_of(model.body, bnd["where"], f"{key}.where")
-        if dim == model.mesh.topology.dim:
-            raise SceneError(f"{key}.where: '{bnd['where']}' is a surface region; a plane "
-                             "of symmetry is an edge")
+        if dim != model.mesh.topology.dim - 1:
+            what = "a point" if dim == 0 else "a surface region"
+            raise SceneError(f"{key}.where: '{bnd['where']}' is {what}; a plane of "
+                             "symmetry is an edge")
         axis = int(np.argmax(np.abs(bnd["symmetry"])))
         n = np.eye(3)[axis]
         bc, count = model.dirichlet.zero(model.W.sub(0).sub(axis), dim, entities,

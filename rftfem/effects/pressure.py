@@ -48,7 +48,8 @@ class Pressure(Load):
         for i, ld in self.entries:
             dim, cells = entities_of(model.body, ld["where"], f"load.{i}.where")
             if dim != tdim:
-                raise SceneError(f"load.{i}.where: '{ld['where']}' is an edge; a pressure "
+                what = "a point" if dim == 0 else "an edge"
+                raise SceneError(f"load.{i}.where: '{ld['where']}' is {what}; a pressure "
                                  'acts on a surface: "all" or a region')
             # the region as a 0/1 field, so that every load (and the magnetic parts' own
             # measure) can share one form
