@@ -226,13 +226,24 @@ def _prepare_file(gmsh, path: str):
 
     edges: dict[str, list[int]] = {}
     points: dict[str, np.ndarray] = {}
+    on_body = None  # the nodes of the body's cells, once a point needs them
     for dim, tag in groups:
         name = model.getPhysicalName(dim, tag)
         if dim == 1 and name:
             edges.setdefault(name, []).append(int(tag))
-        elif dim == 0 and name:
-            xyz = np.asarray(model.mesh.getNodesForPhysicalGroup(0, tag)[1]).reshape(-1, 3)
-            points[name] = np.vstack([points.get(name, np.empty((0, 3))), xyz])
+        elif dim == 0:
+            nodes, xyz = model.mesh.getNodesForPhysicalGroup(0, tag)
+            if on_body is None:
+                on_body = set()
+                for e in owner:
+                    on_body.update(int(n) for n in model.mesh.getNodes(2, e, True)[0])
+            if not set(int(n) for n in nodes) <= on_body:
+                # a node outside every cell would leave the mesh a free vertex
+                _fail(path, f"physical point '{name or tag}' is not on the body's "
+                            "surface; a named point must be a node of its mesh")
+            if name:
+                points[name] = np.vstack([points.get(name, np.empty((0, 3))),
+                                          np.asarray(xyz).reshape(-1, 3)])
     return regions, edges, points
 
 

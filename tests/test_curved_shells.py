@@ -46,11 +46,13 @@ def quarter_cylinder(path: Path, radius: float, height: float, n: int) -> Path:
     return path
 
 
-def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int) -> Path:
+def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int,
+                       points: dict | None = None) -> Path:
     """A quarter of a hemisphere (x, y ≥ 0, z ≥ 0) with a hole of hole_deg about the
     pole; curves "sym_x" (x = 0), "sym_y" (y = 0), "equator", "hole", and the point
     "pin" where the hole meets y = 0 (to hold the rigid motion along z that the two
-    planes leave free); n × n 9-node quadrilaterals."""
+    planes leave free), and any further named ``points`` (name -> coordinates); n × n
+    9-node quadrilaterals."""
     gmsh = _gmsh()
     try:
         geo = gmsh.model.geo
@@ -64,6 +66,7 @@ def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int) -> Pa
         hole = geo.addCircleArc(hx, geo.addPoint(0, 0, radius * math.cos(h)), hy)
         surface = geo.addSurfaceFilling([geo.addCurveLoop([equator, sym_x, -hole, -sym_y])],
                                         sphereCenterTag=o)
+        extra = tuple((0, geo.addPoint(*xyz), name) for name, xyz in (points or {}).items())
         geo.synchronize()
         for curve in (equator, sym_x, hole, sym_y):
             gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
@@ -71,6 +74,7 @@ def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int) -> Pa
         gmsh.model.mesh.setRecombine(2, surface)
         groups = ((2, surface, "shell"), (1, sym_x, "sym_x"), (1, sym_y, "sym_y"),
                   (1, equator, "equator"), (1, hole, "hole"), (0, hx, "pin"))
+        groups += extra
         for dim, tag, name in groups:
             gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
         gmsh.model.mesh.generate(2)
@@ -369,3 +373,43 @@ def test_hemisphere_large_deflection_matches_sze(tmp_path):
     distance, written = fields_at(tmp_path / "out", [0.0, 10.0, 0.0])
     assert distance < 1e-12 and len(written) == len(sim.history)
     assert np.allclose(-written[:, 2], [rows[t][1] for t in sorted(rows)], rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("entry, words", [
+    ('[[boundary]]\nwhere = "pin"\nsymmetry = [0.0, 1.0, 0.0]',
+     "boundary.2.where: 'pin' is a point; a plane of symmetry is an edge"),
+    ('[[load]]\nkind = "pressure"\nwhere = "pin"\nvalue = 1.0',
+     "load.0.where: 'pin' is a point; a pressure acts on a surface"),
+    ('[[load]]\nkind = "edge-force"\nwhere = "pin"\nvalue = [1.0, 0.0, 0.0]',
+     "load.0.where: 'pin' is a point; this needs an edge"),
+    ("", "mesh.file: physical point 'stray' is not on the body's surface"),
+])
+def test_a_point_selector_only_where_a_point_fits(tmp_path, entry, words):
+    """A named gmsh point holds degrees of freedom at vertices; where an edge or a
+    surface is needed, or off the body (a free node in the file, which would crash
+    dolfinx's reader), the run refuses in one line."""
+    from rftfem.errors import SceneError
+
+    points = {"stray": (20.0, 0.0, 0.0)} if not entry else {}
+    quarter_hemisphere(tmp_path / "hemisphere.msh", 10.0, 18.0, 2, points=points)
+    scene = write_scene(tmp_path, f"""
+title = "a point selector"
+[mesh]
+kind = "gmsh"
+file = "hemisphere.msh"
+[shell]
+thickness = 0.04
+E = 6.825e7
+axis = [0.0, 0.0, 1.0]
+[time]
+end = 1.0
+[[boundary]]
+where = "sym_x"
+symmetry = [1.0, 0.0, 0.0]
+[[boundary]]
+where = "sym_y"
+symmetry = [0.0, 1.0, 0.0]
+{entry}
+""")
+    with pytest.raises(SceneError, match=words.replace("[", r"\[")):
+        run_scene(scene)

@@ -92,6 +92,25 @@ def test_symmetry_input_errors(tmp_path, text, words):
         load_scene(write_scene(tmp_path, scene))
 
 
+@pytest.mark.parametrize("axis, refused", [([1.0, 0.1, 0.0], False), ([1.0, 0.2, 0.0], True),
+                                          ([1.0, 1.0, 0.0], True)])
+def test_material_axis_along_or_across_the_plane(tmp_path, axis, refused):
+    """The director is held in the plane through θ¹ or θ² only where a₁ or a₂ lies
+    along the plane's t, within 5.7° (a coarse curved mesh's own error): an axis
+    5.7° off (1 - cos = 4.9e-3) is taken, 11.3° and 45° are refused in one line."""
+    from rftfem.errors import SceneError
+
+    scene = FULL.format(width=0.5, across=1, force=FORCE / 2, symmetry=SYMMETRY)
+    scene = scene.replace("nu = 0.3", f"nu = 0.3\naxis = {axis}")
+    path = write_scene(tmp_path, scene)
+    if not refused:
+        assert run_scene(path, "time.dt=1.0").summary["status"] == "ok"
+        return
+    with pytest.raises(SceneError, match="boundary.1.symmetry: at 41 nodes of 'y=W' the "
+                                         "body does not cross the plane at right angles"):
+        run_scene(path)
+
+
 @pytest.mark.mpi
 def test_half_model_under_mpirun(tmp_path, cli_run):
     """The half model on two processes gives the serial tip (1e-10 of it): the plane's
