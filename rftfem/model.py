@@ -70,6 +70,10 @@ class Model:
         self.w = fem.Function(self.W, name="w")
         self.u_n, self.v_n, self.a_n = (fem.Function(self.Vu, name=n)
                                         for n in ("u_n", "v_n", "a_n"))
+        #: the last two accepted steps' (Δu, θ, dt), newest first: the next step's prediction
+        self.increments = []
+        #: the largest displacement increment of the last prediction (0: none made)
+        self.predicted_step = 0.0
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -210,9 +214,19 @@ class Model:
             comp.set_time(t)
 
     def reference_force(self) -> float:
-        """A force scale of the scene for absolute Newton tolerances (docs/model.md §7):
-        the largest of the active effects' scales."""
-        return max(s for comp in self.components for s in comp.force_scales())
+        """A force scale of the scene for absolute Newton tolerances (docs/model.md §7.3):
+        the largest of the forces that drive the body (loads, couples, drag at the
+        prescribed speed); the bending force only where nothing else has a scale (a
+        body moved by its supports alone). The elastic forces answer the drivers:
+        where they dwarf them (a free link turning in drag) a tolerance in their
+        units would accept states whose driving balance is not met at all."""
+        drivers = [s for comp in self.components if comp.name != "elasticity"
+                   for s in comp.force_scales() if s > 0]
+        return max(drivers) if drivers else self.elastic_force()
+
+    def elastic_force(self) -> float:
+        """The bending force ``D W / L²`` that bends the body by order one."""
+        return max(self["elasticity"].force_scales())
 
     def restore(self):
         """Reset the iterate to the last converged state (θ = 0)."""
@@ -232,13 +246,44 @@ class Model:
         self.w.x.array[self.theta_dofs] = 0.0
 
     def accept(self, scheme, dt: float):
-        """After convergence: update the state (u_n, v_n, a_n) and the triad."""
+        """After convergence: update the state (u_n, v_n, a_n) and the triad, and keep
+        the step's increment (Δu, θ) and dt for the next steps' prediction."""
         u = self.w.x.array[self.u_dofs]
-        v, a = scheme.update(u - self.u_n.x.array, self.v_n.x.array, self.a_n.x.array, dt)
+        du = u - self.u_n.x.array
+        v, a = scheme.update(du, self.v_n.x.array, self.a_n.x.array, dt)
+        self.increments = [(du, self.w.x.array[self.theta_dofs].copy(), dt)] + self.increments[:1]
         self.v_n.x.array[:] = v
         self.a_n.x.array[:] = a
         self.u_n.x.array[:] = u
         self.update_triad()
+
+    def predict(self, dt: float, extrapolate: bool = True):
+        """Start a step of ``dt`` from the last state carried on at the recent rates.
+
+        The rate of the last step, ``q₁ = Δ_n/Δt_n`` (Δ = Δu, or θ), belongs to the
+        middle of that step, the one before, ``q₀``, to the middle of its own: the
+        rate taken linear in time through the two and integrated over the new step
+        gives ``Δ = Δt (q₁ + (q₁ − q₀) s/h)``, with ``h`` the time between the two
+        middles and ``s`` from the last middle to the new one; with one step known
+        ``Δ = Δt q₁``. ``θ`` is a rotation increment whose components belong to
+        the triad of its step, which the update has turned since by ``θ`` itself:
+        second order in it, as is a predictor's error. Without a step known, or
+        not ``extrapolate``, the step starts from the last state (``θ = 0``)."""
+        self.restore()
+        self.predicted_step = 0.0
+        if not self.increments or not extrapolate:
+            return
+        du, theta, dt_1 = self.increments[0]
+        qu, qt = du / dt_1, theta / dt_1
+        if len(self.increments) == 2:
+            du_0, theta_0, dt_0 = self.increments[1]
+            weight = (0.5 * (dt_1 + dt)) / (0.5 * (dt_1 + dt_0))
+            qu = qu + weight * (qu - du_0 / dt_0)
+            qt = qt + weight * (qt - theta_0 / dt_0)
+        self.w.x.array[self.u_dofs] += dt * qu
+        self.w.x.array[self.theta_dofs] = dt * qt
+        local = float(np.abs(qu).max()) * dt if len(qu) else 0.0
+        self.predicted_step = self.comm.allreduce(local, op=MPI.MAX)
 
     # --- whole-body measures ------------------------------------------------------
 

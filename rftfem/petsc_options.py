@@ -13,8 +13,11 @@ from . import compat
 
 PREFIX = "rftfem_"
 
-#: Relative to the scene's reference force (see ``Model.reference_force``).
-ATOL_FACTOR = 1e-10
+#: Relative to the scene's driving force (see ``Model.reference_force``).
+ATOL_FACTOR = 1e-7
+#: Relative to the elastic force scale (``Model.elastic_force``): below this a
+#: residual that Newton stops reducing is round-off (solver.StepSolver._converged)
+ROUNDOFF_FACTOR = 1e-10
 
 
 def defaults(reference_force: float) -> dict:
@@ -27,16 +30,22 @@ def defaults(reference_force: float) -> dict:
     reason.  Besides the residual tests, a Newton step shorter than 1e-10 of the
     solution counts as converged: near round-off the residual of a stiff
     membrane (E t ~ 1e5 N/mm) cannot fall below ~1e-9 N however small the load.
+    The residual test is absolute, in units of the forces that drive the body
+    (no relative test: the first residual of a predicted step is the
+    prediction's elastic misfit, not a force scale), and every solve takes at
+    least one Newton update: a prediction can meet the tolerance without being
+    the answer.
     The Jacobian is non-symmetric (drag and magnetic couples are
     non-conservative): LU by MUMPS where PETSc has it.
     """
     opts = {
         "snes_type": "newtonls",
         "snes_linesearch_type": "basic",
-        "snes_rtol": 1e-8,
+        "snes_rtol": 0.0,  # relative to a predicted start's misfit: meaningless
         "snes_atol": ATOL_FACTOR * reference_force,
         "snes_stol": 1e-10,
         "snes_max_it": 25,
+        "snes_force_iteration": True,
         "snes_divergence_tolerance": compat.petsc_unlimited(),
         "ksp_type": "preonly",
         "pc_type": "lu",
@@ -65,6 +74,15 @@ def _value(v) -> str:
     return str(v)
 
 
+def _is_number(text: str) -> bool:
+    """A value such as ``-2`` or ``-1e-3`` (not an option name)."""
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def parse_command_line(args: list[str]) -> dict:
     """``["-snes_monitor", "-ksp_type", "gmres"]`` -> ``{"snes_monitor": "", "ksp_type": "gmres"}``."""
     out, i = {}, 0
@@ -72,7 +90,7 @@ def parse_command_line(args: list[str]) -> dict:
         key = args[i].lstrip("-")
         if key.startswith(PREFIX):
             key = key[len(PREFIX):]
-        if i + 1 < len(args) and not args[i + 1].startswith("-"):
+        if i + 1 < len(args) and (not args[i + 1].startswith("-") or _is_number(args[i + 1])):
             out[key] = args[i + 1]
             i += 2
         else:
