@@ -18,7 +18,6 @@ of this machine at the moment of the run: run it alone.
 from __future__ import annotations
 
 import argparse
-import csv
 import time
 from pathlib import Path
 
@@ -28,7 +27,7 @@ import rftfem  # noqa: F401  (sets up the FEniCSx stack)
 from rftfem.scene import load_scene
 from rftfem.simulation import Simulation
 
-from step_cost import CASES, DEMOS, _Enough, stopper
+from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
 
 #: name -> PETSc options as on the command line, from the scene's driving force f
 #: (the default snes_atol is 1e-7 f, rftfem/petsc_options.py)
@@ -91,11 +90,8 @@ def main(argv=None) -> None:
     parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
     parser.add_argument("--csv", type=Path, default=Path("results/benchmarks/solver_options.csv"))
     args = parser.parse_args(argv)
-    unknown = [c for c in args.cases if c not in CASES]
-    if unknown:
-        parser.error(f"unknown case {unknown[0]!r}; expected one of {', '.join(CASES)}")
     rows = []
-    for case in args.cases or list(CASES):
+    for case in cases_asked(parser, args.cases):
         steps = min(args.steps, CASES[case][2])
         force = driving_force(case)
         reference = run(case, steps, TIGHT(force))
@@ -115,12 +111,7 @@ def main(argv=None) -> None:
                          "wall_per_step_ms": r["wall_per_step_ms"],
                          "its_per_step": r["its_per_step"], "cuts": r["cuts"],
                          "answer_difference": diff, "status": r["status"]})
-    args.csv.parent.mkdir(parents=True, exist_ok=True)
-    with open(args.csv, "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    print(f"\nwritten {args.csv}")
+    write_csv(args.csv, rows)
 
 
 if __name__ == "__main__":

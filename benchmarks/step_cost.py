@@ -161,19 +161,31 @@ def main(argv=None) -> None:
     parser.add_argument("--csv", type=Path,
                         default=Path("results/benchmarks/step_cost.csv"))
     args = parser.parse_args(argv)
-    unknown = [c for c in args.cases if c not in CASES]
-    if unknown:
-        parser.error(f"unknown case {unknown[0]!r}; expected one of {', '.join(CASES)}")
     rows = []
-    for name in args.cases or list(CASES):
+    for name in cases_asked(parser, args.cases):
         rows.append(measure(name, args.steps or CASES[name][2]))
         report(rows[-1])
-    args.csv.parent.mkdir(parents=True, exist_ok=True)
-    with open(args.csv, "w", newline="", encoding="utf-8") as f:
+    write_csv(args.csv, rows)
+
+
+def cases_asked(parser, cases: list[str]) -> list[str]:
+    """The cases named on the command line (all when none), or a usage error."""
+    unknown = [c for c in cases if c not in CASES]
+    if unknown:
+        parser.error(f"unknown case {unknown[0]!r}; expected one of {', '.join(CASES)}")
+    return cases or list(CASES)
+
+
+def write_csv(path: Path, rows: list[dict]) -> None:
+    """The rows (dicts with the same keys) as a CSV file, its folder made."""
+    if not rows:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    print(f"\nwritten {args.csv}")
+    print(f"\nwritten {path}")
 
 
 if __name__ == "__main__":
