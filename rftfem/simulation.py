@@ -105,8 +105,8 @@ class Simulation:
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
         m.set_time(t_new)
-        # in time, the recent rates carried on (fewer Newton iterations: 3.0 to 2.0
-        # per step on the swimming sheet, 10.4 to 4.3 on the three-link); in static
+        # in time, the recent rates carried on (fewer Newton iterations: 3.0 to 2.1
+        # per step on the swimming sheet, 10.4 to 4.6 on the three-link); in static
         # load steps the last state: a rotating body's displacement is no linear
         # extrapolation, and the roll-up's first residuals grew 5000-fold with one
         m.predict(dt, extrapolate=scheme.has_velocity)
