@@ -23,6 +23,15 @@ def _gmsh():
     return gmsh
 
 
+def _name_mesh_write(gmsh, groups, path: Path) -> None:
+    """Name the (dim, tag, name) groups, mesh with 9-node quadrilaterals, write."""
+    for dim, tag, name in groups:
+        gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
+    gmsh.model.mesh.generate(2)
+    gmsh.model.mesh.setOrder(2)
+    gmsh.write(str(path))
+
+
 def quarter_cylinder(path: Path, radius: float, height: float, n: int) -> Path:
     """x² + z² = R², x, z ≥ 0, 0 ≤ y ≤ H, n × n 9-node quadrilaterals; curves named
     "sym_x" (in the plane x = 0), "sym_z" (z = 0), "bottom" (y = 0), "top"."""
@@ -36,11 +45,7 @@ def quarter_cylinder(path: Path, radius: float, height: float, n: int) -> Path:
         gmsh.model.mesh.setTransfiniteCurve(arc, n + 1)
         groups = ((2, out[1][1], "shell"), (1, abs(out[2][1]), "sym_x"),
                   (1, abs(out[3][1]), "sym_z"), (1, arc, "bottom"), (1, out[0][1], "top"))
-        for dim, tag, name in groups:
-            gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
-        gmsh.model.mesh.generate(2)
-        gmsh.model.mesh.setOrder(2)
-        gmsh.write(str(path))
+        _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
     return path
@@ -75,11 +80,7 @@ def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int,
         groups = ((2, surface, "shell"), (1, sym_x, "sym_x"), (1, sym_y, "sym_y"),
                   (1, equator, "equator"), (1, hole, "hole"), (0, hx, "pin"))
         groups += extra
-        for dim, tag, name in groups:
-            gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
-        gmsh.model.mesh.generate(2)
-        gmsh.model.mesh.setOrder(2)
-        gmsh.write(str(path))
+        _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
     return path
@@ -110,11 +111,7 @@ def quarter_roof(path: Path, radius: float, half_length: float, angle_deg: float
         gmsh.model.mesh.setRecombine(2, surface)
         groups = ((2, surface, "roof"), (1, arcs[0], "sym_x"), (1, arcs[1], "diaphragm"),
                   (1, crown, "crown"), (1, free, "free_edge"))
-        for dim, tag, name in groups:
-            gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
-        gmsh.model.mesh.generate(2)
-        gmsh.model.mesh.setOrder(2)
-        gmsh.write(str(path))
+        _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
     return path
