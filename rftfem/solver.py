@@ -204,7 +204,8 @@ class StepSolver:
         more: from the second update on, a residual below the elastic round-off
         floor that the last update did not halve is converged (a stiff membrane
         under a small load: its residual stalls at 1e-9 of E t however small the
-        load, far above a tolerance in the load's units)."""
+        load, far above a tolerance in the load's units).  PETSc's divergence
+        tolerance (off by rftfem's defaults) is not read: petsc4py 3.18 cannot."""
         xnorm, snorm, fnorm = norms
         R = PETSc.SNES.ConvergedReason
         rtol, atol, stol, _ = snes.getTolerances()
