@@ -78,10 +78,14 @@ def mixed_space(mesh, parts):
 def geometry_cells(mesh) -> tuple[np.ndarray, int]:
     """The geometry nodes of every cell as a (num_cells, nodes) array, and the
     geometry's degree (1: straight cells, 2: curved ones from a second-order gmsh
-    file); dolfinx 0.5 gives an AdjacencyList, 0.11 an array."""
+    file); dolfinx 0.5 gives an AdjacencyList, 0.11 an array (one per cell type,
+    ``dofmaps``)."""
     g = mesh.geometry
-    cmap = g.cmap() if callable(g.cmap) else g.cmap
-    dm = g.dofmap
+    if isinstance(getattr(g, "cmaps", None), list):  # one per cell type (0.10 on)
+        cmap, dm = g.cmaps[0], g.dofmaps[0]
+    else:
+        cmap = g.cmap() if callable(g.cmap) else g.cmap
+        dm = g.dofmap
     cells = dm if isinstance(dm, np.ndarray) else dm.array.reshape(-1, dm.links(0).size)
     return cells, int(cmap.degree)
 
