@@ -78,7 +78,7 @@ def _build_parser() -> _Parser:
 
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
-    from rftfem import collect, render_cli
+    from rftfem import collect, render_cli, study
 
     render_cli.add_arguments(sub.add_parser(
         "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
@@ -88,6 +88,9 @@ def _build_parser() -> _Parser:
         "collect", help="one table row per run folder of a parameter study",
         allow_abbrev=False, description=collect.DESCRIPTION,
         epilog="exit status: 0 ok, 2 bad option or folder"))
+    study.add_arguments(sub.add_parser(
+        "study", help="what accuracy costs: a scene at successive refinements",
+        allow_abbrev=False, description=study.DESCRIPTION))
     return parser
 
 
@@ -235,6 +238,17 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
         return SceneError.exit_status
 
 
+def _cmd_study(args, petsc_args: list[str], console: _Console) -> int:
+    """``study``: runs levels of a scene as child processes (PETSc options go to each)."""
+    from rftfem.study import main as study
+
+    try:
+        return study(args, petsc_args, console)
+    except SceneError as exc:
+        console.err(f"rftfem study: error: {exc}")
+        return SceneError.exit_status
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``rftfem`` and ``python -m rftfem``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -252,6 +266,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_run(args, petsc_args, console)
         if args.command in ("render", "collect"):
             return _cmd_tool(args, petsc_args, console)
+        if args.command == "study":
+            return _cmd_study(args, petsc_args, console)
         return _cmd_check(args, console)
     except KeyboardInterrupt:
         console.err("rftfem: interrupted")

@@ -57,6 +57,9 @@ quantities (--quantity NAME=EXPR, repeatable):
   rate(COLUMN[, A[, B]])          (x(B) - x(A)) / (B - A), e.g. a swimming speed
   mean(COLUMN[, A[, B]])          time average over [A, B] (trapezoid rule)
   max(COLUMN[, A[, B]]), min(...) extreme over [A, B]
+  spin(PROBE_A, PROBE_B, AXIS[, A[, B]])
+                                  mean turning rate of the line from probe A to
+                                  probe B about AXIS (x, y or z), rad per unit time
   COLUMN: a column of probes.csv (<probe>_ux/_uy/_uz) or body.csv (centroid_x,
   elastic_energy, drag_power, ...); window bounds default to start and end.
   A time outside a finished run is an error; a quantity that a failed or

@@ -132,12 +132,17 @@ def _keyword(function, new: str, old: str) -> str:
 #: whose code would not run on another CPU sharing the JIT cache).  It makes the
 #: shell's Jacobian assembly 15-20 % cheaper (benchmarks/form_cost.py).
 COMPILE_FLAGS = ("-O2", "-g0", "-fno-math-errno")
+#: seconds a process waits for another one compiling the same form into the shared
+#: JIT cache (runs of a study side by side); the JIT's own 10 s failed them, the
+#: shell's Jacobian takes 20-90 s to compile
+COMPILE_WAIT = 300
 
 
 def form(ufl_form, jit_options: dict | None = None):
     """Compile a UFL form (list of forms allowed) to a dolfinx Form, with
-    ``COMPILE_FLAGS`` unless ``jit_options`` gives its own."""
-    options = {"cffi_extra_compile_args": list(COMPILE_FLAGS), **(jit_options or {})}
+    ``COMPILE_FLAGS`` and ``COMPILE_WAIT`` unless ``jit_options`` gives its own."""
+    options = {"cffi_extra_compile_args": list(COMPILE_FLAGS), "timeout": COMPILE_WAIT,
+               **(jit_options or {})}
     return dolfinx.fem.form(ufl_form, **{_JIT_KEY: options})
 
 

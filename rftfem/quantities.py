@@ -10,6 +10,10 @@ linearly interpolated between rows::
     FUNC     := "rate"     (x(b) - x(a)) / (b - a): mean rate, e.g. a swimming speed
               | "mean"     time average over [a, b] (trapezoid rule on the rows)
               | "max" | "min"   extreme over [a, b] (rows and the interpolated ends)
+              | "spin" "(" PROBE "," PROBE "," AXIS ["," TIME ["," TIME]] ")"
+                           mean turning rate (rad per unit time) of the line from
+                           the first probe to the second about AXIS (x, y or z):
+                           its angle in the plane normal to AXIS, unwrapped
     TIME     := NUMBER | "start" | "end"              (first / last row of the run)
 
 A window ``(COLUMN)`` is the whole run, ``(COLUMN, a)`` is ``[a, end]``.
@@ -44,7 +48,9 @@ from rftfem.errors import SceneError
 SERIES_FILES = ("probes.csv", "body.csv")
 #: files whose presence marks a folder as a run folder (without summary.json)
 RUN_FILES = ("probes.csv", "steps.csv", "body.csv")
-FUNCTIONS = ("rate", "mean", "max", "min")
+FUNCTIONS = ("rate", "mean", "max", "min", "spin")
+#: spin(): the axis and the plane coordinates (p, q) that measure the angle atan2(q, p)
+SPIN_AXES = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}
 #: seconds by which a CSV file may be newer than summary.json in a finished run
 STALE_SUMMARY_S = 1.0
 
@@ -83,10 +89,16 @@ class Quantity:
     column: str
     a: float | str = "start"
     b: float | str = "end"
+    #: spin(): the second probe and the axis (``column`` is the first probe)
+    other: str = ""
+    axis: str = ""
 
     def evaluate(self, run: "RunFolder | str | Path") -> float:
         run = run if isinstance(run, RunFolder) else RunFolder(run)
-        t, x = run.series(self.column, self.text)
+        if self.func == "spin":
+            t, x = spin_angle(run, self.column, self.other, self.axis, self.text)
+        else:
+            t, x = run.series(self.column, self.text)
         if len(t) == 0:
             raise Unavailable(f"quantity '{self.text}': {run.dir}: no rows in "
                               f"{run.file_of(self.column)}")
@@ -96,7 +108,7 @@ class Quantity:
         if not b > a:  # with b = end: the run stopped before a
             cls = Unavailable if self.b == "end" else SceneError
             raise cls(f"quantity '{self.text}': empty window [{a:g}, {b:g}] in {run.dir}")
-        if self.func == "rate":
+        if self.func in ("rate", "spin"):
             return rate(t, x, a, b)
         if self.func == "mean":
             return mean(t, x, a, b)
@@ -133,14 +145,24 @@ def parse(text: str) -> Quantity:
             raise SceneError(f"quantity '{text}': unknown function '{head}' "
                              f"(known: {', '.join(FUNCTIONS)})")
         take(value="(", what="'('")
-        column = take("name", what="a column name")
+        other = axis = ""
+        if head == "spin":
+            column = take("name", what="a probe name")
+            take(value=",", what="',' and the second probe")
+            other = take("name", what="a probe name")
+            take(value=",", what="',' and an axis (x, y or z)")
+            axis = take("name", what="an axis (x, y or z)")
+            if axis not in SPIN_AXES:
+                raise SceneError(f"quantity '{text}': expected an axis x, y or z, found '{axis}'")
+        else:
+            column = take("name", what="a column name")
         bounds = []
         while pos < len(toks) and toks[pos][1] == "," and len(bounds) < 2:
             take(value=",", what="','")
             bounds.append(time_value())
         take(value=")", what="')'" if len(bounds) < 2 else "')' (at most two times)")
         a, b = [*bounds, "start", "end"][:2] if len(bounds) != 1 else (bounds[0], "end")
-        q = Quantity(text, head, column, a, b)
+        q = Quantity(text, head, column, a, b, other, axis)
     elif head in FUNCTIONS and pos >= len(toks):
         raise SceneError(f"quantity '{text}': expected '(' after '{head}'")
     else:
@@ -217,6 +239,30 @@ def extreme(t, x, a: float, b: float, which: str = "max") -> float:
     """Largest (``which="max"``) or smallest value of x over [a, b]."""
     _, xw = _window(t, x, a, b)
     return float(xw.max() if which == "max" else xw.min())
+
+
+def spin_angle(run: "RunFolder", first: str, second: str, axis: str,
+               text: str = "") -> tuple[np.ndarray, np.ndarray]:
+    """(time, angle): the angle about ``axis`` of the line from probe ``first`` to
+    probe ``second`` (current positions: the scene's ``at`` plus the displacement
+    columns), unwrapped so that whole turns add up."""
+    if run.summary is None:
+        raise Unavailable(f"quantity '{text}': {run.dir} has no summary.json with the "
+                          "probes' positions")
+    probes = {p.get("name"): p.get("at")
+              for p in (run.summary.get("scene", {}).get("output", {}).get("probes") or [])}
+    positions = []
+    for name in (first, second):
+        if name not in probes:
+            raise SceneError(f"quantity '{text}': no probe '{name}' in {run.dir} "
+                             f"(probes: {', '.join(map(str, probes)) or 'none'})")
+        cols = [run.series(f"{name}_{c}", text) for c in ("ux", "uy", "uz")]
+        t = cols[0][0]
+        positions.append(np.asarray(probes[name], dtype=float)
+                         + np.stack([c[1] for c in cols], axis=1))
+    p, q = SPIN_AXES[axis]
+    line = positions[1] - positions[0]
+    return t, np.unwrap(np.arctan2(line[:, q], line[:, p]))
 
 
 # --- run folders -------------------------------------------------------------------

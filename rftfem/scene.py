@@ -104,11 +104,13 @@ SCHEMA = Table({
                     doc="The nominal step, at most `end`: the run makes ceil(end / dt) steps, "
                         "the last one ending at `end`. A step that fails is halved and "
                         "retried, then grown back."),
-        "scheme": Leaf(Str(("auto", "generalized-alpha", "hht", "backward-euler", "static")),
+        "scheme": Leaf(Str(("auto", "generalized-alpha", "hht", "backward-euler", "bdf2",
+                            "static")),
                         "auto",
                         doc='The time integrator. "generalized-alpha" and "hht" are second '
-                            'order and need density; "backward-euler" is first order, for '
-                            'drag without inertia; "static" steps the loads with no velocity '
+                            'order and need density; "backward-euler" (first order) and '
+                            '"bdf2" (second order, variable steps) are for drag without '
+                            'inertia; "static" steps the loads with no velocity '
                             '(refused with [fluid]). "auto" takes generalized-alpha with '
                             "density, backward-euler with [fluid] alone, static otherwise."),
         "rho_inf": Leaf(Num(0.0, 1.0), 0.9,

@@ -64,6 +64,39 @@ class BackwardEuler(Scheme):
         return du / dt, 0.0 * a_n
 
 
+class BDF2(Scheme):
+    """Second-order backward differentiation for scenes without inertia, on variable steps.
+
+    With ``h`` this step, ``r = h / h_n`` its ratio to the last accepted one and
+    ``w_n = (u_n − u_{n−1}) / h_n`` the last step's mean velocity:
+
+        v_{n+1} = (1 + 2r)/(1 + r) (u_{n+1} − u_n)/h − r/(1 + r) w_n
+
+    (``3/2 Δu/h − ½ w_n`` at constant steps).  ``w_n`` is kept in the state's
+    acceleration slot, unused without inertia.  The first step, with no history,
+    is backward Euler; a halved step (r = ½) and the doubling back (r = 2) stay
+    within the zero-stability bound r < 1 + √2.
+    """
+
+    name = "bdf2"
+    has_velocity = True
+
+    def __init__(self):
+        #: the last accepted step (None before the first)
+        self.dt_prev: float | None = None
+
+    def coefficients(self, dt):
+        if self.dt_prev is None:
+            return Coefficients(cv=1.0 / dt)
+        r = dt / self.dt_prev
+        return Coefficients(cv=(1 + 2 * r) / ((1 + r) * dt), cv_a=-r / (1 + r))
+
+    def update(self, du, v_n, a_n, dt):
+        c = self.coefficients(dt)
+        self.dt_prev = dt
+        return c.cv * du + c.cv_a * a_n, du / dt
+
+
 class GeneralizedAlpha(Scheme):
     """Generalized-α of Chung & Hulbert (1993) with Newmark's relations.
 
@@ -129,6 +162,8 @@ def make_scheme(time_section: dict) -> Scheme:
         return HHT(time_section.get("alpha", -0.05))
     if name == "backward-euler":
         return BackwardEuler()
+    if name == "bdf2":
+        return BDF2()
     if name == "static":
         return Static()
     raise ValueError(f"unknown time scheme {name!r}")

@@ -1,0 +1,429 @@
+"""``rftfem study``: what accuracy costs, for one scene, measured.
+
+    rftfem study SCENE.toml --quantity NAME=EXPR [--refine dt|mesh|both ...]
+                 [--levels N] [--set KEY=VALUE ...] [--out DIR] [--jobs J | --np P]
+
+The scene runs at ``N`` successive refinements of each kind asked for, level 0
+being the scene as given (with its ``--set`` overrides):
+
+* ``dt``: ``time.dt`` halved per level, ``time.output_every`` doubled, so that
+  every level writes its rows at the same times;
+* ``mesh``: ``mesh.divisions`` doubled per level (generated strips only);
+* ``both``: both at once.
+
+Each level is an ordinary ``rftfem run`` in its own folder ``DIR/<kind>-<k>``
+(level 0 is shared by the kinds, ``DIR/level-0``), so every run can be opened,
+rendered and collected as any other.  For every level and quantity the study
+reports the value, its change from the level before, the observed order
+
+    p_k = log2(|Q_{k-1} − Q_{k-2}| / |Q_k − Q_{k-1}|)        (from level 2 on)
+
+and the Richardson estimate of the level's error
+
+    E_k = |Q_k − Q_{k-1}| / (2^p − 1)
+
+with ``p`` the observed order where it is known and positive, else the nominal
+order of the kind (the scheme's order for ``dt``: 1 for backward Euler, 2 for
+the others; 2 for ``mesh`` and ``both``); which one was used is in the table.
+The estimate assumes the levels are in the asymptotic range: the observed order
+says whether they are.
+
+Written to DIR: ``study.csv`` (a row per level and quantity), ``study.md`` (the
+same as tables, with the command) and ``study.png`` (estimated error against
+wall time, log-log, a curve per kind; one panel per quantity).  The wall time
+of a level is its run's total minus its form compilation (a warm cache costs
+nothing then).  A level that fails (bad scene at that resolution, exit 3,
+a quantity it has no data for) stays in the tables as failed, with its reason,
+and the levels after it still run.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rftfem.errors import SceneError
+
+KINDS = ("dt", "mesh", "both")
+#: nominal orders of the time schemes (refinement of dt)
+SCHEME_ORDER = {"backward-euler": 1, "bdf2": 2, "generalized-alpha": 2, "hht": 2}
+#: nominal order assumed for mesh refinement (9-node / 6-node elements) when the
+#: levels are too few to observe one
+MESH_ORDER = 2
+
+DESCRIPTION = """\
+Run a scene at successive refinements (dt halved, mesh divisions doubled, or
+both) and report, for each level, the cost (unknowns, steps, Newton iterations,
+dt cuts, wall time without compilation), the quantities asked for, their change,
+the observed order of convergence and a Richardson error estimate. Writes
+study.csv, study.md and study.png (estimated error against wall time)."""
+
+EPILOG = """\
+quantities (--quantity NAME=EXPR, at least one) are those of `rftfem collect`:
+  COLUMN@TIME, rate(COLUMN, A, B), mean(COLUMN, A, B), max(...), min(...),
+  spin(PROBE_A, PROBE_B, AXIS, A, B)  (mean turning rate of the line A->B about
+  the axis x, y or z, in rad per unit time)
+examples:
+  rftfem study demos/rollup.toml --refine mesh --levels 4 --quantity 'tip=tip_uz@0.25'
+  rftfem study demos/bidirectional_strip.toml --refine dt --levels 3 --jobs 2 \\
+      --quantity 'speed=rate(centroid_z, 1.1, 2.1)'
+exit status: 0 study written (also with failed levels), 2 bad option or scene"""
+
+
+@dataclass
+class Level:
+    """One run of the study."""
+
+    kind: str              # "dt", "mesh", "both" (level 0: "base")
+    k: int
+    overrides: list[str]
+    folder: Path
+    dt: float = math.nan
+    divisions: list[int] | None = None
+    status: str = "not run"
+    failure: str = ""
+    dofs: int | None = None
+    steps: int | None = None
+    newton: int | None = None
+    cuts: int | None = None
+    wall: float | None = None
+    compile: float | None = None
+    values: dict = field(default_factory=dict)  # quantity name -> float or None
+
+
+# --- the levels ---------------------------------------------------------------------
+
+
+def _toml(value) -> str:
+    if isinstance(value, list):
+        return "[" + ",".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, list[Level]]:
+    """The levels of each kind (level 0 is the same object in every kind)."""
+    time_ = scene["time"]
+    dt0, every0 = float(time_["dt"]), int(time_.get("output_every", 1))
+    mesh = scene.get("mesh") or {}
+    div0 = mesh.get("divisions") if mesh.get("kind", "strip") != "gmsh" else None
+    if any(k in ("mesh", "both") for k in kinds) and not div0:
+        raise SceneError("--refine mesh: the scene's [mesh] has no divisions to double "
+                         "(a mesh read from a file is refined in gmsh, not here)")
+    if scene["time"]["scheme"] == "static" and any(k in ("dt", "both") for k in kinds):
+        raise SceneError("--refine dt: the scene is static (time.scheme resolves to "
+                         "\"static\"): its steps are load steps with no time error to refine")
+    base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None)
+    plans = {}
+    for kind in kinds:
+        series = [base]
+        for k in range(1, levels):
+            sets, f = [], 2**k
+            dt, div = dt0, base.divisions
+            if kind in ("dt", "both"):
+                dt = dt0 / f
+                sets += [f"time.dt={dt!r}", f"time.output_every={every0 * f}"]
+            if kind in ("mesh", "both"):
+                div = [n * f for n in div0]
+                sets.append(f"mesh.divisions={_toml(div)}")
+            series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div))
+        plans[kind] = series
+    return plans
+
+
+def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
+              petsc_args: list[str]) -> None:
+    """Run one level (a fresh folder) and read its summary into ``level``."""
+    if level.folder.exists():
+        shutil.rmtree(level.folder)
+    level.folder.mkdir(parents=True)
+    cmd = [*launcher, sys.executable, "-m", "rftfem", "run", scene_file, "--out",
+           str(level.folder), "--quiet"]
+    for text in [*overrides, *level.overrides]:
+        cmd += ["--set", text]
+    cmd += petsc_args
+    with open(level.folder / "run.log", "w", encoding="utf-8") as log:
+        status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+    try:
+        summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        summary = None
+    if summary is None:
+        tail = (level.folder / "run.log").read_text(encoding="utf-8").strip().splitlines()
+        level.status = "failed"
+        level.failure = (tail[-1] if tail else f"exit status {status}")[:300]
+        return
+    level.status = summary.get("status", "failed") if status == 0 else "failed"
+    failure = summary.get("failure") or {}
+    level.failure = str(failure.get("reason", "")) if level.status != "ok" else ""
+    if status != 0 and not level.failure:
+        level.failure = f"exit status {status}"
+    counts, wall = summary.get("counts") or {}, summary.get("wall_s") or {}
+    level.dofs, level.steps = summary.get("dofs"), counts.get("steps")
+    level.newton, level.cuts = counts.get("newton_iterations"), counts.get("dt_cuts")
+    level.compile = wall.get("compile")
+    if wall.get("total") is not None:
+        level.wall = wall["total"] - (level.compile or 0.0)
+
+
+def evaluate_level(level: Level, quantities) -> None:
+    from rftfem.quantities import RunFolder
+
+    if level.status != "ok":
+        level.values = {name: None for name, _ in quantities}
+        return
+    run = RunFolder(level.folder)
+    for name, q in quantities:
+        try:
+            level.values[name] = q.evaluate(run)
+        except SceneError as exc:
+            level.values[name] = None
+            level.status, level.failure = "failed", f"quantity {name}: {exc}"
+
+
+# --- orders and estimates ---------------------------------------------------------
+
+
+def nominal_order(kind: str, scheme: str) -> int:
+    return SCHEME_ORDER.get(scheme, 2) if kind == "dt" else MESH_ORDER
+
+
+def analyse(values: list[float | None], nominal: int) -> list[dict]:
+    """Per level: change from the level before, observed order, the order used and
+    the Richardson error estimate (None where they cannot be had)."""
+    rows = []
+    for k, q in enumerate(values):
+        row = {"change": None, "order": None, "order_used": None, "error_estimate": None,
+               "extrapolated": None}
+        prev = values[k - 1] if k >= 1 else None
+        if q is not None and prev is not None:
+            row["change"] = q - prev
+            older = values[k - 2] if k >= 2 else None
+            if older is not None and q != prev and prev != older:
+                row["order"] = math.log2(abs(prev - older) / abs(q - prev))
+            p = row["order"] if row["order"] is not None and row["order"] > 0.1 else nominal
+            row["order_used"] = p
+            row["error_estimate"] = abs(q - prev) / (2**p - 1)
+            row["extrapolated"] = q + (q - prev) / (2**p - 1)
+        rows.append(row)
+    return rows
+
+
+# --- writing -------------------------------------------------------------------------
+
+
+def _fmt(x, spec=".6g") -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return ""
+    return format(x, spec)
+
+
+def table_rows(plans, quantities, scheme: str) -> list[dict]:
+    rows = []
+    for kind, series in plans.items():
+        for name, _ in quantities:
+            stats = analyse([lv.values.get(name) for lv in series], nominal_order(kind, scheme))
+            for lv, st in zip(series, stats):
+                rows.append({
+                    "kind": kind, "level": lv.k, "quantity": name, "folder": str(lv.folder),
+                    "status": lv.status, "failure": lv.failure, "dt": lv.dt,
+                    "divisions": "x".join(map(str, lv.divisions)) if lv.divisions else "",
+                    "dofs": lv.dofs, "steps": lv.steps, "newton_iterations": lv.newton,
+                    "dt_cuts": lv.cuts, "wall_s": lv.wall, "compile_s": lv.compile,
+                    "value": lv.values.get(name), **st})
+    return rows
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: ("" if v is None else repr(v) if isinstance(v, float) else v)
+                             for k, v in row.items()})
+
+
+def markdown(rows: list[dict], command: str) -> str:
+    lines = ["# Refinement study", "", f"    {command}", ""]
+    for kind in dict.fromkeys(r["kind"] for r in rows):
+        for name in dict.fromkeys(r["quantity"] for r in rows):
+            sel = [r for r in rows if r["kind"] == kind and r["quantity"] == name]
+            lines += [f"## {name}, refining {kind}", "",
+                      "| level | dt | divisions | unknowns | steps | Newton its | dt cuts | "
+                      "wall (s) | value | change | observed order | error estimate (order) |",
+                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+            for r in sel:
+                if r["status"] != "ok":
+                    lines.append(f"| {r['level']} | {_fmt(r['dt'], '.4g')} | {r['divisions']} | "
+                                 f"{_fmt(r['dofs'], 'd')} | | | | | failed: {r['failure']} "
+                                 "| | | |")
+                    continue
+                est = (f"{_fmt(r['error_estimate'], '.3g')} ({_fmt(r['order_used'], '.2f')})"
+                       if r["error_estimate"] is not None else "")
+                lines.append(
+                    f"| {r['level']} | {_fmt(r['dt'], '.4g')} | {r['divisions']} | "
+                    f"{_fmt(r['dofs'], 'd')} | {_fmt(r['steps'], 'd')} | "
+                    f"{_fmt(r['newton_iterations'], 'd')} | {_fmt(r['dt_cuts'], 'd')} | "
+                    f"{_fmt(r['wall_s'], '.1f')} | {_fmt(r['value'], '.8g')} | "
+                    f"{_fmt(r['change'], '.3g')} | {_fmt(r['order'], '.2f')} | {est} |")
+            lines.append("")
+    return "\n".join(lines)
+
+
+def plot(rows: list[dict], path: Path) -> bool:
+    """Estimated error against wall time (log-log); False if matplotlib is missing
+    or there is nothing to draw."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    names = list(dict.fromkeys(r["quantity"] for r in rows))
+    fig, axes = plt.subplots(1, len(names), figsize=(5.5 * len(names), 4.2), squeeze=False)
+    drawn = False
+    for ax, name in zip(axes[0], names):
+        for kind in dict.fromkeys(r["kind"] for r in rows):
+            pts = [(r["wall_s"], r["error_estimate"]) for r in rows
+                   if r["quantity"] == name and r["kind"] == kind and r["status"] == "ok"
+                   and r["error_estimate"] and r["wall_s"]]
+            if pts:
+                ax.loglog(*zip(*pts), "o-", label=f"refine {kind}")
+                drawn = True
+        ax.set_xlabel("wall time per run, compilation excluded (s)")
+        ax.set_ylabel(f"estimated error of {name}")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    if drawn:
+        fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return drawn
+
+
+# --- command line -----------------------------------------------------------------
+
+
+def add_arguments(parser):
+    import argparse
+
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = EPILOG
+    parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
+    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
+                        dest="quantities", help="what to converge (grammar below); repeatable")
+    parser.add_argument("--refine", metavar="KIND", action="append", default=[],
+                        help="dt, mesh or both (repeatable, or comma-separated: "
+                             "--refine dt,mesh); default dt")
+    parser.add_argument("--levels", metavar="N", type=int, default=3,
+                        help="levels per kind, the scene itself included (default 3; "
+                             "3 give one observed order)")
+    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                        dest="overrides", help="override a scene key in every level; repeatable")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
+                        help="study folder (default: results/study-<scene file stem>)")
+    parser.add_argument("--jobs", metavar="J", type=int, default=1,
+                        help="levels run at the same time, each one process (default 1)")
+    parser.add_argument("--np", metavar="P", type=int, default=1,
+                        help="run each level under mpirun -n P (one level at a time)")
+
+
+def _kinds(options: list[str]) -> list[str]:
+    kinds = [k.strip() for text in (options or ["dt"]) for k in text.split(",") if k.strip()]
+    for k in kinds:
+        if k not in KINDS:
+            raise SceneError(f"--refine: unknown kind '{k}' (expected {', '.join(KINDS)})")
+    return list(dict.fromkeys(kinds))
+
+
+def main(args, petsc_args: list[str], console) -> int:
+    from rftfem.collect import parse_option
+    from rftfem.scene import load_scene, resolved_scheme
+
+    if not args.quantities:
+        raise SceneError("--quantity: give at least one quantity to converge "
+                         "(e.g. --quantity 'tip=tip_uz@end')")
+    quantities = [parse_option(q) for q in args.quantities]
+    names = [n for n, _ in quantities]
+    if len(set(names)) < len(names):
+        raise SceneError("--quantity: a name is given twice")
+    kinds = _kinds(args.refine)
+    if args.levels < 2:
+        raise SceneError(f"--levels: expected at least 2, found {args.levels}")
+    if args.jobs < 1 or args.np < 1:
+        raise SceneError("--jobs and --np: expected at least 1")
+    if args.jobs > 1 and args.np > 1:
+        raise SceneError("--jobs and --np: give one of them (levels side by side, or each "
+                         "level on several processes)")
+    scene = load_scene(args.scene, args.overrides)
+    scene["time"]["scheme"] = resolved_scheme(scene)
+    out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
+    plans = plan(scene, kinds, args.levels, out)
+    # every level's scene must be valid before anything runs
+    for series in plans.values():
+        for lv in series[1:]:
+            try:
+                load_scene(args.scene, [*args.overrides, *lv.overrides])
+            except SceneError as exc:
+                raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
+    out.mkdir(parents=True, exist_ok=True)
+    launcher = _launcher(args.np)
+    levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
+    console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
+                f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
+    t0 = time.perf_counter()
+
+    def one(lv: Level):
+        run_level(lv, args.scene, args.overrides, launcher, petsc_args)
+        evaluate_level(lv, quantities)
+        what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
+        console.out(f"  {lv.folder.name}: {lv.status} ({what}"
+                    + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
+                    + (f"; {lv.failure}" if lv.failure else "") + ")")
+
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        list(pool.map(one, levels))
+    rows = table_rows(plans, quantities, scene["time"]["scheme"])
+    command = " ".join(["rftfem study", _quote(args.scene),
+                        *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",
+                        *[f"--quantity {_quote(q)}" for q in args.quantities],
+                        *[f"--set {_quote(o)}" for o in args.overrides]]
+                       + ([f"--np {args.np}"] if args.np > 1 else []) + petsc_args)
+    write_csv(rows, out / "study.csv")
+    md = markdown(rows, command)
+    (out / "study.md").write_text(md + "\n", encoding="utf-8")
+    drawn = plot(rows, out / "study.png")
+    console.out(md)
+    failed = sum(lv.status != "ok" for lv in levels)
+    console.err(f"rftfem study: {len(levels) - failed} of {len(levels)} runs ok in "
+                f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"
+                + (", study.png" if drawn else "") + f" in {out}")
+    return 0
+
+
+def _launcher(np: int) -> list[str]:
+    """``mpirun -n P`` of the running stack (beside the interpreter, else on PATH)."""
+    if np <= 1:
+        return []
+    here = Path(sys.executable).parent / "mpirun"
+    exe = str(here) if here.exists() else shutil.which("mpirun")
+    if exe is None:
+        raise SceneError(f"--np {np}: no mpirun beside {sys.executable} or on PATH")
+    return [exe, "-n", str(np)]
+
+
+def _quote(arg: str) -> str:
+    import shlex
+
+    return shlex.quote(arg)
+
+
+__all__ = ["main", "add_arguments", "plan", "analyse", "Level", "DESCRIPTION", "EPILOG",
+           "KINDS", "SCHEME_ORDER"]

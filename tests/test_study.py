@@ -1,0 +1,237 @@
+"""``rftfem study`` (issue 16): observed orders and Richardson estimates against exact
+solutions, failed levels kept, bad options refused; the BDF2 scheme's order.
+
+Exact references: the rigid magnetic plate spinning about its normal in a field
+rotating faster than it can follow (docs/verification.md case G; the angle at a
+time from Adler's equation solved in closed form), and the roll-up of a cantilever
+by an end moment (case B: the tip on a circle).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import ROOT, run_command, write_scene
+from rftfem.study import analyse
+from test_magnetic import AXES, MB, PLATE, PLATE_L, PLATE_T, PLATE_W
+
+PROBES = """
+[[output.probes]]
+name = "a"
+at = [0.0, 0.5, 0.0]
+[[output.probes]]
+name = "b"
+at = [2.0, 0.5, 0.0]
+"""
+
+OMEGA_C = MB * PLATE_T * PLATE_L * PLATE_W / AXES["normal"][1]   # π rad/s
+OMEGA = 2 * OMEGA_C                                                 # one turn per second
+T_END = 0.5                                                         # before the first slip
+
+
+def adler_angle(t: float, omega: float, omega_c: float) -> float:
+    """Angle turned at time t by an overdamped rotor, ζ φ' = m B sin(ω t − φ), φ(0) = 0,
+    for ω > ω_c: with ψ = ω t − φ, tan(ψ/2) = (ω_c + Ω tan(Ω t/2 + c))/ω,
+    Ω = √(ω² − ω_c²), c = atan(−ω_c/Ω) (valid while Ω t/2 + c < π/2)."""
+    big = math.sqrt(omega**2 - omega_c**2)
+    c = math.atan(-omega_c / big)
+    x = big * t / 2 + c
+    assert x < math.pi / 2
+    psi = 2 * math.atan((omega_c + big * math.tan(x)) / omega)   # ψ(0) = 0 at x = c
+    return omega * t - psi
+
+
+def study(tmp_path, scene, *args, timeout=1200):
+    cmd = [sys.executable, "-m", "rftfem", "study", str(scene), "--out", str(tmp_path / "study"),
+           *map(str, args)]
+    return run_command(cmd, cwd=ROOT, timeout=timeout)
+
+
+def rows_of(tmp_path, quantity=None):
+    with open(tmp_path / "study" / "study.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    return [r for r in rows if quantity is None or r["quantity"] == quantity]
+
+
+def number(text):
+    return float(text) if text else None
+
+
+# --- the arithmetic -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("p", [1.0, 2.0, 3.0])
+def test_analyse_on_an_exact_power_law(p):
+    """Q_k = Q + C h_k^p with h halved per level: the observed order is p and the
+    estimate is the exact error, to round-off; the extrapolation is Q."""
+    values = [1.5 + 0.3 * 0.5 ** (p * k) for k in range(4)]
+    rows = analyse(values, nominal=1)
+    assert rows[0]["change"] is None and rows[1]["order"] is None
+    for k in (2, 3):
+        assert rows[k]["order"] == pytest.approx(p, abs=1e-9)
+        assert rows[k]["error_estimate"] == pytest.approx(values[k] - 1.5, rel=1e-9)
+        assert rows[k]["extrapolated"] == pytest.approx(1.5, abs=1e-12)
+    # level 1 uses the nominal order given (1 here)
+    assert rows[1]["order_used"] == 1
+    assert rows[1]["error_estimate"] == pytest.approx(abs(values[1] - values[0]))
+
+
+def test_analyse_keeps_a_failed_level_as_a_hole():
+    rows = analyse([1.0, None, 1.25, 1.0625], nominal=2)
+    assert rows[1]["change"] is None and rows[2]["change"] is None
+    assert rows[3]["order"] is None and rows[3]["order_used"] == 2
+    assert rows[3]["error_estimate"] == pytest.approx(0.1875 / 3)
+
+
+# --- time: the rigid magnetic plate -----------------------------------------------------
+
+
+@pytest.mark.parametrize("scheme, order, dt", [
+    ("backward-euler", 1, 0.05),
+    ("bdf2", 2, 0.0125),
+    ("generalized-alpha", 2, 0.0125),
+])
+def test_time_refinement_of_the_magnetic_plate(tmp_path, scheme, order, dt):
+    """docs/verification.md case G at ω = 2 ω_c: the mean rate over [0, 0.5] (the angle
+    at 0.5 over 0.5) at dt, dt/2, dt/4, dt/8.  The last two observed orders are the
+    scheme's (± 0.2) and the Richardson estimate of the finest two levels is within a
+    factor 2 of their exact error.  Generalized-α gets a density small enough to leave
+    the overdamped answer (1e-9: an inertial time of 1e-7 s)."""
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    extra = ["--set", "shell.density=1e-9"] if scheme == "generalized-alpha" else []
+    done = study(tmp_path, scene, "--refine", "dt", "--levels", 4,
+                 "--set", "magnetic.field.frequency=1.0",
+                 "--set", "magnetic.field.rotation_axis=[0, 0, 1]",
+                 "--set", f"time.end={T_END}", "--set", f"time.dt={dt}",
+                 "--set", "output.fields=false", "--set", f'time.scheme="{scheme}"', *extra,
+                 "--quantity", f"rate=spin(a, b, z, 0, {T_END})")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    rows = rows_of(tmp_path)
+    assert [r["status"] for r in rows] == ["ok"] * 4
+    assert [number(r["dt"]) for r in rows] == pytest.approx([dt / 2**k for k in range(4)])
+    exact = adler_angle(T_END, OMEGA, OMEGA_C) / T_END
+    orders = [number(r["order"]) for r in rows[2:]]
+    print(f"{scheme}: values {[r['value'] for r in rows]}, exact {exact!r}, orders {orders}")
+    for p in orders:
+        assert abs(p - order) < 0.2, orders
+    for r in rows[2:]:
+        error = abs(number(r["value"]) - exact)
+        ratio = number(r["error_estimate"]) / error
+        print(f"  level {r['level']}: error {error:.3e}, estimate {r['error_estimate']} "
+              f"(ratio {ratio:.2f})")
+        assert 0.5 <= ratio <= 2.0
+    text = (tmp_path / "study" / "study.md").read_text()
+    assert "rate, refining dt" in text and "rftfem study" in text
+    assert (tmp_path / "study" / "study.png").stat().st_size > 10_000
+
+
+def test_bdf2_coefficients_on_variable_steps():
+    """v_{n+1} of BDF2 for u = t² (which it differentiates exactly) after steps of
+    0.1, 0.05 (halved) and 0.1 (doubled back), and backward Euler's at the first step."""
+    from rftfem.timeint import BDF2
+
+    scheme, t, u = BDF2(), 0.0, lambda s: s**2
+    v, w = 0.0, 0.0
+    for k, h in enumerate((0.1, 0.05, 0.1)):
+        c = scheme.coefficients(h)
+        du = u(t + h) - u(t)
+        v_new = c.cv * du + c.cv_a * w
+        assert v_new == pytest.approx(scheme.update(du, v, w, h)[0], abs=1e-15)
+        expected = du / h if k == 0 else 2 * (t + h)
+        assert v_new == pytest.approx(expected, rel=1e-12)
+        v, w = scheme.update(du, v, w, h)
+        t += h
+
+
+# --- space: the roll-up ----------------------------------------------------------------
+
+
+def test_mesh_refinement_of_the_rollup(tmp_path):
+    """docs/verification.md case B at M = Mmax/4 (a quarter circle, tip height L/θ with
+    θ = π/2) on 2×1, 4×2, 8×4, 16×8 cells: the Richardson estimate of each level from
+    the second on is within a factor 2 of its exact error."""
+    moment = 2 * math.pi * 100 / 12
+    done = study(tmp_path, ROOT / "demos" / "rollup.toml", "--refine", "mesh", "--levels", 4,
+                 "--set", "mesh.divisions=[2, 1]", "--set", "time.end=0.25",
+                 "--set", f"load.0.value=[0.0, {moment / 4!r}, 0.0]",
+                 "--set", "output.fields=false", "--quantity", "tip=tip_uz@0.25")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    rows = rows_of(tmp_path)
+    assert [r["divisions"] for r in rows] == ["2x1", "4x2", "8x4", "16x8"]
+    exact = -12 / (math.pi / 2)
+    for r in rows[1:]:
+        error = abs(number(r["value"]) - exact)
+        ratio = number(r["error_estimate"]) / error
+        print(f"level {r['level']}: {r['value']} vs {exact:.6f}, error {error:.3e}, "
+              f"estimate {r['error_estimate']}, observed order {r['order']}")
+        assert 0.5 <= ratio <= 2.0
+
+
+# --- failures and refusals -------------------------------------------------------------
+
+GMSH_SCENE = """
+title = "a mesh from a file"
+[mesh]
+kind = "gmsh"
+file = "{}"
+[shell]
+thickness = 0.1
+E = 1.0e3
+nu = 0.3
+[time]
+scheme = "static"
+[[output.probes]]
+name = "tip"
+at = [0.0, 0.0, 0.0]
+"""
+
+
+def test_a_failed_level_stays_in_the_table(tmp_path):
+    """The plate turning about an in-plane axis with the field (ω = 2π rad/s, below its
+    ω_c there) by 0.63 rad per step of 0.1, against time.max_rotation = 0.4 and no
+    halving allowed: level 0 fails (exit 3 of its run), the finer levels run; the
+    study exits 0 and names the failure in every table."""
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    done = study(tmp_path, scene, "--refine", "dt", "--levels", 3,
+                 "--set", "magnetic.field.frequency=1.0",
+                 "--set", "magnetic.field.rotation_axis=[0, 1, 0]",
+                 "--set", "time.end=0.4", "--set", "time.dt=0.1", "--set", "time.max_cuts=0",
+                 "--set", "time.max_rotation=0.4", "--set", "output.fields=false",
+                 "--quantity", "rate=spin(a, b, y, 0, 0.4)")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    rows = rows_of(tmp_path)
+    assert [r["status"] for r in rows] == ["failed", "ok", "ok"]
+    assert "max_rotation" in rows[0]["failure"]
+    assert rows[0]["value"] == "" and rows[1]["change"] == ""
+    assert "failed: " in (tmp_path / "study" / "study.md").read_text()
+    assert "2 of 3 runs ok" in done.stderr
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--refine", "mesh", "--quantity", "t=tip_uz@end"], ["--refine mesh", "divisions"]),
+    (["--refine", "time", "--quantity", "t=tip_uz@end"], ["--refine", "time"]),
+    (["--refine", "dt", "--quantity", "t=tip_uz@end"], ["--refine dt", "static"]),
+    (["--refine", "mesh"], ["--quantity"]),
+    (["--refine", "mesh", "--levels", "1", "--quantity", "t=tip_uz@end"], ["--levels"]),
+    (["--refine", "mesh", "--jobs", "2", "--np", "2", "--quantity", "t=tip_uz@end"],
+     ["--jobs", "--np"]),
+    (["--refine", "mesh", "--quantity", "t=spin(tip, tip, w)"], ["axis"]),
+])
+def test_bad_study_options_are_one_line_errors(tmp_path, args, words):
+    """Refused before anything runs, exit 2 and one line naming the option."""
+    scene = ROOT / "demos" / "rollup.toml"
+    if words == ["--refine mesh", "divisions"]:   # a mesh from a file has no divisions
+        scene = write_scene(tmp_path, GMSH_SCENE.format(ROOT / "tests" / "data"
+                                                        / "two_quads_v22.msh"))
+    done = study(tmp_path, scene, *args, timeout=120)
+    assert done.returncode == 2, done.stdout + done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert not (tmp_path / "study" / "study.csv").exists()
