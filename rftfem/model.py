@@ -74,6 +74,8 @@ class Model:
         self.increments = []
         #: the largest displacement increment of the last prediction (0: none made)
         self.predicted_step = 0.0
+        #: the last predictions {past steps used: (u, θ)}, or None
+        self.prediction = None
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -233,6 +235,36 @@ class Model:
         self.w.x.array[self.u_dofs] = self.u_n.x.array
         self.w.x.array[self.theta_dofs] = 0.0
 
+    def prediction_error(self, past_steps: int = 2) -> tuple[float, float] | None:
+        """How far the converged iterate lies from a prediction made from the last
+        ``past_steps`` steps (1: the last rate carried on, 2: the last two rates
+        extrapolated): the largest nodal ``|u − u^P|`` and ``|θ − θ^P|`` over all
+        processes; None if the step started from the last state (no step known,
+        docs/model.md §6.4).  With one step known the linear prediction
+        stands in for the quadratic one (an over-estimate: the safe side)."""
+        if self.prediction is None:
+            return None
+        u_p, theta_p = self.prediction[min(past_steps, max(self.prediction))]
+        du = self.w.x.array[self.u_dofs] - u_p
+        dth = (self.w.x.array[self.theta_dofs] - theta_p).reshape(-1, 2)
+        local = (float(np.abs(du).max()) if len(du) else 0.0,
+                 float(np.sqrt((dth**2).sum(axis=1)).max()) if len(dth) else 0.0)
+        both = np.array(local)
+        self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.MAX)
+        return float(both[0]), float(both[1])
+
+    def size(self) -> float:
+        """Diagonal of the reference body's bounding box (global): the length that
+        displacement errors are measured against."""
+        if not hasattr(self, "_size"):
+            x = self.mesh.geometry.x
+            lo = x.min(axis=0) if len(x) else np.full(3, np.inf)
+            hi = x.max(axis=0) if len(x) else np.full(3, -np.inf)
+            self.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+            self.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+            self._size = float(np.linalg.norm(hi - lo))
+        return self._size
+
     def largest_rotation_increment(self) -> float:
         """The largest nodal ``|θ|`` of the iterate over all processes and colours
         (``a₁, a₂`` are orthonormal, so ``|θ|² = θ¹² + θ²²``)."""
@@ -271,10 +303,12 @@ class Model:
         not ``extrapolate``, the step starts from the last state (``θ = 0``)."""
         self.restore()
         self.predicted_step = 0.0
+        self.prediction = None
         if not self.increments or not extrapolate:
             return
         du, theta, dt_1 = self.increments[0]
         qu, qt = du / dt_1, theta / dt_1
+        linear = (self.w.x.array[self.u_dofs] + dt * qu, dt * qt)
         if len(self.increments) == 2:
             du_0, theta_0, dt_0 = self.increments[1]
             weight = (0.5 * (dt_1 + dt)) / (0.5 * (dt_1 + dt_0))
@@ -282,6 +316,8 @@ class Model:
             qt = qt + weight * (qt - theta_0 / dt_0)
         self.w.x.array[self.u_dofs] += dt * qu
         self.w.x.array[self.theta_dofs] = dt * qt
+        self.prediction = {1: linear, len(self.increments): (self.w.x.array[self.u_dofs].copy(),
+                                                             dt * qt)}
         local = float(np.abs(qu).max()) * dt if len(qu) else 0.0
         self.predicted_step = self.comm.allreduce(local, op=MPI.MAX)
 

@@ -126,6 +126,20 @@ SCHEMA = Table({
         "max_cuts": Leaf(Int(0), 8,
                           doc="How many times one step may be halved before the run fails "
                               "(exit status 3)."),
+        "tolerance": Leaf(POSITIVE, None, default_doc="none: fixed steps of `dt`",
+                           doc="Error-controlled steps: the largest local error a step may "
+                               "make, relative to the body's size for displacements (and in "
+                               "radians for rotations), estimated from the step's distance "
+                               "to its prediction. `dt` is then the first step, steps grow "
+                               "and shrink within [`dt_min`, `dt_max`], and outputs still "
+                               "fall every `output_every` × `dt`. Not with static."),
+        "dt_min": Leaf(POSITIVE, None, unit="time",
+                        default_doc="dt × 1e-6 (with `tolerance` only)",
+                        doc="The smallest step the error control may take; a step that "
+                            "needs a smaller one fails the run (exit status 3)."),
+        "dt_max": Leaf(POSITIVE, None, unit="time",
+                        default_doc="end (with `tolerance` only)",
+                        doc="The largest step the error control may take."),
         "max_rotation": Leaf(POSITIVE, 0.2, unit="rad",
                               doc="The most any director may turn within one converged step "
                                   "of a scheme with velocity (not static); a step that turns "
@@ -194,6 +208,24 @@ def _cross_check(scene: dict) -> None:
         raise SceneError(f"time.dt: expected at most {MAX_STEPS:.0e} steps up to time.end = "
                          f"{fmt(time['end'])}, found dt = {fmt(time['dt'])} "
                          f"({time['end'] / time['dt']:.1e} steps)")
+
+    if time["tolerance"] is None:
+        for key in ("dt_min", "dt_max"):
+            if time[key] is not None:
+                raise SceneError(f"time.{key}: bounds the error-controlled step; it needs "
+                                 "time.tolerance")
+    else:
+        if resolved_scheme(scene) == "static":
+            raise SceneError("time.tolerance: the scheme is static (load steps have no time "
+                             "error to control); remove time.tolerance or use a scheme in time")
+        if time["dt_min"] is None:
+            time["dt_min"] = time["dt"] * 1e-6
+        if time["dt_max"] is None:
+            time["dt_max"] = time["end"]
+        if not time["dt_min"] <= time["dt"] <= time["dt_max"]:
+            raise SceneError(f"time.dt: the first step must lie within [time.dt_min, "
+                             f"time.dt_max] = [{fmt(time['dt_min'])}, {fmt(time['dt_max'])}], "
+                             f"found {fmt(time['dt'])}")
 
     effects.check(scene)  # each effect's own keys
 

@@ -92,7 +92,7 @@ class Simulation:
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
         self.step = 0
-        self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0}
+        self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
         #: wall seconds outside the solver: outputs, loads and motions set for a step
         #: (set_time), the state and triad update after it (accept)
         self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0}
@@ -100,7 +100,8 @@ class Simulation:
 
     # --- one step ---------------------------------------------------------------
 
-    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True):
+    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True,
+                 error_check=None):
         m = self.model
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
@@ -118,6 +119,11 @@ class Simulation:
             turn, limit = m.largest_rotation_increment(), self.scene["time"]["max_rotation"]
             if turn > limit:
                 ok, reason = False, f"a director turned {turn:.3g} rad > time.max_rotation = {limit:g}"
+        self.rejected = False
+        if ok and error_check is not None:
+            too_big = error_check()
+            if too_big:
+                ok, reason, self.rejected = False, too_big, True
         self.counts["newton_iterations"] += its
         if not ok:
             m.restore()
@@ -191,6 +197,88 @@ class Simulation:
             dt /= 2
         self.t = t_end  # exact nominal time, free of round-off from the sub-steps
 
+    # --- error-controlled steps (time.tolerance) ----------------------------------
+
+    def _local_error(self) -> float | None:
+        """The converged step's estimated local error relative to ``time.tolerance``'s
+        units: ``f · max(|u − u^P| / size, |θ − θ^P|)`` (docs/model.md §6.4), or None
+        without a prediction (the first step)."""
+        e = self.model.prediction_error(self.scheme.error_predictor)
+        if e is None:
+            return None
+        eu, eth = e
+        return self.scheme.error_fraction * max(eu / self.model.size(), eth)
+
+    def _run_adaptive(self, logs, progress):
+        """From t = 0 to the end with steps chosen by the local error: accepted when
+        ``err ≤ tol``, the next one ``h (0.9 tol/err)^(1/(p+1))`` within [⅕, 2] h and
+        [dt_min, dt_max]; a rejected step is retried at that size (counted in
+        ``rejected_steps``), a Newton failure or a too-large turn at half (``dt_cuts``).
+        Steps are clipped to land on every output time (``output_every`` × ``dt``)."""
+        time_ = self.scene["time"]
+        tol, end = time_["tolerance"], time_["end"]
+        dt_min, dt_max = time_["dt_min"], time_["dt_max"]
+        spacing = time_["dt"] * time_["output_every"]
+        exponent = 1.0 / (self.scheme.order + 1)
+        steps_log = logs.get("steps")
+        h, cuts_in_row, n_out = time_["dt"], 0, max(1, math.ceil(end / spacing - 1e-9))
+        state = {}
+
+        def check():
+            err = self._local_error()
+            state["err"] = err
+            if err is not None and err > tol:
+                return f"local error {err:.3g} > time.tolerance = {tol:g}"
+            return None
+
+        for k in range(1, n_out + 1):
+            t_out = min(k * spacing, end)
+            while self.t < t_out - 1e-12 * max(1.0, abs(t_out)):
+                # what is left before the output in equal steps no longer than h: no
+                # sliver, and no jump in the step (BDF2 weights the ratio of steps)
+                left = t_out - self.t
+                step = left / math.ceil(left / min(h, dt_max) - 1e-9)
+                wall0 = _time.perf_counter()
+                state["err"] = None
+                ok, its, res, reason = self._attempt(self.t + step, step, self.scheme,
+                                                     error_check=check)
+                err = state["err"]
+                if ok:
+                    self.t += step
+                    self.step = self.counts["steps"] = self.counts["steps"] + 1
+                    cuts_in_row = 0
+                    if steps_log is not None:
+                        steps_log.row([self.t, step, its, res, _time.perf_counter() - wall0])
+                    for f in self.observers:
+                        f(self)
+                    grow = 2.0 if not err else min(2.0, max(0.2, 0.9 * (tol / err) ** exponent))
+                    # a step cut short to land on an output says nothing against h
+                    clipped = step < h * (1 - 1e-9)
+                    h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
+                    progress.update(self.t, self.step, self.counts["newton_iterations"],
+                                    self.solver.snes.getFunctionNorm())
+                    continue
+                if self.rejected:
+                    self.counts["rejected_steps"] += 1
+                    h = step * min(0.9, max(0.2, 0.9 * (tol / err) ** exponent))
+                else:
+                    cuts_in_row += 1
+                    self.counts["dt_cuts"] += 1
+                    if cuts_in_row > time_["max_cuts"]:
+                        raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, "
+                                        f"residual {res:.3e}) after {time_['max_cuts']} step "
+                                        f"halvings in a row (time.max_cuts), dt = {step:.3e}",
+                                        self.t + step, self.counts["steps"] + 1)
+                    h = step / 2
+                    progress.log(f"step {self.counts['steps'] + 1} at t = {self.t:.6g}: {reason} "
+                                 f"after {its} Newton iterations; halving dt to {h:.3e}")
+                if h < dt_min * (1 - 1e-12):
+                    raise RunFailed(f"step not resolved ({reason}) with dt = {step:.3e}: the next "
+                                    f"try would be below time.dt_min = {dt_min:g}",
+                                    self.t + step, self.counts["steps"] + 1)
+            self.t = t_out
+            self._write_output(logs, self.t)
+
     # --- the run -------------------------------------------------------------
 
     def run(self) -> dict:
@@ -209,6 +297,9 @@ class Simulation:
             self._initial_equilibrium()
             self._write_output(logs, 0.0)
             n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
+            if time_.get("tolerance") is not None:
+                self._run_adaptive(logs, progress)
+                n_steps = 0
             for self.step in range(1, n_steps + 1):
                 self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
                               progress)
@@ -232,7 +323,10 @@ class Simulation:
                     render_in_child(out, render, comm, progress)
         c = self.counts
         progress.final(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
-                     f"{c['dt_cuts']} dt cuts, {summary['wall_s']['total']:.1f} s"
+                     f"{c['dt_cuts']} dt cuts"
+                     + (f", {c['rejected_steps']} steps rejected by the error control"
+                        if c["rejected_steps"] else "")
+                     + f", {summary['wall_s']['total']:.1f} s"
                      + (f"; outputs in {out}" if out is not None else ""))
         return summary
 

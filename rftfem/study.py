@@ -22,11 +22,13 @@ and the Richardson estimate of the level's error
 
     E_k = |Q_k − Q_{k-1}| / (2^p − 1)
 
-with ``p`` the observed order where it is known and positive, else the nominal
-order of the kind (the scheme's order for ``dt``: 1 for backward Euler, 2 for
-the others; 2 for ``mesh`` and ``both``); which one was used is in the table.
-The estimate assumes the levels are in the asymptotic range: the observed order
-says whether they are.
+with ``p`` the observed order where it is known and positive, capped at the
+nominal order of the kind (the scheme's order for ``dt``: 1 for backward Euler,
+2 for the others; 2 for ``mesh`` and ``both``), and the nominal order where no
+order is observed; the order used is in the table.  The estimate assumes the
+levels are in the asymptotic range: an observed order far from the nominal one
+says they are not (a change that falls faster than the scheme allows is one
+level leaving a pre-asymptotic regime, not a better method).
 
 Written to DIR: ``study.csv`` (a row per level and quantity), ``study.md`` (the
 same as tables, with the command) and ``study.png`` (estimated error against
@@ -208,7 +210,11 @@ def analyse(values: list[float | None], nominal: int) -> list[dict]:
             older = values[k - 2] if k >= 2 else None
             if older is not None and q != prev and prev != older:
                 row["order"] = math.log2(abs(prev - older) / abs(q - prev))
-            p = row["order"] if row["order"] is not None and row["order"] > 0.1 else nominal
+            # an observed order above the nominal one means the levels are not yet in
+            # the asymptotic range (the change fell faster than the scheme can make it
+            # fall): taken as it is, it would understate the error
+            p = min(row["order"], nominal) if row["order"] is not None and row["order"] > 0.1 \
+                else nominal
             row["order_used"] = p
             row["error_estimate"] = abs(q - prev) / (2**p - 1)
             row["extrapolated"] = q + (q - prev) / (2**p - 1)

@@ -38,6 +38,14 @@ class Scheme:
     name = "static"
     has_inertia = False
     has_velocity = False
+    #: order of accuracy in time (0: no time error to control)
+    order = 0
+    #: the local error is estimated from the distance of a converged step to a
+    #: prediction made from this many past steps (1: the last rate carried on,
+    #: 2: the last two extrapolated), times ``error_fraction`` (Milne's device:
+    #: C / (C_P − C), C the scheme's error constant, C_P the prediction's)
+    error_predictor = 2
+    error_fraction = 1.0
 
     def coefficients(self, dt: float) -> Coefficients:
         return Coefficients()
@@ -56,6 +64,11 @@ class BackwardEuler(Scheme):
 
     name = "backward-euler"
     has_velocity = True
+    order = 1
+    # the last rate is v_n, the velocity at the end of the last step:
+    # u^P = u_n + h v_n has C_P = ½ against the scheme's C = −½
+    error_predictor = 1
+    error_fraction = 0.5
 
     def coefficients(self, dt):
         return Coefficients(cv=1.0 / dt)
@@ -80,6 +93,8 @@ class BDF2(Scheme):
 
     name = "bdf2"
     has_velocity = True
+    order = 2
+    error_fraction = 2 / 11    # C = −2/9
 
     def __init__(self):
         #: the last accepted step (None before the first)
@@ -108,6 +123,8 @@ class GeneralizedAlpha(Scheme):
     name = "generalized-alpha"
     has_inertia = True
     has_velocity = True
+    order = 2
+    error_fraction = 1 / 11    # C = 1/12 of the trapezoidal rule (ρ∞ = 1)
 
     def __init__(self, rho_inf: float = 0.9):
         r = float(rho_inf)

@@ -70,15 +70,19 @@ def test_analyse_on_an_exact_power_law(p):
     """Q_k = Q + C h_k^p with h halved per level: the observed order is p and the
     estimate is the exact error, to round-off; the extrapolation is Q."""
     values = [1.5 + 0.3 * 0.5 ** (p * k) for k in range(4)]
-    rows = analyse(values, nominal=1)
+    rows = analyse(values, nominal=p)
     assert rows[0]["change"] is None and rows[1]["order"] is None
     for k in (2, 3):
         assert rows[k]["order"] == pytest.approx(p, abs=1e-9)
         assert rows[k]["error_estimate"] == pytest.approx(values[k] - 1.5, rel=1e-9)
         assert rows[k]["extrapolated"] == pytest.approx(1.5, abs=1e-12)
-    # level 1 uses the nominal order given (1 here)
-    assert rows[1]["order_used"] == 1
-    assert rows[1]["error_estimate"] == pytest.approx(abs(values[1] - values[0]))
+    # level 1 has no observed order: the nominal one
+    assert rows[1]["order_used"] == p
+    assert rows[1]["error_estimate"] == pytest.approx(abs(values[1] - values[0]) / (2**p - 1))
+    # an observed order above the nominal one is capped there (a larger estimate)
+    capped = analyse(values, nominal=p - 0.5)
+    assert capped[3]["order"] == pytest.approx(p) and capped[3]["order_used"] == p - 0.5
+    assert capped[3]["error_estimate"] > rows[3]["error_estimate"]
 
 
 def test_analyse_keeps_a_failed_level_as_a_hole():
