@@ -240,7 +240,7 @@ class Model:
         ``past_steps`` steps (1: the last rate carried on, 2: the last two rates
         extrapolated): the largest nodal ``|u − u^P|`` and ``|θ − θ^P|`` over all
         processes; None if the step started from the last state (no step known,
-        docs/model.md §6.4).  With one step known the linear prediction
+        docs/model.md §6.9).  With one step known the linear prediction
         stands in for the quadratic one (an over-estimate: the safe side)."""
         if self.prediction is None:
             return None

@@ -34,6 +34,11 @@ from .solver import StepSolver
 from .timeint import BackwardEuler, Static, make_scheme
 
 
+#: error-controlled steps: a step that took more Newton iterations than this is not
+#: followed by a longer one (docs/model.md §6.9)
+NEWTON_GROWTH_LIMIT = 8
+
+
 def build_model(scene: dict, comm, compile_forms: bool = True) -> Model:
     """The scene's body (its hinge lines cut into strip meshes) and its Model."""
     from rftfem.meshes import build_body
@@ -201,7 +206,7 @@ class Simulation:
 
     def _local_error(self) -> float | None:
         """The converged step's estimated local error relative to ``time.tolerance``'s
-        units: ``f · max(|u − u^P| / size, |θ − θ^P|)`` (docs/model.md §6.4), or None
+        units: ``f · max(|u − u^P| / size, |θ − θ^P|)`` (docs/model.md §6.9), or None
         without a prediction (the first step)."""
         e = self.model.prediction_error(self.scheme.error_predictor)
         if e is None:
@@ -252,6 +257,10 @@ class Simulation:
                     for f in self.observers:
                         f(self)
                     grow = 2.0 if not err else min(2.0, max(0.2, 0.9 * (tol / err) ** exponent))
+                    # a step that Newton found hard is not grown: beyond its few iterations
+                    # a longer step costs more iterations than it saves steps
+                    if its > NEWTON_GROWTH_LIMIT:
+                        grow = min(grow, 1.0)
                     # a step cut short to land on an output says nothing against h
                     clipped = step < h * (1 - 1e-9)
                     h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))

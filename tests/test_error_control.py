@@ -14,13 +14,15 @@ import math
 import numpy as np
 import pytest
 
-from conftest import run_scene, write_scene
+from conftest import ROOT, run_scene, write_scene
 from rftfem.errors import RunFailed
 from rftfem.quantities import evaluate
 from test_study import OMEGA, OMEGA_C, PROBES, adler_angle
 from test_magnetic import PLATE
 
 T_END = 0.5
+#: the tolerance of the strip test (benchmarks/strip_tolerance.py measures its cost)
+STRIP_TOL = 3e-3
 SETS = ["magnetic.field.frequency=1.0", "magnetic.field.rotation_axis=[0, 0, 1]",
         f"time.end={T_END}", "output.fields=false", "time.output_every=5"]
 
@@ -87,3 +89,21 @@ def test_fixed_steps_unchanged_without_tolerance(tmp_path):
     assert sim.summary["counts"]["steps"] == 50 and sim.summary["counts"]["rejected_steps"] == 0
     assert math.isclose(np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)[:, 1].min(),
                         0.01)
+
+
+@pytest.mark.slow
+def test_strip_tolerance_reaches_the_fine_step_speed(tmp_path, cli_run):
+    """The bidirectional strip at 4 Hz (+X protocol), mean speed along Z over
+    [0.2, 2.2] s: with time.tolerance = TOL from a first step of 1/400 s it is within
+    2 % of the same run at 200 fixed steps per period (which the strip's convergence
+    study puts within 0.03 % of 100 per period).  Only the accuracy is tested; what it
+    costs is benchmarks/strip_tolerance.py's."""
+    scene = ROOT / "demos" / "bidirectional_strip.toml"
+    common = ["time.end=2.2", "output.fields=false"]
+    fine = cli_run(scene, tmp_path / "fine", [*common, "time.dt=0.00125", "time.output_every=1"])
+    adaptive = cli_run(scene, tmp_path / "tol", [*common, f"time.tolerance={STRIP_TOL}",
+                                                 "time.dt=0.0025", "time.output_every=8"])
+    speed = {name: evaluate("rate(centroid_z, 0.2, 2.2)", out)
+             for name, out in (("fine", fine), ("tol", adaptive))}
+    print(speed, f"{100 * (speed['tol'] / speed['fine'] - 1):+.2f} %")
+    assert abs(speed["tol"] / speed["fine"] - 1) < 0.02
