@@ -11,7 +11,8 @@
 #
 # The window is the sweep's: from SETTLE (0.1 s) after the ramp, PERIODS field periods
 # (8) but at least WINDOW seconds (0.1).  With the defaults (2 to 128 Hz, 50/100/200
-# steps per period) it costs about 2 hours of one core.
+# steps per period) it costs about 2 hours of one core.  Levels that finished before
+# are kept (rftfem study --reuse): a second call only redoes the tables.
 set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -40,7 +41,7 @@ one() {
     dt=$(awk -v f="$f" -v s="$STEPS" 'BEGIN { printf "%.10g", 1 / (f * s) }')
     start=$(awk -v r="$ramp" -v s="$SETTLE" 'BEGIN { printf "%.10g", r + s }')
     echo "f = $f Hz: t_end = $end s, dt = $dt s and finer -> $OUT/f$f"
-    rftfem study "$SCENE" --out "$OUT/f$f" --refine dt --levels "$LEVELS" \
+    rftfem study "$SCENE" --out "$OUT/f$f" --refine dt --levels "$LEVELS" --reuse \
         --set "magnetic.field.frequency=$f" --set "time.end=$end" --set "time.dt=$dt" \
         --set "time.output_every=1" \
         --quantity "speed=rate(centroid_z, $start, $end)" > "$OUT/f$f.log" 2>&1 \

@@ -99,6 +99,7 @@ class Level:
     wall: float | None = None
     compile: float | None = None
     values: dict = field(default_factory=dict)  # quantity name -> float or None
+    exit_status: int = 0
 
 
 # --- the levels ---------------------------------------------------------------------
@@ -140,19 +141,44 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, lis
     return plans
 
 
+def _finished(level: Level, overrides: list[str], scene_file: str) -> bool:
+    """The level's folder holds a finished run of the same scene file and overrides."""
+    try:
+        summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return (summary.get("status") == "ok"
+            and summary.get("overrides") == [*overrides, *level.overrides]
+            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
+
+
 def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
-              petsc_args: list[str]) -> None:
-    """Run one level (a fresh folder) and read its summary into ``level``."""
-    if level.folder.exists():
+              petsc_args: list[str], reuse: bool = False) -> None:
+    """Run one level (a fresh folder) and read its summary into ``level``; with
+    ``reuse``, a finished run of the same level is read instead."""
+    if reuse and _finished(level, overrides, scene_file):
+        level.status = "reused"
+    elif level.folder.exists():
         shutil.rmtree(level.folder)
-    level.folder.mkdir(parents=True)
+    if level.status != "reused":
+        level.folder.mkdir(parents=True)
+        _run(level, scene_file, overrides, launcher, petsc_args)
+    _read_summary(level)
+
+
+def _run(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
+         petsc_args: list[str]) -> None:
     cmd = [*launcher, sys.executable, "-m", "rftfem", "run", scene_file, "--out",
            str(level.folder), "--quiet"]
     for text in [*overrides, *level.overrides]:
         cmd += ["--set", text]
     cmd += petsc_args
     with open(level.folder / "run.log", "w", encoding="utf-8") as log:
-        status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+        level.exit_status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+
+
+def _read_summary(level: Level) -> None:
+    status = level.exit_status
     try:
         summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -339,6 +365,9 @@ def add_arguments(parser):
                         help="levels run at the same time, each one process (default 1)")
     parser.add_argument("--np", metavar="P", type=int, default=1,
                         help="run each level under mpirun -n P (one level at a time)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="keep the levels whose folder holds a finished run of the same "
+                             "scene file and overrides (a study extended or re-analysed)")
 
 
 def _kinds(options: list[str]) -> list[str]:
@@ -387,7 +416,7 @@ def main(args, petsc_args: list[str], console) -> int:
     t0 = time.perf_counter()
 
     def one(lv: Level):
-        run_level(lv, args.scene, args.overrides, launcher, petsc_args)
+        run_level(lv, args.scene, args.overrides, launcher, petsc_args, args.reuse)
         evaluate_level(lv, quantities)
         what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
         console.out(f"  {lv.folder.name}: {lv.status} ({what}"

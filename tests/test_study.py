@@ -239,3 +239,28 @@ def test_bad_study_options_are_one_line_errors(tmp_path, args, words):
     for w in words:
         assert w in lines[0], (w, lines[0])
     assert not (tmp_path / "study" / "study.csv").exists()
+
+
+def test_reuse_keeps_finished_levels(tmp_path):
+    """--reuse reads the levels a study already ran (same scene file and overrides)
+    and computes the tables again, with a quantity added; a level whose overrides
+    changed runs again."""
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    sets = ["--set", "magnetic.field.frequency=1.0", "--set", "time.end=0.1",
+            "--set", "time.dt=0.05", "--set", "output.fields=false"]
+    first = study(tmp_path, scene, "--levels", 2, *sets, "--quantity", "x=b_ux@end")
+    assert first.returncode == 0, first.stderr
+    stamps = {d.name: (d / "summary.json").stat().st_mtime_ns
+              for d in (tmp_path / "study").iterdir() if d.is_dir()}
+    again = study(tmp_path, scene, "--levels", 3, "--reuse", *sets,
+                  "--quantity", "x=b_ux@end", "--quantity", "y=b_uy@end")
+    assert again.returncode == 0, again.stderr
+    for name, stamp in stamps.items():
+        assert (tmp_path / "study" / name / "summary.json").stat().st_mtime_ns == stamp
+    rows = rows_of(tmp_path, "y")
+    assert [r["status"] for r in rows] == ["ok"] * 3 and rows[2]["value"]
+    changed = study(tmp_path, scene, "--levels", 2, "--reuse", *sets, "--set", "time.end=0.2",
+                    "--quantity", "x=b_ux@end")
+    assert changed.returncode == 0, changed.stderr
+    assert (tmp_path / "study" / "level-0" / "summary.json").stat().st_mtime_ns \
+        != stamps["level-0"]
