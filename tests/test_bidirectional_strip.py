@@ -83,7 +83,7 @@ def test_opposite_protocols_swim_opposite_ways():
     assert min(abs(net[1.0]), abs(net[-1.0])) > 1.0
 
 
-def _sweep_run(tmp_path, demo, frequency, steps_per_period=50):
+def _sweep_run(tmp_path, demo, frequency, steps_per_period=100):
     """One run as demos/strip_sweep.sh makes it (settle 0.1 s after the ramp, then
     8 periods but at least 0.1 s), measured by the demo's own sweep code."""
     end = RAMP + demo.SETTLE + max(8 / frequency, 0.1)
@@ -110,8 +110,9 @@ def test_above_step_out_completes_and_slows(tmp_path):
     stepped-out run completes (status ok, finite, |d| = 1) and its mean speed is
     below the speed at F_UNDER.
 
-    Reached: 64 Hz slip −0.0008, +3.33 mm/s (70 cuts, none failed); 128 Hz
-    slip 1.55, +0.012 mm/s.  Before the triads' in-plane frames were realigned
+    Reached at the sweep's 100 steps per period: 64 Hz slip −0.0003, +3.318 mm/s
+    (no cut); 128 Hz slip 1.558, +0.008 mm/s (at 50 per period: −0.0008, +3.33 with
+    70 cuts; 1.55, +0.012).  Before the triads' in-plane frames were realigned
     (README, rotations) the 64 Hz run failed at t = 0.3186 s."""
     demo = _demo_module()
     rows = {}
