@@ -184,9 +184,8 @@ def _read_summary(level: Level) -> None:
     except (OSError, ValueError):
         summary = None
     if summary is None:
-        tail = (level.folder / "run.log").read_text(encoding="utf-8").strip().splitlines()
         level.status = "failed"
-        level.failure = (tail[-1] if tail else f"exit status {status}")[:300]
+        level.failure = _reason(level.folder / "run.log", status)
         return
     level.status = summary.get("status", "failed") if status == 0 else "failed"
     failure = summary.get("failure") or {}
@@ -214,6 +213,24 @@ def evaluate_level(level: Level, quantities) -> None:
         except SceneError as exc:
             level.values[name] = None
             level.status, level.failure = "failed", f"quantity {name}: {exc}"
+
+
+def _reason(log: Path, status: int) -> str:
+    """The line of a run's log that says why it ended without a summary: rftfem's own
+    one-line error, else a traceback's last line, else the launcher's first words."""
+    try:
+        lines = [ln.strip() for ln in log.read_text(encoding="utf-8", errors="replace")
+                 .splitlines() if any(c.isalnum() for c in ln)]
+    except OSError:
+        lines = []
+    own = [ln for ln in lines if ln.startswith("rftfem")]
+    if own:
+        line = own[-1]
+    elif any(ln.startswith("Traceback") for ln in lines):
+        line = lines[-1]
+    else:
+        line = lines[0] if lines else ""
+    return (line or f"exit status {status}")[:300] + f" (exit status {status}; {log})"
 
 
 # --- orders and estimates ---------------------------------------------------------

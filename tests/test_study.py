@@ -10,6 +10,7 @@ by an end moment (case B: the tip on a circle).
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 import math
 import sys
 
@@ -262,3 +263,41 @@ def test_reuse_keeps_finished_levels(tmp_path):
     assert changed.returncode == 0, changed.stderr
     assert (tmp_path / "study" / "level-0" / "summary.json").stat().st_mtime_ns \
         != stamps["level-0"]
+
+
+def test_levels_under_mpirun(tmp_path, mpirun):
+    """--np 2 runs every level on two processes (summary mpi_size) and gets the serial
+    values; a level whose launch fails says why in one line of its table row."""
+    import json
+    import os
+
+    exe, env = mpirun
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    sets = ["--set", "magnetic.field.frequency=1.0", "--set", "time.end=0.1",
+            "--set", "time.dt=0.05", "--set", "output.fields=false"]
+    values = {}
+    for np_ in (1, 2):
+        cmd = [sys.executable, "-m", "rftfem", "study", str(scene), "--levels", "2",
+               "--np", str(np_), "--out", str(tmp_path / f"np{np_}"), *sets,
+               "--quantity", "x=b_ux@end"]
+        done = run_command(cmd, cwd=ROOT, env=env, timeout=600)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+        with open(tmp_path / f"np{np_}" / "study.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        assert [r["status"] for r in rows] == ["ok", "ok"]
+        values[np_] = [float(r["value"]) for r in rows]
+        for r in rows:
+            summary = json.loads((Path(r["folder"]) / "summary.json").read_text())
+            assert summary["mpi_size"] == np_
+    assert values[2] == pytest.approx(values[1], rel=1e-10, abs=1e-14)
+    # Open MPI's mpirun refusing root without its two variables: the reason is its
+    # first line (MPICH, the current stack's, runs as root)
+    bare = {k: v for k, v in env.items() if not k.startswith("OMPI_ALLOW")}
+    version = run_command([exe, "--version"], env=env, timeout=60).stdout
+    if os.geteuid() == 0 and "Open MPI" in version:
+        done = run_command([sys.executable, "-m", "rftfem", "study", str(scene), "--levels", "2",
+                            "--np", "2", "--out", str(tmp_path / "root"), *sets,
+                            "--quantity", "x=b_ux@end"], cwd=ROOT, env=bare, timeout=600)
+        assert done.returncode == 0
+        text = (tmp_path / "root" / "study.md").read_text()
+        assert "failed: mpirun" in text and "run.log" in text
