@@ -425,7 +425,10 @@ def main(args, petsc_args: list[str], console) -> int:
                 load_scene(args.scene, [*args.overrides, *lv.overrides])
             except SceneError as exc:
                 raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
     launcher = _launcher(args.np)
     levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
     console.out(f"rftfem study: {len(levels)} runs of {args.scene} "

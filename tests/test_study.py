@@ -224,6 +224,7 @@ def test_a_failed_level_stays_in_the_table(tmp_path):
     (["--refine", "mesh", "--jobs", "2", "--np", "2", "--quantity", "t=tip_uz@end"],
      ["--jobs", "--np"]),
     (["--refine", "mesh", "--quantity", "t=spin(tip, tip, w)"], ["axis"]),
+    (["--refine", "mesh", "--quantity", "t=tip_uz@end", "--out", "FILE"], ["--out"]),
 ])
 def test_bad_study_options_are_one_line_errors(tmp_path, args, words):
     """Refused before anything runs, exit 2 and one line naming the option."""
@@ -231,13 +232,16 @@ def test_bad_study_options_are_one_line_errors(tmp_path, args, words):
     if words == ["--refine mesh", "divisions"]:   # a mesh from a file has no divisions
         scene = write_scene(tmp_path, GMSH_SCENE.format(ROOT / "tests" / "data"
                                                         / "two_quads_v22.msh"))
+    if "FILE" in args:   # an --out that is a file (the last --out given wins)
+        (tmp_path / "file").write_text("")
+        args = [str(tmp_path / "file") if a == "FILE" else a for a in args]
     done = study(tmp_path, scene, *args, timeout=120)
     assert done.returncode == 2, done.stdout + done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
     for w in words:
         assert w in lines[0], (w, lines[0])
-    assert not (tmp_path / "study" / "study.csv").exists()
+    assert not (tmp_path / "study").exists()     # refused before anything ran
 
 
 def test_reuse_keeps_finished_levels(tmp_path):
