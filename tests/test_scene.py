@@ -95,6 +95,7 @@ def test_minimal_scene_gets_every_default(write):
                           "axis": [1.0, 0.0, 0.0], "parts": []}
     assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "rho_inf": 0.9,
                          "alpha": -0.05, "output_every": 1, "max_cuts": 8,
+                         "tolerance": None, "dt_min": None, "dt_max": None,
                          "max_rotation": 0.2}
     assert s["boundary"] == [] and s["load"] == [] and s["motion"] == [] and s["hinge"] == []
     assert s["fluid"] is None and s["magnetic"] is None
