@@ -74,8 +74,10 @@ class Model:
         self.increments = []
         #: the largest displacement increment of the last prediction (0: none made)
         self.predicted_step = 0.0
-        #: the last predictions {past steps used: (u, θ)}, or None
+        #: the last predictions {past steps used: (u, θ)}, or None; made only when
+        #: ``keep_predictions`` (error-controlled steps)
         self.prediction = None
+        self.keep_predictions = False
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -308,7 +310,9 @@ class Model:
             return
         du, theta, dt_1 = self.increments[0]
         qu, qt = du / dt_1, theta / dt_1
-        linear = (self.w.x.array[self.u_dofs] + dt * qu, dt * qt)
+        # kept for the error control (time.tolerance) only: two vector copies a step
+        linear = (self.w.x.array[self.u_dofs] + dt * qu, dt * qt) if self.keep_predictions \
+            else None
         if len(self.increments) == 2:
             du_0, theta_0, dt_0 = self.increments[1]
             weight = (0.5 * (dt_1 + dt)) / (0.5 * (dt_1 + dt_0))
@@ -316,8 +320,9 @@ class Model:
             qt = qt + weight * (qt - theta_0 / dt_0)
         self.w.x.array[self.u_dofs] += dt * qu
         self.w.x.array[self.theta_dofs] = dt * qt
-        self.prediction = {1: linear, len(self.increments): (self.w.x.array[self.u_dofs].copy(),
-                                                             dt * qt)}
+        if self.keep_predictions:
+            self.prediction = {1: linear, len(self.increments):
+                               (self.w.x.array[self.u_dofs].copy(), dt * qt)}
         local = float(np.abs(qu).max()) * dt if len(qu) else 0.0
         self.predicted_step = self.comm.allreduce(local, op=MPI.MAX)
 

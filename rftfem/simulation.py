@@ -222,6 +222,7 @@ class Simulation:
         Steps are clipped to land on every output time (``output_every`` × ``dt``)."""
         time_ = self.scene["time"]
         tol, end = time_["tolerance"], time_["end"]
+        self.model.keep_predictions = True
         dt_min, dt_max = time_["dt_min"], time_["dt_max"]
         spacing = time_["dt"] * time_["output_every"]
         exponent = 1.0 / (self.scheme.order + 1)
