@@ -293,7 +293,8 @@ def test_levels_under_mpirun(tmp_path, mpirun):
         for r in rows:
             summary = json.loads((Path(r["folder"]) / "summary.json").read_text())
             assert summary["mpi_size"] == np_
-    assert values[2] == pytest.approx(values[1], rel=1e-10, abs=1e-14)
+    # equal to the Newton tolerance (the reductions differ in the last bits by rank count)
+    assert values[2] == pytest.approx(values[1], rel=1e-8, abs=1e-14)
     # Open MPI's mpirun refusing root without its two variables: the reason is its
     # first line (MPICH, the current stack's, runs as root)
     bare = {k: v for k, v in env.items() if not k.startswith("OMPI_ALLOW")}
