@@ -61,3 +61,30 @@ def stored_energy(strains, G1, G2, E, nu, t, dx, h):
     dx_full = dx(metadata={"quadrature_degree": FULL_DEGREE})
     dx_reduced = dx(metadata={"quadrature_degree": REDUCED_DEGREE})
     return (psi_b + alpha * psi_ms) * dx_full + (1 - alpha) * psi_ms * dx_reduced
+
+
+def mixed_point_tangent(strains, defects, G1, G2, E, nu, t, dx, h):
+    """The 0-form ``−∫ [n(R_ε):ε + q(R_γ)·γ] dA₀`` whose second derivative, added to the
+    exact tangent, gives the tangent of the mixed-integration-point Newton method
+    (docs/model.md §7.4).
+
+    ``strains = (ε, κ, γ)`` of the unknown; ``defects = (R_ε, R_γ)``, the membrane and
+    shear strains' linearization defects at the iterate, ``R = ε(w) − ε(w_p) −
+    Dε(w_p)[w − w_p]`` with ``w_p`` the previous iterate; the form treats them as
+    data.  The exact tangent's geometric stiffness carries the iterate's stress
+    resultants ``n = t C(ε)``; this one carries those linearized from the previous
+    iterate, ``n − t C(R_ε)`` (and the same for the shear force), so the membrane
+    forces of a linearized rotation, ``t C(½ δg_a·δg_b)``, do not enter the next
+    tangent.  Same PSRI weights and quadrature as ``stored_energy``.
+    """
+    eps, _, gamma = strains
+    R_eps, R_gamma = defects
+    A_inv = ufl.inv(metric(G1, G2))
+    mu = E / (2 * (1 + nu))
+    n_defect = t * plane_stress(R_eps, A_inv, E, nu)
+    q_defect = t * SHEAR_CORRECTION * mu * A_inv * R_gamma
+    work = ufl.inner(n_defect, eps) + ufl.dot(q_defect, gamma)
+    alpha = psri_weight(t, h)
+    dx_full = dx(metadata={"quadrature_degree": FULL_DEGREE})
+    dx_reduced = dx(metadata={"quadrature_degree": REDUCED_DEGREE})
+    return -(alpha * work * dx_full + (1 - alpha) * work * dx_reduced)

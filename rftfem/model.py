@@ -37,7 +37,8 @@ from .triad import Triads
 class Model:
     """Function spaces, state, material fields and the active effects of one scene."""
 
-    def __init__(self, scene: dict, body, compile_forms: bool = True):
+    def __init__(self, scene: dict, body, compile_forms: bool = True,
+                 tangent: str = "mixed-point"):
         self.scene, self.body, self.compile_forms = scene, body, compile_forms
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -78,6 +79,12 @@ class Model:
         #: ``keep_predictions`` (error-controlled steps)
         self.prediction = None
         self.keep_predictions = False
+
+        #: the previous and the current Newton iterate and their difference: the data of
+        #: the mixed-integration-point tangent (docs/model.md §7.4), set by the solver
+        self.newton_previous, self.newton_current, self.newton_update = (
+            fem.Function(self.W, name=n) for n in ("w_previous", "w_current", "w_update"))
+        self.mixed_point = tangent == "mixed-point"
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -152,19 +159,23 @@ class Model:
         ``thetas``, the director ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and
         the test functions ``w_test`` (all unknowns) and ``du`` (its displacement part)."""
         if self._kinematics is None:
-            u, *thetas = ufl.split(self.w)
-            G1, G2 = kinematics.covariant_basis(self.mesh)
-            directors = [kinematics.director(theta, *triad)
-                         for theta, triad in zip(thetas, self.triads)]
-            d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
-                 else directors[0])
-            g1, g2 = kinematics.surface_basis(u, G1, G2)
             w_test = ufl.TestFunction(self.W)
-            self._kinematics = SimpleNamespace(
-                u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
-                F_s=kinematics.surface_deformation_gradient(u), w_test=w_test,
-                du=ufl.split(w_test)[0])
+            self._kinematics = self.kinematics_of(self.w)
+            self._kinematics.w_test, self._kinematics.du = w_test, ufl.split(w_test)[0]
         return self._kinematics
+
+    def kinematics_of(self, w) -> SimpleNamespace:
+        """The kinematics of ``kinematics()`` for any function ``w`` of the mixed space
+        (its rotations measured in the step's triads), without test functions."""
+        u, *thetas = ufl.split(w)
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        directors = [kinematics.director(theta, *triad)
+                     for theta, triad in zip(thetas, self.triads)]
+        d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
+             else directors[0])
+        g1, g2 = kinematics.surface_basis(u, G1, G2)
+        return SimpleNamespace(u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
+                               F_s=kinematics.surface_deformation_gradient(u))
 
     def velocity(self, u):
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
@@ -194,7 +205,13 @@ class Model:
         terms = list(self.effects.values())
         self.forces_ufl = sum(terms[1:], terms[0])
         residual = (1 - self.coef["alpha_f"]) * self.forces_ufl + (self.inertia or 0)
-        self.jacobian_ufl = ufl.derivative(residual, self.w, ufl.TrialFunction(self.W))
+        trial = ufl.TrialFunction(self.W)
+        self.jacobian_ufl = ufl.derivative(residual, self.w, trial)
+        corrections = [c.tangent_correction() for c in self.components] if self.mixed_point \
+            else []
+        for corr in (c for c in corrections if c is not None):
+            self.jacobian_ufl += (1 - self.coef["alpha_f"]) * ufl.derivative(
+                ufl.derivative(corr, self.w, w_test), self.w, trial)
         self.forces_form = self.inertia_form = self.jacobian_form = None
         if self.compile_forms:
             self.forces_form = self.compile(self.forces_ufl)
@@ -273,6 +290,26 @@ class Model:
         theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
         local = float(np.sqrt((theta**2).sum(axis=1)).max()) if len(theta) else 0.0
         return self.comm.allreduce(local, op=MPI.MAX)
+
+    def start_newton(self):
+        """The step's start, ``(u_n, θ = 0)``, becomes the previous iterate of its first
+        tangent (docs/model.md §7.4): a predicted start is then a linearized one."""
+        self._newton_last = np.empty_like(self.w.x.array)
+        self._newton_last[self.u_dofs] = self.u_n.x.array
+        self._newton_last[self.theta_dofs] = 0.0
+
+    def tangent_at_iterate(self):
+        """Before a tangent at the iterate ``w``: the data of its correction (the last
+        iterate, this one, their difference); this one is the next one's last."""
+        if not self.mixed_point:
+            return
+        if getattr(self, "_newton_last", None) is None:
+            self.start_newton()
+        current = self.w.x.array
+        self.newton_previous.x.array[:] = self._newton_last
+        self.newton_current.x.array[:] = current
+        self.newton_update.x.array[:] = current - self._newton_last
+        self._newton_last = current.copy()
 
     def update_triad(self):
         """Rotate the nodal triads by the converged θ and realign them (triad.py); θ = 0."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from . import compat
+from .errors import SceneError
 
 PREFIX = "rftfem_"
 
@@ -18,6 +19,22 @@ ATOL_FACTOR = 1e-7
 #: Relative to the elastic force scale (``Model.elastic_force``): below this a
 #: residual that Newton stops reducing is round-off (solver.StepSolver._converged)
 ROUNDOFF_FACTOR = 1e-10
+
+
+#: rftfem's own option of the solve, read from ``[solver]`` or the command line but
+#: not given to PETSc: the Newton tangent (docs/model.md §7.4), the default first
+TANGENTS = ("mixed-point", "exact")
+
+
+def tangent(scene_solver: dict | None = None, command_line: list[str] | None = None) -> str:
+    """The Newton tangent a run asks for: ``solver.tangent`` in the scene, replaced by
+    ``-tangent`` on the command line; one of ``TANGENTS``."""
+    value = (scene_solver or {}).get("tangent", TANGENTS[0])
+    value = parse_command_line(command_line or []).get("tangent", value)
+    if value not in TANGENTS:
+        raise SceneError(f"solver.tangent: expected one of {', '.join(map(repr, TANGENTS))}, "
+                         f"found {value!r}")
+    return value
 
 
 def defaults(reference_force: float) -> dict:
@@ -109,6 +126,7 @@ def merged(reference_force: float, scene_solver: dict | None = None,
         else:
             opts[key] = "" if value is True else value
     opts.update(parse_command_line(command_line or []))
+    opts.pop("tangent", None)  # rftfem's, not PETSc's
     return opts
 
 

@@ -200,6 +200,9 @@ def _cross_check(scene: dict) -> None:
                 part[key] = shell[key]
     check_unique(shell["parts"], "region", "shell.parts", "region")
 
+    from .petsc_options import tangent
+    tangent(scene.get("solver"))  # rftfem's own key of [solver]
+
     # time
     if time["dt"] > time["end"]:
         raise SceneError(f"time.dt: expected a number <= time.end = {fmt(time['end'])}, "

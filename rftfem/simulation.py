@@ -39,14 +39,18 @@ from .timeint import BackwardEuler, Static, make_scheme
 NEWTON_GROWTH_LIMIT = 8
 
 
-def build_model(scene: dict, comm, compile_forms: bool = True) -> Model:
-    """The scene's body (its hinge lines cut into strip meshes) and its Model."""
+def build_model(scene: dict, comm, compile_forms: bool = True,
+                tangent: str | None = None) -> Model:
+    """The scene's body (its hinge lines cut into strip meshes) and its Model, with
+    the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
     from rftfem.meshes import build_body
 
     scene_dir = Path(scene.get("_path", ".")).parent
     lines = [h["where"] for h in scene.get("hinge") or []]
     body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
-    return Model(scene, body, compile_forms=compile_forms)
+    if tangent is None:
+        tangent = petsc_options.tangent(scene.get("solver"))
+    return Model(scene, body, compile_forms=compile_forms, tangent=tangent)
 
 
 def check(scene: dict, comm=None) -> list[str]:
@@ -88,7 +92,8 @@ class Simulation:
         self.observers = list(observers)
         _quiet_compilers()
         t0 = _time.perf_counter()
-        self.model = build_model(scene, self.comm)
+        self.model = build_model(scene, self.comm,
+                                 tangent=petsc_options.tangent(scene.get("solver"), petsc_args))
         self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
         self.scheme = make_scheme(scene["time"])
         self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),

@@ -152,6 +152,7 @@ class StepSolver:
     def _jacobian(self, snes, x, A, P):
         t0 = _time.perf_counter()
         self._sync(x)
+        self.model.tangent_at_iterate()
         A.zeroEntries()
         compat.assemble_matrix(A, self.model.jacobian_form, self.model.bcs)
         A.assemble()
@@ -167,6 +168,7 @@ class StepSolver:
         w.copy(self.x)
         if self.model.has_moving_bcs:
             self._start_on_motions(w)
+        self.model.start_newton()
         try:
             self.snes.solve(None, self.x)
         except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving

@@ -55,6 +55,10 @@ class Effect:
     def forces(self):
         """Virtual work of its other non-inertial forces, internal minus external, or None."""
 
+    def tangent_correction(self):
+        """A 0-form whose second derivative is added to the Newton tangent, not to the
+        residual (the converged state is the same), or None."""
+
     def inertia(self):
         """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
 
