@@ -168,7 +168,10 @@ SCHEMA = Table({
     "solver": Free(doc="PETSc options of the nonlinear solve, named without prefix or dash "
                         "(snes_rtol, ksp_type, pc_type, ...). They replace rftfem's defaults; "
                         "PETSc options on the `rftfem run` command line replace them in "
-                        "turn."),
+                        "turn. One key is rftfem's own: `tangent`, the Newton tangent, "
+                        '"mixed-point" (default: membrane and shear forces in the geometric '
+                        'stiffness linearized from the last iterate) or "exact" '
+                        "(docs/model.md §7.4); `-tangent exact` on the command line."),
 }, doc="The top level of the scene file.")
 
 #: the order the reference lists the top-level keys in; an effect's key not named
