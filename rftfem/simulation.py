@@ -144,6 +144,18 @@ class Simulation:
         self.wall["update"] += _time.perf_counter() - t0
         return True, its, res, reason
 
+    def _free(self) -> bool:
+        """No support, no prescribed motion and no drag hold the body's rigid motions."""
+        return not (self.scene["boundary"] or self.scene["motion"] or self.model.get("drag"))
+
+    def _unresolved_hint(self) -> str:
+        """What to change when a step is not resolved and nothing holds the body: without
+        mass either its stiffness is singular for every step size."""
+        if self._free() and self.model.inertia_form is None:
+            return ("; nothing holds this body: without a [[boundary]], a [[motion]], a "
+                    "[fluid] or mass its rigid motions are free and every step is singular")
+        return ""
+
     def _initial_equilibrium(self):
         """Equilibrium with the t = 0 loads and motions; the run then starts at rest.
 
@@ -164,9 +176,8 @@ class Simulation:
         finally:
             self.solver.force_iteration()
         if not ok:
-            free = not (self.scene["boundary"] or self.scene["motion"] or m.get("drag"))
             hint = ("; nothing holds this body, so the loads must start at zero (a ramp "
-                    "from 0) unless a [fluid] holds it" if free else "")
+                    "from 0) unless a [fluid] holds it" if self._free() else "")
             raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})"
                             + hint, 0.0, 0)
         m.v_n.x.array[:] = 0.0
@@ -198,7 +209,7 @@ class Simulation:
             if level >= max_cuts:
                 raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
                                 f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
-                                f"dt = {dt:.3e}",
+                                f"dt = {dt:.3e}" + self._unresolved_hint(),
                                 self.t + dt, self.step)
             self.counts["dt_cuts"] += 1
             level, good = level + 1, 0
@@ -282,7 +293,8 @@ class Simulation:
                     if cuts_in_row > time_["max_cuts"]:
                         raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, "
                                         f"residual {res:.3e}) after {time_['max_cuts']} step "
-                                        f"halvings in a row (time.max_cuts), dt = {step:.3e}",
+                                        f"halvings in a row (time.max_cuts), dt = {step:.3e}"
+                                        + self._unresolved_hint(),
                                         self.t + step, self.counts["steps"] + 1)
                     h = step / 2
                     progress.log(f"step {self.counts['steps'] + 1} at t = {self.t:.6g}: {reason} "
