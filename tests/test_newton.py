@@ -103,24 +103,6 @@ def test_thin_rollup_needs_no_halving(tmp_path):
     assert at_one[1] == pytest.approx(-12.0, rel=0.01)
 
 
-PLATE = """
-title = "a plate turned rigidly by hand"
-[mesh]
-kind = "strip"
-length = 2.0
-width = 1.0
-divisions = [4, 2]
-[shell]
-thickness = 0.1
-E = 1.0e7
-nu = 0.3
-[fluid]
-drag = [2.0e-3, 2.0e-3, 1.0e-3]
-[time]
-scheme = "backward-euler"
-end = 1.0
-dt = 0.1
-"""
 
 
 def test_prediction_of_a_steady_turn_is_exact(tmp_path):
@@ -129,8 +111,9 @@ def test_prediction_of_a_steady_turn_is_exact(tmp_path):
     rotation, is the exact position (round-off); a polynomial in time cuts the
     chord, an error of order φ³."""
     from conftest import build_model
+    from test_magnetic import PLATE
 
-    model = build_model(PLATE, tmp_path)
+    model = build_model(PLATE, tmp_path, overrides=["time.end=1.0", "time.dt=0.1"])
     scheme = make_scheme(model.scene["time"])
     X = model.Vu.tabulate_dof_coordinates()
     phi, dt = 0.3, 0.1
