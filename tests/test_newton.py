@@ -103,8 +103,6 @@ def test_thin_rollup_needs_no_halving(tmp_path):
     assert at_one[1] == pytest.approx(-12.0, rel=0.01)
 
 
-
-
 def test_prediction_of_a_steady_turn_is_exact(tmp_path):
     """A body turning rigidly about an in-plane axis by φ a step: after two such
     steps the prediction of the third, from the increments turned by each node's
