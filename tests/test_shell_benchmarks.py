@@ -199,14 +199,18 @@ def test_rollup_leaves_its_plane_near_closure_once_symmetry_is_broken(tmp_path):
     past M/Mmax ≈ 0.8 the strip leaves its plane as soon as something breaks the
     symmetry. On 32x1 P2 triangles (their diagonals do) the tip ends 1.5 mm off the
     plane at Mmax; on 32x1 quadrilaterals, which stay planar alone, a side moment of
-    1e-4 M sends the tip to the same place (within 5 % of the tip's travel). So
-    Sze 3.2 beyond 0.75 Mmax is a check of a symmetric mesh, not of the shell."""
+    1e-3 M sends the tip to the same place (within 5 % of the tip's travel). So
+    Sze 3.2 beyond 0.75 Mmax is a check of a symmetric mesh, not of the shell.
+    Load steps know no stability: which branch a step lands on is where its Newton
+    iterations lead.  With the exact tangent 1e-4 M was enough; the mixed-point
+    tangent (docs/model.md §7.4) stays on the unstable planar branch at 1e-4 M and
+    leaves it at 1e-3 M for the same tip as the exact one (to 1e-14)."""
     tri = run_scene(DEMOS / "rollup.toml", "mesh.cell=triangle", "mesh.divisions=[32, 1]",
                     *_rollup_until(1.0), out_dir=tmp_path / "tri").history[-1][1][0]
     end, load = _rollup_until(1.0)
     m = float(load.split("[")[1].split(",")[1])
     quad = run_scene(DEMOS / "rollup.toml", "mesh.divisions=[32, 1]", end,
-                     f"load.0.value=[{1e-4 * m!r}, {m!r}, {1e-4 * m!r}]",
+                     f"load.0.value=[{1e-3 * m!r}, {m!r}, {1e-3 * m!r}]",
                      out_dir=tmp_path / "quad").history[-1][1][0]
     travel = np.linalg.norm(tri)
     print(f"tip at Mmax: triangles {tri}, quadrilaterals with 1e-4 side moment {quad}")
