@@ -10,7 +10,7 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from . import compat
-from .errors import SceneError
+from .schema import TANGENTS, check_tangent
 
 PREFIX = "rftfem_"
 
@@ -21,20 +21,12 @@ ATOL_FACTOR = 1e-7
 ROUNDOFF_FACTOR = 1e-10
 
 
-#: rftfem's own option of the solve, read from ``[solver]`` or the command line but
-#: not given to PETSc: the Newton tangent (docs/model.md §7.4), the default first
-TANGENTS = ("mixed-point", "exact")
-
-
 def tangent(scene_solver: dict | None = None, command_line: list[str] | None = None) -> str:
     """The Newton tangent a run asks for: ``solver.tangent`` in the scene, replaced by
     ``-tangent`` on the command line; one of ``TANGENTS``."""
     value = (scene_solver or {}).get("tangent", TANGENTS[0])
     value = parse_command_line(command_line or []).get("tangent", value)
-    if value not in TANGENTS:
-        raise SceneError(f"solver.tangent: expected one of {', '.join(map(repr, TANGENTS))}, "
-                         f"found {value!r}")
-    return value
+    return check_tangent(value)
 
 
 def defaults(reference_force: float) -> dict:

@@ -47,9 +47,9 @@ from typing import Any, Iterable
 from rftfem import effects
 from rftfem.effects.inertia import has_density
 from rftfem.errors import SceneError
-from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, Array, Bool, Free, Int, Leaf,
-                           Num, Str, Table, Vec, check_unique, err, fmt, join, section, suggest,
-                           validate_table)
+from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array, Bool, Free, Int,
+                           Leaf, Num, Str, Table, Vec, check_tangent, check_unique, err, fmt, join,
+                           section, suggest, validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
 from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 
@@ -203,8 +203,9 @@ def _cross_check(scene: dict) -> None:
                 part[key] = shell[key]
     check_unique(shell["parts"], "region", "shell.parts", "region")
 
-    from .petsc_options import tangent
-    tangent(scene.get("solver"))  # rftfem's own key of [solver]
+    # rftfem's own key of [solver] (petsc_options is not imported here: PETSc would
+    # start MPI in a process that may launch mpirun, as `rftfem study --np` does)
+    check_tangent((scene.get("solver") or {}).get("tangent", TANGENTS[0]))
 
     # time
     if time["dt"] > time["end"]:

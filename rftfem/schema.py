@@ -234,3 +234,15 @@ def table_iff(entry: dict, path: str, switch: str, key: str, what: str):
         raise SceneError(f"{path}.{key}: only used with {switch} = \"table\", found "
                          f"{path}.{switch} = {fmt(entry[switch])}")
 
+
+#: rftfem's own key of ``[solver]`` (not given to PETSc): the Newton tangent
+#: (docs/model.md §7.4), the default first
+TANGENTS = ("mixed-point", "exact")
+
+
+def check_tangent(value, where: str = "solver.tangent") -> str:
+    """``value`` if it names a tangent of ``TANGENTS``, else a one-line SceneError."""
+    if value not in TANGENTS:
+        raise SceneError(f"{where}: expected one of {', '.join(map(repr, TANGENTS))}, "
+                         f"found {value!r}")
+    return value
