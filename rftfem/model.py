@@ -86,6 +86,7 @@ class Model:
         self.newton_previous, self.newton_current, self.newton_update = (
             fem.Function(self.W, name=n) for n in ("w_previous", "w_current", "w_update"))
         self.mixed_point = tangent == "mixed-point"
+        self._newton_last = None  # the iterate of the last tangent (tangent_at_iterate)
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -306,7 +307,7 @@ class Model:
         if not self.mixed_point:
             return
         current = self.w.x.array
-        if getattr(self, "_newton_last", None) is None:
+        if self._newton_last is None:
             self._newton_last = current.copy()
         self.newton_previous.x.array[:] = self._newton_last
         self.newton_current.x.array[:] = current
@@ -370,18 +371,21 @@ class Model:
         stretches the body (a plate spinning 1/16 turn a step: 7.0 Newton iterations
         a step from the polynomial, 4.3 from the turned increments)."""
         du, theta, dt_1 = self.increments[0]
-        turned = lambda v, scale: v                         # noqa: E731
+        rot = None
         if turn and self.n_colours == 1:
             idx = self.triad.node_maps[0]
             a1, a2, _ = (f.x.array.reshape(-1, 3) for f in self.triads[0])
             th = theta.reshape(-1, 2)
             rot = th[:, 0:1] * a1[idx] + th[:, 1:2] * a2[idx]
 
-            def turned(v, scale):                           # noqa: F811
-                v3 = v.reshape(-1, 3).copy()
-                v3[idx] = triad_rotate(v3[idx], scale * rot)
-                return v3.ravel()
-            du = turned(du, dt / dt_1)
+        def turned(v, scale):
+            """``v`` with each node's vector turned by ``scale`` × its rotation increment."""
+            if rot is None:
+                return v
+            v3 = v.reshape(-1, 3).copy()
+            v3[idx] = triad_rotate(v3[idx], scale * rot)
+            return v3.ravel()
+        du = turned(du, dt / dt_1)
         qu, qt = du / dt_1, theta / dt_1
         if len(self.increments) == 2:
             du_0, theta_0, dt_0 = self.increments[1]
