@@ -24,7 +24,7 @@ import sys
 from pathlib import Path
 
 from rftfem import __version__
-from rftfem.errors import RunFailed, SceneError
+from rftfem.errors import RunFailed, RunInterrupted, SceneError
 
 _PETSC_OPTION = re.compile(r"^-[A-Za-z]")
 # Environment variables set by the common MPI launchers (Open MPI, MPICH/Hydra, PMIx, Slurm).
@@ -186,7 +186,8 @@ def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
         from rftfem.simulation import run as run_simulation
 
         console.refresh()  # the simulation brought in mpi4py
-        run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args)
+        run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args,
+                       signals=True)
         status = 0
     except SceneError as exc:
         console.refresh()
@@ -196,6 +197,10 @@ def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
         console.refresh()
         console.err(f"rftfem: {exc}; outputs so far are in {out_dir}")
         status = RunFailed.exit_status
+    except RunInterrupted as exc:
+        console.refresh()
+        console.err(f"rftfem: {exc}; outputs so far are in {out_dir}")
+        status = exc.exit_status
     if status == 0 and not args.quiet:
         console.out(f"rftfem: done, outputs in {out_dir}")
     return console.agree(status)

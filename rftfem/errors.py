@@ -17,3 +17,32 @@ class RunFailed(RuntimeError):
         self.reason, self.time, self.step = reason, time, step
         where = "" if time is None else f" at t = {time:.6g} (step {step})"
         super().__init__(f"run failed{where}: {reason}")
+
+
+class RunInterrupted(RuntimeError):
+    """The run was stopped by a signal (SIGINT, SIGTERM): exit status 128 + its
+    number (130, 143); outputs written so far are kept and closed.  ``immediate``:
+    a second signal stopped it inside a step, without a last output row."""
+
+    def __init__(self, signum: int, time: float | None = None, step: int | None = None,
+                 immediate: bool = False):
+        self.signum, self.time, self.step, self.immediate = signum, time, step, immediate
+        super().__init__(signum)
+
+    @property
+    def exit_status(self) -> int:
+        return 128 + int(self.signum)
+
+    @property
+    def signal_name(self) -> str:
+        import signal
+
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+    def __str__(self) -> str:
+        where = "" if self.time is None else f" at t = {self.time:.6g} (step {self.step})"
+        how = " at once (a second signal)" if self.immediate else " after its step"
+        return f"run interrupted by {self.signal_name}{where}{how}"

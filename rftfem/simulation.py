@@ -26,7 +26,8 @@ import numpy as np
 from mpi4py import MPI
 
 from . import __version__, compat, petsc_options
-from .errors import RunFailed, SceneError
+from .errors import RunFailed, RunInterrupted, SceneError
+from .interrupts import NoStops, StopRequests
 from .model import Model
 from .output import (BodyLog, CsvLog, FieldWriter, Probes, Progress, render_in_child,
                      write_json)
@@ -80,12 +81,15 @@ def _make_out_dir(out: Path | None, comm):
 
 
 class Simulation:
-    """One run of a scene; ``observers`` are called as ``f(sim)`` after every step."""
+    """One run of a scene; ``observers`` are called as ``f(sim)`` after every step.
+    With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py)."""
 
     def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
-                 petsc_args: list[str] | None = None, comm=None, observers=()):
+                 petsc_args: list[str] | None = None, comm=None, observers=(),
+                 signals: bool = False):
         self.scene = scene
         self.comm = comm or MPI.COMM_WORLD
+        self.stops = StopRequests(self.comm) if signals else NoStops()
         self.out_dir = Path(out_dir) if out_dir is not None else None
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
@@ -102,6 +106,7 @@ class Simulation:
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
         self.step = 0
+        self.completed = 0  # steps done (self.step may be the one under way)
         self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
         #: wall seconds outside the solver: outputs, loads and motions set for a step
         #: (set_time), the state and triad update after it (accept)
@@ -268,6 +273,7 @@ class Simulation:
                 if ok:
                     self.t += step
                     self.step = self.counts["steps"] = self.counts["steps"] + 1
+                    self.completed = self.step
                     cuts_in_row = 0
                     if steps_log is not None:
                         steps_log.row([self.t, step, its, res, _time.perf_counter() - wall0])
@@ -283,6 +289,7 @@ class Simulation:
                     h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
                     progress.update(self.t, self.step, self.counts["newton_iterations"],
                                     self.solver.snes.getFunctionNorm())
+                    self._stop_if_asked(logs)
                     continue
                 if self.rejected:
                     self.counts["rejected_steps"] += 1
@@ -309,6 +316,19 @@ class Simulation:
     # --- the run -------------------------------------------------------------
 
     def run(self) -> dict:
+        with self.stops:
+            return self._run()
+
+    def _stop_if_asked(self, logs: dict):
+        """After a step: if a signal asked any rank to stop, write a last output row
+        (unless this time has one) and stop (interrupts.py)."""
+        signum = self.stops.requested()
+        if signum:
+            if not self.history or self.history[-1][0] != self.t:
+                self._write_output(logs, self.t)
+            raise RunInterrupted(signum, self.t, self.step)
+
+    def _run(self) -> dict:
         scene, comm = self.scene, self.comm
         time_ = scene["time"]
         out = self.out_dir
@@ -334,12 +354,28 @@ class Simulation:
                     self._write_output(logs, self.t)
                 progress.update(self.t, self.step, self.counts["newton_iterations"],
                                 self.solver.snes.getFunctionNorm())
+                self.completed = self.step
+                if self.step < n_steps:
+                    self._stop_if_asked(logs)
             summary = self._summary("ok", wall_start)
         except RunFailed as err:
             summary = self._summary("failed", wall_start)
             summary["failure"] = {"time": err.time, "step": err.step, "reason": err.reason}
             raise
+        except BaseException as exc:
+            if not (isinstance(exc, RunInterrupted) or self.stops.immediate):
+                raise
+            # a second signal may surface inside a PETSc callback as another error
+            err = exc if isinstance(exc, RunInterrupted) else RunInterrupted(
+                self.stops.signum, immediate=True)
+            if err.time is None:  # stopped inside a step: where the last one ended
+                err.time, err.step = self.t, self.completed
+            summary = self._summary("interrupted", wall_start)
+            summary["interrupt"] = {"signal": err.signal_name, "time": err.time,
+                                    "step": err.step, "immediate": err.immediate}
+            raise err from None
         finally:
+            self.stops.closing()
             progress.close()
             for log in logs.values():
                 log.close()
@@ -412,9 +448,11 @@ class Simulation:
 
 
 def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
-        petsc_args: list[str] | None = None, comm=None, observers=()) -> dict:
-    """Run a validated scene; write outputs to ``out_dir``; return the summary."""
-    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers)
+        petsc_args: list[str] | None = None, comm=None, observers=(),
+        signals: bool = False) -> dict:
+    """Run a validated scene; write outputs to ``out_dir``; return the summary.  With
+    ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py)."""
+    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals)
     try:
         return sim.run()
     finally:

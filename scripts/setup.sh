@@ -35,12 +35,12 @@ RENDER_APT=(libegl1 libgl1-mesa-dri)
 REF_APT=(
     python3-dolfinx-real python3-gmsh openmpi-bin
     python3-venv python3-pip python3-setuptools
-    python3-matplotlib python3-pytest
+    python3-matplotlib python3-pytest python3-h5py-mpi python3-hypothesis
     "${RENDER_APT[@]}"
 )
 
 CUR_VENV="$ROOT/.venv-current"
-CUR_PIP=(dolfinx-solver-real gmsh)
+CUR_PIP=(dolfinx-solver-real gmsh h5py hypothesis)
 # Shared libraries the gmsh wheel's libgmsh links against (readelf NEEDED),
 # mapped to their Debian packages, plus a C compiler and libc headers for the
 # FFCx just-in-time compilation of forms.

@@ -1,0 +1,181 @@
+"""Interrupts: SIGINT and SIGTERM stop ``rftfem run`` after its step with every file
+valid (docs/scenes.md, "Interrupts").
+
+Each test starts a real run of the swimming sheet (a row every step), waits until
+rows are written, signals it and checks: the exit status (128 + the signal), the
+summary's ``"interrupted"`` with the time and step reached, ``probes.csv`` and
+``body.csv`` parseable with one row per output time and the last at the time
+reached, and ``fields.h5`` readable with h5py (in a child process: h5py and
+dolfinx may carry different HDF5 libraries) up to that time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import DEMOS, ROOT
+
+SHEET = DEMOS / "swimming_sheet.toml"
+SETS = ["time.output_every=1"]
+ROWS_BEFORE_SIGNAL = 6  # header included: five output times, t = 0 and four steps
+
+_H5_TIMES = """
+import json, sys
+import h5py
+with h5py.File(sys.argv[1], "r") as f:
+    names = {k: sorted(float(t.replace("_", ".")) for t in f["Function"][k]) for k in f["Function"]}
+    first = f["Function/displacement"][sorted(f["Function/displacement"])[0]][()]
+print(json.dumps({"names": names, "finite": bool((first == first).all())}))
+"""
+
+
+def _children(pid: int) -> list[int]:
+    """Every descendant process of ``pid`` (from /proc)."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = [], [pid]
+    while frontier:
+        p = frontier.pop()
+        kids = [c for c, parent in parents.items() if parent == p]
+        found += kids
+        frontier += kids
+    return found
+
+
+def _ranks(proc, np_: int) -> list[int]:
+    """The rftfem processes of ``proc``: itself, or the ranks under its mpirun."""
+    if np_ == 1:
+        return [proc.pid]
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        ranks = [p for p in _children(proc.pid)
+                 if b"rftfem" in Path(f"/proc/{p}/cmdline").read_bytes()
+                 and b"mpirun" not in Path(f"/proc/{p}/cmdline").read_bytes()]
+        if len(ranks) >= np_:
+            return ranks
+        time.sleep(0.2)
+    pytest.fail(f"the {np_} ranks of mpirun were not found")
+
+
+def _start(out: Path, mpirun=None, np_: int = 1):
+    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--quiet"]
+    cmd += [a for s in SETS for a in ("--set", s)]
+    env = dict(os.environ)
+    if np_ > 1:
+        exe, env = mpirun
+        cmd = [exe, "-n", str(np_), *cmd]
+    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for_rows(proc, out: Path, rows: int, timeout: float = 600):
+    path = out / "probes.csv"
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if path.exists() and len(path.read_text().splitlines()) >= rows:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"the run ended before it was signalled: {proc.stderr.read()[-2000:]}")
+        time.sleep(0.05)
+    proc.kill()
+    pytest.fail(f"no {rows} rows in {path} within {timeout} s")
+
+
+def _finish(proc, timeout: float = 120):
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail("the run did not stop within 120 s of the signal")
+    return proc.returncode, stderr
+
+
+def _check_outputs(out: Path, immediate: bool):
+    """The summary says interrupted; CSV and HDF5 are whole up to the time reached."""
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted", summary["status"]
+    stop = summary["interrupt"]
+    assert stop["immediate"] is immediate
+    assert stop["time"] == summary["time_reached"]
+    end = summary["scene"]["time"]["end"]
+    dt = summary["scene"]["time"]["dt"]
+    assert 0 < stop["time"] < end
+    assert stop["step"] == round(stop["time"] / dt)
+    probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
+    body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert np.isfinite(probes).all() and np.isfinite(body).all()
+    # a row at every step from t = 0 on (output_every = 1), none twice
+    np.testing.assert_allclose(probes[:, 0], dt * np.arange(len(probes)), rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(body[:, 0], probes[:, 0])
+    if not immediate:  # the last row is at the time reached
+        assert probes[-1, 0] == stop["time"]
+    else:  # stopped inside the step after the last row
+        assert probes[-1, 0] <= stop["time"] + 1e-12
+    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    h5 = json.loads(done.stdout)
+    assert h5["finite"]
+    for name, times in h5["names"].items():
+        np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)
+    return summary
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_signal_stops_after_the_step(tmp_path, sig):
+    out = tmp_path / "run"
+    proc = _start(out)
+    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    proc.send_signal(sig)
+    status, stderr = _finish(proc)
+    assert status == 128 + sig, stderr
+    assert "Traceback" not in stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and f"interrupted by {sig.name}" in lines[0], stderr
+    summary = _check_outputs(out, immediate=False)
+    assert summary["interrupt"]["signal"] == sig.name
+
+
+def test_second_signal_stops_at_once(tmp_path):
+    """SIGINT and SIGTERM sent together: the first is a request, the second stops
+    inside the step (CPython runs pending handlers by signal number: SIGINT first)."""
+    out = tmp_path / "run"
+    proc = _start(out)
+    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    proc.send_signal(signal.SIGINT)
+    proc.send_signal(signal.SIGTERM)
+    status, stderr = _finish(proc)
+    assert status == 130, stderr
+    summary = _check_outputs(out, immediate=True)
+    assert summary["interrupt"]["signal"] == "SIGINT"
+
+
+@pytest.mark.mpi
+def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
+    """Under mpirun -n 2, SIGTERM to one rank only (the others never see it): every
+    rank stops at the same step (else a collective call would hang) and mpirun
+    exits 143."""
+    out = tmp_path / "run"
+    proc = _start(out, mpirun, np_=2)
+    ranks = _ranks(proc, 2)
+    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    os.kill(ranks[-1], signal.SIGTERM)
+    status, stderr = _finish(proc)
+    assert status == 143, stderr[-2000:]
+    summary = _check_outputs(out, immediate=False)
+    assert summary["mpi_size"] == 2
