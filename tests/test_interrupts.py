@@ -4,8 +4,8 @@ valid (docs/scenes.md, "Interrupts").
 Each test starts a real run of the swimming sheet (a row every step), waits until
 rows are written, signals it and checks: the exit status (128 + the signal), the
 summary's ``"interrupted"`` with the time and step reached, ``probes.csv`` and
-``body.csv`` parseable with one row per output time and the last at the time
-reached, and ``fields.h5`` readable with h5py (in a child process: h5py and
+``body.csv`` parseable with one row per output time and (unless a second signal
+stopped it inside a step) a last one at the time reached, and ``fields.h5`` readable with h5py (in a child process: h5py and
 dolfinx may carry different HDF5 libraries) up to that time.
 """
 
@@ -25,8 +25,9 @@ import pytest
 from conftest import DEMOS, ROOT
 
 SHEET = DEMOS / "swimming_sheet.toml"
-SETS = ["time.output_every=1"]
-ROWS_BEFORE_SIGNAL = 6  # header included: five output times, t = 0 and four steps
+EVERY = 7  # output every 7 steps (t = 0 and ...); the signal comes after step 4 or later
+SETS = [f"time.output_every={EVERY}"]
+STEPS_BEFORE_SIGNAL = 4
 
 _H5_TIMES = """
 import json, sys
@@ -83,8 +84,10 @@ def _start(out: Path, mpirun=None, np_: int = 1):
                             stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for_rows(proc, out: Path, rows: int, timeout: float = 600):
-    path = out / "probes.csv"
+def _wait_for_steps(proc, out: Path, steps: int, timeout: float = 600):
+    """Until ``steps.csv`` has a row for each of ``steps`` steps."""
+    path = out / "steps.csv"
+    rows = steps + 1
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if path.exists() and len(path.read_text().splitlines()) >= rows:
@@ -119,13 +122,12 @@ def _check_outputs(out: Path, immediate: bool):
     probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
     body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
     assert np.isfinite(probes).all() and np.isfinite(body).all()
-    # a row at every step from t = 0 on (output_every = 1), none twice
-    np.testing.assert_allclose(probes[:, 0], dt * np.arange(len(probes)), rtol=0, atol=1e-12)
+    # a row at every output time from t = 0 on, none twice, and (unless stopped
+    # inside a step) one at the time reached
+    every = EVERY * dt * np.arange(stop["step"] // EVERY + 1)
+    expected = every if immediate or stop["step"] % EVERY == 0 else [*every, stop["time"]]
+    np.testing.assert_allclose(probes[:, 0], expected, rtol=0, atol=1e-12)
     np.testing.assert_array_equal(body[:, 0], probes[:, 0])
-    if not immediate:  # the last row is at the time reached
-        assert probes[-1, 0] == stop["time"]
-    else:  # stopped inside the step after the last row
-        assert probes[-1, 0] <= stop["time"] + 1e-12
     done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -140,7 +142,7 @@ def _check_outputs(out: Path, immediate: bool):
 def test_signal_stops_after_the_step(tmp_path, sig):
     out = tmp_path / "run"
     proc = _start(out)
-    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     proc.send_signal(sig)
     status, stderr = _finish(proc)
     assert status == 128 + sig, stderr
@@ -156,7 +158,7 @@ def test_second_signal_stops_at_once(tmp_path):
     inside the step (CPython runs pending handlers by signal number: SIGINT first)."""
     out = tmp_path / "run"
     proc = _start(out)
-    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGTERM)
     status, stderr = _finish(proc)
@@ -173,7 +175,7 @@ def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
     out = tmp_path / "run"
     proc = _start(out, mpirun, np_=2)
     ranks = _ranks(proc, 2)
-    _wait_for_rows(proc, out, ROWS_BEFORE_SIGNAL)
+    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     os.kill(ranks[-1], signal.SIGTERM)
     status, stderr = _finish(proc)
     assert status == 143, stderr[-2000:]
