@@ -319,13 +319,18 @@ class Simulation:
         with self.stops:
             return self._run()
 
+    def _last_row(self, logs: dict):
+        """An output row at the last converged state, unless its time has one (a run
+        that stops between output times keeps where it got to)."""
+        if self.history and self.history[-1][0] != self.t:
+            self._write_output(logs, self.t)
+
     def _stop_if_asked(self, logs: dict):
         """After a step: if a signal asked any rank to stop, write a last output row
-        (unless this time has one) and stop (interrupts.py)."""
+        and stop (interrupts.py)."""
         signum = self.stops.requested()
         if signum:
-            if not self.history or self.history[-1][0] != self.t:
-                self._write_output(logs, self.t)
+            self._last_row(logs)
             raise RunInterrupted(signum, self.t, self.step)
 
     def _run(self) -> dict:
@@ -359,6 +364,7 @@ class Simulation:
                     self._stop_if_asked(logs)
             summary = self._summary("ok", wall_start)
         except RunFailed as err:
+            self._last_row(logs)
             summary = self._summary("failed", wall_start)
             summary["failure"] = {"time": err.time, "step": err.step, "reason": err.reason}
             raise

@@ -179,6 +179,11 @@ class StepSolver:
         its = self.snes.getIterationNumber()
         norm = self.snes.getFunctionNorm()
         self.timings["solve"] += (_time.perf_counter() - t0) - (self.assembly_time - a0)
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN:
+            # PETSc keeps the last finite norm (0 before the first): say what it was
+            return False, its, math.nan, ("the residual is not finite (DIVERGED_FNORM_NAN): a "
+                                          "load, motion or coefficient too large for double "
+                                          "precision, or a state that left the physical range")
         return reason > 0, its, norm, _reason_name(reason)
 
     def _start_on_motions(self, w):

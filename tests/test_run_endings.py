@@ -1,12 +1,17 @@
-"""Interrupts: SIGINT and SIGTERM stop ``rftfem run`` after its step with every file
-valid (docs/scenes.md, "Interrupts").
+"""How a run ends early, end to end through ``rftfem run`` (docs/scenes.md,
+"Interrupts" and "Exit status").
 
-Each test starts a real run of the swimming sheet (a row every step), waits until
-rows are written, signals it and checks: the exit status (128 + the signal), the
+Interrupts: each test starts a real run of the swimming sheet, waits until steps
+are done, signals it and checks the exit status (128 + the signal), the
 summary's ``"interrupted"`` with the time and step reached, ``probes.csv`` and
 ``body.csv`` parseable with one row per output time and (unless a second signal
-stopped it inside a step) a last one at the time reached, and ``fields.h5`` readable with h5py (in a child process: h5py and
-dolfinx may carry different HDF5 libraries) up to that time.
+stopped it inside a step) a last one at the time reached, and ``fields.h5``
+readable with h5py (in a child process: h5py and dolfinx may carry different
+HDF5 libraries) at the same times.
+
+Failures: the roll-up whose load jumps ten-fold (or to 1e300, a NaN) within its
+11th load step, with one halving allowed: exit 3, one line saying where and why,
+and every row up to the last good step kept, with one at that step.
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import DEMOS, ROOT
+from conftest import DEMOS, ROOT, run_command
 
 SHEET = DEMOS / "swimming_sheet.toml"
 EVERY = 7  # output every 7 steps (t = 0 and ...); the signal comes after step 4 or later
@@ -108,6 +113,25 @@ def _finish(proc, timeout: float = 120):
     return proc.returncode, stderr
 
 
+def _fields_times(out: Path) -> dict:
+    """The times of each field in ``fields.h5``, read with h5py in a child process."""
+    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    h5 = json.loads(done.stdout)
+    assert h5["finite"]
+    return h5["names"]
+
+
+def _tables(out: Path):
+    """probes.csv and body.csv, parsed, finite, with the same times."""
+    probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
+    body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert np.isfinite(probes).all() and np.isfinite(body).all()
+    np.testing.assert_array_equal(body[:, 0], probes[:, 0])
+    return probes, body
+
+
 def _check_outputs(out: Path, immediate: bool):
     """The summary says interrupted; CSV and HDF5 are whole up to the time reached."""
     summary = json.loads((out / "summary.json").read_text())
@@ -119,21 +143,13 @@ def _check_outputs(out: Path, immediate: bool):
     dt = summary["scene"]["time"]["dt"]
     assert 0 < stop["time"] < end
     assert stop["step"] == round(stop["time"] / dt)
-    probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
-    body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
-    assert np.isfinite(probes).all() and np.isfinite(body).all()
+    probes, _ = _tables(out)
     # a row at every output time from t = 0 on, none twice, and (unless stopped
     # inside a step) one at the time reached
     every = EVERY * dt * np.arange(stop["step"] // EVERY + 1)
     expected = every if immediate or stop["step"] % EVERY == 0 else [*every, stop["time"]]
     np.testing.assert_allclose(probes[:, 0], expected, rtol=0, atol=1e-12)
-    np.testing.assert_array_equal(body[:, 0], probes[:, 0])
-    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
-                          capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, done.stderr[-2000:]
-    h5 = json.loads(done.stdout)
-    assert h5["finite"]
-    for name, times in h5["names"].items():
+    for name, times in _fields_times(out).items():
         np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)
     return summary
 
@@ -181,3 +197,50 @@ def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
     assert status == 143, stderr[-2000:]
     summary = _check_outputs(out, immediate=False)
     assert summary["mpi_size"] == 2
+
+
+# ------------------------------------------------------------------- failures
+
+ROLLUP = DEMOS / "rollup.toml"
+
+
+@pytest.mark.parametrize("peak, words", [
+    ("2.5", ["step not resolved", "time.max_cuts"]),
+    ("1e300", ["the residual is not finite", "too large for double precision"]),
+], ids=["max-cuts", "nan"])
+def test_failed_run_keeps_its_rows(tmp_path, peak, words):
+    """The roll-up (load steps of 0.05, outputs every 3) under a table ramp that
+    follows the demo to t = 0.5 (step 10) and then jumps to ``peak`` × the full
+    moment at 0.55; one halving allowed.  Exit 3 with one line naming step 11, its
+    time and the cause; summary "failed" with the same; rows at 0, 0.15, 0.3,
+    0.45 and at the last good step, 0.5, in both tables and in fields.h5."""
+    out = tmp_path / "run"
+    sets = ['load.0.ramp="table"', f"load.0.table=[[0, 0], [0.5, 0.25], [0.55, {peak}]]",
+            "time.max_cuts=1", "time.output_every=3"]
+    cmd = [sys.executable, "-m", "rftfem", "run", str(ROLLUP), "--out", str(out), "--quiet"]
+    done = run_command(cmd + [a for s in sets for a in ("--set", s)], cwd=ROOT, timeout=600)
+    assert done.returncode == 3, done.stderr[-2000:]
+    assert "Traceback" not in done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert "at t = 0.525 (step 11)" in lines[0] and str(out) in lines[0], lines[0]
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    failure = summary["failure"]
+    assert (failure["time"], failure["step"]) == (0.525, 11)
+    assert failure["reason"] in lines[0]
+    assert summary["time_reached"] == 0.5 and summary["counts"]["steps"] == 10
+    probes, _ = _tables(out)
+    np.testing.assert_allclose(probes[:, 0], [0, 0.15, 0.3, 0.45, 0.5], rtol=0, atol=1e-12)
+    # the last good state: a quarter of the demo's moment bends the strip into half a
+    # circle, whose tip is back over the clamp, 2 L / pi below it (the 16x1 mesh
+    # within 1 % of L)
+    length = 12.0
+    np.testing.assert_allclose(probes[-1, [1, 3]], [-length, -2 * length / np.pi],
+                               rtol=0, atol=0.01 * length)
+    steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1, ndmin=2)
+    np.testing.assert_allclose(steps[:, 0], 0.05 * np.arange(1, 11), rtol=0, atol=1e-12)
+    for name, times in _fields_times(out).items():
+        np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)
