@@ -56,7 +56,8 @@ def _build_parser() -> _Parser:
         description="Run a scene and write probes.csv, steps.csv, summary.json and fields. "
                     "Extra options with a single dash (-snes_monitor, -ksp_type preonly) "
                     "are passed to PETSc.",
-        epilog="exit status: 0 ok, 2 bad scene or option, 3 the run failed numerically")
+        epilog="exit status: 0 ok, 2 bad scene or option, 3 the run failed numerically, "
+               "130/143 stopped by SIGINT/SIGTERM (after its step; outputs closed)")
     run.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     run.add_argument("--out", metavar="DIR", type=Path, default=None,
                      help="output folder (default: results/<scene file stem>)")
@@ -66,6 +67,10 @@ def _build_parser() -> _Parser:
                           "(e.g. --set load.0.value=[0,52.36,0]); repeatable")
     run.add_argument("--quiet", action="store_true",
                      help="plain log lines instead of a progress bar")
+    run.add_argument("--restart", metavar="DIR", type=Path, default=None,
+                     help="go on from the last checkpoint in the results folder DIR "
+                          "(output.checkpoint_every), appending to its outputs; the scene "
+                          "may differ only in time.end and how the run is watched")
 
     check = sub.add_parser(
         "check", help="validate a scene and print its active effects", allow_abbrev=False,
@@ -180,14 +185,15 @@ def _default_out(scene_file: str) -> Path:
 def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
     from rftfem.scene import load_scene
 
-    out_dir = args.out if args.out is not None else _default_out(args.scene)
+    out_dir = args.out if args.out is not None else (
+        args.restart if args.restart is not None else _default_out(args.scene))
     try:
         scene = load_scene(args.scene, args.overrides)
         from rftfem.simulation import run as run_simulation
 
         console.refresh()  # the simulation brought in mpi4py
         run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args,
-                       signals=True)
+                       signals=True, restart=args.restart)
         status = 0
     except SceneError as exc:
         console.refresh()

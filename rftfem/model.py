@@ -331,6 +331,29 @@ class Model:
         self.u_n.x.array[:] = u
         self.update_triad()
 
+    def state(self) -> tuple[dict, list]:
+        """What a checkpoint keeps of the model (checkpoint.py): this process's arrays
+        of the iterate, the last state, every colour's triad and the last increments,
+        and the increments' steps."""
+        arrays = {"w": self.w.x.array, "u_n": self.u_n.x.array, "v_n": self.v_n.x.array,
+                  "a_n": self.a_n.x.array}
+        for c, frame in enumerate(self.triads):
+            for k, f in enumerate(frame):
+                arrays[f"triad_{c}_{k}"] = f.x.array
+        for i, (du, theta, _) in enumerate(self.increments):
+            arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"] = du, theta
+        return {k: v.copy() for k, v in arrays.items()}, [dt for *_, dt in self.increments]
+
+    def set_state(self, arrays: dict, increment_steps: list):
+        """The model as ``state`` returned it (a restart)."""
+        for name, f in (("w", self.w), ("u_n", self.u_n), ("v_n", self.v_n), ("a_n", self.a_n)):
+            f.x.array[:] = arrays[name]
+        for c, frame in enumerate(self.triads):
+            for k, f in enumerate(frame):
+                f.x.array[:] = arrays[f"triad_{c}_{k}"]
+        self.increments = [(arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"], dt)
+                           for i, dt in enumerate(increment_steps)]
+
     def predict(self, dt: float, extrapolate: bool = True):
         """Start a step of ``dt`` from the last state carried on at the recent rates.
 

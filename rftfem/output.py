@@ -72,12 +72,15 @@ class BodyLog:
 
 
 class CsvLog:
-    """A CSV file written by rank 0, flushed after every row."""
+    """A CSV file written by rank 0, flushed after every row; ``append``: rows added
+    to the file as it is (a restarted run), the header not written again."""
 
-    def __init__(self, path: Path, header: list[str], comm):
+    def __init__(self, path: Path, header: list[str], comm, append: bool = False):
         self.rank = comm.rank
-        self.file = open(path, "w", encoding="utf-8") if self.rank == 0 else None
-        self.row(header)
+        self.file = (open(path, "a" if append else "w", encoding="utf-8")
+                     if self.rank == 0 else None)
+        if not append:
+            self.row(header)
 
     def row(self, values):
         if self.file is not None:
@@ -102,10 +105,17 @@ class FieldWriter:
 
     The fields live on the mesh's geometry nodes (XDMF stores one value per node):
     the vertices of a straight mesh, all nine or six nodes of a curved
-    (second-order) gmsh mesh, which ParaView then draws as curved cells."""
+    (second-order) gmsh mesh, which ParaView then draws as curved cells.
 
-    def __init__(self, model, path: Path, extra: dict | None = None):
+    The file is opened for each output time and closed after it (under a
+    millisecond): HDF5 left open by a process that dies (SIGKILL, a node going
+    down) is unreadable as a whole, closed after every write it keeps every
+    time step written before."""
+
+    def __init__(self, model, path: Path, extra: dict | None = None, main: Path | None = None):
         mesh = model.mesh
+        #: the run's field file that this one (a restart's segment) is merged into on close
+        self.main = main
         self.model = model
         V = compat.function_space(mesh, "Lagrange", compat.geometry_cells(mesh)[1], (3,))
         self.fields = {"displacement": (model.displacement, fem.Function(V, name="displacement")),
@@ -114,19 +124,22 @@ class FieldWriter:
             source = f if isinstance(f, fem.Function) else compat.expression(f, V)
             self.fields[name] = (source, fem.Function(V, name=name))
         self.path = Path(path)
-        self.file = io.XDMFFile(mesh.comm, str(path), "w")
-        self.file.write_mesh(mesh)
+        with io.XDMFFile(mesh.comm, str(path), "w") as file:
+            file.write_mesh(mesh)
 
     def write(self, t: float):
         self.model.nodal_director()  # refreshed from the triads (hinged bodies)
         for source, target in self.fields.values():
             target.interpolate(source)
-            self.file.write_function(target, t)
+        with io.XDMFFile(self.model.comm, str(self.path), "a") as file:
+            for _, target in self.fields.values():
+                file.write_function(target, t)
 
     def close(self):
-        self.file.close()
         if self.model.comm.rank == 0:
             compat.repair_xdmf_namespace(self.path)
+            if self.main is not None:
+                merge_field_segment(self.main, self.path)
 
 
 class Progress:
@@ -235,3 +248,87 @@ def _json_default(obj):
     if isinstance(obj, Path):
         return str(obj)
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+# --- continuing the outputs of a restarted run (checkpoint.py) ---------------------
+
+def keep_rows_until(path: Path, t: float) -> list[list[str]]:
+    """Cut a CSV table of this module to its header and the rows up to time ``t``
+    (a row cut short by a killed run is dropped too); return the rows kept."""
+    lines = Path(path).read_text(encoding="utf-8").splitlines(keepends=True)
+    kept, rows = lines[:1], []
+    limit = t + 1e-12 * max(1.0, abs(t))
+    for line in lines[1:]:
+        if not line.endswith("\n"):
+            break
+        cells = line.rstrip("\n").split(",")
+        try:
+            if float(cells[0]) > limit:
+                break
+        except ValueError:
+            break
+        kept.append(line)
+        rows.append(cells)
+    tmp = Path(str(path) + ".tmp")
+    tmp.write_text("".join(kept), encoding="utf-8")
+    tmp.replace(path)
+    return rows
+
+
+_XI = "http://www.w3.org/2001/XInclude"
+
+
+def _xdmf_tree(path: Path):
+    import xml.etree.ElementTree as ET
+
+    ET.register_namespace("xi", _XI)
+    compat.repair_xdmf_namespace(path)
+    return ET.parse(path)
+
+
+def _collections(tree) -> dict:
+    return {g.get("Name"): g for g in tree.getroot().find("Domain").findall("Grid")
+            if g.get("GridType") == "Collection"}
+
+
+def _write_xdmf(tree, path: Path):
+    tmp = Path(str(path) + ".tmp")
+    tree.write(tmp, encoding="utf-8", xml_declaration=True)
+    tmp.replace(path)
+
+
+def field_segments(main: Path) -> list[Path]:
+    """The field files of a run's restarts (``fields-1.xdmf``, ...), in order."""
+    main = Path(main)
+    found = main.parent.glob(f"{main.stem}-*.xdmf")
+    return sorted((p for p in found if p.stem.rsplit("-", 1)[1].isdigit()),
+                  key=lambda p: int(p.stem.rsplit("-", 1)[1]))
+
+
+def merge_field_segment(main: Path, segment: Path):
+    """Add the time steps of ``segment`` (a restart's field file) to the run's
+    ``main`` field file, whose mesh they share; their data stay in the segment's
+    own HDF5 file.  A segment already in ``main`` is left out."""
+    tree = _xdmf_tree(main)
+    h5 = Path(segment).with_suffix(".h5").name + ":"
+    if any((item.text or "").strip().startswith(h5) for item in tree.iter("DataItem")):
+        return
+    ours = _collections(tree)
+    for name, grid in _collections(_xdmf_tree(segment)).items():
+        if name in ours:
+            ours[name].extend(list(grid))
+        else:
+            tree.getroot().find("Domain").append(grid)
+    _write_xdmf(tree, main)
+
+
+def keep_fields_until(main: Path, t: float):
+    """Drop the time steps after ``t`` from a field file."""
+    tree = _xdmf_tree(main)
+    limit = t + 1e-12 * max(1.0, abs(t))
+    for grid in _collections(tree).values():
+        for step in list(grid):
+            time = step.find("Time")
+            if time is not None and float(time.get("Value")) > limit:
+                grid.remove(step)
+    _write_xdmf(tree, main)

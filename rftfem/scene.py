@@ -162,6 +162,11 @@ SCHEMA = Table({
                             "render.mp4 or render.gif in the output folder with `rftfem "
                             'render` and its defaults; "none" draws nothing. Needs '
                             "`output.fields = true`; a drawing that fails only warns."),
+        "checkpoint_every": Leaf(Int(0), 0,
+                                  doc="Every this many steps, write the state a run needs "
+                                      "to go on into checkpoint/ (the last two are kept); "
+                                      "`rftfem run SCENE --restart DIR` continues from the "
+                                      "last. 0 writes none."),
     }, doc="What a run writes besides steps.csv, body.csv and summary.json."),
     **effects.scene_keys(),
     "load": effects.load_schema(),

@@ -25,11 +25,12 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from . import __version__, compat, petsc_options
+from . import __version__, checkpoint, compat, petsc_options
 from .errors import RunFailed, RunInterrupted, SceneError
 from .interrupts import NoStops, StopRequests
 from .model import Model
-from .output import (BodyLog, CsvLog, FieldWriter, Probes, Progress, render_in_child,
+from .output import (BodyLog, CsvLog, FieldWriter, Probes, Progress, field_segments,
+                     keep_fields_until, keep_rows_until, merge_field_segment, render_in_child,
                      write_json)
 from .solver import StepSolver
 from .timeint import BackwardEuler, Static, make_scheme
@@ -82,15 +83,23 @@ def _make_out_dir(out: Path | None, comm):
 
 class Simulation:
     """One run of a scene; ``observers`` are called as ``f(sim)`` after every step.
-    With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py)."""
+    With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py);
+    with ``restart`` (a results folder), the run goes on from its last checkpoint
+    and appends to its outputs (checkpoint.py)."""
 
     def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
                  petsc_args: list[str] | None = None, comm=None, observers=(),
-                 signals: bool = False):
+                 signals: bool = False, restart: Path | None = None):
         self.scene = scene
         self.comm = comm or MPI.COMM_WORLD
         self.stops = StopRequests(self.comm) if signals else NoStops()
-        self.out_dir = Path(out_dir) if out_dir is not None else None
+        if restart is not None and out_dir is not None and Path(out_dir) != Path(restart):
+            raise SceneError(f"--out {out_dir}: a restart appends to the folder it continues "
+                             f"({restart}); leave --out out or give that folder")
+        self.out_dir = Path(restart if restart is not None else out_dir) \
+            if (restart or out_dir) is not None else None
+        #: (checkpoint folder, its meta) a restart goes on from, checked before the set-up
+        self.resume = self._checked_checkpoint(restart) if restart is not None else None
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
@@ -110,8 +119,61 @@ class Simulation:
         self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
         #: wall seconds outside the solver: outputs, loads and motions set for a step
         #: (set_time), the state and triad update after it (accept)
-        self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0}
+        self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0, "checkpoint": 0.0}
         self.history = []  # (t, probe values) rows, as written to probes.csv
+        self.wall_before = 0.0  # wall seconds of the run's earlier parts (restarts)
+        self.restarts = []
+        if self.resume is not None:
+            self._load_checkpoint()
+
+    # --- checkpoints and restart (checkpoint.py) ---------------------------------
+
+    def _checked_checkpoint(self, folder: Path):
+        """The last checkpoint of ``folder``, if this scene may go on from it."""
+        path, meta = checkpoint.latest(folder, self.comm)
+        differs = checkpoint.scene_difference(meta["scene"], self.scene)
+        if differs:
+            raise SceneError(f"--restart {folder}: the scene differs from the checkpointed one "
+                             f"at {differs}")
+        if meta["time"] >= self.scene["time"]["end"] * (1 - 1e-12):
+            raise SceneError(f"--restart {folder}: the checkpoint is at t = {meta['time']:.6g}, "
+                             f"not before time.end = {self.scene['time']['end']:g}; raise "
+                             "time.end to go on")
+        return path, meta
+
+    def _load_checkpoint(self):
+        path, meta = self.resume
+        arrays = checkpoint.read_arrays(path, self.comm, checkpoint.mesh_digest(self.model), meta)
+        self.model.set_state(arrays, meta["increment_steps"])
+        self.solver.F_n.array[:] = arrays["forces"]
+        if hasattr(self.scheme, "dt_prev"):
+            self.scheme.dt_prev = meta["last_step"]
+        self.t, self.completed = meta["time"], meta["step"]
+        self.step = self.completed
+        self.counts.update(meta["counts"])
+        self.wall_before = meta["wall_s"]
+        self.restarts = meta.get("restarts", []) + [{"time": self.t, "step": self.completed,
+                                                      "checkpoint": path.name}]
+
+    def _checkpoint_if_due(self, next_step: float | None = None, last: bool = False):
+        """After a step: a checkpoint every ``output.checkpoint_every`` steps, and after
+        the ``last`` (a finished run can be taken further: a larger time.end)."""
+        every = self.scene["output"].get("checkpoint_every", 0)
+        if not every or self.out_dir is None or (self.completed % every and not last):
+            return
+        t0 = _time.perf_counter()
+        arrays, increment_steps = self.model.state()
+        arrays["forces"] = self.solver.F_n.array.copy()
+        meta = {"time": self.t, "step": self.completed, "counts": dict(self.counts),
+                "increment_steps": increment_steps,
+                "last_step": getattr(self.scheme, "dt_prev", None), "next_step": next_step,
+                "wall_s": self.wall_before + _time.perf_counter() - self._wall_start
+                + self.setup_time,
+                "restarts": self.restarts,
+                "scene": {k: v for k, v in self.scene.items() if not k.startswith("_")},
+                "mesh_digest": checkpoint.mesh_digest(self.model)}
+        checkpoint.write(self.out_dir, self.completed, arrays, meta, self.comm)
+        self.wall["checkpoint"] += _time.perf_counter() - t0
 
     # --- one step ---------------------------------------------------------------
 
@@ -249,6 +311,8 @@ class Simulation:
         exponent = 1.0 / (self.scheme.order + 1)
         steps_log = logs.get("steps")
         h, cuts_in_row, n_out = time_["dt"], 0, max(1, math.ceil(end / spacing - 1e-9))
+        if self.resume is not None and self.resume[1].get("next_step"):
+            h = self.resume[1]["next_step"]
         state = {}
 
         def check():
@@ -260,6 +324,8 @@ class Simulation:
 
         for k in range(1, n_out + 1):
             t_out = min(k * spacing, end)
+            if t_out <= self.t + 1e-12 * max(1.0, abs(t_out)):
+                continue  # written before the restart
             while self.t < t_out - 1e-12 * max(1.0, abs(t_out)):
                 # what is left before the output in equal steps no longer than h: no
                 # sliver, and no jump in the step (BDF2 weights the ratio of steps)
@@ -289,6 +355,8 @@ class Simulation:
                     h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
                     progress.update(self.t, self.step, self.counts["newton_iterations"],
                                     self.solver.snes.getFunctionNorm())
+                    if self.t < t_out - 1e-12 * max(1.0, abs(t_out)):
+                        self._checkpoint_if_due(h)  # else after the output row below
                     self._stop_if_asked(logs)
                     continue
                 if self.rejected:
@@ -312,6 +380,7 @@ class Simulation:
                                     self.t + step, self.counts["steps"] + 1)
             self.t = t_out
             self._write_output(logs, self.t)
+            self._checkpoint_if_due(h, last=k == n_out)
 
     # --- the run -------------------------------------------------------------
 
@@ -338,7 +407,7 @@ class Simulation:
         time_ = scene["time"]
         out = self.out_dir
         summary = self._summary("running")
-        wall_start = _time.perf_counter()
+        wall_start = self._wall_start = _time.perf_counter()
         progress = Progress(time_["end"], comm, self.quiet)
         progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
@@ -346,13 +415,17 @@ class Simulation:
                      f" dofs on {comm.size} process(es)")
         logs = self._open_outputs()
         try:
-            self._initial_equilibrium()
-            self._write_output(logs, 0.0)
+            if self.resume is None:
+                self._initial_equilibrium()
+                self._write_output(logs, 0.0)
+            else:
+                progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
+                             f"{self.resume[0]}")
             n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
             if time_.get("tolerance") is not None:
                 self._run_adaptive(logs, progress)
                 n_steps = 0
-            for self.step in range(1, n_steps + 1):
+            for self.step in range(self.completed + 1, n_steps + 1):
                 self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
                               progress)
                 if self.step % time_["output_every"] == 0 or self.step == n_steps:
@@ -360,6 +433,7 @@ class Simulation:
                 progress.update(self.t, self.step, self.counts["newton_iterations"],
                                 self.solver.snes.getFunctionNorm())
                 self.completed = self.step
+                self._checkpoint_if_due(last=self.step == n_steps)
                 if self.step < n_steps:
                     self._stop_if_asked(logs)
             summary = self._summary("ok", wall_start)
@@ -403,17 +477,56 @@ class Simulation:
         logs = {}
         if self.out_dir is None:
             return logs
-        logs["probes"] = CsvLog(self.out_dir / "probes.csv", ["time", *self.probes.header()],
-                                self.comm)
-        logs["steps"] = CsvLog(self.out_dir / "steps.csv",
-                               ["time", "dt", "newton_its", "residual", "wall_s"], self.comm)
+        out, again = self.out_dir, self.resume is not None
+        fields = self.scene.get("output", {}).get("fields", True)
+        segment = None
+        if again:
+            segment = self._continue_outputs(fields)
+        logs["probes"] = CsvLog(out / "probes.csv", ["time", *self.probes.header()],
+                                self.comm, append=again)
+        logs["steps"] = CsvLog(out / "steps.csv",
+                               ["time", "dt", "newton_its", "residual", "wall_s"], self.comm,
+                               append=again)
         self.body = BodyLog(self.model)
-        logs["body"] = CsvLog(self.out_dir / "body.csv", ["time", *self.body.header()], self.comm)
-        if self.scene.get("output", {}).get("fields", True):
+        logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header()], self.comm,
+                              append=again)
+        if fields:
             extra = {name: f for comp in self.model.components
                      for name, f in comp.fields().items()}
-            logs["fields"] = FieldWriter(self.model, self.out_dir / "fields.xdmf", extra)
+            main = out / "fields.xdmf"
+            logs["fields"] = (FieldWriter(self.model, segment, extra, main=main) if again
+                              else FieldWriter(self.model, main, extra))
         return logs
+
+    def _continue_outputs(self, fields: bool) -> Path | None:
+        """A restart: the tables cut to the checkpoint's time (rows written after it
+        go, they are written again), the probe rows kept as history, the field
+        files of earlier restarts merged and cut the same way; returns the new
+        segment's field file."""
+        out, t = self.out_dir, self.t
+        rows, segment = None, None
+        if self.comm.rank == 0:
+            try:
+                for name in ("steps.csv", "body.csv"):
+                    keep_rows_until(out / name, t)
+                rows = keep_rows_until(out / "probes.csv", t)
+                if fields:
+                    main = out / "fields.xdmf"
+                    done = field_segments(main)
+                    for earlier in done:
+                        merge_field_segment(main, earlier)
+                    keep_fields_until(main, t)
+                    number = int(done[-1].stem.rsplit("-", 1)[1]) + 1 if done else 1
+                    segment = str(out / f"fields-{number}.xdmf")
+            except (OSError, ValueError) as exc:
+                rows = f"--restart {out}: cannot continue its outputs ({exc})"
+        rows, segment = self.comm.bcast((rows, segment), root=0)
+        if isinstance(rows, str):
+            raise SceneError(rows)
+        n = len(self.probes.names)
+        self.history = [(float(r[0]), np.array([float(v) for v in r[1:]]).reshape(n, 3))
+                        for r in rows]
+        return Path(segment) if segment else None
 
     def _write_output(self, logs: dict, t: float):
         t0 = _time.perf_counter()
@@ -429,7 +542,8 @@ class Simulation:
 
     def _summary(self, status: str, wall_start: float | None = None) -> dict:
         scene = {k: v for k, v in self.scene.items() if not k.startswith("_")}
-        total = (_time.perf_counter() - wall_start if wall_start else 0.0) + self.setup_time
+        total = ((_time.perf_counter() - wall_start if wall_start else 0.0) + self.setup_time
+                 + self.wall_before)
         timings = self.solver.timings
         return {
             "status": status,
@@ -443,9 +557,11 @@ class Simulation:
             "dofs": self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs,
             "time_reached": self.t,
             "counts": dict(self.counts),
+            **({"restarts": self.restarts} if self.restarts else {}),
             "director_unit_error": self.model.director_unit_error(),
             "wall_s": {"compile": self.model.timings["compile"], "assembly": self.solver.assembly_time,
-                       "solve": timings["solve"], "output": self.wall["output"], "total": total},
+                       "solve": timings["solve"], "output": self.wall["output"],
+                       "checkpoint": self.wall["checkpoint"], "total": total},
         }
 
     def close(self):
@@ -455,10 +571,11 @@ class Simulation:
 
 def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
         petsc_args: list[str] | None = None, comm=None, observers=(),
-        signals: bool = False) -> dict:
+        signals: bool = False, restart: Path | None = None) -> dict:
     """Run a validated scene; write outputs to ``out_dir``; return the summary.  With
-    ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py)."""
-    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals)
+    ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py);
+    with ``restart``, go on from the last checkpoint in that folder (checkpoint.py)."""
+    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals, restart)
     try:
         return sim.run()
     finally:

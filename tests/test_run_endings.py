@@ -19,118 +19,19 @@ from __future__ import annotations
 import json
 import os
 import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from conftest import DEMOS, ROOT, run_command
+from running import fields_times, finish, rank_pids, start_run, tables, wait_for_steps
 
 SHEET = DEMOS / "swimming_sheet.toml"
 EVERY = 7  # output every 7 steps (t = 0 and ...); the signal comes after step 4 or later
 SETS = [f"time.output_every={EVERY}"]
 STEPS_BEFORE_SIGNAL = 4
-
-_H5_TIMES = """
-import json, sys
-import h5py
-with h5py.File(sys.argv[1], "r") as f:
-    names = {k: sorted(float(t.replace("_", ".")) for t in f["Function"][k]) for k in f["Function"]}
-    first = f["Function/displacement"][sorted(f["Function/displacement"])[0]][()]
-print(json.dumps({"names": names, "finite": bool((first == first).all())}))
-"""
-
-
-def _children(pid: int) -> list[int]:
-    """Every descendant process of ``pid`` (from /proc)."""
-    parents = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
-    found, frontier = [], [pid]
-    while frontier:
-        p = frontier.pop()
-        kids = [c for c, parent in parents.items() if parent == p]
-        found += kids
-        frontier += kids
-    return found
-
-
-def _ranks(proc, np_: int) -> list[int]:
-    """The rftfem processes of ``proc``: itself, or the ranks under its mpirun."""
-    if np_ == 1:
-        return [proc.pid]
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        ranks = [p for p in _children(proc.pid)
-                 if b"rftfem" in Path(f"/proc/{p}/cmdline").read_bytes()
-                 and b"mpirun" not in Path(f"/proc/{p}/cmdline").read_bytes()]
-        if len(ranks) >= np_:
-            return ranks
-        time.sleep(0.2)
-    pytest.fail(f"the {np_} ranks of mpirun were not found")
-
-
-def _start(out: Path, mpirun=None, np_: int = 1):
-    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--quiet"]
-    cmd += [a for s in SETS for a in ("--set", s)]
-    env = dict(os.environ)
-    if np_ > 1:
-        exe, env = mpirun
-        cmd = [exe, "-n", str(np_), *cmd]
-    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-
-
-def _wait_for_steps(proc, out: Path, steps: int, timeout: float = 600):
-    """Until ``steps.csv`` has a row for each of ``steps`` steps."""
-    path = out / "steps.csv"
-    rows = steps + 1
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if path.exists() and len(path.read_text().splitlines()) >= rows:
-            return
-        if proc.poll() is not None:
-            pytest.fail(f"the run ended before it was signalled: {proc.stderr.read()[-2000:]}")
-        time.sleep(0.05)
-    proc.kill()
-    pytest.fail(f"no {rows} rows in {path} within {timeout} s")
-
-
-def _finish(proc, timeout: float = 120):
-    try:
-        stdout, stderr = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        pytest.fail("the run did not stop within 120 s of the signal")
-    return proc.returncode, stderr
-
-
-def _fields_times(out: Path) -> dict:
-    """The times of each field in ``fields.h5``, read with h5py in a child process."""
-    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
-                          capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, done.stderr[-2000:]
-    h5 = json.loads(done.stdout)
-    assert h5["finite"]
-    return h5["names"]
-
-
-def _tables(out: Path):
-    """probes.csv and body.csv, parsed, finite, with the same times."""
-    probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
-    body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
-    assert np.isfinite(probes).all() and np.isfinite(body).all()
-    np.testing.assert_array_equal(body[:, 0], probes[:, 0])
-    return probes, body
-
 
 def _check_outputs(out: Path, immediate: bool):
     """The summary says interrupted; CSV and HDF5 are whole up to the time reached."""
@@ -143,13 +44,13 @@ def _check_outputs(out: Path, immediate: bool):
     dt = summary["scene"]["time"]["dt"]
     assert 0 < stop["time"] < end
     assert stop["step"] == round(stop["time"] / dt)
-    probes, _ = _tables(out)
+    probes, _ = tables(out)
     # a row at every output time from t = 0 on, none twice, and (unless stopped
     # inside a step) one at the time reached
     every = EVERY * dt * np.arange(stop["step"] // EVERY + 1)
     expected = every if immediate or stop["step"] % EVERY == 0 else [*every, stop["time"]]
     np.testing.assert_allclose(probes[:, 0], expected, rtol=0, atol=1e-12)
-    for name, times in _fields_times(out).items():
+    for name, times in fields_times(out).items():
         np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)
     return summary
 
@@ -157,10 +58,10 @@ def _check_outputs(out: Path, immediate: bool):
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 def test_signal_stops_after_the_step(tmp_path, sig):
     out = tmp_path / "run"
-    proc = _start(out)
-    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
+    proc = start_run(SHEET, out, SETS)
+    wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     proc.send_signal(sig)
-    status, stderr = _finish(proc)
+    status, stderr = finish(proc)
     assert status == 128 + sig, stderr
     assert "Traceback" not in stderr
     lines = stderr.strip().splitlines()
@@ -173,11 +74,11 @@ def test_second_signal_stops_at_once(tmp_path):
     """SIGINT and SIGTERM sent together: the first is a request, the second stops
     inside the step (CPython runs pending handlers by signal number: SIGINT first)."""
     out = tmp_path / "run"
-    proc = _start(out)
-    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
+    proc = start_run(SHEET, out, SETS)
+    wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     proc.send_signal(signal.SIGINT)
     proc.send_signal(signal.SIGTERM)
-    status, stderr = _finish(proc)
+    status, stderr = finish(proc)
     assert status == 130, stderr
     summary = _check_outputs(out, immediate=True)
     assert summary["interrupt"]["signal"] == "SIGINT"
@@ -189,11 +90,11 @@ def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
     rank stops at the same step (else a collective call would hang) and mpirun
     exits 143."""
     out = tmp_path / "run"
-    proc = _start(out, mpirun, np_=2)
-    ranks = _ranks(proc, 2)
-    _wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
+    proc = start_run(SHEET, out, SETS, mpirun, np_=2)
+    ranks = rank_pids(proc, 2)
+    wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     os.kill(ranks[-1], signal.SIGTERM)
-    status, stderr = _finish(proc)
+    status, stderr = finish(proc)
     assert status == 143, stderr[-2000:]
     summary = _check_outputs(out, immediate=False)
     assert summary["mpi_size"] == 2
@@ -232,7 +133,7 @@ def test_failed_run_keeps_its_rows(tmp_path, peak, words):
     assert (failure["time"], failure["step"]) == (0.525, 11)
     assert failure["reason"] in lines[0]
     assert summary["time_reached"] == 0.5 and summary["counts"]["steps"] == 10
-    probes, _ = _tables(out)
+    probes, _ = tables(out)
     np.testing.assert_allclose(probes[:, 0], [0, 0.15, 0.3, 0.45, 0.5], rtol=0, atol=1e-12)
     # the last good state: a quarter of the demo's moment bends the strip into half a
     # circle, whose tip is back over the clamp, 2 L / pi below it (the 16x1 mesh
@@ -242,5 +143,5 @@ def test_failed_run_keeps_its_rows(tmp_path, peak, words):
                                rtol=0, atol=0.01 * length)
     steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1, ndmin=2)
     np.testing.assert_allclose(steps[:, 0], 0.05 * np.arange(1, 11), rtol=0, atol=1e-12)
-    for name, times in _fields_times(out).items():
+    for name, times in fields_times(out).items():
         np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)

@@ -1,0 +1,117 @@
+"""Helpers of the tests that run ``rftfem run`` as a child process and signal it,
+restart it or read what it wrote (test_run_endings.py, test_restart.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+_H5_TIMES = """
+import json, sys
+import h5py
+with h5py.File(sys.argv[1], "r") as f:
+    names = {k: sorted(float(t.replace("_", ".")) for t in f["Function"][k]) for k in f["Function"]}
+    first = f["Function/displacement"][sorted(f["Function/displacement"])[0]][()]
+print(json.dumps({"names": names, "finite": bool((first == first).all())}))
+"""
+
+
+def _children(pid: int) -> list[int]:
+    """Every descendant process of ``pid`` (from /proc)."""
+    parents = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = [], [pid]
+    while frontier:
+        p = frontier.pop()
+        kids = [c for c, parent in parents.items() if parent == p]
+        found += kids
+        frontier += kids
+    return found
+
+
+def rank_pids(proc, np_: int) -> list[int]:
+    """The rftfem processes of ``proc``: itself, or the ranks under its mpirun."""
+    if np_ == 1:
+        return [proc.pid]
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        ranks = [p for p in _children(proc.pid)
+                 if b"rftfem" in Path(f"/proc/{p}/cmdline").read_bytes()
+                 and b"mpirun" not in Path(f"/proc/{p}/cmdline").read_bytes()]
+        if len(ranks) >= np_:
+            return ranks
+        time.sleep(0.2)
+    pytest.fail(f"the {np_} ranks of mpirun were not found")
+
+
+def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restart=False):
+    """``rftfem run SCENE --out OUT --quiet --set ...`` (``--restart OUT`` instead of
+    ``--out`` with ``restart``) as a child process, under ``mpirun -n np_`` if > 1."""
+    where = ["--restart", str(out)] if restart else ["--out", str(out)]
+    cmd = [sys.executable, "-m", "rftfem", "run", str(scene), *where, "--quiet"]
+    cmd += [a for s in sets for a in ("--set", s)]
+    env = dict(os.environ)
+    if np_ > 1:
+        exe, env = mpirun
+        cmd = [exe, "-n", str(np_), *cmd]
+    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_steps(proc, out: Path, steps: int, timeout: float = 600):
+    """Until ``steps.csv`` has a row for each of ``steps`` steps."""
+    path = out / "steps.csv"
+    rows = steps + 1
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if path.exists() and len(path.read_text().splitlines()) >= rows:
+            return
+        if proc.poll() is not None:
+            pytest.fail(f"the run ended before it was signalled: {proc.stderr.read()[-2000:]}")
+        time.sleep(0.05)
+    proc.kill()
+    pytest.fail(f"no {rows} rows in {path} within {timeout} s")
+
+
+def finish(proc, timeout: float = 120):
+    """Wait for the run to end; its exit status and stderr."""
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail(f"the run did not end within {timeout} s")
+    return proc.returncode, stderr
+
+
+def fields_times(out: Path) -> dict:
+    """The times of each field in ``fields.h5``, read with h5py in a child process."""
+    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    h5 = json.loads(done.stdout)
+    assert h5["finite"]
+    return h5["names"]
+
+
+def tables(out: Path):
+    """probes.csv and body.csv, parsed, finite, with the same times."""
+    probes = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
+    body = np.loadtxt(out / "body.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert np.isfinite(probes).all() and np.isfinite(body).all()
+    np.testing.assert_array_equal(body[:, 0], probes[:, 0])
+    return probes, body

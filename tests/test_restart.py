@@ -1,0 +1,209 @@
+"""Checkpoints and restart, end to end through ``rftfem run`` (docs/scenes.md,
+"Checkpoints and restart").
+
+A run interrupted at a random step and restarted with ``--restart`` must
+reproduce the uninterrupted run: every row of probes.csv and body.csv to 1e-10
+(relative to each column's largest value; it is in fact bitwise), the same steps
+and Newton iterations, and a fields.xdmf whose time steps (the first part's and
+the restart's, in their own HDF5 files) read back like the reference's.  Two
+scenes: the swimming sheet (prescribed motion, drag, inertia) and the magnetic
+strip, coarse (drag, magnetism, inertia), serially and under mpirun -n 2.  A
+checkpoint killed while it is written is never the one a restart reads, and a
+restart that cannot be one says why in one line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import re
+import signal
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import DEMOS, ROOT, fields_at, run_command
+from running import finish, rank_pids, start_run, tables, wait_for_steps
+
+SHEET_DT = 0.0019634954084936207  # demos/swimming_sheet.toml: a 32nd of the period
+CASES = {
+    # 51 steps; a checkpoint every 4, a row every 3
+    "sheet": (DEMOS / "swimming_sheet.toml", 51,
+              ["time.end=0.1", "time.output_every=3", "output.checkpoint_every=4"]),
+    # the field's ramp (phase 1), 30 steps; a checkpoint every 4, a row every 5
+    "strip": (DEMOS / "bidirectional_strip.toml", 30,
+              ["mesh.divisions=[10, 2]", "time.end=0.06", "time.output_every=5",
+               "output.checkpoint_every=4"]),
+}
+
+
+def rftfem_run(scene, out, sets, mpirun=None, np_=1, restart=False, timeout=900):
+    where = ["--restart", str(out)] if restart else ["--out", str(out)]
+    cmd = [sys.executable, "-m", "rftfem", "run", str(scene), *where, "--quiet"]
+    cmd += [a for s in sets for a in ("--set", s)]
+    env = None
+    if np_ > 1:
+        exe, env = mpirun
+        cmd = [exe, "-n", str(np_), *cmd]
+    return run_command(cmd, cwd=ROOT, env=env, timeout=timeout)
+
+
+def xdmf_times(path: Path) -> dict:
+    """The time steps of each field of an XDMF file."""
+    text = path.read_text()
+    out = {}
+    for name, body in re.findall(r'<Grid Name="(\w+)" GridType="Collection"[^>]*>(.*?)</Grid>\s*'
+                                 r'(?=<Grid Name="\w+" GridType="Collection"|</Domain>)',
+                                 text, flags=re.S):
+        out[name] = [float(v) for v in re.findall(r'<Time Value="([^"]+)"', body)]
+    return out
+
+
+def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
+    """Per column, the largest magnitude of the vector it is a component of (a probe's
+    ux, uy, uz; centroid_x, _y, _z; ...) or of the column itself: what a relative
+    difference is measured against (a component that stays ~0 differs by round-off)."""
+    header = path.read_text().splitlines()[0].split(",")
+    groups = [h.rsplit("_", 1)[0] if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
+              else h for h in header]
+    size = np.abs(table).max(axis=0)
+    return np.array([max(size[j] for j, g2 in enumerate(groups) if g2 == g) for g in groups])
+
+
+def assert_same_run(ref: Path, run: Path, rtol=1e-10):
+    """The restarted run's tables, counts and fields against the reference's."""
+    for name in ("probes.csv", "body.csv"):
+        a = np.loadtxt(ref / name, delimiter=",", skiprows=1, ndmin=2)
+        b = np.loadtxt(run / name, delimiter=",", skiprows=1, ndmin=2)
+        assert a.shape == b.shape, (name, a.shape, b.shape)
+        np.testing.assert_array_equal(b[:, 0], a[:, 0], err_msg=name)
+        scale = np.maximum(vector_scales(ref / name, a), 1e-300)
+        assert (np.abs(b - a) <= rtol * scale).all(), (name, np.abs(b - a).max(axis=0) / scale)
+    a = np.loadtxt(ref / "steps.csv", delimiter=",", skiprows=1, ndmin=2)
+    b = np.loadtxt(run / "steps.csv", delimiter=",", skiprows=1, ndmin=2)
+    np.testing.assert_array_equal(b[:, :3], a[:, :3])  # time, dt, Newton its: no row twice
+    s_ref = json.loads((ref / "summary.json").read_text())
+    s_run = json.loads((run / "summary.json").read_text())
+    assert s_run["status"] == "ok" and s_run["restarts"], s_run["status"]
+    assert s_run["counts"] == s_ref["counts"]
+    assert s_run["time_reached"] == s_ref["time_reached"]
+    times = tables(run)[0][:, 0]
+    for name, t in xdmf_times(run / "fields.xdmf").items():
+        np.testing.assert_allclose(t, times, rtol=0, atol=1e-12, err_msg=name)
+    # read back by VTK's XDMF reader (the restart's steps live in fields-1.h5)
+    corner = [10.0, 2.0, 0.0]
+    _, f_ref = fields_at(ref, corner)
+    _, f_run = fields_at(run, corner)
+    assert f_ref.shape == f_run.shape
+    np.testing.assert_allclose(f_run, f_ref, rtol=0, atol=1e-10 * np.abs(f_ref).max())
+
+
+def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1):
+    """Start a run, SIGTERM it (one of its ranks) after a random step; the step."""
+    k = random.randrange(6, n_steps - 6)
+    proc = start_run(scene, out, sets, mpirun, np_)
+    ranks = rank_pids(proc, np_)
+    wait_for_steps(proc, out, k)
+    os.kill(ranks[-1], signal.SIGTERM)
+    status, stderr = finish(proc)
+    assert status == 143, stderr[-2000:]
+    return k
+
+
+@pytest.mark.parametrize("np_", [1, pytest.param(2, marks=pytest.mark.mpi)],
+                         ids=["serial", "np2"])
+@pytest.mark.parametrize("case", list(CASES))
+def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
+    scene, n_steps, sets = CASES[case]
+    ref, run = tmp_path / "reference", tmp_path / "run"
+    done = rftfem_run(scene, ref, sets, mpirun, np_)
+    assert done.returncode == 0, done.stderr[-2000:]
+    k = interrupt_at_random_step(scene, run, sets, n_steps, mpirun, np_)
+    summary = json.loads((run / "summary.json").read_text())
+    stopped = summary["interrupt"]["step"]
+    assert stopped >= k
+    done = rftfem_run(scene, run, sets, mpirun, np_, restart=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    s = json.loads((run / "summary.json").read_text())
+    assert s["restarts"][0]["step"] == stopped - stopped % 4, (k, stopped, s["restarts"])
+    assert_same_run(ref, run)
+
+
+_KILLED_WRITING = """
+import os, sys
+from rftfem import checkpoint, cli
+real = checkpoint.os.replace
+def replace(src, dst):
+    if str(src).endswith("step-00000012.tmp"):
+        os._exit(9)  # the process dies inside the third checkpoint, before its rename
+    return real(src, dst)
+checkpoint.os.replace = replace
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_checkpoint_killed_while_written_is_not_read(tmp_path):
+    """The sheet's process dies while it writes its third checkpoint (step 12: the
+    arrays and meta.json are in step-00000012.tmp, the rename is not done); a
+    stray step-00000016 without meta.json is there too.  The restart goes on from
+    step 8 and reproduces the reference."""
+    scene, _, sets = CASES["sheet"]
+    ref, run = tmp_path / "reference", tmp_path / "run"
+    assert rftfem_run(scene, ref, sets).returncode == 0
+    cmd = [sys.executable, "-c", _KILLED_WRITING, "run", str(scene), "--out", str(run),
+           "--quiet", *[a for s in sets for a in ("--set", s)]]
+    done = run_command(cmd, cwd=ROOT, timeout=600)
+    assert done.returncode == 9, done.stderr[-2000:]
+    saved = run / "checkpoint"
+    assert sorted(p.name for p in saved.iterdir()) == [
+        "step-00000004", "step-00000008", "step-00000012.tmp"]
+    assert (saved / "step-00000012.tmp" / "meta.json").exists()
+    (saved / "step-00000016").mkdir()
+    done = rftfem_run(scene, run, sets, restart=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    s = json.loads((run / "summary.json").read_text())
+    assert s["restarts"] == [{"time": 8 * SHEET_DT, "step": 8, "checkpoint": "step-00000008"}]
+    assert_same_run(ref, run)
+
+
+def test_finished_run_goes_on_to_a_later_end(tmp_path):
+    """A run to 24 steps, restarted with time.end at 51 steps' worth, equals the run
+    made to that end at once (its last checkpoint is its last step)."""
+    scene, _, sets = CASES["sheet"]
+    ref, run = tmp_path / "reference", tmp_path / "run"
+    assert rftfem_run(scene, ref, sets).returncode == 0
+    short = [*sets, f"time.end={24 * SHEET_DT!r}"]
+    assert rftfem_run(scene, run, short).returncode == 0
+    again = rftfem_run(scene, run, short, restart=True)
+    assert again.returncode == 2 and "raise time.end" in again.stderr, again.stderr
+    assert rftfem_run(scene, run, sets, restart=True).returncode == 0
+    assert_same_run(ref, run)
+
+
+def one_line(done) -> str:
+    assert done.returncode == 2, (done.returncode, done.stderr[-2000:])
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    return lines[0]
+
+
+@pytest.mark.mpi
+def test_restart_refusals(tmp_path, mpirun):
+    """Exit 2 with one line: another physics (names the key and both values),
+    another number of processes, --out elsewhere, a folder without checkpoints."""
+    scene, _, sets = CASES["sheet"]
+    run = tmp_path / "run"
+    assert rftfem_run(scene, run, [*sets, "time.end=0.02"]).returncode == 0
+    line = one_line(rftfem_run(scene, run, [*sets, "shell.E=2.0"], restart=True))
+    assert "shell.E" in line and "checkpoint:" in line and "2.0" in line, line
+    line = one_line(rftfem_run(scene, run, sets, mpirun, 2, restart=True))
+    assert "one process" in line and "without mpirun" in line, line
+    other = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--restart",
+                         str(run), "--out", str(tmp_path / "elsewhere")], cwd=ROOT)
+    assert "--out" in one_line(other)
+    (tmp_path / "empty").mkdir()
+    line = one_line(rftfem_run(scene, tmp_path / "empty", sets, restart=True))
+    assert "no complete checkpoint" in line, line
