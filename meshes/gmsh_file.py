@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 from contextlib import nullcontext
 
 import numpy as np
@@ -41,25 +40,15 @@ def _import_gmsh():
     return gmsh
 
 
-def _gmsh_is_initialized(gmsh) -> bool:
+def _gmsh_is_initialized(gmsh) -> bool | None:
+    """Whether gmsh is initialized, or None where that cannot be asked safely."""
     # TODO(compat): gmsh >= 4.9 has isInitialized(); gmsh 4.8 (Debian 12) does
-    # not. There an uninitialized gmsh answers an empty model list (an
-    # initialized one always has a model) after complaining on stderr, which is
-    # silenced here at the file-descriptor level (the message comes from C++).
+    # not, and any call into an uninitialized gmsh 4.8 may exit the process with
+    # status 1 (its error handler reads options that only initialize() sets): it
+    # did, in about one launch of two in some sequences, with nothing printed.
     if hasattr(gmsh, "isInitialized"):
         return bool(gmsh.isInitialized())
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            try:
-                return len(gmsh.model.list()) > 0
-            except Exception:  # after finalize(): "Could not get last error"
-                return False
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
+    return None
 
 
 def _gmsh_initialize(gmsh) -> None:
@@ -79,7 +68,9 @@ class _GmshSession:
     Initializes gmsh only if nobody has (and then finalizes it on exit);
     otherwise leaves it initialized, removes only its own model, restores the
     previously current model and every option it set (``options``, plus a
-    silent terminal).
+    silent terminal).  With gmsh 4.8, which cannot be asked whether it is
+    initialized, initialize() is called every time (a no-op when it is) and gmsh
+    is left initialized.
     """
 
     _count = 0
@@ -90,9 +81,17 @@ class _GmshSession:
     def __enter__(self):
         gmsh = _import_gmsh()
         self.gmsh = gmsh
-        self.started = not _gmsh_is_initialized(gmsh)
-        if self.started:
+        known = _gmsh_is_initialized(gmsh)
+        if known is None:
+            # gmsh 4.8: initialize() on an initialized gmsh changes nothing, so it is
+            # called every time and gmsh is never finalized here (whoever else
+            # initialized it keeps their models; whoever finalized it gets it back)
+            self.started = False
             _gmsh_initialize(gmsh)
+        else:
+            self.started = not known
+            if self.started:
+                _gmsh_initialize(gmsh)
         self.saved = {k: gmsh.option.getNumber(k) for k in self.options}
         for k, v in self.options.items():
             gmsh.option.setNumber(k, v)
