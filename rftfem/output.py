@@ -252,18 +252,19 @@ def _json_default(obj):
 
 # --- continuing the outputs of a restarted run (checkpoint.py) ---------------------
 
-def keep_rows_until(path: Path, t: float) -> list[list[str]]:
+def keep_rows_until(path: Path, t: float, at_t: bool = True) -> list[list[str]]:
     """Cut a CSV table of this module to its header and the rows up to time ``t``
-    (a row cut short by a killed run is dropped too); return the rows kept."""
+    (``at_t``: and at it); a row cut short by a killed run is dropped too.
+    Returns the rows kept."""
     lines = Path(path).read_text(encoding="utf-8").splitlines(keepends=True)
     kept, rows = lines[:1], []
-    limit = t + 1e-12 * max(1.0, abs(t))
+    tol = 1e-12 * max(1.0, abs(t))
     for line in lines[1:]:
         if not line.endswith("\n"):
             break
         cells = line.rstrip("\n").split(",")
         try:
-            if float(cells[0]) > limit:
+            if float(cells[0]) > t + tol or (not at_t and float(cells[0]) > t - tol):
                 break
         except ValueError:
             break
@@ -322,10 +323,11 @@ def merge_field_segment(main: Path, segment: Path):
     _write_xdmf(tree, main)
 
 
-def keep_fields_until(main: Path, t: float):
-    """Drop the time steps after ``t`` from a field file."""
+def keep_fields_until(main: Path, t: float, at_t: bool = True):
+    """Drop the time steps after ``t`` (``at_t``: keep the one at it) from a field file."""
     tree = _xdmf_tree(main)
-    limit = t + 1e-12 * max(1.0, abs(t))
+    tol = 1e-12 * max(1.0, abs(t))
+    limit = t + tol if at_t else t - tol
     for grid in _collections(tree).values():
         for step in list(grid):
             time = step.find("Time")

@@ -170,6 +170,9 @@ class Simulation:
                 "wall_s": self.wall_before + _time.perf_counter() - self._wall_start
                 + self.setup_time,
                 "restarts": self.restarts,
+                # a row at this time is an output row (else one an interrupt or a
+                # failure writes after it, which a restart drops)
+                "output_row": bool(self.history) and self.history[-1][0] == self.t,
                 "scene": {k: v for k, v in self.scene.items() if not k.startswith("_")},
                 "mesh_digest": checkpoint.mesh_digest(self.model)}
         checkpoint.write(self.out_dir, self.completed, arrays, meta, self.comm)
@@ -504,18 +507,19 @@ class Simulation:
         files of earlier restarts merged and cut the same way; returns the new
         segment's field file."""
         out, t = self.out_dir, self.t
+        at_t = self.resume[1]["output_row"]
         rows, segment = None, None
         if self.comm.rank == 0:
             try:
-                for name in ("steps.csv", "body.csv"):
-                    keep_rows_until(out / name, t)
-                rows = keep_rows_until(out / "probes.csv", t)
+                keep_rows_until(out / "steps.csv", t)
+                keep_rows_until(out / "body.csv", t, at_t)
+                rows = keep_rows_until(out / "probes.csv", t, at_t)
                 if fields:
                     main = out / "fields.xdmf"
                     done = field_segments(main)
                     for earlier in done:
                         merge_field_segment(main, earlier)
-                    keep_fields_until(main, t)
+                    keep_fields_until(main, t, at_t)
                     number = int(done[-1].stem.rsplit("-", 1)[1]) + 1 if done else 1
                     segment = str(out / f"fields-{number}.xdmf")
             except (OSError, ValueError) as exc:

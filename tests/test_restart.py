@@ -169,6 +169,38 @@ def test_checkpoint_killed_while_written_is_not_read(tmp_path):
     assert_same_run(ref, run)
 
 
+_SIGNAL_AFTER_CHECKPOINT = """
+import os, signal, sys
+from rftfem import checkpoint, cli
+real = checkpoint.write
+def write(out_dir, step, *args):
+    done = real(out_dir, step, *args)
+    if step == 8:
+        os.kill(os.getpid(), signal.SIGTERM)  # stop after the step of this checkpoint
+    return done
+checkpoint.write = write
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_interrupt_right_after_a_checkpoint(tmp_path):
+    """SIGTERM arrives as the checkpoint of step 8 is written, a step without an
+    output row (rows every 3): the interrupt's last row is at the checkpoint's
+    time, and the restart must drop it (the uninterrupted run has none there)."""
+    scene, _, sets = CASES["sheet"]
+    ref, run = tmp_path / "reference", tmp_path / "run"
+    assert rftfem_run(scene, ref, sets).returncode == 0
+    cmd = [sys.executable, "-c", _SIGNAL_AFTER_CHECKPOINT, "run", str(scene), "--out",
+           str(run), "--quiet", *[a for s in sets for a in ("--set", s)]]
+    done = run_command(cmd, cwd=ROOT, timeout=600)
+    assert done.returncode == 143, done.stderr[-2000:]
+    times = tables(run)[0][:, 0]
+    assert times[-1] == 8 * SHEET_DT and times[-2] == 6 * SHEET_DT, times
+    done = rftfem_run(scene, run, sets, restart=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert_same_run(ref, run)
+
+
 def test_finished_run_goes_on_to_a_later_end(tmp_path):
     """A run to 24 steps, restarted with time.end at 51 steps' worth, equals the run
     made to that end at once (its last checkpoint is its last step)."""
