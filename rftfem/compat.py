@@ -137,6 +137,10 @@ COMPILE_FLAGS = ("-O2", "-g0", "-fno-math-errno")
 #: shell's Jacobian takes 20-90 s to compile
 COMPILE_WAIT = 300
 
+#: SNES's converged reason for a residual that is NaN or infinite: PETSc 3.18 calls it
+#: DIVERGED_FNORM_NAN, PETSc >= 3.22 DIVERGED_FUNCTION_NANORINF (compared by name)
+SNES_NOT_FINITE = ("DIVERGED_FNORM_NAN", "DIVERGED_FUNCTION_NANORINF")
+
 
 def form(ufl_form, jit_options: dict | None = None):
     """Compile a UFL form (list of forms allowed) to a dolfinx Form, with

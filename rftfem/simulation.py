@@ -193,6 +193,10 @@ class Simulation:
         m.predict(dt, extrapolate=scheme.has_velocity)
         self.wall["loads"] += _time.perf_counter() - t0
         ok, its, res, reason = self.solver.solve()
+        if self.stops.immediate:
+            # a second signal inside a residual or Jacobian: PETSc turned it into a failed
+            # solve (and may have left a vector locked); stop, do not cut
+            raise RunInterrupted(self.stops.signum, immediate=True)
         if ok and not math.isfinite(res):
             ok, reason = False, "non-finite residual"
         if ok and limit_rotation and scheme.has_velocity:

@@ -179,12 +179,13 @@ class StepSolver:
         its = self.snes.getIterationNumber()
         norm = self.snes.getFunctionNorm()
         self.timings["solve"] += (_time.perf_counter() - t0) - (self.assembly_time - a0)
-        if reason == PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN:
+        name = _reason_name(reason)
+        if name in compat.SNES_NOT_FINITE:
             # PETSc keeps the last finite norm (0 before the first): say what it was
-            return False, its, math.nan, ("the residual is not finite (DIVERGED_FNORM_NAN): a "
-                                          "load, motion or coefficient too large for double "
-                                          "precision, or a state that left the physical range")
-        return reason > 0, its, norm, _reason_name(reason)
+            return False, its, math.nan, (f"the residual is not finite ({name}): a load, motion "
+                                          "or coefficient too large for double precision, or "
+                                          "a state that left the physical range")
+        return reason > 0, its, norm, name
 
     def _start_on_motions(self, w):
         """Put the iterate on the step's Dirichlet values if the prediction came
