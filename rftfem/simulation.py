@@ -364,7 +364,7 @@ class Simulation:
                                     self.solver.snes.getFunctionNorm())
                     if self.t < t_out - 1e-12 * max(1.0, abs(t_out)):
                         self._checkpoint_if_due(h)  # else after the output row below
-                    self._stop_if_asked(logs)
+                        self._stop_if_asked(logs)
                     continue
                 if self.rejected:
                     self.counts["rejected_steps"] += 1
@@ -388,6 +388,8 @@ class Simulation:
             self.t = t_out
             self._write_output(logs, self.t)
             self._checkpoint_if_due(h, last=k == n_out)
+            if k < n_out:
+                self._stop_if_asked(logs)
 
     # --- the run -------------------------------------------------------------
 
