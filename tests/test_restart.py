@@ -28,7 +28,7 @@ import numpy as np
 import pytest
 
 from conftest import DEMOS, ROOT, fields_at, run_command
-from running import finish, rank_pids, start_run, tables, wait_for_steps
+from running import finish, rank_pids, start_run, tables, vector_scales, wait_for_steps
 
 SHEET_DT = 0.0019634954084936207  # demos/swimming_sheet.toml: a 32nd of the period
 CASES = {
@@ -83,23 +83,6 @@ def xdmf_times(path: Path) -> dict:
                                  text, flags=re.S):
         out[name] = [float(v) for v in re.findall(r'<Time Value="([^"]+)"', body)]
     return out
-
-
-def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
-    """Per column, the largest magnitude of the vector it is a component of (a probe's
-    ux, uy, uz; centroid_x, _y, _z; ...) or of the column itself: what a relative
-    difference is measured against (a component that stays ~0 differs by round-off).
-    Energies share one scale, the dissipated power's over the run included: the
-    elastic energy of a body that turns rigidly is round-off (1e-12 against 1e-2 on
-    the plate) and after a restart it differs in its 7th digit while every
-    displacement agrees to round-off."""
-    header = path.read_text().splitlines()[0].split(",")
-    groups = [h.rsplit("_", 1)[0] if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
-              else "energy" if h.endswith("_energy") or h == "drag_power" else h
-              for h in header]
-    size = np.abs(table).max(axis=0)
-    size = np.where(np.array(header) == "drag_power", size * table[-1, 0], size)
-    return np.array([max(size[j] for j, g2 in enumerate(groups) if g2 == g) for g in groups])
 
 
 def assert_same_run(ref: Path, run: Path, rtol=1e-10):
