@@ -225,6 +225,12 @@ class Vec(Validator):
         return out
 
 
+#: the most cells a generated strip may have: 1e7 Q2 cells are ~2e8 unknowns, past
+#: what a direct solver on one machine factorises; a typo (an extra zero or two) beyond
+#: it would exhaust the memory while meshing, before any message
+MAX_CELLS = 10_000_000
+
+
 class Divisions(Validator):
     expected = "[n_length, n_width], two integers >= 1"
 
@@ -232,6 +238,9 @@ class Divisions(Validator):
         if (not isinstance(value, list) or len(value) != 2
                 or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)):
             raise err(path, self.expected, value)
+        if value[0] * value[1] > MAX_CELLS:
+            raise SceneError(f"{path}: {value[0]} x {value[1]} = {value[0] * value[1]:.3g} cells, "
+                             f"more than the {MAX_CELLS:.0e} a run can be made of (a typo?)")
         return list(value)
 
 

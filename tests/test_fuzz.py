@@ -1,0 +1,264 @@
+"""Fuzzed input: valid scenes mutated at random must give exit status 0 or 2 from
+``rftfem check`` (2 with one line naming a key), and 0, 2 or 3 from a short
+``rftfem run`` — never a traceback, a hang or another status.
+
+Mutations (hypothesis): any key of a shipped demo scene gets a value of another
+type, an edge number (0, -1, ±1e308, 1e-308, nan, ±inf, 2^70), a string (unicode
+included), an array of another length, a table, or is deleted; unknown keys are
+added; arrays and tables grow huge; ``--set`` gets random paths and values.
+Each example runs ``rftfem.cli.main`` in this process (the exit status it returns
+and what it prints), so a Python exception escaping it fails the test with its
+traceback.  About one valid mutant in eight is also run for two or three steps.
+
+The default profile tries 150 scenes and runs only mutants whose forms are
+compiled already (15 s with a warm JIT cache); the ``slow`` one, run by
+``./dev.sh test-full``, tries 1500 and runs any.  What the fuzzer found is kept as fixtures
+in tests/scenes_bad/.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+
+hypothesis = pytest.importorskip("hypothesis", reason="hypothesis is installed by the set-up "
+                                 "(scripts/setup.sh); without it this test cannot run")
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from conftest import DEMOS  # noqa: E402
+from rftfem import cli  # noqa: E402
+
+BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8"))
+         for p in sorted(DEMOS.glob("*.toml"))}
+TOP_KEYS = ("title", "mesh", "shell", "time", "fluid", "magnetic", "load", "boundary", "motion",
+            "hinge", "output", "solver", "--set", "scene file")
+EDGE_NUMBERS = [0, -1, 0.0, -0.0, 1e308, -1e308, 1e-308, math.nan, math.inf, -math.inf, 2**70,
+                -(2**70), 1, 3, 1e-12]
+
+scalars = st.one_of(
+    st.booleans(),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from(EDGE_NUMBERS),
+    st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=12),
+)
+values = st.one_of(
+    scalars,
+    st.lists(scalars, max_size=5),
+    st.lists(st.floats(-10, 10), min_size=1, max_size=5),
+    st.dictionaries(st.text(min_size=1, max_size=6), scalars, max_size=3),
+)
+
+
+# --- a scene back to TOML ------------------------------------------------------
+
+def _key(k: str) -> str:
+    return json.dumps(k, ensure_ascii=True)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=True)
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def _table_array(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
+
+
+def to_toml(table: dict, prefix: str = "") -> str:
+    lines = [f"{_key(k)} = {_value(v)}" for k, v in table.items()
+             if not isinstance(v, dict) and not _table_array(v)]
+    for k, v in table.items():
+        name = f"{prefix}{_key(k)}"
+        if isinstance(v, dict):
+            lines += ["", f"[{name}]", to_toml(v, name + ".")]
+        elif _table_array(v):
+            for item in v:
+                lines += ["", f"[[{name}]]", to_toml(item, name + ".")]
+    return "\n".join(lines)
+
+
+# --- mutations -----------------------------------------------------------------
+
+def _paths(node, path=()):
+    """Every (container, key) of a scene, tables and arrays included."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield node, k, path + (k,)
+            yield from _paths(v, path + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            yield node, i, path + (i,)
+            yield from _paths(v, path + (i,))
+
+
+@st.composite
+def mutants(draw):
+    name = draw(st.sampled_from(sorted(BASES)))
+    scene = json.loads(json.dumps(BASES[name]))  # a deep copy
+    sets = []
+    for _ in range(draw(st.integers(1, 3))):
+        places = list(_paths(scene))
+        kind = draw(st.sampled_from(["value", "value", "value", "delete", "unknown", "length",
+                                     "huge", "set"]))
+        if kind == "set" or not places:
+            path = draw(st.one_of(
+                st.sampled_from([".".join(map(str, p)) for *_, p in places] or ["title"]),
+                st.text(max_size=15)))
+            suffix = draw(st.sampled_from(["", ".x", ".0", ".99", "..", "."]))
+            text = draw(st.one_of(st.builds(_value, values), st.text(max_size=10)))
+            sets.append(f"{path}{suffix}={text}")
+            continue
+        container, key, _ = draw(st.sampled_from(places))
+        if kind == "value":
+            container[key] = draw(values)
+        elif kind == "delete":
+            if isinstance(container, dict):
+                del container[key]
+            else:
+                container.pop(key)
+        elif kind == "unknown":
+            target = container[key] if isinstance(container[key], dict) else container
+            if isinstance(target, dict):
+                target[draw(st.text(min_size=1, max_size=8))] = draw(values)
+        elif kind == "length":
+            if isinstance(container[key], list):
+                n = draw(st.integers(0, 6))
+                container[key] = (container[key] * 3)[:n] if container[key] else \
+                    draw(st.lists(scalars, min_size=n, max_size=n))
+            else:
+                container[key] = [container[key]] * draw(st.integers(0, 4))
+        elif kind == "huge":
+            what = draw(st.sampled_from(["array", "tables", "divisions", "string"]))
+            if what == "array":
+                container[key] = [0.5] * 5000
+            elif what == "tables":
+                probe = {"name": "p", "at": [0.0, 0.0, 0.0]}
+                scene.setdefault("output", {})["probes"] = [
+                    dict(probe, name=f"p{i}") for i in range(2000)]
+            elif what == "divisions":
+                scene.setdefault("mesh", {})["divisions"] = draw(st.sampled_from(
+                    [[10**9, 4], [100000, 100000], [2**70, 1], [40000, 1]]))
+            else:
+                container[key] = "é" * 100000
+    return name, scene, sets
+
+
+def _main(args: list[str]) -> tuple[int, str]:
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        status = cli.main(args)
+    return status, err.getvalue()
+
+
+def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: bool,
+                 new_forms: bool = True):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(to_toml(scene) + "\n", encoding="utf-8")
+    # a mutant that points at a file of the demo folder (a gmsh mesh) finds it there
+    for extra in DEMOS.glob("*.msh"):
+        (tmp_path / extra.name).write_bytes(extra.read_bytes())
+    args = [arg for s in sets for arg in ("--set", s)]
+    status, err = _main(["check", str(path), *args])
+    hypothesis.event(f"check: exit {status}")
+    assert status in (0, 2), (status, err, sets)
+    if status == 2:
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("rftfem: error: "), (err, sets)
+        assert any(k in lines[0] for k in TOP_KEYS), (lines[0], sets)
+        return
+    if not run:
+        return
+    # a short run: two or three steps (the time keys as the mutant has them)
+    end = _scene_end(path, args, None if new_forms else name)
+    if end is None:
+        return
+    out = tmp_path / "out"
+    status, err = _main(["run", str(path), "--out", str(out), "--quiet", *args,
+                         "--set", f"time.end={end!r}", "--set", "output.fields=false"])
+    hypothesis.event(f"run: exit {status}")
+    assert status in (0, 2, 3), (status, err, sets)
+    if status in (2, 3):
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("rftfem: "), (err, sets)
+
+
+def _form_key(scene: dict) -> tuple:
+    """What decides which forms a run compiles (material values do not: they are
+    cellwise Functions)."""
+    from rftfem.scene import active_effects
+
+    return (tuple(active_effects(scene)), scene["mesh"].get("cell"), scene["time"]["scheme"],
+            (scene.get("solver") or {}).get("tangent"), scene["mesh"].get("kind"),
+            scene["mesh"].get("file"))
+
+
+def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float | None:
+    """time.end for two or three steps of the mutant (None: too many unknowns for a
+    quick run, a dt that makes the end not a number, or, with ``same_forms_as``, a
+    mutant whose forms differ from that demo's, which would take a compilation)."""
+    from rftfem.scene import load_scene
+
+    scene = load_scene(path, [a for a in args if a != "--set"])
+    if same_forms_as is not None:
+        base = load_scene(DEMOS / f"{same_forms_as}.toml")
+        if _form_key(scene) != _form_key(base):
+            return None
+    divisions = scene["mesh"].get("divisions") or [1, 1]
+    if math.prod(divisions) > 400:
+        return None
+    end = min(scene["time"]["end"], 2.5 * scene["time"]["dt"])
+    return end if math.isfinite(end) and end > 0 else None
+
+
+PROFILE = dict(deadline=None, database=None, derandomize=False,
+               suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                      HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+@settings(max_examples=150, **PROFILE)
+@given(mutant=mutants(), run=st.integers(0, 7))
+def test_fuzzed_scenes(tmp_path, mutant, run):
+    """The CI profile: short runs only of mutants whose forms the demos' own tests
+    compile, so that the test stays within a minute."""
+    name, scene, sets = mutant
+    check_mutant(tmp_path, name, scene, sets, run == 0, new_forms=False)
+
+
+@pytest.mark.slow
+@settings(max_examples=1500, **PROFILE)
+@given(mutant=mutants(), run=st.integers(0, 7))
+def test_fuzzed_scenes_long(tmp_path, mutant, run):
+    name, scene, sets = mutant
+    check_mutant(tmp_path, name, scene, sets, run == 0)
+
+
+def test_round_trip_of_the_demos(tmp_path):
+    """The TOML writer of this test gives back every demo scene unchanged (else the
+    mutants would not be what the fuzzer thinks)."""
+    for name, scene in BASES.items():
+        assert tomllib.loads(to_toml(scene)) == scene, name
+        assert re.search(r"\S", to_toml(scene))
