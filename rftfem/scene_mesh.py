@@ -43,8 +43,8 @@ MESH = Table({
                                  "them free."),
     "divisions": Leaf(Divisions(), [16, 1],
                        doc="Number of cells along X and across Y (three-link: across "
-                           "each link). Region limits and hinge lines add cuts. Not used "
-                           "with a gmsh mesh."),
+                           "each link), at most 1e7 cells in all. Region limits and hinge "
+                           "lines add cuts. Not used with a gmsh mesh."),
     "cell": Leaf(Str(("quadrilateral", "triangle")), "quadrilateral",
                   doc="Cell shape of a strip or three-link mesh; the unknowns are "
                       "second order either way (Q2 or P2). A gmsh file brings its own "
