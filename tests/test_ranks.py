@@ -33,6 +33,7 @@ def launcher_options(exe: str) -> list[str]:
     return ["--oversubscribe"] if "Open MPI" in done.stdout + done.stderr else []
 
 
+@pytest.mark.long
 @pytest.mark.mpi
 @pytest.mark.parametrize("case", list(CASES))
 def test_three_ranks_match_serial(tmp_path, mpirun, case):

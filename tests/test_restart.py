@@ -125,7 +125,7 @@ def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1):
     return k
 
 
-@pytest.mark.parametrize("np_", [1, pytest.param(2, marks=pytest.mark.mpi)],
+@pytest.mark.parametrize("np_", [1, pytest.param(2, marks=[pytest.mark.mpi, pytest.mark.long])],
                          ids=["serial", "np2"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
