@@ -29,6 +29,7 @@ import numpy as np
 
 from . import __version__
 from .errors import SceneError
+from .output import json_default
 
 FOLDER = "checkpoint"
 KEEP = 2
@@ -71,7 +72,7 @@ def write(out_dir: Path, step: int, arrays: dict, meta: dict, comm) -> Path:
         meta = dict(meta, format=FORMAT, rftfem=__version__, mpi_size=comm.size,
                     mesh_digests=digests)
         with open(tmp / "meta.json", "w", encoding="utf-8") as f:
-            json.dump(meta, f, indent=1, default=_plain)
+            json.dump(meta, f, indent=1, default=json_default)
             f.flush()
             os.fsync(f.fileno())
         if final.exists():
@@ -159,21 +160,11 @@ def _differences(a, b, path):
 
 def _plain_value(v):
     """A value as JSON gives it back (tuples as lists, numpy scalars as numbers)."""
-    return json.loads(json.dumps(v, default=_plain))
+    return json.loads(json.dumps(v, default=json_default))
 
 
 def _show(v) -> str:
-    return "absent" if v is None else json.dumps(v, default=_plain)
-
-
-def _plain(obj):
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+    return "absent" if v is None else json.dumps(v, default=json_default)
 
 
 def _fsync_dir(path: Path):

@@ -236,11 +236,12 @@ def render_in_child(folder: Path, kind: str, comm, progress: Progress) -> None:
 def write_json(path: Path, data: dict, comm):
     if comm.rank == 0:
         tmp = path.with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(data, indent=2, default=_json_default) + "\n", encoding="utf-8")
+        tmp.write_text(json.dumps(data, indent=2, default=json_default) + "\n", encoding="utf-8")
         tmp.replace(path)
 
 
-def _json_default(obj):
+def json_default(obj):
+    """``json.dumps``' default for numpy values and paths."""
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, np.ndarray):
