@@ -6,7 +6,8 @@ Each DIR is a folder written by ``rftfem run --out DIR``.  The table (CSV, on
 stdout without ``--out``) has one row per folder, in the order given:
 
 * ``folder``, ``status`` and ``failure`` (the reason of a failed run).  The
-  status is ``ok``, ``failed``, ``running-or-interrupted`` (the summary says
+  status is ``ok``, ``failed``, ``interrupted`` (stopped by SIGINT or SIGTERM;
+  ``--restart`` goes on from its last checkpoint), ``running-or-interrupted`` (the summary says
   "running", or probes.csv, steps.csv or body.csv were written more than a second
   after summary.json: a newer run writes into an old folder, or was killed; the
   old summary is then ignored) or ``missing-summary`` (the run's CSV files but no
