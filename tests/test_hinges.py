@@ -495,3 +495,28 @@ def test_scallop_demo(tmp_path):
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert (tmp_path / "scallop.png").stat().st_size > 0
+
+
+def test_local_panel_components():
+    """hinges._local_components against plain label spreading, on random cell-facet
+    layouts (some facets shared by two cells, some closed by a hinge): the same
+    panels, each named by its smallest cell."""
+    from rftfem.hinges import _local_components
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        n_cells, n_facets = int(rng.integers(1, 60)), int(rng.integers(1, 80))
+        facets = rng.integers(0, n_facets, size=(n_cells, 4))
+        open_ = rng.random((n_cells, 4)) < 0.7
+        root = _local_components(n_cells, facets, open_)
+        label = np.arange(n_cells)
+        while True:  # spread the smallest label across open shared facets
+            new = label.copy()
+            for c in range(n_cells):
+                for d in range(n_cells):
+                    if set(facets[c][open_[c]]) & set(facets[d][open_[d]]):
+                        new[c] = min(new[c], label[d])
+            if (new == label).all():
+                break
+            label = new
+        np.testing.assert_array_equal(root, label)
