@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 import os
-from contextlib import nullcontext
+import sys
+from contextlib import contextmanager, nullcontext
 
 import numpy as np
 
@@ -51,6 +52,20 @@ def _gmsh_is_initialized(gmsh) -> bool | None:
     return None
 
 
+@contextmanager
+def _stderr_silenced():
+    """File descriptor 2 to /dev/null for the block (messages printed by C++)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 def _gmsh_initialize(gmsh) -> None:
     # TODO(compat): gmsh >= 4.11 takes interruptible= (True replaces Python's
     # SIGINT handler, so Ctrl-C would kill the run without cleanup); 4.8 does not.
@@ -83,11 +98,13 @@ class _GmshSession:
         self.gmsh = gmsh
         known = _gmsh_is_initialized(gmsh)
         if known is None:
-            # gmsh 4.8: initialize() on an initialized gmsh changes nothing, so it is
-            # called every time and gmsh is never finalized here (whoever else
-            # initialized it keeps their models; whoever finalized it gets it back)
+            # gmsh 4.8: initialize() on an initialized gmsh changes nothing but a warning
+            # on stderr ("already initialized", silenced), so it is called every time
+            # and gmsh is never finalized here (whoever else initialized it keeps their
+            # models; whoever finalized it gets it back)
             self.started = False
-            _gmsh_initialize(gmsh)
+            with _stderr_silenced():
+                _gmsh_initialize(gmsh)
         else:
             self.started = not known
             if self.started:
