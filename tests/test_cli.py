@@ -134,10 +134,12 @@ def fake_simulation(monkeypatch):
     """A stand-in rftfem.simulation that records its calls."""
     module = types.ModuleType("rftfem.simulation")
     module.calls = []
+    module.options = []
     module.outcome = None
 
-    def run(scene, out_dir, quiet, petsc_args):
+    def run(scene, out_dir, quiet, petsc_args, signals=False, restart=None):
         module.calls.append(("run", scene, out_dir, quiet, petsc_args))
+        module.options.append({"signals": signals, "restart": restart})
         if module.outcome is not None:
             raise module.outcome
         return {"status": "ok"}
@@ -166,6 +168,11 @@ def test_run_passes_scene_out_dir_and_petsc_args(good, fake_simulation, tmp_path
     assert cli.main(["run", str(good), "--out", "elsewhere"]) == 0
     assert fake_simulation.calls[1][2] == Path("elsewhere")
     assert fake_simulation.calls[1][3] is False
+    # the command line stops on signals (the Python API does not); --restart is the folder
+    assert fake_simulation.options[:2] == [{"signals": True, "restart": None}] * 2
+    assert cli.main(["run", str(good), "--restart", "earlier"]) == 0
+    assert fake_simulation.calls[2][2] == Path("earlier")
+    assert fake_simulation.options[2] == {"signals": True, "restart": Path("earlier")}
 
 
 def test_run_failed_exits_3(good, fake_simulation, capsys):
