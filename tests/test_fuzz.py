@@ -115,6 +115,13 @@ def _paths(node, path=()):
             yield from _paths(v, path + (i,))
 
 
+def _table(scene: dict, key: str) -> dict:
+    """``scene[key]`` as a table (an earlier mutation may have made it something else)."""
+    if not isinstance(scene.get(key), dict):
+        scene[key] = {}
+    return scene[key]
+
+
 @st.composite
 def mutants(draw):
     name = draw(st.sampled_from(sorted(BASES)))
@@ -159,10 +166,10 @@ def mutants(draw):
                 container[key] = [0.5] * 5000
             elif what == "tables":
                 probe = {"name": "p", "at": [0.0, 0.0, 0.0]}
-                scene.setdefault("output", {})["probes"] = [
+                _table(scene, "output")["probes"] = [
                     dict(probe, name=f"p{i}") for i in range(2000)]
             elif what == "divisions":
-                scene.setdefault("mesh", {})["divisions"] = draw(st.sampled_from(
+                _table(scene, "mesh")["divisions"] = draw(st.sampled_from(
                     [[10**9, 4], [100000, 100000], [2**70, 1], [40000, 1]]))
             else:
                 container[key] = "é" * 100000
