@@ -283,6 +283,15 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         console.err("rftfem: interrupted")
         return 130
+    except MemoryError:
+        # under a memory limit (ulimit, a batch job's): one line, not a traceback; with
+        # no limit the kernel may stop the process first, and nothing can be said
+        console.refresh()
+        print("rftfem: error: out of memory while setting up or running the scene: fewer "
+              "cells (mesh.divisions) or more processes", file=sys.stderr, flush=True)
+        if console.comm is not None and console.comm.size > 1:
+            console.comm.Abort(2)  # the other processes would wait in a collective call
+        return 2
     except Exception:
         # A bug, not a bad scene: keep the traceback. Under MPI with several ranks,
         # abort the job so the other ranks do not wait forever in a collective call.

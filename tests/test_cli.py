@@ -219,3 +219,13 @@ def test_run_rejects_bad_petsc_option_and_out(tmp_path, good):
                           "--out", "found a file")
     assert_one_line_error(rftfem("run", good, "--out", tmp_path / "afile" / "sub", timeout=300),
                           "--out", "cannot make this folder")
+
+
+def test_out_of_memory_is_one_line(good, fake_simulation, capsys):
+    """A MemoryError (a run under a memory limit) is exit 2 with one line naming what
+    to change, not a traceback (found by tests/test_fuzz.py under ulimit -v)."""
+    fake_simulation.outcome = MemoryError()
+    assert cli.main(["run", str(good)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("rftfem: error: out of memory")
+    assert "mesh.divisions" in err[0]
