@@ -54,7 +54,8 @@ def test_steps_and_summary_agree_with_the_run(rollup):
     assert int(steps["newton_its"].sum()) == counts["newton_iterations"]
     assert steps["time"][-1] == pytest.approx(summary["time_reached"], abs=1e-12)
     assert np.all(np.diff(steps["time"]) > 0) and np.all(steps["dt"] > 0)
-    assert set(summary["wall_s"]) == {"compile", "assembly", "solve", "output", "total"}
+    assert set(summary["wall_s"]) == {"compile", "assembly", "solve", "output", "checkpoint",
+                                     "total"}
     assert summary["wall_s"]["total"] >= summary["wall_s"]["solve"] >= 0
 
 

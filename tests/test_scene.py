@@ -99,7 +99,8 @@ def test_minimal_scene_gets_every_default(write):
                          "max_rotation": 0.2}
     assert s["boundary"] == [] and s["load"] == [] and s["motion"] == [] and s["hinge"] == []
     assert s["fluid"] is None and s["magnetic"] is None
-    assert s["output"] == {"probes": [], "fields": True, "render": "none"}
+    assert s["output"] == {"probes": [], "fields": True, "render": "none",
+                           "checkpoint_every": 0}
     assert s["solver"] == {}
 
 
