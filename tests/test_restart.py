@@ -127,7 +127,8 @@ def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1):
 
 @pytest.mark.parametrize("np_", [1, pytest.param(2, marks=[pytest.mark.mpi, pytest.mark.long])],
                          ids=["serial", "np2"])
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", [c if c == "sheet" else pytest.param(c, marks=pytest.mark.long)
+                                  for c in CASES])  # the current leg: the sheet only (CI time)
 def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
     scene, n_steps, sets = CASES[case]
     scene = scene(tmp_path) if callable(scene) else scene
