@@ -143,7 +143,7 @@ class Simulation:
 
     def _load_checkpoint(self):
         path, meta = self.resume
-        arrays = checkpoint.read_arrays(path, self.comm, checkpoint.mesh_digest(self.model), meta)
+        arrays = checkpoint.read_arrays(path, self.comm, self._mesh_digest(), meta)
         self.model.set_state(arrays, meta["increment_steps"])
         self.solver.F_n.array[:] = arrays["forces"]
         if hasattr(self.scheme, "dt_prev"):
@@ -154,6 +154,12 @@ class Simulation:
         self.wall_before = meta["wall_s"]
         self.restarts = meta.get("restarts", []) + [{"time": self.t, "step": self.completed,
                                                       "checkpoint": path.name}]
+
+    def _mesh_digest(self) -> str:
+        """This process's mesh digest (checkpoint.py), computed once: the mesh never moves."""
+        if not hasattr(self, "_digest"):
+            self._digest = checkpoint.mesh_digest(self.model)
+        return self._digest
 
     def _checkpoint_if_due(self, next_step: float | None = None, last: bool = False):
         """After a step: a checkpoint every ``output.checkpoint_every`` steps, and after
@@ -174,7 +180,7 @@ class Simulation:
                 # failure writes after it, which a restart drops)
                 "output_row": bool(self.history) and self.history[-1][0] == self.t,
                 "scene": {k: v for k, v in self.scene.items() if not k.startswith("_")},
-                "mesh_digest": checkpoint.mesh_digest(self.model)}
+                "mesh_digest": self._mesh_digest()}
         checkpoint.write(self.out_dir, self.completed, arrays, meta, self.comm)
         self.wall["checkpoint"] += _time.perf_counter() - t0
 
