@@ -135,3 +135,35 @@ def clear(opts: dict, prefix: str = PREFIX) -> None:
     for key in opts:
         if db.hasName(prefix + key):
             db.delValue(prefix + key)
+
+
+#: MUMPS's INFOG(1) when the factorisation outgrew its estimated workspace (-8, -9:
+#: main work array; -11, -14: integer and real arrays of the solve phase)
+MUMPS_WORKSPACE_ERRORS = (-8, -9, -11, -14)
+#: the most percent of extra workspace (ICNTL(14), MUMPS's default 20) a retry asks for
+MUMPS_WORKSPACE_MAX = 640
+
+
+def grow_factor_workspace(ksp: PETSc.KSP, opts: dict, prefix: str = PREFIX) -> bool:
+    """After a failed linear solve: if MUMPS ran out of its estimated workspace (the
+    thin roll-up at L/t = 1e5: numerical pivoting on a stiffness ratio of 1e10 made
+    more fill than the analysis foresaw; INFOG(1) = -9), double its extra workspace
+    ICNTL(14) in ``opts`` and the options database, drop the factorisation (a new one
+    reads the option) and return True; else False.  Set on the existing factor, the
+    option did not reach the next factorisation."""
+    pc = ksp.getPC()
+    if pc.getType() not in ("lu", "cholesky") or pc.getFactorSolverType() != "mumps":
+        return False
+    try:
+        factor = pc.getFactorMatrix()
+        if factor.getMumpsInfog(1) not in MUMPS_WORKSPACE_ERRORS:
+            return False
+        percent = factor.getMumpsIcntl(14)
+    except PETSc.Error:
+        return False
+    if percent >= MUMPS_WORKSPACE_MAX:
+        return False
+    opts["mat_mumps_icntl_14"] = min(MUMPS_WORKSPACE_MAX, 2 * max(percent, 20))
+    apply({"mat_mumps_icntl_14": opts["mat_mumps_icntl_14"]}, prefix)
+    pc.reset()
+    return True

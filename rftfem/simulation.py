@@ -39,6 +39,15 @@ from .timeint import BackwardEuler, Static, make_scheme
 #: error-controlled steps: a step that took more Newton iterations than this is not
 #: followed by a longer one (docs/model.md §6.9)
 NEWTON_GROWTH_LIMIT = 8
+#: static load steps: the most a sub-step should turn a director (rad).  A converged
+#: load step that turned one further is followed by halved sub-steps, and a cut
+#: sub-step is doubled again only while the doubled one would stay within it; in time
+#: ``time.max_rotation`` plays this part.  (Newton took 5 updates for load steps
+#: turning the roll-up's tip 0.4 rad, 6 to 10 for 0.8 rad on a curled strip, 7 or 8
+#: for 1.6 rad, and often failed from 1.6 rad on.)
+STATIC_TURN = 0.5
+#: the most halvings one failed attempt makes at once (docs/model.md §6.8)
+MOST_HALVINGS = 3
 
 
 def build_model(scene: dict, comm, compile_forms: bool = True,
@@ -117,6 +126,11 @@ class Simulation:
         self.step = 0
         self.completed = 0  # steps done (self.step may be the one under way)
         self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
+        #: halvings of the nominal step the next one starts with (_advance)
+        self.level = 0
+        #: the largest rotation increment of the last converged step, and how many times
+        #: too long the last failed attempt was (None where it does not show)
+        self.last_turn, self.overreach = 0.0, None
         #: wall seconds outside the solver: outputs, loads and motions set for a step
         #: (set_time), the state and triad update after it (accept)
         self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0, "checkpoint": 0.0}
@@ -149,6 +163,7 @@ class Simulation:
         if hasattr(self.scheme, "dt_prev"):
             self.scheme.dt_prev = meta["last_step"]
         self.t, self.completed = meta["time"], meta["step"]
+        self.level, self.last_turn = meta.get("substep_level", 0), meta.get("last_turn", 0.0)
         self.step = self.completed
         self.counts.update(meta["counts"])
         self.wall_before = meta["wall_s"]
@@ -173,6 +188,7 @@ class Simulation:
         meta = {"time": self.t, "step": self.completed, "counts": dict(self.counts),
                 "increment_steps": increment_steps,
                 "last_step": getattr(self.scheme, "dt_prev", None), "next_step": next_step,
+                "substep_level": self.level, "last_turn": self.last_turn,
                 "wall_s": self.wall_before + _time.perf_counter() - self._wall_start
                 + self.setup_time,
                 "restarts": self.restarts,
@@ -192,11 +208,13 @@ class Simulation:
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
         m.set_time(t_new)
-        # in time, the recent rates carried on (fewer Newton iterations: 3.0 to 2.1
-        # per step on the swimming sheet, 10.4 to 4.6 on the three-link); in static
-        # load steps the last state: a rotating body's displacement is no linear
-        # extrapolation, and the roll-up's first residuals grew 5000-fold with one
-        m.predict(dt, extrapolate=scheme.has_velocity)
+        # the recent rates carried on (fewer Newton iterations: 3.0 to 2.1 per step on
+        # the swimming sheet, 10.4 to 4.6 on the three-link).  In static load steps
+        # only with the increments turned (a body of one colour): the roll-up then
+        # needs 3.8 instead of 4.6 a step, 6.0 instead of 7.8 at L/t = 1e5; a
+        # polynomial in the load parameter (a hinged body's) made its first
+        # residuals grow 5000-fold, so there the step starts from the last state
+        m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
         self.wall["loads"] += _time.perf_counter() - t0
         ok, its, res, reason = self.solver.solve()
         if self.stops.immediate:
@@ -205,10 +223,19 @@ class Simulation:
             raise RunInterrupted(self.stops.signum, immediate=True)
         if ok and not math.isfinite(res):
             ok, reason = False, "non-finite residual"
-        if ok and limit_rotation and scheme.has_velocity:
-            turn, limit = m.largest_rotation_increment(), self.scene["time"]["max_rotation"]
-            if turn > limit:
-                ok, reason = False, f"a director turned {turn:.3g} rad > time.max_rotation = {limit:g}"
+        limit = self._turn_limit(scheme)
+        #: how many times too long a failed attempt was, where it shows (None: unknown)
+        self.overreach = None
+        if ok:
+            self.last_turn = m.largest_rotation_increment()
+        elif self.solver.divergence is not None and self.solver.turns:
+            # the first update's turn is the linearized one: it says how far the
+            # step reached beyond what Newton can take
+            self.overreach = self.solver.turns[0] / limit
+        if ok and limit_rotation and scheme.has_velocity and self.last_turn > limit:
+            ok, reason = False, (f"a director turned {self.last_turn:.3g} rad > "
+                                 f"time.max_rotation = {limit:g}")
+            self.overreach = self.last_turn / limit
         self.rejected = False
         if ok and error_check is not None:
             too_big = error_check()
@@ -223,6 +250,23 @@ class Simulation:
         m.accept(scheme, dt)
         self.wall["update"] += _time.perf_counter() - t0
         return True, its, res, reason
+
+    def _turn_limit(self, scheme) -> float:
+        """The turn of a director a step should stay within: ``time.max_rotation`` in
+        time, ``STATIC_TURN`` in static load steps."""
+        return self.scene["time"]["max_rotation"] if scheme.has_velocity else STATIC_TURN
+
+    def _halvings(self) -> int:
+        """How many times to halve after the failed attempt: once, or as many times as
+        its overreach asks (a turn 5 times too large: 3), at most ``MOST_HALVINGS``."""
+        if self.overreach is None or self.overreach <= 2.0:
+            return 1
+        return min(MOST_HALVINGS, math.ceil(math.log2(self.overreach)))
+
+    def _may_double(self, scheme) -> bool:
+        """Whether a cut sub-step may be doubled: the doubled one would turn the
+        directors by no more than 0.9 of the scheme's turn limit."""
+        return 2.0 * self.last_turn <= 0.9 * self._turn_limit(scheme)
 
     def _free(self) -> bool:
         """No support, no prescribed motion and no drag hold the body's rigid motions."""
@@ -267,10 +311,16 @@ class Simulation:
         self.solver.store_forces()
 
     def _advance(self, t_end: float, steps_log, progress):
-        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed."""
+        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.
+
+        The sub-step starts where the last nominal step left it (``self.level``
+        halvings), so a nominal step too long for Newton is not tried whole again
+        at every step; after two good sub-steps it is doubled, if the doubled one
+        would not turn the directors too far (``_may_double``)."""
         max_cuts = self.scene["time"]["max_cuts"]
-        dt = t_end - self.t
-        level, good = 0, 0
+        level = min(self.level, max_cuts)
+        dt = (t_end - self.t) / 2**level
+        good = 0
         while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
             dt = min(dt, t_end - self.t)
             wall0 = _time.perf_counter()
@@ -283,7 +333,13 @@ class Simulation:
                 for f in self.observers:
                     f(self)
                 good += 1
-                if level > 0 and good >= 2:
+                if not self.scheme.has_velocity and self.last_turn > STATIC_TURN \
+                        and level < max_cuts:
+                    # a load step that turned too far: the next ones shorter (no failure)
+                    halvings = min(MOST_HALVINGS, max_cuts - level,
+                                   math.ceil(math.log2(self.last_turn / STATIC_TURN)))
+                    dt, level, good = dt / 2**halvings, level + halvings, 0
+                elif level > 0 and good >= 2 and self._may_double(self.scheme):
                     dt, level, good = 2 * dt, level - 1, 0
                 continue
             if level >= max_cuts:
@@ -291,11 +347,14 @@ class Simulation:
                                 f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
                                 f"dt = {dt:.3e}" + self._unresolved_hint(),
                                 self.t + dt, self.step)
+            halvings = min(self._halvings(), max_cuts - level)
             self.counts["dt_cuts"] += 1
-            level, good = level + 1, 0
+            level, good = level + halvings, 0
+            dt /= 2**halvings
             progress.log(f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
-                         f"iterations; halving dt to {dt / 2:.3e}")
-            dt /= 2
+                         f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)"
+                                                          if halvings > 1 else ""))
+        self.level = level
         self.t = t_end  # exact nominal time, free of round-off from the sub-steps
 
     # --- error-controlled steps (time.tolerance) ----------------------------------
@@ -363,6 +422,10 @@ class Simulation:
                     # a longer step costs more iterations than it saves steps
                     if its > NEWTON_GROWTH_LIMIT:
                         grow = min(grow, 1.0)
+                    # nor one whose directors would turn past time.max_rotation
+                    if self.scheme.has_velocity and self.last_turn > 0.0:
+                        limit = self._turn_limit(self.scheme)
+                        grow = min(grow, max(0.5, 0.9 * limit / self.last_turn))
                     # a step cut short to land on an output says nothing against h
                     clipped = step < h * (1 - 1e-9)
                     h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
@@ -384,9 +447,11 @@ class Simulation:
                                         f"halvings in a row (time.max_cuts), dt = {step:.3e}"
                                         + self._unresolved_hint(),
                                         self.t + step, self.counts["steps"] + 1)
-                    h = step / 2
+                    halvings = self._halvings()
+                    h = step / 2**halvings
                     progress.log(f"step {self.counts['steps'] + 1} at t = {self.t:.6g}: {reason} "
-                                 f"after {its} Newton iterations; halving dt to {h:.3e}")
+                                 f"after {its} Newton iterations; dt to {h:.3e}"
+                                 + (f" ({halvings} halvings)" if halvings > 1 else ""))
                 if h < dt_min * (1 - 1e-12):
                     raise RunFailed(f"step not resolved ({reason}) with dt = {step:.3e}: the next "
                                     f"try would be below time.dt_min = {dt_min:g}",

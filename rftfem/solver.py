@@ -26,6 +26,13 @@ _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 #: a prediction that meets the prescribed values to this share of its own largest
 #: displacement increment starts Newton on them (no lifting)
 CONSISTENT = 0.25
+#: an iterate whose rotation increment reaches this (rad) has left the range of the
+#: director map: past π, d(θ) folds back onto directors of smaller |θ|
+ROTATION_RANGE = math.pi
+#: an iterate whose residual exceeds this multiple of the larger of the first two
+#: has diverged (converging solves stayed within 400 times, diverging ones grew by 1e10
+#: to 1e30 before the iteration limit)
+RESIDUAL_GROWTH = 1e6
 _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
 
 
@@ -48,6 +55,7 @@ class StepSolver:
         self.timings = {"residual": 0.0, "jacobian": 0.0, "lifting": 0.0, "solve": 0.0}
         self.calls = {"residual": 0, "jacobian": 0, "lifting": 0}
         self._x_of_F = None  # the iterate of the last residual's F
+        self._start = None  # a solve's first iterate (a retry starts there again)
         self.evaluations = 0
 
         petsc_options.apply(options)
@@ -61,6 +69,10 @@ class StepSolver:
         self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
         self._forced = False
         self._fnorms = []
+        #: the largest rotation increment of each iterate of the last solve (after each
+        #: update), and why the last solve was stopped as diverging (None if it was not)
+        self.turns: list[float] = []
+        self.divergence: str | None = None
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -72,7 +84,7 @@ class StepSolver:
     def destroy(self):
         petsc_options.clear(self.options)
         for obj in (self.snes, self.F, self.F_n, self.b, self.work, self.x, self.A,
-                    self._x_of_F):
+                    self._x_of_F, self._start):
             if obj is not None:
                 obj.destroy()
 
@@ -169,17 +181,29 @@ class StepSolver:
         if self.model.has_moving_bcs:
             self._start_on_motions(w)
         self.model.start_newton()
-        try:
-            self.snes.solve(None, self.x)
-        except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
+        self._start = self.x.copy(self._start)
+        while True:
+            self.turns, self.divergence = [], None
+            try:
+                self.snes.solve(None, self.x)
+            except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
+                self._sync(self.x)
+                return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
+            reason = self.snes.getConvergedReason()
+            if _reason_name(reason) != "DIVERGED_LINEAR_SOLVE" or \
+                    not petsc_options.grow_factor_workspace(self.snes.getKSP(), self.options):
+                break
+            # MUMPS ran out of workspace: the same solve again with more
+            self._start.copy(self.x)
             self._sync(self.x)
-            return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
+            self.model.start_newton()
         self._sync(self.x)
-        reason = self.snes.getConvergedReason()
         its = self.snes.getIterationNumber()
         norm = self.snes.getFunctionNorm()
         self.timings["solve"] += (_time.perf_counter() - t0) - (self.assembly_time - a0)
         name = _reason_name(reason)
+        if self.divergence is not None:
+            return False, its, norm, self.divergence
         if name in compat.SNES_NOT_FINITE:
             # PETSc keeps the last finite norm (0 before the first): say what it was
             return False, its, math.nan, (f"the residual is not finite ({name}): a load, motion "
@@ -208,12 +232,19 @@ class StepSolver:
             w.copy(self.x)
 
     def _converged(self, snes, it, norms):
-        """PETSc's default test (atol, rtol, stol on the options' values), and one
-        more: from the second update on, a residual below the elastic round-off
-        floor that the last update did not halve is converged (a stiff membrane
-        under a small load: its residual stalls at 1e-9 of E t however small the
-        load, far above a tolerance in the load's units).  PETSc's divergence
-        tolerance (off by rftfem's defaults) is not read: petsc4py 3.18 cannot."""
+        """PETSc's default test (atol, rtol, stol on the options' values), and more:
+
+        - from the second update on, a residual below the elastic round-off floor
+          that the last update did not halve is converged (a stiff membrane under a
+          small load: its residual stalls at 1e-9 of E t however small the load, far
+          above a tolerance in the load's units);
+        - an iterate whose rotation increment reaches ``ROTATION_RANGE`` (π), or
+          whose residual grew ``RESIDUAL_GROWTH``-fold, has diverged: the solve stops
+          there instead of spending the rest of ``snes_max_it`` (a step too long for
+          Newton then costs 2 to 4 updates instead of 25, docs/model.md §6.8).
+
+        PETSc's divergence tolerance (off by rftfem's defaults) is not read: petsc4py
+        3.18 cannot."""
         xnorm, snorm, fnorm = norms
         R = PETSc.SNES.ConvergedReason
         rtol, atol, stol, _ = snes.getTolerances()
@@ -221,12 +252,21 @@ class StepSolver:
             self._fnorms = [fnorm]
         else:
             self._fnorms.append(fnorm)
+            self.turns.append(self.model.largest_rotation_increment())
         if not math.isfinite(fnorm):
             return R.DIVERGED_FNORM_NAN
         if fnorm < atol and (it or not self._forced):
             return R.CONVERGED_FNORM_ABS
         if it == 0:
             return R.CONVERGED_ITERATING
+        if self.turns[-1] >= ROTATION_RANGE:
+            self.divergence = (f"Newton diverged: a rotation increment reached "
+                               f"{self.turns[-1]:.3g} rad >= pi at update {it}")
+            return R.DIVERGED_DTOL
+        if it >= 2 and fnorm > RESIDUAL_GROWTH * max(self._fnorms[:2]):
+            self.divergence = (f"Newton diverged: the residual grew to {fnorm:.3e} at update "
+                               f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start")
+            return R.DIVERGED_DTOL
         if fnorm <= rtol * self._fnorms[0]:
             return R.CONVERGED_FNORM_RELATIVE
         if snorm < stol * xnorm:
