@@ -251,6 +251,10 @@ class Model:
         """The bending force ``D W / L²`` that bends the body by order one."""
         return max(self["elasticity"].force_scales())
 
+    def membrane_force(self) -> float:
+        """The membrane force ``E t W`` that stretches the body by order one."""
+        return self["elasticity"].membrane_force()
+
     def restore(self):
         """Reset the iterate to the last converged state (θ = 0)."""
         self.w.x.array[self.u_dofs] = self.u_n.x.array

@@ -65,8 +65,10 @@ class StepSolver:
         self.snes.setJacobian(self._jacobian, self.A)
         self.snes.setConvergenceTest(self._converged)
         #: a residual this small that Newton no longer reduces is round-off: the
-        #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
-        self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
+        #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of the bending
+        #: force, MEMBRANE_ROUNDOFF_FACTOR of the membrane force, the larger)
+        self.roundoff = max(petsc_options.ROUNDOFF_FACTOR * model.elastic_force(),
+                            petsc_options.MEMBRANE_ROUNDOFF_FACTOR * model.membrane_force())
         self._forced = False
         self._fnorms = []
         #: the largest rotation increment of each iterate of the last solve (after each

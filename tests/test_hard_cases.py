@@ -237,6 +237,25 @@ def test_very_thin_rollup(tmp_path, thickness):
     assert abs(run.at("tip_uz", 1.0)) < 1e-3 * ROLLUP_L
 
 
+def test_thinnest_rollup_in_small_load_steps(tmp_path):
+    """The roll-up at L/t = 10⁵ in 160 load steps (a quarter of the shipped one):
+    ends ok with the tip exact to 1.5 % of L at loads 1 and 2.  Smaller steps are
+    not always easier: started from the last state (as static steps were), this
+    run reached a tangent near load 1.74 whose LU factorisation outgrew the
+    workspace MUMPS had estimated (INFOG(1) = −9; a stiffness ratio of 1e10), and
+    the step failed at every size down to 8 halvings.  Such a solve is now
+    repeated with more workspace (tests/test_petsc_options.py), and the predicted
+    static steps no longer reach that tangent."""
+    t = 0.00012
+    run = run_case("very-thin L/t=1e+05, 160 load steps", "ok, tip exact to 1.5 % L", ROLLUP,
+                   tmp_path / "out", [f"shell.thickness={t!r}",
+                                      f"shell.E={1.2e6 * (0.1 / t) ** 3!r}", "time.dt=0.0125",
+                                      "output.fields=false"])
+    run.assert_ok()
+    assert_finite_and_bounded(run, ROLLUP_L)
+    assert_rollup_exact(run, [1.0, 2.0])
+
+
 # --- 2. huge increments -------------------------------------------------------------------
 
 
@@ -535,26 +554,34 @@ def assert_ok_or_clear_failure(run: Run):
 @pytest.mark.parametrize("factor", [1e-6, 1e6])
 def test_sheet_drag_contrast(tmp_path, factor):
     """The swimming sheet with every drag coefficient 10⁻⁶ or 10⁶ times the demo's,
-    for two periods: ok, or exit 3 with its reason in summary.json and on stderr;
-    what it wrote is finite and bounded.  At 10⁻⁶ the t = 0 equilibrium, whose only
-    hold on the free sheet's rigid motions in X and Y is the drag, fails on dolfinx
-    0.5.2 (exit 3, "no static equilibrium with the t = 0 loads and motions
-    (DIVERGED_MAX_IT)"); dolfinx 0.11 passes it and runs on.  At 10⁶ the sheet's
-    relaxation time ρ t / C₁ is 0.3 μs, so it swims at the RFT speed from the first
-    period on: the second period's speed is the exact one within 2 % (dt = T/32:
-    0.3 % reached; the study's time error at T/32 is 0.44 %)."""
+    for two periods: ends ok, finite and bounded.
+
+    At 10⁻⁶ the sheet's relaxation time ρ t / C₁ is 3e5 s: it is a body in vacuum,
+    whose momentum along X is conserved, so its centroid stays where it is while
+    the wave runs (within 1 % of the distance it swims in water).  The t = 0
+    equilibrium, whose only hold on the free sheet's rigid motions in X and Y is
+    then drag of 1e-15 N s/mm³, ends with a residual at round-off (1e-14 N, from
+    elastic forces of E t W = 20 N): accepted as converged there, no longer a
+    failure after 25 Newton updates (as it was on dolfinx 0.5.2).
+    At 10⁶ the relaxation time is 0.3 μs, so the sheet swims at the RFT speed
+    from the first period on: the second period's speed is the exact one within
+    2 % (dt = T/32: 0.3 % reached; the study's time error at T/32 is 0.44 %)."""
     drag = [c * factor for c in _SHEET["fluid"]["drag"]]
-    run = run_case(f"drag x{factor:g} sheet", "ok or exit 3 + reason; x1e6 speed 2 %", SHEET,
+    run = run_case(f"drag x{factor:g} sheet", "ok; x1e-6 centroid still, x1e6 speed 2 %", SHEET,
                    tmp_path / "out", [f"fluid.drag={toml_value(drag)}",
                                       f"time.end={2 * SHEET_PERIOD!r}", "time.output_every=1",
                                       "output.fields=false"])
-    assert_ok_or_clear_failure(run)
+    run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
     if factor > 1:
-        run.assert_ok()
         speed = evaluate(f"rate(front_ux, {SHEET_PERIOD!r}, {2 * SHEET_PERIOD!r})", run.out)
         print(f"  speed over the second period {speed:.5f} vs exact {SHEET_EXACT}")
         assert abs(speed / SHEET_EXACT - 1) < 0.02
+    else:
+        times, x = run.column("centroid_x", "body.csv")
+        drift, swim = abs(x[-1] - x[0]), SHEET_EXACT * 2 * SHEET_PERIOD
+        print(f"  centroid moved {drift:.3e} mm in two periods; in water {swim:.3e} mm")
+        assert drift < 0.01 * swim
 
 
 def test_strip_magnetization_x100(tmp_path):

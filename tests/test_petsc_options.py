@@ -60,3 +60,73 @@ def test_negative_values_on_the_command_line_are_values():
                                "-rftfem_mat_mumps_cntl_1", "-1e-3", "-ksp_view"]) == {
         "snes_lag_preconditioner": "-2", "snes_monitor": "", "mat_mumps_cntl_1": "-1e-3",
         "ksp_view": ""}
+
+
+def _saddle_point(n: int = 400, delta: float = 1e-12, seed: int = 0):
+    """[[δ I, B], [Bᵀ, 0]] with a banded, diagonally dominant B (so regular): LU
+    must pivot off the near-zero diagonal, which makes more fill than MUMPS's
+    analysis foresees."""
+    import numpy as np
+    from petsc4py import PETSc
+
+    rng = np.random.default_rng(seed)
+    A = PETSc.Mat().createAIJ([2 * n, 2 * n], nnz=12, comm=PETSc.COMM_SELF)
+    for i in range(n):
+        A[i, i] = delta
+        for k in (-2, -1, 0, 1, 2):
+            v = 4.0 + rng.uniform() if k == 0 else rng.uniform(-1, 1)
+            A[i, n + (i + k) % n] = v
+            A[n + (i + k) % n, i] = v
+    A.assemble()
+    return A
+
+
+def test_mumps_workspace_grows_after_a_workspace_error():
+    """A factorisation that outgrows MUMPS's estimated workspace (INFOG(1) = −9; the
+    Debian stack's MUMPS on this saddle point at 20, 40 and 80 % extra) is repeated
+    with twice the extra workspace until it fits (160 %), and the solution is then
+    exact; a solve that did not fail leaves the option alone (the current stack's
+    MUMPS factors it at the default)."""
+    from petsc4py import PETSc
+
+    from rftfem import compat, petsc_options
+
+    if not compat.has_mumps():
+        pytest.skip("this PETSc has no MUMPS")
+    A = _saddle_point()
+    opts = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
+    prefix = "workspace_test_"
+    petsc_options.apply(opts, prefix)
+    ksp = PETSc.KSP().create(PETSc.COMM_SELF)
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(A)
+    ksp.setFromOptions()
+    b = A.createVecLeft()
+    b.set(1.0)
+    x = b.duplicate()
+    tried = []
+    try:
+        for _ in range(8):
+            ksp.setOperators(A)  # as SNES does before every solve (a reset drops them)
+            ksp.solve(b, x)
+            info = ksp.getPC().getFactorMatrix().getMumpsInfog(1)
+            tried.append((opts.get("mat_mumps_icntl_14", 20), ksp.getConvergedReason(), info))
+            if ksp.getConvergedReason() > 0:
+                break
+            assert info in petsc_options.MUMPS_WORKSPACE_ERRORS, tried
+            assert petsc_options.grow_factor_workspace(ksp, opts, prefix), tried
+        print(f"(ICNTL(14), KSP reason, INFOG(1)) per attempt: {tried}")
+        assert ksp.getConvergedReason() > 0, tried
+        r = A.createVecLeft()
+        A.mult(x, r)
+        r.axpy(-1.0, b)
+        assert r.norm() < 1e-10 * b.norm(), r.norm()
+        if len(tried) == 1:   # nothing failed: nothing to grow
+            assert not petsc_options.grow_factor_workspace(ksp, opts, prefix)
+            assert "mat_mumps_icntl_14" not in opts
+        else:
+            assert [t[0] for t in tried] == [20 * 2**k for k in range(len(tried))]
+    finally:
+        petsc_options.clear(opts, prefix)
+        ksp.destroy()
+        A.destroy()

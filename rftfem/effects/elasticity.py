@@ -83,3 +83,12 @@ class Elasticity(Effect):
         E = max([shell["E"]] + [p["E"] for p in shell.get("parts", []) if "E" in p])
         D = E * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
         return [D * max(body.width, 1e-300) / body.length**2]
+
+    def membrane_force(self) -> float:
+        """The membrane force ``E t W`` that stretches the body by order one (the
+        largest modulus and thickness of its parts): its residual's round-off scale."""
+        shell, body = self.scene["shell"], self.model.body
+        E = max([shell["E"]] + [p["E"] for p in shell.get("parts", []) if "E" in p])
+        t = max([shell["thickness"]] + [p["thickness"] for p in shell.get("parts", [])
+                                        if "thickness" in p])
+        return E * t * max(body.width, 1e-300)
