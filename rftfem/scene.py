@@ -124,8 +124,9 @@ SCHEMA = Table({
                               doc="Write a row of probes.csv and body.csv, and the fields, "
                                   "every this many nominal steps (and after the last one)."),
         "max_cuts": Leaf(Int(0), 8,
-                          doc="How many times one step may be halved before the run fails "
-                              "(exit status 3)."),
+                          doc="How many times one nominal step may be halved before the "
+                              "run fails (exit status 3); a failed attempt may halve it "
+                              "several times at once."),
         "tolerance": Leaf(POSITIVE, None, default_doc="none: fixed steps of `dt`",
                            doc="Error-controlled steps: the largest local error a step may "
                                "make, relative to the body's size for displacements (and in "

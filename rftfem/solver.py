@@ -65,10 +65,11 @@ class StepSolver:
         self.snes.setJacobian(self._jacobian, self.A)
         self.snes.setConvergenceTest(self._converged)
         #: a residual this small that Newton no longer reduces is round-off: the
-        #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of the bending
-        #: force, MEMBRANE_ROUNDOFF_FACTOR of the membrane force, the larger)
-        self.roundoff = max(petsc_options.ROUNDOFF_FACTOR * model.elastic_force(),
-                            petsc_options.MEMBRANE_ROUNDOFF_FACTOR * model.membrane_force())
+        #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
+        self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
+        #: a residual this small is round-off of the membrane forces whether or not
+        #: Newton could still reduce it (MEMBRANE_ROUNDOFF_FACTOR of E t W)
+        self.noise = petsc_options.MEMBRANE_ROUNDOFF_FACTOR * model.membrane_force()
         self._forced = False
         self._fnorms = []
         #: the largest rotation increment of each iterate of the last solve (after each
@@ -240,6 +241,9 @@ class StepSolver:
           that the last update did not halve is converged (a stiff membrane under a
           small load: its residual stalls at 1e-9 of E t however small the load, far
           above a tolerance in the load's units);
+        - after an update, a residual at the round-off of the membrane forces
+          (``self.noise``, 100 ε E t W) is converged: the roll-up at L/t = 1e5 and the
+          sheet with drag ×1e-6 stalled there, 5e3 and 30 times above ``snes_atol``;
         - an iterate whose rotation increment reaches ``ROTATION_RANGE`` (π), or
           whose residual grew ``RESIDUAL_GROWTH``-fold, has diverged: the solve stops
           there instead of spending the rest of ``snes_max_it`` (a step too long for
@@ -274,6 +278,8 @@ class StepSolver:
         if snorm < stol * xnorm:
             return R.CONVERGED_SNORM_RELATIVE
         if it >= 2 and fnorm <= self.roundoff and fnorm > 0.5 * self._fnorms[-2]:
+            return R.CONVERGED_FNORM_ABS
+        if fnorm <= self.noise:
             return R.CONVERGED_FNORM_ABS
         return R.CONVERGED_ITERATING
 
