@@ -76,28 +76,33 @@ def _rollup(tmp_path, name, *sets):
 
 def test_tangents_reach_the_same_rollup(tmp_path):
     """The roll-up demo (40 load steps to two turns) with either tangent: the tip at
-    every load step agrees to 1e-9 of the length (the residual is the same), and the
-    mixed-point tangent needs fewer Newton iterations (measured: 184 against 283)."""
+    every load step agrees to 1e-7 of the length (the residual is the same; the two
+    Newton paths stop at different points within its tolerance, 1e-7 of the
+    driving force: 1.6e-8 of the length measured), and the mixed-point tangent
+    needs fewer Newton iterations (measured: 151 against 179 from predicted
+    starts; 184 against 283 from the last state)."""
     counts_e, rows_e = _rollup(tmp_path, "exact", 'solver.tangent="exact"')
     counts_m, rows_m = _rollup(tmp_path, "mixed", 'solver.tangent="mixed-point"')
     print(f"exact: {counts_e}\nmixed-point: {counts_m}")
+    print(f"largest difference of the tip: {np.abs(rows_e - rows_m).max() / 12.0:.2e} L")
     assert rows_e.shape == rows_m.shape
-    assert np.abs(rows_e - rows_m).max() <= 1e-9 * 12.0
-    assert counts_m["newton_iterations"] < 0.75 * counts_e["newton_iterations"]
+    assert np.abs(rows_e - rows_m).max() <= 1e-7 * 12.0
+    assert counts_m["newton_iterations"] < counts_e["newton_iterations"]
 
 
 def test_thin_rollup_needs_no_halving(tmp_path):
     """L/t = 10⁴ with the bending stiffness E t³ kept: the exact tangent needed 44
     step halvings and 27 Newton iterations a step; the mixed-point tangent takes the
-    40 load steps as they are, at most 8 iterations each on average, and the strip
-    closes into its circle at the load 1 (tip x = −12, within 1 %; the default
+    40 load steps as they are, and with predicted starts (docs/model.md §7.1) at most
+    6 iterations each on average (5.1 measured; 7.2 from the last state), and the
+    strip closes into its circle at the load 1 (tip x = −12, within 1 %; the default
     16 × 1 mesh gives −12.09 at t = 0.1 too)."""
     counts, rows = _rollup(tmp_path, "thin", "shell.thickness=0.0012",
                            f"shell.E={1.2e6 * (0.1 / 0.0012) ** 3!r}")
     mean = counts["newton_iterations"] / counts["steps"]
     print(f"thin roll-up: {counts}, {mean:.2f} Newton iterations a step")
     assert counts["dt_cuts"] == 0 and counts["steps"] == 40
-    assert mean <= 8.0
+    assert mean <= 6.0
     at_one = rows[np.argmin(np.abs(rows[:, 0] - 1.0))]
     assert at_one[0] == pytest.approx(1.0)
     assert at_one[1] == pytest.approx(-12.0, rel=0.01)
