@@ -67,8 +67,7 @@ class StepSolver:
         #: a residual this small that Newton no longer reduces is round-off: the
         #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
         self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
-        #: a residual this small is round-off of the membrane forces whether or not
-        #: Newton could still reduce it (MEMBRANE_ROUNDOFF_FACTOR of E t W)
+        #: the same for the membrane forces (MEMBRANE_ROUNDOFF_FACTOR of E t W)
         self.noise = petsc_options.MEMBRANE_ROUNDOFF_FACTOR * model.membrane_force()
         self._forced = False
         self._fnorms = []
@@ -240,10 +239,12 @@ class StepSolver:
         - from the second update on, a residual below the elastic round-off floor
           that the last update did not halve is converged (a stiff membrane under a
           small load: its residual stalls at 1e-9 of E t however small the load, far
-          above a tolerance in the load's units);
-        - after an update, a residual at the round-off of the membrane forces
-          (``self.noise``, 100 ε E t W) is converged: the roll-up at L/t = 1e5 and the
-          sheet with drag ×1e-6 stalled there, 5e3 and 30 times above ``snes_atol``;
+          above a tolerance in the load's units).
+          The floor is the larger of that and the round-off of the membrane forces
+          (``self.noise``, 100 ε E t W): the roll-up at L/t = 1e5 and the sheet with
+          drag ×1e-6 stalled there, 5e3 and 30 times above ``snes_atol``.  (Taken as
+          converged at once, without the stall, it stopped a link turning in drag,
+          whose forces are of that size, 2 % off its rate.)
         - an iterate whose rotation increment reaches ``ROTATION_RANGE`` (π), or
           whose residual grew ``RESIDUAL_GROWTH``-fold, has diverged: the solve stops
           there instead of spending the rest of ``snes_max_it`` (a step too long for
@@ -277,9 +278,8 @@ class StepSolver:
             return R.CONVERGED_FNORM_RELATIVE
         if snorm < stol * xnorm:
             return R.CONVERGED_SNORM_RELATIVE
-        if it >= 2 and fnorm <= self.roundoff and fnorm > 0.5 * self._fnorms[-2]:
-            return R.CONVERGED_FNORM_ABS
-        if fnorm <= self.noise:
+        if it >= 2 and fnorm <= max(self.roundoff, self.noise) and \
+                fnorm > 0.5 * self._fnorms[-2]:
             return R.CONVERGED_FNORM_ABS
         return R.CONVERGED_ITERATING
 
