@@ -248,7 +248,7 @@ class StepSolver:
         - an iterate whose rotation increment reaches ``ROTATION_RANGE`` (π), or
           whose residual grew ``RESIDUAL_GROWTH``-fold, has diverged: the solve stops
           there instead of spending the rest of ``snes_max_it`` (a step too long for
-          Newton then costs 2 to 4 updates instead of 25, docs/model.md §6.8).
+          Newton then costs 1 to 5 updates instead of 25, docs/model.md §6.8).
 
         PETSc's divergence tolerance (off by rftfem's defaults) is not read: petsc4py
         3.18 cannot."""
@@ -270,7 +270,7 @@ class StepSolver:
             self.divergence = (f"Newton diverged: a rotation increment reached "
                                f"{self.turns[-1]:.3g} rad >= pi at update {it}")
             return R.DIVERGED_DTOL
-        if it >= 2 and fnorm > RESIDUAL_GROWTH * max(self._fnorms[:2]):
+        if it >= 2 and 0.0 < RESIDUAL_GROWTH * max(self._fnorms[:2]) < fnorm:
             self.divergence = (f"Newton diverged: the residual grew to {fnorm:.3e} at update "
                                f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start")
             return R.DIVERGED_DTOL
