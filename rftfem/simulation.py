@@ -227,7 +227,9 @@ class Simulation:
         #: how many times too long a failed attempt was, where it shows (None: unknown)
         self.overreach = None
         if ok:
-            self.last_turn = m.largest_rotation_increment()
+            # the solver measured it at every update, the converged iterate's last
+            turns = self.solver.turns
+            self.last_turn = turns[-1] if turns else m.largest_rotation_increment()
         elif self.solver.divergence is not None and self.solver.turns:
             # the first update's turn is the linearized one: it says how far the
             # step reached beyond what Newton can take

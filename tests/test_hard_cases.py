@@ -560,9 +560,9 @@ def test_sheet_drag_contrast(tmp_path, factor):
     whose momentum along X is conserved, so its centroid stays where it is while
     the wave runs (within 1 % of the distance it swims in water).  The t = 0
     equilibrium, whose only hold on the free sheet's rigid motions in X and Y is
-    then drag of 1e-15 N s/mm³, ends with a residual at round-off (1e-14 N, from
-    elastic forces of E t W = 20 N): accepted as converged there, no longer a
-    failure after 25 Newton updates (as it was on dolfinx 0.5.2).
+    then drag of 1e-15 N s/mm³, stalls at a residual of round-off (1e-14 N, from
+    elastic forces of E t W = 20 N): converged once Newton no longer reduces it,
+    no longer a failure after 25 Newton updates (as it was on dolfinx 0.5.2).
     At 10⁶ the relaxation time is 0.3 μs, so the sheet swims at the RFT speed
     from the first period on: the second period's speed is the exact one within
     2 % (dt = T/32: 0.3 % reached; the study's time error at T/32 is 0.44 %)."""

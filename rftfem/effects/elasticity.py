@@ -77,18 +77,20 @@ class Elasticity(Effect):
         return elasticity.mixed_point_tangent(self.strains(k), defects, k.G1, k.G2, mat["E"],
                                               mat["nu"], mat["t"], m.dx, self.h)
 
+    def _largest(self, key: str) -> float:
+        """The largest value of a shell key over the shell and its parts."""
+        shell = self.scene["shell"]
+        return max([shell[key]] + [p[key] for p in shell.get("parts", []) if key in p])
+
     def force_scales(self):
         """The bending force ``D W / L²`` that bends the body by order one."""
         shell, body = self.scene["shell"], self.model.body
-        E = max([shell["E"]] + [p["E"] for p in shell.get("parts", []) if "E" in p])
+        E = self._largest("E")
         D = E * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
         return [D * max(body.width, 1e-300) / body.length**2]
 
     def membrane_force(self) -> float:
         """The membrane force ``E t W`` that stretches the body by order one (the
         largest modulus and thickness of its parts): its residual's round-off scale."""
-        shell, body = self.scene["shell"], self.model.body
-        E = max([shell["E"]] + [p["E"] for p in shell.get("parts", []) if "E" in p])
-        t = max([shell["thickness"]] + [p["thickness"] for p in shell.get("parts", [])
-                                        if "thickness" in p])
-        return E * t * max(body.width, 1e-300)
+        width = self.model.body.width
+        return self._largest("E") * self._largest("thickness") * max(width, 1e-300)
