@@ -87,6 +87,10 @@ class Model:
             fem.Function(self.W, name=n) for n in ("w_previous", "w_current", "w_update"))
         self.mixed_point = tangent == "mixed-point"
         self._newton_last = None  # the iterate of the last tangent (tangent_at_iterate)
+        #: whether a solve's first mixed-point tangent carries the stress resultants of
+        #: the last converged state (time steps) or those of its own start (static
+        #: load steps); set by the Simulation from its scheme (docs/model.md §7.4)
+        self.first_tangent_converged = False
 
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
@@ -298,19 +302,33 @@ class Model:
         return self.comm.allreduce(local, op=MPI.MAX)
 
     def start_newton(self):
-        """A Newton solve begins: its first tangent is the exact one at the start (a
-        predicted state's membrane forces are its own, not those of a linearized
-        update: taken linearized from the last state, the strip at 100 steps per
-        period needed 3.9 iterations a step instead of 3.2), the next ones the
-        mixed-point tangents of the updates Newton makes (docs/model.md §7.4)."""
+        """A Newton solve begins: its first tangent is that of ``first_tangent_converged``,
+        the next ones the mixed-point tangents of the updates Newton makes (docs/model.md
+        §7.4)."""
         self._newton_last = None
 
     def tangent_at_iterate(self):
         """Before a tangent at the iterate ``w``: the data of its correction (the last
-        iterate, this one, their difference); this one is the next one's last."""
+        iterate, this one, their difference); this one is the next one's last.
+
+        At a solve's first iterate there is no last one.  With
+        ``first_tangent_converged`` the "last" is the last converged state and the
+        difference is taken as zero: the defect ``ε(w) − ε(w_n)`` then replaces the
+        start's membrane and shear resultants by the converged ones (the stress
+        predictor of the mixed-integration-point method).  Without it the defect is
+        zero: the exact tangent at the start."""
         if not self.mixed_point:
             return
         current = self.w.x.array
+        if self._newton_last is None and self.first_tangent_converged:
+            converged = current.copy()
+            converged[self.u_dofs] = self.u_n.x.array
+            converged[self.theta_dofs] = 0.0
+            self.newton_previous.x.array[:] = converged
+            self.newton_current.x.array[:] = current
+            self.newton_update.x.array[:] = 0.0
+            self._newton_last = current.copy()
+            return
         if self._newton_last is None:
             self._newton_last = current.copy()
         self.newton_previous.x.array[:] = self._newton_last

@@ -118,6 +118,9 @@ class Simulation:
                                  tangent=petsc_options.tangent(scene.get("solver"), petsc_args))
         self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
         self.scheme = make_scheme(scene["time"])
+        # time steps start Newton's tangent on the converged stress resultants; static
+        # load steps on their start's own (docs/model.md §7.4)
+        self.model.first_tangent_converged = self.scheme.has_velocity
         self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),
                                             petsc_args)
         self.solver = StepSolver(self.model, self.options)

@@ -154,6 +154,27 @@ dt = 0.1"""))
     assert np.abs(angle / phi_max - 1).max() < 5e-3
 
 
+#: the free link of test_free_hinge_turns_against_drag: its normal drag coefficient,
+#: its rate (one turn a second) and the ramp time of its moment
+FREE_LINK_C3, FREE_LINK_RATE, FREE_LINK_RAMP = 5.67e-9, 2 * math.pi, 0.01
+
+
+def free_link_scene(tmp_path):
+    """Two links, one clamped, the other free on its hinge in RFT drag, turned by a
+    constant moment at one turn a second for 1.25 s (backward Euler, dt = 0.01)."""
+    C3, tau = FREE_LINK_C3, FREE_LINK_RAMP
+    zeta = C3 * L * ELL**3 / 3
+    return write_scene(tmp_path, TWO_LINKS.format(
+        E=1.2e6, k=0.0, clamp="fixed", M=FREE_LINK_RATE * zeta, extra=f"""
+ramp = "table"
+table = [[0.0, 0.0], [{tau}, 1.0], [2.0, 1.0]]
+[fluid]
+drag = [3.0e-9, 3.0e-9, {C3}]
+[time]
+end = 1.25
+dt = 0.01"""))
+
+
 def test_free_hinge_turns_against_drag(tmp_path):
     """One link clamped whole, the other free on its hinge (k = 0) in RFT drag,
     no density: a constant moment M about the hinge line turns the free link at
@@ -163,21 +184,9 @@ def test_free_hinge_turns_against_drag(tmp_path):
     the rate over the last turn within 1 % (reached: 4.5e-3, backward Euler
     taking the ramp at the end of its step, dt/2 ahead; and 5e-4, the chord
     error (ω dt)²/6).  The hinge line does not move (1e-9 ℓ)."""
-    C3 = 5.67e-9
-    zeta = C3 * L * ELL**3 / 3
-    omega = 2 * math.pi  # one turn per second
-    tau = 0.01
+    omega, tau = FREE_LINK_RATE, FREE_LINK_RAMP
     track = TieAndFold()
-    scene = write_scene(tmp_path, TWO_LINKS.format(
-        E=1.2e6, k=0.0, clamp="fixed", M=omega * zeta, extra=f"""
-ramp = "table"
-table = [[0.0, 0.0], [{tau}, 1.0], [2.0, 1.0]]
-[fluid]
-drag = [3.0e-9, 3.0e-9, {C3}]
-[time]
-end = 1.25
-dt = 0.01"""))
-    sim = run_scene(scene, observers=[track])
+    sim = run_scene(free_link_scene(tmp_path), observers=[track])
     assert "hinge-spring" not in sim.model.active_effects()
     t = np.array([row[0] for row in sim.history])
     angle = np.unwrap([link_angle(positions(v), 0, 2) for _, v in sim.history])

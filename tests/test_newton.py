@@ -139,3 +139,24 @@ def test_prediction_of_a_steady_turn_is_exact(tmp_path):
     print(f"prediction error: turned increments {turned:.2e}, polynomial {polynomial:.2e}")
     assert turned < 1e-12
     assert polynomial > 1e-3
+
+
+def test_time_steps_start_on_the_converged_resultants(tmp_path):
+    """A link turning freely in weak drag (tests/test_hinges.py), a time step of a
+    backward-Euler run: the prediction (a chord, for a hinged body) stretches the
+    link, and a first tangent built on those stretched resultants sent Newton off in
+    the link's soft turning mode (its drag is 1e-9 of its membrane stiffness): the
+    residual fell to 1e-10, then the next update undid the first one's turn, and a
+    step took 5.5 updates.  Started on the converged resultants (docs/model.md §7.4)
+    it takes 3.8 (475 in 126 solves, measured); at most 4.5 on average here.  The
+    link's angle is the same (7.85916 rad after 1.25 s either way; test_hinges checks
+    it against the exact rate)."""
+    from test_hinges import free_link_scene
+    from conftest import run_scene
+    sim = run_scene(free_link_scene(tmp_path))
+    assert sim.model.first_tangent_converged
+    counts = sim.counts
+    mean = counts["newton_iterations"] / counts["steps"]
+    print(f"free link in drag: {counts}, {mean:.2f} Newton updates a step")
+    assert counts["steps"] == 125 and counts["dt_cuts"] == 0
+    assert mean <= 4.5
