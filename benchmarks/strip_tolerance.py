@@ -10,6 +10,7 @@ within 2 % and whether a tolerance reached 2 % for less.
 
     .venv/bin/python benchmarks/strip_tolerance.py                    # ~25 minutes
     .venv/bin/python benchmarks/strip_tolerance.py --fixed 50 100 --tolerances 1e-2
+    .venv/bin/python benchmarks/strip_tolerance.py --set time.rho_inf=0.5   # every run
 
 Run it alone: the wall times are what it compares.  Figures also go to
 results/benchmarks/strip_tolerance.csv.
@@ -52,20 +53,26 @@ def main(argv=None) -> None:
     parser.add_argument("--fixed", type=int, nargs="*", default=[50, 100, 200],
                         help="steps per period of the fixed runs; the last is the reference")
     parser.add_argument("--tolerances", type=float, nargs="*", default=[1e-2, 3e-3, 1e-3])
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene value for every run (as rftfem run --set)")
     args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.fixed:
             dt = 1 / (FREQUENCY * n)
-            r = run(Path(tmp) / f"fixed{n}", [f"time.dt={dt!r}", "time.output_every=1"])
+            r = run(Path(tmp) / f"fixed{n}", args.set + [f"time.dt={dt!r}",
+                                                          "time.output_every=1"])
             rows.append({"run": f"fixed, {n} steps per period", **r})
             print(rows[-1], flush=True)
         for tol in args.tolerances:
-            r = run(Path(tmp) / f"tol{tol}", [f"time.tolerance={tol!r}", "time.dt=0.0025",
-                                               "time.output_every=8"])
+            r = run(Path(tmp) / f"tol{tol}", args.set + [f"time.tolerance={tol!r}",
+                                                          "time.dt=0.0025",
+                                                          "time.output_every=8"])
             rows.append({"run": f"tolerance {tol:g}", **r})
             print(rows[-1], flush=True)
     reference = rows[len(args.fixed) - 1]["speed"]
+    if args.set:
+        print("\nevery run with " + " ".join(args.set))
     print(f"\n| run | steps | rejected | cuts | Newton its | wall (s) | speed (mm/s) | "
           f"vs {args.fixed[-1]} per period |\n|---|---|---|---|---|---|---|---|")
     for r in rows:
