@@ -10,13 +10,14 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import DEMOS, ROOT, run_command, write_scene
+from conftest import DEMOS, ROOT, run_command, run_scene, write_scene
 from rftfem import compat
 from rftfem.meshes import build_body
 from rftfem.model import Model
 from rftfem.scene import load_scene
 from rftfem.timeint import make_scheme
 from test_consistency import SCENE, model_comm
+from test_hinges import free_link_scene
 
 
 def _jacobian(model) -> np.ndarray:
@@ -145,14 +146,12 @@ def test_time_steps_start_on_the_converged_resultants(tmp_path):
     """A link turning freely in weak drag (tests/test_hinges.py), a time step of a
     backward-Euler run: the prediction (a chord, for a hinged body) stretches the
     link, and a first tangent built on those stretched resultants sent Newton off in
-    the link's soft turning mode (its drag is 1e-9 of its membrane stiffness): the
-    residual fell to 1e-10, then the next update undid the first one's turn, and a
+    the link's soft turning mode, which only a weak drag holds: the residual fell to
+    1e-10, then the next update undid the first one's turn, and a
     step took 5.5 updates.  Started on the converged resultants (docs/model.md §7.4)
     it takes 3.8 (475 in 126 solves, measured); at most 4.5 on average here.  The
     link's angle is the same (7.85916 rad after 1.25 s either way; test_hinges checks
     it against the exact rate)."""
-    from test_hinges import free_link_scene
-    from conftest import run_scene
     sim = run_scene(free_link_scene(tmp_path))
     assert sim.model.first_tangent_converged
     counts = sim.counts
