@@ -40,6 +40,9 @@ def run(out: Path, sets: list[str]) -> dict:
     for s in sets:
         cmd += ["--set", s]
     done = subprocess.run(cmd, capture_output=True, text=True)
+    if not (out / "summary.json").exists():  # refused before it ran (a bad --set)
+        lines = done.stderr.strip().splitlines() or [f"exit {done.returncode}"]
+        raise SystemExit(f"strip_tolerance: rftfem run refused the run: {lines[-1]}")
     summary = json.loads((out / "summary.json").read_text())
     c, wall = summary["counts"], summary["wall_s"]
     return {"status": summary["status"] if done.returncode == 0 else "failed",

@@ -321,10 +321,10 @@ class Model:
             return
         current = self.w.x.array
         if self._newton_last is None and self.first_tangent_converged:
-            converged = current.copy()
+            converged = self.newton_previous.x.array
+            converged[:] = current
             converged[self.u_dofs] = self.u_n.x.array
             converged[self.theta_dofs] = 0.0
-            self.newton_previous.x.array[:] = converged
             self.newton_current.x.array[:] = current
             self.newton_update.x.array[:] = 0.0
             self._newton_last = current.copy()
