@@ -214,7 +214,8 @@ class Simulation:
         # the recent rates carried on (fewer Newton iterations: 3.0 to 2.1 per step on
         # the swimming sheet, 10.4 to 4.6 on the three-link).  In static load steps
         # only with the increments turned (a body of one colour): the roll-up then
-        # needs 3.8 instead of 4.6 a step, 6.0 instead of 7.8 at L/t = 1e5; a
+        # needs 3.8 instead of 4.6 a step, 6.0 instead of 7.8 at L/t = 1e5 (before the
+        # contraction test of solver.py, 5.25 with it); a
         # polynomial in the load parameter (a hinged body's) made its first
         # residuals grow 5000-fold, so there the step starts from the last state
         m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
