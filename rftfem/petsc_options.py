@@ -40,9 +40,9 @@ def defaults(reference_force: float) -> dict:
     (the first full Newton step overshoots, the residual grows, ``bt`` backtracks
     to tiny steps), so the line search is ``basic`` (full steps) and the time
     loop cuts the step instead.  The divergence tolerance is off for the same
-    reason.  Besides the residual tests, a state within 1e-10 of itself from the
-    solution (the last Newton step, or the distance left that the solver estimates
-    from the last two) counts as converged: near round-off the residual of a stiff
+    reason.  Besides the residual tests, a state whose distance from the solution
+    is below 1e-10 of its own size counts as converged (the last Newton step
+    shows it, or the solver estimates it from the last two): near round-off the residual of a stiff
     membrane (E t ~ 1e5 N/mm) cannot fall below ~1e-9 N however small the load.
     The residual test is absolute, in units of the forces that drive the body
     (no relative test: the first residual of a predicted step is the
