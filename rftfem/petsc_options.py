@@ -42,8 +42,9 @@ def defaults(reference_force: float) -> dict:
     loop cuts the step instead.  The divergence tolerance is off for the same
     reason.  Besides the residual tests, a state whose distance from the solution
     is below 1e-10 of its own size counts as converged (the last Newton step
-    shows it, or the solver estimates it from the last two): near round-off the residual of a stiff
-    membrane (E t ~ 1e5 N/mm) cannot fall below ~1e-9 N however small the load.
+    shows it, or the solver estimates it from the last two): near round-off the
+    residual of a stiff membrane (E t ~ 1e5 N/mm) cannot fall below ~1e-9 N
+    however small the load.
     The residual test is absolute, in units of the forces that drive the body
     (no relative test: the first residual of a predicted step is the
     prediction's elastic misfit, not a force scale), and every solve takes at
