@@ -100,6 +100,13 @@ class Model:
         #: the time scheme's coefficients of velocity and acceleration (rftfem/timeint.py)
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
                      for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
+        self.coefficients = None  # the last ones set (timeint.Coefficients)
+        #: prescribed motions in a second-order scheme: corrections to the velocity and
+        #: acceleration that make them the motion's own on the driven dofs (motion.py)
+        self.drive = None
+        if effects.Motions.active(scene) and effects.Inertia.active(scene):
+            self.drive = (fem.Function(self.Vu, name="v_drive"),
+                          fem.Function(self.Vu, name="a_drive"))
 
         # the effects, then their sum; Dirichlet values are kept per component space
         self.dirichlet = DirichletSpaces()
@@ -186,12 +193,14 @@ class Model:
     def velocity(self, u):
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
         c = self.coef
-        return c["cv"] * (u - self.u_n) + c["cv_v"] * self.v_n + c["cv_a"] * self.a_n
+        v = c["cv"] * (u - self.u_n) + c["cv_v"] * self.v_n + c["cv_a"] * self.a_n
+        return v + self.drive[0] if self.drive else v
 
     def acceleration(self, u):
         """``a_{n+1−α_m}`` as a function of the unknown displacement."""
         c = self.coef
-        return c["ca"] * (u - self.u_n) + c["ca_v"] * self.v_n + c["ca_a"] * self.a_n
+        a = c["ca"] * (u - self.u_n) + c["ca_v"] * self.v_n + c["ca_a"] * self.a_n
+        return a + self.drive[1] if self.drive else a
 
     def _sum_terms(self):
         """Stored energy, forces ``F(w)`` (every non-inertial effect), inertia, and the
@@ -233,12 +242,24 @@ class Model:
     # --- per-step updates ---------------------------------------------------
 
     def set_coefficients(self, c):
+        self.coefficients = c
         for key in self.coef:
             self.coef[key].value = getattr(c, key)
 
-    def set_time(self, t: float):
+    def set_time(self, t: float, scheme=None):
+        """Loads and motions at ``t``; with a second-order ``scheme``, the driven dofs'
+        exact rates of the step ending at ``t`` (after ``set_coefficients``)."""
         for comp in self.components:
             comp.set_time(t)
+        if self.drive:
+            self["prescribed-motion"].drive_step(
+                t if scheme is not None and scheme.has_inertia else None, self.coefficients)
+
+    def drive_state(self, t: float, scheme) -> None:
+        """With a second-order scheme (None: the model's own), the driven dofs' stored
+        rates at ``t`` (motion.py)."""
+        if self.drive and (scheme is None or scheme.has_inertia):
+            self["prescribed-motion"].drive_state(t)
 
     def reference_force(self) -> float:
         """A force scale of the scene for absolute Newton tolerances (docs/model.md §7.3):
@@ -341,15 +362,17 @@ class Model:
         self.triad.update(self.w.x.array, self.theta_dofs_of)
         self.w.x.array[self.theta_dofs] = 0.0
 
-    def accept(self, scheme, dt: float):
-        """After convergence: update the state (u_n, v_n, a_n) and the triad, and keep
-        the step's increment (Δu, θ) and dt for the next steps' prediction."""
+    def accept(self, scheme, dt: float, t: float | None = None):
+        """After convergence at ``t``: update the state (u_n, v_n, a_n) and the triad,
+        and keep the step's increment (Δu, θ) and dt for the next steps' prediction."""
         u = self.w.x.array[self.u_dofs]
         du = u - self.u_n.x.array
         v, a = scheme.update(du, self.v_n.x.array, self.a_n.x.array, dt)
         self.increments = [(du, self.w.x.array[self.theta_dofs].copy(), dt)] + self.increments[:1]
         self.v_n.x.array[:] = v
         self.a_n.x.array[:] = a
+        if t is not None:
+            self.drive_state(t, scheme)
         self.u_n.x.array[:] = u
         self.update_triad()
 

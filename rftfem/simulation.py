@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from . import __version__, checkpoint, compat, petsc_options
+from . import __version__, checkpoint, compat, impulses, petsc_options
 from .errors import RunFailed, RunInterrupted, SceneError
 from .interrupts import NoStops, StopRequests
 from .model import Model
@@ -210,7 +210,7 @@ class Simulation:
         m = self.model
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
-        m.set_time(t_new)
+        m.set_time(t_new, scheme)
         # the recent rates carried on (fewer Newton iterations: 3.0 to 2.1 per step on
         # the swimming sheet, 10.4 to 4.6 on the three-link).  In static load steps
         # only with the increments turned (a body of one colour): the roll-up then
@@ -253,7 +253,9 @@ class Simulation:
             return False, its, res, reason
         self.solver.store_forces()
         t0 = _time.perf_counter()
-        m.accept(scheme, dt)
+        m.accept(scheme, dt, t_new)
+        if m.drive and scheme.has_inertia:
+            impulses.corner(m, self.solver, t_new)
         self.wall["update"] += _time.perf_counter() - t0
         return True, its, res, reason
 
@@ -313,6 +315,10 @@ class Simulation:
         m.v_n.x.array[:] = 0.0
         m.a_n.x.array[:] = 0.0
         m.increments = []  # reaching t = 0 is no rate to go on at
+        if m.drive and self.scheme.has_inertia:
+            # the driven dofs move off at the motion's own rate, the body with them
+            m.set_coefficients(self.scheme.coefficients(dt))
+            impulses.corner(m, self.solver, 0.0, start=True)
         m.set_coefficients(Static().coefficients(dt))
         self.solver.store_forces()
 

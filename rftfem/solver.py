@@ -176,6 +176,39 @@ class StepSolver:
         A.assemble()
         self._count("jacobian", t0)
 
+    def assemble_tangent(self):
+        """The step's tangent at the model's current state into ``A`` (the exact one:
+        no Newton update is under way)."""
+        t0 = _time.perf_counter()
+        self.model.start_newton()
+        self.model.tangent_at_iterate()
+        self.A.zeroEntries()
+        compat.assemble_matrix(self.A, self.model.jacobian_form, self.model.bcs)
+        self.A.assemble()
+        self._count("jacobian", t0)
+
+    def dirichlet_response(self):
+        """The local array (ghosts included) of ``Δ`` with ``A Δ = 0`` on the free rows
+        and ``Δ = g`` on the Dirichlet rows, ``g`` the values the model's conditions
+        hold now (``assemble_tangent`` first): the linearised step's answer to moving
+        its Dirichlet dofs alone (impulses.py)."""
+        t0 = _time.perf_counter()
+        bcs = self.model.bcs
+        for vec in (self.b, self.work):
+            with vec.localForm() as local:
+                local.set(0.0)
+        compat.apply_lifting(self.b, self.model.jacobian_form, bcs, self.work, 1.0)
+        self.b.ghostUpdate(addv=_ADD, mode=_REVERSE)
+        compat.set_bc(self.b, bcs)
+        ksp = self.snes.getKSP()
+        ksp.setOperators(self.A, self.A)
+        ksp.solve(self.b, self.work)
+        self.work.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        with self.work.localForm() as local:
+            delta = local.array.copy()
+        self.timings["solve"] += _time.perf_counter() - t0
+        return delta
+
     # --- solve ----------------------------------------------------------------
 
     def solve(self):

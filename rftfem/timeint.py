@@ -30,6 +30,8 @@ class Coefficients:
     ca_v: float = 0.0
     ca_a: float = 0.0
     alpha_f: float = 0.0
+    #: the weight of ``a_n`` in ``a_{n+1−α_m}`` (prescribed motions' exact rates, motion.py)
+    alpha_m: float = 0.0
 
 
 class Scheme:
@@ -151,7 +153,7 @@ class GeneralizedAlpha(Scheme):
         # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
         return Coefficients(cv=v_u, cv_v=v_v, cv_a=v_a,
                             ca=(1 - am) * a_u, ca_v=(1 - am) * a_v,
-                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f)
+                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f, alpha_m=am)
 
     def update(self, du, v_n, a_n, dt):
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)

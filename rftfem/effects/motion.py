@@ -5,6 +5,15 @@ The value lives in a Function on the collapsed component space and is set at
 every time the solver visits.  A degree of freedom takes one condition: a
 motion where a ``[[boundary]]`` or another motion already holds the component
 is refused.
+
+In second-order schemes (generalized-α, HHT) the driven dofs' velocity and
+acceleration are the motion's own derivatives, not Newmark's differences of
+the prescribed values (docs/model.md §6.3): Newmark's velocity of a displacement
+with a kink rings about the slope's jump (1.995, 0.017, 1.963, 0.061, … per unit
+jump, decaying by 0.9 a step under HHT α = −0.05), and the driven edges then jolt
+the body at every step.  :meth:`Motions.drive_step` puts the exact left-sided
+rates at the step's end into its α-weighted residual, :meth:`Motions.drive_state`
+stores the right-sided ones after it.
 """
 
 from __future__ import annotations
@@ -85,8 +94,17 @@ class Motions(Effect):
             model.dirichlet.hold(component, key, dofs[0])
             value = fem.Function(V, name=f"motion_{k}")
             X = V.tabulate_dof_coordinates()[np.asarray(dofs[1]), 0]
-            self.motions.append(Motion(spec, value, np.asarray(dofs[1]), X,
-                                       fem.dirichletbc(value, dofs, sub)))
+            motion = Motion(spec, value, np.asarray(dofs[1]), X, fem.dirichletbc(value, dofs, sub))
+            motion.u_index = self._displacement_index(np.asarray(dofs[0]))
+            self.motions.append(motion)
+
+    def _displacement_index(self, mixed_dofs):
+        """The positions in the displacement arrays (``u_n``, ``v_n``, ``a_n``) of these
+        dofs of the mixed space."""
+        m = self.model
+        where = np.full(len(m.w.x.array), -1, dtype=np.int64)
+        where[m.u_dofs] = np.arange(len(m.u_dofs))
+        return where[mixed_dofs]
 
     def bcs(self):
         return [m.bc for m in self.motions]
@@ -98,6 +116,36 @@ class Motions(Effect):
     def speed_scale(self) -> float:
         """The fastest prescribed speed (for the drag's force scale)."""
         return max(m.speed_scale() for m in self.motions)
+
+    def drive_step(self, t, coefficients) -> None:
+        """The corrections ``model.drive`` that make the velocity ``v_{n+1}`` and the
+        blended acceleration ``a_{n+1−α_m}`` of the step ending at ``t`` exact on the
+        driven dofs: ``v(t⁻)`` and ``(1 − α_m) a(t⁻) + α_m a_n``, where Newmark's
+        relations (``coefficients``) would give them from the prescribed ``u(t)``.
+        With ``t`` None (a scheme without inertia) the corrections are zero."""
+        v_fix, a_fix = (f.x.array for f in self.model.drive)
+        v_fix[:] = 0.0
+        a_fix[:] = 0.0
+        if t is None:
+            return
+        c, m = coefficients, self.model
+        for motion in self.motions:
+            i = motion.u_index
+            du = motion.at(t, motion.X) - m.u_n.x.array[i]
+            v_n, a_n = m.v_n.x.array[i], m.a_n.x.array[i]
+            v, a = motion.rates(t, side=-1)
+            v_fix[i] = v - (c.cv * du + c.cv_v * v_n + c.cv_a * a_n)
+            a_fix[i] = ((1 - c.alpha_m) * a + c.alpha_m * a_n
+                        - (c.ca * du + c.ca_v * v_n + c.ca_a * a_n))
+
+    def drive_state(self, t) -> None:
+        """The stored velocity and acceleration of the driven dofs at ``t``: the
+        motion's right-sided derivatives (after a kink, the new slope)."""
+        m = self.model
+        for motion in self.motions:
+            v, a = motion.rates(t, side=+1)
+            m.v_n.x.array[motion.u_index] = v
+            m.a_n.x.array[motion.u_index] = a
 
 
 class Motion:
@@ -123,6 +171,28 @@ class Motion:
 
     def set(self, t: float):
         self.value.x.array[self.value_dofs] = self.at(t, self.X)
+
+    def rates(self, t: float, side: int):
+        """``(u̇, ü)`` at time ``t`` on the selected dofs: exact derivatives, taken
+        from the left (``side`` −1) or the right (+1) at a corner of a table.  A
+        table's acceleration is zero between corners (its impulse at a corner is
+        the jump between the two sides' velocities)."""
+        s = self.spec
+        if s["kind"] == "table":
+            times, values = self.table[:, 0], self.table[:, 1]
+            slope = 0.0
+            if len(times) > 1:
+                # the segment containing t, the one after a corner for side +1; before
+                # the first and after the last time the value is constant
+                tol = 1e-12 * max(1.0, float(np.abs(times).max()))
+                k = (np.searchsorted(times, t + tol, side="right") if side > 0
+                     else np.searchsorted(times, t - tol, side="left"))
+                if 0 < k < len(times):
+                    slope = (values[k] - values[k - 1]) / (times[k] - times[k - 1])
+            return np.full_like(self.X, slope), np.zeros_like(self.X)
+        phase = s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t
+        w = s["angular_frequency"]
+        return s["amplitude"] * w * np.cos(phase), -s["amplitude"] * w**2 * np.sin(phase)
 
     def speed_scale(self) -> float:
         """The largest speed this motion prescribes."""
