@@ -1,4 +1,4 @@
-"""Velocity jumps of prescribed motions in second-order schemes (docs/model.md §6.3).
+"""Velocity jumps of prescribed motions in second-order schemes (docs/model.md §6.10).
 
 A ``[[motion]]`` table has corners, and every motion starts from rest at t = 0:
 there the driven dofs' velocity jumps.  In a body that is stiff against the

@@ -149,7 +149,7 @@ class Progress:
     - elsewhere (CI, cluster logs, a pipe): a plain line at most every
       ``interval`` seconds (default 5 s, or ``RFTFEM_LOG_INTERVAL``), so a run of
       many cheap steps does not fill its log;
-    - ``quiet``: only what :meth:`final` says; errors go to stderr as always.
+    - ``quiet``: only what :meth:`final` and :meth:`warn` say; errors go to stderr as always.
 
     Notices (:meth:`log`: the opening line, step cuts) are printed unless quiet.
     A hand-written bar rather than tqdm or rich: it is twenty lines, works the
@@ -181,6 +181,11 @@ class Progress:
     def log(self, text: str):
         """A notice: printed unless quiet."""
         if self.active and not self.quiet:
+            self._write(text)
+
+    def warn(self, text: str):
+        """A warning: printed even when quiet."""
+        if self.active:
             self._write(text)
 
     def final(self, text: str):

@@ -48,6 +48,9 @@ NEWTON_GROWTH_LIMIT = 8
 STATIC_TURN = 0.5
 #: the most halvings one failed attempt makes at once (docs/model.md §6.8)
 MOST_HALVINGS = 3
+#: fixed steps in time: a mean estimated local error (§6.9's estimate, relative to the
+#: body's size) above this is reported as a step too long (docs/model.md §6.11)
+TIME_ERROR_WARNING = 1e-3
 
 
 def build_model(scene: dict, comm, compile_forms: bool = True,
@@ -138,6 +141,9 @@ class Simulation:
         #: (set_time), the state and triad update after it (accept)
         self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0, "checkpoint": 0.0}
         self.history = []  # (t, probe values) rows, as written to probes.csv
+        #: each step's estimated local error (§6.9) in a run in time with fixed steps
+        self.time_errors = []
+        self.model.keep_predictions = self.scheme.has_velocity
         self.wall_before = 0.0  # wall seconds of the run's earlier parts (restarts)
         self.restarts = []
         if self.resume is not None:
@@ -251,6 +257,10 @@ class Simulation:
         if not ok:
             m.restore()
             return False, its, res, reason
+        if m.keep_predictions:  # the step's error estimate (§6.9), for summary.json
+            err = self._local_error()
+            if err is not None:
+                self.time_errors.append(err)
         self.solver.store_forces()
         t0 = _time.perf_counter()
         m.accept(scheme, dt, t_new)
@@ -368,6 +378,14 @@ class Simulation:
                                                           if halvings > 1 else ""))
         self.level = level
         self.t = t_end  # exact nominal time, free of round-off from the sub-steps
+
+    def _time_error_summary(self) -> dict | None:
+        """Largest and mean estimated local error of the steps, or None (no estimate)."""
+        if not self.time_errors:
+            return None
+        e = np.array(self.time_errors)
+        return {"max": float(e.max()), "mean": float(e.mean()), "steps": int(len(e)),
+                "warning_above_mean": TIME_ERROR_WARNING}
 
     # --- error-controlled steps (time.tolerance) ----------------------------------
 
@@ -529,6 +547,7 @@ class Simulation:
                 if self.step < n_steps:
                     self._stop_if_asked(logs)
             summary = self._summary("ok", wall_start)
+            self._warn_time_error(progress)
         except RunFailed as err:
             self._last_row(logs)
             summary = self._summary("failed", wall_start)
@@ -633,6 +652,16 @@ class Simulation:
             logs["fields"].write(t)
         self.wall["output"] += _time.perf_counter() - t0
 
+    def _warn_time_error(self, progress):
+        """One line when the fixed steps' mean error estimate says dt is too long."""
+        est = self._time_error_summary()
+        if est is not None and self.scene["time"].get("tolerance") is None \
+                and est["mean"] > TIME_ERROR_WARNING:
+            progress.warn(f"warning: time.dt = {self.scene['time']['dt']:g} may be too long: the "
+                          f"steps' estimated local error is {est['mean']:.2g} on average (max "
+                          f"{est['max']:.2g}) of the body's size, above {TIME_ERROR_WARNING:g}; "
+                          "see summary.json time_error")
+
     def _summary(self, status: str, wall_start: float | None = None) -> dict:
         scene = {k: v for k, v in self.scene.items() if not k.startswith("_")}
         total = ((_time.perf_counter() - wall_start if wall_start else 0.0) + self.setup_time
@@ -652,6 +681,7 @@ class Simulation:
             "counts": dict(self.counts),
             **({"restarts": self.restarts} if self.restarts else {}),
             "director_unit_error": self.model.director_unit_error(),
+            **({"time_error": self._time_error_summary()} if self.time_errors else {}),
             "wall_s": {"compile": self.model.timings["compile"], "assembly": self.solver.assembly_time,
                        "solve": timings["solve"], "output": self.wall["output"],
                        "checkpoint": self.wall["checkpoint"], "total": total},

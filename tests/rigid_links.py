@@ -23,8 +23,8 @@ reference area
 
 ``e = (cos θ, sin θ)`` the link's direction across its width (from +Y toward
 +Z: ``θ`` is its angle about +X) and ``n = (−sin θ, cos θ)`` its normal.  The
-velocity is affine along a link, so the drag is integrated exactly (two-point
-Gauss rule across the width) and multiplied by ``L``.
+velocity is affine along a link, so the drag is integrated exactly across the
+width (a force on the link's centre and a moment) and multiplied by ``L``.
 
 Prescribed motion
 -----------------
@@ -260,68 +260,68 @@ def smooth_stroke(amplitude: float, period: float, lag: float = 0.25):
 # --------------------------------------------------------------------------
 
 class AngleModel:
-    """q = (Y_c, Z_c, θ_L, θ_M, θ_R).
+    """q = (Y_c, Z_c, θ_L, θ_M, θ_R): the middle link's centre and the link angles.
 
     A point at distance s ∈ [−ℓ/2, ℓ/2] from the centre of link k is at
 
-        x = c + ∑_j a_kj(s) e_j,     e_j = (cos θ_j, sin θ_j),
+        x = c + ∑_j a_kj e_j + s e_k,     e_j = (cos θ_j, sin θ_j),
 
-    left:   a = (s − ℓ/2, −ℓ/2, 0)
-    middle: a = (0, s, 0)
-    right:  a = (0, ℓ/2, s + ℓ/2)
+    with the centre coefficients a_k = (−ℓ/2, −ℓ/2, 0) for the left link,
+    (0, 0, 0) for the middle one and (0, ℓ/2, ℓ/2) for the right one.  So the
+    link's centre moves with V_k = J_k q̇, J_k = [I₂ | a_kL n_L, a_kM n_M, a_kR n_R],
+    n_j = (−sin θ_j, cos θ_j), its points with V_k + s θ̇_k n_k, and the centre's
+    acceleration at q̈ = 0 is b_k = −∑_j a_kj θ̇_j² e_j.  Integrating across the
+    width (∫ s ds = 0, ∫ s² ds = ℓ³/12), with m = μ ℓ L and I = m ℓ²/12:
 
-    so ẋ = J q̇ with J = [I₂ | a_L n_L, a_M n_M, a_R n_R] and the acceleration
-    at q̈ = 0 is b = −∑_j a_j θ̇_j² e_j.  The outer edges are the left link at
-    s = −ℓ/2 (a = (−ℓ, −ℓ/2, 0)) and the right link at s = ℓ/2 (a = (0, ℓ/2, ℓ))."""
+        kinetic energy  ½ ∑_k (m |V_k|² + I θ̇_k²)
+        M = m ∑_k J_kᵀ J_k + I diag(0, 0, 1, 1, 1)
+        h = m ∑_k J_kᵀ b_k                       (the spin part of b does no work)
+        R = L ℓ ∑_k (C₂ (e_kᵀ J_k)ᵀ(e_kᵀ J_k) + C₃ (n_kᵀ J_k)ᵀ(n_kᵀ J_k))
+            + C₃ L ℓ³/12 diag(0, 0, 1, 1, 1)
+
+    i.e. a link feels the force −L ℓ (C₂ (V·e) e + C₃ (V·n) n) and the moment
+    −C₃ L ℓ³/12 θ̇.  The outer edges are the left link at s = −ℓ/2 and the right
+    one at s = ℓ/2: x = c + ∑_j a_j e_j with a = (−ℓ, −ℓ/2, 0) and (0, ℓ/2, ℓ)."""
 
     name = "angles"
-    n_targets = 2                  # g(q) = (Z_left, Z_right) = (w_L, w_R)
 
     def __init__(self, body: Body):
         self.body = body
         l = body.link_width
-        g = l / (2 * math.sqrt(3))                     # two-point Gauss rule
-        rows, links = [], []
-        for k in range(3):
-            for s in (-g, g):
-                rows.append([(s - l / 2, -l / 2, 0.0), (0.0, s, 0.0), (0.0, l / 2, s + l / 2)][k])
-                links.append(k)
-        rows += [(-l, -l / 2, 0.0), (0.0, l / 2, l)]   # the outer edges (rows 6, 7)
-        self.a = np.array(rows)
-        self.link_of = np.array(links)
-        self.weight = l / 2                            # Gauss weight of each point
+        self.a_centre = np.array([(-l / 2, -l / 2, 0.0), (0.0, 0.0, 0.0), (0.0, l / 2, l / 2)])
+        self.a_edge = np.array([(-l, -l / 2, 0.0), (0.0, l / 2, l)])
+        self.spin = np.diag([0.0, 0.0, 1.0, 1.0, 1.0])
         self.q0 = np.array([1.5 * l, 0.0, 0.0, 0.0, 0.0])
         self.translation_y = np.array([1.0, 0.0, 0.0, 0.0, 0.0])
 
     def _frames(self, q):
-        th = q[2:5]
-        c, s = np.cos(th), np.sin(th)
-        return np.stack([c, s], 1), np.stack([-s, c], 1)   # rows e_j and n_j
+        """Rows e_j = (cos θ_j, sin θ_j) and n_j = (−sin θ_j, cos θ_j)."""
+        e = np.empty((3, 2))
+        np.cos(q[2:5], out=e[:, 0])
+        np.sin(q[2:5], out=e[:, 1])
+        n = e[:, ::-1] * (-1.0, 1.0)
+        return e, n
 
     def terms(self, q, v):
-        """(M, R, h, G, Ġq̇) at (q, q̇), from the Gauss points' J and b:
-
-            M = μ L ∑ w Jᵀ J,   R = L ∑ w Jᵀ (C₂ e eᵀ + C₃ n nᵀ) J,   h = μ L ∑ w Jᵀ b,
-
-        G and Ġq̇ the Z rows of the edges' J and b (w = ℓ/2 the Gauss weight)."""
+        """(M, R, h, G, Ġq̇) at (q, q̇)."""
         body = self.body
+        l, L = body.link_width, body.length
         e, n = self._frames(q)
-        a = self.a[:6]
-        J = np.zeros((12, 5))                  # rows (Y, Z) of each Gauss point
-        J[0::2, 0] = 1.0
-        J[1::2, 1] = 1.0
-        J[0::2, 2:] = a * n[:, 0]
-        J[1::2, 2:] = a * n[:, 1]
-        ek, nk = e[self.link_of], n[self.link_of]
-        Je = J[0::2] * ek[:, :1] + J[1::2] * ek[:, 1:]    # rows eᵀ J
-        Jn = J[0::2] * nk[:, :1] + J[1::2] * nk[:, 1:]    # rows nᵀ J
-        w = self.weight * body.length
-        M = (w * body.mu) * (J.T @ J)
-        R = w * (body.c_across * (Je.T @ Je) + body.c_normal * (Jn.T @ Jn))
-        b = -(a * v[2:5] ** 2) @ e                         # (6, 2)
-        h = (w * body.mu) * (J.T @ b.ravel())
+        J = np.zeros((3, 2, 5))                # J[k]: centre velocity of link k
+        J[:, 0, 0] = 1.0
+        J[:, 1, 1] = 1.0
+        J[:, :, 2:] = self.a_centre[:, None, :] * n.T[None, :, :]
+        Je = np.einsum("kc,kci->ki", e, J)     # rows e_kᵀ J_k
+        Jn = np.einsum("kc,kci->ki", n, J)     # rows n_kᵀ J_k
+        Jf = J.reshape(6, 5)
+        m = body.link_mass
+        M = m * (Jf.T @ Jf) + (m * l * l / 12) * self.spin
+        R = (L * l) * (body.c_across * (Je.T @ Je) + body.c_normal * (Jn.T @ Jn)
+                       + (body.c_normal * l * l / 12) * self.spin)
+        b = -(self.a_centre * v[2:5] ** 2) @ e           # centre accelerations at q̈ = 0
+        h = m * (Jf.T @ b.ravel())
         G = self.jacobian(q, n)
-        gamma = -(self.a[6:] * v[2:5] ** 2) @ e[:, 1]
+        gamma = -(self.a_edge * v[2:5] ** 2) @ e[:, 1]
         return M, R, h, G, gamma
 
     def mass(self, q):
@@ -333,15 +333,15 @@ class AngleModel:
     def constraint(self, q):
         """g(q) = heights of the outer edges: Z_c + ∑_j a_j sin θ_j."""
         e, _ = self._frames(q)
-        return q[1] + self.a[6:] @ e[:, 1]
+        return q[1] + self.a_edge @ e[:, 1]
 
     def jacobian(self, q, n=None):
-        """G = ∂g/∂q: the Z rows of the edge points' J."""
+        """G = ∂g/∂q = [0, 1, a_L cos θ_L, a_M cos θ_M, a_R cos θ_R] per edge."""
         if n is None:
             n = self._frames(q)[1]
         G = np.zeros((2, 5))
         G[:, 1] = 1.0
-        G[:, 2:] = self.a[6:] * n[:, 1]
+        G[:, 2:] = self.a_edge * n[:, 1]
         return G
 
     def targets(self, wl, wr):
@@ -379,7 +379,6 @@ class LineModel:
     Constraints: ½(|P_{k+1} − P_k|² − ℓ²) = 0 (k = 0, 1, 2), Z₀ = w_L, Z₃ = w_R."""
 
     name = "lines"
-    n_targets = 5
 
     def __init__(self, body: Body):
         self.body = body
@@ -681,13 +680,16 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
         overdamped = density == 0.0
     mdl = MODELS[model](body)
     hl, hr = as_history(w_left), as_history(w_right)
-    kinks = _merge([0.0, *(float(t) for t in hl.breaks + hr.breaks if 0.0 < t < t_end)])
-    times = _merge(kinks + [t_end] if times is None else times, kinks + [t_end])
+    tol = 1e-12 * max(1.0, t_end)
+    kinks = [t for t in _merge([0.0, *(t for t in hl.breaks + hr.breaks if t > 0.0)])
+             if t < t_end - tol]          # a kink at t_end (to rounding) is not applied
+    ends = kinks + [t_end]
+    times = _merge(ends if times is None else times, ends)
     if times[0] < 0 or times[-1] > t_end:
         raise ValueError("output times must lie in [0, t_end]")
-    stops = _merge(kinks + times + [t_end], kinks)
+    stops = _merge(ends + times, ends)
     if max_step is None:
-        max_step = float(np.diff(kinks + [t_end]).min()) / 40
+        max_step = float(np.diff(ends).min()) / 40
         for h in (hl, hr):
             if getattr(h, "time_scale", None):
                 max_step = min(max_step, h.time_scale / 50)

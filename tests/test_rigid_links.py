@@ -199,20 +199,20 @@ def test_second_formulation_agrees_case_i():
     assert max(diff.values()) < 1e-7, diff
 
 
-@pytest.mark.parametrize("stroke,density", [("square", 0.0), ("square", 1e-8),
-                                            ("smooth", 1e-8)])
-def test_second_formulation_agrees_other_strokes(stroke, density):
-    a, b = run(stroke, density, 2), run(stroke, density, 2, model="lines")
+@pytest.mark.parametrize("stroke,density,cycles", [("square", 0.0, 3), ("square", 1e-8, 3),
+                                                   ("smooth", 1e-8, 2)])
+def test_second_formulation_agrees_other_strokes(stroke, density, cycles):
+    a, b = run(stroke, density, cycles), run(stroke, density, cycles, model="lines")
     diff = scaled_difference(a, b)
     assert max(diff.values()) < 1e-7, diff
 
 
 def test_step_refinement_changes_nothing():
-    """Halving the Runge-Kutta step changes the outputs by < 1e-8 of their size."""
-    for coarse, fine in [(case_i(cycles=3), case_i(cycles=3, max_step=T / 320)),
-                         (run("smooth", 1e-8, 2), run("smooth", 1e-8, 2, max_step=T / 1000))]:
+    """Refining the Runge-Kutta step changes the outputs by < 1e-7 of their size."""
+    for coarse, fine in [(case_i(cycles=2), case_i(cycles=2, max_step=T / 320)),
+                         (run("smooth", 1e-8, 1), run("smooth", 1e-8, 1, max_step=T / 1000))]:
         diff = scaled_difference(coarse, fine)
-        assert max(diff.values()) < 1e-8, diff
+        assert max(diff.values()) < 1e-7, diff
 
 
 # --------------------------------------------------------------------------

@@ -8,7 +8,7 @@ is refused.
 
 In second-order schemes (generalized-α, HHT) the driven dofs' velocity and
 acceleration are the motion's own derivatives, not Newmark's differences of
-the prescribed values (docs/model.md §6.3): Newmark's velocity of a displacement
+the prescribed values (docs/model.md §6.10): Newmark's velocity of a displacement
 with a kink rings about the slope's jump (1.995, 0.017, 1.963, 0.061, … per unit
 jump, decaying by 0.9 a step under HHT α = −0.05), and the driven edges then jolt
 the body at every step.  :meth:`Motions.drive_step` puts the exact left-sided
