@@ -127,10 +127,12 @@ class Body:
 
     @property
     def c_across(self) -> float:
+        """C₂: drag across the link (along e)."""
         return self.drag[1]
 
     @property
     def c_normal(self) -> float:
+        """C₃: drag normal to the link (along n)."""
         return self.drag[2]
 
     @property
@@ -236,7 +238,8 @@ def smooth_stroke(amplitude: float, period: float, lag: float = 0.25):
         w_R(t) = w_L(t − lag·T) for t ≥ lag·T, 0 before,
 
     i.e. the right edge repeats the left one a fraction ``lag`` of a cycle later
-    (for lag = 1/4 an ellipse in the (w_L, w_R) plane once both move).  Both
+    (for lag = 1/4, once both move, a circle of radius A/2 about (A/2, A/2) in the
+    (w_L, w_R) plane, run in the same sense as the square loop).  Both
     start at zero height with zero velocity, so no impulse acts; w_R'' jumps at
     t = lag·T (a break of the integration, no impulse).  Returns two ``Smooth``."""
     omega = 2 * math.pi / period
@@ -267,21 +270,28 @@ class AngleModel:
         x = c + ∑_j a_kj e_j + s e_k,     e_j = (cos θ_j, sin θ_j),
 
     with the centre coefficients a_k = (−ℓ/2, −ℓ/2, 0) for the left link,
-    (0, 0, 0) for the middle one and (0, ℓ/2, ℓ/2) for the right one.  So the
-    link's centre moves with V_k = J_k q̇, J_k = [I₂ | a_kL n_L, a_kM n_M, a_kR n_R],
-    n_j = (−sin θ_j, cos θ_j), its points with V_k + s θ̇_k n_k, and the centre's
-    acceleration at q̈ = 0 is b_k = −∑_j a_kj θ̇_j² e_j.  Integrating across the
-    width (∫ s ds = 0, ∫ s² ds = ℓ³/12), with m = μ ℓ L and I = m ℓ²/12:
+    (0, 0, 0) for the middle one and (0, ℓ/2, ℓ/2) for the right one.  The
+    link's centre moves with V_k = (Ẏ_c, Ż_c) + ∑_j a_kj θ̇_j n_j, n_j = (−sin θ_j,
+    cos θ_j), its points with V_k + s θ̇_k n_k.  In the link's own frame,
+
+        V_k·e_k = (cos θ_k, sin θ_k, a_kj sin(θ_k − θ_j)) · q̇  =: Je_k q̇
+        V_k·n_k = (−sin θ_k, cos θ_k, a_kj cos(θ_k − θ_j)) · q̇  =: Jn_k q̇
+
+    (e_k·n_j = sin(θ_k − θ_j), n_k·n_j = cos(θ_k − θ_j)), and the centre's
+    acceleration at q̈ = 0, b_k = −∑_j a_kj θ̇_j² e_j, has the components
+    b_k·e_k = −∑_j a_kj θ̇_j² cos(θ_k − θ_j) and b_k·n_k = ∑_j a_kj θ̇_j² sin(θ_k − θ_j).
+    Integrating across the width (∫ s ds = 0, ∫ s² ds = ℓ³/12), with m = μ ℓ L
+    and I = m ℓ²/12:
 
         kinetic energy  ½ ∑_k (m |V_k|² + I θ̇_k²)
-        M = m ∑_k J_kᵀ J_k + I diag(0, 0, 1, 1, 1)
-        h = m ∑_k J_kᵀ b_k                       (the spin part of b does no work)
-        R = L ℓ ∑_k (C₂ (e_kᵀ J_k)ᵀ(e_kᵀ J_k) + C₃ (n_kᵀ J_k)ᵀ(n_kᵀ J_k))
-            + C₃ L ℓ³/12 diag(0, 0, 1, 1, 1)
+        M = m (Jeᵀ Je + Jnᵀ Jn) + I diag(0, 0, 1, 1, 1)
+        h = m (Jeᵀ (b·e) + Jnᵀ (b·n))      (a point's −s θ̇_k² e_k integrates to 0)
+        R = L ℓ (C₂ Jeᵀ Je + C₃ Jnᵀ Jn) + C₃ L ℓ³/12 diag(0, 0, 1, 1, 1)
 
     i.e. a link feels the force −L ℓ (C₂ (V·e) e + C₃ (V·n) n) and the moment
     −C₃ L ℓ³/12 θ̇.  The outer edges are the left link at s = −ℓ/2 and the right
-    one at s = ℓ/2: x = c + ∑_j a_j e_j with a = (−ℓ, −ℓ/2, 0) and (0, ℓ/2, ℓ)."""
+    one at s = ℓ/2: x = c + ∑_j a_j e_j with a = (−ℓ, −ℓ/2, 0) and (0, ℓ/2, ℓ),
+    so their heights are Z_c + ∑_j a_j sin θ_j."""
 
     name = "angles"
 
@@ -305,23 +315,23 @@ class AngleModel:
     def terms(self, q, v):
         """(M, R, h, G, Ġq̇) at (q, q̇)."""
         body = self.body
-        l, L = body.link_width, body.length
-        e, n = self._frames(q)
-        J = np.zeros((3, 2, 5))                # J[k]: centre velocity of link k
-        J[:, 0, 0] = 1.0
-        J[:, 1, 1] = 1.0
-        J[:, :, 2:] = self.a_centre[:, None, :] * n.T[None, :, :]
-        Je = np.einsum("kc,kci->ki", e, J)     # rows e_kᵀ J_k
-        Jn = np.einsum("kc,kci->ki", n, J)     # rows n_kᵀ J_k
-        Jf = J.reshape(6, 5)
-        m = body.link_mass
-        M = m * (Jf.T @ Jf) + (m * l * l / 12) * self.spin
-        R = (L * l) * (body.c_across * (Je.T @ Je) + body.c_normal * (Jn.T @ Jn)
+        l, L, m = body.link_width, body.length, body.link_mass
+        th = q[2:5]
+        diff = th[:, None] - th[None, :]                  # θ_k − θ_j
+        S, C = np.sin(diff), np.cos(diff)
+        cos, sin = np.cos(th), np.sin(th)
+        a = self.a_centre
+        Je, Jn = np.empty((3, 5)), np.empty((3, 5))       # rows e_kᵀ J_k, n_kᵀ J_k
+        Je[:, 0], Je[:, 1], Je[:, 2:] = cos, sin, a * S
+        Jn[:, 0], Jn[:, 1], Jn[:, 2:] = -sin, cos, a * C
+        EE, NN = Je.T @ Je, Jn.T @ Jn
+        M = m * (EE + NN) + (m * l * l / 12) * self.spin
+        R = (L * l) * (body.c_across * EE + body.c_normal * NN
                        + (body.c_normal * l * l / 12) * self.spin)
-        b = -(self.a_centre * v[2:5] ** 2) @ e           # centre accelerations at q̈ = 0
-        h = m * (Jf.T @ b.ravel())
-        G = self.jacobian(q, n)
-        gamma = -(self.a_edge * v[2:5] ** 2) @ e[:, 1]
+        w2 = v[2:5] ** 2
+        h = m * (Je.T @ (-(a * C) @ w2) + Jn.T @ ((a * S) @ w2))
+        G = self.jacobian(q, cos)
+        gamma = -(self.a_edge * w2) @ sin                  # Z of the edges' b
         return M, R, h, G, gamma
 
     def mass(self, q):
@@ -335,13 +345,11 @@ class AngleModel:
         e, _ = self._frames(q)
         return q[1] + self.a_edge @ e[:, 1]
 
-    def jacobian(self, q, n=None):
+    def jacobian(self, q, cos=None):
         """G = ∂g/∂q = [0, 1, a_L cos θ_L, a_M cos θ_M, a_R cos θ_R] per edge."""
-        if n is None:
-            n = self._frames(q)[1]
         G = np.zeros((2, 5))
         G[:, 1] = 1.0
-        G[:, 2:] = self.a_edge * n[:, 1]
+        G[:, 2:] = self.a_edge * (np.cos(q[2:5]) if cos is None else cos)
         return G
 
     def targets(self, wl, wr):
@@ -486,14 +494,17 @@ class Result:
     corner_y, corner_z: left outer edge's displacement (reference (0, 0));
     right_y, right_z: right outer edge's displacement (reference (1.5, 0));
     centre_y, centre_z: middle link centre's displacement (reference (0.75, 0));
-    angle_middle: middle link's angle about +X (from +Y toward +Z);
-    angles: (n, 3) angles of the left, middle, right links;
+    angle_middle: middle link's angle about +X, atan2(ΔZ, ΔY) of its direction from
+    the left hinge to the right one (model "angles": followed continuously, so
+    not wrapped to (−π, π]; model "lines": wrapped);
+    angles: (n, 3) angles of the left, middle, right links, likewise;
     centroid_y, centroid_z: displacement of the area-weighted centroid;
     momentum_y: total Y momentum (t·mm/s = N·s); drag_impulse_y: ∫ (drag force
     along Y) dt from 0; dissipation, constraint_work: cumulative from 0 (work of
     impulses included in constraint_work); kinetic_energy (after any impulse at
     that time); legs: per-leg ``Leg`` bookkeeping; max_drift: largest constraint
-    residual found (and removed) at a break; steps: Runge-Kutta steps taken."""
+    residual found (and removed) by a projection; steps: Runge-Kutta steps taken.
+    ``summary(t)`` gives the outputs at one time as a dict."""
 
     t: np.ndarray
     corner_y: np.ndarray
@@ -666,9 +677,10 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
     ``times``: output times in [0, t_end] (default: 0, every kink and t_end).
     ``density`` 0 (or ``overdamped=True``) selects the overdamped drag balance.
     ``max_step``: largest Runge-Kutta step (default: 1/40 of the shortest interval
-    between kinks, at most 1/50 of a ``Smooth`` history's ``time_scale`` and a
-    quarter of the inertial time μ / max(C₂, C₃); this keeps the integration
-    error of the outputs near 1e-9 relative for the loops and strokes here).
+    between kinks, at most 1/50 of a ``Smooth`` history's ``time_scale`` (t_end/1000
+    if it has none) and a quarter of the inertial time μ / max(C₂, C₃); this keeps
+    the integration error of the outputs near 1e-9 (the loops) or 1e-8 (the smooth
+    stroke) of their range).
     ``model``: "angles" (``AngleModel``) or "lines" (``LineModel``).
     Starts at rest and flat at t = 0 (the first velocity is reached by an impulse).
     A kink at ``t_end`` itself is not applied: the outputs at ``t_end`` are the
@@ -678,8 +690,12 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
                 density=density, drag=tuple(drag))
     if overdamped is None:
         overdamped = density == 0.0
+    if not overdamped and density <= 0.0:
+        raise ValueError("the inertial model needs a positive density")
     mdl = MODELS[model](body)
     hl, hr = as_history(w_left), as_history(w_right)
+    if max(abs(h.piece(0.0)[0](0.0)) for h in (hl, hr)) > 1e-12:
+        raise ValueError("the body starts flat: w_L(0) = w_R(0) = 0")
     tol = 1e-12 * max(1.0, t_end)
     kinks = [t for t in _merge([0.0, *(t for t in hl.breaks + hr.breaks if t > 0.0)])
              if t < t_end - tol]          # a kink at t_end (to rounding) is not applied
@@ -691,8 +707,8 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
     if max_step is None:
         max_step = float(np.diff(ends).min()) / 40
         for h in (hl, hr):
-            if getattr(h, "time_scale", None):
-                max_step = min(max_step, h.time_scale / 50)
+            if isinstance(h, Smooth):
+                max_step = min(max_step, h.time_scale / 50 if h.time_scale else t_end / 1000)
         if not overdamped:
             max_step = min(max_step, body.inertial_time / 4)
 
@@ -706,14 +722,17 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
         leg = legs[-1]
         leg.t1 = t
         leg.ke_end = integ.kinetic_energy(y)
-        leg.dissipation = y[n_state] - leg.dissipation          # running totals at the start
-        leg.constraint_work = y[n_state + 1] - leg.constraint_work
+        leg.dissipation = float(y[n_state] - leg.dissipation)   # running totals at the start
+        leg.constraint_work = float(y[n_state + 1] - leg.constraint_work)
 
+    # Between stops: Runge-Kutta steps, projected back onto the constraints every
+    # few steps and at the stop (with the motion of the interval, i.e. onto ẇ⁻).
+    # At a kink: the impulse onto ẇ⁺; a leg of the energy bookkeeping ends and
+    # the next one starts.
     for i, t0 in enumerate(stops):
         last = i == len(stops) - 1
         t1 = t0 + 1.0 if last else stops[i + 1]
         piece = (hl.piece(0.5 * (t0 + t1)), hr.piece(0.5 * (t0 + t1)))   # motion after t0
-        drift = max(drift, integ.project(y, t0, piece))
         if legs and (t0 in kinks or last):
             close_leg(t0)
         if t0 in kinks and not last:
@@ -722,8 +741,6 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
             impulse_total += work
             legs.append(Leg(t0, t1, ke, work, integ.kinetic_energy(y),
                             constraint_work=y[n_state + 1], dissipation=y[n_state]))
-        elif not last:
-            impulse_total += integ.impulse(y, t0, piece)       # removes drift only
         if t0 in times:
             o = mdl.outputs(integ.split(y)[0])
             rows.append((t0, o, integ.momentum_y(y), y[n_state + 2],

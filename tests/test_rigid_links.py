@@ -1,9 +1,10 @@
 """Checks of the rigid three-link reference model (tests/rigid_links.py).
 
 The model is the reference the FE three-link tests are held to, so it is
-checked against itself in every way that does not share its equations:
-published figures (case I, Purcell's square loop), the limit ρ → 0, energy and
-momentum balances, a second formulation and step refinement.  The whole file
+checked in every way that does not share its equations: the figures of another
+independent model (case I), the exact overdamped figures of Purcell's square
+loop (README, verification case H), the limit ρ → 0, energy and momentum
+balances, a second formulation and step refinement.  The whole file
 runs in a few seconds and needs numpy only.
 """
 
@@ -22,17 +23,19 @@ OUTPUTS = ("corner_y", "corner_z", "right_y", "right_z", "centre_y", "centre_z",
            "angle_middle", "centroid_y", "centroid_z")
 
 
-@lru_cache(maxsize=None)
 def case_i(model="angles", max_step=None, cycles=CYCLES):
     """Case I: reciprocal loop, T = 0.4, A = 0.1, ρ = 1e-8; outputs every cycle."""
-    wl, wr = rl.loop_tables("reciprocal", A, T, cycles)
-    return rl.simulate(wl, wr, T * cycles, model=model, max_step=max_step,
-                       times=[T * k for k in range(cycles + 1)])
+    return run("reciprocal", 1e-8, cycles, model, max_step)
+
+
+def run(stroke, density, cycles, model="angles", max_step=None, period=T, per_cycle=1):
+    """A stroke ("square", "reciprocal" or "smooth") with outputs ``per_cycle`` times
+    a cycle (runs are cached: the tests share them)."""
+    return _run(stroke, density, cycles, model, max_step, period, per_cycle)
 
 
 @lru_cache(maxsize=None)
-def run(stroke, density, cycles, model="angles", max_step=None, period=T, per_cycle=1):
-    """A stroke ("square", "reciprocal" or "smooth") with outputs ``per_cycle`` times a cycle."""
+def _run(stroke, density, cycles, model, max_step, period, per_cycle):
     if stroke == "smooth":
         wl, wr = rl.smooth_stroke(A, period)
     else:
@@ -43,7 +46,8 @@ def run(stroke, density, cycles, model="angles", max_step=None, period=T, per_cy
 
 
 def scaled_difference(a, b, keys=OUTPUTS + ("angles",)):
-    """Largest |a − b| of each output over time, over that output's largest |value|."""
+    """Largest |a − b| of each output over the output times, over that output's
+    largest |value| there (its range, as every run starts at zero)."""
     out = {}
     for k in keys:
         x, y = np.asarray(getattr(a, k)), np.asarray(getattr(b, k))
@@ -54,7 +58,7 @@ def scaled_difference(a, b, keys=OUTPUTS + ("angles",)):
 
 
 # --------------------------------------------------------------------------
-# Published figures
+# Reference figures
 # --------------------------------------------------------------------------
 
 def test_case_i_matches_the_independent_figures():
@@ -84,14 +88,9 @@ def test_overdamped_reciprocal_loop_returns_exactly():
     """Scallop theorem: the out-and-back loop gives no net motion per cycle at ρ = 0."""
     r = run("reciprocal", 0.0, 3)
     for k in ("corner_y", "centre_y", "centre_z", "angle_middle", "centroid_y"):
-        assert np.abs(getattr(r, k)).max() < 1e-12, k
+        assert np.abs(getattr(r, k)).max() < 1e-10, k     # 1e-7 of a square cycle's
     # ... while the same loop does move the body when it has inertia
     assert abs(case_i().centroid_y[1]) > 1e-4
-
-
-def test_overdamped_motion_does_not_depend_on_the_rate():
-    r1, r2 = run("square", 0.0, 3, period=1.0), run("square", 0.0, 3, period=0.4)
-    assert max(scaled_difference(r1, r2).values()) < 1e-10
 
 
 # --------------------------------------------------------------------------
@@ -138,25 +137,25 @@ def test_energy_balance_per_leg(model):
     scale = max(max(abs(l.impulse_work), l.dissipation, abs(l.constraint_work))
                 for l in r.legs)
     worst = max(abs(l.imbalance) for l in r.legs)
-    assert worst < 1e-9 * scale, worst / scale
+    assert worst < 1e-8 * scale, worst / scale
     first = r.legs[0]
-    assert first.ke_before == 0.0 and first.ke_after == pytest.approx(first.impulse_work,
-                                                                      rel=1e-12)
+    assert first.ke_before == 0.0
+    assert first.ke_after == pytest.approx(first.impulse_work, rel=1e-12, abs=0)
     # the impulses do work of both signs, and the drag always dissipates
     assert min(l.impulse_work for l in r.legs) < 0 < max(l.impulse_work for l in r.legs)
     assert min(l.dissipation for l in r.legs) > 0
     # cumulative form at the outputs: KE(t) = W(t) − D(t)
     total = np.abs(r.kinetic_energy - r.constraint_work + r.dissipation).max()
-    assert total < 1e-9 * r.dissipation[-1]
+    assert total < 1e-8 * r.dissipation[-1]
 
 
 def test_energy_balance_square_and_overdamped():
     r = run("square", 1e-8, 3)
     scale = max(l.dissipation for l in r.legs)
-    assert max(abs(l.imbalance) for l in r.legs) < 1e-9 * scale
+    assert max(abs(l.imbalance) for l in r.legs) < 1e-8 * scale
     r0 = run("square", 0.0, 3)            # no kinetic energy: the edges' work is dissipated
     for leg in r0.legs:
-        assert leg.constraint_work == pytest.approx(leg.dissipation, rel=1e-9)
+        assert leg.constraint_work == pytest.approx(leg.dissipation, rel=1e-9, abs=0)
 
 
 @pytest.mark.parametrize("model", ["angles", "lines"])
@@ -165,7 +164,7 @@ def test_y_momentum_balance(model):
     r = case_i(model)
     scale = np.abs(r.momentum_y).max()
     assert scale > 0
-    assert np.abs(r.momentum_y - r.drag_impulse_y).max() < 1e-9 * scale
+    assert np.abs(r.momentum_y - r.drag_impulse_y).max() < 1e-8 * scale
 
 
 def test_centroid_moves_with_the_y_momentum():
@@ -176,7 +175,7 @@ def test_centroid_moves_with_the_y_momentum():
     h = T / per_cycle
     p = r.momentum_y
     integral = h / 3 * (p[0] + p[-1] + 4 * p[1:-1:2].sum() + 2 * p[2:-1:2].sum())
-    assert mass * r.centroid_y[-1] == pytest.approx(integral, rel=1e-6)
+    assert mass * r.centroid_y[-1] == pytest.approx(integral, rel=1e-8, abs=0)
 
 
 def test_constraints_hold():
@@ -199,18 +198,20 @@ def test_second_formulation_agrees_case_i():
     assert max(diff.values()) < 1e-7, diff
 
 
-@pytest.mark.parametrize("stroke,density,cycles", [("square", 0.0, 3), ("square", 1e-8, 3),
-                                                   ("smooth", 1e-8, 2)])
-def test_second_formulation_agrees_other_strokes(stroke, density, cycles):
-    a, b = run(stroke, density, cycles), run(stroke, density, cycles, model="lines")
+@pytest.mark.parametrize("stroke,density,cycles,per_cycle", [
+    ("square", 0.0, 3, 1), ("square", 1e-8, 3, 1), ("smooth", 1e-8, 1, 4)])
+def test_second_formulation_agrees_other_strokes(stroke, density, cycles, per_cycle):
+    a = run(stroke, density, cycles, per_cycle=per_cycle)
+    b = run(stroke, density, cycles, model="lines", per_cycle=per_cycle)
     diff = scaled_difference(a, b)
     assert max(diff.values()) < 1e-7, diff
 
 
 def test_step_refinement_changes_nothing():
-    """Refining the Runge-Kutta step changes the outputs by < 1e-7 of their size."""
+    """Refining the Runge-Kutta step changes the outputs by < 1e-7 of their range."""
     for coarse, fine in [(case_i(cycles=2), case_i(cycles=2, max_step=T / 320)),
-                         (run("smooth", 1e-8, 1), run("smooth", 1e-8, 1, max_step=T / 1000))]:
+                         (run("smooth", 1e-8, 1, per_cycle=4),
+                          run("smooth", 1e-8, 1, per_cycle=4, max_step=T / 640))]:
         diff = scaled_difference(coarse, fine)
         assert max(diff.values()) < 1e-7, diff
 
@@ -234,8 +235,9 @@ def test_table_pieces():
     table = rl.Table([[0.0, 0.0], [1.0, 2.0], [2.0, 2.0]])
     w, dw, ddw = table.piece(0.5)
     assert (w(1.0), dw(1.0), ddw(1.0)) == (2.0, 2.0, 0.0)
-    w, dw, _ = table.piece(1.5)
-    assert (w(1.0), dw(1.0)) == (2.0, 0.0)
+    for t_mid in (1.5, 1.0):                      # at the kink itself: the segment after it
+        w, dw, _ = table.piece(t_mid)
+        assert (w(1.0), dw(1.0)) == (2.0, 0.0)
     for t in (-1.0, 3.0):
         w, dw, _ = table.piece(t)
         assert dw(t) == 0.0 and w(t) == (0.0 if t < 0 else 2.0)
@@ -247,8 +249,8 @@ def test_callables_equal_a_table():
     rate = 0.05 / 0.2
     as_callables = (lambda t: rate * t, lambda t: rate, lambda t: 0.0)
     zero = (lambda t: 0.0,) * 3
-    a = rl.simulate(ramp, [[0.0, 0.0]], 0.2, times=[0.1, 0.2])
-    b = rl.simulate(as_callables, zero, 0.2, times=[0.1, 0.2])
+    a = rl.simulate(ramp, [[0.0, 0.0]], 0.2, times=[0.1, 0.2], max_step=0.005)
+    b = rl.simulate(as_callables, zero, 0.2, times=[0.1, 0.2], max_step=0.005)
     assert max(scaled_difference(a, b).values()) < 1e-12
 
 
@@ -259,7 +261,16 @@ def test_smooth_stroke_starts_from_rest():
         assert w(0.0) == 0.0 and dw(0.0) == 0.0
     assert wr.breaks == [pytest.approx(T / 4)]
     w, dw, ddw = wr.piece(T / 4 + 0.01)            # the piece after the lag starts at rest
-    assert w(T / 4) == pytest.approx(0.0) and dw(T / 4) == pytest.approx(0.0)
+    assert abs(w(T / 4)) < 1e-15 and abs(dw(T / 4)) < 1e-12
     assert ddw(T / 4) == pytest.approx(A / 2 * (2 * math.pi / T) ** 2)
-    r = run("smooth", 1e-8, 1)
+    r = run("smooth", 1e-8, 1, per_cycle=4)
     assert r.legs[0].impulse_work == pytest.approx(0.0, abs=1e-25)
+
+
+def test_rejects_inconsistent_input():
+    with pytest.raises(ValueError, match="starts flat"):
+        rl.simulate([[0.0, 0.1], [1.0, 0.0]], [[0.0, 0.0]], 1.0)
+    with pytest.raises(ValueError, match="positive density"):
+        rl.simulate([[0.0, 0.0], [1.0, 0.1]], [[0.0, 0.0]], 1.0, density=0.0, overdamped=False)
+    with pytest.raises(ValueError, match="output times"):
+        rl.simulate([[0.0, 0.0], [1.0, 0.1]], [[0.0, 0.0]], 1.0, times=[2.0])
