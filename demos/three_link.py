@@ -20,10 +20,19 @@ link, so the links move as rigid bodies on their hinges whatever E is).  The
 script therefore runs every case twice, with the paper's density and with none
 (Stokes regime), so the two causes can be told apart.
 
+Case I has an independent answer: its links hardly bend, so it moves as three
+rigid plates with distributed mass on free hinges in the same drag
+(``tests/rigid_links.py``, with the corners of the stroke as constraint
+impulses).  The script prints case I against it after nine cycles (corner Y,
+middle-link centre Z, middle-link angle, centroid Y) and exits 1 if any of them
+is off by more than 1 %.
+
 Writes to ``--out``: ``table4.csv`` (reference-corner displacement along Y every
-0.4 s, for every case and both densities), ``groups.md`` (the groups per case),
-``three_link.png`` (the corner's Y displacement against time, Fig. 8 style), and
-one run folder per case (probes, summary, fields).
+0.4 s, for every case and both densities), ``centroid.csv`` (the body's
+centroid along Y at the same times), ``reference.md`` (case I against the
+rigid-link reference), ``groups.md`` (the groups per case), ``three_link.png``
+(the corner's and the centroid's Y displacement against time, Fig. 8 style),
+and one run folder per case (probes, summary, fields).
 """
 
 from __future__ import annotations
@@ -51,6 +60,8 @@ PAPER_TABLE4 = [-0.003758, -0.003759, -0.003650, -0.003648, -0.003535,
                 -0.003537, -0.003420, -0.003427, -0.003305]
 PERIOD, CYCLES = 0.4, 9
 RHO, T, NU, LINK, C3 = 1.0e-8, 0.2, 0.3, 0.5, 5.67e-9
+#: how far case I may lie from the rigid-link reference (relative)
+REFERENCE_TOLERANCE = 0.01
 
 
 def groups(E: float) -> dict:
@@ -60,7 +71,7 @@ def groups(E: float) -> dict:
 
 
 def run_case(name: str, density: float, out: Path):
-    """Run one case; return (times, corner Y displacement, summary)."""
+    """Run one case; return (times, probe rows (n, 4, 3), centroid Y, summary)."""
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
     from rftfem.scene import load_scene
     from rftfem.simulation import Simulation
@@ -82,8 +93,40 @@ def run_case(name: str, density: float, out: Path):
     finally:
         sim.close()
     t = np.array([row[0] for row in sim.history])
-    y = np.array([row[1][0][1] for row in sim.history])
-    return t, y, summary
+    probes = np.array([row[1] for row in sim.history])
+    with open(out / "body.csv", encoding="utf-8") as fh:
+        centroid = np.array([float(r["centroid_y"]) for r in csv.DictReader(fh)])
+    return t, probes, centroid - centroid[0], summary
+
+
+def measures(probes) -> dict:
+    """Corner Y, middle centre Z and the middle link's angle about X (from +Y towards
+    +Z) of one probe row (corner, centre, hinge_left, hinge_right)."""
+    left = np.array([2.5, 0.5, 0.0]) + probes[2]
+    right = np.array([2.5, 1.0, 0.0]) + probes[3]
+    chord = right - left
+    return {"corner_y": probes[0][1], "centre_z": probes[1][2],
+            "angle_middle": math.atan2(chord[2], chord[1])}
+
+
+def rigid_reference(scene_path: Path = SCENE) -> dict | None:
+    """Case I's rigid-link answer after nine cycles (tests/rigid_links.py), or None
+    where the repository's tests folder is not beside the demos."""
+    tests = HERE.parent / "tests"
+    if not (tests / "rigid_links.py").exists():
+        return None
+    sys.path.insert(0, str(tests))
+    try:
+        import rigid_links
+    finally:
+        sys.path.pop(0)
+    import tomllib
+
+    scene = tomllib.loads(scene_path.read_text(encoding="utf-8"))
+    w_left, w_right = (m["values"] for m in scene["motion"])
+    result = rigid_links.simulate(w_left, w_right, PERIOD * CYCLES, density=RHO,
+                                  thickness=T, link_width=LINK)
+    return result.summary()
 
 
 def main(argv=None) -> int:
@@ -94,16 +137,21 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
 
     marks = [PERIOD * k for k in range(1, CYCLES + 1)]
-    table, curves, failed = {}, {}, []
+    table, centroids, curves, failed, last = {}, {}, {}, [], {}
     for name in args.cases:
         for density, label in ((RHO, name), (0.0, f"{name} (no inertia)")):
             folder = f"case_{name}" + ("" if density else "_stokes")
-            t, y, summary = run_case(name, density, args.out / folder)
+            t, probes, centroid, summary = run_case(name, density, args.out / folder)
             if summary["status"] != "ok":
                 failed.append(label)
-            curves[label] = (t, y)
-            table[label] = [float(y[int(np.argmin(abs(t - m)))]) for m in marks]
-            print(f"case {label:18s} corner Y at 3.6 s: {table[label][-1]:+.6f} mm "
+            y = probes[:, 0, 1]
+            curves[label] = (t, y, centroid)
+            rows = [int(np.argmin(abs(t - m))) for m in marks]
+            table[label] = [float(y[i]) for i in rows]
+            centroids[label] = [float(centroid[i]) for i in rows]
+            last[label] = {**measures(probes[-1]), "centroid_y": float(centroid[-1])}
+            print(f"case {label:18s} after nine cycles: corner Y {table[label][-1]:+.6f} mm, "
+                  f"centroid Y {centroids[label][-1]:+.6f} mm "
                   f"({summary['counts']['steps']} steps, {summary['wall_s']['total']:.0f} s)")
 
     with open(args.out / "table4.csv", "w", newline="", encoding="utf-8") as fh:
@@ -121,14 +169,41 @@ def main(argv=None) -> int:
                      f"{groups(Es[0])['inertia']:.2f} | {sp} |")
     (args.out / "groups.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
+    with open(args.out / "centroid.csv", "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["t", *centroids])
+        for i, m in enumerate(marks):
+            writer.writerow([f"{m:.1f}", *(f"{v[i]:.6f}" for v in centroids.values())])
+    if "I" in last:
+        reference = rigid_reference()
+        if reference is None:
+            print("tests/rigid_links.py not found: case I not compared with the rigid links")
+        else:
+            lines = ["| after nine cycles | case I | rigid links | difference |",
+                     "|---|---|---|---|"]
+            for key, what in (("corner_y", "corner Y (mm)"), ("centre_z", "centre Z (mm)"),
+                              ("angle_middle", "middle-link angle (rad)"),
+                              ("centroid_y", "centroid Y (mm)")):
+                ours, ref = last["I"][key], reference[key]
+                rel = ours / ref - 1
+                # the centroid hardly moves: it is compared against the corner's scale
+                off = abs(ours - ref) / abs(reference["corner_y"]) if key == "centroid_y" \
+                    else abs(rel)
+                lines.append(f"| {what} | {ours:+.6f} | {ref:+.6f} | {100 * rel:+.2f} % |")
+                if off > REFERENCE_TOLERANCE:
+                    failed.append(f"case I {what} off the rigid-link reference by "
+                                  f"{100 * off:.2f} %")
+            (args.out / "reference.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+            print("\n".join(lines))
     _plot(curves, args.out / "three_link.png")
-    print(f"wrote {args.out / 'table4.csv'}, groups.md and three_link.png")
+    print(f"wrote {args.out / 'table4.csv'}, centroid.csv, reference.md, groups.md and "
+          "three_link.png")
     # a picture and a film of the first case, drawn by `rftfem render`
     from rftfem.render_cli import draw_picture_and_film
 
     draw_picture_and_film(args.out / f"case_{args.cases[0]}", "swimmer", "--view", "follow")
     if failed:
-        print("failed runs: " + ", ".join(failed))
+        print("failed: " + "; ".join(failed))
         return 1
     return 0
 
@@ -139,15 +214,21 @@ def _plot(curves, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for label, (t, y) in curves.items():
-        ax.plot(t, 1e3 * y, ls="-" if "no inertia" not in label else ":", label=f"case {label}")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4))
+    for label, (t, y, centroid) in curves.items():
+        style = "-" if "no inertia" not in label else ":"
+        ax.plot(t, 1e3 * y, ls=style, label=f"case {label}")
+        bx.plot(t, 1e3 * centroid, ls=style, label=f"case {label}")
     ax.plot([PERIOD * k for k in range(1, CYCLES + 1)], [1e3 * v for v in PAPER_TABLE4], "kx",
             label="paper, case I (Table 4)")
     ax.set_xlabel("t (s)")
     ax.set_ylabel("corner displacement along Y (µm)")
-    ax.set_title("Three-link swimmer, out-and-back stroke, A = 0.1 mm")
+    ax.set_title("the corner (0, 0): the chain folding")
+    bx.set_xlabel("t (s)")
+    bx.set_ylabel("centroid displacement along Y (µm)")
+    bx.set_title("the centroid: what the body swims")
     ax.legend(fontsize=7, ncol=2)
+    fig.suptitle("Three-link swimmer, out-and-back stroke, A = 0.1 mm")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
