@@ -14,6 +14,14 @@ The default profile tries 150 scenes and runs only mutants whose forms are
 compiled already (15 s with a warm JIT cache); the ``slow`` one, run by
 ``./dev.sh test-full``, tries 1500 and runs any.  What the fuzzer found is kept as fixtures
 in tests/scenes_bad/.
+
+Reproducible: hypothesis draws from FUZZ_SEED, a fresh seed each run unless the
+environment sets RFTFEM_FUZZ_SEED; the seed is printed at the start of the module
+and with a falsifying example, and ``RFTFEM_FUZZ_SEED=<seed> ./dev.sh test
+tests/test_fuzz.py`` draws the same scenes again.  Each ``rftfem check`` and each
+short run of a mutant has a wall-time limit (EXAMPLE_LIMIT, SIGALRM): past it the
+test fails with ExampleTimedOut naming the demo, the ``--set`` arguments and the
+scene file.
 """
 
 from __future__ import annotations
@@ -22,7 +30,10 @@ import contextlib
 import io
 import json
 import math
+import os
+import random
 import re
+import signal
 import tomllib
 from pathlib import Path
 
@@ -35,6 +46,27 @@ from hypothesis import strategies as st
 
 from conftest import DEMOS
 from rftfem import cli
+
+#: hypothesis's seed: RFTFEM_FUZZ_SEED if set, else a fresh one for this run
+FUZZ_SEED = int(os.environ.get("RFTFEM_FUZZ_SEED") or random.SystemRandom().randrange(2**32))
+#: wall-time limit (s) of one `rftfem check` or short run of a mutant, form compilation
+#: included (the slow profile's runs compile new forms; the default one's need not,
+#: but compile with a cold JIT cache, and one such run outlasted 300 s on two cores
+#: shared with other runs): a hang fails its example instead of the CI job
+EXAMPLE_LIMIT = {"default": 900.0, "slow": 1800.0}
+
+
+@pytest.fixture(scope="module", autouse=True)
+def print_seed(request):
+    """The seed of this run, printed past pytest's capture (on every run)."""
+    line = (f"\ntest_fuzz: hypothesis seed {FUZZ_SEED}; RFTFEM_FUZZ_SEED={FUZZ_SEED} "
+            "draws these scenes again")
+    capture = request.config.pluginmanager.getplugin("capturemanager")
+    if capture is not None:
+        with capture.global_and_fixture_disabled():
+            print(line)
+    else:
+        print(line)
 
 BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8"))
          for p in sorted(DEMOS.glob("*.toml"))}
@@ -176,22 +208,54 @@ def mutants(draw):
     return name, scene, sets
 
 
-def _main(args: list[str]) -> tuple[int, str]:
+class ExampleTimedOut(BaseException):
+    """A mutant's `rftfem check` or short run outlasted its time limit.  Not an
+    Exception: hypothesis lets it through at once instead of shrinking the example,
+    each shrink step of which could take the whole limit again."""
+
+
+def _main(args: list[str], what: str, limit: float) -> tuple[int, str]:
+    """``rftfem.cli.main(args)`` here, its exit status and stderr; past ``limit``
+    seconds of wall time (SIGALRM) ExampleTimedOut, saying ``what`` ran."""
+    fired = []
+
+    def expire(signum, frame):
+        fired.append(signum)
+        raise ExampleTimedOut(what)
+
+    def timed_out():
+        return ExampleTimedOut(f"`rftfem {args[0]}` did not end within {limit:g} s: {what}")
+
     err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        status = cli.main(args)
+    previous = signal.signal(signal.SIGALRM, expire)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, limit)
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = cli.main(args)
+    except BaseException:
+        if fired:  # raised inside a PETSc callback, it may come out as another error
+            raise timed_out() from None
+        raise
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    if fired:  # caught on the way and turned into an exit status
+        raise timed_out()
     return status, err.getvalue()
 
 
 def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: bool,
-                 new_forms: bool = True):
+                 new_forms: bool = True, limit: float = EXAMPLE_LIMIT["default"]):
+    hypothesis.note(f"RFTFEM_FUZZ_SEED={FUZZ_SEED}")
     path = tmp_path / f"{name}.toml"
     path.write_text(to_toml(scene) + "\n", encoding="utf-8")
     # a mutant that points at a file of the demo folder (a gmsh mesh) finds it there
     for extra in DEMOS.glob("*.msh"):
         (tmp_path / extra.name).write_bytes(extra.read_bytes())
     args = [arg for s in sets for arg in ("--set", s)]
-    status, err = _main(["check", str(path), *args])
+    what = (f"a mutant of demos/{name}.toml, --set {sets}, written to {path} "
+            f"(RFTFEM_FUZZ_SEED={FUZZ_SEED} draws it again)")
+    status, err = _main(["check", str(path), *args], what, limit)
     hypothesis.event(f"check: exit {status}")
     assert status in (0, 2), (status, err, sets)
     if status == 2:
@@ -207,7 +271,8 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
         return
     out = tmp_path / "out"
     status, err = _main(["run", str(path), "--out", str(out), "--quiet", *args,
-                         "--set", f"time.end={end!r}", "--set", "output.fields=false"])
+                         "--set", f"time.end={end!r}", "--set", "output.fields=false"],
+                        what, limit)
     hypothesis.event(f"run: exit {status}")
     assert status in (0, 2, 3), (status, err, sets)
     if status in (2, 3):
@@ -243,26 +308,31 @@ def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float 
     return end if math.isfinite(end) and end > 0 else None
 
 
+# the draws come from FUZZ_SEED (hypothesis.seed below), not from the test's name
+# (derandomize) nor from a database of earlier failures
 PROFILE = dict(deadline=None, database=None, derandomize=False,
                suppress_health_check=[HealthCheck.function_scoped_fixture,
                                       HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
+@hypothesis.seed(FUZZ_SEED)
 @settings(max_examples=150, **PROFILE)
 @given(mutant=mutants(), run=st.integers(0, 7))
 def test_fuzzed_scenes(tmp_path, mutant, run):
     """The CI profile: short runs only of mutants whose forms the demos' own tests
     compile, so that the test stays within a minute."""
     name, scene, sets = mutant
-    check_mutant(tmp_path, name, scene, sets, run == 0, new_forms=False)
+    check_mutant(tmp_path, name, scene, sets, run == 0, new_forms=False,
+                 limit=EXAMPLE_LIMIT["default"])
 
 
 @pytest.mark.slow
+@hypothesis.seed(FUZZ_SEED)
 @settings(max_examples=1500, **PROFILE)
 @given(mutant=mutants(), run=st.integers(0, 7))
 def test_fuzzed_scenes_long(tmp_path, mutant, run):
     name, scene, sets = mutant
-    check_mutant(tmp_path, name, scene, sets, run == 0)
+    check_mutant(tmp_path, name, scene, sets, run == 0, limit=EXAMPLE_LIMIT["slow"])
 
 
 def test_round_trip_of_the_demos(tmp_path):

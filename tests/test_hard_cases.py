@@ -480,27 +480,40 @@ STRIP = DEMOS / "bidirectional_strip.toml"
 _STRIP = demo("bidirectional_strip.toml")
 STRIP_L = _STRIP["mesh"]["length"]
 STRIP_PERIOD = 1 / _STRIP["magnetic"]["field"]["frequency"]
-#: centroid_z of the strip with steps of T/100 (dt = 0.0025, no cuts)
+#: centroid_z of the strip with steps of T/100 (dt = 0.0025, no cuts): printed beside
+#: the T/10 run's, not asserted (the code's own run, no independent answer)
 STRIP_FINE = {0.2: 0.70729, 0.6: -2.65275}
 
 
 @pytest.mark.parametrize("end", [pytest.param(0.2, id="flip"),
                                  pytest.param(0.6, id="two_periods", marks=pytest.mark.slow)])
-def test_strip_ten_steps_a_period(tmp_path, end):
-    """The bidirectional strip with 10 steps a field period (the demo takes 125):
-    through the flip of phase 1 (to t = 0.2) or two periods of swimming (to 0.6).
-    Ends ok, finite and bounded; its centroid height is that of steps of T/100
-    within 1 % of L (reached 0.14 % at 0.2, 0.4 % at 0.6).  Steps whose directors
-    would turn more than time.max_rotation are halved."""
-    run = run_case(f"large-dt strip T/10 to {end:g}", "ok, centroid 1 % L of fine dt", STRIP,
-                   tmp_path / "out", [f"time.dt={STRIP_PERIOD / 10!r}", f"time.end={end!r}",
+def test_strip_ten_steps_a_period_ends_ok_with_cut_steps(tmp_path, end):
+    """The bidirectional strip with a nominal 10 steps a field period (the demo takes
+    125), through the flip of phase 1 (to t = 0.2) or two periods of swimming (to 0.6).
+    Checks only that the run gets through: it ends ok, every value finite and
+    bounded, and its counts add up: steps.csv has one row per step of
+    summary.json, the steps are no longer than T/10 and tile [0, end] without a gap
+    (to round-off, 1e-12 s), and some were cut (steps of T/10 do not resolve the
+    flip: reached 6 cuts and 39 steps to 0.2, against 8 nominal steps).  Its accuracy is
+    not checked: there is no independent answer for this strip; the centroid height
+    is printed beside that of the code's own run with steps of T/100."""
+    dt = STRIP_PERIOD / 10
+    run = run_case(f"large-dt strip T/10 to {end:g}", "ok, finite, counts add up", STRIP,
+                   tmp_path / "out", [f"time.dt={dt!r}", f"time.end={end!r}",
                                       "output.fields=false"])
     run.assert_ok()
     assert_finite_and_bounded(run, STRIP_L)
+    header, steps = run.table("steps.csv")
+    counts = run.summary["counts"]
+    t, h = steps[:, header.index("time")], steps[:, header.index("dt")]
     z = run.at("centroid_z", end)
-    print(f"  centroid_z({end:g}) = {z:.5f} vs {STRIP_FINE[end]} with T/100 "
-          f"({abs(z - STRIP_FINE[end]) / STRIP_L:.2e} L)")
-    assert abs(z - STRIP_FINE[end]) < 0.01 * STRIP_L
+    print(f"  {counts['steps']} steps, {counts['dt_cuts']} dt cuts; centroid_z({end:g}) = "
+          f"{z:.5f}, {STRIP_FINE[end]} with T/100 ({abs(z - STRIP_FINE[end]) / STRIP_L:.2e} L; "
+          "not asserted)")
+    assert len(t) == counts["steps"]
+    assert h.max() <= dt * (1 + 1e-12)
+    assert np.abs(np.cumsum(h) - t).max() < 1e-12 and abs(t[-1] - end) < 1e-12
+    assert counts["dt_cuts"] >= 1
 
 
 # --- 5. stiff contrasts ---------------------------------------------------------------------

@@ -1,5 +1,5 @@
-"""Hinges: exact fold of a spring hinge, a free hinge turning against RFT drag, the
-displacement tie across hinge lines, Purcell's three-link swimmer against its
+"""Hinges: exact fold of a spring hinge, a free hinge turning against RFT drag (its
+director jumping across the line), Purcell's three-link swimmer against its
 exact rigid-link result (README, "Jointed bodies: hinges"), an oblique
 gmsh crease, and mpirun against serial with a partition across a hinge."""
 
@@ -88,9 +88,14 @@ def sagitta_curvature(p, a, m, b):
 
 
 class TieAndFold:
-    """Observer: after every step, the largest gap ``|u⁺ − u⁻|`` across the hinge
-    lines (at the nodes of every hinge facet, both sides' cells) and the largest
-    jump of the director across them (assembled over dS)."""
+    """Observer: after every step, the root mean square over the hinge lines (assembled
+    over dS) of the gap ``|u⁺ − u⁻|`` and of the jump of the director across them.
+
+    The gap is zero by construction, to round-off: the displacement is one
+    continuous P2 field across every hinge (hinges.py splits only the rotation
+    fields and triads), so the two sides' traces are the same nodal values.  An
+    assert on it checks that set-up, not the hinge; the hinge's own kinematics is
+    the director's jump, and its mechanics the folds and rates of the tests."""
 
     def __init__(self):
         self.gap, self.jump = [], []
@@ -199,7 +204,8 @@ def test_free_hinge_turns_against_drag(tmp_path):
     assert angle[-1] > 2 * math.pi
     assert abs(final) < 1e-2 and abs(rate) < 1e-2
     assert np.abs(hinge).max() < 1e-9 * ELL
-    # tie exact, the directors really part across the line
+    # the gap is zero by construction (u is one continuous field: see TieAndFold), not a
+    # check of the hinge; the directors really part across the line
     assert max(track.gap) < 1e-12 * L
     assert max(track.jump) > 1.0
 
@@ -234,8 +240,9 @@ def test_purcell_square_loop_matches_rigid_links():
     The middle link's centre moves along Y within 0.5 % and the middle link turns
     within 2 % of the exact rigid-link figures after every cycle (reached: 4e-4
     and 5e-3).
-    The displacement is tied across both hinges at every step (gap < 1e-12 of
-    the body size) while the directors jump."""
+    The directors jump across both hinges; the displacement's gap there stays
+    below 1e-12 of the body size, which holds by construction (one continuous
+    field, see TieAndFold) and is no check of the hinges."""
     track = TieAndFold()
     sim = run_scene(SCALLOP, observers=[track])
     rows = _corner_rows(sim)
@@ -245,7 +252,7 @@ def test_purcell_square_loop_matches_rigid_links():
               f"angle {angle:.6e} ({angle / PURCELL_ANGLE[n - 1] - 1:+.2e})")
         assert y == pytest.approx(PURCELL_Y[n - 1], rel=0.005)
         assert angle == pytest.approx(PURCELL_ANGLE[n - 1], rel=0.02)
-    assert max(track.gap) < 1e-12 * L
+    assert max(track.gap) < 1e-12 * L  # by construction (TieAndFold): not a check of the hinges
     assert max(track.jump) > 1e-2
 
 
@@ -390,7 +397,10 @@ at = [2.0, 0.5, 0.0]
 def test_oblique_crease_on_a_gmsh_mesh_folds_exactly(tmp_path):
     """A gmsh physical curve as hinge, oblique to the axes, triangles: one side
     clamped, a moment along the crease on the other side's free edge folds it by
-    φ = M / (k · crease length) (0.5 %, reached 6e-7) about the crease line."""
+    φ = M / (k · crease length) (0.5 %, reached 6e-7) about the crease line.  The
+    fold is signed: M along +a (the crease from (0.8, 0) to (1.2, 1)) turns the
+    free side about +a by the right-hand rule, its arm r from the crease towards
+    a × r (here −Z), so the angle from r towards a × r is +φ t, not −φ t."""
     msh = write_creased_plate(tmp_path / "creased.msh")
     c, tip = np.array([0.8, 0.0, 0.0]), np.array([1.2, 1.0, 0.0])
     length = float(np.linalg.norm(tip - c))
@@ -407,7 +417,7 @@ def test_oblique_crease_on_a_gmsh_mesh_folds_exactly(tmp_path):
         turned = math.atan2(np.dot(p - c, np.cross(axis, r / np.linalg.norm(r))),
                             np.dot(p - c, r / np.linalg.norm(r)))
         print(f"t = {t}: fold {turned:.6f}, exact {phi * t:.6f}")
-        assert abs(turned) == pytest.approx(phi * t, rel=5e-3)
+        assert turned == pytest.approx(phi * t, rel=5e-3)
 
 
 def test_hinge_selectors_that_are_not_hinge_lines(tmp_path, mpirun):

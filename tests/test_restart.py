@@ -12,6 +12,10 @@ strip, coarse (drag, magnetism, inertia), serially and under mpirun -n 2, and
 a rigid magnetic plate with error-controlled BDF2 steps.  A
 checkpoint killed while it is written is never the one a restart reads, and a
 restart that cannot be one says why in one line.
+
+The interrupt step is drawn from a generator seeded with RESTART_SEED and the
+case (a fixed seed; RFTFEM_RESTART_SEED=<n> draws other steps) and printed with
+the seed, so a failure names the step and how to draw it again.
 """
 
 from __future__ import annotations
@@ -29,6 +33,9 @@ import pytest
 
 from conftest import DEMOS, ROOT, fields_at, run_command
 from running import finish, rank_pids, start_run, tables, vector_scales, wait_for_steps
+
+#: seed of the interrupt steps' draws: fixed, or RFTFEM_RESTART_SEED
+RESTART_SEED = int(os.environ.get("RFTFEM_RESTART_SEED") or 17)
 
 SHEET_DT = 0.0019634954084936207  # demos/swimming_sheet.toml: a 32nd of the period
 CASES = {
@@ -113,9 +120,12 @@ def assert_same_run(ref: Path, run: Path, rtol=1e-10):
     np.testing.assert_allclose(f_run, f_ref, rtol=0, atol=1e-10 * np.abs(f_ref).max())
 
 
-def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1):
-    """Start a run, SIGTERM it (one of its ranks) after a random step; the step."""
-    k = random.randrange(6, n_steps - 6)
+def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case=""):
+    """Start a run, SIGTERM it (one of its ranks) after a step drawn at random (seeded
+    with RESTART_SEED, ``case`` and ``np_``, and printed); the step."""
+    k = random.Random(f"{RESTART_SEED}/{case}/{np_}").randrange(6, n_steps - 6)
+    print(f"{case} on {np_} process(es): interrupted after step {k} of {n_steps} "
+          f"(RFTFEM_RESTART_SEED={RESTART_SEED})")
     proc = start_run(scene, out, sets, mpirun, np_)
     ranks = rank_pids(proc, np_)
     wait_for_steps(proc, out, k)
@@ -135,7 +145,7 @@ def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
     ref, run = tmp_path / "reference", tmp_path / "run"
     done = rftfem_run(scene, ref, sets, mpirun, np_)
     assert done.returncode == 0, done.stderr[-2000:]
-    k = interrupt_at_random_step(scene, run, sets, n_steps, mpirun, np_)
+    k = interrupt_at_random_step(scene, run, sets, n_steps, mpirun, np_, case)
     summary = json.loads((run / "summary.json").read_text())
     stopped = summary["interrupt"]["step"]
     assert stopped >= k
