@@ -96,8 +96,9 @@ class TipDirector:
 def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
     """A cantilever magnetized along its axis, in a uniform field at ψ to it, bends
     towards alignment; tip angle and tip position match the hard-magnetic elastica
-    (shooting, independent of the FE code) within 1 % (issue 4), each coordinate
-    relative to its own value (20×1; reached ≤ 4e-5, 0.004 %)."""
+    (shooting, independent of the FE code) within 0.06 % (issue 4 asks 1 %), each
+    coordinate relative to its own value (20×1 quadrilaterals; reached ≤ 6.2e-5,
+    0.006 %: x at ψ = 135°)."""
     psi = math.radians(psi_deg)
     direction = [math.cos(psi), 0.0, math.sin(psi)]
     observe = TipDirector()
@@ -113,9 +114,10 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
     x_fe, z_fe = (LENGTH + u[0]) / LENGTH, u[2] / LENGTH
     print(f"ψ = {psi_deg}°, λ = {lam}: tip angle FE {math.degrees(theta_fe):.3f}° vs "
           f"elastica {math.degrees(theta):.3f}°; tip (x, z)/L FE ({x_fe:.4f}, {z_fe:.4f}) vs "
-          f"({x:.4f}, {z:.4f})")
-    assert abs(theta_fe / theta - 1) < 0.01
-    assert abs(x_fe / x - 1) < 0.01 and abs(z_fe / z - 1) < 0.01
+          f"({x:.4f}, {z:.4f}); relative errors {abs(theta_fe / theta - 1):.1e}, "
+          f"{abs(x_fe / x - 1):.1e}, {abs(z_fe / z - 1):.1e}")
+    assert abs(theta_fe / theta - 1) < 6e-4
+    assert abs(x_fe / x - 1) < 6e-4 and abs(z_fe / z - 1) < 6e-4
     assert 0 < theta < psi
 
 
@@ -218,13 +220,21 @@ class PlateAngle:
         self.angles.append(angle)
 
 
+#: ω/ω_c -> relative tolerance on the lag or the mean rate (about 10 times the larger
+#: of the two axes' errors: backward Euler at 100 steps per period, 4×2)
+STEP_OUT_TOLERANCE = {0.5: 0.015, 0.9: 0.015, 1.2: 0.02, 2.0: 5e-4}
+
+
 @pytest.mark.parametrize("axis_name", list(AXES))
-@pytest.mark.parametrize("ratio", [0.5, 0.9, 1.2, 2.0])
+@pytest.mark.parametrize("ratio", list(STEP_OUT_TOLERANCE))
 def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
     """docs/verification.md case G: below ω_c the plate follows the field with lag
-    sin α = ω/ω_c; above, its mean rate is ω − √(ω² − ω_c²) (2 %).  About the
-    in-plane axis the plate (and its director) turns at least 5 times, with no
-    failed step and | |d| − 1 | < 1e-10 at the end."""
+    sin α = ω/ω_c; above, its mean rate is ω − √(ω² − ω_c²).  Case G publishes 2 %;
+    asserted per ratio (4×2 quadrilaterals, normal / in-plane axis): lag at 0.5 and
+    0.9 within 1.5 % (reached −0.11 % / −0.07 %, −0.14 % / −0.12 %), mean rate at
+    1.2 within 2 % (+0.18 % / +0.18 %) and at 2 within 0.05 % (−0.004 % / +0.003 %).
+    About the in-plane axis the plate (and its director) turns at least 5 times, with
+    no failed step and | |d| − 1 | < 1e-10 at the end."""
     axis, zeta = AXES[axis_name]
     omega_c = MB * PLATE_T * PLATE_L * PLATE_W / zeta
     omega = ratio * omega_c
@@ -251,14 +261,14 @@ def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
     if ratio < 1:
         measured = omega * t[-1] - phi[-1]
         print(f"{axis_name}, ω/ω_c = {ratio}: lag {math.degrees(measured):.3f}° vs Adler "
-              f"{math.degrees(lag):.3f}° ({100 * (measured / lag - 1):+.2f} %)")
-        assert abs(measured / lag - 1) < 0.02
+              f"{math.degrees(lag):.3f}° ({100 * (measured / lag - 1):+.4f} %)")
+        assert abs(measured / lag - 1) < STEP_OUT_TOLERANCE[ratio]
     else:
         rate = phi[-1] / t[-1]                       # whole slip cycles from t = 0
         exact = omega - math.sqrt(omega**2 - omega_c**2)
         print(f"{axis_name}, ω/ω_c = {ratio}: mean rate {rate:.4f} vs Adler {exact:.4f} "
-              f"({100 * (rate / exact - 1):+.2f} %), {phi[-1] / (2 * math.pi):.2f} turns")
-        assert abs(rate / exact - 1) < 0.02
+              f"({100 * (rate / exact - 1):+.4f} %), {phi[-1] / (2 * math.pi):.2f} turns")
+        assert abs(rate / exact - 1) < STEP_OUT_TOLERANCE[ratio]
     assert phi[-1] >= turns * 2 * math.pi * 0.999
     assert sim.summary["director_unit_error"] < 1e-10
 

@@ -91,7 +91,8 @@ def test_uniaxial_tension_contracts_by_poissons_ratio(tmp_path):
 def test_composite_cantilever_matches_beam_theory(tmp_path):
     """Root part (X ≤ a = 4) with twice E and 1.2 t: the tip deflection is
     P [(L³ − (L − a)³)/(3 E₁I₁) + (L − a)³/(3 E₂I₂)] (Euler–Bernoulli, ν = 0), within
-    1 %; the root alone of the shell's own values would be 2.8 times softer."""
+    0.1 % (20x1 quadrilaterals; reached 0.009 %); the root alone of the shell's own
+    values would be 2.8 times softer."""
     sim = run_scene(write_scene(tmp_path, COMPOSITE))
     scene = sim.scene
     shell, part, mesh = scene["shell"], scene["shell"]["parts"][0], scene["mesh"]
@@ -102,5 +103,5 @@ def test_composite_cantilever_matches_beam_theory(tmp_path):
     exact = P * ((L**3 - (L - a) ** 3) / (3 * EI_root) + (L - a) ** 3 / (3 * EI_tip))
     w = sim.history[-1][1][0][2]
     print(f"tip deflection {w:.6e}, composite beam {exact:.6e}, "
-          f"error {100 * abs(w / exact - 1):.3f} %")
-    assert abs(w / exact - 1) < 0.01
+          f"error {100 * abs(w / exact - 1):.4f} %")
+    assert abs(w / exact - 1) < 1e-3

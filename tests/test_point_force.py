@@ -63,11 +63,13 @@ def test_nodal_vector_carries_the_force_and_its_moment(tmp_path):
 
 
 def test_cantilever_tip_point_load_matches_beam_theory(tmp_path):
-    """Mean tip deflection within 1 % of P L³ / 3EI (ν = 0, w/L = 3e-5)."""
+    """Mean tip deflection within 0.03 % of P L³ / 3EI (ν = 0, w/L = 3e-5; 20x2
+    quadrilaterals, reached +0.003 %)."""
     sim = run_scene(write_scene(tmp_path, CANTILEVER))
     w = -sim.history[-1][1][:, 2]
-    print(f"tip deflections {w} (left, middle, right); beam theory {EXACT_TIP:.6e}")
-    assert abs(w.mean() / EXACT_TIP - 1) < 0.01
+    print(f"tip deflections {w} (left, middle, right); beam theory {EXACT_TIP:.6e}; "
+          f"mean {100 * (w.mean() / EXACT_TIP - 1):+.4f} %")
+    assert abs(w.mean() / EXACT_TIP - 1) < 3e-4
     assert abs(w[0] - w[2]) < 1e-12 * EXACT_TIP  # symmetric: no twist
 
 

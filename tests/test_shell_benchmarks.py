@@ -78,15 +78,17 @@ ELASTICA = {1: (0.30172, 0.05643), 2: (0.49346, 0.16064), 5: (0.71379, 0.38763),
 
 
 def test_elastica_tip_load(tmp_path):
-    """(w/L, 1 - x/L) within 0.5 % for PL²/EI = 1, 2, 5, 10 (EI = 100, L = 10: P = PL²/EI)."""
+    """(w/L, 1 - x/L) within 0.15 % for PL²/EI = 1, 2, 5, 10 (EI = 100, L = 10: P = PL²/EI),
+    32x1 quadrilaterals; reached ≤ 0.015 % (the table's five digits alone are up to
+    0.009 % of 1 - x/L at PL²/EI = 1). Case C publishes 0.5 %."""
     sim = run_scene(DEMOS / "end_shear.toml", "load.0.value=[0.0, 0.0, 10.0]", "time.end=10.0",
                     "time.dt=0.25", "mesh.divisions=[32, 1]", out_dir=tmp_path)
     for k, (ux, _, uz) in zip(ELASTICA, rows_at(sim, list(ELASTICA))):
         w_ref, u_ref = ELASTICA[k]
         ew, eu = abs(uz / 10 - w_ref) / w_ref, abs(-ux / 10 - u_ref) / u_ref
         print(f"PL²/EI = {k}: w/L = {uz / 10:.5f} ({w_ref}), 1 - x/L = {-ux / 10:.5f} ({u_ref}); "
-              f"errors {100 * ew:.3f} %, {100 * eu:.3f} %")
-        assert ew < 0.005 and eu < 0.005
+              f"errors {100 * ew:.4f} %, {100 * eu:.4f} %")
+        assert ew < 0.0015 and eu < 0.0015
 
 
 # --- E. Locking ---------------------------------------------------------------------
@@ -94,7 +96,8 @@ def test_elastica_tip_load(tmp_path):
 
 @pytest.mark.parametrize("slenderness", [100, 1000])
 def test_no_shear_or_membrane_locking(tmp_path, slenderness):
-    """Linear tip deflection PL³/(3EI) within 1 % for L/t = 100 and 1000 on one mesh (16x1)."""
+    """Linear tip deflection PL³/(3EI) within 0.04 % for L/t = 100 and 1000 on one mesh
+    (16x1 quadrilaterals); reached 0.004 % and 0.002 %. Case E publishes 1 %."""
     L, E, w = 10.0, 1.2e6, 1.0
     t = L / slenderness
     EI = E * w * t**3 / 12
@@ -104,8 +107,8 @@ def test_no_shear_or_membrane_locking(tmp_path, slenderness):
     uz = sim.history[-1][1][0][2]
     exact = P * L**3 / (3 * EI)
     err = abs(uz - exact) / exact
-    print(f"L/t = {slenderness}: w = {uz:.6e}, PL³/3EI = {exact:.6e}, error {100 * err:.3f} %")
-    assert err < 0.01
+    print(f"L/t = {slenderness}: w = {uz:.6e}, PL³/3EI = {exact:.6e}, error {100 * err:.4f} %")
+    assert err < 4e-4
 
 
 # --- Twist ---------------------------------------------------------------------------
