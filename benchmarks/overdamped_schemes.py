@@ -27,6 +27,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
 from rftfem.quantities import evaluate
 
 from step_cost import write_csv

@@ -30,6 +30,12 @@ import sys
 import time
 from pathlib import Path
 
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "swimming_sheet.toml"
 SIZES = ["20x4", "40x8", "80x16", "120x24", "240x48"]

@@ -27,6 +27,13 @@ import csv
 import tempfile
 import time
 from pathlib import Path
+import sys
+
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
 from rftfem.scene import load_scene

@@ -18,8 +18,15 @@ Figures go to stdout and to results/benchmarks/strip_accuracy_cost.csv.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
+
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
 
 import numpy as np
 

@@ -19,6 +19,8 @@
 # repeated: remove OUT to start over.  Exit status 1 if a run failed (it still
 # has its row in the table, marked failed, with the reason).
 set -euo pipefail
+# rftfem from the repository's .venv when it is not on PATH
+source "$(dirname "${BASH_SOURCE[0]}")/../scripts/use_repository_env.sh"
 
 usage() { sed -n '2,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 JOBS=2

@@ -14,6 +14,8 @@
 # steps per period) it costs about 2 hours of one core.  Levels that finished before
 # are kept (rftfem study --reuse): a second call only redoes the tables.
 set -euo pipefail
+# rftfem from the repository's .venv when it is not on PATH
+source "$(dirname "${BASH_SOURCE[0]}")/../scripts/use_repository_env.sh"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 SCENE="$HERE/bidirectional_strip.toml"

@@ -24,6 +24,8 @@
 # STEPS steps per period (default 100), the ramp included.  Runs that already
 # finished (summary.json says "ok") are not repeated.
 set -euo pipefail
+# rftfem from the repository's .venv when it is not on PATH
+source "$(dirname "${BASH_SOURCE[0]}")/../scripts/use_repository_env.sh"
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 SCENE="$HERE/bidirectional_strip.toml"

@@ -35,6 +35,12 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
 import numpy as np
 
 from rftfem.render_cli import draw_picture_and_film

@@ -43,6 +43,12 @@ import math
 import sys
 from pathlib import Path
 
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
