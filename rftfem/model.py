@@ -21,22 +21,23 @@ from types import SimpleNamespace
 import numpy as np
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from rftfem.forms import hinge, kinematics
 
 from . import compat, effects, hinges
 from .dirichlet import DirichletSpaces
+from .measures import BodyMeasures
+from .step_state import StepStart
 from .errors import SceneError
 from .schema import unit_vector
 from .selectors import cells_of
 from .triad import Triads
-from .triad import rotate as triad_rotate
 
 
-class Model:
-    """Function spaces, state, material fields and the active effects of one scene."""
+class Model(StepStart, BodyMeasures):
+    """Function spaces, state, material fields and the active effects of one scene;
+    what a step starts from is step_state.py's, the whole-body measures measures.py's."""
 
     def __init__(self, scene: dict, body, compile_forms: bool = True,
                  tangent: str = "mixed-point"):
@@ -261,101 +262,10 @@ class Model:
         if self.drive and (scheme is None or scheme.has_inertia):
             self["prescribed-motion"].drive_state(t)
 
-    def reference_force(self) -> float:
-        """A force scale of the scene for absolute Newton tolerances (docs/model.md §7.3):
-        the largest of the forces that drive the body (loads, couples, drag at the
-        prescribed speed); the bending force only where nothing else has a scale (a
-        body moved by its supports alone). The elastic forces answer the drivers:
-        where they dwarf them (a free link turning in drag) a tolerance in their
-        units would accept states whose driving balance is not met at all."""
-        drivers = [s for comp in self.components if comp.name != "elasticity"
-                   for s in comp.force_scales() if s > 0]
-        return max(drivers) if drivers else self.elastic_force()
-
-    def elastic_force(self) -> float:
-        """The bending force ``D W / L²`` that bends the body by order one."""
-        return max(self["elasticity"].force_scales())
-
-    def membrane_force(self) -> float:
-        """The membrane force ``E t W`` that stretches the body by order one."""
-        return self["elasticity"].membrane_force()
-
     def restore(self):
         """Reset the iterate to the last converged state (θ = 0)."""
         self.w.x.array[self.u_dofs] = self.u_n.x.array
         self.w.x.array[self.theta_dofs] = 0.0
-
-    def prediction_error(self, past_steps: int = 2) -> tuple[float, float] | None:
-        """How far the converged iterate lies from a prediction made from the last
-        ``past_steps`` steps (1: the last rate carried on, 2: the last two rates
-        extrapolated): the largest nodal ``|u − u^P|`` and ``|θ − θ^P|`` over all
-        processes; None if the step started from the last state (no step known,
-        docs/model.md §6.9).  With one step known the linear prediction
-        stands in for the quadratic one (an over-estimate: the safe side)."""
-        if self.prediction is None:
-            return None
-        u_p, theta_p = self.prediction[min(past_steps, max(self.prediction))]
-        du = self.w.x.array[self.u_dofs] - u_p
-        dth = (self.w.x.array[self.theta_dofs] - theta_p).reshape(-1, 2)
-        local = (float(np.abs(du).max()) if len(du) else 0.0,
-                 float(np.sqrt((dth**2).sum(axis=1)).max()) if len(dth) else 0.0)
-        both = np.array(local)
-        self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.MAX)
-        return float(both[0]), float(both[1])
-
-    def size(self) -> float:
-        """Diagonal of the reference body's bounding box (global): the length that
-        displacement errors are measured against."""
-        if not hasattr(self, "_size"):
-            x = self.mesh.geometry.x
-            lo = x.min(axis=0) if len(x) else np.full(3, np.inf)
-            hi = x.max(axis=0) if len(x) else np.full(3, -np.inf)
-            self.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
-            self.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
-            self._size = float(np.linalg.norm(hi - lo))
-        return self._size
-
-    def largest_rotation_increment(self) -> float:
-        """The largest nodal ``|θ|`` of the iterate over all processes and colours
-        (``a₁, a₂`` are orthonormal, so ``|θ|² = θ¹² + θ²²``)."""
-        theta = self.w.x.array[self.theta_dofs].reshape(-1, 2)
-        local = float(np.sqrt((theta**2).sum(axis=1)).max()) if len(theta) else 0.0
-        return self.comm.allreduce(local, op=MPI.MAX)
-
-    def start_newton(self):
-        """A Newton solve begins: its first tangent is that of ``first_tangent_converged``,
-        the next ones the mixed-point tangents of the updates Newton makes (docs/model.md
-        §7.4)."""
-        self._newton_last = None
-
-    def tangent_at_iterate(self):
-        """Before a tangent at the iterate ``w``: the data of its correction (the last
-        iterate, this one, their difference); this one is the next one's last.
-
-        At a solve's first iterate there is no last one.  With
-        ``first_tangent_converged`` the "last" is the last converged state and the
-        difference is taken as zero: the defect ``ε(w) − ε(w_n)`` then replaces the
-        start's membrane and shear resultants by the converged ones (the stress
-        predictor of the mixed-integration-point method).  Without it the defect is
-        zero: the exact tangent at the start."""
-        if not self.mixed_point:
-            return
-        current = self.w.x.array
-        if self._newton_last is None and self.first_tangent_converged:
-            converged = self.newton_previous.x.array
-            converged[:] = current
-            converged[self.u_dofs] = self.u_n.x.array
-            converged[self.theta_dofs] = 0.0
-            self.newton_current.x.array[:] = current
-            self.newton_update.x.array[:] = 0.0
-            self._newton_last = current.copy()
-            return
-        if self._newton_last is None:
-            self._newton_last = current.copy()
-        self.newton_previous.x.array[:] = self._newton_last
-        self.newton_current.x.array[:] = current
-        self.newton_update.x.array[:] = current - self._newton_last
-        self._newton_last = current.copy()
 
     def update_triad(self):
         """Rotate the nodal triads by the converged θ and realign them (triad.py); θ = 0."""
@@ -375,130 +285,6 @@ class Model:
             self.drive_state(t, scheme)
         self.u_n.x.array[:] = u
         self.update_triad()
-
-    def state(self) -> tuple[dict, list]:
-        """What a checkpoint keeps of the model (checkpoint.py): this process's arrays
-        of the iterate, the last state, every colour's triad and the last increments,
-        and the increments' steps."""
-        arrays = {"w": self.w.x.array, "u_n": self.u_n.x.array, "v_n": self.v_n.x.array,
-                  "a_n": self.a_n.x.array}
-        for c, frame in enumerate(self.triads):
-            for k, f in enumerate(frame):
-                arrays[f"triad_{c}_{k}"] = f.x.array
-        for i, (du, theta, _) in enumerate(self.increments):
-            arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"] = du, theta
-        return {k: v.copy() for k, v in arrays.items()}, [dt for *_, dt in self.increments]
-
-    def set_state(self, arrays: dict, increment_steps: list):
-        """The model as ``state`` returned it (a restart)."""
-        for name, f in (("w", self.w), ("u_n", self.u_n), ("v_n", self.v_n), ("a_n", self.a_n)):
-            f.x.array[:] = arrays[name]
-        for c, frame in enumerate(self.triads):
-            for k, f in enumerate(frame):
-                f.x.array[:] = arrays[f"triad_{c}_{k}"]
-        self.increments = [(arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"], dt)
-                           for i, dt in enumerate(increment_steps)]
-
-    def predict(self, dt: float, extrapolate: bool = True):
-        """Start a step of ``dt`` from the last state carried on at the recent rates.
-
-        The rate of the last step, ``q₁ = Δ_n/Δt_n`` (Δ = Δu, or θ), belongs to the
-        middle of that step, the one before, ``q₀``, to the middle of its own: the
-        rate taken linear in time through the two and integrated over the new step
-        gives ``Δ = Δt (q₁ + (q₁ − q₀) s/h)``, with ``h`` the time between the two
-        middles and ``s`` from the last middle to the new one; with one step known
-        ``Δ = Δt q₁``. ``θ`` is a rotation increment whose components belong to
-        the triad of its step, which the update has turned since by ``θ`` itself:
-        second order in it, as is a predictor's error. Without a step known, or
-        not ``extrapolate``, the step starts from the last state (``θ = 0``)."""
-        self.restore()
-        self.predicted_step = 0.0
-        self.prediction = None
-        if not self.increments or not extrapolate:
-            return
-        u_n = self.w.x.array[self.u_dofs].copy()
-        qu, qt = self._extrapolated_rates(dt)
-        if self.keep_predictions:
-            # the error control (time.tolerance) measures against polynomial
-            # extrapolations, whose error constants its estimate assumes (§6.9)
-            du, theta, dt_1 = self.increments[0]
-            polynomial = self._extrapolated_rates(dt, turn=False)
-            self.prediction = {1: (u_n + dt * du / dt_1, dt * theta / dt_1),
-                               len(self.increments): (u_n + dt * polynomial[0], dt * qt)}
-        self.w.x.array[self.u_dofs] = u_n + dt * qu
-        self.w.x.array[self.theta_dofs] = dt * qt
-        local = float(np.abs(qu).max()) * dt if len(qu) else 0.0
-        self.predicted_step = self.comm.allreduce(local, op=MPI.MAX)
-
-    def _extrapolated_rates(self, dt: float, turn: bool = True):
-        """The rates ``(q_u, q_θ)`` of ``predict`` for a step of ``dt``.  With ``turn``,
-        on a body of one colour, each node's displacement increments are first turned
-        by its own rotation increment (the last step's θ, scaled to ``dt``; the one
-        before turned once more): a body turning at a steady rate then moves each
-        node along its circle, where a polynomial in time cuts the chord and
-        stretches the body (a plate spinning 1/16 turn a step: 7.0 Newton iterations
-        a step from the polynomial, 4.3 from the turned increments)."""
-        du, theta, dt_1 = self.increments[0]
-        rot = None
-        if turn and self.n_colours == 1:
-            idx = self.triad.node_maps[0]
-            a1, a2, _ = (f.x.array.reshape(-1, 3) for f in self.triads[0])
-            th = theta.reshape(-1, 2)
-            rot = th[:, 0:1] * a1[idx] + th[:, 1:2] * a2[idx]
-
-        def turned(v, scale):
-            """``v`` with each node's vector turned by ``scale`` × its rotation increment."""
-            if rot is None:
-                return v
-            v3 = v.reshape(-1, 3).copy()
-            v3[idx] = triad_rotate(v3[idx], scale * rot)
-            return v3.ravel()
-        du = turned(du, dt / dt_1)
-        qu, qt = du / dt_1, theta / dt_1
-        if len(self.increments) == 2:
-            du_0, theta_0, dt_0 = self.increments[1]
-            du_0 = turned(turned(du_0, 1.0), dt / dt_1)
-            weight = (0.5 * (dt_1 + dt)) / (0.5 * (dt_1 + dt_0))
-            qu = qu + weight * (qu - du_0 / dt_0)
-            qt = qt + weight * (qt - theta_0 / dt_0)
-        return qu, qt
-
-    # --- whole-body measures ------------------------------------------------------
-
-    def area(self, cells=None) -> float:
-        """Reference area ``∫ dA₀`` of the body, or of the given local cells (global)."""
-        one = fem.Constant(self.mesh, PETSc.ScalarType(1.0))
-        if cells is None:
-            if not hasattr(self, "_area"):  # a reference quantity: computed once
-                self._area = self.assemble_scalar(self.compile(one * self.dx))
-            return self._area
-        n = self.mesh.topology.index_map(self.mesh.topology.dim).size_local
-        cells = np.asarray(cells)[np.asarray(cells) < n].astype(np.int32)  # owned only
-        tags = compat.create_meshtags(self.mesh, self.mesh.topology.dim, cells,
-                                      np.ones(len(cells), dtype=np.int32))
-        dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=tags)
-        return self.assemble_scalar(self.compile(one * dx(1)))
-
-    def centroid(self) -> np.ndarray:
-        """Area-weighted mean of the current positions, ``∫ x dA₀ / ∫ dA₀`` (global)."""
-        if not hasattr(self, "_centroid_forms"):
-            x = ufl.SpatialCoordinate(self.mesh) + self.kinematics().u
-            self._centroid_forms = [self.compile(x[i] * self.dx) for i in range(3)]
-        return np.array([self.assemble_scalar(f) for f in self._centroid_forms]) / self.area()
-
-    def elastic_energy(self) -> float:
-        """Stored energy ``Π`` of the current iterate, springs included."""
-        if not hasattr(self, "_energy_form"):
-            self._energy_form = self.compile(self.energy)
-        return self.assemble_scalar(self._energy_form)
-
-    def director_unit_error(self) -> float:
-        """``max | |d| − 1 |`` over all nodal directors (global)."""
-        return self.triad.unit_error()
-
-    def nodal_director(self):
-        """The nodal directors as one [P2]³ Function (for output)."""
-        return self.triad.nodal_director()
 
     @property
     def displacement(self):

@@ -45,13 +45,13 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from rftfem import effects
-from rftfem.effects.inertia import has_density
 from rftfem.errors import SceneError
 from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array, Bool, Free, Int,
                            Leaf, Num, Str, Table, Vec, check_tangent, check_unique, err, fmt, join,
                            section, suggest, validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
 from rftfem.selectors import check_on_body, check_region_ref, hinge_line
+from rftfem.timeint import resolved_scheme
 
 __all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme", "hinge_line",
            "SCHEMA"]
@@ -389,24 +389,3 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
 def active_effects(scene: dict) -> list[str]:
     """The effects the scene asks for, in the registry's order (rftfem/effects)."""
     return effects.active_effects(scene)
-
-
-def resolved_scheme(scene: dict) -> str:
-    """``time.scheme`` with "auto" resolved: second order with inertia, first
-    order with drag only, load stepping otherwise."""
-    scheme = (scene.get("time") or {}).get("scheme", "auto")
-    inertia = has_density(scene)
-    if scheme == "auto":
-        if inertia:
-            return "generalized-alpha"
-        return "backward-euler" if scene.get("fluid") else "static"
-    if scheme == "static" and scene.get("fluid"):
-        raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
-                         "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
-                         "density) or \"auto\", or remove [fluid]")
-    if scheme in ("generalized-alpha", "hht") and not inertia:
-        raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
-                         "shell.parts density > 0), found shell.density = "
-                         f"{fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
-                         "\"backward-euler\", \"static\" or \"auto\"")
-    return scheme

@@ -13,12 +13,16 @@ the residual
     R = M a_{n+1−α_m} + (1 − α_f) F(u_{n+1}, v_{n+1}, d_{n+1}, t_{n+1}) + α_f F_n.
 
 Averaging *forces* rather than states is what lets the director be updated
-multiplicatively (there is no meaningful "average director").
+multiplicatively (there is no meaningful "average director").  Which scheme a scene
+runs (``time.scheme = "auto"`` resolved) is :func:`resolved_scheme`'s.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from .errors import SceneError
+from .validators import fmt
 
 
 @dataclass(frozen=True)
@@ -186,3 +190,32 @@ def make_scheme(time_section: dict) -> Scheme:
     if name == "static":
         return Static()
     raise ValueError(f"unknown time scheme {name!r}")
+
+
+def has_density(scene: dict) -> bool:
+    """Whether ``shell.density`` or some ``shell.parts`` density is above 0."""
+    shell = scene.get("shell") or {}
+    if (shell.get("density") or 0.0) > 0.0:
+        return True
+    return any((part.get("density") or 0.0) > 0.0 for part in shell.get("parts") or [])
+
+
+def resolved_scheme(scene: dict) -> str:
+    """``time.scheme`` with "auto" resolved: second order with inertia, first
+    order with drag only, load stepping otherwise."""
+    scheme = (scene.get("time") or {}).get("scheme", "auto")
+    inertia = has_density(scene)
+    if scheme == "auto":
+        if inertia:
+            return "generalized-alpha"
+        return "backward-euler" if scene.get("fluid") else "static"
+    if scheme == "static" and scene.get("fluid"):
+        raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
+                         "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
+                         "density) or \"auto\", or remove [fluid]")
+    if scheme in ("generalized-alpha", "hht") and not inertia:
+        raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
+                         "shell.parts density > 0), found shell.density = "
+                         f"{fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
+                         "\"backward-euler\", \"static\" or \"auto\"")
+    return scheme

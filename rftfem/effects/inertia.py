@@ -7,16 +7,9 @@ order (generalized-alpha or HHT); it adds the kinetic energy to body.csv.
 from __future__ import annotations
 
 from rftfem.forms import inertia
+from rftfem.timeint import has_density, resolved_scheme
 
 from .base import Effect
-
-
-def has_density(scene: dict) -> bool:
-    """Whether ``shell.density`` or some ``shell.parts`` density is above 0."""
-    shell = scene.get("shell") or {}
-    if (shell.get("density") or 0.0) > 0.0:
-        return True
-    return any((part.get("density") or 0.0) > 0.0 for part in shell.get("parts") or [])
 
 
 class Inertia(Effect):
@@ -25,8 +18,6 @@ class Inertia(Effect):
 
     @classmethod
     def active(cls, scene):
-        from rftfem.scene import resolved_scheme  # the scene module imports the effects
-
         return has_density(scene) and resolved_scheme(scene) in ("generalized-alpha", "hht")
 
     def __init__(self, model):

@@ -1,0 +1,198 @@
+"""One step and its control (the room of :class:`~rftfem.simulation.Simulation` that
+owns them, docs/model.md §6.7-6.8): a Newton solve of a step from its prediction,
+the turn limit that rejects a step whose directors turned too far, the halvings
+after a failed attempt and the doubling back, the start of a run in equilibrium,
+and the advance over one nominal step.  Error-controlled steps are
+error_control.py's.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+from . import impulses
+from .errors import RunFailed, RunInterrupted
+from .timeint import BackwardEuler, Static
+
+#: static load steps: the most a sub-step should turn a director (rad).  A converged
+#: load step that turned one further is followed by halved sub-steps, and a cut
+#: sub-step is doubled again only while the doubled one would stay within it; in time
+#: ``time.max_rotation`` plays this part.  (Newton took 5 updates for load steps
+#: turning the roll-up's tip 0.4 rad, 6 to 10 for 0.8 rad on a curled strip, 7 or 8
+#: for 1.6 rad, and often failed from 1.6 rad on.)
+STATIC_TURN = 0.5
+#: the most halvings one failed attempt makes at once (docs/model.md §6.8)
+MOST_HALVINGS = 3
+
+
+class StepControl:
+    """Step methods of a Simulation."""
+
+    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True,
+                 error_check=None):
+        m = self.model
+        t0 = _time.perf_counter()
+        m.set_coefficients(scheme.coefficients(dt))
+        m.set_time(t_new, scheme)
+        # the recent rates carried on (fewer Newton iterations: 3.0 to 2.1 per step on
+        # the swimming sheet, 10.4 to 4.6 on the three-link).  In static load steps
+        # only with the increments turned (a body of one colour): the roll-up then
+        # needs 3.8 instead of 4.6 a step, 6.0 instead of 7.8 at L/t = 1e5 (before the
+        # contraction test of solver.py, 5.25 with it); a
+        # polynomial in the load parameter (a hinged body's) made its first
+        # residuals grow 5000-fold, so there the step starts from the last state
+        m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
+        self.wall["loads"] += _time.perf_counter() - t0
+        ok, its, res, reason = self.solver.solve()
+        if self.stops.immediate:
+            # a second signal inside a residual or Jacobian: PETSc turned it into a failed
+            # solve (and may have left a vector locked); stop, do not cut
+            raise RunInterrupted(self.stops.signum, immediate=True)
+        if ok and not math.isfinite(res):
+            ok, reason = False, "non-finite residual"
+        limit = self._turn_limit(scheme)
+        #: how many times too long a failed attempt was, where it shows (None: unknown)
+        self.overreach = None
+        if ok:
+            # the solver measured it at every update, the converged iterate's last
+            turns = self.solver.turns
+            self.last_turn = turns[-1] if turns else m.largest_rotation_increment()
+        elif self.solver.divergence is not None and self.solver.turns:
+            # the first update's turn is the linearized one: it says how far the
+            # step reached beyond what Newton can take
+            self.overreach = self.solver.turns[0] / limit
+        if ok and limit_rotation and scheme.has_velocity and self.last_turn > limit:
+            ok, reason = False, (f"a director turned {self.last_turn:.3g} rad > "
+                                 f"time.max_rotation = {limit:g}")
+            self.overreach = self.last_turn / limit
+        self.rejected = False
+        if ok and error_check is not None:
+            too_big = error_check()
+            if too_big:
+                ok, reason, self.rejected = False, too_big, True
+        self.counts["newton_iterations"] += its
+        if not ok:
+            m.restore()
+            return False, its, res, reason
+        if m.keep_predictions:  # the step's error estimate (§6.9), for summary.json
+            err = self._local_error()
+            if err is not None:
+                self.time_errors.append(err)
+        self.solver.store_forces()
+        t0 = _time.perf_counter()
+        m.accept(scheme, dt, t_new)
+        if m.drive and scheme.has_inertia:
+            impulses.corner(m, self.solver, t_new)
+        self.wall["update"] += _time.perf_counter() - t0
+        return True, its, res, reason
+
+    def _turn_limit(self, scheme) -> float:
+        """The turn of a director a step should stay within: ``time.max_rotation`` in
+        time, ``STATIC_TURN`` in static load steps."""
+        return self.scene["time"]["max_rotation"] if scheme.has_velocity else STATIC_TURN
+
+    def _halvings(self) -> int:
+        """How many times to halve after the failed attempt: once, or as many times as
+        its overreach asks (a turn 5 times too large: 3), at most ``MOST_HALVINGS``."""
+        if self.overreach is None or self.overreach <= 2.0:
+            return 1
+        return min(MOST_HALVINGS, math.ceil(math.log2(self.overreach)))
+
+    def _may_double(self, scheme) -> bool:
+        """Whether a cut sub-step may be doubled: the doubled one would turn the
+        directors by no more than 0.9 of the scheme's turn limit."""
+        return 2.0 * self.last_turn <= 0.9 * self._turn_limit(scheme)
+
+    def _free(self) -> bool:
+        """No support, no prescribed motion and no drag hold the body's rigid motions."""
+        return not (self.scene["boundary"] or self.scene["motion"] or self.model.get("drag"))
+
+    def _unresolved_hint(self) -> str:
+        """What to change when a step is not resolved and nothing holds the body: without
+        mass either its stiffness is singular for every step size."""
+        if self._free() and self.model.inertia_form is None:
+            return ("; nothing holds this body: without a [[boundary]], a [[motion]], a "
+                    "[fluid] or mass its rigid motions are free and every step is singular")
+        return ""
+
+    def _initial_equilibrium(self):
+        """Equilibrium with the t = 0 loads and motions; the run then starts at rest.
+
+        With drag the body may be free (no Dirichlet condition on its rigid
+        motions), and a static solve would be singular.  The t = 0 solve then
+        carries the drag of reaching that state from the reference in one step
+        ``dt`` (backward Euler): a viscous regularisation that leaves the body
+        where the fluid lets it go.  Either way the run starts at rest
+        (``v = a = 0``), and the forces kept for the first step are those at rest.
+        """
+        m, dt = self.model, self.scene["time"]["dt"]
+        start = BackwardEuler() if m.get("drag") else Static()
+        # no prediction here to correct: a state that meets the tolerance (the
+        # reference state under loads that start at zero) is the answer
+        self.solver.force_iteration(False)
+        try:
+            ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
+        finally:
+            self.solver.force_iteration()
+        if not ok:
+            hint = ("; nothing holds this body, so the loads must start at zero (a ramp "
+                    "from 0) unless a [fluid] holds it" if self._free() else "")
+            raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})"
+                            + hint, 0.0, 0)
+        m.v_n.x.array[:] = 0.0
+        m.a_n.x.array[:] = 0.0
+        m.increments = []  # reaching t = 0 is no rate to go on at
+        if m.drive and self.scheme.has_inertia:
+            # the driven dofs move off at the motion's own rate, the body with them
+            m.set_coefficients(self.scheme.coefficients(dt))
+            impulses.corner(m, self.solver, 0.0, start=True)
+        m.set_coefficients(Static().coefficients(dt))
+        self.solver.store_forces()
+
+    def _advance(self, t_end: float, steps_log, progress):
+        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.
+
+        The sub-step starts where the last nominal step left it (``self.level``
+        halvings), so a nominal step too long for Newton is not tried whole again
+        at every step; after two good sub-steps it is doubled, if the doubled one
+        would not turn the directors too far (``_may_double``)."""
+        max_cuts = self.scene["time"]["max_cuts"]
+        level = min(self.level, max_cuts)
+        dt = (t_end - self.t) / 2**level
+        good = 0
+        while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
+            dt = min(dt, t_end - self.t)
+            wall0 = _time.perf_counter()
+            ok, its, res, reason = self._attempt(self.t + dt, dt, self.scheme)
+            if ok:
+                self.t += dt
+                self.counts["steps"] += 1
+                if steps_log is not None:
+                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0])
+                for f in self.observers:
+                    f(self)
+                good += 1
+                if not self.scheme.has_velocity and self.last_turn > STATIC_TURN \
+                        and level < max_cuts:
+                    # a load step that turned too far: the next ones shorter (no failure)
+                    halvings = min(MOST_HALVINGS, max_cuts - level,
+                                   math.ceil(math.log2(self.last_turn / STATIC_TURN)))
+                    dt, level, good = dt / 2**halvings, level + halvings, 0
+                elif level > 0 and good >= 2 and self._may_double(self.scheme):
+                    dt, level, good = 2 * dt, level - 1, 0
+                continue
+            if level >= max_cuts:
+                raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
+                                f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
+                                f"dt = {dt:.3e}" + self._unresolved_hint(),
+                                self.t + dt, self.step)
+            halvings = min(self._halvings(), max_cuts - level)
+            self.counts["dt_cuts"] += 1
+            level, good = level + halvings, 0
+            dt /= 2**halvings
+            progress.log(f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
+                         f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)"
+                                                          if halvings > 1 else ""))
+        self.level = level
+        self.t = t_end  # exact nominal time, free of round-off from the sub-steps
