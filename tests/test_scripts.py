@@ -96,7 +96,7 @@ def test_no_environment_is_a_clear_error(tmp_path):
     assert done.returncode == 2 and "./dev.sh setup" in done.stderr, done.stderr
 
 
-@pytest.mark.long
+@pytest.mark.slow
 def test_parameter_study_script_from_a_plain_shell(tmp_path):
     """demos/parameter_study.sh as shipped (four short sheet runs and their table)."""
     done = run(["bash", "demos/parameter_study.sh", "-j", "2", str(tmp_path / "study")],
@@ -106,7 +106,7 @@ def test_parameter_study_script_from_a_plain_shell(tmp_path):
     assert len(rows) == 5, rows
 
 
-@pytest.mark.long
+@pytest.mark.slow
 def test_strip_scripts_from_a_plain_shell(tmp_path):
     """demos/strip_sweep.sh and demos/strip_convergence.sh on one frequency, few steps
     and a coarse mesh: each run, its table and the sweep's plot (the demo's Python
