@@ -6,7 +6,7 @@ step sizes and prints, for each: unknowns, accepted steps, dt cuts, Newton
 iterations, wall time, and the mean swimming speed over the first two field
 periods after the strip has settled (0.1 s after the ramp), with its difference
 from the finest run of the set.  The speed there is a transient (the strip still
-slows down over later periods, README), but a well-defined one that every run
+slows down over later periods, docs/magnetic_strip.md), but a well-defined one that every run
 resolves the same way.
 
     .venv/bin/python benchmarks/strip_accuracy_cost.py                  # 4 Hz, about 10 minutes

@@ -43,7 +43,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "scallop.toml"
 
-#: exact rigid-link result per square cycle at A = 0.1 (README, "Jointed bodies: hinges")
+#: exact rigid-link result per square cycle at A = 0.1 (docs/hinges.md)
 SQUARE_Y_PER_CYCLE = -1.29213e-3
 LINK_WIDTH, THICKNESS, NU, C3 = 0.5, 0.2, 0.3, 5.67e-9
 RIGID_E = 400.0

@@ -1,5 +1,5 @@
 """Hinges: jointed panels and the rotational spring of a hinge line
-(README, "Jointed bodies: hinges").
+(docs/hinges.md).
 
 A hinge line splits the mid-surface into panels that share their displacement
 (one continuous ``u``) but not their director: each side carries its own.  The

@@ -1,6 +1,6 @@
 """The tables of a refinement study (``rftfem study``, study.py): the observed
 order and the Richardson error estimate of each level, and study.csv, study.md
-and study.png (docs/accuracy.md and the README's "What accuracy costs").
+and study.png (docs/accuracy.md, "What accuracy costs").
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from conftest import DEMOS, ROOT, run_scene
 
 SCENE = DEMOS / "bidirectional_strip.toml"
 RAMP = tomllib.loads(SCENE.read_text())["magnetic"]["field"]["ramp_time"]
-#: just under and above step-out on the demo scene (demos/strip_sweep.sh, README)
+#: just under and above step-out on the demo scene (demos/strip_sweep.sh, docs/magnetic_strip.md)
 F_UNDER, F_OVER = 64.0, 128.0
 
 
@@ -58,7 +58,7 @@ def test_opposite_protocols_swim_opposite_ways():
     5 % (issue 4's acceptance), and are a real swim: over 1 mm in two periods
     (reached: 3.816 mm, 0.38 body lengths). The +X protocol swims towards −Z and
     the −X one towards +Z: the out-of-plane tilt of the ends decides which way the
-    end flips and so the hand of the folded shape (README), and the field turns
+    end flips and so the hand of the folded shape (docs/magnetic_strip.md), and the field turns
     right-handedly about +Z.
 
     With q₀(end2) = −q₀(end1) the −X protocol is the +X one inverted through the
@@ -113,7 +113,7 @@ def test_above_step_out_completes_and_slows(tmp_path):
     Reached at the sweep's 100 steps per period: 64 Hz slip −0.0003, +3.318 mm/s
     (no cut); 128 Hz slip 1.558, +0.008 mm/s (at 50 per period: −0.0008, +3.33 with
     70 cuts; 1.55, +0.012).  Before the triads' in-plane frames were realigned
-    (README, rotations) the 64 Hz run failed at t = 0.3186 s."""
+    (docs/magnetic_strip.md) the 64 Hz run failed at t = 0.3186 s."""
     demo = _demo_module()
     rows = {}
     for f in (F_UNDER, F_OVER):

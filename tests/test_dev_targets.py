@@ -1,4 +1,4 @@
-"""dev.sh turns a pytest run that collects nothing into a failure (README "Tests"):
+"""dev.sh turns a pytest run that collects nothing into a failure (docs/development.md, "Tests"):
 a filter that matches no test must not pass as a green run."""
 
 from __future__ import annotations

@@ -66,7 +66,7 @@ def _largest_frame_angle(model) -> float:
 
 def test_triad_update_realigns_drifted_frames(tmp_path):
     """After the Rodrigues rotation, update_triad turns (a₁, a₂) about dₙ onto the
-    convected material axis (README, rotations).  In-plane frames scrambled about
+    convected material axis (docs/model.md §4.4).  In-plane frames scrambled about
     dₙ, as a long spin leaves them (up to 180° apart within one cell), come back
     smooth and equal to the frames of the run, along the rolled strip's tangent;
     dₙ and the state (the force vector at θ = 0) are unchanged."""

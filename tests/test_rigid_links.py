@@ -3,7 +3,7 @@
 The model is the reference the FE three-link tests are held to, so it is
 checked in every way that does not share its equations: the figures of another
 independent model (case I), the exact overdamped figures of Purcell's square
-loop (README, verification case H), the limit ρ → 0, energy and momentum
+loop (docs/verification.md, case H), the limit ρ → 0, energy and momentum
 balances, a second formulation and step refinement.  The whole file
 runs in a few seconds and needs numpy only.
 """
