@@ -1,6 +1,6 @@
 """Hinges: exact fold of a spring hinge, a free hinge turning against RFT drag (its
 director jumping across the line), Purcell's three-link swimmer against its
-exact rigid-link result (README, "Jointed bodies: hinges"), an oblique
+exact rigid-link result (docs/hinges.md), an oblique
 gmsh crease, and mpirun against serial with a partition across a hinge."""
 
 from __future__ import annotations
@@ -185,11 +185,19 @@ def test_free_hinge_turns_against_drag(tmp_path):
     """One link clamped whole, the other free on its hinge (k = 0) in RFT drag,
     no density: a constant moment M about the hinge line turns the free link at
     ω = M / ζ with ζ = C₃ L ℓ³ / 3 (the normal drag of a plate turning about its
-    edge).  After 1.25 turns (the link passes through the clamped one: no
-    contact) the angle is within 1 % of ω (t − τ/2), τ the load's ramp time, and
-    the rate over the last turn within 1 % (reached: 4.5e-3, backward Euler
-    taking the ramp at the end of its step, dt/2 ahead; and 5e-4, the chord
-    error (ω dt)²/6).  The hinge line does not move (1e-9 ℓ)."""
+    edge).  Backward Euler balances M(tₙ₊₁) against the drag of the chord
+    velocity on the end normal, ζ sin Δθ / Δt, so each step turns the rigid link
+    by exactly Δθ = arcsin(ω r(tₙ₊₁) Δt), r the load's ramp (0 → 1 over τ).
+    After 1.25 turns (the link passes through the clamped one: no contact) the
+    angle is the sum of these steps within 2e-10 (reached 4.4e-12 reference,
+    1.6e-11 current stack; a normal drag coefficient 0.5 % too large fails it,
+    which the two 1 % checks below passed).  Against the continuous solution the
+    angle is within 1 % of ω (t − τ/2) and the rate over the last turn within
+    0.7 % of ω (reached 4.68e-3 and 6.59e-4 on both stacks: the ramp taken at
+    the end of its step, τ/2 ahead, 4.0e-3, plus the chord error (ω Δt)²/6 =
+    6.6e-4 of every step; the angle's 1 % cannot be ten times its figure, the
+    sum above is the sharp check).  The hinge line does not move (1e-12 ℓ,
+    reached 2e-16)."""
     omega, tau = FREE_LINK_RATE, FREE_LINK_RAMP
     track = TieAndFold()
     sim = run_scene(free_link_scene(tmp_path), observers=[track])
@@ -200,10 +208,15 @@ def test_free_hinge_turns_against_drag(tmp_path):
     final = angle[-1] / (omega * (t[-1] - tau / 2)) - 1
     i1 = int(np.argmin(abs(t - 0.25)))
     rate = (angle[-1] - angle[i1]) / (t[-1] - t[i1]) / omega - 1
-    print(f"angle {angle[-1]:.5f} rad after {t[-1]} s: error {final:.2e}; rate error {rate:.2e}")
+    steps = np.arcsin(omega * np.minimum(t[1:] / tau, 1.0) * np.diff(t))
+    discrete = angle[-1] / steps.sum() - 1
+    print(f"angle {angle[-1]:.8f} rad after {t[-1]} s, backward Euler's exact "
+          f"{steps.sum():.8f}: error {discrete:.2e}; against ω (t − τ/2) {final:.2e}; "
+          f"rate error {rate:.2e}; hinge line moved {np.abs(hinge).max() / ELL:.1e} ℓ")
     assert angle[-1] > 2 * math.pi
-    assert abs(final) < 1e-2 and abs(rate) < 1e-2
-    assert np.abs(hinge).max() < 1e-9 * ELL
+    assert abs(discrete) < 2e-10
+    assert abs(final) < 1e-2 and abs(rate) < 7e-3
+    assert np.abs(hinge).max() < 1e-12 * ELL
     # the gap is zero by construction (u is one continuous field: see TieAndFold), not a
     # check of the hinge; the directors really part across the line
     assert max(track.gap) < 1e-12 * L

@@ -368,10 +368,13 @@ class EnergyBook:
 
 def test_energy_bookkeeping_in_rotating_field(tmp_path):
     """Over a run in a rotating field, the work of the magnetic couple equals the
-    drag dissipation plus the change of elastic and kinetic energy (1 %), at the
-    end and at every step after the ramp.  Each term carries weight: dissipation
-    over half the work, stored elastic energy over a tenth, kinetic energy at its
-    peak over a hundredth."""
+    drag dissipation plus the change of elastic and kinetic energy: within 1e-3 of
+    the work at the end, and within 2e-3 of the work done so far at every step
+    after the ramp (20×1, generalized-α ρ∞ = 1, dt = 0.025; reached 9.4e-5 and
+    2.3e-4 on both stacks; a magnetic couple 0.5 % too strong in the residual,
+    not in the moment, fails both, which 1 % did not see).  Each term carries
+    weight: dissipation over half the work, stored elastic energy over a tenth,
+    kinetic energy at its peak over a hundredth (reached 0.79, 0.21, 0.018)."""
     from rftfem.scene import load_scene
     from rftfem.simulation import Simulation
 
@@ -384,15 +387,17 @@ def test_energy_bookkeeping_in_rotating_field(tmp_path):
         sim.close()
     t, work, dissipated, stored, kinetic = np.array(book.rows).T
     balance = dissipated + stored
+    later = t > 2.0
+    along = np.max(np.abs(work[later] - balance[later]) / work[later])
     print(f"field work {work[-1]:.6e}, drag dissipation {dissipated[-1]:.6e}, "
           f"Δ(elastic + kinetic) {stored[-1]:.6e}; max kinetic {kinetic.max():.3e}; "
-          f"imbalance {abs(work[-1] - balance[-1]) / work[-1]:.2e}")
+          f"imbalance {abs(work[-1] - balance[-1]) / work[-1]:.2e} at the end, "
+          f"at most {along:.2e} after the ramp")
     assert work[-1] > 0 and dissipated[-1] > 0.5 * work[-1]
     assert stored[-1] > 0.1 * work[-1] and kinetic.max() > 0.01 * work[-1]
-    assert abs(work[-1] - balance[-1]) < 0.01 * work[-1]
+    assert abs(work[-1] - balance[-1]) < 1e-3 * work[-1]
     # and all along the run, relative to the work done so far
-    later = t > 2.0
-    assert np.all(np.abs(work[later] - balance[later]) < 0.01 * work[later])
+    assert along < 2e-3
 
 
 def test_rigid_rotor_diagnostics(tmp_path):

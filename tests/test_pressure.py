@@ -50,18 +50,21 @@ def _vector(model, form):
 
 
 def test_cantilever_under_pressure_matches_beam_theory(tmp_path):
-    """Tip deflection within 1 % of q b L⁴ / 8EI, I = b t³ / 12 (w/L ≈ 1e-6)."""
+    """Tip deflection within 0.07 % of q b L⁴ / 8EI, I = b t³ / 12 (w/L ≈ 1e-6), on
+    20×1 Q2 cells in one load step: reached 0.0066 % on both stacks.  0.07 % is about
+    ten times that; a pressure 0.5 % too strong fails it (1 % did not see it)."""
     sim = run_scene(write_scene(tmp_path, CANTILEVER))
     exact = 1.0e-6 * B * L**4 / (8 * E * B * T**3 / 12)
     w = -sim.history[-1][1][0, 2]
-    print(f"tip deflection {w:.6e}, beam theory {exact:.6e}")
-    assert abs(w / exact - 1) < 0.01
+    print(f"tip deflection {w:.6e}, beam theory {exact:.6e}: error {w / exact - 1:+.2e}")
+    assert abs(w / exact - 1) < 7e-4
 
 
 def test_two_pressures_one_on_a_region_superpose(tmp_path):
     """q₁ on all of the cantilever and q₂ on its outer half (5 ≤ X ≤ 10), each with its
-    own ramp, at half time: tip deflection within 1 % of the beam's
-    q₁ b L⁴/8EI + q₂ b (3L⁴ − 4a³L + a⁴)/24EI with a = 5."""
+    own ramp, at half time: tip deflection within 0.06 % of the beam's
+    q₁ b L⁴/8EI + q₂ b (3L⁴ − 4a³L + a⁴)/24EI with a = 5 (20×1, one step): reached
+    0.0061 % on both stacks; a pressure 0.5 % too strong fails it."""
     scene = CANTILEVER + """
 [[mesh.regions]]
 name = "outer"
@@ -79,8 +82,8 @@ table = [[0.0, 0.0], [0.5, 1.0]]
     exact = (1.0e-6 * B * L**4 / (8 * EI)
              + 3.0e-6 * B * (3 * L**4 - 4 * a**3 * L + a**4) / (24 * EI))
     w = -sim.history[-1][1][0, 2]
-    print(f"tip deflection {w:.6e}, beam theory {exact:.6e}")
-    assert abs(w / exact - 1) < 0.01
+    print(f"tip deflection {w:.6e}, beam theory {exact:.6e}: error {w / exact - 1:+.2e}")
+    assert abs(w / exact - 1) < 6e-4
 
 
 def test_pressure_and_magnetic_parts_share_one_form(tmp_path):
