@@ -124,7 +124,7 @@ def test_spring_hinge_folds_by_moment_over_stiffness(tmp_path):
     """One link clamped along its outer edge, an edge moment M about the hinge line on
     the other link's free edge, stiffness k per length: the fold is exactly
     φ = M / (k L).  Loaded in 10 static steps to φ = 120°, every step within 0.5 %
-    (reached: 4e-8).  The links are stiff (E t³/12 = 1e5 against k ℓ = 5e-3): each
+    (reached: 5.0e-8).  The links are stiff (E t³/12 = 1e5 against k ℓ = 5e-3): each
     stays straight, curvature below 1e-6 of the fold per link width (reached 5e-8),
     and the two sides' nodal directors on the hinge differ by the fold angle."""
     k, phi_max = 0.01, 2 * math.pi / 3
@@ -272,7 +272,7 @@ def test_purcell_square_loop_matches_rigid_links():
 def test_reciprocal_loop_goes_nowhere():
     """Scallop theorem: the out-and-back loop at the same amplitude moves the rigid
     swimmer less than 1e-3 of the square loop's displacement per cycle; asserted
-    tighter, 5e-4 (reached: 1.7e-4, the time-stepping error).  A velocity with
+    tighter, 5e-4 (reached: 1.4e-4, the time-stepping error).  A velocity with
     memory, v = Δu/dt + v_n/2, gives 8e-4 and fails here."""
     wl, wr = reciprocal_loop(0.1, 3)
     sim = run_scene(SCALLOP, f"motion.0.values={wl}", f"motion.1.values={wr}")

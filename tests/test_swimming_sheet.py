@@ -60,7 +60,7 @@ def exact_rft_power(b, k, omega, speed, c1, c3, area):
 @pytest.mark.long
 def test_drag_power_of_the_waving_sheet(tmp_path):
     """The drag power averaged over whole wave periods (2 to 6, dt = T/48) is the exact
-    RFT dissipation of the waving sheet within 1 % (reached: +0.18 %). It is set by the
+    RFT dissipation of the waving sheet within 1 % (reached: −0.11 %). It is set by the
     transverse motion (C₃ q²), so the speed, still rising here, hardly enters."""
     scene = _SHEET
     motion, mesh = scene["motion"][0], scene["mesh"]
@@ -86,7 +86,7 @@ def test_drag_power_of_the_waving_sheet(tmp_path):
 def test_swimming_sheet_case_I_on_4x20(tmp_path):
     """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
     swims at the exact RFT speed 0.49763 within 0.5 % (docs/verification.md case F: on 4×50 or
-    coarser), measured over 8 whole wave periods after 10 τ (reached: +0.34 %)."""
+    coarser), measured over 8 whole wave periods after 10 τ (reached: +0.19 %)."""
     sim = run_scene(SCENE, "time.output_every=1", "output.fields=false",
                     f"time.dt={PERIOD / 48!r}", out_dir=tmp_path)
     assert sim.summary["status"] == "ok"
