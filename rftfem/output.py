@@ -137,7 +137,7 @@ class FieldWriter:
 
     def close(self):
         if self.model.comm.rank == 0:
-            compat.repair_xdmf_namespace(self.path)
+            declare_double_precision(self.path)
             if self.main is not None:
                 merge_field_segment(self.main, self.path)
 
@@ -291,6 +291,24 @@ def _xdmf_tree(path: Path):
     ET.register_namespace("xi", _XI)
     compat.repair_xdmf_namespace(path)
     return ET.parse(path)
+
+
+def declare_double_precision(path: Path) -> None:
+    """Say in the XDMF file that its real arrays are doubles (``Precision="8"``).
+
+    dolfinx writes the geometry and the fields' data items without a number
+    type, and XDMF's default is a 4-byte float: ParaView then reads the doubles of
+    fields.h5 as float32.  Also repairs the XInclude namespace (compat)."""
+    tree = _xdmf_tree(path)
+    changed = False
+    for item in tree.iter("DataItem"):
+        if item.get("Format") == "HDF" and item.get("NumberType", "Float") == "Float" \
+                and item.get("Precision") is None:
+            item.set("NumberType", "Float")
+            item.set("Precision", "8")
+            changed = True
+    if changed:
+        _write_xdmf(tree, path)
 
 
 def _collections(tree) -> dict:
