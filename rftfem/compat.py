@@ -236,6 +236,27 @@ def _shared_facet_partitioner() -> dict:
     return {}
 
 
+def serial_lagrange_mesh(cell: str, degree: int, cells: np.ndarray, x: np.ndarray):
+    """A mesh on this process alone (``COMM_SELF``) with Lagrange geometry of
+    ``degree`` on ``cell`` ("quadrilateral"/"triangle") in 3D, from nodes ``x``
+    and ``cells`` in dolfinx's node order.  0.5 takes ``(comm, cells, x, domain)``
+    with a UFL element, 0.10 on ``(comm, cells, e, x)`` with a basix one."""
+    from mpi4py import MPI
+
+    if _HAS_BASIX_UFL:
+        domain = ufl.Mesh(_basix_ufl.element("Lagrange", cell, degree, shape=(3,)))
+        return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, domain, x)
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.Cell(cell, geometric_dimension=3),
+                                        degree))
+    return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, x, domain)
+
+
+def local_to_global(index_map, local: np.ndarray) -> np.ndarray:
+    """Global numbers of the local indices ``local`` of ``index_map``."""
+    return np.asarray(index_map.local_to_global(np.asarray(local, dtype=np.int32)),
+                      dtype=np.int64)
+
+
 def create_meshtags(mesh, dim: int, entities: np.ndarray, values: np.ndarray):
     order = np.argsort(entities)
     return dolfinx.mesh.meshtags(mesh, dim, entities[order].astype(np.int32),

@@ -45,3 +45,15 @@ def import_pyvista():
             from None
     pyvista.OFF_SCREEN = True
     return pyvista
+
+
+def tessellate(grid, level: int):
+    """The surface of ``grid`` with nonlinear cells cut into ``2**level`` pieces per
+    edge (VTK's nonlinear subdivision).  pyvista 0.47 on warns unless the surface
+    algorithm is named; older versions have no such keyword."""
+    import inspect
+
+    kwargs = {"nonlinear_subdivision": level}
+    if "algorithm" in inspect.signature(grid.extract_surface).parameters:
+        kwargs["algorithm"] = "dataset_surface"
+    return grid.extract_surface(**kwargs)

@@ -103,9 +103,9 @@ def _fmt(v) -> str:
 class FieldWriter:
     """Displacement, director (and magnetization direction) for ParaView, in XDMF.
 
-    The fields live on the mesh's geometry nodes (XDMF stores one value per node):
-    the vertices of a straight mesh, all nine or six nodes of a curved
-    (second-order) gmsh mesh, which ParaView then draws as curved cells.
+    The fields are written at the solution's degree, on second-order cells whose
+    nodes are the P2 dofs (:mod:`rftfem.field_mesh`): a rolled strip is drawn
+    round, not as a polygon through its vertices.  Rank 0 writes the file.
 
     The file is opened for each output time and closed after it (under a
     millisecond): HDF5 left open by a process that dies (SIGKILL, a node going
@@ -113,27 +113,41 @@ class FieldWriter:
     time step written before."""
 
     def __init__(self, model, path: Path, extra: dict | None = None, main: Path | None = None):
-        mesh = model.mesh
+        from mpi4py import MPI
+
+        from .field_mesh import FieldMesh
+
         #: the run's field file that this one (a restart's segment) is merged into on close
         self.main = main
         self.model = model
-        V = compat.function_space(mesh, "Lagrange", compat.geometry_cells(mesh)[1], (3,))
-        self.fields = {"displacement": (model.displacement, fem.Function(V, name="displacement")),
-                       "director": (model.nodal_director(), fem.Function(V, name="director"))}
+        V = model.Vu  # [P2]^3 on the body's mesh
+        self.nodes = FieldMesh(V)
+        self.fields = {"displacement": model.displacement, "director": model.nodal_director()}
         for name, f in (extra or {}).items():  # Functions, or UFL expressions of the state
-            source = f if isinstance(f, fem.Function) else compat.expression(f, V)
-            self.fields[name] = (source, fem.Function(V, name=name))
+            self.fields[name] = f if isinstance(f, fem.Function) else compat.expression(f, V)
+        self._at_nodes = fem.Function(V)
+        self.out = {}
         self.path = Path(path)
-        with io.XDMFFile(mesh.comm, str(path), "w") as file:
-            file.write_mesh(mesh)
+        if self.nodes.mesh is not None:
+            self.out = {name: fem.Function(self.nodes.space, name=name) for name in self.fields}
+            with io.XDMFFile(MPI.COMM_SELF, str(path), "w") as file:
+                file.write_mesh(self.nodes.mesh)
 
     def write(self, t: float):
+        from mpi4py import MPI
+
         self.model.nodal_director()  # refreshed from the triads (hinged bodies)
-        for source, target in self.fields.values():
-            target.interpolate(source)
-        with io.XDMFFile(self.model.comm, str(self.path), "a") as file:
-            for _, target in self.fields.values():
-                file.write_function(target, t)
+        for name, source in self.fields.items():
+            if isinstance(source, fem.Function) and source.function_space == self.model.Vu:
+                values = source
+            else:
+                self._at_nodes.interpolate(source)
+                values = self._at_nodes
+            self.nodes.gather(values, self.out.get(name))
+        if self.nodes.mesh is not None:
+            with io.XDMFFile(MPI.COMM_SELF, str(self.path), "a") as file:
+                for target in self.out.values():
+                    file.write_function(target, t)
 
     def close(self):
         if self.model.comm.rank == 0:
@@ -300,6 +314,12 @@ def declare_double_precision(path: Path) -> None:
     type, and XDMF's default is a 4-byte float: ParaView then reads the doubles of
     fields.h5 as float32.  Also repairs the XInclude namespace (compat)."""
     tree = _xdmf_tree(path)
+    if _declare_doubles(tree):
+        _write_xdmf(tree, path)
+
+
+def _declare_doubles(tree) -> bool:
+    """Set ``Precision="8"`` on the HDF real data items that lack it; whether any did."""
     changed = False
     for item in tree.iter("DataItem"):
         if item.get("Format") == "HDF" and item.get("NumberType", "Float") == "Float" \
@@ -307,8 +327,7 @@ def declare_double_precision(path: Path) -> None:
             item.set("NumberType", "Float")
             item.set("Precision", "8")
             changed = True
-    if changed:
-        _write_xdmf(tree, path)
+    return changed
 
 
 def _collections(tree) -> dict:
@@ -333,13 +352,19 @@ def field_segments(main: Path) -> list[Path]:
 def merge_field_segment(main: Path, segment: Path):
     """Add the time steps of ``segment`` (a restart's field file) to the run's
     ``main`` field file, whose mesh they share; their data stay in the segment's
-    own HDF5 file.  A segment already in ``main`` is left out."""
+    own HDF5 file.  A segment already in ``main`` is left out.  Both are declared
+    double precision here too: a run killed outright (SIGKILL) never closed its
+    writer, which is where that is otherwise done."""
     tree = _xdmf_tree(main)
+    _declare_doubles(tree)
     h5 = Path(segment).with_suffix(".h5").name + ":"
     if any((item.text or "").strip().startswith(h5) for item in tree.iter("DataItem")):
+        _write_xdmf(tree, main)
         return
     ours = _collections(tree)
-    for name, grid in _collections(_xdmf_tree(segment)).items():
+    theirs = _xdmf_tree(segment)
+    _declare_doubles(theirs)
+    for name, grid in _collections(theirs).items():
         if name in ours:
             ours[name].extend(list(grid))
         else:
@@ -348,8 +373,10 @@ def merge_field_segment(main: Path, segment: Path):
 
 
 def keep_fields_until(main: Path, t: float, at_t: bool = True):
-    """Drop the time steps after ``t`` (``at_t``: keep the one at it) from a field file."""
+    """Drop the time steps after ``t`` (``at_t``: keep the one at it) from a field
+    file, and declare its real arrays double precision (see :func:`merge_field_segment`)."""
     tree = _xdmf_tree(main)
+    _declare_doubles(tree)
     tol = 1e-12 * max(1.0, abs(t))
     limit = t + tol if at_t else t - tol
     for grid in _collections(tree).values():

@@ -28,6 +28,7 @@ import numpy as np
 
 from rftfem.compat_render import import_pyvista
 from rftfem.errors import SceneError
+from rftfem.render_body import BodyDrawing
 from rftfem.render_view import (MAX_FILM_FRAMES, MAX_GIF_FRAMES, RunFields, Survey,
                                  color_fields, color_limits, color_values, film_plan,
                                  pixel_of, place_camera, survey_frames)
@@ -123,35 +124,37 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
 
-    body = run.reference.copy()
+    drawing = BodyDrawing(run.reference)
     first = run.frame(idx[0])
-    body.points = run.reference_points + first["displacement"]
     s = color_values(color, first, run)
+    body = drawing.surface(first["displacement"], None if s is None else {color: s})
     if s is None:
-        plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, show_edges=True,
-                         edge_color="#2a4f75", **_LIGHTING)
+        surface = plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
+        edge_color = "#2a4f75"
     else:
-        body.point_data[color] = s
         cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
-        plotter.add_mesh(body, scalars=color, clim=clim, cmap=cmap, smooth_shading=True,
-                         show_edges=True, edge_color="#303030", **_LIGHTING,
-                         scalar_bar_args={"title": _LABELS.get(color, color), "color": "black",
-                                          "fmt": _tick_format(clim),
-                                          "vertical": True, "position_x": 0.86,
-                                          "position_y": 0.25, "height": 0.5, "width": 0.06})
-    # the body's outline as lines: visible also where the surface is seen edge-on
-    # (a flat sheet's wave from the side)
-    outline = reference_edges.copy()
-    where = {tuple(p): k for k, p in enumerate(run.reference_points)}
-    outline_ids = np.array([where.get(tuple(p), 0) for p in np.asarray(outline.points, float)],
-                           dtype=int)
-    outline.points = body.points[outline_ids]
+        surface = plotter.add_mesh(body, scalars=color, clim=clim, cmap=cmap,
+                                   smooth_shading=True, **_LIGHTING,
+                                   scalar_bar_args={"title": _LABELS.get(color, color),
+                                                    "color": "black", "fmt": _tick_format(clim),
+                                                    "vertical": True, "position_x": 0.86,
+                                                    "position_y": 0.25, "height": 0.5,
+                                                    "width": 0.06})
+        edge_color = "#303030"
+    # the cells' edges, curved as the cells are (the surface pushed back a little in
+    # depth so that the lines on it are not hidden), and the body's outline as lines:
+    # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
+    surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
+    surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
+    plotter.add_mesh(drawing.edges(first["displacement"]), color=edge_color, line_width=1)
+    outline = drawing.outline(first["displacement"])
     plotter.add_mesh(outline, color="#202020", line_width=2)
     arrows = None
     if color == "magnetization":  # arrows on the magnetized points only
         magnetized = np.linalg.norm(first["magnetization"], axis=1) > 0.0
         arrow_length = 0.05 * survey.body_size
-        arrows = plotter.add_mesh(_arrows(body.points, first["magnetization"], magnetized,
+        arrows = plotter.add_mesh(_arrows(run.reference_points + first["displacement"],
+                                          first["magnetization"], magnetized,
                                           arrow_length), color="black")
     trail_mesh = None
     if path is not None:
@@ -178,14 +181,17 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     for n, i in enumerate(idx):
         t = float(run.times[i])
         frame = first if n == 0 else run.frame(i)
-        body.points = run.reference_points + frame["displacement"]
-        outline.points = body.points[outline_ids]
         s = color_values(color, frame, run)
+        moved = drawing.surface(frame["displacement"], None if s is None else {color: s})
+        body.points = moved.points
         if s is not None:
-            body.point_data[color] = s
+            body.point_data[color] = moved.point_data[color]
+        drawing.edges(frame["displacement"])
+        drawing.outline(frame["displacement"])
+        nodes = run.reference_points + frame["displacement"]
         if arrows is not None:
             plotter.remove_actor(arrows, render=False)
-            arrows = plotter.add_mesh(_arrows(body.points, frame["magnetization"], magnetized,
+            arrows = plotter.add_mesh(_arrows(nodes, frame["magnetization"], magnetized,
                                               arrow_length), color="black", render=False)
         if trail_mesh is not None:
             keep = path[0] <= t + 1e-12 * max(1.0, abs(t))

@@ -86,21 +86,31 @@ class RunFields:
     def _readable(self, xdmf: Path) -> Path:
         """``xdmf``, or a repaired copy of it in a temporary folder.
 
-        Some dolfinx versions write the XInclude namespace as ``https://...``;
-        XML parsers know only ``http://www.w3.org/2001/XInclude``, leave every
-        time step without its mesh, and VTK's reader then crashes. rftfem
-        repairs its own files when a run closes them; a run that stopped
-        before that (killed, or written by an older rftfem) is read through a
-        repaired copy whose data paths point at the original ``fields.h5``.
+        rftfem repairs its field file when a run closes it; a run that stopped
+        before that (killed outright) or an older rftfem's file can need:
+
+        - the XInclude namespace: some dolfinx versions write it ``https://...``;
+          XML parsers know only ``http://www.w3.org/2001/XInclude``, leave every
+          time step without its mesh, and VTK's reader then crashes;
+        - ``Precision="8"`` on the real arrays, without which VTK reads the
+          doubles as float32.
+
+        The copy's data paths point at the original HDF5 files.
         """
+        import re
+
         text = xdmf.read_text(encoding="utf-8", errors="replace")
-        if _BAD_XINCLUDE not in text:
+        undeclared = re.compile(r'<DataItem(?![^>]*Precision=)(?![^>]*NumberType="(?:U?Int|Char))'
+                                r'([^>]*Format="HDF"[^>]*)>')
+        if _BAD_XINCLUDE not in text and not undeclared.search(text):
             return xdmf
         import tempfile
 
         self._tmp = tempfile.TemporaryDirectory(prefix="rftfem-render-")
-        h5 = str((xdmf.parent / "fields.h5").resolve())
-        text = text.replace(_BAD_XINCLUDE, _XINCLUDE).replace(">fields.h5:", f">{h5}:")
+        text = text.replace(_BAD_XINCLUDE, _XINCLUDE)
+        text = undeclared.sub(r'<DataItem\1 Precision="8">', text)
+        folder = str(xdmf.parent.resolve())
+        text = re.sub(r">\s*(fields(?:-\d+)?\.h5):", lambda m: f">{folder}/{m.group(1)}:", text)
         copy = Path(self._tmp.name) / "fields.xdmf"
         copy.write_text(text, encoding="utf-8")
         return copy

@@ -71,8 +71,8 @@ def test_probes_and_body_rows_at_every_output_time(rollup):
 
 
 def test_fields_file_holds_what_the_probes_saw(rollup):
-    """At the tip's vertex the written P1 displacement equals the probe's (the P2 field
-    interpolated at a vertex is its nodal value), at every output time, to double
+    """At the tip's vertex the written displacement equals the probe's (the fields are
+    written at the P2 dofs, so it is the dof value), at every output time, to double
     precision (reached: round-off): the file declares its real arrays as 8-byte
     floats, which dolfinx leaves out and without which VTK's XDMF reader (ParaView's
     too) reads them as float32 (an error of 1e-8 then)."""

@@ -161,7 +161,14 @@ def test_gif_every_third_frame_ends_on_the_last(serial_run, tmp_path):
 
 
 @pytest.mark.mpi
-def test_render_of_an_mpirun_run(mpi_run, tmp_path):
+def test_render_of_an_mpirun_run(mpi_run, serial_run, tmp_path):
+    """Rank 0 writes the fields of both ranks: node for node (matched by position) the
+    serial run's, to round-off (reached 2e-14)."""
+    a, b = written_nodes(serial_run), written_nodes(mpi_run)
+    assert a.shape == b.shape
+    a, b = (v[np.lexsort(np.round(v[:, :3], 9).T[::-1])] for v in (a, b))
+    assert np.abs(a[:, :3] - b[:, :3]).max() < 1e-12
+    assert np.abs(a[:, 3:] - b[:, 3:]).max() < 1e-11 * np.abs(a[:, 3:]).max()
     info = render_png(mpi_run, tmp_path / "mpi.png")
     check_picture(tmp_path / "mpi.png", info, mpi_run)
     done = _rftfem("render", mpi_run, "--out", tmp_path / "mpi.mp4", "--size", "320x240")
@@ -232,3 +239,115 @@ def test_fields_file_has_the_xinclude_namespace_parsers_know(serial_run, tmp_pat
     info = render_png(broken, tmp_path / "killed.png")
     check_picture(tmp_path / "killed.png", info, broken)
     assert "https://" in (broken / "fields.xdmf").read_text()  # the user's file is not touched
+
+
+# ---------------------------------------------------------------- drawn at degree 2
+#
+# The roll-up on 16 cells winds two turns of radius R = L/(4π): eight cells a turn.
+# Drawn through the cells' corners, each turn is an octagon, whose outline's
+# distance from the centre varies by 1 - cos(π/8) = 7.6 %; the solution (P2) is
+# round to its discretisation error (0.13 % measured).  The outline is measured
+# twice: from the written field file (the cells' nodes and their edges' own shape
+# functions, not rftfem's drawing code) and from a side-view picture.
+
+_WRITTEN = """
+import json, sys
+import numpy as np
+from rftfem.render_view import RunFields
+run = RunFields(sys.argv[1])
+x = run.reference_points + run.frame(len(run.times) - 1)["displacement"]
+grid = run.reference
+cells = [list(map(int, grid.get_cell(c).point_ids)) for c in range(grid.n_cells)]
+print(json.dumps({"reference": run.reference_points.tolist(), "x": x.tolist(),
+                  "cells": cells, "types": np.asarray(grid.celltypes).tolist()}))
+"""
+
+
+def _written(run: Path) -> dict:
+    done = subprocess.run([sys.executable, "-c", _WRITTEN, str(run)], capture_output=True,
+                          text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def written_nodes(run: Path) -> np.ndarray:
+    """[reference position, last displacement] of every written node."""
+    data = _written(run)
+    ref = np.array(data["reference"])
+    return np.c_[ref, np.array(data["x"]) - ref]
+
+
+def radial_variation(points_xz: np.ndarray) -> float:
+    """(max - min) / mean of the distances of ``points_xz`` from their least-squares circle."""
+    A = np.c_[2 * points_xz, np.ones(len(points_xz))]
+    centre = np.linalg.lstsq(A, (points_xz ** 2).sum(axis=1), rcond=None)[0][:2]
+    r = np.linalg.norm(points_xz - centre, axis=1)
+    return float((r.max() - r.min()) / r.mean())
+
+
+def written_outline(run: Path, curved: bool = True) -> np.ndarray:
+    """Points along the written cells' edges on the strip's side y = 0 at the last
+    frame (x, z), each edge drawn by its own Lagrange shape functions (``curved``)
+    or as the chord between its corners."""
+    data = _written(run)
+    ref, x = np.array(data["reference"]), np.array(data["x"])
+    # VTK's 9-node quadrilateral: corners 0-3, then the midside nodes of edges
+    # 0-1, 1-2, 2-3, 3-0; the 4-node one has corners only
+    assert set(data["types"]) == {28}, f"cells written: VTK types {set(data['types'])}"
+    s = np.linspace(0.0, 1.0, 17)[:, None]
+    points = []
+    for cell in data["cells"]:
+        for a, b, m in ((0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)):
+            a, b, m = cell[a], cell[b], cell[m]
+            if abs(ref[a, 1]) > 1e-9 or abs(ref[b, 1]) > 1e-9:
+                continue
+            if curved:
+                xs = (1 - s) * (1 - 2 * s) * x[a] + s * (2 * s - 1) * x[b] + 4 * s * (1 - s) * x[m]
+            else:
+                xs = (1 - s) * x[a] + s * x[b]
+            points.append(xs[:, [0, 2]])
+    return np.concatenate(points)
+
+
+def test_rolled_up_turns_are_round_in_the_written_fields(serial_run):
+    curved = radial_variation(written_outline(serial_run))
+    chords = radial_variation(written_outline(serial_run, curved=False))
+    print(f"radius variation of the two turns, written cells: {100 * curved:.3f} % "
+          f"(through the corners only: {100 * chords:.2f} %)")
+    assert curved < 0.02
+    assert chords > 0.05  # the measure tells an octagon from a circle
+
+
+def picture_outline_variation(png: Path) -> tuple[float, int]:
+    """Radius variation of the dark outline in a side view (the title, axes and time
+    stamp cut away): per 5° sector, the median distance of its dark pixels from their
+    least-squares circle; (max - min) / mean over the sectors, and the radius in pixels."""
+    import imageio.v3 as iio
+
+    img = iio.imread(png)[..., :3].astype(int)
+    dark = img.sum(axis=2) < 250
+    h = img.shape[0]
+    dark[: int(0.08 * h)] = False
+    dark[int(0.8 * h):] = False
+    rows, cols = np.nonzero(dark)
+    p = np.c_[cols, rows].astype(float)
+    A = np.c_[2 * p, np.ones(len(p))]
+    centre = np.linalg.lstsq(A, (p ** 2).sum(axis=1), rcond=None)[0][:2]
+    d = p - centre
+    r = np.linalg.norm(d, axis=1)
+    sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // np.radians(5)).astype(int)
+    medians = np.array([np.median(r[sector == k]) for k in np.unique(sector)])
+    assert len(medians) == 72, f"the outline covers {len(medians)} of 72 sectors"
+    return float((medians.max() - medians.min()) / medians.mean()), int(medians.mean())
+
+
+def test_rolled_up_turns_are_round_in_the_picture(serial_run, tmp_path):
+    png = tmp_path / "side.png"
+    done = _rftfem("render", serial_run, "--out", png, "--view", "xz", "--color", "none",
+                   "--size", "2400x1000")
+    assert done.returncode == 0, done.stderr
+    variation, radius = picture_outline_variation(png)
+    print(f"radius variation of the two turns in the side view: {100 * variation:.2f} % "
+          f"(radius {radius} px)")
+    assert radius > 100
+    assert variation < 0.02
