@@ -46,3 +46,18 @@ def magnetic_work(t, m, b, dq, J, dx):
 def magnetic_moment(t, m, q, J, dx):
     """Components of the body's total moment ``∫ t m q J dA₀`` (three scalar forms)."""
     return [t * m * q[i] * J * dx for i in range(3)]
+
+
+def safe_direction(v):
+    """``v / |v|``, and 0 where ``v`` is 0 (a magnetization formula may vanish at a
+    quadrature point): used where the magnetization varies over a part."""
+    return v / ufl.sqrt(ufl.dot(v, v) + 1e-300)
+
+
+def magnetic_energy(t, F, M, B, dx):
+    """Potential energy of the magnetized parts in a field ``B(x)`` that varies in
+    space, ``Π = −∫ t (F M)·B(x) dA₀`` (``M = m q₀`` the remanent magnetization per
+    volume, ``x = X + u`` inside ``B``).  Its first variation holds the couple
+    (through ``δF``) and the gradient force ``t (∇B)ᵀ(F M)·δu``; its second, their
+    exact tangent.  ``dx`` must be restricted to the magnetic subdomains."""
+    return -t * ufl.dot(F * M, B) * dx

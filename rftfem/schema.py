@@ -19,14 +19,15 @@ import re
 from typing import Any
 
 from rftfem.errors import SceneError
-from rftfem.validators import (NONNEGATIVE, POSITIVE, Bool, Divisions, Fix, Int, Num, Pairs,
-                               Str, Validator, Vec, Where, err, fmt, join, one_of, suggest)
+from rftfem.validators import (NONNEGATIVE, POSITIVE, Bool, Divisions, Fix, Formula, Formulas,
+                               Int, Num, Pairs, Rows, Str, Validator, Vec, Where, err, fmt, join,
+                               one_of, suggest)
 
 __all__ = [  # the validators and message helpers too: a table is written with one import
     "Leaf", "Table", "Array", "Kinds", "Free", "validate_table", "check_unique", "table_iff",
     "unit_vector", "copy_value", "section", "MAX_STEPS", "NONNEGATIVE", "POSITIVE", "Bool",
-    "Divisions", "Fix", "Int", "Num", "Pairs", "Str", "Validator", "Vec", "Where", "err", "fmt",
-    "join", "one_of", "suggest"]
+    "Divisions", "Fix", "Formula", "Formulas", "Int", "Num", "Pairs", "Rows", "Str", "Validator",
+    "Vec", "Where", "err", "fmt", "join", "one_of", "suggest"]
 
 _PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 

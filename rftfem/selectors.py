@@ -49,11 +49,12 @@ def region_names(scene: dict) -> list[str]:
 
 
 def check_region_ref(name: str, path: str, scene: dict) -> None:
-    """For strip-like meshes, a part's region must be built in or one of [[mesh.regions]]."""
+    """For strip-like meshes, a part's region must be built in or one of [[mesh.regions]];
+    ``"all"`` is the whole body."""
     if scene["mesh"]["kind"] not in LINED_KINDS:
         return  # gmsh: checked against the file's physical groups later
     names = region_names(scene)
-    if name in names:
+    if name in names or name == "all":
         return
     if not names:
         raise SceneError(f"{path}: unknown region '{name}'; expected a name defined in "
@@ -100,7 +101,12 @@ def check_on_body(point, path: str, what: str, scene: dict) -> None:
 
 
 def cells_of(body, names, key: str = "region") -> np.ndarray:
-    """Local cells of the named regions; an unknown name is a SceneError at ``key``."""
+    """Local cells of the named regions (``"all"``: every cell, unless a region has that
+    name); an unknown name is a SceneError at ``key``."""
+    if "all" in names and "all" not in body.regions:
+        tdim = body.mesh.topology.dim
+        imap = body.mesh.topology.index_map(tdim)
+        return np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
     for n in names:
         if n not in body.regions:
             known = ", ".join(sorted(body.regions)) or "none"

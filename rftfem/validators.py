@@ -268,6 +268,76 @@ class Pairs(Validator):
         return out
 
 
+class Rows(Validator):
+    """A table of rows [t, v1, ..., vk] of finite numbers with strictly increasing t
+    (``min_rows`` of them at least)."""
+
+    def __init__(self, columns: tuple[str, ...], min_rows: int = 1):
+        self.columns, self.min_rows = columns, min_rows
+        names = ", ".join(columns)
+        self.expected = (f"a list of [{names}] rows of numbers with strictly increasing "
+                         f"{columns[0]}" + (f", {min_rows} rows at least" if min_rows > 1 else ""))
+        self.row = f"a [{names}] row of {len(columns)} numbers"
+
+    def __call__(self, value, path):
+        if not isinstance(value, list) or len(value) < self.min_rows:
+            raise err(path, self.expected, value)
+        out = []
+        for i, row in enumerate(value):
+            if (not isinstance(row, list) or len(row) != len(self.columns)
+                    or any(isinstance(v, bool) or not isinstance(v, (int, float))
+                           or not math.isfinite(v) for v in row)):
+                raise err(join(path, i), self.row, row)
+            row = [float(v) for v in row]
+            if out and row[0] <= out[-1][0]:
+                raise SceneError(f"{path}: expected strictly increasing {self.columns[0]}, "
+                                 f"found {self.columns[0]} = {fmt(row[0])} after "
+                                 f"{fmt(out[-1][0])} (row {i})")
+            out.append(row)
+        return out
+
+
+class Formula(Validator):
+    """A number (checked by ``number``) or a formula of ``variables`` (a string,
+    :mod:`rftfem.expressions`).  A formula without variables is its number."""
+
+    def __init__(self, variables: tuple[str, ...], number: Validator | None = None):
+        self.variables, self.number = tuple(variables), number or Num()
+        names = ", ".join(self.variables)
+        self.expected = (f"{self.number.expected} or a formula of {names} (a string)"
+                         if self.variables else self.number.expected)
+
+    def __call__(self, value, path):
+        from rftfem.expressions import parse
+
+        if isinstance(value, str):
+            formula = parse(value, path, self.variables)
+            if not formula.constant:
+                return value
+            value = formula.value()
+        return self.number(value, path)
+
+
+class Formulas(Validator):
+    """``n`` entries, each a number or a formula of ``variables``; all numbers: checked
+    as :class:`Vec` (``nonzero``)."""
+
+    def __init__(self, variables: tuple[str, ...], n: int = 3, nonzero: bool = False):
+        self.item = Formula(variables)
+        self.vec = Vec(n, nonzero=nonzero)
+        self.n = n
+        self.expected = f"{n} entries [x, y, z], each a number or a formula of " \
+                        f"{', '.join(variables)} (a string)"
+
+    def __call__(self, value, path):
+        if not isinstance(value, list) or len(value) != self.n:
+            raise err(path, self.expected, value)
+        out = [self.item(v, join(path, i)) for i, v in enumerate(value)]
+        if all(not isinstance(v, str) for v in out):
+            return self.vec(out, path)
+        return out
+
+
 class Fix(Validator):
     options = ("ux", "uy", "uz", "rotation", "clamped")
     expected = "a non-empty list of " + one_of(options)

@@ -123,12 +123,11 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
 
 def test_field_protocol():
     """b(t): linear ramp along `direction`, then right-handed rotation about the axis."""
-    from rftfem.effects.magnetic import Magnetic
+    from rftfem.magnetic_sources import UniformField
 
-    scene = {"magnetic": {"field": {"strength": 2.0, "ramp_time": 0.5,
-                                    "direction": [2.0, 0.0, 0.0], "frequency": 4.0,
-                                    "rotation_axis": [0.0, 0.0, 3.0]}}}
-    field_at = Magnetic.field_at.__get__(type("M", (), {"scene": scene})())
+    field_at = UniformField({"kind": "rotating", "strength": 2.0, "ramp_time": 0.5,
+                             "direction": [2.0, 0.0, 0.0], "frequency": 4.0,
+                             "rotation_axis": [0.0, 0.0, 3.0]}).at
     assert np.allclose(field_at(0.25), [1.0, 0, 0])
     assert np.allclose(field_at(0.5), [2.0, 0, 0])
     assert np.allclose(field_at(0.5 + 1 / 16), [0, 2.0, 0], atol=1e-12)  # quarter turn: +Y

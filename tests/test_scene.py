@@ -129,9 +129,11 @@ direction = [1, 0, 0]
     assert s["motion"][0] == {"where": "all", "component": "uz", "kind": "travelling-wave",
                               "amplitude": 0.15, "wavenumber": 0.0, "angular_frequency": 0.0,
                               "origin": 0.0, "values": None}
-    assert s["magnetic"]["field"] == {"strength": 0.0, "ramp_time": 0.0,
+    assert s["magnetic"]["field"] == {"kind": "rotating", "strength": 0.0, "ramp_time": 0.0,
                                       "direction": [1.0, 0.0, 0.0], "frequency": 0.0,
-                                      "rotation_axis": [0.0, 0.0, 1.0]}
+                                      "rotation_axis": [0.0, 0.0, 1.0], "B": None,
+                                      "values": None, "interpolation": None, "moment": None,
+                                      "position": None, "path": None}
     assert s["magnetic"]["parts"][0]["direction"] == [1.0, 0.0, 0.0]
 
 

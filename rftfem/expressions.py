@@ -1,0 +1,240 @@
+"""Formulas in scene files: a small, safe expression language, parsed, never ``eval``ed.
+
+A key that allows it takes a string such as ``"62.9*cos(2*pi*X/3.7)"``: numbers,
+``+ - * / ^`` (``^`` is the power, binding tighter than a sign: ``-2^2`` is -4),
+parentheses, the functions ``sin cos tan asin acos atan atan2 exp log sqrt abs
+min max``, the constant ``pi`` and the variables the key allows (``X, Y, Z`` the
+reference coordinates, ``x, y, z`` the current ones, ``t`` the time).
+
+:func:`parse` turns the text into a :class:`Formula` (a small tree), or raises a
+one-line :class:`~rftfem.errors.SceneError` naming the key and the place in the
+text.  A formula becomes UFL (:meth:`Formula.ufl`, for forms) or numbers
+(:meth:`Formula.numbers`, numpy arrays or floats) from the same tree.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from rftfem.errors import SceneError
+
+#: function name -> number of arguments (None: two or more)
+FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "atan2": 2,
+             "exp": 1, "log": 1, "sqrt": 1, "abs": 1, "min": None, "max": None}
+CONSTANTS = {"pi": math.pi}
+
+_TOKEN = re.compile(r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
+                    r"|(?P<op>[-+*/^(),]))")
+
+
+@dataclass(frozen=True)
+class Formula:
+    """A parsed formula: its text, its tree and the variables it uses."""
+
+    text: str
+    tree: tuple
+    names: frozenset
+
+    @property
+    def constant(self) -> bool:
+        """Whether it uses no variable (then :meth:`value` is its number)."""
+        return not self.names
+
+    def value(self) -> float:
+        return float(self.numbers({}))
+
+    def numbers(self, env: dict):
+        """The formula's value for ``env`` (variable -> float or numpy array)."""
+        return _evaluate(self.tree, env, _NUMPY)
+
+    def ufl(self, env: dict, number=None):
+        """The formula as a UFL expression of ``env`` (variable -> UFL expression).
+
+        ``number`` (float -> UFL), if given, makes each number of the formula (but
+        exponents) a coefficient, e.g. a ``fem.Constant``: the compiled form then
+        does not depend on the numbers, and a sweep over them compiles it once."""
+        functions = dict(_ufl_functions())
+        if number is not None:
+            functions["__number__"] = number
+        return _evaluate(self.tree, env, functions)
+
+
+def parse(text, key: str, variables: tuple[str, ...]) -> Formula:
+    """Parse ``text`` (a string, or a number taken as it is) for the scene key ``key``
+    whose formulas may use ``variables``."""
+    if isinstance(text, bool) or not isinstance(text, (str, int, float)):
+        raise SceneError(f"{key}: expected a number or a formula (a string), found {text!r}")
+    if not isinstance(text, str):
+        value = float(text)
+        if not math.isfinite(value):
+            raise SceneError(f"{key}: expected a finite number, found {text!r}")
+        return Formula(repr(value), ("num", value), frozenset())
+    parser = _Parser(text, key, variables)
+    tree = parser.expression()
+    if parser.peek() is not None:
+        parser.fail(f"unexpected '{parser.peek()[1]}'")
+    return Formula(text, tree, frozenset(parser.used))
+
+
+class _Parser:
+    def __init__(self, text: str, key: str, variables):
+        self.text, self.key, self.variables = text, key, tuple(variables)
+        self.tokens, self.used = [], set()
+        pos = 0
+        while pos < len(text):
+            m = _TOKEN.match(text, pos)
+            if not m or m.end() == pos:
+                if text[pos:].strip() == "":
+                    break
+                bad = text[pos:].lstrip()[0]
+                where = len(text) - len(text[pos:].lstrip())
+                self._raise(f"unexpected character '{bad}'", where)
+            kind = m.lastgroup
+            start = m.start(kind)
+            self.tokens.append((kind, m.group(kind), start))
+            pos = m.end()
+        self.i = 0
+
+    def _raise(self, what: str, where: int):
+        allowed = ", ".join(self.variables) if self.variables else "none"
+        raise SceneError(f"{self.key}: {what} at position {where + 1} in formula "
+                         f"'{self.text}' (variables allowed here: {allowed})")
+
+    def fail(self, what: str):
+        tok = self.peek()
+        self._raise(what, tok[2] if tok else len(self.text))
+
+    def peek(self):
+        return self.tokens[self.i] if self.i < len(self.tokens) else None
+
+    def take(self, op: str | None = None):
+        tok = self.peek()
+        if tok is None:
+            self._raise("unexpected end" + (f" (expected '{op}')" if op else ""), len(self.text))
+        if op is not None and tok[1] != op:
+            self.fail(f"expected '{op}', found '{tok[1]}'")
+        self.i += 1
+        return tok
+
+    def expression(self):
+        tree = self.term()
+        while self.peek() and self.peek()[1] in "+-" and self.peek()[0] == "op":
+            op = self.take()[1]
+            tree = ("bin", op, tree, self.term())
+        return tree
+
+    def term(self):
+        tree = self.unary()
+        while self.peek() and self.peek()[1] in ("*", "/"):
+            op = self.take()[1]
+            if self.peek() and self.peek()[1] == "*":
+                self.fail("'**' is not a power here: write '^'")
+            tree = ("bin", op, tree, self.unary())
+        return tree
+
+    def unary(self):
+        tok = self.peek()
+        if tok and tok[0] == "op" and tok[1] in "+-":
+            self.take()
+            inner = self.unary()
+            return ("neg", inner) if tok[1] == "-" else inner
+        return self.power()
+
+    def power(self):
+        base = self.atom()
+        if self.peek() and self.peek()[1] == "^":
+            self.take()
+            return ("bin", "^", base, self.unary())
+        return base
+
+    def atom(self):
+        tok = self.peek()
+        if tok is None:
+            self._raise("unexpected end (expected a number, a name or '(')", len(self.text))
+        kind, text, where = tok
+        if kind == "num":
+            self.take()
+            return ("num", float(text))
+        if kind == "name":
+            self.take()
+            if self.peek() and self.peek()[1] == "(":
+                if text not in FUNCTIONS:
+                    self._raise(f"unknown function '{text}' (known: {', '.join(FUNCTIONS)})",
+                                where)
+                self.take("(")
+                args = [self.expression()]
+                while self.peek() and self.peek()[1] == ",":
+                    self.take(",")
+                    args.append(self.expression())
+                self.take(")")
+                n = FUNCTIONS[text]
+                if (n is not None and len(args) != n) or (n is None and len(args) < 2):
+                    want = f"{n} argument{'s' if n != 1 else ''}" if n else "two or more arguments"
+                    self._raise(f"{text}() takes {want}, found {len(args)}", where)
+                return ("call", text, tuple(args))
+            if text in CONSTANTS:
+                return ("num", CONSTANTS[text])
+            if text in self.variables:
+                self.used.add(text)
+                return ("var", text)
+            if text in FUNCTIONS:
+                self._raise(f"function '{text}' without its arguments", where)
+            if text in ("X", "Y", "Z", "x", "y", "z", "t"):
+                self._raise(f"variable '{text}' is not allowed here", where)
+            self._raise(f"unknown name '{text}'", where)
+        if text == "(":
+            self.take("(")
+            tree = self.expression()
+            self.take(")")
+            return tree
+        self._raise(f"unexpected '{text}'", where)
+
+
+_NUMPY = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
+          "atan": np.arctan, "atan2": np.arctan2, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
+          "abs": np.abs, "min": np.minimum, "max": np.maximum}
+
+
+def _ufl_functions() -> dict:
+    import ufl
+
+    atan2 = getattr(ufl, "atan2", None) or getattr(ufl, "atan_2")  # UFL 2022 names it atan_2
+    return {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "asin": ufl.asin, "acos": ufl.acos,
+            "atan": ufl.atan, "atan2": atan2, "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt,
+            "abs": abs, "min": ufl.min_value, "max": ufl.max_value}
+
+
+def _evaluate(tree, env, functions, literal=False):
+    kind = tree[0]
+    if kind == "num":
+        hook = None if literal else functions.get("__number__")
+        return hook(tree[1]) if hook else tree[1]
+    if kind == "var":
+        return env[tree[1]]
+    if kind == "neg":
+        return -_evaluate(tree[1], env, functions, literal)
+    if kind == "call":
+        args = [_evaluate(a, env, functions, literal) for a in tree[2]]
+        f = functions[tree[1]]
+        out = args[0]
+        if tree[1] in ("min", "max"):
+            for a in args[1:]:
+                out = f(out, a)
+            return out
+        return f(*args)
+    _, op, a, b = tree
+    # an exponent's numbers stay numbers: x^2 stays a square for the compiler
+    a, b = _evaluate(a, env, functions), _evaluate(b, env, functions, literal or op == "^")
+    if op == "+":
+        return a + b
+    if op == "-":
+        return a - b
+    if op == "*":
+        return a * b
+    if op == "/":
+        return a / b
+    return a ** b
