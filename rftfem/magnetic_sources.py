@@ -139,7 +139,7 @@ class NonuniformField:
         else:
             self.formulas = [parse(b, f"{FIELD_KEY}.B.{i}", ("x", "y", "z", "t"))
                              for i, b in enumerate(field["B"])]
-        self._time = self._position = None
+        self._time = self.position_constant = self.moment_constant = None
 
     def position(self, t: float) -> np.ndarray:
         """The dipole's position at ``t`` (held at the path's ends outside it)."""
@@ -153,9 +153,10 @@ class NonuniformField:
         from petsc4py import PETSc
 
         if self.dipole:
-            self._position = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
-            m = fem.Constant(mesh, np.asarray(self.moment, dtype=PETSc.ScalarType))
-            r = x - self._position
+            self.position_constant = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
+            self.moment_constant = m = fem.Constant(
+                mesh, np.asarray(self.moment, dtype=PETSc.ScalarType))
+            r = x - self.position_constant
             rr = ufl.sqrt(ufl.dot(r, r))
             return MU0_OVER_4PI * (3 * r * ufl.dot(m, r) / rr ** 5 - m / rr ** 3)
         self._time = fem.Constant(mesh, PETSc.ScalarType(0.0))
@@ -164,8 +165,8 @@ class NonuniformField:
                               for b in self.formulas])
 
     def set_time(self, t: float) -> None:
-        if self._position is not None:
-            self._position.value[:] = self.position(t)
+        if self.position_constant is not None:
+            self.position_constant.value[:] = self.position(t)
         if self._time is not None:
             self._time.value = t
 
