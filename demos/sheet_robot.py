@@ -10,12 +10,13 @@ periods at 128 steps a period (BDF2, as the scene).  Measured over the last half
 
 - the swimming speed: the centroid's mean velocity along X (mm/s, and body
   lengths per second);
-- how far the sheet follows the field: the swing of the direction of its magnetic
-  moment (body.csv's moment_x, moment_z) against the field's own ±1 rad.  A sheet
-  that follows turns its moment nearly as far as the field turns; past its
-  relaxation rate the swing falls, and with it the speed.
+- the stroke: half the peak-to-peak excursion of the sheet's head (its end at
+  X = 0) across the sheet, and that stroke over the one at the lowest frequency
+  of the same field strength.  A sheet that follows the field makes the same
+  stroke as in a slow swing; past its relaxation rate the stroke falls, and
+  with it, in the end, the speed.
 
-Writes ``sweep.csv`` (one row per run) and ``sweep.png`` (speed and moment swing
+Writes ``sweep.csv`` (one row per run) and ``sweep.png`` (speed and stroke
 against frequency, one curve per field strength), and prints the table.
 """
 
@@ -23,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 import sys
 from pathlib import Path
 
@@ -73,37 +73,41 @@ def swim(b_mT: float, f: float, periods: int, out: Path) -> dict:
     header, rows = read_csv(out / "body.csv")
     t = rows[:, 0]
     x = rows[:, header.index("centroid_x")]
-    mx, mz = rows[:, header.index("moment_x")], rows[:, header.index("moment_z")]
     window = t >= end / 2 - 1e-12
     speed = (x[window][-1] - x[window][0]) / (t[window][-1] - t[window][0])
-    angle = np.unwrap(np.arctan2(mx[window], mz[window]))
+    header, probes = read_csv(out / "probes.csv")
+    head = probes[probes[:, 0] >= end / 2 - 1e-12, header.index("head_uz")]
     row.update(speed_mm_s=speed, body_lengths_s=speed / LENGTH,
-               moment_swing=(angle.max() - angle.min()) / (2 * SWING))
+               stroke_mm=float(np.ptp(head)) / 2)
     return row
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("results/sheet_robot"))
-    p.add_argument("--freqs", type=float, nargs="+", default=[1, 2, 4, 8, 16, 32])
+    p.add_argument("--freqs", type=float, nargs="+", default=[1, 2, 4, 8, 16, 32, 64, 128])
     p.add_argument("--fields", type=float, nargs="+", default=[1, 2, 4],
                    help="field strengths in mT")
     p.add_argument("--periods", type=int, default=8)
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
-    print(f"{'B mT':>5} {'f Hz':>6} {'speed mm/s':>11} {'L/s':>7} {'moment swing':>13}")
+    print(f"{'B mT':>5} {'f Hz':>6} {'speed mm/s':>11} {'L/s':>7} {'stroke mm':>10} "
+          f"{'of slowest':>10}")
     for b in args.fields:
-        for f in args.freqs:
+        slow = None
+        for f in sorted(args.freqs):
             row = swim(b, f, args.periods, args.out / f"b{b:g}_f{f:g}")
             rows.append(row)
-            if row["status"] == "ok":
-                print(f"{b:5g} {f:6g} {row['speed_mm_s']:11.4f} {row['body_lengths_s']:7.3f} "
-                      f"{row['moment_swing']:13.2f}", flush=True)
-            else:
+            if row["status"] != "ok":
                 print(f"{b:5g} {f:6g} {row['status']}", flush=True)
+                continue
+            slow = slow or row["stroke_mm"]
+            row["stroke_ratio"] = row["stroke_mm"] / slow
+            print(f"{b:5g} {f:6g} {row['speed_mm_s']:11.4f} {row['body_lengths_s']:7.3f} "
+                  f"{row['stroke_mm']:10.3f} {row['stroke_ratio']:10.2f}", flush=True)
     keys = ["field_mT", "frequency_Hz", "status", "speed_mm_s", "body_lengths_s",
-            "moment_swing"]
+            "stroke_mm", "stroke_ratio"]
     with open(args.out / "sweep.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
@@ -126,13 +130,14 @@ def _plot(rows, path):
                     key=lambda r: r["frequency_Hz"])
         f = [r["frequency_Hz"] for r in ok]
         a1.plot(f, [r["speed_mm_s"] for r in ok], marker="o", label=f"{b:g} mT")
-        a2.plot(f, [r["moment_swing"] for r in ok], marker="o", label=f"{b:g} mT")
+        a2.plot(f, [r["stroke_ratio"] for r in ok], marker="o", label=f"{b:g} mT")
     a1.axhline(0.0, lw=0.6, color="grey")
     a1.set_ylabel("speed along X (mm/s)")
+    a1.set_xscale("log")
     a1.set_title("Sheet robot: field swinging ±1 rad about Z")
     a1.legend(fontsize=8)
     a2.axhline(0.5, ls="--", lw=0.8, color="grey")
-    a2.set_ylabel("moment swing / field swing")
+    a2.set_ylabel("stroke / stroke at the lowest f")
     a2.set_xlabel("frequency (Hz)")
     a2.set_xscale("log")
     fig.tight_layout()

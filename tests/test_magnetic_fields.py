@@ -465,44 +465,21 @@ def test_magnetic_terms_taylor_remainder(tmp_path, field):
     formulas of X, Y, Z in the magnetization, with a nonuniform expression field, a
     moving dipole, and a uniform waveform.  Its ``ufl.derivative`` Jacobian leaves a
     Taylor remainder falling as ε² (orders ≥ 1.9; reached 2.00)."""
-    import ufl
-
-    from rftfem import compat
-    from test_consistency import _orders, _random_state
+    from test_consistency import _random_state, term_taylor
 
     model = build_model(TAYLOR_STRIP + TAYLOR_FIELDS[field], tmp_path, compile_forms=False)
     model.set_time(0.5)
     rng = np.random.default_rng(11)
     w0 = _random_state(model, rng, 0.4)
-    term = model.effects["magnetic"]
-    F = compat.form(term)
-    J = compat.form(ufl.derivative(term, model.w, ufl.TrialFunction(model.W)))
-
-    def residual():
-        b = compat.create_vector(F, model.W)
-        compat.assemble_vector(b, F)
-        out = b.getArray().copy()
-        b.destroy()
-        return out
-
     delta = rng.uniform(-1, 1, len(w0))
-    A = compat.create_matrix(J)
-    compat.assemble_matrix(A, J, [])
-    A.assemble()
-    x, y = A.createVecRight(), A.createVecLeft()
-    x.setArray(delta)
-    A.mult(x, y)
-    jd = y.getArray().copy()
-    for obj in (A, x, y):
-        obj.destroy()
-    orders, rem, r0 = _orders(residual, w0, delta, jd, model)
+    orders, rem, r0, jd = term_taylor(model, model.effects["magnetic"], w0, delta)
     print(f"{field}: |R| {np.linalg.norm(r0):.3e}, remainders {rem}, orders {orders}")
     assert np.linalg.norm(jd) > 0 and orders.min() >= 1.9
 
 
 # ------------------------------------------------------------------ profiles, ranks, input
 
-def _profile_scene(tmp_path, part: str) -> "Path":
+def _profile_scene(tmp_path, part: str):
     text = STRIP.replace('''magnetization = 1.0
 direction = [1.0, 0.0, 0.0]''', part) + ('[magnetic.field]\nkind = "expression"\n'
                                          'B = ["0", "0.3*t", "0.6*t"]\n')

@@ -149,7 +149,7 @@ class Magnetic(Effect):
             out.append(f"magnetic field: {kind}")
         if not is_uniform(mag["field"]):
             out.append("magnetic gradient force")
-        if any(_is_profile(part) for part in mag["parts"]):
+        if any(_varies(part) for part in mag["parts"]):
             out.append("magnetization profile")
         return out
 
@@ -236,7 +236,7 @@ class Magnetic(Effect):
                                      f"magnetic.parts.{j}.region; a cell has one magnetization")
             owner[i] = cells
         self.part_cells = owner
-        plain = not any(_is_profile(part) for part in self.parts)
+        plain = not any(_varies(part) for part in self.parts)
         if plain:
             # today's forms, to the last bit: M cellwise, parts switched off (0, e.g. in
             # a sweep) left out of the measure, q = F q₀ with q₀ = M/|M|
@@ -364,7 +364,7 @@ class Magnetic(Effect):
 
     def _largest_magnetization(self, i: int) -> float:
         part = self.parts[i]
-        if not _is_profile(part):
+        if not _varies(part):
             return part["magnetization"]
         # sampled at the part's P2 nodes (formulas) or the profile's points
         from rftfem import compat
@@ -389,7 +389,7 @@ class Magnetic(Effect):
         return {"magnetization": self.magnetization}  # m q, 0 off the parts
 
 
-def _is_profile(part: dict) -> bool:
+def _varies(part: dict) -> bool:
     """Whether a part's magnetization varies over it (formulas or a profile file)."""
     return part["profile"] is not None or isinstance(part["magnetization"], str) \
         or any(isinstance(v, str) for v in part["direction"])
