@@ -540,28 +540,38 @@ def _one_line_exit_2(args, *words):
     return lines[0]
 
 
+def _scene_error(tmp_path, text, *sets, build=False) -> str:
+    """The SceneError of loading (``build``: and building the model of) a scene: one line."""
+    from rftfem.scene import load_scene
+
+    with pytest.raises(SceneError) as e:
+        if build:
+            build_model(text, tmp_path, sets)
+        else:
+            load_scene(write_scene(tmp_path, text), list(sets))
+    msg = str(e.value)
+    assert "\n" not in msg, msg
+    return msg
+
+
 def test_bad_magnetic_input_is_one_line_exit_2(tmp_path):
-    """Bad formulas, tables, profile files and a dipole inside the body: exit 2, one
-    line naming the key."""
-    scene = write_scene(tmp_path, TAYLOR_STRIP + TAYLOR_FIELDS["expression"])
-    check = ["check", scene, "--set"]
-    _one_line_exit_2([*check, 'magnetic.parts.0.magnetization="1 + sin(X"'],
-                     "magnetic.parts.0.magnetization", "expected ')'")
-    _one_line_exit_2([*check, 'magnetic.field.B=["x", "q", "0"]'],
-                     "magnetic.field.B.1", "unknown name 'q'")
-    _one_line_exit_2([*check, 'magnetic.parts.0.direction=["X", "0", "t"]'],
-                     "magnetic.parts.0.direction.2", "variable 't' is not allowed")
-    _one_line_exit_2([*check, 'magnetic.field.values=[[0, 1, 2, 3]]'],
-                     "magnetic.field.values", 'kind = "table"')
-    _one_line_exit_2([*check, 'magnetic.field.kind="table"', "--set",
-                      'magnetic.field.B=["0","0","1"]'], "magnetic.field.B", '"expression"')
-    _one_line_exit_2([*check, 'magnetic.field.kind="dipole"', "--set", "magnetic.field.B=[0,0,1]"],
-                     "magnetic.field.B")
-    dipole = write_scene(tmp_path, TAYLOR_STRIP + '[magnetic.field]\nkind = "dipole"\n'
-                         'moment = [0.0, 0.0, 1.0]\nposition = [2.0, 0.5, 0.05]\n', "in.toml")
-    _one_line_exit_2(["run", dipole, "--out", tmp_path / "in"], "magnetic.field.position",
-                     "inside the body")
-    # a profile grid with a hole, and one that does not reach the body's end
+    """Bad formulas, tables, profile files and a dipole inside the body: one line
+    naming the key (in process); through the command line, exit 2 with that line."""
+    text = TAYLOR_STRIP + TAYLOR_FIELDS["expression"]
+    for sets, words in (
+            (['magnetic.field.B=["x", "q", "0"]'], ["magnetic.field.B.1", "unknown name 'q'"]),
+            (['magnetic.parts.0.direction=["X", "0", "t"]'],
+             ["magnetic.parts.0.direction.2", "variable 't' is not allowed"]),
+            (["magnetic.field.values=[[0, 1, 2, 3]]"], ["magnetic.field.values", 'kind = "table"']),
+            (['magnetic.field.kind="table"', 'magnetic.field.B=["0","0","1"]'],
+             ["magnetic.field.B", '"expression"']),
+            (['magnetic.field.kind="dipole"', "magnetic.field.B=[0,0,1]"], ["magnetic.field.B"])):
+        msg = _scene_error(tmp_path, text, *sets)
+        assert all(w in msg for w in words), msg
+    msg = _scene_error(tmp_path, TAYLOR_STRIP + '[magnetic.field]\nkind = "dipole"\n'
+                       'moment = [0.0, 0.0, 1.0]\n')
+    assert "'position' (fixed) and 'path'" in msg and "neither" in msg, msg
+    # a profile grid with a hole, one that does not reach the body's end, none at all
     _write_profile(tmp_path / "m.csv", np.linspace(0, 4, 5), [0.0, 1.0],
                    lambda x: (1.0, 0.0, 0.0))
     lines = (tmp_path / "m.csv").read_text().splitlines()
@@ -571,8 +581,16 @@ def test_bad_magnetic_input_is_one_line_exit_2(tmp_path):
     for name, words in (("hole.csv", ["magnetic.parts.0.profile", "missing"]),
                         ("short.csv", ["magnetic.parts.0.profile", "does not cover"]),
                         ("none.csv", ["magnetic.parts.0.profile", "cannot read"])):
-        scene = write_scene(tmp_path, TAYLOR_STRIP.replace(
+        profiled = TAYLOR_STRIP.replace(
             '''magnetization = "1 + 0.5*sin(X)"
 direction = ["cos(2*X)", "0.3", "sin(2*X) + 0.2*Y"]''', f'profile = "{name}"')
-            + TAYLOR_FIELDS["uniform"], f"p_{name}.toml")
-        _one_line_exit_2(["run", scene, "--out", tmp_path / f"out_{name}"], *words)
+        msg = _scene_error(tmp_path, profiled + TAYLOR_FIELDS["uniform"], build=True)
+        assert all(w in msg for w in words), msg
+    # the command line: exit 2 and the one line, at check and at run
+    scene = write_scene(tmp_path, text)
+    _one_line_exit_2(["check", scene, "--set", 'magnetic.parts.0.magnetization="1 + sin(X"'],
+                     "magnetic.parts.0.magnetization", "expected ')'")
+    dipole = write_scene(tmp_path, TAYLOR_STRIP + '[magnetic.field]\nkind = "dipole"\n'
+                         'moment = [0.0, 0.0, 1.0]\nposition = [2.0, 0.5, 0.05]\n', "in.toml")
+    _one_line_exit_2(["run", dipole, "--out", tmp_path / "in"], "magnetic.field.position",
+                     "inside the body")
