@@ -4,7 +4,8 @@
   formulas of ``t``, or a table of rows ``t, Bx, By, Bz`` (linear or cubic);
 - :class:`NonuniformField`: ``B(x, t)`` at the current position ``x``: formulas
   of ``x, y, z, t``, or a point dipole, fixed or moving along a path;
-- :func:`profile_values`: a magnetization profile file, interpolated to points.
+- :func:`profile_values`: a magnetization profile file, interpolated to points;
+- :func:`check_field`: the checks of ``[magnetic.field]`` by kind.
 
 Numbers (numpy) for outputs and checks, UFL for the forms; the forms themselves
 are in :mod:`rftfem.forms.magnetic`.
@@ -27,6 +28,64 @@ from rftfem.triad import rotate
 MU0_OVER_4PI = 1e-7
 
 FIELD_KEY = "magnetic.field"
+
+
+#: the keys of each kind of [magnetic.field]
+FIELD_KINDS = {
+    "rotating": ("strength", "ramp_time", "direction", "frequency", "rotation_axis"),
+    "expression": ("B",),
+    "table": ("values", "interpolation"),
+    "dipole": ("moment", "position", "path"),
+}
+_ROTATING_DEFAULTS = {"strength": 0.0, "ramp_time": 0.0, "direction": [1.0, 0.0, 0.0],
+                      "frequency": 0.0, "rotation_axis": [0.0, 0.0, 1.0]}
+
+
+def check_field(field: dict) -> None:
+    """Checks of ``[magnetic.field]`` after the schema: the keys of its kind only, the
+    rotating protocol's defaults filled in, what each kind requires."""
+    kind = field["kind"]
+    for other, keys in FIELD_KINDS.items():
+        for key in keys:
+            if other != kind and key not in FIELD_KINDS[kind] and field[key] is not None:
+                users = [k for k, ks in FIELD_KINDS.items() if key in ks]
+                raise SceneError(f"magnetic.field.{key}: only used with kind = "
+                                 + " or ".join(f'"{k}"' for k in users)
+                                 + f", found kind = {fmt(kind)}")
+    if kind == "rotating":
+        for key, value in _ROTATING_DEFAULTS.items():
+            if field[key] is None:
+                field[key] = list(value) if isinstance(value, list) else value
+        if field["frequency"] != 0.0:  # a rotating field needs an axis across it
+            b, a = unit_vector(field["direction"]), unit_vector(field["rotation_axis"])
+            cross = (b[1] * a[2] - b[2] * a[1], b[2] * a[0] - b[0] * a[2],
+                     b[0] * a[1] - b[1] * a[0])
+            if math.hypot(*cross) <= 1e-9:
+                raise SceneError(
+                    f"magnetic.field.rotation_axis: expected an axis not parallel to "
+                    f"magnetic.field.direction = {fmt(field['direction'])} (the field "
+                    f"would not rotate at frequency = {fmt(field['frequency'])}), found "
+                    f"{fmt(field['rotation_axis'])}")
+    elif kind == "expression" and field["B"] is None:
+        raise SceneError('missing required key \'magnetic.field.B\' (three numbers or '
+                         'formulas of x, y, z, t, because magnetic.field.kind = '
+                         '"expression")')
+    elif kind == "table":
+        if field["values"] is None:
+            raise SceneError("missing required key 'magnetic.field.values' (rows [t, Bx, "
+                             'By, Bz], because magnetic.field.kind = "table")')
+        field["interpolation"] = field["interpolation"] or "linear"
+        if field["interpolation"] == "cubic" and len(field["values"]) < 4:
+            raise SceneError(f"magnetic.field.values: a cubic table needs four rows at "
+                             f"least, found {len(field['values'])}")
+    elif kind == "dipole":
+        if field["moment"] is None:
+            raise SceneError("missing required key 'magnetic.field.moment' (the source's "
+                             'dipole moment, because magnetic.field.kind = "dipole")')
+        if (field["position"] is None) == (field["path"] is None):
+            raise SceneError("magnetic.field: a dipole takes one of 'position' (fixed) and "
+                             "'path' (rows [t, x, y, z]), found "
+                             + ("both" if field["position"] is not None else "neither"))
 
 
 def is_uniform(field: dict) -> bool:

@@ -18,7 +18,6 @@ body.csv and the magnetization to fields.xdmf.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -27,26 +26,15 @@ import ufl
 from rftfem.errors import SceneError
 from rftfem.expressions import parse
 from rftfem.forms import kinematics, magnetic
-from rftfem.magnetic_sources import (NonuniformField, UniformField, constant_maker, is_uniform,
-                                     profile_values, read_profile)
+from rftfem.magnetic_sources import (FIELD_KINDS, NonuniformField, UniformField, check_field,
+                                     constant_maker, is_uniform, profile_values, read_profile)
 from rftfem.schema import (NONNEGATIVE, Array, Formula, Formulas, Leaf, Num, Rows, Str, Table,
-                           Vec, check_unique, fmt, unit_vector)
+                           Vec, check_unique)
 from rftfem.selectors import cells_of, check_region_ref
 
 from .base import Effect
 
 REFERENCE = ("X", "Y", "Z")
-#: the keys of each kind of [magnetic.field]
-FIELD_KINDS = {
-    "rotating": ("strength", "ramp_time", "direction", "frequency", "rotation_axis"),
-    "expression": ("B",),
-    "table": ("values", "interpolation"),
-    "dipole": ("moment", "position", "path"),
-}
-_ROTATING_DEFAULTS = {"strength": 0.0, "ramp_time": 0.0, "direction": [1.0, 0.0, 0.0],
-                      "frequency": 0.0, "rotation_axis": [0.0, 0.0, 1.0]}
-
-
 class Magnetic(Effect):
     name = "magnetic"
     keys = {
@@ -157,49 +145,7 @@ class Magnetic(Effect):
     def check(cls, scene):
         if not scene["magnetic"]:
             return
-        field = scene["magnetic"]["field"]
-        kind = field["kind"]
-        for other, keys in FIELD_KINDS.items():
-            for key in keys:
-                if other != kind and key not in FIELD_KINDS[kind] and field[key] is not None:
-                    users = [k for k, ks in FIELD_KINDS.items() if key in ks]
-                    raise SceneError(f"magnetic.field.{key}: only used with kind = "
-                                     + " or ".join(f'"{k}"' for k in users)
-                                     + f", found kind = {fmt(kind)}")
-        if kind == "rotating":
-            for key, value in _ROTATING_DEFAULTS.items():
-                if field[key] is None:
-                    field[key] = list(value) if isinstance(value, list) else value
-            if field["frequency"] != 0.0:  # a rotating field needs an axis across it
-                b, a = unit_vector(field["direction"]), unit_vector(field["rotation_axis"])
-                cross = (b[1] * a[2] - b[2] * a[1], b[2] * a[0] - b[0] * a[2],
-                         b[0] * a[1] - b[1] * a[0])
-                if math.hypot(*cross) <= 1e-9:
-                    raise SceneError(
-                        f"magnetic.field.rotation_axis: expected an axis not parallel to "
-                        f"magnetic.field.direction = {fmt(field['direction'])} (the field "
-                        f"would not rotate at frequency = {fmt(field['frequency'])}), found "
-                        f"{fmt(field['rotation_axis'])}")
-        elif kind == "expression" and field["B"] is None:
-            raise SceneError('missing required key \'magnetic.field.B\' (three numbers or '
-                             'formulas of x, y, z, t, because magnetic.field.kind = '
-                             '"expression")')
-        elif kind == "table":
-            if field["values"] is None:
-                raise SceneError("missing required key 'magnetic.field.values' (rows [t, Bx, "
-                                 'By, Bz], because magnetic.field.kind = "table")')
-            field["interpolation"] = field["interpolation"] or "linear"
-            if field["interpolation"] == "cubic" and len(field["values"]) < 4:
-                raise SceneError(f"magnetic.field.values: a cubic table needs four rows at "
-                                 f"least, found {len(field['values'])}")
-        elif kind == "dipole":
-            if field["moment"] is None:
-                raise SceneError("missing required key 'magnetic.field.moment' (the source's "
-                                 'dipole moment, because magnetic.field.kind = "dipole")')
-            if (field["position"] is None) == (field["path"] is None):
-                raise SceneError("magnetic.field: a dipole takes one of 'position' (fixed) and "
-                                 "'path' (rows [t, x, y, z]), found "
-                                 + ("both" if field["position"] is not None else "neither"))
+        check_field(scene["magnetic"]["field"])
         for i, part in enumerate(scene["magnetic"]["parts"]):
             where = f"magnetic.parts.{i}"
             check_region_ref(part["region"], f"{where}.region", scene)
