@@ -212,18 +212,24 @@ def test_every_effect_taylor_remainder(tmp_path):
             assert np.linalg.norm(jd) > 0 and orders[1:].min() >= 1.9, name
 
 
-def term_taylor(model, term, w0, delta):
-    """The Taylor test of one term (a 1-form of ``model.w``) against its ``ufl.derivative``
-    at ``w0`` along ``delta``: (orders, remainders, R(w₀), J δ)."""
-    F = compat.form(term)
-    J = compat.form(ufl.derivative(term, model.w, ufl.TrialFunction(model.W)))
-
+def vector_of(model, F):
+    """A function assembling the compiled 1-form ``F`` of the current ``model.w`` into a
+    numpy array (no boundary conditions, no ghost update)."""
     def residual():
         b = compat.create_vector(F, model.W)
         compat.assemble_vector(b, F)
         out = b.getArray().copy()
         b.destroy()
         return out
+    return residual
+
+
+def term_taylor(model, term, w0, delta):
+    """The Taylor test of one term (a 1-form of ``model.w``) against its ``ufl.derivative``
+    at ``w0`` along ``delta``: (orders, remainders, R(w₀), J δ)."""
+    F = compat.form(term)
+    J = compat.form(ufl.derivative(term, model.w, ufl.TrialFunction(model.W)))
+    residual = vector_of(model, F)
 
     n_local = model.W.dofmap.index_map.size_local * model.W.dofmap.index_map_bs
     A = compat.create_matrix(J)
@@ -258,13 +264,7 @@ def test_drag_alone_taylor_remainder(tmp_path):
     drag = model.effects["drag"]
     F = compat.form(drag)
     J = compat.form(ufl.derivative(drag, model.w, ufl.TrialFunction(model.W)))
-
-    def residual():
-        b = compat.create_vector(F, model.W)
-        compat.assemble_vector(b, F)
-        out = b.getArray().copy()
-        b.destroy()
-        return out
+    residual = vector_of(model, F)
 
     A = compat.create_matrix(J)
     compat.assemble_matrix(A, J, [])

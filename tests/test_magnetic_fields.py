@@ -187,13 +187,9 @@ def plate_model(tmp_path_factory):
 
 def magnetic_residual(model) -> np.ndarray:
     from rftfem import compat
+    from test_consistency import vector_of
 
-    form = compat.form(model.effects["magnetic"])
-    b = compat.create_vector(form, model.W)
-    compat.assemble_vector(b, form)
-    out = b.getArray().copy()
-    b.destroy()
-    return out
+    return vector_of(model, compat.form(model.effects["magnetic"]))()
 
 
 @pytest.mark.parametrize("source", [(1.0, 0.0, 0.0), (0.6, 0.0, 0.8), (-0.3, 0.5, 0.2)])
