@@ -31,8 +31,8 @@ class DirichletSpaces:
 
     def zero(self, sub, dim: int, entities, name: str, holder: str):
         """``sub = 0`` on the dofs of the entities, recorded as held by ``holder``.
-        Returns the condition and its local number of dofs."""
+        Returns the condition and its local dofs of the mixed space."""
         V, zero = self.space(sub, name)
         dofs = fem.locate_dofs_topological((sub, V), dim, entities)
         self.hold(name, holder, dofs[0])
-        return fem.dirichletbc(zero, dofs, sub), len(dofs[0])
+        return fem.dirichletbc(zero, dofs, sub), np.asarray(dofs[0])

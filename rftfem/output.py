@@ -52,13 +52,15 @@ class Probes:
 class BodyLog:
     """Whole-body diagnostics, one row per output step (``body.csv``): the centroid
     and the stored energy, then the columns of each active effect (the kinetic
-    energy with inertia, the drag power, the field and the magnetic moment, ...).
-    Every value is global."""
+    energy with inertia, the drag power, the field and the magnetic moment, ...),
+    then the named entries' reactions (reactions.py).  Every value is global."""
 
-    def __init__(self, model):
-        self.model = model
+    def __init__(self, model, reactions=None):
+        self.model, self.reactions = model, reactions
         self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
         self.columns += [c for comp in model.components for c in comp.columns]
+        if reactions:
+            self.columns += reactions.columns
 
     def header(self) -> list[str]:
         return self.columns
@@ -68,6 +70,8 @@ class BodyLog:
         row = [*m.centroid(), m.elastic_energy()]
         for comp in m.components:
             row += comp.values(t)
+        if self.reactions:
+            row += list(self.reactions.last.ravel())
         return row
 
 

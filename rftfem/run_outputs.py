@@ -40,7 +40,7 @@ class RunOutputs:
         logs["steps"] = CsvLog(out / "steps.csv",
                                ["time", "dt", "newton_its", "residual", "wall_s"], self.comm,
                                append=again)
-        self.body = BodyLog(self.model)
+        self.body = BodyLog(self.model, self.reactions)
         logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header()], self.comm,
                               append=again)
         if fields:

@@ -31,6 +31,7 @@ from .errors import RunFailed, RunInterrupted, SceneError
 from .interrupts import NoStops, StopRequests
 from .model import Model
 from .output import Probes, Progress, render_in_child, write_json
+from .reactions import Reactions
 from .restart import Restarts
 from .run_outputs import RunOutputs
 from .solver import StepSolver
@@ -119,6 +120,8 @@ class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
         self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),
                                             petsc_args)
         self.solver = StepSolver(self.model, self.options)
+        #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
+        self.reactions = Reactions(self.model)
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
         self.step = 0

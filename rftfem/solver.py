@@ -342,6 +342,28 @@ class StepSolver:
         self._forced = bool(on)
         self.snes.setForceIteration(self._forced)
 
+    def raw_residual(self):
+        """The local array (owned entries complete) of the converged step's residual
+        before its Dirichlet rows are replaced: ``(1 − α_f) F + α_f F_n`` plus inertia,
+        at the model's current iterate (reactions.py)."""
+        m = self.model
+        if self._x_of_F is not None:
+            self.work.waxpy(-1.0, self._x_of_F, compat.petsc_vec(m.w))
+            fresh = self.work.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+        else:
+            fresh = False
+        if not fresh:
+            self.assemble_forces()
+            self._x_of_F = compat.petsc_vec(m.w).copy(self._x_of_F)
+        alpha_f = float(m.coef["alpha_f"].value)
+        out = (1.0 - alpha_f) * self.F.array
+        if alpha_f != 0.0:
+            out += alpha_f * self.F_n.array
+        if m.inertia_form is not None:
+            self._assemble(self.work, m.inertia_form)
+            out += self.work.array
+        return out
+
     def store_forces(self):
         """Keep ``F`` at the converged state as ``F_n`` for the next step: the last
         residual's F when SNES evaluated it there (its own convergence test, as

@@ -79,6 +79,8 @@ class StepControl:
             err = self._local_error()
             if err is not None:
                 self.time_errors.append(err)
+        if self.reactions:
+            self.reactions.compute(self.solver.raw_residual())
         self.solver.store_forces()
         t0 = _time.perf_counter()
         m.accept(scheme, dt, t_new)

@@ -71,6 +71,11 @@ class Effect:
         """Dirichlet conditions it imposes."""
         return []
 
+    def reaction_dofs(self) -> list:
+        """``(name, local mixed-space dofs)`` of its named entries, whose reactions
+        body.csv carries (reactions.py)."""
+        return []
+
     #: whether its Dirichlet values change in time
     moving = False
 

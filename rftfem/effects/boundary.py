@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.schema import Array, Fix, Leaf, Table, Vec, Where, fmt
+from rftfem.schema import Array, Fix, Leaf, Str, Table, Vec, Where, fmt
 from rftfem.selectors import check_where, entities_of
 
 from .base import Effect
@@ -34,6 +34,14 @@ _EITHER = "none: give fix or symmetry"
 SQUARE = 5e-3
 
 
+#: the ``name`` of a ``[[boundary]]`` or ``[[motion]]`` entry (reactions.py)
+NAME = Leaf(Str(name=True), None, default_doc="none: no reaction written",
+            doc="With a name, the force and moment the entry carries go to body.csv as "
+                "NAME_Fx, NAME_Fy, NAME_Fz, NAME_Mx, NAME_My, NAME_Mz (the moment about "
+                "the origin; the sign of a load on the body). Names are unique across "
+                "[[boundary]] and [[motion]].")
+
+
 class Boundaries(Effect):
     keys = {
         "boundary": Array(Table({
@@ -41,6 +49,7 @@ class Boundaries(Effect):
                           doc="Where: all, an edge (x=0, x=L, y=0, y=W, a gmsh physical "
                               "curve), a hinge line, a region or a gmsh physical point (to "
                               "hold a rigid motion); an edge for symmetry."),
+            "name": NAME,
             "fix": Leaf(Fix(), None, default_doc=_EITHER,
                         doc="What is held at zero: the displacement components ux, uy, uz "
                             '(global axes) and "rotation" (the director keeps its reference '
@@ -79,6 +88,8 @@ class Boundaries(Effect):
     def __init__(self, model):
         super().__init__(model)
         self._bcs = []
+        #: per entry, the local mixed dofs it holds
+        self._held = [[] for _ in self.scene["boundary"]]
         for k, bnd in enumerate(self.scene["boundary"]):
             if bnd["symmetry"] is not None:
                 self._symmetry(k, bnd)
@@ -104,8 +115,9 @@ class Boundaries(Effect):
                           own) for i in range(2)]
         counts = {}
         for component, sub, name, ents in subs:
-            bc, n = model.dirichlet.zero(sub, dim, ents, name, "a [[boundary]]")
-            counts[component] = counts.get(component, 0) + n
+            bc, dofs = model.dirichlet.zero(sub, dim, ents, name, "a [[boundary]]")
+            counts[component] = counts.get(component, 0) + len(dofs)
+            self._held[k].append(dofs)
             self._bcs.append(bc)
         for n in counts.values():
             if model.comm.allreduce(n) == 0:
@@ -127,9 +139,10 @@ class Boundaries(Effect):
                              "symmetry is an edge")
         axis = int(np.argmax(np.abs(bnd["symmetry"])))
         n = np.eye(3)[axis]
-        bc, count = model.dirichlet.zero(model.W.sub(0).sub(axis), dim, entities,
-                                         ("ux", "uy", "uz")[axis], "a [[boundary]]")
-        if model.comm.allreduce(count) == 0:
+        bc, dofs = model.dirichlet.zero(model.W.sub(0).sub(axis), dim, entities,
+                                        ("ux", "uy", "uz")[axis], "a [[boundary]]")
+        self._held[k].append(dofs)
+        if model.comm.allreduce(len(dofs)) == 0:
             raise SceneError(f"{key}.where: '{bnd['where']}' matches no degree of freedom")
         self._bcs.append(bc)
         bad = 0
@@ -154,6 +167,7 @@ class Boundaries(Effect):
                     bad += int(np.sum(~keep & ~other | (size < 1e-6)))
                 picked = [np.asarray(dofs[0])[keep], np.asarray(dofs[1])[keep]]
                 model.dirichlet.hold(f"theta{i + 1}_{c}", "a [[boundary]]", picked[0])
+                self._held[k].append(picked[0])
                 self._bcs.append(fem.dirichletbc(zero, picked, sub))
         if model.comm.allreduce(bad):
             raise SceneError(f"{key}.symmetry: at {model.comm.allreduce(bad)} nodes of "
@@ -163,3 +177,8 @@ class Boundaries(Effect):
 
     def bcs(self):
         return self._bcs
+
+    def reaction_dofs(self):
+        return [(bnd["name"], np.concatenate(held) if held else np.empty(0, dtype=np.int64))
+                for bnd, held in zip(self.scene["boundary"], self._held)
+                if bnd["name"] is not None]

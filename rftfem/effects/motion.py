@@ -25,7 +25,7 @@ from rftfem.schema import Array, Leaf, Num, Pairs, Str, Table, Where, table_iff
 from rftfem.selectors import check_where, entities_of
 
 from .base import Effect
-from .boundary import DISPLACEMENT_COMPONENTS
+from .boundary import DISPLACEMENT_COMPONENTS, NAME
 
 
 class Motions(Effect):
@@ -35,6 +35,7 @@ class Motions(Effect):
     "motion": Array(Table({
         "where": Leaf(Where(), "all",
                        doc="Where, as for `[[boundary]].where`."),
+        "name": NAME,
         "component": Leaf(Str(("ux", "uy", "uz")), required=True,
                            doc="The displacement component prescribed (global axes)."),
         "kind": Leaf(Str(("travelling-wave", "table")), "travelling-wave",
@@ -96,6 +97,7 @@ class Motions(Effect):
             X = V.tabulate_dof_coordinates()[np.asarray(dofs[1]), 0]
             motion = Motion(spec, value, np.asarray(dofs[1]), X, fem.dirichletbc(value, dofs, sub))
             motion.u_index = self._displacement_index(np.asarray(dofs[0]))
+            motion.dofs = np.asarray(dofs[0])
             self.motions.append(motion)
 
     def _displacement_index(self, mixed_dofs):
@@ -108,6 +110,9 @@ class Motions(Effect):
 
     def bcs(self):
         return [m.bc for m in self.motions]
+
+    def reaction_dofs(self):
+        return [(m.spec["name"], m.dofs) for m in self.motions if m.spec["name"] is not None]
 
     def set_time(self, t):
         for motion in self.motions:
