@@ -37,7 +37,7 @@ FORMAT = 1
 
 #: scene keys a restart may change: they do not change the physics of the steps
 #: already taken (time.end extends a run; the rest are how it is watched or solved)
-MAY_DIFFER = ("title", "time.end", "time.max_cuts", "time.output_every",
+MAY_DIFFER = ("title", "time.end", "time.max_steps", "time.max_cuts", "time.output_every",
               "output.checkpoint_every", "output.render")
 
 

@@ -175,8 +175,8 @@ class Progress:
     """
 
     def __init__(self, end: float, comm, quiet: bool = False, stream=None,
-                 interval: float | None = None):
-        self.end = end
+                 interval: float | None = None, label: str = "t"):
+        self.end, self.label = end, label
         self.stream = stream or sys.stdout
         self.active = comm.rank == 0
         self.quiet = quiet
@@ -221,12 +221,13 @@ class Progress:
         if self.bar:
             width = 30
             done = int(width * min(t / self.end, 1.0))
-            self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] t = {t:.4g}/{self.end:.4g}"
+            self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] {self.label} = "
+                              f"{t:.4g}/{self.end:.4g}"
                               f"  step {step}  newton {newton}  eta {eta:.0f} s\033[K")
             self.stream.flush()
         elif now - self.last_line >= self.interval:
             self.last_line = now
-            self._write(f"t = {t:.6g}/{self.end:.6g}  step {step}  newton {newton}  "
+            self._write(f"{self.label} = {t:.6g}/{self.end:.6g}  step {step}  newton {newton}  "
                         f"residual {residual:.3e}  elapsed {elapsed:.1f} s  eta {eta:.0f} s")
 
     def close(self):

@@ -24,8 +24,10 @@ class Restarts:
         if differs:
             raise SceneError(f"--restart {folder}: the scene differs from the checkpointed one "
                              f"at {differs}")
-        if meta["time"] >= self.scene["time"]["end"] * (1 - 1e-12):
-            raise SceneError(f"--restart {folder}: the checkpoint is at t = {meta['time']:.6g}, "
+        reached = meta["path"]["load_factor"] if meta.get("path") else meta["time"]
+        if reached >= self.scene["time"]["end"] * (1 - 1e-12):
+            what = "load factor" if meta.get("path") else "t"
+            raise SceneError(f"--restart {folder}: the checkpoint is at {what} = {reached:.6g}, "
                              f"not before time.end = {self.scene['time']['end']:g}; raise "
                              "time.end to go on")
         return path, meta
@@ -40,6 +42,11 @@ class Restarts:
         self.t, self.completed = meta["time"], meta["step"]
         self.level, self.last_turn = meta.get("substep_level", 0), meta.get("last_turn", 0.0)
         self.step = self.completed
+        if meta.get("path"):  # an arc-length run: where on the path, which way, how far
+            state = meta["path"]
+            self.load_factor, self.arc = state["load_factor"], state["arc"]
+            self.first_arc, self.first_increment = state["first_arc"], state["first_increment"]
+            self.path_direction = arrays.get("path_direction")
         self.counts.update(meta["counts"])
         self.wall_before = meta["wall_s"]
         self.restarts = meta.get("restarts", []) + [{"time": self.t, "step": self.completed,
@@ -60,7 +67,13 @@ class Restarts:
         t0 = _time.perf_counter()
         arrays, increment_steps = self.model.state()
         arrays["forces"] = self.solver.F_n.array.copy()
-        meta = {"time": self.t, "step": self.completed, "counts": dict(self.counts),
+        path = None
+        if self.scheme.name == "arc-length":
+            path = {"load_factor": self.load_factor, "arc": self.arc,
+                    "first_arc": self.first_arc, "first_increment": self.first_increment}
+            if self.path_direction is not None:
+                arrays["path_direction"] = self.path_direction
+        meta = {"path": path,"time": self.t, "step": self.completed, "counts": dict(self.counts),
                 "increment_steps": increment_steps,
                 "last_step": getattr(self.scheme, "dt_prev", None), "next_step": next_step,
                 "substep_level": self.level, "last_turn": self.last_turn,

@@ -15,6 +15,7 @@ from . import __version__, compat
 from .errors import SceneError
 from .output import (BodyLog, CsvLog, FieldWriter, field_segments, keep_fields_until,
                      keep_rows_until, merge_field_segment)
+from .timeint import STATIC_SCHEMES
 
 
 class RunOutputs:
@@ -35,13 +36,16 @@ class RunOutputs:
         segment = None
         if again:
             segment = self._continue_outputs(fields)
-        logs["probes"] = CsvLog(out / "probes.csv", ["time", *self.probes.header()],
+        # static runs end their rows with the load factor (time itself under load
+        # control; an arc-length run's time is the path's length)
+        lf = ["load_factor"] if self.static_run else []
+        logs["probes"] = CsvLog(out / "probes.csv", ["time", *self.probes.header(), *lf],
                                 self.comm, append=again)
         logs["steps"] = CsvLog(out / "steps.csv",
-                               ["time", "dt", "newton_its", "residual", "wall_s"], self.comm,
-                               append=again)
+                               ["time", "dt", "newton_its", "residual", "wall_s", *lf],
+                               self.comm, append=again)
         self.body = BodyLog(self.model, self.reactions)
-        logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header()], self.comm,
+        logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header(), *lf], self.comm,
                               append=again)
         if fields:
             extra = {name: f for comp in self.model.components
@@ -78,18 +82,25 @@ class RunOutputs:
         if isinstance(rows, str):
             raise SceneError(rows)
         n = len(self.probes.names)
-        self.history = [(float(r[0]), np.array([float(v) for v in r[1:]]).reshape(n, 3))
+        self.history = [(float(r[0]), np.array([float(v) for v in r[1:1 + 3 * n]]).reshape(n, 3))
                         for r in rows]
         return Path(segment) if segment else None
+
+    @property
+    def static_run(self) -> bool:
+        """Whether the run is static (load steps or arc length): its rows carry the load factor."""
+        return self.scheme.name in STATIC_SCHEMES
 
     def _write_output(self, logs: dict, t: float):
         t0 = _time.perf_counter()
         values = self.probes.values()
         self.history.append((t, values))
+        at = self.load_factor if self.scheme.name == "arc-length" else t  # the loads' time
+        lf = [at] if self.static_run else []
         if "probes" in logs:
-            logs["probes"].row([t, *values.ravel()])
+            logs["probes"].row([t, *values.ravel(), *lf])
         if "body" in logs:
-            logs["body"].row([t, *self.body.values(t)])
+            logs["body"].row([t, *self.body.values(at), *lf])
         if "fields" in logs:
             logs["fields"].write(t)
         self.wall["output"] += _time.perf_counter() - t0
@@ -110,6 +121,8 @@ class RunOutputs:
             "mpi_size": self.comm.size,
             "dofs": self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs,
             "time_reached": self.t,
+            **({"load_factor": self.load_factor if self.scheme.name == "arc-length" else self.t}
+               if self.static_run else {}),
             "counts": dict(self.counts),
             **({"restarts": self.restarts} if self.restarts else {}),
             "director_unit_error": self.model.director_unit_error(),

@@ -103,15 +103,19 @@ SCHEMA = Table({
         "dt": Leaf(POSITIVE, 0.01, unit="time",
                     doc="The nominal step, at most `end`: the run makes ceil(end / dt) steps, "
                         "the last one ending at `end`. A step that fails is halved and "
-                        "retried, then grown back."),
+                        "retried, then grown back. With arc-length: the first step's "
+                        "increment of the load factor."),
         "scheme": Leaf(Str(("auto", "generalized-alpha", "hht", "backward-euler", "bdf2",
-                            "static")),
+                            "static", "arc-length")),
                         "auto",
                         doc='The time integrator. "generalized-alpha" and "hht" are second '
                             'order and need density; "backward-euler" (first order) and '
                             '"bdf2" (second order, variable steps) are for drag without '
                             'inertia; "static" steps the loads with no velocity '
-                            '(refused with [fluid]). "auto" takes generalized-alpha with '
+                            '(refused with [fluid]); "arc-length" follows the static '
+                            "equilibrium path with the load factor as an unknown, through "
+                            "limit points and snap-backs (refused with [fluid]; time is then "
+                            'the load factor λ). "auto" takes generalized-alpha with '
                             "density, backward-euler with [fluid] alone, static otherwise."),
         "rho_inf": Leaf(Num(0.0, 1.0), 0.9,
                          doc="Generalized-alpha's spectral radius at infinite frequency: 1 "
@@ -123,6 +127,9 @@ SCHEMA = Table({
         "output_every": Leaf(Int(1), 1,
                               doc="Write a row of probes.csv and body.csv, and the fields, "
                                   "every this many nominal steps (and after the last one)."),
+        "max_steps": Leaf(Int(1), 1000,
+                           doc='With scheme = "arc-length": the run stops after this many '
+                               "steps if the load factor has not reached `end` by then."),
         "max_cuts": Leaf(Int(0), 8,
                           doc="How many times one nominal step may be halved before the "
                               "run fails (exit status 3); a failed attempt may halve it "
@@ -228,7 +235,7 @@ def _cross_check(scene: dict) -> None:
                 raise SceneError(f"time.{key}: bounds the error-controlled step; it needs "
                                  "time.tolerance")
     else:
-        if resolved_scheme(scene) == "static":
+        if resolved_scheme(scene) in ("static", "arc-length"):
             raise SceneError("time.tolerance: the scheme is static (load steps have no time "
                              "error to control); remove time.tolerance or use a scheme in time")
         if time["dt_min"] is None:

@@ -26,6 +26,7 @@ import numpy as np
 from mpi4py import MPI
 
 from . import __version__, petsc_options
+from .arclength import PathFollowing
 from .error_control import ErrorControl
 from .errors import RunFailed, RunInterrupted, SceneError
 from .interrupts import NoStops, StopRequests
@@ -81,7 +82,7 @@ def _make_out_dir(out: Path | None, comm):
         raise SceneError(error)
 
 
-class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
+class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts):
     """One run of a scene; ``observers`` are called as ``f(sim)`` after every step.
     With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py);
     with ``restart`` (a results folder), the run goes on from its last checkpoint
@@ -89,7 +90,8 @@ class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
 
     The class is the run's state and its time loop; its rooms are mixins, one
     module each: one step and its control (stepping.py), error-controlled steps and
-    the time-error indicator (error_control.py), outputs and the summary
+    the time-error indicator (error_control.py), static path-following by arc
+    length (arclength.py), outputs and the summary
     (run_outputs.py), checkpoints and restart (restart.py)."""
 
     def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
@@ -124,6 +126,15 @@ class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
         self.reactions = Reactions(self.model)
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
+        #: the load factor: the time the loads and motions are evaluated at (t itself,
+        #: except in an arc-length run, whose t is the path's length)
+        self.load_factor = 0.0
+        self.last_residual = math.nan
+        #: arc length (arclength.py): the next step's arc (None: the first, from Δλ =
+        #: ``first_increment``, time.dt halved while it fails), the first arc, and the
+        #: last step's displacement increment (the path's direction)
+        self.arc = self.first_arc = self.path_direction = None
+        self.first_increment = scene["time"]["dt"]
         self.step = 0
         self.completed = 0  # steps done (self.step may be the one under way)
         self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
@@ -164,7 +175,8 @@ class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
         out = self.out_dir
         summary = self._summary("running")
         wall_start = self._wall_start = _time.perf_counter()
-        progress = Progress(time_["end"], comm, self.quiet)
+        path = self.scheme.name == "arc-length"
+        progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t")
         progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
@@ -178,7 +190,10 @@ class Simulation(StepControl, ErrorControl, RunOutputs, Restarts):
                 progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
                              f"{self.resume[0]}")
             n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
-            if time_.get("tolerance") is not None:
+            if path:
+                self._run_arc_length(logs, progress)
+                n_steps = 0
+            elif time_.get("tolerance") is not None:
                 self._run_adaptive(logs, progress)
                 n_steps = 0
             for self.step in range(self.completed + 1, n_steps + 1):

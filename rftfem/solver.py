@@ -176,6 +176,19 @@ class StepSolver:
         A.assemble()
         self._count("jacobian", t0)
 
+    # the calls of a Newton loop of rftfem's own (arclength.py)
+    def residual(self, x, b):
+        """The step's residual at the iterate ``x`` into ``b`` (as SNES's callback)."""
+        self._residual(None, x, b)
+
+    def jacobian(self, x):
+        """The step's tangent at the iterate ``x`` into ``A`` (as SNES's callback)."""
+        self._jacobian(None, x, self.A, self.A)
+
+    def sync(self, x):
+        """The model's iterate set to ``x``."""
+        self._sync(x)
+
     def assemble_tangent(self):
         """The step's tangent at the model's current state into ``A`` (the exact one:
         no Newton update is under way)."""

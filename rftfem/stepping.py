@@ -171,7 +171,8 @@ class StepControl:
                 self.t += dt
                 self.counts["steps"] += 1
                 if steps_log is not None:
-                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0])
+                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0]
+                                  + ([self.t] if self.static_run else []))
                 for f in self.observers:
                     f(self)
                 good += 1

@@ -65,6 +65,12 @@ class Static(Scheme):
     """Load stepping: no inertia, no velocity (drag-free and inertia-free scenes)."""
 
 
+class ArcLength(Static):
+    """Static path-following: the load factor λ is an unknown (arclength.py)."""
+
+    name = "arc-length"
+
+
 class BackwardEuler(Scheme):
     """First-order implicit scheme for scenes without inertia: ``v_{n+1} = (u_{n+1} − u_n)/dt``."""
 
@@ -189,7 +195,13 @@ def make_scheme(time_section: dict) -> Scheme:
         return BDF2()
     if name == "static":
         return Static()
+    if name == "arc-length":
+        return ArcLength()
     raise ValueError(f"unknown time scheme {name!r}")
+
+
+#: the schemes of static runs, whose outputs carry the load factor
+STATIC_SCHEMES = ("static", "arc-length")
 
 
 def has_density(scene: dict) -> bool:
@@ -213,6 +225,10 @@ def resolved_scheme(scene: dict) -> str:
         raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
                          "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
                          "density) or \"auto\", or remove [fluid]")
+    if scheme == "arc-length" and scene.get("fluid"):
+        raise SceneError('time.scheme: "arc-length" follows a static equilibrium path, '
+                         "and the [fluid] drag is a force of motion; remove [fluid] or use "
+                         "a scheme in time")
     if scheme in ("generalized-alpha", "hht") and not inertia:
         raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
                          "shell.parts density > 0), found shell.density = "

@@ -1,0 +1,240 @@
+"""Static path-following by arc length (rftfem/arclength.py) against an exact
+equilibrium path with two load limit points and a snap-back.
+
+The structure is one bar of a shallow two-bar (von Mises) truss, modelled as a
+flat shell strip of reference length L₀ from a pinned support at the origin
+to the apex at (a, 0, h), which slides along Z (ux = 0 there, rotation free).
+With ν = 0 and a straight bar, the strain is uniform and purely axial, the
+Green strain ε = (L² − L₀²) / (2 L₀²) of the current length L, and the strip
+reproduces the bar exactly (P2 holds the linear displacement field).  A
+vertical force F on the apex and the support moved along X by s:
+
+    F = −E t b ε v / L₀,    v = h − w,   L² = (a − s)² + v²,
+
+(w the apex's descent), a closed form for F given w and s.  Under the force
+alone (s = 0) F(w) rises to E t b h³ / (3√3 L₀³) at v = h/√3, falls through
+zero where the bar lies flat, and reaches its minimum at v = −h/√3: two load
+limit points.  With the support pulled outwards as the load grows (s = λ s₀,
+F = λ F₀), the descent turns back as well: w(λ) has a snap-back.  The strip is
+thick enough (t = 1.2 > 0.78 h) that the compressed bar does not buckle first.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import run_scene, write_scene
+
+A, H, WIDTH, T, E = 10.0, 1.0, 1.0, 1.2, 1000.0
+L0 = math.hypot(A, H)
+EA = E * T * WIDTH
+
+
+def truss_bar(path: Path, n: int = 4) -> Path:
+    """The bar as an inclined rectangle, n × 1 nine-node quadrilaterals; curves
+    "support" (x = 0) and "apex" (x = a)."""
+    from test_curved_shells import _gmsh, _name_mesh_write
+
+    gmsh = _gmsh()
+    try:
+        geo = gmsh.model.geo
+        p = [geo.addPoint(*xyz) for xyz in ((0, 0, 0), (A, 0, H), (A, WIDTH, H), (0, WIDTH, 0))]
+        lines = [geo.addLine(p[i], p[(i + 1) % 4]) for i in range(4)]
+        surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        for line, cells in zip(lines, (n, 1, n, 1)):
+            gmsh.model.mesh.setTransfiniteCurve(line, cells + 1)
+        gmsh.model.mesh.setTransfiniteSurface(surface)
+        gmsh.model.mesh.setRecombine(2, surface)
+        _name_mesh_write(gmsh, ((2, surface, "bar"), (1, lines[3], "support"),
+                                (1, lines[1], "apex")), path)
+    finally:
+        gmsh.finalize()
+    return path
+
+
+SCENE = """
+title = "one bar of a von Mises truss, by arc length"
+[mesh]
+kind = "gmsh"
+file = "bar.msh"
+[shell]
+thickness = {T}
+E = {E}
+nu = 0.0
+[time]
+scheme = "arc-length"
+end = {end}
+dt = {dt}
+max_steps = {max_steps}
+[[boundary]]
+name = "support"
+where = "support"
+fix = [{support_fix}]
+[[boundary]]
+where = "apex"
+fix = ["ux"]
+[[load]]
+kind = "edge-force"
+where = "apex"
+value = [0.0, 0.0, {force}]
+{motion}
+[[output.probes]]
+name = "apex"
+at = [{A}, 0.5, {H}]
+[output]
+fields = false
+"""
+
+
+def apex_force(w, s=0.0):
+    """The vertical force (downwards positive) that holds the apex at descent ``w``
+    with the support moved by ``s`` along X."""
+    v = H - w
+    strain = ((A - s) ** 2 + v**2 - L0**2) / (2 * L0**2)
+    return -EA * strain * v / L0
+
+
+F_LIMIT = EA * H**3 / (3 * math.sqrt(3) * L0**3)
+
+
+def run_truss(tmp_path, **keys):
+    truss_bar(tmp_path / "bar.msh")
+    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.1, max_steps=200,
+                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
+    values.update(keys)
+    sim = run_scene(write_scene(tmp_path, SCENE.format(**values)), out_dir=tmp_path / "out")
+    from rftfem.quantities import read_csv
+
+    header, rows = read_csv(tmp_path / "out" / "probes.csv")
+    return sim, rows[:, header.index("load_factor")], -rows[:, header.index("apex_uz")]
+
+
+def test_truss_through_both_load_limit_points(tmp_path):
+    """F = λ F₀ with F₀ = 1.5 F_max beyond the first limit point: the path climbs to
+    F_max, falls through zero (the bar flat, w = h) to −F_max, and climbs again to
+    λ = 1 on the far side (w > 2h).  Every converged state against the exact
+    F(w): the largest error of the force (reached 1e-9 of F_max)."""
+    F0 = 1.5 * F_LIMIT
+    sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05)
+    error = np.abs(lam * F0 - apex_force(w)).max() / F_LIMIT
+    print(f"{len(w)} rows, w up to {w.max():.3f} (2h = {2 * H}), λ from {lam.min():.3f} to "
+          f"{lam.max():.3f}; error {error:.1e} of F_max; {sim.counts}")
+    assert sim.load_factor == pytest.approx(1.0, abs=1e-12)
+    assert w.max() > 2 * H  # through the flat state, the second limit and beyond
+    assert lam.min() < -0.6 / 1.5 and lam.max() > 0.6  # both limits, ±F_max / F₀ = ±0.67
+    assert error < 1e-5
+
+
+def test_truss_on_a_soft_support_through_its_snap_backs(tmp_path):
+    """The truss on a spring support of stiffness k, softer than the bar's steepest
+    unloading (|dF/dw| = E t b h² / (2 L₀³) where the bar lies flat): the support
+    sinks by F/k, here prescribed as the motion λ F₀/k of the support, so the apex
+    sinks by w = w_bar + F/k in all.  Where the bar unloads faster than the spring
+    does, w turns back while λ goes on falling: a snap-back, one on each side of
+    the flat state.  Against the exact path: the force F(w − λ F₀/k) the computed
+    state needs (reached 1e-10 of F_max)."""
+    F0 = 1.5 * F_LIMIT
+    k = 0.5 * EA * H**2 / (2 * L0**3)
+    sink = F0 / k  # the support's descent per unit λ
+    motion = ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
+              f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]')
+    sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05, motion=motion,
+                            support_fix='"ux", "uy"')
+    error = np.abs(lam * F0 - apex_force(w - lam * sink)).max() / F_LIMIT
+    dw, dlam = np.diff(w), np.diff(lam)
+    back = np.flatnonzero(dw[1:] * dw[:-1] < 0)
+    print(f"{len(w)} rows; λ from {lam.min():.3f} to {lam.max():.3f}; w turns at rows "
+          f"{back + 1} (w = {w[back + 1]}); error {error:.1e}; {sim.counts}")
+    assert sim.load_factor == pytest.approx(1.0, abs=1e-12)
+    assert len(back) >= 2  # w turns back and forward again: the snap-backs
+    assert lam.min() < -0.6 / 1.5  # and the load limit points on the way
+    assert error < 1e-5
+
+
+def _table(path):
+    from rftfem.quantities import read_csv
+
+    return read_csv(path)
+
+
+def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, cli_run):
+    """The snap-back path of the truss on a soft support: stopped after 8 steps by
+    time.max_steps (a checkpoint every 4), restarted with a larger one, and on two
+    processes, against the uninterrupted serial run: probes.csv and body.csv (the
+    reactions).  The restart repeats the serial run to the last digit; two
+    processes to the Newton tolerance (2.4e-7 of each column: the partitioned
+    solve's round-off changes where an iterate meets the tolerance)."""
+    F0 = 1.5 * F_LIMIT
+    k = 0.5 * EA * H**2 / (2 * L0**3)
+    sink = F0 / k
+    motion = ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
+              f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]')
+    truss_bar(tmp_path / "bar.msh")
+    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
+                  support_fix='"ux", "uy"', force=-F0, motion=motion)
+    scene = write_scene(tmp_path, SCENE.format(**values))
+    serial = cli_run(scene, tmp_path / "serial")
+    cli_run(scene, tmp_path / "cut", ["time.max_steps=8", "output.checkpoint_every=4"])
+    half = _table(tmp_path / "cut" / "probes.csv")[1]
+    assert 0.0 < half[-1, -1] < 1.0  # stopped on the way
+    from conftest import run_command
+    import sys
+
+    done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--restart",
+                        str(tmp_path / "cut"), "--quiet", "--set", "time.max_steps=200"],
+                       timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    two = cli_run(scene, tmp_path / "two", np=2)
+    for name in ("probes.csv", "body.csv"):
+        header, ref = _table(serial / name)
+        for other in (tmp_path / "cut", two):
+            h, rows = _table(other / name)
+            assert h == header and rows.shape == ref.shape, (other, name)
+            # each column against its own size (a column of round-off against the table's)
+            scale = np.maximum(np.abs(ref).max(axis=0), 1e-9 * np.abs(ref).max())
+            err = (np.abs(rows - ref) / scale).max()
+            print(f"{other.name}/{name}: {len(rows)} rows, largest difference {err:.1e}")
+            assert err < (1e-12 if other.name == "cut" else 3e-6)
+
+
+@pytest.mark.parametrize("sets, message", [
+    (['fluid.drag=[1.0, 1.0, 2.0]'],
+     'time.scheme: "arc-length" follows a static equilibrium path, and the [fluid] drag is '
+     "a force of motion; remove [fluid] or use a scheme in time"),
+    (["time.dt=-0.1"], "time.dt: expected a number > 0, found -0.1"),
+    (["time.max_steps=0"], "time.max_steps: expected an integer >= 1, found 0"),
+    (["time.tolerance=1e-3"], "time.tolerance: the scheme is static (load steps have no time "
+                              "error to control); remove time.tolerance or use a scheme in time"),
+])
+def test_bad_arc_length_settings_are_refused(tmp_path, sets, message):
+    from rftfem.errors import SceneError
+    from rftfem.scene import load_scene
+
+    truss_bar(tmp_path / "bar.msh")
+    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
+                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
+    scene = write_scene(tmp_path, SCENE.format(**values))
+    with pytest.raises(SceneError) as err:
+        load_scene(scene, sets)
+    assert str(err.value) == message
+
+
+def test_bad_setting_exits_2_in_one_line(tmp_path):
+    import sys
+
+    from conftest import run_command
+
+    truss_bar(tmp_path / "bar.msh")
+    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
+                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
+    scene = write_scene(tmp_path, SCENE.format(**values))
+    done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--set",
+                        "fluid.drag=[1.0, 1.0, 2.0]"], timeout=300)
+    print(done.stderr)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "arc-length" in done.stderr
