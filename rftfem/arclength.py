@@ -28,7 +28,7 @@ point along the last converged one (``δb·Δu_prev > 0``): the path's own
 direction, which passes load limit points (where λ turns back) and
 snap-backs (where the displacement does) alike; the tangent's determinant
 changes sign at bifurcations too, and would turn the path back there.  The
-first step goes towards growing λ with ``Δλ = time.dt``, which sets the first
+first step is a load step of ``Δλ = time.dt``, and its length is the first
 Δs.  Δs then follows Newton's effort, ``Δs ← Δs √(N_d / N)`` with ``N_d`` =
 ``DESIRED_ITERATIONS`` (within ½ and 2 per step, at most ``MAX_GROWTH`` times the
 first), and shrinks where a step turned a director further than the static
@@ -44,7 +44,6 @@ import math
 import time as _time
 
 import numpy as np
-from petsc4py import PETSc
 
 from . import compat
 from .errors import RunFailed, RunInterrupted
@@ -57,8 +56,15 @@ DESIRED_ITERATIONS = 5
 #: cut: a shorter arc is cheaper than more updates far from the path (on the truss's
 #: sharp turns, steps that had not converged in 12 updates oscillated to 25)
 MOST_ITERATIONS = 12
-#: the largest arc, as a multiple of the first
-MAX_GROWTH = 8.0
+#: the most the path may turn in one arc step (rad): the angle between a converged
+#: step's displacement increment and the last one's.  A step that turned further
+#: crossed a bend of the path it did not follow and is retried with half the arc
+#: (the pull-out's steps turned 0.07-0.15 rad, and 0.71 rad where one jumped its snap)
+PATH_TURN = 0.35
+#: the largest arc, as a multiple of the first: the first step's length (its Δλ is
+#: time.dt) sets how finely the path is followed (with 8, the pull-out's first arc,
+#: taken from its soft start, crossed the snap in one step)
+MAX_GROWTH = 2.0
 #: the step of the forward difference of the loads in λ, relative to max(|λ|, end)
 LOAD_DIFFERENCE = 1e-7
 
@@ -120,6 +126,8 @@ class PathFollowing:
         self._solve(self._q, self._db)
         db = self._db.array
         size = math.sqrt(self._dot_u(db, db))
+        if arc is None and target is None:  # the first step: a load step of time.dt
+            target = lam0 + self.first_increment
         if target is not None:
             dlam = target - lam0
         else:
@@ -127,9 +135,6 @@ class PathFollowing:
                 raise RunFailed("arc-length: the loads and motions do not move the body "
                                 "(their derivative in the load factor is zero)",
                                 self.t, self.step)
-            if arc is None:
-                arc = self.first_increment * size
-                self.first_arc = arc
             sign = 1.0
             if self.path_direction is not None and self._dot_u(db, self.path_direction) < 0:
                 sign = -1.0
@@ -139,6 +144,7 @@ class PathFollowing:
         rtol, atol, stol, max_it = s.snes.getTolerances()
         max_it = min(max_it, MOST_ITERATIONS)
         first = None
+        update = xnorm = last = 0.0  # the last update's length, the iterate's, its residual
         for it in range(1, max_it + 1):
             m.set_time(lam)
             s.residual(x, b)
@@ -175,6 +181,17 @@ class PathFollowing:
             if self.stops.immediate:
                 raise RunInterrupted(self.stops.signum, immediate=True)
         raise _StepFailed(f"no convergence in {max_it} Newton iterations", max_it, fnorm)
+
+    def _path_turn(self) -> float:
+        """The angle (rad) between the converged step's displacement increment and the
+        last step's (0 at the first step)."""
+        if self.path_direction is None:
+            return 0.0
+        d = self.model.w.x.array - _u_of(self.model)
+        norms = math.sqrt(self._dot_u(d, d) * self._dot_u(self.path_direction,
+                                                          self.path_direction))
+        cos = self._dot_u(d, self.path_direction) / norms if norms > 0 else 1.0
+        return math.acos(max(-1.0, min(1.0, cos)))
 
     def _constraint_root(self, D, da, db, arc, it):
         """δλ with ‖D + δa + δλ δb‖_u = arc, the root turning the increment least."""
@@ -223,6 +240,7 @@ class PathFollowing:
             wall0 = _time.perf_counter()
             try:
                 lam, arc, its, res = self._arc_step(arc)
+                landed = False
                 if lam > end * (1 + 1e-12) and self.load_factor < end:
                     # past the end: land on it under load control, else keep the arc step
                     kept = self.model.w.x.array.copy()
@@ -230,9 +248,22 @@ class PathFollowing:
                     try:
                         lam, _, its2, res = self._arc_step(arc, target=end)
                         its += its2
+                        landed = True
                     except _StepFailed:
                         self.model.w.x.array[:] = kept
                         self.model.set_time(lam)
+                turn = self._path_turn()
+                if not landed and turn > PATH_TURN and cuts < max_cuts:
+                    # converged, but across a turn of the path it did not follow
+                    self.counts["newton_iterations"] += its
+                    self.counts["rejected_steps"] += 1
+                    self.model.restore()
+                    cuts += 1
+                    arc *= 0.5
+                    progress.log(f"step {self.step} at load factor {self.load_factor:.6g}: the "
+                                 f"path turned {turn:.2f} rad > {PATH_TURN} in one step; arc "
+                                 "halved")
+                    continue
                 break
             except _StepFailed as failed:
                 self.counts["newton_iterations"] += failed.its
@@ -253,16 +284,22 @@ class PathFollowing:
         self.counts["steps"] += 1
         m = self.model
         step_length = math.sqrt(self._dot_u(*(2 * [m.w.x.array - _u_of(m)])))
+        direction = m.w.x.array - _u_of(m)
         turn = m.largest_rotation_increment()
         if self.reactions:
             self.reactions.compute(self.solver.raw_residual())
         self.solver.store_forces()
-        direction = m.w.x.array - _u_of(m)
         m.accept(self.scheme, max(lam - self.load_factor, 1e-300), lam)
         self.path_direction = direction
         self.t += step_length
         self.load_factor = lam
         self.last_residual = res
+        if self.first_arc is None:  # the first step set the arc: its own length
+            if step_length == 0.0:
+                raise RunFailed("arc-length: the first step (time.dt) did not move the body: "
+                                "the loads and motions do not depend on the load factor",
+                                self.t, self.step)
+            arc = self.first_arc = step_length
         if logs.get("steps") is not None:
             logs["steps"].row([self.t, step_length, its, res, _time.perf_counter() - wall0,
                                lam])

@@ -239,7 +239,8 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         c = self.counts
         progress.final(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
                      f"{c['dt_cuts']} dt cuts"
-                     + (f", {c['rejected_steps']} steps rejected by the error control"
+                     + (f", {c['rejected_steps']} steps rejected "
+                        + ("for turning the path too far" if path else "by the error control")
                         if c["rejected_steps"] else "")
                      + f", {summary['wall_s']['total']:.1f} s"
                      + (f"; outputs in {out}" if out is not None else ""))
