@@ -89,9 +89,11 @@ class PathFollowing:
         return self.comm.allreduce(float(np.dot(a[i], b[i])))
 
     def _solve(self, rhs, out):
+        t0 = _time.perf_counter()
         ksp = self.solver.snes.getKSP()
         ksp.setOperators(self.solver.A, self.solver.A)
         ksp.solve(rhs, out)
+        self.solver.timings["solve"] += _time.perf_counter() - t0
         reason = ksp.getConvergedReason()
         if reason < 0:
             raise _StepFailed(f"the linear solve failed ({reason})")
