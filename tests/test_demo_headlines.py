@@ -91,3 +91,38 @@ def test_moving_magnet_as_shipped_follows_as_with_finer_steps(tmp_path):
     worst = (np.abs(coarse[:, 1:] - fine[:, 1:]) / spread).max()
     print(f"moving magnet: tip path within {100 * worst:.3f} % of its range")
     assert spread.max() > 1.0 and worst < 0.01
+
+
+@pytest.mark.slow
+def test_magnetic_snap_as_shipped_brackets_its_limit(tmp_path):
+    """demos/magnetic_snap.py as shipped: the arc-length path's snap-through limit
+    (2.716 mT) against two independent answers. Load steps of 1e-4 of the path's
+    20 mT converge up to 0.99 of it and fail (exit 3, no equilibrium nearby)
+    before 1.01 of it; in drag, the field held 5 % below it leaves the arch up
+    and 5 % above snaps it through (the script's exit status)."""
+    import sys
+
+    sys.path.insert(0, str(DEMOS))
+    import magnetic_snap
+
+    from rftfem.errors import RunFailed
+
+    assert magnetic_snap.main(["--out", str(tmp_path / "demo")]) == 0
+    from rftfem.quantities import read_csv
+
+    header, rows = read_csv(tmp_path / "demo" / "path" / "probes.csv")
+    path = {name: rows[:, i] for i, name in enumerate(header)}
+    top, bottom = magnetic_snap.limits(path)
+    limit = path["load_factor"][top]
+    print(f"snap-through limit {20 * limit:.4f} mT, snap-back {20 * path['load_factor'][bottom]:+.4f} mT")
+    assert path["load_factor"][bottom] < 0  # bistable: the inverted arch needs a reversed field
+    for factor, fails in ((0.99, False), (1.01, True)):
+        sets = ["time.scheme=static", f"time.end={factor * limit!r}", "time.dt=1e-4",
+                "output.fields=false"]
+        try:
+            run_scene(DEMOS / "magnetic_snap_path.toml", *sets, out_dir=tmp_path / f"lc{factor}")
+            failed = False
+        except RunFailed:
+            failed = True
+        print(f"load control to {factor} × the limit: {'fails' if failed else 'converges'}")
+        assert failed == fails
