@@ -24,7 +24,6 @@ Exit status 1 when the run below the limit snaps or the one above does not.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 

@@ -102,12 +102,26 @@ def apex_force(w, s=0.0):
 F_LIMIT = EA * H**3 / (3 * math.sqrt(3) * L0**3)
 
 
-def run_truss(tmp_path, **keys):
+def truss_scene(tmp_path, **keys) -> Path:
+    """The bar's mesh and scene in ``tmp_path``; ``keys`` replace SCENE's defaults."""
     truss_bar(tmp_path / "bar.msh")
     values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.1, max_steps=200,
                   support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
     values.update(keys)
-    sim = run_scene(write_scene(tmp_path, SCENE.format(**values)), out_dir=tmp_path / "out")
+    return write_scene(tmp_path, SCENE.format(**values))
+
+
+def soft_support(F0):
+    """The [[motion]] of the support that sinks as a spring of half the bar's steepest
+    unloading stiffness under the force λ F₀, and that sink per unit λ."""
+    k = 0.5 * EA * H**2 / (2 * L0**3)
+    sink = F0 / k
+    return ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
+            f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]'), sink
+
+
+def run_truss(tmp_path, **keys):
+    sim = run_scene(truss_scene(tmp_path, **keys), out_dir=tmp_path / "out")
     from rftfem.quantities import read_csv
 
     header, rows = read_csv(tmp_path / "out" / "probes.csv")
@@ -139,14 +153,11 @@ def test_truss_on_a_soft_support_through_its_snap_backs(tmp_path):
     the flat state.  Against the exact path: the force F(w − λ F₀/k) the computed
     state needs (reached 1e-10 of F_max)."""
     F0 = 1.5 * F_LIMIT
-    k = 0.5 * EA * H**2 / (2 * L0**3)
-    sink = F0 / k  # the support's descent per unit λ
-    motion = ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
-              f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]')
+    motion, sink = soft_support(F0)  # the support's descent per unit λ
     sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05, motion=motion,
                             support_fix='"ux", "uy"')
     error = np.abs(lam * F0 - apex_force(w - lam * sink)).max() / F_LIMIT
-    dw, dlam = np.diff(w), np.diff(lam)
+    dw = np.diff(w)
     back = np.flatnonzero(dw[1:] * dw[:-1] < 0)
     print(f"{len(w)} rows; λ from {lam.min():.3f} to {lam.max():.3f}; w turns at rows "
           f"{back + 1} (w = {w[back + 1]}); error {error:.1e}; {sim.counts}")
@@ -171,14 +182,8 @@ def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, 
     by their round-off; both grow where this path turns sharply (arcs of 1e-3 of
     the first, converged in one update) to 3.4e-7 and 2.4e-7."""
     F0 = 1.5 * F_LIMIT
-    k = 0.5 * EA * H**2 / (2 * L0**3)
-    sink = F0 / k
-    motion = ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
-              f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]')
-    truss_bar(tmp_path / "bar.msh")
-    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
-                  support_fix='"ux", "uy"', force=-F0, motion=motion)
-    scene = write_scene(tmp_path, SCENE.format(**values))
+    scene = truss_scene(tmp_path, dt=0.05, support_fix='"ux", "uy"', force=-F0,
+                        motion=soft_support(F0)[0])
     serial = cli_run(scene, tmp_path / "serial")
     cli_run(scene, tmp_path / "cut", ["time.max_steps=20", "output.checkpoint_every=5"])
     half = _table(tmp_path / "cut" / "probes.csv")[1]
@@ -216,10 +221,7 @@ def test_bad_arc_length_settings_are_refused(tmp_path, sets, message):
     from rftfem.errors import SceneError
     from rftfem.scene import load_scene
 
-    truss_bar(tmp_path / "bar.msh")
-    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
-                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
-    scene = write_scene(tmp_path, SCENE.format(**values))
+    scene = truss_scene(tmp_path, dt=0.05)
     with pytest.raises(SceneError) as err:
         load_scene(scene, sets)
     assert str(err.value) == message
@@ -230,10 +232,7 @@ def test_bad_setting_exits_2_in_one_line(tmp_path):
 
     from conftest import run_command
 
-    truss_bar(tmp_path / "bar.msh")
-    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.05, max_steps=200,
-                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
-    scene = write_scene(tmp_path, SCENE.format(**values))
+    scene = truss_scene(tmp_path, dt=0.05)
     done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--set",
                         "fluid.drag=[1.0, 1.0, 2.0]"], timeout=300)
     print(done.stderr)
