@@ -13,7 +13,7 @@ import numpy as np
 
 from . import __version__, compat
 from .errors import SceneError
-from .output import (BodyLog, CsvLog, FieldWriter, field_segments, keep_fields_until,
+from .output import (CsvLog, FieldWriter, field_segments, keep_fields_until,
                      keep_rows_until, merge_field_segment)
 from .timeint import STATIC_SCHEMES
 
@@ -44,7 +44,6 @@ class RunOutputs:
         logs["steps"] = CsvLog(out / "steps.csv",
                                ["time", "dt", "newton_its", "residual", "wall_s", *lf],
                                self.comm, append=again)
-        self.body = BodyLog(self.model, self.reactions)
         logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header(), *lf], self.comm,
                               append=again)
         if fields:
@@ -97,10 +96,13 @@ class RunOutputs:
         self.history.append((t, values))
         at = self.load_factor if self.scheme.name == "arc-length" else t  # the loads' time
         lf = [at] if self.static_run else []
+        body = self.body.values(at) if ("body" in logs or self.steady is not None) else None
+        if self.steady is not None:
+            self.rows.append([t, *values.ravel(), *body])
         if "probes" in logs:
             logs["probes"].row([t, *values.ravel(), *lf])
         if "body" in logs:
-            logs["body"].row([t, *self.body.values(at), *lf])
+            logs["body"].row([t, *body, *lf])
         if "fields" in logs:
             logs["fields"].write(t)
         self.wall["output"] += _time.perf_counter() - t0
@@ -125,6 +127,8 @@ class RunOutputs:
                if self.static_run else {}),
             "counts": dict(self.counts),
             **({"restarts": self.restarts} if self.restarts else {}),
+            **({"steady": self.steady.result} if self.steady is not None and self.steady.result
+               else {}),
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
             "wall_s": {"compile": self.model.timings["compile"], "assembly": self.solver.assembly_time,

@@ -44,7 +44,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Iterable
 
-from rftfem import effects
+from rftfem import effects, steady
 from rftfem.errors import SceneError
 from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array, Bool, Free, Int,
                            Leaf, Num, Str, Table, Vec, check_tangent, check_unique, err, fmt, join,
@@ -127,6 +127,20 @@ SCHEMA = Table({
         "output_every": Leaf(Int(1), 1,
                               doc="Write a row of probes.csv and body.csv, and the fields, "
                                   "every this many nominal steps (and after the last one)."),
+        "until": Leaf(Str(("end", "periodic")), "end",
+                       doc='When the run stops: "end" at time.end; "periodic" once the '
+                           "period means of every probes.csv and body.csv column (the drift "
+                           "over a period for positions) have settled, extrapolated from "
+                           "successive periods (Aitken), to steady_tolerance; time.end is then "
+                           "the latest it may stop. summary.json's `steady` holds the values."),
+        "period": Leaf(POSITIVE, None, unit="time",
+                        default_doc="from the travelling-wave motions or the rotating field",
+                        doc='The period of time.until = "periodic"; dt must divide it.'),
+        "steady_tolerance": Leaf(POSITIVE, 1e-3,
+                                  doc='time.until = "periodic": how closely two successive '
+                                      "periods' extrapolated steady values must agree, "
+                                      "relative to each column's value (or its swing over "
+                                      "a period, if larger)."),
         "max_steps": Leaf(Int(1), 1000,
                            doc='With scheme = "arc-length": the run stops after this many '
                                "steps if the load factor has not reached `end` by then."),
@@ -249,6 +263,7 @@ def _cross_check(scene: dict) -> None:
 
     effects.check(scene)  # each effect's own keys
     _check_reaction_names(scene)
+    steady.check(scene)
 
     # probes
     probes = scene["output"]["probes"]
@@ -260,15 +275,15 @@ def _cross_check(scene: dict) -> None:
 def _check_reaction_names(scene: dict) -> None:
     """``name`` unique across ``[[boundary]]`` and ``[[motion]]`` (their body.csv columns)."""
     seen = {}
-    for section in ("boundary", "motion"):
-        for i, item in enumerate(scene.get(section) or []):
+    for table in ("boundary", "motion"):
+        for i, item in enumerate(scene.get(table) or []):
             name = item.get("name")
             if name is None:
                 continue
             if name in seen:
-                raise SceneError(f"{section}.{i}.name: expected a unique reaction name, found "
+                raise SceneError(f"{table}.{i}.name: expected a unique reaction name, found "
                                  f"'{name}' a second time (also {seen[name]}.name)")
-            seen[name] = f"{section}.{i}"
+            seen[name] = f"{table}.{i}"
 
 
 # ------------------------------------------------------------------ public API

@@ -31,11 +31,13 @@ from .error_control import ErrorControl
 from .errors import RunFailed, RunInterrupted, SceneError
 from .interrupts import NoStops, StopRequests
 from .model import Model
-from .output import Probes, Progress, render_in_child, write_json
+from .output import BodyLog, Probes, Progress, render_in_child, write_json
 from .reactions import Reactions
 from .restart import Restarts
 from .run_outputs import RunOutputs
 from .solver import StepSolver
+from .steady import SteadyWatch
+from .steady import scene_period as steady_period
 from .stepping import StepControl
 from .timeint import make_scheme
 
@@ -124,6 +126,14 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         self.solver = StepSolver(self.model, self.options)
         #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
         self.reactions = Reactions(self.model)
+        self.body = BodyLog(self.model, self.reactions)
+        #: time.until = "periodic": the watch of the period means (steady.py) and the
+        #: output rows (time, probes, body) it reads
+        self.steady = None
+        if scene["time"].get("until", "end") == "periodic":
+            self.steady = SteadyWatch(steady_period(scene), scene["time"]["steady_tolerance"],
+                                      self.probes.header() + self.body.header())
+        self.rows = []
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
         #: the load factor: the time the loads and motions are evaluated at (t itself,
@@ -204,9 +214,17 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                 progress.update(self.t, self.step, self.counts["newton_iterations"],
                                 self.solver.snes.getFunctionNorm())
                 self.completed = self.step
-                self._checkpoint_if_due(last=self.step == n_steps)
-                if self.step < n_steps:
-                    self._stop_if_asked(logs)
+                steady = self._steady_after_step(progress)
+                last = steady or self.step == n_steps
+                self._checkpoint_if_due(last=last)
+                if last:
+                    break
+                self._stop_if_asked(logs)
+            if self.steady is not None and not self.steady.result:
+                self.steady.result = {"reached": False}
+            if self.steady is not None and not self.steady.result["reached"]:
+                progress.warn(f'time.until = "periodic": not steady to '
+                              f"{time_['steady_tolerance']:g} by time.end = {time_['end']:g}")
             summary = self._summary("ok", wall_start)
             self._warn_time_error(progress)
         except RunFailed as err:
@@ -245,6 +263,25 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                      + f", {summary['wall_s']['total']:.1f} s"
                      + (f"; outputs in {out}" if out is not None else ""))
         return summary
+
+    def _steady_after_step(self, progress) -> bool:
+        """At the end of a period (time.until = "periodic"): whether the run is steady."""
+        watch = self.steady
+        if watch is None:
+            return False
+        per_period = round(watch.period / self.scene["time"]["dt"])
+        if self.step % per_period:
+            return False
+        start = self.t - watch.period * (1 + 1e-9)
+        rows = np.array([r for r in self.rows if r[0] >= start])
+        if len(rows) < 2:
+            return False
+        steady = watch.add_period(rows[:, 0], rows[:, 1:])
+        if steady:
+            progress.log(f"steady after {len(watch.means)} periods (t = {self.t:.6g}): "
+                         f"extrapolated values agree to {watch.tolerance:g}")
+        self.rows = [r for r in self.rows if r[0] >= self.t - watch.period * 1e-9]
+        return steady
 
     def close(self):
         self.solver.destroy()

@@ -1,0 +1,77 @@
+"""How soon a run may stop once steady, per way of deciding it, on the swimming sheet.
+
+The sheet's case I (demos/swimming_sheet.toml as shipped, 62 periods) is run
+once to its end; its output rows are then fed period by period to the steady
+watch of ``time.until = "periodic"`` (rftfem/steady.py) with each way of
+estimating the steady values:
+
+- ``none``:   the period means themselves (the transient run out);
+- ``aitken``: Aitken's Δ² of the last three periods;
+- ``shanks``: Shanks' second transform of the last five where it is defined
+  (rftfem's).
+
+Printed per way and tolerance: the period at which the run would stop, the
+speed it would report and its error against the exact RFT speed 0.49763 mm/s,
+and against the shipped run's value over periods 54-62 (+0.20 %).
+
+    .venv/bin/python benchmarks/steady_state.py
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+EXACT = 0.49763
+
+
+def main():
+    from rftfem.quantities import read_csv
+    from rftfem.scene import load_scene
+    from rftfem.simulation import run
+    from rftfem.steady import SteadyWatch, scene_period
+
+    scene = load_scene(ROOT / "demos" / "swimming_sheet.toml", ["output.fields=false",
+                                                                 "time.output_every=1"])
+    period = scene_period({**scene, "time": {**scene["time"], "until": "periodic"}})
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = run(scene, out_dir=Path(tmp), quiet=True)
+        hp, probes = read_csv(Path(tmp) / "probes.csv")
+        hb, body = read_csv(Path(tmp) / "body.csv")
+    wall_per_period = summary["wall_s"]["total"] / round(scene["time"]["end"] / period)
+    columns = hp[1:] + hb[1:]
+    rows = np.hstack([probes, body[:, 1:]])
+    t = rows[:, 0]
+    n = round(t[-1] / period)
+    print(f"case I: {n} periods, {wall_per_period:.2f} s a period on this machine")
+    print(f"{'way':<7} {'tolerance':>9} {'stops after':>11} {'speed mm/s':>11} "
+          f"{'vs exact':>9} {'wall s':>7}")
+    for tol in (1e-2, 1e-3, 1e-4):
+        for way in ("none", "aitken", "shanks"):
+            watch = SteadyWatch(period, tol, columns, method=way)
+            stop = None
+            for k in range(1, n + 1):
+                sel = (t >= (k - 1) * period * (1 - 1e-9)) & (t <= k * period * (1 + 1e-9))
+                if watch.add_period(t[sel], rows[sel, 1:]):
+                    stop = k
+                    break
+            if stop is None:
+                print(f"{way:<7} {tol:>9.0e} {'not steady':>11}")
+                continue
+            speed = watch.result["values"]["centroid_x_rate"]
+            print(f"{way:<7} {tol:>9.0e} {stop:>8} per {speed:>11.5f} "
+                  f"{100 * (speed / EXACT - 1):>+8.3f}% {stop * wall_per_period:>7.1f}")
+
+
+if __name__ == "__main__":
+    main()
