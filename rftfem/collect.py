@@ -19,6 +19,9 @@ stdout without ``--out``) has one row per folder, in the order given:
   ``overrides``: the run's ``--set`` strings joined by ``;``;
 * ``steps``, ``newton_iterations``, ``dt_cuts``, ``time_reached``,
   ``wall_total_s``, ``dofs``, ``mpi_size`` (copied from summary.json);
+* with runs of ``time.until = "periodic"``: ``steady.reached`` and
+  ``steady.NAME`` for each extrapolated steady value (``steady.centroid_x_rate``,
+  a swimming speed; ``steady.drag_power``), from summary.json;
 * one column per ``--quantity``: an expression of :mod:`rftfem.quantities`
   (``tip_uz@end``, ``rate(front_ux, 1, 2)``, ``mean(drag_power, 1)``), named by
   ``NAME=`` or else by the expression.
@@ -123,6 +126,18 @@ def differing_keys(runs: list[RunFolder]) -> list[str]:
     return differ + (["scene_file"] if len(set(files)) > 1 else [])
 
 
+def steady_columns(runs: list[RunFolder]) -> list[str]:
+    """``steady.reached`` and ``steady.NAME`` for every steady value of the runs that
+    stopped on ``time.until = "periodic"`` (summary.json's ``steady``), in order."""
+    order: dict[str, None] = {}
+    for run in runs:
+        found = (run.summary or {}).get("steady")
+        if found:
+            order.update(dict.fromkeys(["steady.reached"] + [
+                f"steady.{k}" for k in (found.get("values") or {})]))
+    return list(order)
+
+
 def _number(value) -> str:
     if value is None:
         return ""
@@ -137,7 +152,8 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = ()
     ``quantities`` is a list of (column name, Quantity)."""
     runs = [RunFolder(d) for d in dirs]
     keys = differing_keys(runs)
-    fixed = [*LEAD_COLUMNS, *keys, "overrides", *COUNT_COLUMNS]
+    steady = steady_columns(runs)
+    fixed = [*LEAD_COLUMNS, *keys, "overrides", *COUNT_COLUMNS, *steady]
     names = [n for n, _ in quantities]
     for name in names:
         if names.count(name) > 1 or name in fixed:
@@ -157,6 +173,10 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = ()
         row += [_number(counts.get("steps")), _number(counts.get("newton_iterations")),
                 _number(counts.get("dt_cuts")), _number(s.get("time_reached")),
                 _number(wall.get("total")), _number(s.get("dofs")), _number(s.get("mpi_size"))]
+        found = s.get("steady") or {}
+        row += [_cell(found.get("reached")) if c == "steady.reached" else
+                _number((found.get("values") or {}).get(c[len("steady."):]))
+                for c in steady]
         for _, q in quantities:
             try:
                 row.append(repr(q.evaluate(run)))

@@ -338,7 +338,8 @@ class RunFolder:
             if not columns:
                 raise Unavailable(f"quantity '{text}': {self.dir} has no "
                                   f"{' or '.join(SERIES_FILES)}")
-            valid = ", ".join(c for cols in columns.values() for c in cols)
+            # probes.csv and body.csv of a static run both end with load_factor
+            valid = ", ".join(dict.fromkeys(c for cols in columns.values() for c in cols))
             raise SceneError(f"quantity '{text}': unknown column '{column}' in {self.dir} "
                              f"(valid: {valid})")
         header, data = self._table(name)

@@ -389,8 +389,8 @@ def test_bad_input_one_line(runs, tmp_path, case, message):
     assert done.stderr.startswith("rftfem collect: error: ")
     assert message in done.stderr
     if case == "unknown column":
-        assert "(valid: tip_ux, tip_uy, tip_uz, centroid_x, centroid_y, centroid_z, " \
-               "elastic_energy)" in done.stderr
+        assert "(valid: tip_ux, tip_uy, tip_uz, load_factor, centroid_x, centroid_y, " \
+               "centroid_z, elastic_energy)" in done.stderr
 
 
 def test_collect_module_is_light():

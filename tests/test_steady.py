@@ -103,3 +103,21 @@ def test_bad_periodic_settings_are_refused(tmp_path, text, sets, message):
     with pytest.raises(SceneError) as err:
         load_scene(write_scene(tmp_path, text), sets)
     assert str(err.value) == message
+
+
+def test_collect_reads_the_steady_values(tmp_path):
+    """``rftfem collect`` has steady.reached and a steady.NAME column per extrapolated
+    value: two sinking strips of different drag give their own terminal speeds."""
+    from rftfem.collect import collect
+
+    dirs = []
+    for c3 in (1.0e-7, 2.0e-7):
+        out = tmp_path / f"c{c3:g}"
+        run_scene(write_scene(tmp_path, SINKING), f"fluid.drag=[1e-7, 1e-7, {c3}]",
+                  out_dir=out)
+        dirs.append(out)
+    header, rows, _ = collect(dirs)
+    speeds = [float(r[header.index("steady.centroid_z_rate")]) for r in rows]
+    print(dict(zip(header, rows[0])))
+    assert [r[header.index("steady.reached")] for r in rows] == ["true", "true"]
+    assert np.allclose(speeds, [-TERMINAL, -TERMINAL / 2], rtol=1e-9, atol=0)
