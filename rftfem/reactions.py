@@ -1,5 +1,5 @@
 """Reactions: the force and moment each named ``[[boundary]]`` and ``[[motion]]``
-entry exerts on the body (docs/model.md §5.8), written to body.csv as
+entry exerts on the body (docs/model.md §5.7), written to body.csv as
 ``NAME_Fx, NAME_Fy, NAME_Fz, NAME_Mx, NAME_My, NAME_Mz``.
 
 A held degree of freedom's row is the one equation a step does not solve: the

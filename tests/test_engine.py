@@ -118,7 +118,7 @@ def test_two_processes_reproduce_the_serial_probe_history(tmp_path, cli_run):
     cli_run(DEMOS / "rollup.toml", tmp_path / "mpi", sets, np=2)
     a = np.loadtxt(tmp_path / "serial" / "probes.csv", delimiter=",", skiprows=1)
     b = np.loadtxt(tmp_path / "mpi" / "probes.csv", delimiter=",", skiprows=1)
-    assert a.shape == b.shape == (11, 4)
+    assert a.shape == b.shape == (11, 5)  # time, the tip, the load factor
     rel = np.abs(a - b).max() / np.abs(a).max()
     print(f"serial vs 2 processes: max relative difference {rel:.2e}")
     assert rel < 1e-8

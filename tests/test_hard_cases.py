@@ -702,7 +702,9 @@ def scaled_tables(run: Run, to_mm: float) -> dict[str, np.ndarray]:
     header, probes = run.table("probes.csv")
     body_header, body = run.table("body.csv")
     centroid = body[:, [body_header.index(f"centroid_{c}") for c in "xyz"]]
-    return {"time": probes[:, 0], "probes": probes[:, 1:] * to_mm, "centroid": centroid * to_mm}
+    displacement = [i for i, c in enumerate(header) if c.endswith(("_ux", "_uy", "_uz"))]
+    return {"time": probes[:, 0], "probes": probes[:, displacement] * to_mm,
+            "centroid": centroid * to_mm}
 
 
 @pytest.mark.parametrize("name", list(SCALE_CASES))
