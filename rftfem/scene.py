@@ -262,7 +262,6 @@ def _cross_check(scene: dict) -> None:
                              f"found {fmt(time['dt'])}")
 
     effects.check(scene)  # each effect's own keys
-    _check_reaction_names(scene)
     steady.check(scene)
 
     # probes
@@ -270,20 +269,6 @@ def _cross_check(scene: dict) -> None:
     check_unique(probes, "name", "output.probes", "probe")
     for i, probe in enumerate(probes):
         check_on_body(probe["at"], f"output.probes.{i}.at", "probe", scene)
-
-
-def _check_reaction_names(scene: dict) -> None:
-    """``name`` unique across ``[[boundary]]`` and ``[[motion]]`` (their body.csv columns)."""
-    seen = {}
-    for table in ("boundary", "motion"):
-        for i, item in enumerate(scene.get(table) or []):
-            name = item.get("name")
-            if name is None:
-                continue
-            if name in seen:
-                raise SceneError(f"{table}.{i}.name: expected a unique reaction name, found "
-                                 f"'{name}' a second time (also {seen[name]}.name)")
-            seen[name] = f"{table}.{i}"
 
 
 # ------------------------------------------------------------------ public API

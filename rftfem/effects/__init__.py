@@ -13,7 +13,7 @@ the methods that build on a mesh, never at the top.
 from __future__ import annotations
 
 from .base import LOAD_KIND_DOC, RAMP, TABLE, Effect
-from .boundary import Boundaries
+from .boundary import Boundaries, check_reaction_names
 from .drag import Drag
 from .edge_loads import EdgeLoads
 from .elasticity import Elasticity
@@ -66,3 +66,4 @@ def check(scene: dict) -> None:
     """Each component's checks of its keys against the rest of the scene."""
     for effect in REGISTRY:
         effect.check(scene)
+    check_reaction_names(scene)

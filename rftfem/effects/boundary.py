@@ -182,3 +182,17 @@ class Boundaries(Effect):
         return [(bnd["name"], np.concatenate(held) if held else np.empty(0, dtype=np.int64))
                 for bnd, held in zip(self.scene["boundary"], self._held)
                 if bnd["name"] is not None]
+
+
+def check_reaction_names(scene: dict) -> None:
+    """``name`` unique across ``[[boundary]]`` and ``[[motion]]`` (their body.csv columns)."""
+    seen = {}
+    for table in ("boundary", "motion"):
+        for i, item in enumerate(scene.get(table) or []):
+            name = item.get("name")
+            if name is None:
+                continue
+            if name in seen:
+                raise SceneError(f"{table}.{i}.name: expected a unique reaction name, found "
+                                 f"'{name}' a second time (also {seen[name]}.name)")
+            seen[name] = f"{table}.{i}"
