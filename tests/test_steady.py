@@ -67,6 +67,7 @@ def test_sinking_strip_stops_once_steady_at_the_terminal_speed(tmp_path):
     assert abs(rate / -TERMINAL - 1) < 1e-9
 
 
+@pytest.mark.long
 def test_swimming_sheet_case_I_steady_in_a_few_periods(tmp_path):
     """demos/swimming_sheet.toml (case I as shipped, 4×20, 32 steps a period) with
     time.until = "periodic": steady after 5 periods (the shipped run measures
