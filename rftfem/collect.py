@@ -64,6 +64,10 @@ quantities (--quantity NAME=EXPR, repeatable):
   spin(PROBE_A, PROBE_B, AXIS[, A[, B]])
                                   mean turning rate of the line from probe A to
                                   probe B about AXIS (x, y or z), rad per unit time
+  steady(NAME)                    a steady value of a time.until = "periodic" run
+                                  (summary.json): NAME_rate for a position column,
+                                  e.g. steady(centroid_x_rate); empty if the run
+                                  reached time.end before it was steady
   COLUMN: a column of probes.csv (<probe>_ux/_uy/_uz) or body.csv (centroid_x,
   elastic_energy, drag_power, ...); window bounds default to start and end.
   A time outside a finished run is an error; a quantity that a failed or

@@ -14,14 +14,21 @@ linearly interpolated between rows::
                            mean turning rate (rad per unit time) of the line from
                            the first probe to the second about AXIS (x, y or z):
                            its angle in the plane normal to AXIS, unwrapped
+              | "steady" "(" NAME ")"
+                           a steady value of a ``time.until = "periodic"`` run,
+                           from summary.json: ``NAME_rate`` for a position column
+                           (``steady(centroid_x_rate)``, a swimming speed), the
+                           column itself for the rest (``steady(drag_power)``)
     TIME     := NUMBER | "start" | "end"              (first / last row of the run)
 
 A window ``(COLUMN)`` is the whole run, ``(COLUMN, a)`` is ``[a, end]``.
-Examples: ``tip_uz@end``, ``rate(front_ux, 1, 2)``, ``max(elastic_energy)``.
+Examples: ``tip_uz@end``, ``rate(front_ux, 1, 2)``, ``max(elastic_energy)``,
+``steady(front_ux_rate)``.
 
 A bad expression, an unknown column (the valid ones are named) or a time before
 the first row is a SceneError; data the run does not have (no series file or no
-rows, a time past its last row) is :class:`Unavailable`, a SceneError that a
+rows, a time past its last row, a periodic run that stopped at ``time.end``
+before it was steady) is :class:`Unavailable`, a SceneError that a
 caller may excuse in a run that did not finish.
 
 API: ``evaluate(expr, run_dir) -> float``; ``parse(expr) -> Quantity`` and
@@ -48,7 +55,7 @@ from rftfem.errors import SceneError
 SERIES_FILES = ("probes.csv", "body.csv")
 #: files whose presence marks a folder as a run folder (without summary.json)
 RUN_FILES = ("probes.csv", "steps.csv", "body.csv")
-FUNCTIONS = ("rate", "mean", "max", "min", "spin")
+FUNCTIONS = ("rate", "mean", "max", "min", "spin", "steady")
 #: spin(): the axis and the plane coordinates (p, q) that measure the angle atan2(q, p)
 SPIN_AXES = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}
 #: seconds by which a CSV file may be newer than summary.json in a finished run
@@ -95,6 +102,8 @@ class Quantity:
 
     def evaluate(self, run: "RunFolder | str | Path") -> float:
         run = run if isinstance(run, RunFolder) else RunFolder(run)
+        if self.func == "steady":
+            return steady_value(run, self.column, self.text)
         if self.func == "spin":
             t, x = spin_angle(run, self.column, self.other, self.axis, self.text)
         else:
@@ -155,7 +164,14 @@ def parse(text: str) -> Quantity:
             if axis not in SPIN_AXES:
                 raise SceneError(f"quantity '{text}': expected an axis x, y or z, found '{axis}'")
         else:
-            column = take("name", what="a column name")
+            column = take("name", what="a column name" if head != "steady" else
+                          "a steady value's name (e.g. centroid_x_rate)")
+        if head == "steady":
+            take(value=")", what="')' (steady() takes a name and no times)")
+            if pos < len(toks):
+                raise SceneError(f"quantity '{text}': unexpected '{toks[pos][1]}' after "
+                                 "the expression")
+            return Quantity(text, head, column)
         bounds = []
         while pos < len(toks) and toks[pos][1] == "," and len(bounds) < 2:
             take(value=",", what="','")
@@ -263,6 +279,24 @@ def spin_angle(run: "RunFolder", first: str, second: str, axis: str,
     p, q = SPIN_AXES[axis]
     line = positions[1] - positions[0]
     return t, np.unwrap(np.arctan2(line[:, q], line[:, p]))
+
+
+def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
+    """summary.json's extrapolated steady value ``name`` (docs/model.md §6.13)."""
+    if run.summary is None:
+        raise Unavailable(f"quantity '{text}': {run.dir} has no summary.json")
+    found = run.summary.get("steady")
+    if not found:
+        raise SceneError(f"quantity '{text}': {run.dir} is not a run of time.until = "
+                         "\"periodic\" (summary.json has no steady values)")
+    values = found.get("values") or {}
+    if name not in values and (values or found.get("reached")):
+        raise SceneError(f"quantity '{text}': no steady value '{name}' in {run.dir} "
+                         f"(there: {', '.join(values) or 'none'})")
+    if not found.get("reached"):  # (too few periods for any value: the name is unchecked)
+        raise Unavailable(f"quantity '{text}': {run.dir} stopped at time.end before it "
+                          f"was steady (after {found.get('periods')} periods)")
+    return float(values[name])
 
 
 # --- run folders -------------------------------------------------------------------

@@ -11,10 +11,15 @@ being the scene as given (with its ``--set`` overrides):
 * ``mesh``: ``mesh.divisions`` doubled per level (generated strips only);
 * ``both``: both at once.
 
-Each level is an ordinary ``rftfem run`` in its own folder ``DIR/<kind>-<k>``
+Each level is an ordinary run in its own folder ``DIR/<kind>-<k>``
 (level 0 is shared by the kinds, ``DIR/level-0``), so every run can be opened,
-rendered and collected as any other.  For every level and quantity the study
-reports the value, its change from the level before, the observed order
+rendered and collected as any other.  One level at a time (``--jobs 1``, no
+``--np``), the levels run in the study's own process (rftfem/batch.py: the
+imports and the compiled forms' loading are paid once); with ``--jobs``,
+``--np`` or ``--processes`` each is a child ``rftfem run``.
+
+For every level and quantity the study reports the value, its change from the
+level before, the observed order
 
     p_k = log2(|Q_{k-1} − Q_{k-2}| / |Q_k − Q_{k-1}|)        (from level 2 on)
 
@@ -67,8 +72,11 @@ EPILOG = """\
 quantities (--quantity NAME=EXPR, at least one) are those of `rftfem collect`:
   COLUMN@TIME, rate(COLUMN, A, B), mean(COLUMN, A, B), max(...), min(...),
   spin(PROBE_A, PROBE_B, AXIS, A, B)  (mean turning rate of the line A->B about
-  the axis x, y or z, in rad per unit time)
+  the axis x, y or z, in rad per unit time), steady(NAME)  (a steady value of a
+  time.until = "periodic" run, e.g. steady(centroid_x_rate))
 examples:
+  rftfem study demos/swimming_sheet.toml --refine dt --levels 3 \\
+      --quantity 'speed=steady(front_ux_rate)'
   rftfem study demos/rollup.toml --refine mesh --levels 4 --quantity 'tip=tip_uz@0.25'
   rftfem study demos/bidirectional_strip.toml --refine dt --levels 3 --jobs 2 \\
       --quantity 'speed=rate(centroid_z, 1.1, 2.1)'
@@ -148,16 +156,23 @@ def _finished(level: Level, overrides: list[str], scene_file: str) -> bool:
 
 
 def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
-              petsc_args: list[str], reuse: bool = False) -> None:
+              petsc_args: list[str], reuse: bool = False, in_process: bool = False) -> None:
     """Run one level (a fresh folder) and read its summary into ``level``; with
-    ``reuse``, a finished run of the same level is read instead."""
+    ``reuse``, a finished run of the same level is read instead.  ``in_process``:
+    run it in this process (rftfem/batch.py), else as a child ``rftfem run``."""
     if reuse and _finished(level, overrides, scene_file):
         level.status = "reused"
     elif level.folder.exists():
         shutil.rmtree(level.folder)
     if level.status != "reused":
         level.folder.mkdir(parents=True)
-        _run(level, scene_file, overrides, launcher, petsc_args)
+        if in_process:
+            from rftfem.batch import run_here
+
+            level.exit_status = run_here(scene_file, [*overrides, *level.overrides],
+                                         level.folder, petsc_args)
+        else:
+            _run(level, scene_file, overrides, launcher, petsc_args)
     _read_summary(level)
 
 
@@ -253,6 +268,10 @@ def add_arguments(parser):
                         help="levels run at the same time, each one process (default 1)")
     parser.add_argument("--np", metavar="P", type=int, default=1,
                         help="run each level under mpirun -n P (one level at a time)")
+    parser.add_argument("--processes", action="store_true",
+                        help="run each level as its own `rftfem run` process, also with "
+                             "--jobs 1 (by default one-at-a-time levels run in the study's "
+                             "own process, which pays the imports and form loading once)")
     parser.add_argument("--reuse", action="store_true",
                         help="keep the levels whose folder holds a finished run of the same "
                              "scene file and overrides (a study extended or re-analysed)")
@@ -306,16 +325,25 @@ def main(args, petsc_args: list[str], console) -> int:
                 f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
     t0 = time.perf_counter()
 
+    # one run at a time on one process: all in this process, paying the imports and
+    # loading the compiled forms once (rftfem/batch.py); else each its own process
+    in_process = args.jobs == 1 and args.np == 1 and not args.processes
+
     def one(lv: Level):
-        run_level(lv, args.scene, args.overrides, launcher, petsc_args, args.reuse)
+        run_level(lv, args.scene, args.overrides, launcher, petsc_args, args.reuse,
+                  in_process)
         evaluate_level(lv, quantities)
         what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
         console.out(f"  {lv.folder.name}: {lv.status} ({what}"
                     + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
                     + (f"; {lv.failure}" if lv.failure else "") + ")")
 
-    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        list(pool.map(one, levels))
+    if in_process:  # in the main thread: gmsh and PETSc want it
+        for lv in levels:
+            one(lv)
+    else:
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            list(pool.map(one, levels))
     rows = table_rows(plans, quantities, scene["time"]["scheme"])
     command = " ".join(["rftfem study", _quote(args.scene),
                         *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",

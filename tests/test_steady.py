@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import DEMOS, run_scene, write_scene
+from conftest import run_scene, write_scene
 
 SINKING = """
 title = "a free strip sinking in drag"
@@ -67,22 +67,6 @@ def test_sinking_strip_stops_once_steady_at_the_terminal_speed(tmp_path):
     assert abs(rate / -TERMINAL - 1) < 1e-9
 
 
-@pytest.mark.long
-def test_swimming_sheet_case_I_steady_in_a_few_periods(tmp_path):
-    """demos/swimming_sheet.toml (case I as shipped, 4×20, 32 steps a period) with
-    time.until = "periodic": steady after 5 periods (the shipped run measures
-    periods 54-62), its speed within 0.5 % of the exact RFT speed 0.49763 mm/s
-    (reached +0.197 %, as the 62-period run's +0.20 %)."""
-    run_scene(DEMOS / "swimming_sheet.toml", "time.until=periodic", "output.fields=false",
-              out_dir=tmp_path / "out")
-    steady = json.loads((tmp_path / "out" / "summary.json").read_text())["steady"]
-    speed = steady["values"]["centroid_x_rate"]
-    print(f"steady after {steady['periods']} periods: {speed:.5f} mm/s, "
-          f"{100 * (speed / 0.49763 - 1):+.3f} % of exact")
-    assert steady["reached"] and steady["periods"] <= 10
-    assert abs(speed / 0.49763 - 1) < 0.005
-
-
 @pytest.mark.parametrize("text, sets, message", [
     (SINKING.replace("period = 2.0e-4\n", ""), [],
      'time.until = "periodic": no period in the scene (a travelling-wave motion or a '
@@ -122,3 +106,26 @@ def test_collect_reads_the_steady_values(tmp_path):
     print(dict(zip(header, rows[0])))
     assert [r[header.index("steady.reached")] for r in rows] == ["true", "true"]
     assert np.allclose(speeds, [-TERMINAL, -TERMINAL / 2], rtol=1e-9, atol=0)
+
+
+def test_quantity_steady_reads_the_steady_values(tmp_path):
+    """The quantity ``steady(NAME)`` (of collect, study and optimize) is summary.json's
+    steady value: the sinking strip's terminal speed; a periodic run stopped at its
+    end before it was steady has no value (Unavailable: an empty cell); a run of
+    time.until = "end" or an unknown name is an error naming what is there."""
+    from rftfem.quantities import Unavailable, evaluate
+
+    scene = write_scene(tmp_path, SINKING)
+    run_scene(scene, out_dir=tmp_path / "steady")
+    assert evaluate("steady(centroid_z_rate)", tmp_path / "steady") == pytest.approx(
+        -TERMINAL, rel=1e-9)
+    run_scene(scene, "time.end=6e-4", out_dir=tmp_path / "short")   # 3 periods: too few
+    with pytest.raises(Unavailable, match="stopped at time.end before it was steady"):
+        evaluate("steady(centroid_z_rate)", tmp_path / "short")
+    with pytest.raises(Exception, match="no steady value 'centroid_z' .*centroid_z_rate"):
+        evaluate("steady(centroid_z)", tmp_path / "steady")
+    plain = write_scene(tmp_path, SINKING.replace('until = "periodic"\nperiod = 2.0e-4\n', ""),
+                        name="plain.toml")
+    run_scene(plain, "time.end=2e-4", out_dir=tmp_path / "end")
+    with pytest.raises(Exception, match='not a run of time.until = "periodic"'):
+        evaluate("steady(centroid_z_rate)", tmp_path / "end")
