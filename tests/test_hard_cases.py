@@ -447,6 +447,7 @@ def test_sheet_large_steps_short(tmp_path, steps_per_period):
     run = run_case(f"large-dt sheet T/{n} 8 periods", "ok, finite, bounded", SHEET,
                    tmp_path / "out", [f"time.dt={SHEET_PERIOD / n!r}",
                                       f"time.end={8 * SHEET_PERIOD!r}", "time.output_every=1",
+                                      "time.until=end",
                                       "output.fields=false"])
     run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
@@ -465,7 +466,8 @@ def test_sheet_large_steps_speed(tmp_path, steps_per_period):
     end = 42 * SHEET_PERIOD
     run = run_case(f"large-dt sheet T/{n} 42 periods", "speed within the dt² bound", SHEET,
                    tmp_path / "out", [f"time.dt={SHEET_PERIOD / n!r}", f"time.end={end!r}",
-                                      "time.output_every=1", "output.fields=false"],
+                                      "time.output_every=1", "output.fields=false",
+                                      "time.until=end"],
                    timeout=1800)
     run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
@@ -648,7 +650,8 @@ DIMENSIONLESS = {"title", "mesh.kind", "mesh.divisions", "mesh.cell", "mesh.regi
                  "shell.nu", "shell.axis", "shell.parts.region", "shell.parts.nu",
                  "time.end", "time.dt", "time.scheme", "time.rho_inf", "time.alpha",
                  "time.output_every", "time.max_cuts", "time.tolerance", "time.dt_min",
-                 "time.dt_max", "time.max_rotation", "boundary.where", "boundary.fix",
+                 "time.dt_max", "time.max_rotation", "time.until", "time.period",
+                 "time.steady_tolerance", "boundary.where", "boundary.fix",
                  "boundary.symmetry", "load.kind", "load.where", "load.ramp", "load.table",
                  "motion.where", "motion.component", "motion.kind",
                  "motion.angular_frequency", "magnetic.parts.region",
@@ -692,7 +695,8 @@ def si_overrides(scene: dict, factor: dict = SI) -> list[str]:
 #: scene, the short run, the length to compare by (mm)
 SCALE_CASES = {
     "rollup": (ROLLUP, [], ROLLUP_L),
-    "sheet": (SHEET, [f"time.end={SHEET_PERIOD!r}", "time.output_every=1"], SHEET_L),
+    "sheet": (SHEET, [f"time.end={SHEET_PERIOD!r}", "time.output_every=1", "time.until=end"],
+              SHEET_L),
     "strip": (STRIP, ["time.end=0.1", "time.output_every=5"], STRIP_L),
 }
 

@@ -41,7 +41,8 @@ SHEET_DT = 0.0019634954084936207  # demos/swimming_sheet.toml: a 32nd of the per
 CASES = {
     # 51 steps; a checkpoint every 4, a row every 3
     "sheet": (DEMOS / "swimming_sheet.toml", 51,
-              ["time.end=0.1", "time.output_every=3", "output.checkpoint_every=4"]),
+              ["time.end=0.1", "time.until=end", "time.output_every=3",
+               "output.checkpoint_every=4"]),
     # the field's ramp (phase 1), 30 steps; a checkpoint every 4, a row every 5
     "strip": (DEMOS / "bidirectional_strip.toml", 30,
               ["mesh.divisions=[10, 2]", "time.end=0.06", "time.output_every=5",

@@ -30,7 +30,7 @@ from running import fields_times, finish, rank_pids, start_run, tables, wait_for
 
 SHEET = DEMOS / "swimming_sheet.toml"
 EVERY = 7  # output every 7 steps (t = 0 and ...); the signal comes after step 4 or later
-SETS = [f"time.output_every={EVERY}"]
+SETS = [f"time.output_every={EVERY}", "time.until=end"]
 STEPS_BEFORE_SIGNAL = 4
 
 def _check_outputs(out: Path, immediate: bool):
