@@ -131,7 +131,8 @@ class RunOutputs:
                else {}),
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
-            "wall_s": {"compile": self.model.timings["compile"], "assembly": self.solver.assembly_time,
+            "wall_s": {"setup": self.setup_time, "compile": self.model.timings["compile"],
+                       "assembly": self.solver.assembly_time,
                        "solve": timings["solve"], "output": self.wall["output"],
                        "checkpoint": self.wall["checkpoint"], "total": total},
         }
