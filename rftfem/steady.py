@@ -20,9 +20,10 @@ is exact for one such mode; Shanks' second transform of five (Wynn's ε
 algorithm) for two, as an energy or a power quadratic in the transient has
 (r and r²), and is taken where it stays near Aitken's.  The run stops at the end of the first period whose
 extrapolation agrees with the last period's to ``time.steady_tolerance`` of the
-column's scale (its watched value, or its swing over the period if larger) for
-every column, and reports the extrapolated values and that agreement as their
-estimated error.  Where a column's values do not converge geometrically
+column's scale (its watched value, or its swing over the period if larger; for
+a position, also the largest drift of any position, the swim: a sideways drift
+near zero need not settle to a thousandth of itself) for every column, and
+reports the extrapolated values and that agreement as their estimated error.  Where a column's values do not converge geometrically
 (|r| ≥ 1, or fewer than four periods) it is not yet steady.
 """
 
@@ -188,6 +189,9 @@ class SteadyWatch:
             return False
         now, before = self.estimates[-1], self.estimates[-2]
         size = np.maximum(np.abs(watched[-1]), self.swings[-1])
+        if self.position.any():  # a drift counts against the body's largest (its swim)
+            drift = np.abs(watched[-1][self.position]).max()
+            size = np.where(self.position, np.maximum(size, drift), size)
         scale = np.maximum(size, self._floors(size))
         agreement = np.abs(now - before)
         # a column that does not converge geometrically (round-off about zero) is

@@ -52,6 +52,30 @@ def test_extrapolations_are_exact_for_their_modes():
     assert np.allclose(shanks(v[-5:]), 3, rtol=0, atol=1e-9)
 
 
+def test_a_sideways_wobble_is_judged_against_the_swim():
+    """A swimmer's sideways drift near zero is steady once it is still to the tolerance
+    of the swim, not of its own size: rows of a body swimming along x at a speed
+    settling as 1 − 0.5^k, wobbling in y with a swing of 1 % of the swim a period and
+    a drift that jitters by 2e-4 of the swim.  Found steady after 12 periods at the
+    settled speed; judged against the wobble alone (its swing), never."""
+    from rftfem.steady import SteadyWatch
+
+    n, per = 24, 20
+    t = np.linspace(0.0, n, n * per + 1)
+    jitter = 2e-4 * np.sin(7.3 * np.floor(t))              # a period's drift jitters
+    x = t + 0.5 ** t / np.log(0.5)                          # x' = 1 − 0.5^t (+ a constant)
+    y = 0.005 * np.sin(2 * np.pi * t) + np.cumsum(np.r_[0, np.diff(jitter)])
+    rows = np.stack([x, y], axis=1)
+    watch = SteadyWatch(1.0, 1e-3, ["centroid_x", "centroid_y"])
+    for k in range(1, n + 1):
+        sel = slice((k - 1) * per, k * per + 1)
+        if watch.add_period(t[sel], rows[sel]):
+            break
+    print(f"steady after {k} periods: {watch.result['values']}")
+    assert watch.result["reached"] and k <= 6
+    assert watch.result["values"]["centroid_x_rate"] == pytest.approx(1.0, rel=1e-3)
+
+
 def test_sinking_strip_stops_once_steady_at_the_terminal_speed(tmp_path):
     """A free strip falls from rest in drag: v = U (1 − e^{−t/τ}), U = ρ t g / C₃,
     τ = 5 periods. The run stops once steady, after 11 periods (running the
