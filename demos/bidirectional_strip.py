@@ -177,12 +177,14 @@ def plot_trajectories(curves: dict, ramp: float, path: Path):
 
 
 def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
-    """Mean speed along the axis from ``settle`` seconds after the ramp to the end
-    of the run, and the mean slip of the moment behind the field (turns per field
-    turn) over that window, and the run's status (a failed run is measured up to
-    where it stopped, and marked).  The settling time keeps the strip's last curling after
-    the ramp out of the speed: it moves the centroid along the axis by about
-    0.3 mm, which over a few periods at a high frequency would read as a fast swim."""
+    """The speed along the axis, the mean slip of the moment behind the field (turns
+    per field turn) from ``settle`` seconds after the ramp to the end of the run,
+    and the run's status (a failed run is measured up to where it stopped, and
+    marked).  The speed of a run that became steady (``time.until = "periodic"``)
+    is its steady centroid rate along the axis (summary.json); otherwise the mean
+    over that window, which the strip's curling after the ramp still biases: it
+    moves the centroid along the axis by millimetres in the first periods (at
+    4 Hz the window 0.2-2.1 s reads −3.6 mm/s where the steady speed is −1.57)."""
     summary = json.loads((folder / "summary.json").read_text())
     scene = summary["scene"]
     field = scene["magnetic"]["field"]
@@ -207,8 +209,13 @@ def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
     angle = [np.unwrap(np.arctan2(v[window] @ e2, v[window] @ e1)) for v in (b, q)]
     turns = (angle[0][-1] - angle[0][0]) / (2 * math.pi)
     lost = ((angle[0][-1] - angle[1][-1]) - (angle[0][0] - angle[1][0])) / (2 * math.pi)
+    steady = summary.get("steady") or {}
+    if steady.get("reached"):
+        values = steady["values"]
+        speed = float(axis @ [values[f"centroid_{k}_rate"] for k in "xyz"])
     return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300),
-            "status": summary["status"], "end": float(t1)}
+            "status": summary["status"], "end": float(t1),
+            "steady": bool(steady.get("reached")) if steady else None}
 
 
 def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
@@ -236,10 +243,12 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     slipping = np.array([r["slip"] > STEPPED_OUT_SLIP for r in rows])
     peak = int(np.argmax(np.abs(v)))
     with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
-        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s\n")
+        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s,"
+                  "steady\n")
         for r in rows:
             out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f},{r['status']},"
-                      f"{r['end']:.6g}\n")
+                      f"{r['end']:.6g},{'' if r['steady'] is None else str(r['steady']).lower()}"
+                      "\n")
     fig, ax = plt.subplots(figsize=(6, 4))
     # signed: the direction along the axis may change with f
     ax.axhline(0.0, color="grey", lw=0.6)
@@ -257,13 +266,14 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     if f.min() > 0 and f.max() / f.min() > 8:
         ax.set_xscale("log", base=2)
     ax.set_xlabel("field frequency f (Hz)")
-    ax.set_ylabel("mean swimming speed (mm/s)")
+    ax.set_ylabel("swimming speed along the axis (mm/s)")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(folder / "sweep.png", dpi=110)
     for r in rows:
         failed = "" if r["status"] == "ok" else f"  (run FAILED at t = {r['end']:.4g} s)"
-        print(f"f = {r['frequency']:6.2f} Hz: mean speed {r['speed']:+9.4f} mm/s, "
+        how = {True: "steady", False: "NOT steady by its end", None: "window mean"}[r["steady"]]
+        print(f"f = {r['frequency']:6.2f} Hz: speed {r['speed']:+9.4f} mm/s ({how}), "
               f"slip {r['slip']:.3f} turn per field turn{failed}")
     print(f"wrote {folder / 'sweep.csv'} and {folder / 'sweep.png'}")
     return 0

@@ -45,8 +45,8 @@ import json
 from pathlib import Path
 
 from rftfem.errors import SceneError
-from rftfem.quantities import (Quantity, RunFolder, Unavailable, evaluate, extreme, mean, parse,
-                               rate, value_at)
+from rftfem.quantities import (NotSteady, Quantity, RunFolder, Unavailable, evaluate, extreme,
+                               mean, parse, rate, value_at)
 
 DESCRIPTION = """\
 Tabulate run folders of a parameter study (CSV, one row per folder): status and
@@ -184,8 +184,8 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = ()
         for _, q in quantities:
             try:
                 row.append(repr(q.evaluate(run)))
-            except Unavailable:
-                if run.status == "ok":
+            except Unavailable as exc:
+                if run.status == "ok" and not isinstance(exc, NotSteady):
                     raise
                 row.append("")
         rows.append(row)

@@ -68,6 +68,11 @@ class Unavailable(SceneError):
     finish, an error otherwise."""
 
 
+class NotSteady(Unavailable):
+    """``steady(NAME)`` of a periodic run that reached ``time.end`` before it was
+    steady: an empty cell of ``rftfem collect``, also for a run that finished."""
+
+
 # --- the quantity language --------------------------------------------------------
 
 _TOKEN = re.compile(r"\s*(?:(?P<num>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
@@ -294,7 +299,7 @@ def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
         raise SceneError(f"quantity '{text}': no steady value '{name}' in {run.dir} "
                          f"(there: {', '.join(values) or 'none'})")
     if not found.get("reached"):  # (too few periods for any value: the name is unchecked)
-        raise Unavailable(f"quantity '{text}': {run.dir} stopped at time.end before it "
+        raise NotSteady(f"quantity '{text}': {run.dir} stopped at time.end before it "
                           f"was steady (after {found.get('periods')} periods)")
     return float(values[name])
 
