@@ -18,6 +18,9 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
 REF_VENV="$ROOT/.venv"
 CUR_VENV="$ROOT/.venv-current"
+# PyElastica, for the peer race only: its own venv, so that rftfem's never imports it;
+# made from ELASTICA_PYTHON, else from the interpreter of the current stack's venv.
+ELASTICA_VENV="$ROOT/.venv-elastica"
 
 usage() {
     cat <<'EOF'
@@ -30,6 +33,8 @@ usage: ./dev.sh TARGET [ARGS...]
   test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
                         and `long` (e.g. ./dev.sh test-current -m long runs those)
   bench                 run benchmarks/*.py on the reference stack
+  race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
+                        20 minutes, --quick for a few); creates .venv-elastica if missing
   setup [STACK]         only set up: reference (default), current or all
   help                  this text
 
@@ -88,7 +93,11 @@ case $target in
     bench)
         setup reference
         shopt -s nullglob
-        benches=(benchmarks/*.py)
+        # the peer race is ./dev.sh race (its own venv, 20 minutes)
+        benches=()
+        for b in benchmarks/*.py; do
+            [[ $b == benchmarks/peer_race.py ]] || benches+=("$b")
+        done
         if [[ ${#benches[@]} -eq 0 ]]; then
             echo "dev.sh: no benchmarks (benchmarks/*.py does not exist yet); nothing to run"
             exit 0
@@ -97,6 +106,20 @@ case $target in
             echo "== $b"
             PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/python" "$b" "$@"
         done
+        ;;
+    race)
+        setup reference
+        if [[ ! -x "$ELASTICA_VENV/bin/python" ]] \
+            || ! "$ELASTICA_VENV/bin/python" -c 'import elastica' 2>/dev/null; then
+            if [[ -z "${ELASTICA_PYTHON:-}" ]]; then
+                setup current     # finds a Python >= 3.12 (scripts/setup.sh)
+                ELASTICA_PYTHON="$(readlink -f "$CUR_VENV/bin/python")"
+            fi
+            echo "dev.sh: creating $ELASTICA_VENV (pyelastica 1.0.0, numba) from $ELASTICA_PYTHON"
+            "$ELASTICA_PYTHON" -m venv "$ELASTICA_VENV"
+            "$ELASTICA_VENV/bin/pip" install --quiet "pyelastica==1.0.0"
+        fi
+        PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/python" benchmarks/peer_race.py "$@"
         ;;
     setup)
         setup "${1:-reference}"
