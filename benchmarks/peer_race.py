@@ -56,6 +56,12 @@ import tempfile
 import time
 from pathlib import Path
 
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+import repository_python  # noqa: E402
+
+repository_python.ensure()
+
 ROOT = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
 
@@ -83,7 +89,7 @@ scheme = "generalized-alpha"
 rho_inf = 0.9
 end = {end}
 dt = {dt}
-output_every = 1
+output_every = {every}       # a row a period, as the PyElastica side records
 [magnetic]
 [[magnetic.parts]]
 region = "head"
@@ -181,7 +187,7 @@ class Rftfem:
     def swim(self, nx, steps, periods, window, env=None):
         dt = PERIOD / steps
         out, wall, summary = self.run(SWIM_SCENE.format(nx=nx, end=periods * PERIOD, dt=dt,
-                                                        freq=FREQ), env)
+                                                        freq=FREQ, every=steps), env)
         if out is None:
             return None, wall, summary
         head, rows = read_csv(out / "body.csv")
@@ -254,10 +260,6 @@ def cheapest(results, ref, tol):
 
 def main(argv=None):
     args = parse(argv)
-    sys.path.insert(0, str(ROOT / "scripts"))
-    import repository_python  # noqa: E402
-
-    repository_python.ensure()  # the repository's .venv when this python3 lacks rftfem
     if not Path(args.rftfem_venv, "bin", "python").exists():
         print(f"peer_race.py: no {args.rftfem_venv}: run ./dev.sh setup", file=sys.stderr)
         return 2

@@ -37,6 +37,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import repository_python  # noqa: E402
 
+repository_python.ensure()
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "swimming_sheet.toml"
 PERIOD = 2 * 3.141592653589793 / 100.0
@@ -74,7 +76,6 @@ def main(argv=None) -> int:
     parser.add_argument("--fresh", type=int, default=3,
                         help="fresh-process runs of one point to time (default 3)")
     args = parser.parse_args(argv)
-    repository_python.ensure()
     from rftfem.batch import run_here
 
     with tempfile.TemporaryDirectory() as tmp:

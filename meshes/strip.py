@@ -61,10 +61,19 @@ def _is_number(v) -> bool:
     return isinstance(v, Real) and not isinstance(v, bool)
 
 
+#: the largest length a strip may have: its areas and energies (squares and higher
+#: powers of it) must stay finite in double precision
+MAX_SIZE = 1e100
+
+
 def check_size(key: str, v) -> float:
-    """``v`` as a positive finite float; ``SceneError("mesh.<key>: ...")`` otherwise."""
+    """``v`` as a positive finite float below ``MAX_SIZE``; ``SceneError("mesh.<key>:
+    ...")`` otherwise."""
     if not _is_number(v) or not (math.isfinite(v) and v > 0):
         raise SceneError(f"mesh.{key}: expected a positive number, found {v!r}")
+    if v > MAX_SIZE:
+        raise SceneError(f"mesh.{key}: expected a length below {MAX_SIZE:g} (its area must "
+                         f"be finite in double precision), found {v!r}")
     return float(v)
 
 
