@@ -213,6 +213,31 @@ def test_a_failed_level_stays_in_the_table(tmp_path):
     assert rows[0]["value"] == "" and rows[1]["change"] == ""
     assert "failed: " in (tmp_path / "study" / "study.md").read_text()
     assert "2 of 3 runs ok" in done.stderr
+    assert "max_rotation" in (tmp_path / "study" / "level-0" / "run.log").read_text()
+
+
+def test_levels_in_this_process_equal_separate_processes(tmp_path):
+    """One level at a time the levels run in the study's own process (rftfem/batch.py),
+    a failed level among them; with --processes each is a child `rftfem run`: the
+    same statuses and the same values to round-off, and the levels after a failure
+    in the same process are unharmed."""
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    sets = ["--refine", "dt", "--levels", 3, "--set", "magnetic.field.frequency=1.0",
+            "--set", "magnetic.field.rotation_axis=[0, 1, 0]", "--set", "time.end=0.4",
+            "--set", "time.dt=0.1", "--set", "time.max_cuts=0",
+            "--set", "time.max_rotation=0.4", "--set", "output.fields=false",
+            "--quantity", "rate=spin(a, b, y, 0, 0.4)"]
+    tables = {}
+    for way in ("here", "processes"):
+        out = tmp_path / way
+        done = study(out, scene, *sets, *(["--processes"] if way == "processes" else []))
+        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+        tables[way] = rows_of(out)
+    for here, child in zip(tables["here"], tables["processes"]):
+        assert here["status"] == child["status"]
+        if here["value"]:
+            assert number(here["value"]) == pytest.approx(number(child["value"]), rel=1e-12)
+    assert [r["status"] for r in tables["here"]] == ["failed", "ok", "ok"]
 
 
 @pytest.mark.parametrize("args, words", [
