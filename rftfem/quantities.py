@@ -14,11 +14,8 @@ linearly interpolated between rows::
                            mean turning rate (rad per unit time) of the line from
                            the first probe to the second about AXIS (x, y or z):
                            its angle in the plane normal to AXIS, unwrapped
-              | "steady" "(" NAME ")"
-                           a steady value of a ``time.until = "periodic"`` run,
-                           from summary.json: ``NAME_rate`` for a position column
-                           (``steady(centroid_x_rate)``, a swimming speed), the
-                           column itself for the rest (``steady(drag_power)``)
+              | "steady" "(" NAME ")"   summary.json's steady value of a periodic run:
+                           NAME_rate for a position (a speed), else the column
     TIME     := NUMBER | "start" | "end"              (first / last row of the run)
 
 A window ``(COLUMN)`` is the whole run, ``(COLUMN, a)`` is ``[a, end]``.
@@ -27,15 +24,12 @@ Examples: ``tip_uz@end``, ``rate(front_ux, 1, 2)``, ``max(elastic_energy)``,
 
 A bad expression, an unknown column (the valid ones are named) or a time before
 the first row is a SceneError; data the run does not have (no series file or no
-rows, a time past its last row, a periodic run that stopped at ``time.end``
-before it was steady) is :class:`Unavailable`, a SceneError that a
-caller may excuse in a run that did not finish.
+rows, a time past its last row) is :class:`Unavailable`, a SceneError that a
+caller may excuse in a run that did not finish (:class:`NotSteady` in any run).
 
-API: ``evaluate(expr, run_dir) -> float``; ``parse(expr) -> Quantity`` and
-``Quantity.evaluate(run) -> float``; ``RunFolder(run_dir)`` (summary, status,
-time series); ``read_csv(path)`` (the complete rows of a CSV log, also of one
-still being written); the functions on rows ``value_at``, ``rate``, ``mean``,
-``extreme``.
+API: ``evaluate(expr, run_dir)``; ``parse(expr).evaluate(run)``; ``RunFolder(run_dir)``
+(summary, status, series); ``read_csv(path)`` (the complete rows, also of a log being
+written); on rows ``value_at``, ``rate``, ``mean``, ``extreme``.
 """
 
 from __future__ import annotations
@@ -69,8 +63,7 @@ class Unavailable(SceneError):
 
 
 class NotSteady(Unavailable):
-    """``steady(NAME)`` of a periodic run that reached ``time.end`` before it was
-    steady: an empty cell of ``rftfem collect``, also for a run that finished."""
+    """steady(NAME) of a run not steady by time.end: an empty cell, though it finished."""
 
 
 # --- the quantity language --------------------------------------------------------
@@ -288,9 +281,9 @@ def spin_angle(run: "RunFolder", first: str, second: str, axis: str,
 
 def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
     """summary.json's extrapolated steady value ``name`` (docs/model.md §6.13)."""
+    found = (run.summary or {}).get("steady")
     if run.summary is None:
         raise Unavailable(f"quantity '{text}': {run.dir} has no summary.json")
-    found = run.summary.get("steady")
     if not found:
         raise SceneError(f"quantity '{text}': {run.dir} is not a run of time.until = "
                          "\"periodic\" (summary.json has no steady values)")
@@ -300,7 +293,7 @@ def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
                          f"(there: {', '.join(values) or 'none'})")
     if not found.get("reached"):  # (too few periods for any value: the name is unchecked)
         raise NotSteady(f"quantity '{text}': {run.dir} stopped at time.end before it "
-                          f"was steady (after {found.get('periods')} periods)")
+                        f"was steady (after {found.get('periods')} periods)")
     return float(values[name])
 
 
