@@ -2,23 +2,26 @@
 evaluates a scene at many settings) without a new interpreter for each.
 
 A fresh ``rftfem run`` pays before its first step for the interpreter and the
-FEniCSx imports (about 1.5 s), for loading each compiled form's module from the
-JIT cache and for gmsh's start (about 1 s more), whatever the size of the run.
+FEniCSx imports (about 0.9 s here), then for gmsh's start, the mesh and loading
+each compiled form's module from the JIT cache (about 0.4 s more), whatever the
+size of the run.
 In one process these are paid once and the compiled modules stay loaded, so a
 second run of a scene sets up in a tenth of a second or so
 (``benchmarks/sweep_cost.py`` measures it).
 
 ``run_here`` does what ``rftfem run SCENE --out FOLDER --quiet --set ...``
 does, in this process: the same outputs, the same exit status (0 ok, 2 bad
-scene or option, 3 failed numerically), what the run prints written to
-``FOLDER/run.log``.  A run that fails leaves the process as it found it (its
-PETSc objects are destroyed), so the next run starts clean.
+scene or option, 3 failed numerically, 1 an internal error, its traceback in
+the log), what the run prints written to ``FOLDER/run.log``.  A run that fails
+leaves the process as it found it (its PETSc objects are destroyed), so the
+next run starts clean.
 """
 
 from __future__ import annotations
 
 import contextlib
 import time
+import traceback
 from pathlib import Path
 
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
@@ -48,6 +51,9 @@ def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
         except RunInterrupted as exc:  # not asked for here (no signal handlers): a stop
             print(f"rftfem: {exc}; outputs so far are in {folder}")
             return exc.exit_status
+        except Exception:  # a bug: as `rftfem run` would, a traceback and exit 1
+            traceback.print_exc()
+            return 1
         print(f"rftfem: done in this process ({time.perf_counter() - t0:.2f} s), "
               f"outputs in {folder}")
         return 0

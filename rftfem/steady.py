@@ -18,13 +18,14 @@ successive values,
 
 is exact for one such mode; Shanks' second transform of five (Wynn's ε
 algorithm) for two, as an energy or a power quadratic in the transient has
-(r and r²), and is taken where it stays near Aitken's.  The run stops at the end of the first period whose
-extrapolation agrees with the last period's to ``time.steady_tolerance`` of the
-column's scale (its watched value, or its swing over the period if larger; for
-a position, also the largest drift of any position, the swim: a sideways drift
-near zero need not settle to a thousandth of itself) for every column, and
-reports the extrapolated values and that agreement as their estimated error.  Where a column's values do not converge geometrically
-(|r| ≥ 1, or fewer than four periods) it is not yet steady.
+(r and r²), and is taken where it stays near Aitken's.  The run stops at the
+end of the first period whose extrapolation agrees with the last period's to
+``time.steady_tolerance`` of the column's scale (its watched value, or its swing
+over the period if larger; for a position, also the largest drift of any
+position, the swim: a sideways drift near zero need not settle to a thousandth
+of itself) for every column, and reports the extrapolated values and that
+agreement as their estimated error.  Where a column's values do not converge
+geometrically (|r| ≥ 1, or fewer than four periods) it is not yet steady.
 """
 
 from __future__ import annotations
