@@ -20,6 +20,9 @@ next run starts clean.
 from __future__ import annotations
 
 import contextlib
+import json
+import subprocess
+import sys
 import time
 import traceback
 from pathlib import Path
@@ -59,4 +62,62 @@ def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
         return 0
 
 
-__all__ = ["run_here"]
+def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
+              launcher: list[str] = (), petsc_args: list[str] | None = None) -> int:
+    """The same run as a child ``rftfem run`` (under ``launcher``, e.g. ``mpirun -n 2``),
+    its output in ``folder/run.log``; its exit status."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    cmd = [*launcher, sys.executable, "-m", "rftfem", "run", str(scene_file), "--out",
+           str(folder), "--quiet"]
+    for text in overrides:
+        cmd += ["--set", text]
+    cmd += list(petsc_args or [])
+    with open(folder / "run.log", "w", encoding="utf-8") as log:
+        return subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+
+
+def finished(folder: Path, scene_file: str | Path, overrides: list[str]) -> bool:
+    """``folder`` holds a finished run (status ok) of the same scene file and overrides."""
+    try:
+        summary = json.loads((Path(folder) / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return (summary.get("status") == "ok" and summary.get("overrides") == list(overrides)
+            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
+
+
+def failure_reason(log: Path, status: int) -> str:
+    """The line of a run's log that says why it ended without a summary: rftfem's own
+    one-line error, else a traceback's last line, else the launcher's first words."""
+    try:
+        lines = [ln.strip() for ln in log.read_text(encoding="utf-8", errors="replace")
+                 .splitlines() if any(c.isalnum() for c in ln)]
+    except OSError:
+        lines = []
+    own = [ln for ln in lines if ln.startswith("rftfem")]
+    if own:
+        line = own[-1]
+    elif any(ln.startswith("Traceback") for ln in lines):
+        line = lines[-1]
+    else:
+        line = lines[0] if lines else ""
+    return (line or f"exit status {status}")[:300] + f" (exit status {status}; {log})"
+
+
+def launcher(np: int) -> list[str]:
+    """``mpirun -n P`` of the running stack (beside the interpreter, else on PATH)."""
+    import shutil
+
+    from rftfem.errors import SceneError
+
+    if np <= 1:
+        return []
+    here = Path(sys.executable).parent / "mpirun"
+    exe = str(here) if here.exists() else shutil.which("mpirun")
+    if exe is None:
+        raise SceneError(f"--np {np}: no mpirun beside {sys.executable} or on PATH")
+    return [exe, "-n", str(np)]
+
+
+__all__ = ["run_here", "run_child", "finished", "failure_reason", "launcher"]

@@ -83,7 +83,7 @@ def _build_parser() -> _Parser:
 
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
-    from rftfem import collect, render_cli, study
+    from rftfem import collect, optimize, render_cli, study
 
     render_cli.add_arguments(sub.add_parser(
         "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
@@ -96,6 +96,9 @@ def _build_parser() -> _Parser:
     study.add_arguments(sub.add_parser(
         "study", help="what accuracy costs: a scene at successive refinements",
         allow_abbrev=False, description=study.DESCRIPTION))
+    optimize.add_arguments(sub.add_parser(
+        "optimize", help="search scene parameters for the best value of a quantity",
+        allow_abbrev=False, description=optimize.DESCRIPTION))
     return parser
 
 
@@ -249,14 +252,16 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
         return SceneError.exit_status
 
 
-def _cmd_study(args, petsc_args: list[str], console: _Console) -> int:
-    """``study``: runs levels of a scene as child processes (PETSc options go to each)."""
-    from rftfem.study import main as study
-
+def _cmd_many(args, petsc_args: list[str], console: _Console) -> int:
+    """``study`` and ``optimize``: many runs of a scene (PETSc options go to each)."""
+    if args.command == "study":
+        from rftfem.study import main as tool
+    else:
+        from rftfem.optimize import main as tool
     try:
-        return study(args, petsc_args, console)
+        return tool(args, petsc_args, console)
     except SceneError as exc:
-        console.err(f"rftfem study: error: {exc}")
+        console.err(f"rftfem {args.command}: error: {exc}")
         return SceneError.exit_status
 
 
@@ -277,8 +282,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_run(args, petsc_args, console)
         if args.command in ("render", "collect"):
             return _cmd_tool(args, petsc_args, console)
-        if args.command == "study":
-            return _cmd_study(args, petsc_args, console)
+        if args.command in ("study", "optimize"):
+            return _cmd_many(args, petsc_args, console)
         return _cmd_check(args, console)
     except KeyboardInterrupt:
         console.err("rftfem: interrupted")

@@ -32,6 +32,7 @@ from typing import Any, Iterator
 
 from rftfem import schema as _schema
 from rftfem import scene as _scene
+from rftfem import toml_writer
 
 #: docs/scenes.md of the source tree this module belongs to
 DOC_PATH = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
@@ -56,20 +57,7 @@ def start_marker(part: str) -> str:
 
 def _toml(value: Any) -> str:
     """A default value as it would be written in a scene."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if value != 0.0 and not 1e-4 <= abs(value) < 1e5:
-            mantissa, exponent = f"{value:.12e}".split("e")
-            return f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
-        return repr(value)
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    raise TypeError(f"no TOML form for {value!r}")
+    return toml_writer.value(value)
 
 
 def _cell(text: str) -> str:

@@ -49,13 +49,14 @@ from __future__ import annotations
 import json
 import math
 import shutil
-import subprocess
-import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
+from rftfem.batch import failure_reason, finished, run_child, run_here
+from rftfem.batch import launcher as batch_launcher
 from rftfem.errors import SceneError
 from rftfem.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
@@ -144,47 +145,21 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, lis
     return plans
 
 
-def _finished(level: Level, overrides: list[str], scene_file: str) -> bool:
-    """The level's folder holds a finished run of the same scene file and overrides."""
-    try:
-        summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return (summary.get("status") == "ok"
-            and summary.get("overrides") == [*overrides, *level.overrides]
-            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
-
-
 def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
               petsc_args: list[str], reuse: bool = False, in_process: bool = False) -> None:
     """Run one level (a fresh folder) and read its summary into ``level``; with
     ``reuse``, a finished run of the same level is read instead.  ``in_process``:
     run it in this process (rftfem/batch.py), else as a child ``rftfem run``."""
-    if reuse and _finished(level, overrides, scene_file):
+    if reuse and finished(level.folder, scene_file, [*overrides, *level.overrides]):
         level.status = "reused"
     elif level.folder.exists():
         shutil.rmtree(level.folder)
     if level.status != "reused":
         level.folder.mkdir(parents=True)
-        if in_process:
-            from rftfem.batch import run_here
-
-            level.exit_status = run_here(scene_file, [*overrides, *level.overrides],
-                                         level.folder, petsc_args)
-        else:
-            _run(level, scene_file, overrides, launcher, petsc_args)
+        run = run_here if in_process else partial(run_child, launcher=launcher)
+        level.exit_status = run(scene_file, [*overrides, *level.overrides], level.folder,
+                                petsc_args=petsc_args)
     _read_summary(level)
-
-
-def _run(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
-         petsc_args: list[str]) -> None:
-    cmd = [*launcher, sys.executable, "-m", "rftfem", "run", scene_file, "--out",
-           str(level.folder), "--quiet"]
-    for text in [*overrides, *level.overrides]:
-        cmd += ["--set", text]
-    cmd += petsc_args
-    with open(level.folder / "run.log", "w", encoding="utf-8") as log:
-        level.exit_status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
 
 
 def _read_summary(level: Level) -> None:
@@ -195,7 +170,7 @@ def _read_summary(level: Level) -> None:
         summary = None
     if summary is None:
         level.status = "failed"
-        level.failure = _reason(level.folder / "run.log", status)
+        level.failure = failure_reason(level.folder / "run.log", status)
         return
     level.status = summary.get("status", "failed") if status == 0 else "failed"
     failure = summary.get("failure") or {}
@@ -223,24 +198,6 @@ def evaluate_level(level: Level, quantities) -> None:
         except SceneError as exc:
             level.values[name] = None
             level.status, level.failure = "failed", f"quantity {name}: {exc}"
-
-
-def _reason(log: Path, status: int) -> str:
-    """The line of a run's log that says why it ended without a summary: rftfem's own
-    one-line error, else a traceback's last line, else the launcher's first words."""
-    try:
-        lines = [ln.strip() for ln in log.read_text(encoding="utf-8", errors="replace")
-                 .splitlines() if any(c.isalnum() for c in ln)]
-    except OSError:
-        lines = []
-    own = [ln for ln in lines if ln.startswith("rftfem")]
-    if own:
-        line = own[-1]
-    elif any(ln.startswith("Traceback") for ln in lines):
-        line = lines[-1]
-    else:
-        line = lines[0] if lines else ""
-    return (line or f"exit status {status}")[:300] + f" (exit status {status}; {log})"
 
 
 # --- orders and estimates ---------------------------------------------------------
@@ -319,7 +276,7 @@ def main(args, petsc_args: list[str], console) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
-    launcher = _launcher(args.np)
+    launcher = batch_launcher(args.np)
     levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
     console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
                 f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
@@ -360,17 +317,6 @@ def main(args, petsc_args: list[str], console) -> int:
                 f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"
                 + (", study.png" if drawn else "") + f" in {out}")
     return 0
-
-
-def _launcher(np: int) -> list[str]:
-    """``mpirun -n P`` of the running stack (beside the interpreter, else on PATH)."""
-    if np <= 1:
-        return []
-    here = Path(sys.executable).parent / "mpirun"
-    exe = str(here) if here.exists() else shutil.which("mpirun")
-    if exe is None:
-        raise SceneError(f"--np {np}: no mpirun beside {sys.executable} or on PATH")
-    return [exe, "-n", str(np)]
 
 
 def _quote(arg: str) -> str:
