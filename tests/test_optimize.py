@@ -180,3 +180,18 @@ def test_objective_formulas():
     c = objective.parse_constraint("tip_uz@end + scene(shell.thickness) >= 2")
     assert (c.sense, c.bound, c.violation(1.5), c.violation(3.0)) == (">=", 2.0, 0.5, 0.0)
     assert math.isclose(objective.parse("-tip_uz@0.5*2").formula.numbers({"q0": 1.0}), -2.0)
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_grid_on_a_log_scale_is_geometric(tmp_path, jobs):
+    """--method grid with LO:HI:log: the budget's points equally spaced in log E, the
+    tip deflection ∝ 1/E (linear range); with --jobs 2 as child runs side by side."""
+    out = tmp_path / "opt"
+    done = optimize(out, "--vary", "shell.E=1e5:1e7:log", "--objective", "tip_uz@end",
+                    "--method", "grid", "--budget", 3, "--jobs", jobs, *CANTILEVER)
+    assert done.returncode == 0, done.stderr
+    table = rows(out)
+    assert [float(r["shell.E"]) for r in table] == pytest.approx([1e5, 1e6, 1e7], rel=1e-12)
+    tips = [float(r["objective"]) for r in table]
+    assert tips[0] / tips[1] == pytest.approx(10, rel=1e-3)
+    assert tips[1] / tips[2] == pytest.approx(10, rel=1e-4)
