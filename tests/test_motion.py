@@ -65,8 +65,8 @@ at = [2.0, 0.5, 0.0]
 
 
 def test_travelling_wave_on_a_region(tmp_path):
-    """A wave ``b sin(k (X − X₀) + ω t)`` on a region's nodes, in-plane component ux."""
-    b, k, w, x0 = 0.01, 1.3, 2.0, 0.5
+    """A wave ``b sin(k (X − X₀) + ω t + φ)`` on a region's nodes, in-plane component ux."""
+    b, k, w, x0, phi = 0.01, 1.3, 2.0, 0.5, 0.4
     scene = write_scene(tmp_path, BASE + f"""
 [[motion]]
 where = "band"
@@ -75,6 +75,7 @@ amplitude = {b}
 wavenumber = {k}
 angular_frequency = {w}
 origin = {x0}
+phase = {phi}
 """ + "".join(f"""
 [[output.probes]]
 name = "p{i}"
@@ -84,4 +85,4 @@ at = [{x}, 0.0, 0.0]
     for i, x in enumerate((1.0, 1.5, 2.0)):
         times = np.array([0.0, 0.5, 1.0])
         ux = rows_at(sim, times, probe=i)[:, 0]
-        assert np.allclose(ux, b * np.sin(k * (x - x0) + w * times), atol=1e-12)
+        assert np.allclose(ux, b * np.sin(k * (x - x0) + w * times + phi), atol=1e-12)

@@ -40,7 +40,8 @@ class Motions(Effect):
                            doc="The displacement component prescribed (global axes)."),
         "kind": Leaf(Str(("travelling-wave", "table")), "travelling-wave",
                       doc='"travelling-wave": u = amplitude sin(wavenumber (X − origin) + '
-                          "angular_frequency t), with X each node's reference X coordinate; "
+                          "angular_frequency t + phase), with X each node's reference X "
+                          "coordinate; "
                           '"table": one value on the whole selection, interpolated in '
                           "`values`."),
         "amplitude": Leaf(Num(), 0.0, unit="length",
@@ -53,6 +54,10 @@ class Motions(Effect):
         "origin": Leaf(Num(), 0.0, unit="length",
                         doc="The reference X where the wave's phase is zero at t = 0 "
                             "(travelling-wave)."),
+        "phase": Leaf(Num(), 0.0, unit="rad",
+                       doc="The phase added to the wave's (travelling-wave): with "
+                           "wavenumber = 0, a sinusoidal motion of the whole selection "
+                           "lagging another by the difference of their phases."),
         "values": Leaf(Pairs("u"), unit="[time, length]",
                         default_doc='none: required only with kind = "table"',
                         doc="The displacement, piecewise linear in time; before the first "
@@ -156,7 +161,8 @@ class Motions(Effect):
 class Motion:
     """A prescribed displacement component and its Dirichlet value.
 
-    ``travelling-wave``: ``u = amplitude sin(wavenumber (X − origin) + angular_frequency t)``
+    ``travelling-wave``: ``u = amplitude sin(wavenumber (X − origin) + angular_frequency t
+    + phase)``
     with ``X`` the reference X coordinate of each dof; ``table``: piecewise linear
     in time, the same value at every selected dof.
     """
@@ -172,7 +178,7 @@ class Motion:
         if s["kind"] == "table":
             return np.full_like(X, np.interp(t, self.table[:, 0], self.table[:, 1]))
         return s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
-                                       + s["angular_frequency"] * t)
+                                       + s["angular_frequency"] * t + s["phase"])
 
     def set(self, t: float):
         self.value.x.array[self.value_dofs] = self.at(t, self.X)
@@ -195,7 +201,8 @@ class Motion:
                 if 0 < k < len(times):
                     slope = (values[k] - values[k - 1]) / (times[k] - times[k - 1])
             return np.full_like(self.X, slope), np.zeros_like(self.X)
-        phase = s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t
+        phase = (s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t
+                 + s["phase"])
         w = s["angular_frequency"]
         return s["amplitude"] * w * np.cos(phase), -s["amplitude"] * w**2 * np.sin(phase)
 
