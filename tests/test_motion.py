@@ -65,8 +65,9 @@ at = [2.0, 0.5, 0.0]
 
 
 def test_travelling_wave_on_a_region(tmp_path):
-    """A wave ``b sin(k (X − X₀) + ω t + φ)`` on a region's nodes, in-plane component ux."""
-    b, k, w, x0, phi = 0.01, 1.3, 2.0, 0.5, 0.4
+    """A wave ``s(t) b sin(k (X − X₀) + ω t + φ)`` on a region's nodes, in-plane component
+    ux, ramped in over 0.8 (s = (1 − cos(π t / 0.8)) / 2, then 1)."""
+    b, k, w, x0, phi, tau = 0.01, 1.3, 2.0, 0.5, 0.4, 0.8
     scene = write_scene(tmp_path, BASE + f"""
 [[motion]]
 where = "band"
@@ -76,6 +77,7 @@ wavenumber = {k}
 angular_frequency = {w}
 origin = {x0}
 phase = {phi}
+ramp_time = {tau}
 """ + "".join(f"""
 [[output.probes]]
 name = "p{i}"
@@ -85,4 +87,23 @@ at = [{x}, 0.0, 0.0]
     for i, x in enumerate((1.0, 1.5, 2.0)):
         times = np.array([0.0, 0.5, 1.0])
         ux = rows_at(sim, times, probe=i)[:, 0]
-        assert np.allclose(ux, b * np.sin(k * (x - x0) + w * times + phi), atol=1e-12)
+        ramp = np.where(times < tau, (1 - np.cos(np.pi * times / tau)) / 2, 1.0)
+        assert np.allclose(ux, ramp * b * np.sin(k * (x - x0) + w * times + phi), atol=1e-12)
+
+
+def test_a_waves_rates_are_its_derivatives():
+    """The velocity and acceleration a second-order scheme imposes on driven dofs
+    (Motion.rates) are the time derivatives of the prescribed value (Motion.at): central
+    differences of ``at`` agree to 1e-7, inside the ramp, at its end and after it."""
+    from rftfem.effects.motion import Motion
+
+    spec = {"kind": "travelling-wave", "amplitude": 0.3, "wavenumber": 0.7,
+            "angular_frequency": 5.0, "origin": 0.2, "phase": 1.1, "ramp_time": 0.5}
+    X = np.linspace(0.0, 3.0, 7)
+    motion = Motion(spec, None, None, X, None)
+    h = 1e-4
+    for t in (0.05, 0.3, 0.499, 0.7, 2.0):
+        v, a = motion.rates(t, side=-1)
+        before, now, after = (motion.at(t + d, X) for d in (-h, 0.0, h))
+        assert np.allclose(v, (after - before) / (2 * h), atol=1e-7 * 0.3 * 5.0)
+        assert np.allclose(a, (after - 2 * now + before) / h**2, atol=1e-5 * 0.3 * 25.0)

@@ -54,6 +54,10 @@ class Motions(Effect):
         "origin": Leaf(Num(), 0.0, unit="length",
                         doc="The reference X where the wave's phase is zero at t = 0 "
                             "(travelling-wave)."),
+        "ramp_time": Leaf(Num(lo=0.0), 0.0, unit="time",
+                           doc="A smooth start (travelling-wave): the amplitude grows as "
+                               "(1 − cos(π t / ramp_time)) / 2 up to ramp_time, so the body "
+                               "starts at rest from its reference shape; 0: no ramp."),
         "phase": Leaf(Num(), 0.0, unit="rad",
                        doc="The phase added to the wave's (travelling-wave): with "
                            "wavenumber = 0, a sinusoidal motion of the whole selection "
@@ -161,8 +165,8 @@ class Motions(Effect):
 class Motion:
     """A prescribed displacement component and its Dirichlet value.
 
-    ``travelling-wave``: ``u = amplitude sin(wavenumber (X − origin) + angular_frequency t
-    + phase)``
+    ``travelling-wave``: ``u = s(t) amplitude sin(wavenumber (X − origin) + angular_frequency t
+    + phase)``, ``s = (1 − cos(π t / ramp_time)) / 2`` up to ``ramp_time``, 1 after
     with ``X`` the reference X coordinate of each dof; ``table``: piecewise linear
     in time, the same value at every selected dof.
     """
@@ -177,8 +181,20 @@ class Motion:
         s = self.spec
         if s["kind"] == "table":
             return np.full_like(X, np.interp(t, self.table[:, 0], self.table[:, 1]))
-        return s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
-                                       + s["angular_frequency"] * t + s["phase"])
+        ramp = self.ramp(t)[0]
+        return ramp * s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
+                                              + s["angular_frequency"] * t + s["phase"])
+
+    def ramp(self, t: float) -> tuple[float, float, float]:
+        """The amplitude's factor ``s(t)`` and its first two derivatives."""
+        tau = self.spec["ramp_time"]
+        if tau <= 0.0 or t >= tau:
+            return 1.0, 0.0, 0.0
+        if t <= 0.0:
+            return 0.0, 0.0, 0.0
+        k = np.pi / tau
+        return (0.5 * (1 - np.cos(k * t)), 0.5 * k * np.sin(k * t),
+                0.5 * k**2 * np.cos(k * t))
 
     def set(self, t: float):
         self.value.x.array[self.value_dofs] = self.at(t, self.X)
@@ -203,8 +219,10 @@ class Motion:
             return np.full_like(self.X, slope), np.zeros_like(self.X)
         phase = (s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t
                  + s["phase"])
-        w = s["angular_frequency"]
-        return s["amplitude"] * w * np.cos(phase), -s["amplitude"] * w**2 * np.sin(phase)
+        w, b = s["angular_frequency"], s["amplitude"]
+        r, dr, ddr = self.ramp(t)
+        u, du, ddu = b * np.sin(phase), b * w * np.cos(phase), -b * w**2 * np.sin(phase)
+        return r * du + dr * u, r * ddu + 2 * dr * du + ddr * u
 
     def speed_scale(self) -> float:
         """The largest speed this motion prescribes."""
