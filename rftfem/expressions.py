@@ -63,6 +63,29 @@ class Formula:
         return _evaluate(self.tree, env, functions)
 
 
+#: names a scene's [parameters] may not take (the formulas' own)
+RESERVED = frozenset(FUNCTIONS) | frozenset(CONSTANTS) | {"X", "Y", "Z", "x", "y", "z", "t"}
+
+
+def substitute(text: str, values: dict) -> str:
+    """``text`` with each name in ``values`` (a scene parameter, not a function call)
+    replaced by its number in parentheses; the rest of the text as it was."""
+    if not values:
+        return text
+    out, pos = [], 0
+    matches = list(_TOKEN.finditer(text))
+    for n, m in enumerate(matches):
+        if m.end() == m.start():
+            break
+        name = m.group("name")
+        following = matches[n + 1].group("op") if n + 1 < len(matches) else None
+        if name in values and following != "(":
+            start = m.start("name")
+            out.append(text[pos:start] + f"({float(values[name])!r})")
+            pos = m.end()
+    return "".join(out) + text[pos:]
+
+
 def parse(text, key: str, variables: tuple[str, ...]) -> Formula:
     """Parse ``text`` (a string, or a number taken as it is) for the scene key ``key``
     whose formulas may use ``variables``."""

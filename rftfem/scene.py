@@ -47,11 +47,12 @@ from typing import Any, Iterable
 from rftfem import effects, steady
 from rftfem.errors import SceneError
 from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array, Bool, Free, Int,
-                           Leaf, Num, Str, Table, Vec, check_tangent, check_unique, err, fmt, join,
-                           section, suggest, validate_table)
+                           Leaf, Num, Parameters, Str, Table, Vec, check_tangent, check_unique,
+                           err, fmt, join, section, suggest, validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
 from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 from rftfem.timeint import resolved_scheme
+from rftfem.validators import scene_parameters
 
 __all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme", "hinge_line",
            "SCHEMA"]
@@ -192,6 +193,11 @@ SCHEMA = Table({
     }, doc="What a run writes besides steps.csv, body.csv and summary.json."),
     **effects.scene_keys(),
     "load": effects.load_schema(),
+    "parameters": Parameters(doc="Named numbers for the scene's formulas (the magnetization "
+                                  "and its direction, a field's components): a design "
+                                  "variable written once, used in several formulas, and "
+                                  "changed by one `--set` (as `rftfem optimize --vary` does). "
+                                  "Each use is replaced by the number when the scene is read."),
     "solver": Free(doc="PETSc options of the nonlinear solve, named without prefix or dash "
                         "(snes_rtol, ksp_type, pc_type, ...). They replace rftfem's defaults; "
                         "PETSc options on the `rftfem run` command line replace them in "
@@ -203,7 +209,7 @@ SCHEMA = Table({
 
 #: the order the reference lists the top-level keys in; an effect's key not named
 #: here comes before [output]
-_READING_ORDER = ("title", "mesh", "shell", "hinge", "time", "boundary", "load", "motion",
+_READING_ORDER = ("title", "parameters", "mesh", "shell", "hinge", "time", "boundary", "load", "motion",
                   "fluid", "magnetic")
 SCHEMA.fields = dict(sorted(SCHEMA.fields.items(), key=lambda item: (
     _READING_ORDER.index(item[0]) if item[0] in _READING_ORDER else
@@ -381,8 +387,11 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
     for text in overrides:
         apply_override(raw, text)
 
-    scene = validate_table(SCHEMA, raw, "")
-    _cross_check(scene)
+    # the [parameters] first: the formulas that use them are validated with their numbers
+    parameters = SCHEMA.fields["parameters"].validate(raw.get("parameters", {}), "parameters")
+    with scene_parameters(parameters):
+        scene = validate_table(SCHEMA, raw, "")
+        _cross_check(scene)
     scene["time"]["scheme"] = resolved_scheme(scene)
 
     folder = scene_path.resolve().parent

@@ -190,9 +190,8 @@ def scene_keys_markdown(schema: Any = None) -> str:
                 doc = _require_doc(sub, path)
                 sections.append((f"`[{path}]`", f"{_status(sub)} {doc}", [
                     "| " + " | ".join([f"`{path}.*`", _cell(sub.expected),
-                                       "none: rftfem's own solver options apply", "—",
-                                       _cell("Any PETSc option of the solve, e.g. "
-                                             f"`{path}.snes_rtol = 1e-10`.")]) + " |"]))
+                                       sub.entry_default, "—",
+                                       _cell(sub.entry_doc.format(path=path))]) + " |"]))
 
     table_section("", schema, "Top level", _require_doc(schema, "(the top level)"))
     out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from "

@@ -24,7 +24,7 @@ from rftfem.validators import (NONNEGATIVE, POSITIVE, Bool, Divisions, Fix, Form
                                one_of, suggest)
 
 __all__ = [  # the validators and message helpers too: a table is written with one import
-    "Leaf", "Table", "Array", "Kinds", "Free", "validate_table", "check_unique", "table_iff",
+    "Leaf", "Table", "Array", "Kinds", "Free", "Parameters", "validate_table", "check_unique", "table_iff",
     "unit_vector", "copy_value", "section", "MAX_STEPS", "NONNEGATIVE", "POSITIVE", "Bool",
     "Divisions", "Fix", "Formula", "Formulas", "Int", "Num", "Pairs", "Rows", "Str", "Validator",
     "Vec", "Where", "err", "fmt", "join", "one_of", "suggest"]
@@ -95,9 +95,44 @@ class Free:
 
     expected = ("any PETSc option name without prefix or dash (lowercase letters, digits, "
                 "'_'); a string, number or boolean")
+    #: the reference's row for its keys: default and meaning (``{path}`` is its path)
+    entry_default = "none: rftfem's own solver options apply"
+    entry_doc = "Any PETSc option of the solve, e.g. `{path}.snes_rtol = 1e-10`."
 
     def __init__(self, *, doc: str = ""):
         self.doc = doc
+
+    def validate(self, raw: Any, path: str) -> dict:
+        return _validate_free(raw, path)
+
+
+class Parameters(Free):
+    """A table of named numbers that the scene's formulas may use."""
+
+    expected = ("a name (letters, digits, '_', not starting with a digit, not a function, "
+                "pi or a coordinate) = a finite number")
+    entry_default = "none"
+    entry_doc = ("A number the scene's formulas may use by its name, e.g. `{path}.wavelength "
+                 "= 3.7` with `direction = [\"cos(2*pi*X/wavelength)\", ...]`; "
+                 "`--set {path}.wavelength=5` changes it everywhere.")
+
+    def validate(self, raw: Any, path: str) -> dict:
+        from rftfem.expressions import RESERVED
+
+        if not isinstance(raw, dict):
+            raise err(path, f"a table {section(path)} of named numbers", raw)
+        out = {}
+        for key, value in raw.items():
+            kp = join(path, key)
+            if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key) or key in RESERVED:
+                raise SceneError(f"{kp}: expected a parameter name (letters, digits, '_', "
+                                 f"not starting with a digit, not one of the formulas' own "
+                                 f"names), found '{key}'")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise err(kp, "a finite number", value)
+            out[key] = float(value) if isinstance(value, float) else value
+        return out
 
 
 #: the most time steps a scene may ask for (time.end / time.dt)
@@ -151,7 +186,7 @@ def validate_table(spec: Table, raw: Any, path: str) -> dict:
         elif isinstance(sub, Array):
             out[key] = _validate_array(sub, value if present else [], sub_path)
         elif isinstance(sub, Free):
-            out[key] = _validate_free(value if present else {}, sub_path)
+            out[key] = sub.validate(value if present else {}, sub_path)
     return out
 
 

@@ -8,6 +8,8 @@ the scene's tables from them.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import difflib
 import math
 import re
@@ -297,9 +299,25 @@ class Rows(Validator):
         return out
 
 
+#: the scene's [parameters] while its formulas are validated (``scene_parameters``)
+_PARAMETERS: contextvars.ContextVar[dict] = contextvars.ContextVar("parameters", default={})
+
+
+@contextlib.contextmanager
+def scene_parameters(values: dict):
+    """Within this block, formulas may use the names of ``values`` (a scene's
+    ``[parameters]``); each is replaced by its number in the validated scene."""
+    token = _PARAMETERS.set(dict(values or {}))
+    try:
+        yield
+    finally:
+        _PARAMETERS.reset(token)
+
+
 class Formula(Validator):
     """A number (checked by ``number``) or a formula of ``variables`` (a string,
-    :mod:`rftfem.expressions`).  A formula without variables is its number."""
+    :mod:`rftfem.expressions`).  A formula without variables is its number.  The
+    scene's parameters in a formula are replaced by their numbers."""
 
     def __init__(self, variables: tuple[str, ...], number: Validator | None = None):
         self.variables, self.number = tuple(variables), number or Num()
@@ -308,9 +326,10 @@ class Formula(Validator):
                          if self.variables else self.number.expected)
 
     def __call__(self, value, path):
-        from rftfem.expressions import parse
+        from rftfem.expressions import parse, substitute
 
         if isinstance(value, str):
+            value = substitute(value, _PARAMETERS.get())
             formula = parse(value, path, self.variables)
             if not formula.constant:
                 return value

@@ -6,6 +6,7 @@ substrings the error message must contain: ``# expect: key.path | other text``.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -129,7 +130,7 @@ direction = [1, 0, 0]
 """))
     assert s["motion"][0] == {"where": "all", "name": None, "component": "uz", "kind": "travelling-wave",
                               "amplitude": 0.15, "wavenumber": 0.0, "angular_frequency": 0.0,
-                              "origin": 0.0, "values": None}
+                              "origin": 0.0, "ramp_time": 0.0, "phase": 0.0, "values": None}
     assert s["magnetic"]["field"] == {"kind": "rotating", "strength": 0.0, "ramp_time": 0.0,
                                       "direction": [1.0, 0.0, 0.0], "frequency": 0.0,
                                       "rotation_axis": [0.0, 0.0, 1.0], "B": None,
@@ -185,6 +186,33 @@ def test_overrides_scalar_array_word_index_and_new_table(write):
     assert s["title"] == "a new title"
     assert active_effects(s) == ["elasticity", "drag", "edge-moment"]
     assert s["time"]["scheme"] == "backward-euler"
+
+
+PARAMETERS = MINIMAL + """
+[parameters]
+wavelength = 3.7
+phase = 0.5
+[[magnetic.parts]]
+region = "all"
+magnetization = "62*cos(phase)"
+direction = ["cos(2*pi*X/wavelength + phase)", "0", "sin(2*pi*X/wavelength+phase)"]
+[magnetic.field]
+strength = 1e-6
+"""
+
+
+def test_parameters_are_numbers_in_the_formulas(write):
+    """[parameters]: each use in a formula becomes its number (a formula left without
+    variables is a number), one --set changes every use; names the formulas own and
+    names not defined are refused."""
+    s = load_scene(write(PARAMETERS), ["parameters.wavelength=5"])
+    part = s["magnetic"]["parts"][0]
+    assert part["direction"] == ["cos(2*pi*X/(5.0) + (0.5))", 0.0, "sin(2*pi*X/(5.0)+(0.5))"]
+    assert part["magnetization"] == pytest.approx(62 * math.cos(0.5), rel=1e-15)
+    assert s["parameters"] == {"wavelength": 5, "phase": 0.5}
+    assert "'phas'" in scene_error(write(PARAMETERS.replace("+phase)", "+phas)")))
+    assert scene_error(write(PARAMETERS), ["parameters.t=1"]).startswith("parameters.t: expected")
+    assert scene_error(write(PARAMETERS), ["parameters.k=x"]).startswith("parameters.k: expected")
 
 
 def test_overrides_apply_in_order_and_to_nested_optional_table():
