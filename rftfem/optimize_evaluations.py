@@ -188,14 +188,19 @@ class Evaluator:
                 self._cache[self._key(x)] = ev
                 todo.append(ev)
             results.append(ev)
+        # each is scored (and its row written) as it ends
         if self.in_process or len(todo) <= 1:
             for ev in todo:
                 self._run(ev)
-        else:
+                self._score(ev)
+        else:  # --jobs at a time, scored in the order asked for (a failed run's score
+            # then does not depend on which run ended first)
             with ThreadPoolExecutor(max_workers=self.jobs) as pool:
-                list(pool.map(self._run, todo))
-        for ev in todo:
-            self._score(ev)
+                for k in range(0, len(todo), self.jobs):
+                    chunk = todo[k:k + self.jobs]
+                    list(pool.map(self._run, chunk))
+                    for ev in chunk:
+                        self._score(ev)
         if len(results) < len(zs):
             raise BudgetSpent
         return results
