@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import subprocess
 import sys
 import time
@@ -73,8 +74,13 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     for text in overrides:
         cmd += ["--set", text]
     cmd += list(petsc_args or [])
+    env = None
+    if launcher and hasattr(os, "geteuid") and os.geteuid() == 0:
+        # a container's root: Open MPI's mpirun refuses to start without these, and
+        # this launch is rftfem's own, so its user could not add them
+        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     with open(folder / "run.log", "w", encoding="utf-8") as log:
-        return subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+        return subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
 
 
 def finished(folder: Path, scene_file: str | Path, overrides: list[str]) -> bool:

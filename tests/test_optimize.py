@@ -15,6 +15,7 @@ t_c = (4 P L³ / (E b w_max))^{1/3}.
 from __future__ import annotations
 
 import csv
+import json
 import math
 import sys
 import tomllib
@@ -288,3 +289,20 @@ def test_three_link_stroke_scene_against_rigid_links(tmp_path):
     assert done.returncode == 0, done.stderr
     value = parse("-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)").evaluate(out)
     assert value == pytest.approx(rigid_efficiency(0.562341, -math.pi / 2), rel=0.01)
+
+
+@pytest.mark.mpi
+def test_np_runs_each_evaluation_under_mpirun(tmp_path):
+    """--np 2: every evaluation a run on two processes, with the serial runs' values
+    (rftfem sets Open MPI's run-as-root permission for its own launch)."""
+    args = ["--vary", "shell.E=1e5:1e7:log", "--objective", "tip_uz@end", "--method", "grid",
+            "--budget", 2, *CANTILEVER]
+    assert optimize(tmp_path / "one", *args).returncode == 0
+    done = optimize(tmp_path / "two", *args, "--np", 2)
+    assert done.returncode == 0, done.stderr
+    one, two = rows(tmp_path / "one"), rows(tmp_path / "two")
+    assert [r["status"] for r in two] == ["ok", "ok"]
+    for a, b in zip(one, two):
+        assert float(b["objective"]) == pytest.approx(float(a["objective"]), rel=1e-9)
+        summary = json.loads((tmp_path / "two" / b["folder"] / "summary.json").read_text())
+        assert summary["mpi_size"] == 2
