@@ -111,6 +111,17 @@ def failure_reason(log: Path, status: int) -> str:
     return (line or f"exit status {status}")[:300] + f" (exit status {status}; {log})"
 
 
+def check_jobs(jobs: int, np: int, what: str) -> None:
+    """``--jobs J`` (``what`` side by side) or ``--np P`` (each on P processes), not both."""
+    from rftfem.errors import SceneError
+
+    if jobs < 1 or np < 1:
+        raise SceneError("--jobs and --np: expected at least 1")
+    if jobs > 1 and np > 1:
+        raise SceneError(f"--jobs and --np: give one of them ({what} side by side, or each "
+                         f"on several processes)")
+
+
 def launcher(np: int) -> list[str]:
     """``mpirun -n P`` of the running stack (beside the interpreter, else on PATH)."""
     import shutil
@@ -126,4 +137,4 @@ def launcher(np: int) -> list[str]:
     return [exe, "-n", str(np)]
 
 
-__all__ = ["run_here", "run_child", "finished", "failure_reason", "launcher"]
+__all__ = ["run_here", "run_child", "finished", "failure_reason", "check_jobs", "launcher"]

@@ -47,6 +47,7 @@ import time
 from pathlib import Path
 
 from rftfem import objective as objectives
+from rftfem.batch import check_jobs
 from rftfem.errors import SceneError
 from rftfem.optimize_evaluations import BudgetSpent, Evaluator, parse_vary
 from rftfem.optimize_report import plot, write_best
@@ -197,11 +198,7 @@ def main(args, petsc_args: list[str], console) -> int:
     method = _method(args.method)
     if args.budget < 1:
         raise SceneError(f"--budget: expected at least 1 run, found {args.budget}")
-    if args.jobs < 1 or args.np < 1:
-        raise SceneError("--jobs and --np: expected at least 1")
-    if args.jobs > 1 and args.np > 1:
-        raise SceneError("--jobs and --np: give one of them (runs side by side, or each "
-                         "run on several processes)")
+    check_jobs(args.jobs, args.np, "runs")
     objective = objectives.parse(args.objective)
     constraints = [objectives.parse_constraint(c) for c in args.constraint]
     if method == "l-bfgs-b" and constraints:

@@ -55,7 +55,7 @@ from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 
-from rftfem.batch import failure_reason, finished, run_child, run_here
+from rftfem.batch import check_jobs, failure_reason, finished, run_child, run_here
 from rftfem.batch import launcher as batch_launcher
 from rftfem.errors import SceneError
 from rftfem.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
@@ -256,11 +256,7 @@ def main(args, petsc_args: list[str], console) -> int:
     kinds = _kinds(args.refine)
     if args.levels < 2:
         raise SceneError(f"--levels: expected at least 2, found {args.levels}")
-    if args.jobs < 1 or args.np < 1:
-        raise SceneError("--jobs and --np: expected at least 1")
-    if args.jobs > 1 and args.np > 1:
-        raise SceneError("--jobs and --np: give one of them (levels side by side, or each "
-                         "level on several processes)")
+    check_jobs(args.jobs, args.np, "levels")
     scene = load_scene(args.scene, args.overrides)
     scene["time"]["scheme"] = resolved_scheme(scene)
     out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"

@@ -7,6 +7,7 @@ text back with ``tomllib`` gives the same tree (tests/test_optimize.py checks it
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from typing import Any
@@ -30,8 +31,8 @@ def value(v: Any) -> str:
             short = f"{mantissa.rstrip('0').rstrip('.')}e{int(exponent)}"
             return short if float(short) == v else repr(v)
         return repr(v)
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+    if isinstance(v, str):  # JSON's escapes are TOML's; TOML also wants DEL escaped
+        return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
     if isinstance(v, list):
         return "[" + ", ".join(value(x) for x in v) + "]"
     if isinstance(v, dict):

@@ -45,7 +45,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from conftest import DEMOS
-from rftfem import cli
+from rftfem import cli, toml_writer
 
 #: hypothesis's seed: RFTFEM_FUZZ_SEED if set, else a fresh one for this run
 FUZZ_SEED = int(os.environ.get("RFTFEM_FUZZ_SEED") or random.SystemRandom().randrange(2**32))
@@ -92,45 +92,8 @@ values = st.one_of(
 
 # --- a scene back to TOML ------------------------------------------------------
 
-def _key(k: str) -> str:
-    return json.dumps(k, ensure_ascii=True)
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v, ensure_ascii=True)
-    if isinstance(v, list):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
-    raise TypeError(type(v))
-
-
-def _table_array(v) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
-
-
-def to_toml(table: dict, prefix: str = "") -> str:
-    lines = [f"{_key(k)} = {_value(v)}" for k, v in table.items()
-             if not isinstance(v, dict) and not _table_array(v)]
-    for k, v in table.items():
-        name = f"{prefix}{_key(k)}"
-        if isinstance(v, dict):
-            lines += ["", f"[{name}]", to_toml(v, name + ".")]
-        elif _table_array(v):
-            for item in v:
-                lines += ["", f"[[{name}]]", to_toml(item, name + ".")]
-    return "\n".join(lines)
+def to_toml(table: dict) -> str:
+    return toml_writer.document(table)
 
 
 # --- mutations -----------------------------------------------------------------
@@ -168,7 +131,7 @@ def mutants(draw):
             path = draw(st.one_of(st.integers(0, len(known) - 1).map(known.__getitem__),
                                   st.text(max_size=15)))
             suffix = draw(st.sampled_from(["", ".x", ".0", ".99", "..", "."]))
-            text = draw(st.one_of(st.builds(_value, values), st.text(max_size=10)))
+            text = draw(st.one_of(st.builds(toml_writer.value, values), st.text(max_size=10)))
             sets.append(f"{path}{suffix}={text}")
             continue
         # an index, not sampled_from(places): hypothesis writes the repr of what it
@@ -248,7 +211,7 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
                  new_forms: bool = True, limit: float = EXAMPLE_LIMIT["default"]):
     hypothesis.note(f"RFTFEM_FUZZ_SEED={FUZZ_SEED}")
     path = tmp_path / f"{name}.toml"
-    path.write_text(to_toml(scene) + "\n", encoding="utf-8")
+    path.write_text(to_toml(scene), encoding="utf-8")
     # a mutant that points at a file of the demo folder (a gmsh mesh) finds it there
     for extra in DEMOS.glob("*.msh"):
         (tmp_path / extra.name).write_bytes(extra.read_bytes())

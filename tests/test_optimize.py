@@ -306,3 +306,16 @@ def test_np_runs_each_evaluation_under_mpirun(tmp_path):
         assert float(b["objective"]) == pytest.approx(float(a["objective"]), rel=1e-9)
         summary = json.loads((tmp_path / "two" / b["folder"] / "summary.json").read_text())
         assert summary["mpi_size"] == 2
+
+
+def test_scenes_written_back_read_the_same():
+    """best.toml's writer: every shipped scene, and strings TOML wants escaped, read back
+    by tomllib as they were."""
+    from rftfem import toml_writer
+
+    for path in sorted((ROOT / "demos").glob("*.toml")):
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        assert tomllib.loads(toml_writer.document(data, "a header\nof two lines")) == data, path
+    tricky = {"title": "tab\t, DEL \x7f, NUL \x00, quote \", backslash \\, 😀",
+              "odd key": {"x.y": [1, {"q": 2.5e-17}], "big": 2**62}}
+    assert tomllib.loads(toml_writer.document(tricky)) == tricky
