@@ -71,14 +71,18 @@ ready to run) and optimize.png (objective and parameters against evaluation)."""
 EPILOG = """\
 objective and constraints: formulas (+ - * / ^, abs, sqrt, min, max, ...) of the
 quantities of `rftfem collect`: COLUMN@TIME, rate(COLUMN, A, B), mean(...),
-max(...), min(...), spin(PROBE_A, PROBE_B, AXIS, A, B), steady(NAME).
+max(...), min(...), spin(PROBE_A, PROBE_B, AXIS, A, B), steady(NAME), and of
+scene(KEY), a number of the run's scene (a design's cost)
 methods: cobyla (default), nelder-mead, powell, l-bfgs-b, grid
 examples:
-  rftfem optimize demos/rollup.toml --vary shell.E=5e5:5e6:log \\
-      --objective 'abs(tip_uz@end - 3)' --budget 25
-  rftfem optimize demos/swimming_sheet.toml --vary motion.0.wavenumber=0.2:1.5 \\
+  rftfem optimize demos/end_shear.toml --vary shell.thickness=0.05:0.2 \\
+      --objective 'tip_uz@end + 0.4*scene(shell.thickness)' \\
+      --set 'load.0.value=[0,0,0.004]' --set time.dt=1
+  rftfem optimize demos/swimming_sheet.toml --vary motion.0.amplitude=0.05:0.3 \\
       --objective 'steady(front_ux_rate)' --maximize \\
-      --constraint 'steady(drag_power)<=1e-3' --method cobyla
+      --constraint 'steady(drag_power)<=2e-5' --budget 20
+  rftfem optimize demos/three_link_stroke.toml --vary motion.1.phase=-3:-0.15 \\
+      --objective '-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)' --maximize
 exit status: 0 optimisation written (also when runs failed), 2 bad option or scene"""
 
 
