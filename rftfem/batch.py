@@ -32,11 +32,15 @@ from rftfem.errors import RunFailed, RunInterrupted, SceneError
 
 
 def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
-             petsc_args: list[str] | None = None) -> int:
+             petsc_args: list[str] | None = None, simulate=None) -> int:
     """Run ``scene_file`` with ``overrides`` into ``folder`` in this process (serial);
-    its messages go to ``folder/run.log``; return the exit status of ``rftfem run``."""
+    its messages go to ``folder/run.log``; return the exit status of ``rftfem run``.
+    ``simulate(scene, out_dir=, quiet=, petsc_args=)`` replaces the plain run (a run
+    that also takes its gradient, rftfem/sensitivity.py)."""
     from rftfem.scene import load_scene
     from rftfem.simulation import run as run_simulation
+
+    simulate = simulate or run_simulation
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -45,7 +49,7 @@ def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
         t0 = time.perf_counter()
         try:
             scene = load_scene(str(scene_file), list(overrides))
-            run_simulation(scene, out_dir=folder, quiet=True, petsc_args=list(petsc_args or []))
+            simulate(scene, out_dir=folder, quiet=True, petsc_args=list(petsc_args or []))
         except SceneError as exc:
             print(f"rftfem: error: {exc}")
             return SceneError.exit_status

@@ -25,7 +25,8 @@ The methods are scipy.optimize's, on the parameters mapped to the unit box:
 ``cobyla`` (the default: the fewest runs to 1 % of the optimum on the demos,
 benchmarks/optimize_methods.py; constraints handled as constraints),
 ``nelder-mead``, ``powell``, ``l-bfgs-b`` (gradients by the adjoint for static scenes whose
-objective is one quantity, rftfem/sensitivity.py; else forward differences,
+objective reads one quantity of the run besides scene() values, rftfem/sensitivity.py;
+else forward differences,
 their runs side by side with ``--jobs``) and ``grid`` (a brute-force grid of the
 budget's size, side by side with ``--jobs``).  For the other methods, a
 constraint adds a penalty proportional to its relative violation.
@@ -221,8 +222,8 @@ def main(args, petsc_args: list[str], console) -> int:
             except SceneError as exc:
                 raise SceneError(f"--vary {p.key}={p.lo:g}:{p.hi:g}: at {x:g}: {exc}") from None
     static = resolved_scheme(scene) == "static"
-    gradients = (method == "l-bfgs-b" and static and len(objective.quantities) == 1
-                 and args.np == 1 and args.jobs == 1 and _differentiable(keys, objective))
+    gradients = (method == "l-bfgs-b" and static and args.np == 1 and args.jobs == 1
+                 and _differentiable(keys, objective, scene))
     out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -274,13 +275,14 @@ def main(args, petsc_args: list[str], console) -> int:
     return 0
 
 
-def _differentiable(keys: list[str], objective) -> bool:
-    """Whether rftfem/sensitivity.py can differentiate this objective in these keys."""
-    try:
-        from rftfem.sensitivity import supports
-    except (ImportError, AttributeError):
-        return False
-    return supports(keys, objective.quantities[0].text)
+def _differentiable(keys: list[str], objective, scene: dict) -> bool:
+    """Whether rftfem/sensitivity.py can differentiate the objective's one run quantity
+    by these keys in this scene."""
+    from rftfem.optimize_evaluations import adjoint_quantity
+    from rftfem.sensitivity import supports
+
+    quantity = adjoint_quantity(objective)
+    return quantity is not None and supports(keys, quantity.text, scene)
 
 
 def _quote(arg: str) -> str:

@@ -219,7 +219,7 @@ class Evaluator:
 
                 status, _, _ = run_with_gradient(
                     self.scene_file, overrides, ev.folder, [p.key for p in self.params],
-                    self.objective.quantities[0].text, self.petsc_args)
+                    adjoint_quantity(self.objective).text, self.petsc_args)
             elif self.in_process:
                 status = run_here(self.scene_file, overrides, ev.folder, self.petsc_args)
             else:
@@ -252,7 +252,7 @@ class Evaluator:
         # any other SceneError (an unknown column) is a bad option: it ends the loop
         ev.status = "ok"
         if self.gradients:
-            ev.gradient = _read_gradient(ev.folder, self.objective, self.params, ev.objective)
+            ev.gradient = _read_gradient(run, self.objective, self.params)
 
     def _score(self, ev: Evaluation) -> None:
         ok = [e for e in self.evaluations if e.status in ("ok", "infeasible")
@@ -341,19 +341,38 @@ def _done(folder: Path, scene_file, overrides: list[str], gradients: bool) -> bo
             and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
 
 
-def _read_gradient(folder: Path, objective, params, value: float) -> list | None:
-    """d objective / d parameter from gradient.json (the chain rule through the formula
-    of its one quantity, by a central difference of the formula)."""
+def adjoint_quantity(objective):
+    """The one quantity of ``objective`` read from the run, or None if it has several
+    (the others may be ``scene(KEY)`` values, whose derivatives are known)."""
+    from rftfem.objective import SceneValue
+
+    read = [q for q in objective.quantities if not isinstance(q, SceneValue)]
+    return read[0] if len(read) == 1 else None
+
+
+def _read_gradient(run, objective, params) -> list | None:
+    """d objective / d parameter: the run quantity's derivative from gradient.json (the
+    adjoint's), a ``scene(KEY)``'s 1 for its own key, through the formula by the chain
+    rule (its partial derivatives by central differences)."""
+    from rftfem.objective import SceneValue
+
     try:
-        data = json.loads((folder / "gradient.json").read_text(encoding="utf-8"))
-        dq = [float(data["gradient"][p.key]) for p in params]
-        q = float(data["value"])
+        data = json.loads((run.dir / "gradient.json").read_text(encoding="utf-8"))
+        dq_run = [float(data["gradient"][p.key]) for p in params]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    h = 1e-6 * max(abs(q), 1e-300)
-    f = objective.formula
-    dfdq = (float(f.numbers({"q0": q + h})) - float(f.numbers({"q0": q - h}))) / (2 * h)
-    return [dfdq * g for g in dq]
+    env = {f"q{i}": q.evaluate(run) for i, q in enumerate(objective.quantities)}
+    total = [0.0] * len(params)
+    for i, q in enumerate(objective.quantities):
+        name, v = f"q{i}", env[f"q{i}"]
+        h = 1e-6 * max(abs(v), 1e-300)
+        up, down = dict(env, **{name: v + h}), dict(env, **{name: v - h})
+        dfdq = (float(objective.formula.numbers(up)) - float(objective.formula.numbers(down))) \
+            / (2 * h)
+        dq = ([1.0 if q.key == p.key else 0.0 for p in params] if isinstance(q, SceneValue)
+              else dq_run)
+        total = [t + dfdq * d for t, d in zip(total, dq)]
+    return total
 
 
 def _num(v, fmt: str = ".10g") -> str:
@@ -361,4 +380,5 @@ def _num(v, fmt: str = ".10g") -> str:
 
 
 
-__all__ = ["Parameter", "parse_vary", "Evaluation", "Evaluator", "BudgetSpent", "FD_STEP"]
+__all__ = ["Parameter", "parse_vary", "Evaluation", "Evaluator", "BudgetSpent", "FD_STEP",
+           "adjoint_quantity"]

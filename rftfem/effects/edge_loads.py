@@ -81,13 +81,15 @@ class EdgeLoads(Load):
         k = model.kinematics()
         dd = ufl.derivative(k.d, model.w, k.w_test)
         one = fem.Constant(mesh, PETSc.ScalarType(1.0))
-        #: (scene entry, its Constant, its value per unit length at scale 1)
+        #: (scene entry, its Constant, its edge's reference length); the value per unit
+        #: length is read from the entry at each set_time, as the other loads do (so
+        #: that sensitivity.py finds the Constant's derivative by a load value)
         self.per_length, terms = [], []
         for _, ld in self.entries:
             tag = wheres.index(ld["where"]) + 1
             length = model.assemble_scalar(model.compile(one * ds(tag)))
             value = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
-            self.per_length.append((ld, value, np.asarray(ld["value"], dtype=float) / length))
+            self.per_length.append((ld, value, length))
             if ld["kind"] == "edge-force":
                 terms.append(loads.edge_force_work(value, k.du, ds(tag)))
             else:
@@ -98,8 +100,8 @@ class EdgeLoads(Load):
         return self._work
 
     def set_time(self, t):
-        for ld, value, per_length in self.per_length:
-            value.value[:] = per_length * self.scale(ld, t)
+        for ld, value, length in self.per_length:
+            value.value[:] = np.asarray(ld["value"], dtype=float) / length * self.scale(ld, t)
 
     def force_scales(self):
         """Each total edge force, and each edge moment over the length."""
