@@ -125,9 +125,17 @@ def search(method: str, ev: Evaluator, z0, budget: int) -> str:
                 cons.append({"type": "ineq", "fun": ev.constraint_margins})
             objective = (lambda z: ev.sign * _value_or_merit(ev, z)) if ev.constraints \
                 else ev.merit
-            res = optimize.minimize(objective, z0, method="COBYLA", constraints=cons,
+            # scipy's Fortran COBYLA calls back into Python and prints two lines of its
+            # own when a callback raises: the stop (budget spent, a bad objective) is
+            # kept instead, later calls return at once, and it is raised afterwards
+            stop = _Stop()
+            cons = [dict(c, fun=stop.guard(c["fun"], lambda z, k=k: [0.0] * k))
+                    for c, k in zip(cons, [1] * (2 * n) + [len(ev.constraints)])]
+            res = optimize.minimize(stop.guard(objective, lambda z: 0.0), z0, method="COBYLA",
+                                    constraints=cons,
                                     options={"rhobeg": FIRST_STEP, "tol": X_TOLERANCE,
                                              "maxiter": 10 * budget})
+            stop.raise_kept()
         elif method == "l-bfgs-b":
             res = optimize.minimize(ev.merit_and_gradient, z0, jac=True, method="L-BFGS-B",
                                     bounds=bounds, options={"maxfun": 10 * budget,
@@ -137,6 +145,27 @@ def search(method: str, ev: Evaluator, z0, budget: int) -> str:
     except BudgetSpent:
         return f"the budget of {budget} runs was spent"
     return f"{method} stopped: {' '.join(str(res.message).split())}"
+
+
+class _Stop:
+    """An exception raised by a callback, kept until the method returns."""
+
+    def __init__(self):
+        self.kept = None
+
+    def guard(self, fun, fallback):
+        def guarded(z):
+            if self.kept is None:
+                try:
+                    return fun(z)
+                except (BudgetSpent, SceneError) as exc:
+                    self.kept = exc
+            return fallback(z)
+        return guarded
+
+    def raise_kept(self):
+        if self.kept is not None:
+            raise self.kept
 
 
 def _value_or_merit(ev: Evaluator, z) -> float:
