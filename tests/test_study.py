@@ -320,8 +320,8 @@ def test_levels_under_mpirun(tmp_path, mpirun):
             assert summary["mpi_size"] == np_
     # equal to the Newton tolerance (the reductions differ in the last bits by rank count)
     assert values[2] == pytest.approx(values[1], rel=1e-8, abs=1e-14)
-    # Open MPI's mpirun refusing root without its two variables: the reason is its
-    # first line (MPICH, the current stack's, runs as root)
+    # as root without Open MPI's two variables: rftfem's own launch sets them (a
+    # container's root could not), so the levels run (before, mpirun refused them)
     bare = {k: v for k, v in env.items() if not k.startswith("OMPI_ALLOW")}
     version = run_command([exe, "--version"], env=env, timeout=60).stdout
     if os.geteuid() == 0 and "Open MPI" in version:
@@ -329,5 +329,5 @@ def test_levels_under_mpirun(tmp_path, mpirun):
                             "--np", "2", "--out", str(tmp_path / "root"), *sets,
                             "--quantity", "x=b_ux@end"], cwd=ROOT, env=bare, timeout=600)
         assert done.returncode == 0
-        text = (tmp_path / "root" / "study.md").read_text()
-        assert "failed: mpirun" in text and "run.log" in text
+        with open(tmp_path / "root" / "study.csv", newline="") as f:
+            assert [r["status"] for r in csv.DictReader(f)] == ["ok", "ok"]
