@@ -78,11 +78,7 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     for text in overrides:
         cmd += ["--set", text]
     cmd += list(petsc_args or [])
-    env = None
-    if launcher and hasattr(os, "geteuid") and os.geteuid() == 0:
-        # a container's root: Open MPI's mpirun refuses to start without these, and
-        # this launch is rftfem's own, so its user could not add them
-        env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    env = child_environment(bool(launcher))
     for _ in range(2):
         with open(folder / "run.log", "w", encoding="utf-8") as log:
             status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
@@ -92,6 +88,25 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
         if status == 0 or (folder / "run.log").stat().st_size > 0:
             break
     return status
+
+
+#: prefixes of the variables an MPI process (a singleton too) leaves for its own
+#: children: a launch that inherits them takes itself for a part of that job, and
+#: Open MPI's mpirun then exits 1 without a word
+#: (a user's own OMPI_MCA_ settings are kept)
+_MPI_JOB_VARIABLES = ("PMIX_", "PMI_", "HYDRA_", "ORTE_", "OMPI_COMM_WORLD_", "OMPI_APP_CTX_",
+                      "OMPI_UNIVERSE_", "OMPI_FIRST_", "OMPI_NUM_APP_CTX", "OMPI_FILE_LOCATION",
+                      "OMPI_MCA_ess", "OMPI_MCA_orte_", "OMPI_MCA_pmix")
+
+
+def child_environment(mpirun: bool) -> dict:
+    """This process's environment for a child run, without the MPI job's variables;
+    for an ``mpirun`` launch as root, with Open MPI's permission (a container's root:
+    this launch is rftfem's own, so its user could not add it)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(_MPI_JOB_VARIABLES)}
+    if mpirun and hasattr(os, "geteuid") and os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return env
 
 
 def finished(folder: Path, scene_file: str | Path, overrides: list[str]) -> bool:
@@ -148,4 +163,4 @@ def launcher(np: int) -> list[str]:
     return [exe, "-n", str(np)]
 
 
-__all__ = ["run_here", "run_child", "finished", "failure_reason", "check_jobs", "launcher"]
+__all__ = ["run_here", "run_child", "child_environment", "finished", "failure_reason", "check_jobs", "launcher"]

@@ -308,7 +308,7 @@ def _differentiable(keys: list[str], objective, scene: dict) -> bool:
     """Whether rftfem/sensitivity.py can differentiate the objective's one run quantity
     by these keys in this scene."""
     from rftfem.optimize_evaluations import adjoint_quantity
-    from rftfem.sensitivity import supports
+    from rftfem.sensitivity_request import supports
 
     quantity = adjoint_quantity(objective)
     return quantity is not None and supports(keys, quantity.text, scene)

@@ -427,3 +427,18 @@ def test_magnetic_design_scene_as_shipped_against_the_refined_run(tmp_path):
     speed = parse(demo.OBJECTIVE).evaluate(out)
     assert speed == pytest.approx(0.074852, rel=0.01)
     assert speed == pytest.approx(0.074705, rel=0.01)
+
+
+def test_child_runs_leave_the_mpi_job_variables_behind(monkeypatch):
+    """A process that has started MPI (pytest after an in-process run, a user's script)
+    leaves PMIx/ORTE job variables in its environment; an mpirun that inherits them
+    exits 1 without a word (test_np_runs_... failed so after test_sensitivity.py).
+    Child runs get the environment without them, a user's OMPI_MCA_ settings kept."""
+    from rftfem.batch import child_environment
+
+    monkeypatch.setenv("PMIX_RANK", "0")
+    monkeypatch.setenv("OMPI_MCA_orte_launch", "1")
+    monkeypatch.setenv("OMPI_MCA_btl", "self,vader")
+    env = child_environment(mpirun=False)
+    assert "PMIX_RANK" not in env and "OMPI_MCA_orte_launch" not in env
+    assert env["OMPI_MCA_btl"] == "self,vader"
