@@ -82,9 +82,9 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     for _ in range(2):
         with open(folder / "run.log", "w", encoding="utf-8") as log:
             status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
-        # a launch that ends in failure having said nothing at all (seen now and then
-        # of mpirun here, as of gmsh 4.8's start: tests/conftest.py run_command) is
-        # made once more; every real failure says why
+        # a launch that ends in failure having said nothing at all (gmsh 4.8's start
+        # now and then: tests/conftest.py run_command) is made once more; every real
+        # failure says why
         if status == 0 or (folder / "run.log").stat().st_size > 0:
             break
     return status
