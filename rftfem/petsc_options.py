@@ -10,7 +10,7 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from . import compat
-from .schema import TANGENTS, check_tangent
+from .schema import FACTORIZATIONS, TANGENTS, check_factorization, check_tangent
 
 PREFIX = "rftfem_"
 
@@ -23,6 +23,20 @@ ROUNDOFF_FACTOR = 1e-10
 #: same, for stiff membranes.  Residuals stalled at 2 to 60 ε E t W (the swimming
 #: sheet, the roll-up at L/t = 1e4 and 1e5); 100 ε leaves a margin.
 MEMBRANE_ROUNDOFF_FACTOR = 100 * 2.220446049250313e-16
+#: above this many unknowns ``factorization = "auto"`` keeps the factorisation across
+#: steps: there one MUMPS factorisation costs several Jacobian assemblies (at 59k
+#: unknowns 2 s against 0.4 s), below it a direct solve is as cheap as a GMRES one
+#: (docs/performance.md)
+REUSE_ABOVE = 20_000
+#: a kept factorisation is made again at the next tangent once a linear solve took
+#: more GMRES iterations than this (docs/model.md §7.7)
+REUSE_ITERATIONS = 20
+#: the Krylov options of the policies that keep a factorisation: a relative tolerance
+#: far below Newton's own (its updates are exact to 1e-10), a limit past which a stale
+#: factorisation is given up and the solve made again with a fresh one, and SNES told
+#: to keep the preconditioner (the solver drops it when it wants new factors)
+KRYLOV = {"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_atol": 0.0, "ksp_max_it": 40,
+          "ksp_gmres_restart": 40, "snes_lag_preconditioner": -2}
 
 
 def tangent(scene_solver: dict | None = None, command_line: list[str] | None = None) -> str:
@@ -33,7 +47,20 @@ def tangent(scene_solver: dict | None = None, command_line: list[str] | None = N
     return check_tangent(value)
 
 
-def defaults(reference_force: float) -> dict:
+def factorization(scene_solver: dict | None = None, command_line: list[str] | None = None,
+                  unknowns: int = 0) -> str:
+    """When the tangent's factorisation is made: ``solver.factorization`` in the scene,
+    replaced by ``-factorization`` on the command line; "auto" is resolved by the
+    global number of ``unknowns`` (``REUSE_ABOVE``)."""
+    value = (scene_solver or {}).get("factorization", FACTORIZATIONS[0])
+    value = check_factorization(parse_command_line(command_line or []).get(
+        "factorization", value))
+    if value == "auto":
+        return "reused" if unknowns > REUSE_ABOVE else "every-iteration"
+    return value
+
+
+def defaults(reference_force: float, factorization: str = "every-iteration") -> dict:
     """Newton with full steps and a direct solver.
 
     PETSc's default backtracking line search stalls on large-rotation shells
@@ -51,7 +78,9 @@ def defaults(reference_force: float) -> dict:
     least one Newton update: a prediction can meet the tolerance without being
     the answer.
     The Jacobian is non-symmetric (drag and magnetic couples are
-    non-conservative): LU by MUMPS where PETSc has it.
+    non-conservative): LU by MUMPS where PETSc has it.  A ``factorization`` that
+    keeps it ("every-step", "reused") solves with GMRES preconditioned by the kept
+    factors (``KRYLOV``); the solver decides when to factorise (solver.py).
     """
     opts = {
         "snes_type": "newtonls",
@@ -67,6 +96,8 @@ def defaults(reference_force: float) -> dict:
     }
     if compat.has_mumps():
         opts["pc_factor_mat_solver_type"] = "mumps"
+    if factorization != "every-iteration":
+        opts.update(KRYLOV)
     return opts
 
 
@@ -115,16 +146,19 @@ def parse_command_line(args: list[str]) -> dict:
 
 
 def merged(reference_force: float, scene_solver: dict | None = None,
-           command_line: list[str] | None = None) -> dict:
-    """Defaults, then the scene's ``[solver]``, then command-line options."""
-    opts = defaults(reference_force)
+           command_line: list[str] | None = None,
+           factorization: str = "every-iteration") -> dict:
+    """Defaults (for the resolved ``factorization``), then the scene's ``[solver]``,
+    then command-line options."""
+    opts = defaults(reference_force, factorization)
     for key, value in (scene_solver or {}).items():
         if value is False:
             opts.pop(key, None)
         else:
             opts[key] = "" if value is True else value
     opts.update(parse_command_line(command_line or []))
-    opts.pop("tangent", None)  # rftfem's, not PETSc's
+    for own in ("tangent", "factorization"):  # rftfem's, not PETSc's
+        opts.pop(own, None)
     return opts
 
 

@@ -46,9 +46,10 @@ from typing import Any, Iterable
 
 from rftfem import effects, steady
 from rftfem.errors import SceneError
-from rftfem.schema import (MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array, Bool, Free, Int,
-                           Leaf, Num, Parameters, Str, Table, Vec, check_tangent, check_unique,
-                           err, fmt, join, section, suggest, validate_table)
+from rftfem.schema import (FACTORIZATIONS, MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array,
+                           Bool, Free, Int, Leaf, Num, Parameters, Str, Table, Vec,
+                           check_factorization, check_tangent, check_unique, err, fmt, join,
+                           section, suggest, validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
 from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 from rftfem.timeint import resolved_scheme
@@ -204,7 +205,13 @@ SCHEMA = Table({
                         "turn. One key is rftfem's own: `tangent`, the Newton tangent, "
                         '"mixed-point" (default: membrane and shear forces in the geometric '
                         'stiffness linearized from the last iterate) or "exact" '
-                        "(docs/model.md §7.4); `-tangent exact` on the command line."),
+                        "(docs/model.md §7.4); `-tangent exact` on the command line. The other: "
+                        "`factorization`, when the tangent's LU factorisation is made: "
+                        '"every-iteration" (direct solves), "every-step" (once a step, '
+                        'GMRES on the current tangent), "reused" (kept across steps until '
+                        'GMRES needs more than 20 iterations) or "auto" (default: '
+                        '"every-iteration" up to 20 000 unknowns, "reused" above; '
+                        "docs/model.md §7.7); `-factorization reused` on the command line."),
 }, doc="The top level of the scene file.")
 
 #: the order the reference lists the top-level keys in; an effect's key not named
@@ -236,9 +243,10 @@ def _cross_check(scene: dict) -> None:
                 part[key] = shell[key]
     check_unique(shell["parts"], "region", "shell.parts", "region")
 
-    # rftfem's own key of [solver] (petsc_options is not imported here: PETSc would
+    # rftfem's own keys of [solver] (petsc_options is not imported here: PETSc would
     # start MPI in a process that may launch mpirun, as `rftfem study --np` does)
     check_tangent((scene.get("solver") or {}).get("tangent", TANGENTS[0]))
+    check_factorization((scene.get("solver") or {}).get("factorization", FACTORIZATIONS[0]))
 
     # time
     if time["dt"] > time["end"]:

@@ -278,7 +278,21 @@ TANGENTS = ("mixed-point", "exact")
 
 def check_tangent(value, where: str = "solver.tangent") -> str:
     """``value`` if it names a tangent of ``TANGENTS``, else a one-line SceneError."""
-    if value not in TANGENTS:
-        raise SceneError(f"{where}: expected one of {', '.join(map(repr, TANGENTS))}, "
+    return _check_choice(value, TANGENTS, where)
+
+
+#: rftfem's other key of ``[solver]``: when the tangent's LU factorisation is made
+#: (docs/model.md §7.7), the default first
+FACTORIZATIONS = ("auto", "every-iteration", "every-step", "reused")
+
+
+def check_factorization(value, where: str = "solver.factorization") -> str:
+    """``value`` if it names a policy of ``FACTORIZATIONS``, else a one-line SceneError."""
+    return _check_choice(value, FACTORIZATIONS, where)
+
+
+def _check_choice(value, choices, where: str) -> str:
+    if value not in choices:
+        raise SceneError(f"{where}: expected one of {', '.join(map(repr, choices))}, "
                          f"found {value!r}")
     return value

@@ -121,9 +121,12 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         # time steps start Newton's tangent on the converged stress resultants; static
         # load steps on their start's own (docs/model.md §7.4)
         self.model.first_tangent_converged = self.scheme.has_velocity
+        index_map = self.model.W.dofmap.index_map
+        self.factorization = petsc_options.factorization(
+            scene.get("solver"), petsc_args, index_map.size_global * self.model.W.dofmap.index_map_bs)
         self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),
-                                            petsc_args)
-        self.solver = StepSolver(self.model, self.options)
+                                            petsc_args, self.factorization)
+        self.solver = StepSolver(self.model, self.options, self.factorization)
         #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
         self.reactions = Reactions(self.model)
         self.body = BodyLog(self.model, self.reactions)

@@ -21,6 +21,7 @@ from petsc4py import PETSc
 
 from . import compat, petsc_options
 from .errors import SceneError
+from .factorization import Factorization
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 #: a prediction that meets the prescribed values to this share of its own largest
@@ -42,9 +43,11 @@ _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
 class StepSolver:
     """Newton solve of one step's residual with PETSc SNES."""
 
-    def __init__(self, model, options: dict):
+    def __init__(self, model, options: dict, factorization: str = "every-iteration"):
         self.model = model
         self.options = options
+        #: when the tangent is factorised (factorization.py)
+        self.factors = Factorization(factorization)
         W = model.W
         self.F = compat.create_vector(model.forces_form, W)    # F(w), assembled
         self.F_n = compat.create_vector(model.forces_form, W)  # F of the last step
@@ -175,6 +178,7 @@ class StepSolver:
         compat.assemble_matrix(A, self.model.jacobian_form, self.model.bcs)
         A.assemble()
         self._count("jacobian", t0)
+        self.factors.choose(self.snes.getKSP(), A)
 
     # the calls of a Newton loop of rftfem's own (arclength.py)
     def residual(self, x, b):
@@ -234,18 +238,25 @@ class StepSolver:
             self._start_on_motions(w)
         self.model.start_newton()
         self._start = self.x.copy(self._start)
+        retry = False
         while True:
             self.turns, self.divergence = [], None
+            self.factors.start_solve(retry)
             try:
                 self.snes.solve(None, self.x)
             except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
                 self._sync(self.x)
                 return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
             reason = self.snes.getConvergedReason()
-            if _reason_name(reason) != "DIVERGED_LINEAR_SOLVE" or \
-                    not petsc_options.grow_factor_workspace(self.snes.getKSP(), self.options):
+            self.factors.end_solve(reason > 0)
+            if _reason_name(reason) != "DIVERGED_LINEAR_SOLVE":
                 break
-            # MUMPS ran out of workspace: the same solve again with more
+            # GMRES gave up on old factors, or MUMPS ran out of workspace: the same
+            # solve again with new factors, or with more workspace
+            retry = self.factors.stale
+            if not retry and not petsc_options.grow_factor_workspace(self.snes.getKSP(),
+                                                                     self.options):
+                break
             self._start.copy(self.x)
             self._sync(self.x)
             self.model.start_newton()
