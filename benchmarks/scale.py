@@ -9,11 +9,14 @@ per series, the exponent p of time per step ~ unknowns^p fitted on the meshes
 from 20k unknowns up, and the speed-up of two processes over one.
 
     .venv/bin/python benchmarks/scale.py                      # ~25 minutes
-    .venv/bin/python benchmarks/scale.py --sizes 20x4 120x24 --np 1 2 --solvers mumps
+    .venv/bin/python benchmarks/scale.py --sizes 20x4 120x24 --np 1 2 --solvers reused
 
-Solvers: "mumps" (the default, LU by MUMPS), "petsc" (PETSc's own LU, serial
-only), "gmres-lagged" (GMRES preconditioned by a MUMPS factorisation that is
-computed once per step and reused by the step's Newton iterations).
+Solvers (``solver.factorization``, docs/model.md §7.7): "every-iteration" (a MUMPS
+LU of every tangent, the default up to 20k unknowns), "petsc" (the same with
+PETSc's own LU, serial only), "every-step" (GMRES preconditioned by a MUMPS
+factorisation made once a step), "reused" (the same factors kept across steps,
+renewed when GMRES needs more than 20 iterations; the default above 20k unknowns).
+The factorisations made are printed per step.
 Figures go to stdout, results/benchmarks/scale.csv and scale.png.
 """
 
@@ -40,10 +43,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "swimming_sheet.toml"
 SIZES = ["20x4", "40x8", "80x16", "120x24", "240x48"]
 SOLVERS = {
-    "mumps": [],
-    "petsc": ["-pc_factor_mat_solver_type", "petsc"],
-    "gmres-lagged": ["-ksp_type", "gmres", "-ksp_rtol", "1e-10", "-ksp_max_it", "200",
-                     "-snes_lag_preconditioner", "-2"],
+    "every-iteration": ["-factorization", "every-iteration"],
+    "petsc": ["-factorization", "every-iteration", "-pc_factor_mat_solver_type", "petsc"],
+    "every-step": ["-factorization", "every-step"],
+    "reused": ["-factorization", "reused"],
 }
 
 
@@ -80,20 +83,23 @@ def one(size: str, steps: int, solver: str) -> None:
         its = sim.counts["newton_iterations"] - sim._mark["its"]
         jac = sim.solver.timings["jacobian"] - sim._mark["jacobian"]
         sol = sim.solver.timings["solve"] - sim._mark["solve"]
+        made = sim.solver.factors.made - sim._mark["made"]
         rss = MPI.COMM_WORLD.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                                        op=MPI.MAX)
         dofs = sim.model.W.dofmap.index_map.size_global * sim.model.W.dofmap.index_map_bs
         if MPI.COMM_WORLD.rank == 0:
             print(json.dumps({"dofs": dofs, "steps": n, "step_s": wall / n, "its": its / n,
                               "jacobian_s": jac / max(its, 1), "solve_s": sol / max(its, 1),
-                              "peak_mb": rss / 1024, "cuts": sim.counts["dt_cuts"]}))
+                              "peak_mb": rss / 1024, "cuts": sim.counts["dt_cuts"],
+                              "factorizations": made / n}))
     finally:
         sim.close()
 
 
 def _mark(sim):
     sim._mark = {"wall": time.perf_counter(), "its": sim.counts["newton_iterations"],
-                 "jacobian": sim.solver.timings["jacobian"], "solve": sim.solver.timings["solve"]}
+                 "jacobian": sim.solver.timings["jacobian"], "solve": sim.solver.timings["solve"],
+                 "made": sim.solver.factors.made}
 
 
 def launch(size: str, steps: int, np_: int, solver: str) -> dict | None:
@@ -170,7 +176,7 @@ def main(argv=None) -> None:
             series[label] = []
             print(f"\n{label}")
             print(f"  {'mesh':>8s} {'unknowns':>9s} {'s/step':>8s} {'its/step':>8s} "
-                  f"{'Jacobian s':>10s} {'solve s':>8s} {'peak MB':>8s}")
+                  f"{'Jacobian s':>10s} {'solve s':>8s} {'peak MB':>8s} {'LU/step':>8s}")
             for size in args.sizes:
                 if solver == "petsc" and _cells(size) > 120 * 24:
                     print(f"  {size:>8s} skipped: PETSc's LU is already slower than MUMPS at 120x24")
@@ -182,8 +188,8 @@ def main(argv=None) -> None:
                 series[label].append(r)
                 rows.append(r)
                 print(f"  {size:>8s} {r['dofs']:9d} {r['step_s']:8.3f} {r['its']:8.2f} "
-                      f"{r['jacobian_s']:10.3f} {r['solve_s']:8.3f} {r['peak_mb']:8.0f}",
-                      flush=True)
+                      f"{r['jacobian_s']:10.3f} {r['solve_s']:8.3f} {r['peak_mb']:8.0f} "
+                      f"{r['factorizations']:8.2f}", flush=True)
             p = fit(series[label])
             if p is not None:
                 print(f"  time per step ~ unknowns^{p:.2f} from 20k unknowns up")
