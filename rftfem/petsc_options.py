@@ -31,6 +31,12 @@ REUSE_ABOVE = 20_000
 #: a kept factorisation is made again at the next tangent once a linear solve took
 #: more GMRES iterations than this (docs/model.md §7.7)
 REUSE_ITERATIONS = 20
+#: serial runs up to this many unknowns factorise with PETSc's own LU, above it (and
+#: under mpirun) with MUMPS: a MUMPS factorisation has a fixed cost of about 1.4 ms
+#: (at 315 unknowns PETSc's takes 0.05 ms), PETSc's grows faster and does not pivot.
+#: A solve that fails with PETSc's LU is made again with MUMPS, which the run then
+#: keeps (solver.py; docs/performance.md)
+PETSC_LU_UP_TO = 5_000
 #: the Krylov options of the policies that keep a factorisation: a relative tolerance
 #: far below Newton's own (its updates are exact to 1e-10), a limit past which a stale
 #: factorisation is given up and the solve made again with a fresh one, and SNES told
@@ -60,7 +66,23 @@ def factorization(scene_solver: dict | None = None, command_line: list[str] | No
     return value
 
 
-def defaults(reference_force: float, factorization: str = "every-iteration") -> dict:
+def lu_package(unknowns: int, processes: int) -> str | None:
+    """The LU a run's tangent is factorised with by default: PETSc's own for serial
+    runs up to ``PETSC_LU_UP_TO`` unknowns, MUMPS otherwise; None (PETSc's, the only
+    one there is) where PETSc has no MUMPS."""
+    if not compat.has_mumps():
+        return None
+    return "petsc" if processes == 1 and unknowns <= PETSC_LU_UP_TO else "mumps"
+
+
+def user_sets(key: str, scene_solver: dict | None = None,
+              command_line: list[str] | None = None) -> bool:
+    """Whether the scene's ``[solver]`` or the command line gives ``key``."""
+    return key in (scene_solver or {}) or key in parse_command_line(command_line or [])
+
+
+def defaults(reference_force: float, factorization: str = "every-iteration",
+             lu: str | None = "mumps") -> dict:
     """Newton with full steps and a direct solver.
 
     PETSc's default backtracking line search stalls on large-rotation shells
@@ -78,7 +100,8 @@ def defaults(reference_force: float, factorization: str = "every-iteration") -> 
     least one Newton update: a prediction can meet the tolerance without being
     the answer.
     The Jacobian is non-symmetric (drag and magnetic couples are
-    non-conservative): LU by MUMPS where PETSc has it.  A ``factorization`` that
+    non-conservative): LU, by ``lu`` (``lu_package``: PETSc's own for small serial
+    runs, MUMPS for the others) where PETSc has MUMPS.  A ``factorization`` that
     keeps it ("every-step", "reused") solves with GMRES preconditioned by the kept
     factors (``KRYLOV``); the solver decides when to factorise (solver.py).
     """
@@ -94,8 +117,8 @@ def defaults(reference_force: float, factorization: str = "every-iteration") -> 
         "ksp_type": "preonly",
         "pc_type": "lu",
     }
-    if compat.has_mumps():
-        opts["pc_factor_mat_solver_type"] = "mumps"
+    if lu is not None and compat.has_mumps():
+        opts["pc_factor_mat_solver_type"] = lu
     if factorization != "every-iteration":
         opts.update(KRYLOV)
     return opts
@@ -147,10 +170,10 @@ def parse_command_line(args: list[str]) -> dict:
 
 def merged(reference_force: float, scene_solver: dict | None = None,
            command_line: list[str] | None = None,
-           factorization: str = "every-iteration") -> dict:
-    """Defaults (for the resolved ``factorization``), then the scene's ``[solver]``,
-    then command-line options."""
-    opts = defaults(reference_force, factorization)
+           factorization: str = "every-iteration", lu: str | None = "mumps") -> dict:
+    """Defaults (for the resolved ``factorization`` and LU package), then the scene's
+    ``[solver]``, then command-line options."""
+    opts = defaults(reference_force, factorization, lu)
     for key, value in (scene_solver or {}).items():
         if value is False:
             opts.pop(key, None)

@@ -130,7 +130,7 @@ class RunOutputs:
             **({"steady": self.steady.result} if self.steady is not None and self.steady.result
                else {}),
             "factorization": {"policy": self.solver.factors.policy,
-                              "made": self.solver.factors.made},
+                              "made": self.solver.factors.made, "lu": self.solver.lu},
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
             "wall_s": {"setup": self.setup_time, "compile": self.model.timings["compile"],

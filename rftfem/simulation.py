@@ -121,12 +121,17 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         # time steps start Newton's tangent on the converged stress resultants; static
         # load steps on their start's own (docs/model.md §7.4)
         self.model.first_tangent_converged = self.scheme.has_velocity
-        index_map = self.model.W.dofmap.index_map
-        self.factorization = petsc_options.factorization(
-            scene.get("solver"), petsc_args, index_map.size_global * self.model.W.dofmap.index_map_bs)
-        self.options = petsc_options.merged(self.model.reference_force(), scene.get("solver"),
-                                            petsc_args, self.factorization)
-        self.solver = StepSolver(self.model, self.options, self.factorization)
+        unknowns = self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs
+        solver = scene.get("solver")
+        factorization = petsc_options.factorization(solver, petsc_args, unknowns)
+        lu = petsc_options.lu_package(unknowns, self.comm.size)
+        self.options = petsc_options.merged(self.model.reference_force(), solver, petsc_args,
+                                            factorization, lu)
+        # rftfem's choice of PETSc's LU falls back on MUMPS; a user's is kept
+        fallback = lu == "petsc" and not petsc_options.user_sets(
+            "pc_factor_mat_solver_type", solver, petsc_args)
+        self.solver = StepSolver(self.model, self.options, factorization,
+                                 lu_fallback="mumps" if fallback else None)
         #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
         self.reactions = Reactions(self.model)
         self.body = BodyLog(self.model, self.reactions)

@@ -43,9 +43,12 @@ _FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
 class StepSolver:
     """Newton solve of one step's residual with PETSc SNES."""
 
-    def __init__(self, model, options: dict, factorization: str = "every-iteration"):
+    def __init__(self, model, options: dict, factorization: str = "every-iteration",
+                 lu_fallback: str | None = None):
         self.model = model
         self.options = options
+        #: the LU package a failed solve is made again with (then kept), or None
+        self.lu_fallback = lu_fallback
         #: when the tangent is factorised (factorization.py)
         self.factors = Factorization(factorization)
         W = model.W
@@ -249,13 +252,8 @@ class StepSolver:
                 return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
             reason = self.snes.getConvergedReason()
             self.factors.end_solve(reason > 0)
-            if _reason_name(reason) != "DIVERGED_LINEAR_SOLVE":
-                break
-            # GMRES gave up on old factors, or MUMPS ran out of workspace: the same
-            # solve again with new factors, or with more workspace
-            retry = self.factors.stale
-            if not retry and not petsc_options.grow_factor_workspace(self.snes.getKSP(),
-                                                                     self.options):
+            retry = self._again(reason)
+            if retry is None:
                 break
             self._start.copy(self.x)
             self._sync(self.x)
@@ -273,6 +271,34 @@ class StepSolver:
                                           "or coefficient too large for double precision, or "
                                           "a state that left the physical range")
         return reason > 0, its, norm, name
+
+    def _again(self, reason: int) -> bool | None:
+        """Whether a solve that ended with ``reason`` is made again from its start:
+        True with new factors for every tangent (GMRES gave up on old ones), False
+        with more MUMPS workspace (it ran out) or with MUMPS instead of PETSc's own LU
+        (any failure of a solve with rftfem's choice of PETSc's LU, which does not
+        pivot); None if not."""
+        name = _reason_name(reason)
+        ksp = self.snes.getKSP()
+        if name == "DIVERGED_LINEAR_SOLVE":
+            if self.factors.stale:
+                return True
+            if petsc_options.grow_factor_workspace(ksp, self.options):
+                return False
+        if (reason <= 0 or self.divergence is not None) and self.lu_fallback:
+            pc = ksp.getPC()
+            pc.reset()  # (the package cannot change under existing factors)
+            pc.setFactorSolverType(self.lu_fallback)
+            self.options["pc_factor_mat_solver_type"] = self.lu_fallback
+            petsc_options.apply({"pc_factor_mat_solver_type": self.lu_fallback})
+            self.lu_fallback = None
+            return False
+        return None
+
+    @property
+    def lu(self) -> str:
+        """The LU package in use."""
+        return self.snes.getKSP().getPC().getFactorSolverType() or "petsc"
 
     def _start_on_motions(self, w):
         """Put the iterate on the step's Dirichlet values if the prediction came
