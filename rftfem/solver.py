@@ -285,8 +285,9 @@ class StepSolver:
                 return True
             if petsc_options.grow_factor_workspace(ksp, self.options):
                 return False
-        if (reason <= 0 or self.divergence is not None) and self.lu_fallback:
-            pc = ksp.getPC()
+        pc = ksp.getPC()
+        if (reason <= 0 or self.divergence is not None) and self.lu_fallback \
+                and pc.getType() == "lu":
             pc.reset()  # (the package cannot change under existing factors)
             pc.setFactorSolverType(self.lu_fallback)
             self.options["pc_factor_mat_solver_type"] = self.lu_fallback
@@ -296,9 +297,10 @@ class StepSolver:
         return None
 
     @property
-    def lu(self) -> str:
-        """The LU package in use."""
-        return self.snes.getKSP().getPC().getFactorSolverType() or "petsc"
+    def lu(self) -> str | None:
+        """The LU package in use (None if the preconditioner is not an LU)."""
+        pc = self.snes.getKSP().getPC()
+        return (pc.getFactorSolverType() or "petsc") if pc.getType() == "lu" else None
 
     def _start_on_motions(self, w):
         """Put the iterate on the step's Dirichlet values if the prediction came
