@@ -11,6 +11,8 @@ touches ``Function.vector`` / ``x.petsc_vec``.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 try:  # the dolfinx-solver-real wheel must be imported before dolfinx
@@ -125,13 +127,37 @@ def _keyword(function, new: str, old: str) -> str:
     return new if new in inspect.signature(function).parameters else old
 
 
-#: C compiler flags of every form rftfem compiles.  ``-fno-math-errno`` lets the
-#: compiler emit ``sqrt`` as one instruction instead of a library call that sets
-#: ``errno``; the values are the same to the last bit (IEEE semantics are kept: no
-#: ``-ffast-math``, no ``-march``, whose fused multiply-adds change round-off and
-#: whose code would not run on another CPU sharing the JIT cache).  It makes the
-#: shell's Jacobian assembly 15-20 % cheaper (benchmarks/form_cost.py).
-COMPILE_FLAGS = ("-O2", "-g0", "-fno-math-errno")
+def _vector_flags() -> tuple[str, ...]:
+    """``-mavx2 -mfma`` where this x86-64 CPU has both (read from /proc/cpuinfo),
+    else nothing.  The flags are part of the JIT cache's key, so a machine without
+    them never loads code compiled with them: it compiles its own."""
+    import platform
+
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return ()
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    have = set(line.split(":", 1)[1].split())
+                    return ("-mavx2", "-mfma") if {"avx2", "fma"} <= have else ()
+    except OSError:
+        pass
+    return ()
+
+
+#: C compiler flags of every form rftfem compiles (benchmarks/form_cost.py):
+#: ``-O3`` with the CPU's vector instructions (AVX2 and fused multiply-adds, where it
+#: has them) and reassociation, which lets the compiler vectorise the kernels'
+#: sums; NaN and infinity keep their meaning (no ``-ffinite-math-only``: a NaN
+#: residual must still stop Newton).  ``-fno-math-errno`` emits ``sqrt`` as one
+#: instruction.  Results change in the last bits only.  The shell's Jacobian kernel
+#: costs about half as much as with the JIT's own ``-O2`` (docs/performance.md).
+#: ``RFTFEM_COMPILE_FLAGS`` in the environment replaces them (e.g. "-O2 -g0").
+COMPILE_FLAGS = tuple(os.environ["RFTFEM_COMPILE_FLAGS"].split()) \
+    if os.environ.get("RFTFEM_COMPILE_FLAGS") else (
+        "-O3", "-g0", "-fno-math-errno", "-fno-trapping-math", "-fno-signed-zeros",
+        "-fassociative-math", "-freciprocal-math") + _vector_flags()
 #: seconds a process waits for another one compiling the same form into the shared
 #: JIT cache (runs of a study side by side); the JIT's own 10 s failed them, the
 #: shell's Jacobian takes 20-90 s to compile
