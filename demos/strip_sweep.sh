@@ -15,6 +15,7 @@
 #
 #   demos/strip_sweep.sh                       # serial, into results/strip_sweep
 #   NP=2 demos/strip_sweep.sh                  # each run under mpirun -n 2
+#   FIELDS=true demos/strip_sweep.sh           # fields for ParaView too (23 MB a frequency)
 #   FREQS="2 4 8" PERIODS=6 demos/strip_sweep.sh results/my_sweep --set mesh.divisions=[30,4]
 #
 # Each run goes on until its swim is steady (time.until = "periodic": the period
@@ -26,7 +27,9 @@
 # (default 24) but at least WINDOW seconds (default 0.2) after the ramp; one that
 # is not steady by then is measured over its window from SETTLE seconds (default
 # 0.1) after the ramp, and marked.  The slip is measured over that window too.
-# STEPS steps per period (default 100), the ramp included.  Runs that already
+# STEPS steps per period (default 100), the ramp included. The runs write their
+# rows (probes, body, steps) but no fields for ParaView unless FIELDS=true: fields
+# at every step were a quarter of a run's time and 23 MB a frequency.  Runs that already
 # finished (summary.json says "ok") are not repeated.
 set -euo pipefail
 # rftfem from the repository's .venv when it is not on PATH
@@ -42,6 +45,7 @@ SETTLE="${SETTLE:-0.1}"
 WINDOW="${WINDOW:-0.2}"
 STEPS="${STEPS:-100}"
 NP="${NP:-1}"
+FIELDS="${FIELDS:-false}"
 PYTHON="${PYTHON:-python3}"
 
 launcher=()
@@ -65,7 +69,8 @@ for f in $FREQS; do
     # what each run wrote
     "${launcher[@]}" rftfem run "$SCENE" --out "$dir" --quiet \
         --set "magnetic.field.frequency=$f" --set "time.end=$end" --set "time.dt=$dt" \
-        --set "time.output_every=1" --set "time.until=periodic" "$@" \
+        --set "time.output_every=1" --set "time.until=periodic" \
+        --set "output.fields=$FIELDS" "$@" \
         || echo "f = $f Hz: run failed (see $dir/summary.json)"
 done
 

@@ -117,6 +117,7 @@ def test_strip_scripts_from_a_plain_shell(tmp_path):
                 "--set", "mesh.divisions=[5,1]"], env=env, timeout=1800)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert (tmp_path / "sweep" / "runs.csv").exists() and (tmp_path / "sweep" / "sweep.png").exists()
+    assert not (tmp_path / "sweep" / "f128" / "fields.h5").exists()  # rows only, unless FIELDS=true
     done = run(["bash", "demos/strip_convergence.sh", str(tmp_path / "conv")],
                env={**env, "LEVELS": "1"}, timeout=1800)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
