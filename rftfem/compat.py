@@ -127,16 +127,16 @@ def _keyword(function, new: str, old: str) -> str:
     return new if new in inspect.signature(function).parameters else old
 
 
-def _vector_flags() -> tuple[str, ...]:
-    """``-mavx2 -mfma`` where this x86-64 CPU has both (read from /proc/cpuinfo),
+def vector_flags(cpuinfo: str = "/proc/cpuinfo", machine: str | None = None) -> tuple[str, ...]:
+    """``-mavx2 -mfma`` where this x86-64 CPU has both (read from ``cpuinfo``),
     else nothing.  The flags are part of the JIT cache's key, so a machine without
     them never loads code compiled with them: it compiles its own."""
     import platform
 
-    if platform.machine().lower() not in ("x86_64", "amd64"):
+    if (machine or platform.machine()).lower() not in ("x86_64", "amd64"):
         return ()
     try:
-        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+        with open(cpuinfo, encoding="ascii", errors="replace") as f:
             for line in f:
                 if line.startswith("flags"):
                     have = set(line.split(":", 1)[1].split())
@@ -157,7 +157,7 @@ def _vector_flags() -> tuple[str, ...]:
 COMPILE_FLAGS = tuple(os.environ["RFTFEM_COMPILE_FLAGS"].split()) \
     if os.environ.get("RFTFEM_COMPILE_FLAGS") else (
         "-O3", "-g0", "-fno-math-errno", "-fno-trapping-math", "-fno-signed-zeros",
-        "-fassociative-math", "-freciprocal-math") + _vector_flags()
+        "-fassociative-math", "-freciprocal-math") + vector_flags()
 #: seconds a process waits for another one compiling the same form into the shared
 #: JIT cache (runs of a study side by side); the JIT's own 10 s failed them, the
 #: shell's Jacobian takes 20-90 s to compile
