@@ -162,7 +162,8 @@ values = [[0.0, 0.0], [1.0, {vc}]]
 
 def test_drag_residual_vanishes_at_rest(tmp_path):
     """For a deformed, rotated body at rest (u = u_n, v_n = a_n = 0) the drag term
-    assembles to exactly zero; moving it makes the term non-zero."""
+    assembles to zero (to round-off, 1e-13 of the term's value once the body moves
+    by 1e-3 in one step); moving it makes the term non-zero."""
     from rftfem import compat
     from rftfem.timeint import make_scheme
 
@@ -184,9 +185,12 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
         b.destroy()
         return value
 
-    assert norm() == 0.0
+    rest = norm()
     model.w.x.array[model.u_dofs] += 1e-3
-    assert norm() > 0.0
+    moved = norm()
+    # zero but for round-off: the compiler may reassociate (u - u_n) with the
+    # scheme's other terms (rftfem/compat.py's flags)
+    assert moved > 0.0 and rest <= 1e-13 * moved
 
 
 def test_drag_form_absent_without_fluid(tmp_path):

@@ -659,7 +659,7 @@ DIMENSIONLESS = {"title", "mesh.kind", "mesh.divisions", "mesh.cell", "mesh.regi
                  "magnetic.parts.direction", "magnetic.field.ramp_time",
                  "magnetic.field.direction", "magnetic.field.frequency",
                  "magnetic.field.rotation_axis", "output.fields", "output.render",
-                 "output.probes.name"}
+                 "output.probes.name", "solver.pc_factor_mat_ordering_type"}
 
 
 def si_overrides(scene: dict, factor: dict = SI) -> list[str]:
