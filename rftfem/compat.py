@@ -154,8 +154,9 @@ def vector_flags(cpuinfo: str = "/proc/cpuinfo", machine: str | None = None) -> 
 #: instruction.  Results change in the last bits only.  The shell's Jacobian kernel
 #: costs about half as much as with the JIT's own ``-O2`` (docs/performance.md).
 #: ``RFTFEM_COMPILE_FLAGS`` in the environment replaces them (e.g. "-O2 -g0").
+FLAGS_FROM_ENVIRONMENT = bool(os.environ.get("RFTFEM_COMPILE_FLAGS"))
 COMPILE_FLAGS = tuple(os.environ["RFTFEM_COMPILE_FLAGS"].split()) \
-    if os.environ.get("RFTFEM_COMPILE_FLAGS") else (
+    if FLAGS_FROM_ENVIRONMENT else (
         "-O3", "-g0", "-fno-math-errno", "-fno-trapping-math", "-fno-signed-zeros",
         "-fassociative-math", "-freciprocal-math") + vector_flags()
 #: seconds a process waits for another one compiling the same form into the shared
@@ -173,7 +174,17 @@ def form(ufl_form, jit_options: dict | None = None):
     ``COMPILE_FLAGS`` and ``COMPILE_WAIT`` unless ``jit_options`` gives its own."""
     options = {"cffi_extra_compile_args": list(COMPILE_FLAGS), "timeout": COMPILE_WAIT,
                **(jit_options or {})}
-    return dolfinx.fem.form(ufl_form, **{_JIT_KEY: options})
+    try:
+        return dolfinx.fem.form(ufl_form, **{_JIT_KEY: options})
+    except Exception as error:
+        # the C compiler refused a user's flags: a bad option, not a traceback
+        if FLAGS_FROM_ENVIRONMENT and "CompileError" in str(error):
+            from .errors import SceneError
+
+            raise SceneError("RFTFEM_COMPILE_FLAGS: the C compiler failed with the flags "
+                             f"'{' '.join(COMPILE_FLAGS)}' (unset it, or give flags it "
+                             "accepts)") from error
+        raise
 
 
 def petsc_vec(f) -> PETSc.Vec:

@@ -8,6 +8,8 @@ import os
 import subprocess
 import sys
 
+from conftest import ROOT
+
 from rftfem import compat
 
 
@@ -49,3 +51,16 @@ def test_every_form_is_compiled_with_them(monkeypatch):
     assert compat.form("a form") == "compiled"
     (options,) = seen.values()
     assert options["cffi_extra_compile_args"] == list(compat.COMPILE_FLAGS)
+
+
+def test_flags_the_compiler_refuses_are_one_line(tmp_path):
+    """A bad RFTFEM_COMPILE_FLAGS is a bad option (exit 2, one line naming it, after
+    the compiler's own line naming the flag), not a traceback."""
+    env = dict(os.environ, RFTFEM_COMPILE_FLAGS="-O2 -fno-such-flag-xyz")
+    done = subprocess.run([sys.executable, "-m", "rftfem", "run",
+                           str(ROOT / "demos" / "rollup.toml"), "--out", str(tmp_path / "out"),
+                           "--quiet"], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert "Traceback" not in done.stderr, done.stderr[-2000:]
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("rftfem: error: RFTFEM_COMPILE_FLAGS: the C compiler failed"), last
