@@ -315,7 +315,7 @@ class PathFollowing:
 
 
 def _u_of(model) -> np.ndarray:
-    """The last converged displacement as a local array of the mixed space (θ = 0)."""
+    """The last converged displacement as a local array of ``w`` (θ = 0)."""
     out = np.zeros_like(model.w.x.array)
     out[model.u_dofs] = model.u_n.x.array
     return out

@@ -33,7 +33,9 @@ from .output import json_default
 
 FOLDER = "checkpoint"
 KEEP = 2
-FORMAT = 1
+#: 2: the unknowns are stored node by node, (u, θ¹, θ², ...) per node (rftfem/model.py);
+#: format 1 held u and θ as separate blocks of a mixed space
+FORMAT = 2
 
 #: scene keys a restart may change: they do not change the physics of the steps
 #: already taken (time.end extends a run; the rest are how it is watched or solved)

@@ -69,14 +69,6 @@ def function_space(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
     return _functionspace(mesh, _element(mesh, family, degree, shape))
 
 
-def mixed_space(mesh, parts):
-    """Mixed space from ``[(family, degree, shape), ...]``."""
-    elements = [_element(mesh, f, k, s) for f, k, s in parts]
-    if _HAS_BASIX_UFL:
-        return _functionspace(mesh, _basix_ufl.mixed_element(elements))
-    return _functionspace(mesh, ufl.MixedElement(elements))
-
-
 def geometry_cells(mesh) -> tuple[np.ndarray, int]:
     """The geometry nodes of every cell as a (num_cells, nodes) array, and the
     geometry's degree (1: straight cells, 2: curved ones from a second-order gmsh
@@ -203,8 +195,13 @@ def create_vector(L, V) -> PETSc.Vec:
         return dolfinx.fem.petsc.create_vector(L)
 
 
-def create_matrix(a) -> PETSc.Mat:
-    return dolfinx.fem.petsc.create_matrix(a)
+def create_matrix(a, kind: str | None = None) -> PETSc.Mat:
+    """A PETSc matrix for the bilinear form ``a``; ``kind`` a PETSc matrix type
+    (``"baij"``, ...; None: dolfinx's default), named ``mat_type`` in dolfinx 0.5."""
+    if kind is None:
+        return dolfinx.fem.petsc.create_matrix(a)
+    create = dolfinx.fem.petsc.create_matrix
+    return create(a, **{_keyword(create, "kind", "mat_type"): kind})
 
 
 def assemble_vector(b, L):

@@ -15,7 +15,7 @@ class DirichletSpaces:
 
     def __init__(self):
         self._spaces = {}
-        #: component name -> [(who holds them, local dofs of the mixed space)]
+        #: component name -> [(who holds them, local dofs of ``w``)]
         self.held = {}
 
     def space(self, sub, name: str):
@@ -31,7 +31,7 @@ class DirichletSpaces:
 
     def zero(self, sub, dim: int, entities, name: str, holder: str):
         """``sub = 0`` on the dofs of the entities, recorded as held by ``holder``.
-        Returns the condition and its local dofs of the mixed space."""
+        Returns the condition and its local dofs of ``w``."""
         V, zero = self.space(sub, name)
         dofs = fem.locate_dofs_topological((sub, V), dim, entities)
         self.hold(name, holder, dofs[0])

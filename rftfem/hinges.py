@@ -245,7 +245,7 @@ def inactive_rotation_bcs(model) -> list:
     bcs = []
     for c in range(model.n_colours):
         for i in range(2):
-            sub = model.W.sub(1 + c).sub(i)
+            sub = model.rotation_space(c, i)
             V, zero = model.dirichlet.space(sub, f"theta{i + 1}_{c}")
             own = fem.locate_dofs_topological((sub, V), tdim, cells_of_colour(model.colours, c))
             other = fem.locate_dofs_topological(

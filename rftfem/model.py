@@ -2,7 +2,11 @@
 
 The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
 the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
-``(a₁, a₂, dₙ)`` of the last converged step (docs/model.md §4).  The triad is kept as
+``(a₁, a₂, dₙ)`` of the last converged step (docs/model.md §4).  All of them are
+second-order Lagrange fields on the same nodes, so they are held as one blocked
+field ``w`` in [P2]^(3+2c) (c the number of panel colours, below): every node
+carries its ``(u, θ¹, θ², ...)`` block, and the tangent is a block matrix whose
+cell matrices PETSc inserts a node pair at a time.  The triad is kept as
 three [P2]³ functions, rotated node by node after each converged step, and its
 in-plane pair turned about dₙ onto the convected material axis (``update_triad``).
 Hinge lines cut the body into panels of several colours, each with its own θ
@@ -62,13 +66,15 @@ class Model(StepStart, BodyMeasures):
         if self.n_colours > 1:  # χ_c, 1 on the cells of colour c (DG0)
             self.colour_indicators = hinges.indicators(self.mesh, self.colours, self.n_colours)
 
-        # unknowns: u, then one θ per colour; the state of the last step
-        self.W = compat.mixed_space(self.mesh, [("Lagrange", 2, (3,))]
-                                    + [("Lagrange", 2, (2,))] * self.n_colours)
-        self.Vu, self.u_dofs = compat.collapse(self.W.sub(0))
-        self.theta_dofs_of = [compat.collapse(self.W.sub(1 + c))[1]
+        # unknowns: u, then one θ per colour, node by node; the state of the last step
+        self.block = 3 + 2 * self.n_colours
+        self.W = compat.function_space(self.mesh, "Lagrange", 2, (self.block,))
+        self.Vu = compat.function_space(self.mesh, "Lagrange", 2, (3,))
+        self.u_dofs = self._block_dofs(range(3))
+        #: per colour, its rotation dofs of ``w`` in (θ¹, θ²) pairs, node by node
+        self.theta_dofs_of = [self._block_dofs((3 + 2 * c, 4 + 2 * c))
                               for c in range(self.n_colours)]
-        #: every rotation dof of the mixed space, in (θ¹, θ²) pairs
+        #: every rotation dof of ``w``, in (θ¹, θ²) pairs
         self.theta_dofs = np.concatenate(self.theta_dofs_of)
         self.w = fem.Function(self.W, name="w")
         self.u_n, self.v_n, self.a_n = (fem.Function(self.Vu, name=n)
@@ -116,6 +122,37 @@ class Model(StepStart, BodyMeasures):
         self.bcs = [bc for comp in self.components for bc in comp.bcs()]
         self.bcs += hinges.inactive_rotation_bcs(self)
         self.has_moving_bcs = any(comp.moving for comp in self.components)
+
+    def _block_dofs(self, fields) -> np.ndarray:
+        """The local dofs of ``w`` that hold ``fields`` (positions in a node's block),
+        node by node in the order of ``Vu``'s nodes.  The two spaces number their nodes
+        alike (same mesh, same scalar element); checked on the first call."""
+        if not getattr(self, "_nodes_checked", False):
+            x_w, x_u = (V.tabulate_dof_coordinates() for V in (self.W, self.Vu))
+            size = float(np.abs(x_u).max()) if x_u.size else 0.0
+            same = (self.W.dofmap.index_map.size_local == self.Vu.dofmap.index_map.size_local
+                    and x_w.shape == x_u.shape and np.allclose(x_w, x_u, rtol=0.0,
+                                                                atol=1e-9 * size))
+            if not same:
+                raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
+            self._nodes_checked = True
+        im = self.Vu.dofmap.index_map
+        nodes = np.arange(im.size_local + im.num_ghosts)
+        return (self.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
+
+    def displacement_space(self, i: int):
+        """The sub-space of ``w`` holding the displacement component ``i`` (0: x)."""
+        return self.W.sub(i)
+
+    def rotation_space(self, colour: int, i: int):
+        """The sub-space of ``w`` holding ``θ^(i+1)`` of the colour ``colour``."""
+        return self.W.sub(3 + 2 * colour + i)
+
+    def split(self, w):
+        """``(u, [θ of each colour])`` of a field or test function of ``W``."""
+        u = ufl.as_vector([w[i] for i in range(3)])
+        thetas = [ufl.as_vector([w[3 + 2 * c], w[4 + 2 * c]]) for c in range(self.n_colours)]
+        return u, thetas
 
     def get(self, name: str):
         """The active component called ``name`` (``"drag"``, ``"magnetic"``, ...) or None."""
@@ -175,13 +212,13 @@ class Model(StepStart, BodyMeasures):
         if self._kinematics is None:
             w_test = ufl.TestFunction(self.W)
             self._kinematics = self.kinematics_of(self.w)
-            self._kinematics.w_test, self._kinematics.du = w_test, ufl.split(w_test)[0]
+            self._kinematics.w_test, self._kinematics.du = w_test, self.split(w_test)[0]
         return self._kinematics
 
     def kinematics_of(self, w) -> SimpleNamespace:
-        """The kinematics of ``kinematics()`` for any function ``w`` of the mixed space
-        (its rotations measured in the step's triads), without test functions."""
-        u, *thetas = ufl.split(w)
+        """The kinematics of ``kinematics()`` for any function ``w`` of ``W`` (its
+        rotations measured in the step's triads), without test functions."""
+        u, thetas = self.split(w)
         G1, G2 = kinematics.covariant_basis(self.mesh)
         directors = [kinematics.director(theta, *triad)
                      for theta, triad in zip(thetas, self.triads)]

@@ -10,9 +10,16 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from . import compat
-from .schema import FACTORIZATIONS, TANGENTS, check_factorization, check_tangent
+from .schema import (FACTORIZATIONS, TANGENTS, check_factorization, check_matrix_type,
+                     check_tangent)
 
 PREFIX = "rftfem_"
+
+#: The tangent's PETSc matrix type unless ``[solver] mat_type`` says otherwise: a
+#: block of (u, θ) rows per node (rftfem/model.py), inserted a node pair at a time (10×
+#: faster than entry by entry); PETSc's LU and MUMPS factorise it as it is
+#: (docs/performance.md, "What a Jacobian costs")
+MATRIX_TYPE = "baij"
 
 #: Relative to the scene's driving force (see ``Model.reference_force``).
 ATOL_FACTOR = 1e-7
@@ -66,6 +73,12 @@ def factorization(scene_solver: dict | None = None, command_line: list[str] | No
     if value == "auto":
         return "reused" if unknowns > REUSE_ABOVE else "every-iteration"
     return value
+
+
+def matrix_type(options: dict) -> str:
+    """The tangent's matrix type: ``mat_type`` of the merged ``options`` (the scene's
+    ``[solver]`` or ``-mat_type``), else ``MATRIX_TYPE``."""
+    return check_matrix_type(str(options.get("mat_type", MATRIX_TYPE)))
 
 
 def lu_package(unknowns: int, processes: int) -> str | None:

@@ -46,10 +46,10 @@ from typing import Any, Iterable
 
 from rftfem import effects, steady
 from rftfem.errors import SceneError
-from rftfem.schema import (FACTORIZATIONS, MAX_STEPS, NONNEGATIVE, POSITIVE, TANGENTS, Array,
-                           Bool, Free, Int, Leaf, Num, Parameters, Str, Table, Vec,
-                           check_factorization, check_tangent, check_unique, err, fmt, join,
-                           section, suggest, validate_table)
+from rftfem.schema import (FACTORIZATIONS, MATRIX_TYPES, MAX_STEPS, NONNEGATIVE, POSITIVE,
+                           TANGENTS, Array, Bool, Free, Int, Leaf, Num, Parameters, Str, Table, Vec,
+                           check_factorization, check_matrix_type, check_tangent, check_unique,
+                           err, fmt, join, section, suggest, validate_table)
 from rftfem.scene_mesh import MESH, check_mesh
 from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 from rftfem.timeint import resolved_scheme
@@ -202,16 +202,19 @@ SCHEMA = Table({
     "solver": Free(doc="PETSc options of the nonlinear solve, named without prefix or dash "
                         "(snes_rtol, ksp_type, pc_type, ...). They replace rftfem's defaults; "
                         "PETSc options on the `rftfem run` command line replace them in "
-                        "turn. One key is rftfem's own: `tangent`, the Newton tangent, "
+                        "turn. Three keys are rftfem's own: `tangent`, the Newton tangent, "
                         '"mixed-point" (default: membrane and shear forces in the geometric '
                         'stiffness linearized from the last iterate) or "exact" '
-                        "(docs/model.md §7.4); `-tangent exact` on the command line. The other: "
+                        "(docs/model.md §7.4); `-tangent exact` on the command line. Then "
                         "`factorization`, when the tangent's LU factorisation is made: "
                         '"every-iteration" (direct solves), "every-step" (once a step, '
                         'GMRES on the current tangent), "reused" (kept across steps until '
                         'GMRES needs more than 20 iterations) or "auto" (default: '
                         '"every-iteration" up to 20 000 unknowns, "reused" above; '
-                        "docs/model.md §7.7); `-factorization reused` on the command line."),
+                        "docs/model.md §7.7); `-factorization reused` on the command line. "
+                        '`mat_type`, how the tangent is stored: "baij" (default: a block per '
+                        'pair of nodes) or "aij" (single entries, for preconditioners that '
+                        "take no block matrix, such as hypre); `-mat_type aij`."),
 }, doc="The top level of the scene file.")
 
 #: the order the reference lists the top-level keys in; an effect's key not named
@@ -247,6 +250,7 @@ def _cross_check(scene: dict) -> None:
     # start MPI in a process that may launch mpirun, as `rftfem study --np` does)
     check_tangent((scene.get("solver") or {}).get("tangent", TANGENTS[0]))
     check_factorization((scene.get("solver") or {}).get("factorization", FACTORIZATIONS[0]))
+    check_matrix_type((scene.get("solver") or {}).get("mat_type", MATRIX_TYPES[0]))
 
     # time
     if time["dt"] > time["end"]:

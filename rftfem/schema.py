@@ -291,6 +291,16 @@ def check_factorization(value, where: str = "solver.factorization") -> str:
     return _check_choice(value, FACTORIZATIONS, where)
 
 
+#: the tangent's PETSc matrix types (``[solver] mat_type``): node blocks (the default)
+#: or single entries, for a preconditioner that takes no block matrix (hypre)
+MATRIX_TYPES = ("baij", "aij")
+
+
+def check_matrix_type(value, where: str = "solver.mat_type") -> str:
+    """``value`` if it names one of ``MATRIX_TYPES``, else a one-line SceneError."""
+    return _check_choice(value, MATRIX_TYPES, where)
+
+
 def _check_choice(value, choices, where: str) -> str:
     if value not in choices:
         raise SceneError(f"{where}: expected one of {', '.join(map(repr, choices))}, "

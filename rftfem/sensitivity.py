@@ -128,7 +128,7 @@ class _Adjoint:
         self.PETSc = PETSc
 
     def vec(self):
-        """A new vector of the mixed space (ghosted), not zeroed."""
+        """A new vector of ``W`` (ghosted), not zeroed."""
         from rftfem import compat
 
         return compat.create_vector(self.model.forces_form, self.model.W)
@@ -247,7 +247,7 @@ class _Adjoint:
     # assembly --------------------------------------------------------------------------
 
     def assemble(self, form):
-        """A 1-form of the mixed space assembled into a new (ghost-summed) vector."""
+        """A 1-form of ``W`` assembled into a new (ghost-summed) vector."""
         from rftfem import compat
 
         b = self.vec()
@@ -328,7 +328,7 @@ class _Adjoint:
         assert not m.first_tangent_converged
         solver.assemble_tangent()
         for bc in m.bcs:
-            dofs, _ = bc.dof_indices()  # local indices of the mixed space, ghosts too
+            dofs, _ = bc.dof_indices()  # local indices of ``W``, ghosts too
             with dJdw.localForm() as local:
                 local.array[np.asarray(dofs)] = 0.0
         ksp = PETSc.KSP().create(m.comm)

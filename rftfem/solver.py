@@ -57,7 +57,7 @@ class StepSolver:
         self.b = compat.create_vector(model.forces_form, W)    # the residual
         self.work = compat.create_vector(model.forces_form, W)
         self.x = compat.create_vector(model.forces_form, W)
-        self.A = compat.create_matrix(model.jacobian_form)
+        self.A = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(options))
         #: wall seconds and calls: residuals (F, inertia, Dirichlet rows), Jacobians,
         #: liftings of a missed Dirichlet increment, and the linear solves (SNES's
         #: solve less the assembly within it: factorisation, substitution, updates)

@@ -54,16 +54,10 @@ class Triads:
 
         self.model, self.comm = model, model.comm
         Vu = model.Vu
-        self.node_maps = []  # per colour: for each θ node, the matching u node
-        cu = compat.cell_dofs(Vu)
-        for c in range(model.n_colours):
-            Vt, _ = model.W.sub(1 + c).collapse()
-            ct = compat.cell_dofs(Vt)  # same scalar P2 layout: the k-th node is the same point
-            n_t = Vt.dofmap.index_map.size_local + Vt.dofmap.index_map.num_ghosts
-            node_map = np.full(n_t, -1, dtype=np.int64)
-            node_map[ct.ravel()] = cu.ravel()
-            assert cu.shape == ct.shape and (node_map >= 0).all(), "unexpected dof layout"
-            self.node_maps.append(node_map)
+        #: per colour: for each θ node (Model.theta_dofs_of, in pairs), its node of the
+        #: u space; ``w`` holds every field node by node in the u space's order
+        nodes = Vu.dofmap.index_map.size_local + Vu.dofmap.index_map.num_ghosts
+        self.node_maps = [np.arange(nodes) for _ in range(model.n_colours)]
         #: the reference director D, and (a1, a2, dn) per colour
         self.D = fem.Function(Vu, name="reference_director")
         self.frames = [tuple(fem.Function(Vu, name=f"{n}{'' if c == 0 else f'_{c}'}")
@@ -112,7 +106,7 @@ class Triads:
 
     def update(self, w: np.ndarray, theta_dofs_of: list):
         """Rotate every triad by the exact Rodrigues rotation of its θ (read from the
-        mixed array ``w``), then turn ``(a₁, a₂)`` about ``dₙ`` onto the convected
+        array of ``w``), then turn ``(a₁, a₂)`` about ``dₙ`` onto the convected
         material axis.
 
         The rotations have no drilling part, so a triad carried through many turns

@@ -103,17 +103,19 @@ def test_an_unknown_policy_is_one_line(where):
 
 def test_small_serial_runs_use_petscs_lu_and_fall_back_on_mumps(direct):
     """The roll-up (small, serial) is factorised by PETSc's own LU.  Told to count
-    every pivot as zero (`pc_factor_zeropivot 1e300`), that LU fails at the first
-    solve; the solve is made again with MUMPS, which the run keeps: no load step is
-    cut and the tips are the same.  A package the scene names is kept."""
+    every pivot as zero (`pc_factor_zeropivot 1e300`, which only the point-wise
+    matrix's LU reads: the block matrix's pivots within its 5 × 5 blocks), that LU
+    fails at the first solve; the solve is made again with MUMPS, which the run
+    keeps: no load step is cut and the tips are the same.  A package the scene
+    names is kept."""
     from rftfem import compat
 
     sim_d, tips_d = direct
-    if not compat.has_mumps():
-        assert sim_d.summary["factorization"]["lu"] == "petsc"
-        return
     assert sim_d.summary["factorization"]["lu"] == "petsc"
-    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, "solver.pc_factor_zeropivot=1e300")
+    if not compat.has_mumps():
+        pytest.skip("this PETSc has no MUMPS to fall back on")
+    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, "solver.pc_factor_zeropivot=1e300",
+                    'solver.mat_type="aij"')
     tips = np.array([row[1][0] for row in sim.history])
     assert sim.summary["status"] == "ok" and sim.counts["dt_cuts"] == 0
     assert sim.summary["factorization"]["lu"] == "mumps"
@@ -121,3 +123,29 @@ def test_small_serial_runs_use_petscs_lu_and_fall_back_on_mumps(direct):
     sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, 'solver.pc_factor_mat_solver_type="mumps"',
                     "time.end=0.2")
     assert sim.summary["factorization"]["lu"] == "mumps"
+
+
+def test_the_tangent_is_a_block_matrix_unless_asked(direct):
+    """The tangent holds a (u, θ) block per node pair (rftfem/model.py); ``mat_type =
+    "aij"`` gives a point-wise one (for preconditioners that take no blocks) with the
+    same tips to round-off.  Any other type is one line naming the key."""
+    from rftfem.errors import SceneError
+    from rftfem.scene import load_scene
+
+    def matrix_of(seen):
+        return lambda sim: seen.add((sim.solver.A.getType(), sim.solver.A.getBlockSize()))
+
+    _, tips_d = direct
+    seen = set()
+    run_scene(DEMOS / "rollup.toml", *ROLLUP, "time.end=0.2", observers=[matrix_of(seen)])
+    assert seen == {("seqbaij", 5)}
+    seen = set()
+    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, 'solver.mat_type="aij"',
+                    observers=[matrix_of(seen)])
+    tips = np.array([row[1][0] for row in sim.history])
+    assert seen == {("seqaij", 5)}
+    assert np.abs(tips - tips_d).max() < 1e-7 * 12.0
+    with pytest.raises(SceneError) as err:
+        load_scene(DEMOS / "rollup.toml", ['solver.mat_type="dense"'])
+    text = str(err.value)
+    assert "\n" not in text and "solver.mat_type" in text and "'aij'" in text

@@ -254,7 +254,8 @@ def one_line(done, launcher: bool = False) -> str:
 @pytest.mark.mpi
 def test_restart_refusals(tmp_path, mpirun):
     """Exit 2 with one line: another physics (names the key and both values),
-    another number of processes, --out elsewhere, a folder without checkpoints."""
+    another number of processes, --out elsewhere, a folder without checkpoints, a
+    checkpoint of another format (an older rftfem's unknowns were numbered apart)."""
     scene, _, sets = CASES["sheet"]
     run = tmp_path / "run"
     assert rftfem_run(scene, run, [*sets, "time.end=0.02"]).returncode == 0
@@ -268,3 +269,7 @@ def test_restart_refusals(tmp_path, mpirun):
     (tmp_path / "empty").mkdir()
     line = one_line(rftfem_run(scene, tmp_path / "empty", sets, restart=True))
     assert "no complete checkpoint" in line, line
+    for meta in (run / "checkpoint").glob("step-*/meta.json"):
+        meta.write_text(meta.read_text().replace('"format": 2', '"format": 1'))
+    line = one_line(rftfem_run(scene, run, sets, restart=True))
+    assert "checkpoint format 1" in line and "reads 2" in line, line

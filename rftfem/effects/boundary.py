@@ -88,7 +88,7 @@ class Boundaries(Effect):
     def __init__(self, model):
         super().__init__(model)
         self._bcs = []
-        #: per entry, the local mixed dofs it holds
+        #: per entry, the local dofs of ``w`` it holds
         self._held = [[] for _ in self.scene["boundary"]]
         for k, bnd in enumerate(self.scene["boundary"]):
             if bnd["symmetry"] is not None:
@@ -106,12 +106,12 @@ class Boundaries(Effect):
         if "clamped" in fix:
             fix = {"ux", "uy", "uz", "rotation"}
         # (component, sub-space, its name, entities)
-        subs = [(c, model.W.sub(0).sub(DISPLACEMENT_COMPONENTS[c]), c, entities)
+        subs = [(c, model.displacement_space(DISPLACEMENT_COMPONENTS[c]), c, entities)
                 for c in sorted(fix) if c in DISPLACEMENT_COMPONENTS]
         if "rotation" in fix:
             for c in range(model.n_colours):
                 own = hinges.entities_of_colour(model, dim, entities, c)
-                subs += [(f"theta{i + 1}", model.W.sub(1 + c).sub(i), f"theta{i + 1}_{c}",
+                subs += [(f"theta{i + 1}", model.rotation_space(c, i), f"theta{i + 1}_{c}",
                           own) for i in range(2)]
         counts = {}
         for component, sub, name, ents in subs:
@@ -139,7 +139,7 @@ class Boundaries(Effect):
                              "symmetry is an edge")
         axis = int(np.argmax(np.abs(bnd["symmetry"])))
         n = np.eye(3)[axis]
-        bc, dofs = model.dirichlet.zero(model.W.sub(0).sub(axis), dim, entities,
+        bc, dofs = model.dirichlet.zero(model.displacement_space(axis), dim, entities,
                                         ("ux", "uy", "uz")[axis], "a [[boundary]]")
         self._held[k].append(dofs)
         if model.comm.allreduce(len(dofs)) == 0:
@@ -149,12 +149,12 @@ class Boundaries(Effect):
         for c, (a1, a2, dn) in enumerate(model.triads):
             own = hinges.entities_of_colour(model, dim, entities, c)
             frames = [f.x.array.reshape(-1, 3) for f in (a1, a2, dn)]
-            # a θ dof of the mixed space -> its node of the u space: θ is stored in
+            # a θ dof of ``w`` -> its node of the u space: θ is stored in
             # (θ¹, θ²) pairs per node (Model.theta_dofs_of), the triad maps the nodes
             pair = np.full(len(model.w.x.array), -1, dtype=np.int64)
             pair[model.theta_dofs_of[c]] = np.arange(len(model.theta_dofs_of[c]))
             for i in range(2):
-                sub = model.W.sub(1 + c).sub(i)
+                sub = model.rotation_space(c, i)
                 V, zero = model.dirichlet.space(sub, f"theta{i + 1}_{c}")
                 dofs = fem.locate_dofs_topological((sub, V), dim, own)
                 at = model.triad.node_maps[c][pair[np.asarray(dofs[0])] // 2]

@@ -90,7 +90,7 @@ class Motions(Effect):
             key = f"motion.{k}"
             dim, entities = entities_of(model.body, spec["where"], key + ".where")
             component = spec["component"]
-            sub = model.W.sub(0).sub(DISPLACEMENT_COMPONENTS[component])
+            sub = model.displacement_space(DISPLACEMENT_COMPONENTS[component])
             V, _ = model.dirichlet.space(sub, component)
             dofs = fem.locate_dofs_topological((sub, V), dim, entities)
             if model.comm.allreduce(len(dofs[0])) == 0:
@@ -111,7 +111,7 @@ class Motions(Effect):
 
     def _displacement_index(self, mixed_dofs):
         """The positions in the displacement arrays (``u_n``, ``v_n``, ``a_n``) of these
-        dofs of the mixed space."""
+        dofs of ``w``."""
         m = self.model
         where = np.full(len(m.w.x.array), -1, dtype=np.int64)
         where[m.u_dofs] = np.arange(len(m.u_dofs))
