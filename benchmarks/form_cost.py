@@ -10,7 +10,8 @@ difference of the assembled matrix from the first flag set's, relative to its
 largest entry (0: bitwise the same; ~1e-15: round-off, from reassociated sums
 and fused multiply-adds).  Last, the same assembly with a trivial kernel of the
 same spaces: the cost of inserting the cell matrices into PETSc's, which no
-flag changes.
+flag changes -- into the tangent's block matrix (rftfem/petsc_options.py,
+MATRIX_TYPE) and, for comparison, into a point-wise AIJ matrix.
 
     .venv/bin/python benchmarks/form_cost.py               # sheet and strip, ~4 minutes
     .venv/bin/python benchmarks/form_cost.py sheet --rounds 60
@@ -36,7 +37,7 @@ import numpy as np
 import ufl
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem import compat
+from rftfem import compat, petsc_options
 from rftfem.scene import load_scene
 from rftfem.simulation import Simulation
 
@@ -77,8 +78,9 @@ def measure(name: str, rounds: int) -> list[dict]:
             # a kernel that does next to nothing on the same spaces: what is left is
             # packing and inserting 45 x 45 cell matrices into PETSc's
             trivial = ufl.inner(ufl.TrialFunction(model.W), ufl.TestFunction(model.W))
-            forms.append(compat.form(trivial * model.dx(metadata={"quadrature_degree": 0})))
-            matrices = [compat.create_matrix(J) for J in forms]
+            forms += [compat.form(trivial * model.dx(metadata={"quadrature_degree": 0}))] * 2
+            kinds = [petsc_options.MATRIX_TYPE] * (len(forms) - 1) + ["aij"]
+            matrices = [compat.create_matrix(J, kind) for J, kind in zip(forms, kinds)]
             times = [[] for _ in forms]
             for _ in range(rounds):
                 for J, A, t in zip(forms, matrices, times):
@@ -87,9 +89,11 @@ def measure(name: str, rounds: int) -> list[dict]:
                     compat.assemble_matrix(A, J, model.bcs)
                     A.assemble()
                     t.append(time.perf_counter() - t0)
-            values = [A.getValuesCSR()[2] for A in matrices]
-            labels = [" ".join(f) for f in FLAG_SETS] + ["(trivial kernel: insertion only)"]
-            for label, tc, t, v in zip(labels, compile_s + [0.0], times, values):
+            values = [A.convert("aij").getValuesCSR()[2] for A in matrices]
+            labels = [" ".join(f) for f in FLAG_SETS] + [
+                f"(trivial kernel: insertion only, {petsc_options.MATRIX_TYPE})",
+                "(trivial kernel: insertion only, aij)"]
+            for label, tc, t, v in zip(labels, compile_s + [0.0, 0.0], times, values):
                 same = tc > 0.0  # the trivial kernel's matrix is another one
                 rows.append({
                     "case": name, "cells": cells, "flags": label,
