@@ -10,8 +10,8 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from . import compat
-from .schema import (FACTORIZATIONS, TANGENTS, check_factorization, check_matrix_type,
-                     check_tangent)
+from .schema import (FACTORIZATIONS, MATRIX_TYPES, TANGENTS, check_factorization,
+                     check_matrix_type, check_tangent)
 
 PREFIX = "rftfem_"
 
@@ -19,7 +19,7 @@ PREFIX = "rftfem_"
 #: block of (u, θ) rows per node (rftfem/model.py), inserted a node pair at a time (10×
 #: faster than entry by entry); PETSc's LU and MUMPS factorise it as it is
 #: (docs/performance.md, "What a Jacobian costs")
-MATRIX_TYPE = "baij"
+MATRIX_TYPE = MATRIX_TYPES[0]  # "baij"
 
 #: Relative to the scene's driving force (see ``Model.reference_force``).
 ATOL_FACTOR = 1e-7
