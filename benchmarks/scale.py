@@ -11,10 +11,15 @@ from 20k unknowns up, and the speed-up of two processes over one.
     .venv/bin/python benchmarks/scale.py                      # ~25 minutes
     .venv/bin/python benchmarks/scale.py --sizes 20x4 120x24 --np 1 2 --solvers reused
     .venv/bin/python benchmarks/scale.py --sizes 120x24 --solvers reused --repeat 4
+    .venv/bin/python benchmarks/scale.py --sizes 120x24 --solvers reused --repeat 3 --ceiling
 
 This machine's speed drifts by up to half within minutes, so a serial run and
 an mpirun made one after the other can differ by more than the speed-up itself:
 ``--repeat N`` runs every setting N times in turn and keeps each one's fastest.
+``--ceiling`` adds two serial runs made at once, one per core: they share only the
+machine (caches, memory, the host), so ``2 × alone / slower of the two`` is the most
+any two-process run of the same work can gain here; the mpirun's speed-up is then
+also printed as a share of that ceiling.
 
 Solvers (``solver.factorization``, docs/model.md §7.7): "every-iteration" (a MUMPS
 LU of every tangent, the default up to 20k unknowns), "petsc" (the same with
@@ -108,6 +113,10 @@ def _mark(sim):
 
 
 def launch(size: str, steps: int, np_: int, solver: str) -> dict | None:
+    return finish(start(size, steps, np_, solver), size, np_, solver)
+
+
+def start(size: str, steps: int, np_: int, solver: str) -> subprocess.Popen:
     cmd = [sys.executable, __file__, "--one", size, "--steps", str(steps + 1),
            "--solvers", solver]
     if np_ > 1:
@@ -115,13 +124,29 @@ def launch(size: str, steps: int, np_: int, solver: str) -> dict | None:
         mpirun = str(here) if here.exists() else shutil.which("mpirun")
         cmd = [mpirun, "-n", str(np_), *cmd]
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=3600)
-    lines = [ln for ln in done.stdout.splitlines() if ln.startswith("{")]
-    if done.returncode != 0 or not lines:
-        print(f"  {size} np={np_} {solver}: failed (exit {done.returncode}) "
-              f"{(done.stderr or done.stdout).strip().splitlines()[-1:]}")
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env)
+
+
+def finish(child: subprocess.Popen, size: str, np_: int, solver: str) -> dict | None:
+    stdout, stderr = child.communicate(timeout=3600)
+    lines = [ln for ln in stdout.splitlines() if ln.startswith("{")]
+    if child.returncode != 0 or not lines:
+        print(f"  {size} np={np_} {solver}: failed (exit {child.returncode}) "
+              f"{(stderr or stdout).strip().splitlines()[-1:]}")
         return None
     return json.loads(lines[-1])
+
+
+def pair(size: str, steps: int, solver: str) -> dict | None:
+    """Two serial runs at once, one per core, sharing nothing but the machine: the
+    slower one's figures.  ``2 × (one alone) / (slower of the pair)`` is the most two
+    processes can gain on this machine for this work, whatever the parallel code."""
+    children = [start(size, steps, 1, solver) for _ in range(2)]
+    done = [finish(c, size, 1, solver) for c in children]
+    if None in done:
+        return None
+    return max(done, key=lambda r: r["step_s"])
 
 
 def skipped(solver: str, size: str, np_: int) -> bool:
@@ -174,6 +199,9 @@ def main(argv=None) -> None:
     parser.add_argument("--repeat", type=int, default=1,
                         help="runs of each setting, taken in turn (serial, mpirun, serial, ...) "
                         "so that the machine's drift falls on all alike; the fastest is kept")
+    parser.add_argument("--ceiling", action="store_true",
+                        help="also run two serial runs at once (one per core) and print the "
+                        "speed-up they bound: the machine's, not the code's, limit")
     parser.add_argument("--out", type=Path, default=Path("results/benchmarks"))
     parser.add_argument("--one", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -182,10 +210,14 @@ def main(argv=None) -> None:
         return
     settings = [(solver, size, np_) for solver in args.solvers for size in args.sizes
                 for np_ in args.nps if not skipped(solver, size, np_)]
+    if args.ceiling:
+        settings += [(solver, size, "pair") for solver in args.solvers for size in args.sizes
+                     if 1 in args.nps and 2 in args.nps and not skipped(solver, size, 2)]
     best = {}
     for round_ in range(args.repeat):
         for key in settings:
-            r = launch(key[1], args.steps, key[2], key[0])
+            r = (pair(key[1], args.steps, key[0]) if key[2] == "pair"
+                 else launch(key[1], args.steps, key[2], key[0]))
             if r is None:
                 continue
             print(f"  run {round_ + 1}/{args.repeat}: {key[0]}, {key[1]}, np={key[2]}: "
@@ -225,6 +257,15 @@ def main(argv=None) -> None:
             ups = [f"{r['mesh']} {by[r['mesh']]['step_s'] / r['step_s']:.2f}x"
                    for r in two if r["mesh"] in by]
             print(f"\n{solver}: speed-up of 2 processes: {', '.join(ups)}")
+            bound = [(size, by[size]["step_s"], best[(solver, size, "pair")]["step_s"])
+                     for size in by if (solver, size, "pair") in best]
+            for size, alone, slower in bound:
+                ceiling = 2 * alone / slower
+                two_s = next((r["step_s"] for r in two if r["mesh"] == size), None)
+                share = f"; mpirun reaches {alone / two_s / ceiling:.0%} of it" if two_s else ""
+                print(f"  {size}: two serial runs at once, the slower {slower:.3f} s/step "
+                      f"against {alone:.3f} alone: this machine's ceiling for two processes "
+                      f"is {ceiling:.2f}x{share}")
     args.out.mkdir(parents=True, exist_ok=True)
     if rows:
         with open(args.out / "scale.csv", "w", newline="", encoding="utf-8") as f:
