@@ -55,3 +55,60 @@ def corner(model, solver, t: float, start: bool = False) -> bool:
         motion.set(t)
     model.drive_state(t, None)
     return True
+
+
+def initial_acceleration(model, solver) -> None:
+    """The acceleration the forces at t = 0 give the body at rest: ``a(0)`` from
+
+        M a = −F(u₀, t = 0)   on the rows with mass,   a = 0 on the others,
+
+    ``F`` the non-inertial forces (internal minus external; no drag at rest) and ``M``
+    the mass matrix.  Rows without mass (the rotations, whose inertia is neglected,
+    and the nodes of massless parts) and Dirichlet rows hold ``a = 0``; a motion's own
+    acceleration at the start is handed on after this by :func:`corner`.  Without it
+    generalized-α would start from ``a = 0`` under a load already on at t = 0 and
+    lag the exact motion ``F t²/(2m)`` of a free body by a transient
+    (docs/model.md §6.7).  The model's loads and time must be set to t = 0."""
+    from petsc4py import PETSc
+
+    from . import compat, petsc_options
+    from .timeint import Coefficients
+
+    comm = model.comm
+    F = compat.create_vector(model.forces_form, model.W)
+    solver.assemble_forces(F)
+    # the mass matrix: the step's Jacobian with c_a = 1 and the forces weighted by 1 − α_f = 0
+    saved = model.coefficients
+    model.set_coefficients(Coefficients(ca=1.0, alpha_f=1.0))
+    M = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(solver.options))
+    model.start_newton()
+    model.tangent_at_iterate()
+    compat.assemble_matrix(M, model.jacobian_form, model.bcs)
+    M.assemble()
+    model.set_coefficients(saved)
+    diag = M.getDiagonal()
+    scale = diag.norm(PETSc.NormType.NORM_INFINITY)
+    massless = np.flatnonzero(np.abs(diag.array) <= 1e-12 * scale)
+    first = M.getOwnershipRange()[0]
+    M.zeroRows((first + massless).astype(PETSc.IntType), diag=1.0)
+    F.scale(-1.0)
+    F.array[massless] = 0.0
+    compat.set_bc(F, model.bcs, None, 0.0)  # a = 0 on the Dirichlet rows
+    a = F.duplicate()
+    ksp = PETSc.KSP().create(comm)
+    try:
+        ksp.setOperators(M)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps" if compat.has_mumps() else "petsc")
+        ksp.solve(F, a)
+        if ksp.getConvergedReason() < 0:
+            raise RuntimeError(f"the mass matrix could not be factorised (KSP reason "
+                               f"{ksp.getConvergedReason()})")
+        a.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with a.localForm() as local:
+            model.a_n.x.array[:] = local.array[model.u_dofs]
+    finally:
+        for obj in (ksp, M, F, a, diag):
+            obj.destroy()

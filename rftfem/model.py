@@ -51,6 +51,10 @@ class Model(StepStart, BodyMeasures):
         tdim = self.mesh.topology.dim
         self.mesh.topology.create_connectivity(tdim - 1, tdim)
         self.timings = {"compile": 0.0}
+        #: whether the applied loads (``[[load]]`` entries, the magnetic field) act: off
+        #: for the solve of a run's initial state in time (docs/model.md §6.7); the
+        #: components read it when their time is set
+        self.loads_on = True
         self.dx = ufl.Measure("dx", domain=self.mesh)
         self._kinematics = None
 
@@ -163,6 +167,10 @@ class Model(StepStart, BodyMeasures):
         if comp is None:
             raise KeyError(f"the scene has no active effect '{name}'")
         return comp
+
+    def loads_at_start(self) -> list[str]:
+        """The key paths of the loads already on at t = 0 (``load.0``, ``magnetic.field``)."""
+        return [key for comp in self.components for key in comp.loads_at_start()]
 
     def active_effects(self) -> list[str]:
         """The active effect names, as ``rftfem check`` lists them."""

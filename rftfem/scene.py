@@ -119,6 +119,16 @@ SCHEMA = Table({
                             "limit points and snap-backs (refused with [fluid]; time is then "
                             'the load factor λ). "auto" takes generalized-alpha with '
                             "density, backward-euler with [fluid] alone, static otherwise."),
+        "start": Leaf(Str(("rest", "equilibrium")), "rest",
+                       doc='How a run in time starts. "rest": in its initial state, at '
+                           "rest: the reference, or the shape the t = 0 motions impose "
+                           "with the rest of the body in elastic equilibrium; loads on at "
+                           "t = 0 act from the first step on (a free plate in drag under a "
+                           'constant force F has u(t) = F t / (C A) at every row). '
+                           '"equilibrium": at rest in static equilibrium with the t = 0 '
+                           "loads as well, to release a pre-loaded body (a load table that "
+                           "drops to 0 after t = 0). Static runs always start in "
+                           "equilibrium with their t = 0 loads."),
         "rho_inf": Leaf(Num(0.0, 1.0), 0.9,
                          doc="Generalized-alpha's spectral radius at infinite frequency: 1 "
                              "damps nothing, smaller values damp the highest frequencies "

@@ -416,6 +416,13 @@ class StepSolver:
             out += self.work.array
         return out
 
+    def forget_forces(self):
+        """The last assembled ``F`` no longer belongs to its iterate (the loads or the
+        time changed at the same state): the next ``store_forces`` assembles anew."""
+        if self._x_of_F is not None:
+            self._x_of_F.destroy()
+            self._x_of_F = None
+
     def store_forces(self):
         """Keep ``F`` at the converged state as ``F_n`` for the next step: the last
         residual's F when SNES evaluated it there (its own convergence test, as

@@ -119,38 +119,73 @@ class StepControl:
         return ""
 
     def _initial_equilibrium(self):
-        """Equilibrium with the t = 0 loads and motions; the run then starts at rest.
+        """The state a run starts in (docs/model.md §6.7), at rest: ``v = a = 0``, or
+        with inertia the acceleration the t = 0 forces give it.
 
-        With drag the body may be free (no Dirichlet condition on its rigid
-        motions), and a static solve would be singular.  The t = 0 solve then
-        carries the drag of reaching that state from the reference in one step
-        ``dt`` (backward Euler): a viscous regularisation that leaves the body
-        where the fluid lets it go.  Either way the run starts at rest
-        (``v = a = 0``), and the forces kept for the first step are those at rest.
+        A run in time starts in its initial state: the reference, or the shape the
+        t = 0 motions impose with the rest of the body in elastic equilibrium.  The
+        loads (``[[load]]``, the magnetic field) are off in that solve, so a load
+        already on at t = 0 moves the body from the first step on, not before it.
+        Static runs, and runs in time with ``time.start = "equilibrium"``, start in
+        static equilibrium with the t = 0 loads instead (a pre-loaded body released).
+
+        With drag the body may be free (no Dirichlet condition on its rigid motions),
+        and a static solve would be singular.  The t = 0 solve then carries the drag
+        of reaching that state from the reference in one step ``dt`` (backward Euler),
+        which lets the fluid hold the body; without loads and motions at t = 0 the
+        reference meets it exactly and no update is made.  The forces kept for the
+        first step (``F_n``) are those of the start with its t = 0 loads on.
         """
         m, dt = self.model, self.scene["time"]["dt"]
+        in_time = self.scheme.has_velocity
+        loaded = not in_time or self.scene["time"].get("start", "rest") == "equilibrium"
         start = BackwardEuler() if m.get("drag") else Static()
         # no prediction here to correct: a state that meets the tolerance (the
-        # reference state under loads that start at zero) is the answer
+        # reference state without loads) is the answer
         self.solver.force_iteration(False)
+        m.loads_on = loaded
         try:
             ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
         finally:
             self.solver.force_iteration()
+            m.loads_on = True
         if not ok:
+            what = "the t = 0 loads and motions" if loaded else "the t = 0 motions"
             hint = ("; nothing holds this body, so the loads must start at zero (a ramp "
-                    "from 0) unless a [fluid] holds it" if self._free() else "")
-            raise RunFailed(f"no static equilibrium with the t = 0 loads and motions ({reason})"
-                            + hint, 0.0, 0)
+                    "from 0) unless a [fluid] holds it" if self._free() and loaded else "")
+            raise RunFailed(f"no static equilibrium with {what} ({reason})" + hint
+                            + (self._ramp_hint() if loaded and not hint else ""), 0.0, 0)
         m.v_n.x.array[:] = 0.0
         m.a_n.x.array[:] = 0.0
         m.increments = []  # reaching t = 0 is no rate to go on at
+        # the loads at t = 0 on, the body at rest: the forces of the start
+        m.set_coefficients(Static().coefficients(dt))
+        m.set_time(0.0)
+        self.solver.forget_forces()
+        if self.reactions and not loaded:
+            self.reactions.compute(self.solver.raw_residual())
+        if self.scheme.has_inertia:
+            try:
+                impulses.initial_acceleration(m, self.solver)
+            except RuntimeError as exc:
+                raise RunFailed(f"no initial acceleration: {exc}", 0.0, 0) from None
         if m.drive and self.scheme.has_inertia:
             # the driven dofs move off at the motion's own rate, the body with them
             m.set_coefficients(self.scheme.coefficients(dt))
             impulses.corner(m, self.solver, 0.0, start=True)
         m.set_coefficients(Static().coefficients(dt))
         self.solver.store_forces()
+
+    def _ramp_hint(self) -> str:
+        """For a static run that failed: the loads already on at t = 0, to be ramped."""
+        if self.scheme.has_velocity:
+            return ""
+        keys = self.model.loads_at_start()
+        if not keys:
+            return ""
+        return (f"; {', '.join(keys)} {'is' if len(keys) == 1 else 'are'} already on at "
+                f"t = 0: ramp {'it' if len(keys) == 1 else 'them'} from 0 with t (ramp = "
+                '"linear", or a table or field that starts at 0)')
 
     def _advance(self, t_end: float, steps_log, progress):
         """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.

@@ -12,7 +12,8 @@ OMEGA1 = 1.87510407**2 * np.sqrt(EI / (RHO * W * T_ * L**4))
 PERIOD = 2 * np.pi / OMEGA1
 
 # Released from the static deflection under a small tip force (1e-3 L): the load
-# table drops to zero right after t = 0 and the run starts in equilibrium with it.
+# table drops to zero right after t = 0, and time.start = "equilibrium" starts the
+# run at rest in equilibrium with it (a run starts from the reference by default).
 RELEASE = f"""
 title = "free vibration of a cantilever strip"
 [mesh]
@@ -26,6 +27,7 @@ nu = 0.0
 density = {RHO}
 [time]
 scheme = "generalized-alpha"
+start = "equilibrium"
 rho_inf = 1.0
 end = {3 * PERIOD}
 dt = {PERIOD / 80}

@@ -78,6 +78,14 @@ class Effect:
 
     #: whether its Dirichlet values change in time
     moving = False
+    #: whether it is an applied load: switched off by ``Model.loads_on = False`` (the
+    #: start of a run in time, docs/model.md §6.7), on by default
+    is_load = False
+
+    def loads_at_start(self) -> list[str]:
+        """The key paths of its loads that are already on at t = 0 (a static run that
+        fails says to ramp them)."""
+        return []
 
     def set_time(self, t: float) -> None:
         """Set its time-dependent values to time ``t``."""
@@ -136,9 +144,18 @@ class Load(Effect):
         super().__init__(model)
         self.entries = loads_of(self.scene, self.load_kinds)
 
+    is_load = True
+
     def scale(self, load: dict, t: float) -> float:
-        """The entry's ramp at time ``t``."""
+        """The entry's ramp at time ``t`` (0 while the model's loads are off)."""
+        if not self.model.loads_on:
+            return 0.0
         return ramp_scale(load, t, self.scene["time"]["end"])
+
+    def loads_at_start(self):
+        end = self.scene["time"]["end"]
+        return [f"load.{i}" for i, ld in self.entries
+                if ramp_scale(ld, 0.0, end) != 0.0 and np.any(np.asarray(ld["value"]) != 0.0)]
 
 
 def loads_of(scene: dict, kinds) -> list[tuple[int, dict]]:

@@ -222,7 +222,9 @@ class Magnetic(Effect):
         else:
             self.source = NonuniformField(field)
             x = ufl.SpatialCoordinate(mesh) + k.u  # the current mid-surface position
-            self.field = self.source.ufl(mesh, x)
+            #: 1, or 0 while the model's loads are off (a uniform field is set to 0)
+            self.switch = fem.Constant(mesh, PETSc.ScalarType(1.0))
+            self.field = self.switch * self.source.ufl(mesh, x)
             nodes = model.Vu.tabulate_dof_coordinates()
             self.source.check_outside(nodes, _largest_cell(mesh, model.comm), model.comm)
 
@@ -271,11 +273,18 @@ class Magnetic(Effect):
         energy = magnetic.magnetic_energy(t, self.F, self.M, self.field, self.dx)
         return ufl.derivative(energy, self.model.w, k.w_test)
 
+    is_load = True
+
     def set_time(self, t):
+        on = 1.0 if self.model.loads_on else 0.0
         if self.uniform:
-            self.field.value[:] = self.source.at(t)
+            self.field.value[:] = on * self.source.at(t)
         else:
+            self.switch.value = on
             self.source.set_time(t)
+
+    def loads_at_start(self):
+        return ["magnetic.field"] if np.any(self.field_at(0.0) != 0.0) else []
 
     def field_at(self, t: float) -> np.ndarray:
         """The applied field at time ``t``: ``b(t)``, or a nonuniform field at the
