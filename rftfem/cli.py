@@ -216,15 +216,14 @@ def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
 
 
 def _cmd_check(args, console: _Console) -> int:
-    from rftfem.scene import active_effects, load_scene
+    from rftfem import scales
+    from rftfem.scene import load_scene
 
     try:
         scene = load_scene(args.scene, args.overrides)
-        try:
-            from rftfem.simulation import check as check_simulation
-        except ImportError:  # the simulation module is not there yet: scene-only check
-            check_simulation = active_effects
-        effects = list(check_simulation(scene))
+        from rftfem.simulation import check_report
+
+        effects, groups = check_report(scene)
         console.refresh()
     except SceneError as exc:
         console.refresh()
@@ -233,6 +232,11 @@ def _cmd_check(args, console: _Console) -> int:
     console.out(f"scene OK: {scene['title']}")
     console.out("active effects: " + ", ".join(effects))
     console.out(f"scheme: {scene['time']['scheme']}")
+    console.out("scales:")
+    for line in scales.format_groups(groups):
+        console.out(line)
+    for line in scales.aliasing_warnings(scene):
+        console.out("warning: " + line)
     return console.agree(0)
 
 

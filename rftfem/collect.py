@@ -70,8 +70,10 @@ quantities (--quantity NAME=EXPR, repeatable):
                                   reached time.end before it was steady
   COLUMN: a column of probes.csv (<probe>_ux/_uy/_uz) or body.csv (centroid_x,
   elastic_energy, drag_power, ...); window bounds default to start and end.
-  A time outside a finished run is an error; a quantity that a failed or
-  interrupted run has no data for is an empty cell.
+  A time before a run's first row is an error; a quantity a run has no data for
+  (a window past its last row, a failed or interrupted run) is an empty cell, said
+  on stderr for a finished run. Paths that are not run folders (a stray file in a
+  glob) are skipped with a note.
 examples:
   rftfem collect results/sweep/* --quantity tip=tip_uz@end
   rftfem collect runs/a runs/b --out table.csv --quantity 'speed=rate(front_ux, 1, 2)' \\
@@ -150,11 +152,23 @@ def _number(value) -> str:
     return str(value)
 
 
-def collect(dirs, quantities: list[tuple[str, Quantity]] = ()
+def collect(dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | None = None
             ) -> tuple[list[str], list[list[str]], list[RunFolder]]:
-    """The table: header, rows of strings (one per folder), and the RunFolders.
-    ``quantities`` is a list of (column name, Quantity)."""
-    runs = [RunFolder(d) for d in dirs]
+    """The table: header, rows of strings (one per run folder), and the RunFolders.
+    ``quantities`` is a list of (column name, Quantity).  Paths that are not run
+    folders are left out, and a quantity a run has no data for (a window past its
+    last row) is an empty cell; each is said in ``notes`` (a list to append to)."""
+    notes = [] if notes is None else notes
+    runs, kept = [], []
+    for d in dirs:
+        try:
+            runs.append(RunFolder(d))
+            kept.append(d)
+        except SceneError as exc:
+            notes.append(f"skipped {exc}")
+    if not runs:
+        raise SceneError("no run folders among the paths given (" + "; ".join(notes) + ")")
+    dirs = kept
     keys = differing_keys(runs)
     steady = steady_columns(runs)
     fixed = [*LEAD_COLUMNS, *keys, "overrides", *COUNT_COLUMNS, *steady]
@@ -186,7 +200,7 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = ()
                 row.append(repr(q.evaluate(run)))
             except Unavailable as exc:
                 if run.status == "ok" and not isinstance(exc, NotSteady):
-                    raise
+                    notes.append(f"{exc}: an empty cell")
                 row.append("")
         rows.append(row)
     return header, rows, runs
@@ -245,7 +259,10 @@ def add_arguments(parser):
 
 def main(args, console) -> int:
     quantities = [parse_option(q) for q in args.quantities]
-    header, rows, runs = collect(args.dirs, quantities)
+    notes = []
+    header, rows, runs = collect(args.dirs, quantities, notes)
+    for note in notes:
+        console.err(f"rftfem collect: {note}")
     text = to_csv(header, rows)
     if args.out is None:
         console.out(text.rstrip("\n"))
@@ -256,7 +273,7 @@ def main(args, console) -> int:
             args.out.write_text(text, encoding="utf-8")
         except OSError as exc:
             raise SceneError(f"--out {args.out}: {exc.strerror or exc}") from None
-    console.err(summary_line(runs, args.dirs)
+    console.err(summary_line(runs, [run.dir for run in runs])
                 + (f"; table in {args.out}" if args.out is not None else ""))
     return 0
 

@@ -261,3 +261,43 @@ def _evaluate(tree, env, functions, literal=False):
     if op == "/":
         return a / b
     return a ** b
+
+
+#: the functions whose argument sets a period: sin and cos repeat every 2π, tan every π
+_PERIODIC = {"sin": 2 * math.pi, "cos": 2 * math.pi, "tan": math.pi}
+
+
+def periods_in_time(formula: Formula) -> list[float]:
+    """The periods in ``t`` that the formula's ``sin``, ``cos`` and ``tan`` can be read
+    to have: those whose argument is linear in ``t`` (``sin(2*pi*5*t + 1)``: 0.2),
+    evaluated with every other variable at 0.  Arguments that are not linear in t
+    (``sin(t^2)``) or do not move are left out."""
+    found = []
+
+    def walk(tree):
+        if tree[0] == "call":
+            if tree[1] in _PERIODIC:
+                arg = tree[2][0]
+                env = {name: 0.0 for name in formula.names}
+                try:
+                    with np.errstate(all="ignore"):
+                        values = [float(_evaluate(arg, {**env, "t": t}, _NUMPY))
+                                  for t in (0.0, 1.0, 2.0)]
+                except (KeyError, ValueError, ZeroDivisionError):
+                    values = [math.nan] * 3
+                rate = values[1] - values[0]
+                linear = abs(values[2] - 2 * values[1] + values[0]) <= 1e-9 * max(
+                    1.0, *map(abs, values))
+                if all(map(math.isfinite, values)) and linear and rate != 0.0:
+                    found.append(_PERIODIC[tree[1]] / abs(rate))
+            for a in tree[2]:
+                walk(a)
+        elif tree[0] == "neg":
+            walk(tree[1])
+        elif tree[0] == "bin":
+            walk(tree[2])
+            walk(tree[3])
+
+    if "t" in formula.names:
+        walk(formula.tree)
+    return found

@@ -16,13 +16,22 @@ def write_best(ev: Evaluator, best: Evaluation, path: Path, command: str) -> Non
     raw = tomllib.loads(Path(ev.scene_file).read_text(encoding="utf-8"))
     for text in ev.overrides_of(best.x):
         apply_override(raw, text)
-    mesh = raw.get("mesh") or {}
-    if isinstance(mesh.get("file"), str):  # relative to the scene file: keep it found
-        mesh["file"] = str((Path(ev.scene_file).resolve().parent / mesh["file"]).resolve())
+    folder = Path(ev.scene_file).resolve().parent
+    for table, key in _file_keys(raw):  # relative to the scene file: keep them found
+        table[key] = str((folder / Path(table[key]).expanduser()).resolve())
     header = (f"The best evaluation of: {command}\n"
               f"{best.folder.name}: objective {best.objective!r} ({best.status}); "
               + ", ".join(f"{p.key} = {v!r}" for p, v in zip(ev.params, best.x)))
     path.write_text(toml_writer.document(raw, header), encoding="utf-8")
+
+
+def _file_keys(raw: dict) -> list[tuple[dict, str]]:
+    """``(table, key)`` of every file a scene names (read relative to its folder):
+    ``mesh.file`` and each ``magnetic.parts`` entry's ``profile``."""
+    tables = [(raw.get("mesh") or {}, "file")]
+    tables += [(part, "profile") for part in (raw.get("magnetic") or {}).get("parts") or []
+               if isinstance(part, dict)]
+    return [(table, key) for table, key in tables if isinstance(table.get(key), str)]
 
 
 def plot(ev: Evaluator, path: Path, title: str) -> bool:

@@ -167,7 +167,7 @@ class Progress:
     - elsewhere (CI, cluster logs, a pipe): a plain line at most every
       ``interval`` seconds (default 5 s, or ``RFTFEM_LOG_INTERVAL``), so a run of
       many cheap steps does not fill its log;
-    - ``quiet``: only what :meth:`final` and :meth:`warn` say; errors go to stderr as always.
+    - ``quiet``: only what :meth:`warn` says (on stderr); errors go to stderr as always.
 
     Notices (:meth:`log`: the opening line, step cuts) are printed unless quiet.
     A hand-written bar rather than tqdm or rich: it is twenty lines, works the
@@ -189,6 +189,8 @@ class Progress:
         self.interval = interval
         self.t0 = _time.perf_counter()
         self.last_line = -math.inf
+        #: every warning said, in order
+        self.warnings: list[str] = []
 
     def _write(self, text: str):
         if self.bar:
@@ -202,13 +204,18 @@ class Progress:
             self._write(text)
 
     def warn(self, text: str):
-        """A warning: printed even when quiet."""
+        """A warning: printed even when quiet (then on stderr), and kept in
+        :attr:`warnings` (summary.json's ``warnings``)."""
+        self.warnings.append(text)
         if self.active:
-            self._write(text)
+            if self.quiet:
+                print(text, file=sys.stderr, flush=True)
+            else:
+                self._write(text)
 
     def final(self, text: str):
-        """The run's last line: always printed."""
-        if self.active:
+        """The run's last line: printed unless quiet."""
+        if self.active and not self.quiet:
             self.close()
             self._write(text)
 

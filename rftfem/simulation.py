@@ -17,15 +17,17 @@ logged and counted.  Outputs are rows per nominal step (every
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import threading
 import time as _time
 from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
 
-from . import __version__, petsc_options
+from . import __version__, petsc_options, scales
 from .arclength import PathFollowing
 from .error_control import ErrorControl
 from .errors import RunFailed, RunInterrupted, SceneError
@@ -60,10 +62,16 @@ def build_model(scene: dict, comm, compile_forms: bool = True,
 
 def check(scene: dict, comm=None) -> list[str]:
     """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
+    return check_report(scene, comm)[0]
+
+
+def check_report(scene: dict, comm=None) -> tuple[list[str], list]:
+    """``check``, and the scene's dimensionless groups (scales.py)."""
     comm = comm or MPI.COMM_WORLD
+    _quiet_compilers()
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
-    return model.active_effects()
+    return model.active_effects(), scales.groups(scene, model)
 
 
 def _make_out_dir(out: Path | None, comm):
@@ -114,8 +122,9 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         self.observers = list(observers)
         _quiet_compilers()
         t0 = _time.perf_counter()
-        self.model = build_model(scene, self.comm,
-                                 tangent=petsc_options.tangent(scene.get("solver"), petsc_args))
+        with _compile_notice(quiet or self.comm.rank != 0):
+            self.model = build_model(scene, self.comm,
+                                     tangent=petsc_options.tangent(scene.get("solver"), petsc_args))
         self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
         self.scheme = make_scheme(scene["time"])
         # time steps start Newton's tangent on the converged stress resultants; static
@@ -199,11 +208,18 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
                      f" dofs on {comm.size} process(es)")
+        for line in scales.aliasing_warnings(scene):
+            progress.warn("warning: " + line)
         logs = self._open_outputs()
         try:
             if self.resume is None:
                 self._initial_equilibrium()
+                compiled = self.model.timings["compile"]
                 self._write_output(logs, 0.0)
+                # the first row compiles the outputs' forms: that belongs to the set-up
+                later = self.model.timings["compile"] - compiled
+                self.setup_time += later
+                self.wall["output"] -= later
             else:
                 progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
                              f"{self.resume[0]}")
@@ -257,6 +273,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             progress.close()
             for log in logs.values():
                 log.close()
+            summary["warnings"] = list(progress.warnings)  # every warning the run said
             if out is not None:
                 write_json(out / "summary.json", summary, comm)
                 render = scene.get("output", {}).get("render", "none")
@@ -313,6 +330,28 @@ def probe_history(summary_or_sim) -> np.ndarray:
     """(n_rows, 1 + 3 n_probes) array of the probe rows of a finished simulation."""
     rows = summary_or_sim.history
     return np.array([[t, *v.ravel()] for t, v in rows])
+
+
+#: seconds the set-up may take before the run says it is compiling forms (a set-up
+#: whose forms are in the cache takes about 1 s)
+COMPILE_NOTICE_AFTER = 2.0
+
+
+@contextlib.contextmanager
+def _compile_notice(quiet: bool):
+    """While the model is built: if it takes longer than ``COMPILE_NOTICE_AFTER``
+    (its forms are not in the JIT cache yet), say so once instead of staying silent."""
+    if quiet:
+        yield
+        return
+    timer = threading.Timer(COMPILE_NOTICE_AFTER, lambda: print(
+        "compiling forms for this scene's effects (once; about 20-50 s)", flush=True))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
 
 
 class _CompilerChatter(logging.Filter):

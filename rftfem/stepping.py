@@ -24,6 +24,10 @@ from .timeint import BackwardEuler, Static
 STATIC_TURN = 0.5
 #: the most halvings one failed attempt makes at once (docs/model.md §6.8)
 MOST_HALVINGS = 3
+#: a static run whose steps stall where the tangent's stiffness along the last step
+#: (``Δwᵀ K Δw / Δwᵀ Δw``) fell below this share of the first step's has met a limit
+#: point (docs/model.md §6.8)
+LIMIT_POINT_STIFFNESS = 0.1
 
 
 class StepControl:
@@ -151,10 +155,10 @@ class StepControl:
             m.loads_on = True
         if not ok:
             what = "the t = 0 loads and motions" if loaded else "the t = 0 motions"
-            hint = ("; nothing holds this body, so the loads must start at zero (a ramp "
-                    "from 0) unless a [fluid] holds it" if self._free() and loaded else "")
+            hint = ("; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
+                    "no load may be on at t = 0" if self._free() and loaded else "")
             raise RunFailed(f"no static equilibrium with {what} ({reason})" + hint
-                            + (self._ramp_hint() if loaded and not hint else ""), 0.0, 0)
+                            + (self._ramp_hint() if loaded else ""), 0.0, 0)
         m.v_n.x.array[:] = 0.0
         m.a_n.x.array[:] = 0.0
         m.increments = []  # reaching t = 0 is no rate to go on at
@@ -176,10 +180,56 @@ class StepControl:
         m.set_coefficients(Static().coefficients(dt))
         self.solver.store_forces()
 
-    def _ramp_hint(self) -> str:
-        """For a static run that failed: the loads already on at t = 0, to be ramped."""
-        if self.scheme.has_velocity:
+    def _tangent_along_last_step(self) -> float | None:
+        """The tangent's stiffness along the last accepted increment ``Δw`` at the
+        current state, ``Δwᵀ K Δw / Δwᵀ Δw`` (None before a step moved the body)."""
+        from . import compat
+
+        m, solver = self.model, self.solver
+        if not m.increments:
+            return None
+        du, theta, _ = m.increments[0]
+        x = solver.work
+        with x.localForm() as local:
+            local.set(0.0)
+            local.array[m.u_dofs] = du
+            local.array[m.theta_dofs] = theta
+        compat.set_bc(x, m.bcs, None, 0.0)
+        size = x.dot(x)
+        if size == 0.0:
+            return None
+        solver.assemble_tangent()
+        y = x.duplicate()
+        try:
+            solver.A.mult(x, y)
+            return x.dot(y) / size
+        finally:
+            y.destroy()
+
+    def _path_stiffness(self, dt: float) -> None:
+        """After the first static load step that moved the body: the tangent's
+        stiffness along it, the scale of ``_limit_point_hint``."""
+        if getattr(self, "_first_stiffness", None) is None:
+            self._first_stiffness = self._tangent_along_last_step()
+
+    def _limit_point_hint(self) -> str:
+        """For a static run whose steps stall: a limit point, if the path's stiffness
+        fell below ``LIMIT_POINT_STIFFNESS`` of its start."""
+        first = getattr(self, "_first_stiffness", None)
+        if self.scheme.has_velocity or self.scheme.name == "arc-length" or not first:
             return ""
+        along = self._tangent_along_last_step()
+        stiffness = along / first if along is not None else None
+        if stiffness is None or stiffness >= LIMIT_POINT_STIFFNESS:
+            return ""
+        return (f"; a limit point: the loads stall at t = {self.t:.6g} and the tangent's "
+                f"stiffness along the last step fell to {stiffness:.2g} of the first's, so "
+                f"load control cannot go on; follow the path past it with time.scheme = "
+                f'"arc-length"')
+
+    def _ramp_hint(self) -> str:
+        """For a run that failed in static equilibrium: the loads already on at t = 0,
+        to be ramped."""
         keys = self.model.loads_at_start()
         if not keys:
             return ""
@@ -205,6 +255,8 @@ class StepControl:
             if ok:
                 self.t += dt
                 self.counts["steps"] += 1
+                if not self.scheme.has_velocity:
+                    self._path_stiffness(dt)
                 if steps_log is not None:
                     steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0]
                                   + ([self.t] if self.static_run else []))
@@ -223,7 +275,9 @@ class StepControl:
             if level >= max_cuts:
                 raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
                                 f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
-                                f"dt = {dt:.3e}" + self._unresolved_hint(),
+                                f"dt = {dt:.3e}" + self._unresolved_hint()
+                                + self._limit_point_hint()
+                                + ("" if self.scheme.has_velocity else self._ramp_hint()),
                                 self.t + dt, self.step)
             halvings = min(self._halvings(), max_cuts - level)
             self.counts["dt_cuts"] += 1

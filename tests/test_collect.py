@@ -233,12 +233,38 @@ def test_table_of_fake_runs(tmp_path, capsys):
     assert [row["time.dt"] for row in table(out)] == ["0.1", "0.05"]
 
 
-def test_ok_run_without_data_is_an_error(tmp_path, capsys):
+def test_window_past_a_finished_run_is_an_empty_cell_with_a_note(tmp_path, capsys):
+    """A quantity whose time a finished run does not reach (a periodic run that
+    stopped early) leaves its cell empty and says so on stderr; the table is written
+    and the other runs' cells are filled."""
     a = fake_run(tmp_path / "a", {"time": {"dt": 0.1}})
-    status, out, err = collect_inproc(capsys, a, "--quantity", "tip_uz@3")
+    status, out, err = collect_inproc(capsys, a, "--quantity", "tip_uz@3",
+                                      "--quantity", "w=tip_uz@1")
+    assert status == 0
+    row = table(out)[0]
+    assert row["tip_uz@3"] == "" and row["w"] != ""
+    notes = err.strip().splitlines()
+    assert notes[0].startswith("rftfem collect: quantity 'tip_uz@3': time 3 is outside the "
+                               "run") and notes[0].endswith(": an empty cell")
+    assert notes[-1] == "1 run: 1 ok"
+
+
+def test_paths_that_are_not_run_folders_are_skipped_with_a_note(tmp_path, capsys):
+    """A stray file and a folder without outputs among the paths (a glob of a results
+    folder): each skipped with a note, the runs tabled; nothing but such paths is an
+    error."""
+    a = fake_run(tmp_path / "a", {"time": {"dt": 0.1}})
+    (tmp_path / "sweep.log").write_text("log\n", encoding="utf-8")
+    (tmp_path / "plots").mkdir()
+    status, out, err = collect_inproc(capsys, a, tmp_path / "sweep.log", tmp_path / "plots")
+    assert status == 0 and len(table(out)) == 1
+    notes = err.strip().splitlines()
+    assert notes[0] == f"rftfem collect: skipped {tmp_path / 'sweep.log'}: not a folder"
+    assert notes[1].startswith(f"rftfem collect: skipped {tmp_path / 'plots'}: not a run folder")
+    assert notes[2] == "1 run: 1 ok"
+    status, out, err = collect_inproc(capsys, tmp_path / "sweep.log")
     assert status == 2 and out == ""
-    assert err.strip().startswith("rftfem collect: error: quantity 'tip_uz@3': time 3 is "
-                                  "outside the run")
+    assert err.startswith("rftfem collect: error: no run folders among the paths given")
 
 
 @pytest.mark.parametrize("quantities, message", [
@@ -372,16 +398,16 @@ def test_distinguishing_columns(runs):
     ("bad quantity", "quantity 'rate(tip_ux, 2, 1)': the window needs A < B"),
     ("bad syntax", "quantity 'tip_uz': expected '@'"),
     ("unknown column", "quantity 'tipx_uz@end': unknown column 'tipx_uz' in"),
-    ("outside", "quantity 'tip_uz@2.5': time 2.5 is outside the run"),
+    ("before", "quantity 'tip_uz@-1': time -1 is outside the run"),
 ])
 def test_bad_input_one_line(runs, tmp_path, case, message):
     ok = runs["dt05"][0]
-    args = {"missing": [ok, tmp_path / "nope"],
-            "empty": [ok, tmp_path],
+    args = {"missing": [tmp_path / "nope"],
+            "empty": [tmp_path],
             "bad quantity": [ok, "--quantity", "v=rate(tip_ux, 2, 1)"],
             "bad syntax": [ok, "--quantity", "tip_uz"],
             "unknown column": [ok, "--quantity", "tipx_uz@end"],
-            "outside": [ok, "--quantity", "tip_uz@2.5"]}[case]
+            "before": [ok, "--quantity", "tip_uz@-1"]}[case]
     done = collect_cli(*args)
     assert done.returncode == 2
     assert done.stdout == ""

@@ -106,11 +106,17 @@ thickness = 0.2
     assert np.allclose(total, [0.0, 0.0, exact], rtol=0, atol=1e-12 * abs(exact))
 
 
-def test_weight_on_at_the_start_of_a_free_body_says_why_it_fails(tmp_path):
-    """In vacuum a free body has no equilibrium under a weight already on at t = 0:
-    the run fails at once and says what to change."""
-    from rftfem.errors import RunFailed
-
-    with pytest.raises(RunFailed, match="nothing holds this body, so the loads must start "
-                                        "at zero"):
-        run_scene(write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant")
+def test_weight_on_at_the_start_falls_freely_from_rest(tmp_path):
+    """A weight already on at t = 0 (ramp = "constant"): the free strip starts at rest
+    in its reference state and falls as z = −g t²/2 at every row, t = 0 included
+    (generalized-α from the consistent acceleration −g; reached 1.3e-14 of the fall).
+    Before the start of a run was defined this failed: no static equilibrium."""
+    out = tmp_path / "out"
+    run_scene(write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant", "time.dt=0.02",
+              out_dir=out)
+    body = _body(out)
+    exact = -G * body["time"] ** 2 / 2
+    err = np.abs(body["centroid_z"] - exact).max() / abs(exact[-1])
+    print(f"constant weight: fall error {err:.1e} of {exact[-1]:.4g}")
+    assert body["centroid_z"][0] == 0.0
+    assert err < 1.5e-13

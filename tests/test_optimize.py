@@ -19,6 +19,7 @@ import json
 import math
 import sys
 import tomllib
+from pathlib import Path
 
 import pytest
 
@@ -442,3 +443,32 @@ def test_child_runs_leave_the_mpi_job_variables_behind(monkeypatch):
     env = child_environment(mpirun=False)
     assert "PMIX_RANK" not in env and "OMPI_MCA_orte_launch" not in env
     assert env["OMPI_MCA_btl"] == "self,vader"
+
+
+def test_best_toml_finds_the_files_its_scene_names_from_any_folder(tmp_path):
+    """best.toml written into another folder than the scene's: its mesh.file and each
+    magnetic part's relative profile still name the files next to the scene (the
+    writer once made only mesh.file absolute, and `rftfem check best.toml` failed on
+    the profile)."""
+    from types import SimpleNamespace
+
+    from rftfem.optimize_report import write_best
+
+    scene_dir, out = tmp_path / "scene", tmp_path / "elsewhere"
+    scene_dir.mkdir()
+    out.mkdir()
+    (scene_dir / "profile.csv").write_text("X,Y,Z,mx,my,mz\n0,0,0,1,0,0\n", encoding="utf-8")
+    (scene_dir / "body.msh").write_text("", encoding="utf-8")
+    (scene_dir / "s.toml").write_text(
+        'title = "t"\n[mesh]\nkind = "gmsh"\nfile = "body.msh"\n'
+        '[[magnetic.parts]]\nregion = "all"\nprofile = "profile.csv"\n'
+        '[[magnetic.parts]]\nregion = "end"\nmagnetization = 1.0\ndirection = [1, 0, 0]\n',
+        encoding="utf-8")
+    ev = SimpleNamespace(scene_file=str(scene_dir / "s.toml"), params=[],
+                         overrides_of=lambda x: [])
+    best = SimpleNamespace(x=[], folder=out / "run-0", objective=1.0, status="ok")
+    write_best(ev, best, out / "best.toml", "rftfem optimize s.toml")
+    written = tomllib.loads((out / "best.toml").read_text(encoding="utf-8"))
+    assert Path(written["mesh"]["file"]) == (scene_dir / "body.msh").resolve()
+    assert Path(written["magnetic"]["parts"][0]["profile"]) == (scene_dir / "profile.csv").resolve()
+    assert "profile" not in written["magnetic"]["parts"][1]
