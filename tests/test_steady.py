@@ -158,3 +158,41 @@ def test_quantity_steady_reads_the_steady_values(tmp_path):
     run_scene(plain, "time.end=2e-4", out_dir=tmp_path / "end")
     with pytest.raises(Exception, match='not a run of time.until = "periodic"'):
         evaluate("steady(centroid_z_rate)", tmp_path / "end")
+
+
+def _period_scene(**parts):
+    """A scene dict with the keys scene_period reads."""
+    return {"time": {"period": None, **parts.pop("time", {})}, **parts}
+
+
+@pytest.mark.parametrize("parts, period", [
+    ({"motion": [{"kind": "travelling-wave", "angular_frequency": -8.0}]}, 2 * np.pi / 8.0),
+    ({"motion": [{"kind": "table", "values": [[0, 0], [1, 1]]},
+                 {"kind": "travelling-wave", "angular_frequency": 4 * np.pi}]}, 0.5),
+    ({"magnetic": {"field": {"kind": "rotating", "frequency": 4.0}}}, 0.25),
+    ({"magnetic": {"field": {"frequency": 5.0}}}, 0.2),  # rotating is the default kind
+    ({"motion": [{"kind": "travelling-wave", "angular_frequency": 8 * np.pi}],
+      "magnetic": {"field": {"kind": "rotating", "frequency": 4.0}}}, 0.25),
+    ({"time": {"period": 0.3}, "magnetic": {"field": {"frequency": 4.0}}}, 0.3),
+], ids=["wave", "wave-and-table", "field", "field-default-kind", "both-agree", "given"])
+def test_period_is_read_from_the_drivers(parts, period):
+    """time.until = "periodic" finds its period: a travelling wave's 2π/|ω| (a table
+    motion has none), a rotating field's 1/f, both when they agree, time.period over
+    both."""
+    from rftfem.steady import scene_period
+
+    assert scene_period(_period_scene(**parts)) == pytest.approx(period, rel=1e-15)
+
+
+def test_two_different_periods_are_refused():
+    """A wave of period 0.5 and a field of 4 Hz: no single period; the message names
+    both and asks for time.period."""
+    from rftfem.errors import SceneError
+    from rftfem.steady import scene_period
+
+    scene = _period_scene(motion=[{"kind": "travelling-wave", "angular_frequency": 4 * np.pi}],
+                          magnetic={"field": {"kind": "rotating", "frequency": 4.0}})
+    with pytest.raises(SceneError) as err:
+        scene_period(scene)
+    assert str(err.value) == ('time.until = "periodic": the drivers have different periods '
+                              "(motion.0: 0.5, magnetic.field: 0.25); give time.period")
