@@ -589,3 +589,102 @@ direction = ["cos(2*X)", "0.3", "sin(2*X) + 0.2*Y"]''', f'profile = "{name}"')
                          'moment = [0.0, 0.0, 1.0]\nposition = [2.0, 0.5, 0.05]\n', "in.toml")
     _one_line_exit_2(["run", dipole, "--out", tmp_path / "in"], "magnetic.field.position",
                      "inside the body")
+
+
+# --------------------------------------- the energy path against the uniform couple
+
+
+@pytest.mark.parametrize("stretch, tilt", [(1.0, 0.0), (1.0, 0.7), (1.3, 0.0), (1.3, 0.7)])
+def test_zero_gradient_energy_path_against_the_uniform_couple(tmp_path, stretch, tilt):
+    """The same constant field b written as formulas of x, y, z with no gradient
+    (``0*x`` terms make them "nonuniform") takes the energy path Π = −∫ t (F M)·B dA₀.
+    On test_magnetic.py's plate, stretched by λ along X and turned by ψ about X,
+    magnetized out of its plane along q₀ = (cos φ, 0, sin φ), a virtual rigid
+    rotation δφ of the whole plate takes from the energy path's residual exactly
+    −t m |F q₀| A (q × b)·δφ, where the uniform couple's takes −t m J A (q × b)·δφ
+    (J = λ): the two agree to round-off under a rigid turn (λ = 1), and under stretch
+    differ by the factor |F q₀| / J = √(λ² cos²φ + sin²φ) / λ that docs/model.md §5.5
+    predicts (the membrane strain along q₀).  Checked to 5e-15 of t m A |b| for δφ
+    along X, Y, Z (reached 5e-16); the turn alone would hide a lost J, the stretch alone a lost
+    director part of F."""
+    from rftfem import compat
+    from test_magnetic import TILTED
+
+    phi = math.radians(40.0)
+    b = 0.7 * np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    uniform = TILTED.format(q0x=math.cos(phi), q0z=math.sin(phi))
+    formulas = ", ".join(f'"{v!r} + 0*x + 0*y*z"' for v in b)
+    energy = uniform.replace('strength = 0.7\ndirection = [0.3, -0.5, 0.8]',
+                             f'kind = "expression"\nB = [{formulas}]')
+    R = np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)],
+                  [0, math.sin(tilt), math.cos(tilt)]])
+    S = np.diag([stretch, 1.0, 1.0])
+    works = {}
+    for name, text in (("uniform", uniform), ("energy", energy)):
+        (tmp_path / name).mkdir()
+        model = build_model(text, tmp_path / name, compile_forms=False)
+        assert model["magnetic"].uniform == (name == "uniform")
+        model.set_time(1.0)
+        model.w.x.array[:] = 0.0
+        model.w.x.array[model.theta_dofs.reshape(-1, 2)[:, 0]] = tilt
+        model.update_triad()
+        X = model.Vu.tabulate_dof_coordinates()[:, :3]
+        x = X @ (R @ S).T
+        model.w.x.array[model.u_dofs] = (x - X).ravel()
+        F = compat.form(model.effects["magnetic"])
+        vec = compat.create_vector(F, model.W)
+        compat.assemble_vector(vec, F)
+        residual = vec.getArray().copy()
+        vec.destroy()
+        a1, a2 = (f.x.array.reshape(-1, 3) for f in model.triads[0][:2])
+        node = model.triad.node_maps[0]
+        works[name] = []
+        for axis in np.eye(3):
+            virtual = np.zeros_like(model.w.x.array)
+            virtual[model.u_dofs] = np.cross(axis, x).ravel()
+            theta = virtual[model.theta_dofs].reshape(-1, 2)
+            theta[:, 0], theta[:, 1] = a1[node] @ axis, a2[node] @ axis
+            virtual[model.theta_dofs] = theta.ravel()
+            works[name].append(residual @ virtual)
+    q_unnormed = R @ np.array([stretch * math.cos(phi), 0.0, math.sin(phi)])
+    length = np.linalg.norm(q_unnormed)
+    q = q_unnormed / length
+    t, m, area = 0.1, 3.0, 2.0
+    couple = np.cross(q, b)
+    exact = {"uniform": -t * m * stretch * area * couple, "energy": -t * m * length * area * couple}
+    scale = t * m * area * np.linalg.norm(b)
+    for name in works:
+        err = np.abs(np.array(works[name]) - exact[name]).max() / scale
+        print(f"λ = {stretch}, ψ = {tilt}, {name}: {np.array(works[name])} exact "
+              f"{exact[name]}, error {err:.1e}")
+        assert err < 5e-15
+    ratio = np.array(works["energy"]) / np.array(works["uniform"])
+    assert ratio == pytest.approx(np.full(3, length / stretch), rel=1e-12)
+
+
+@pytest.mark.parametrize("text", [
+    "atan2(X - 0.3, Y + 0.2)", "min(X, Y, 0.6)", "max(X, 0.4*Y)", "abs(X - 0.5)",
+    "log(X + 0.5)", "exp(1.5*Y)", "tan(1.2*X)", "asin(0.9*Y)", "acos(0.8*X - 0.1)",
+    "sqrt(X + Y) + sin(3*X)*cos(2*Y) - X^2/(1 + Y) + pi",
+])
+def test_every_formula_function_reaches_ufl_as_in_numpy(text):
+    """Each function of the formula language turned into UFL, compiled and evaluated
+    at the points of a P2 interpolation on the unit square, against the same formula
+    evaluated by numpy there (1e-14; the UFL names differ: ln, atan_2 or atan2,
+    min_value, ...).  A function mapped to the wrong UFL one shows at once."""
+    import ufl
+    from dolfinx import fem, mesh as dmesh
+    from mpi4py import MPI
+
+    from rftfem import compat
+
+    domain = dmesh.create_unit_square(MPI.COMM_SELF, 3, 3)
+    formula = parse(text, "test", ("X", "Y"))
+    X = ufl.SpatialCoordinate(domain)
+    expr = formula.ufl({"X": X[0], "Y": X[1]})
+    V = compat.function_space(domain, "Lagrange", 2)
+    f = fem.Function(V)
+    f.interpolate(compat.expression(expr, V))
+    points = V.tabulate_dof_coordinates()
+    expected = formula.numbers({"X": points[:, 0], "Y": points[:, 1]})
+    assert np.abs(f.x.array - expected).max() < 1e-14 * max(1.0, np.abs(expected).max())
