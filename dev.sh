@@ -7,8 +7,10 @@ set -euo pipefail
 
 # What test-current runs when given no arguments: the suite without the `slow`
 # reproductions (pyproject's addopts) and without the `long` ones, which the
-# reference leg runs; together the two legs stay within CI's time.
-CURRENT_TEST_ARGS=(tests -m "not slow and not long")
+# reference leg runs, except those marked `both_stacks` (the derivatives of the
+# compiled forms, the sheet to steady, arc-length restart under mpirun, motion
+# reactions); together the two legs stay within CI's time.
+CURRENT_TEST_ARGS=(tests -m "not slow and (not long or both_stacks)")
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$ROOT"
@@ -31,7 +33,8 @@ usage: ./dev.sh TARGET [ARGS...]
   test [PYTEST ARGS]    test suite on the reference stack (.venv), without `slow` tests
   test-full [ARGS]      whole suite on the reference stack, `slow` tests included
   test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
-                        and `long` (e.g. ./dev.sh test-current -m long runs those)
+                        and `long` but for the `both_stacks` ones (./dev.sh test-current
+                        -m long runs every long one)
   bench                 run benchmarks/*.py on the reference stack
   race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
                         20 minutes, --quick for a few); creates .venv-elastica if missing

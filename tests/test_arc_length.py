@@ -271,6 +271,7 @@ def _table(path):
 
 @pytest.mark.mpi
 @pytest.mark.long
+@pytest.mark.both_stacks
 def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, cli_run):
     """The snap-back path of the truss on a soft support: stopped after 20 steps by
     time.max_steps (a checkpoint every 5), where the load falls, restarted with a larger one, and on two

@@ -176,6 +176,7 @@ def _orders(residual, w0, delta, jd, model, eps=(1e-2, 5e-3, 2.5e-3, 1.25e-3)):
 
 
 @pytest.mark.long
+@pytest.mark.both_stacks
 def test_every_effect_taylor_remainder(tmp_path):
     """Every effect with a state-dependent term in one scene (elasticity, a hinge
     spring with its two-coloured rotations, inertia, drag, a magnetic part with an

@@ -17,6 +17,7 @@ EXACT_SHEET_I = 0.49763  # docs/verification.md case F, exact RFT
 
 
 @pytest.mark.long
+@pytest.mark.both_stacks
 def test_swimming_sheet_as_shipped_swims_at_the_exact_speed(tmp_path):
     """demos/swimming_sheet.toml as shipped (4×20, dt = T/32, until the speed is
     steady): the front corner's steady speed in summary.json within 0.5 % of the

@@ -454,6 +454,7 @@ TAYLOR_FIELDS = {
 
 
 @pytest.mark.long
+@pytest.mark.both_stacks
 @pytest.mark.parametrize("field", list(TAYLOR_FIELDS))
 def test_magnetic_terms_taylor_remainder(tmp_path, field):
     """The magnetic term alone, at a random rotated state (the field at t = 0.5):

@@ -62,6 +62,7 @@ def test_pullout_by_arc_length(tmp_path, octant):
 
 
 @pytest.mark.long
+@pytest.mark.both_stacks
 def test_pullout_by_displacement_control(tmp_path, octant):
     """The load point A driven outwards (a named [[motion]] of uz at the gmsh point
     "A", to the table's W_A at P/Pmax = 0.5 at t = 0.5 and at 1 at t = 1, static
