@@ -15,8 +15,9 @@ DRAG = (1.0e-3, 2.0e-3, 4.0e-3)
 FORCE = 1.0e-3  # N, total
 LENGTH, WIDTH = 4.0, 1.0
 #: a rigid translation is exact in the discretisation: only the Newton tolerance
-#: and round-off separate it from F / (C A) (reached: ≤ 4.3e-11 relative)
-TOL = 1.0e-6
+#: and round-off separate it from F / (C A) (reached: ≤ 9.5e-11 relative, the normal
+#: pull's nodal spread)
+TOL = 5.0e-10
 
 STRIP = f"""
 title = "stiff free strip in a viscous fluid"
@@ -255,19 +256,26 @@ def test_drag_on_a_deformed_translating_strip(tmp_path, case):
         assert np.allclose(got, exact, rtol=0, atol=1e-12 * np.linalg.norm(exact))
 
 
-def test_free_body_start_is_one_backward_euler_step(tmp_path):
-    """A free strip in drag has no static equilibrium under a force on at t = 0: the
-    t = 0 solve is one backward-Euler step dt from the reference (docs/model.md §6.7),
-    so the first output row already has the strip moved F dt / (C A), and then it moves
-    at F / (C A) (all to 1e-6)."""
+@pytest.mark.parametrize("start", ["rest", "equilibrium"])
+def test_free_body_start(tmp_path, start):
+    """A free strip in drag under a force on at t = 0.  By default the run starts at
+    rest in the reference state (docs/model.md §6.7): z = F t / (C A) at every row,
+    t = 0 included.  With time.start = "equilibrium" a free body has no static
+    equilibrium under the force, and the t = 0 solve is one backward-Euler step dt from
+    the reference: the first row already has the strip moved F dt / (C A), and then it
+    moves at F / (C A).  To 5e-10 of the travel from rest (reached 2.3e-11), 5e-9 from
+    the equilibrium start, whose t = 0 solve stops at Newton's tolerance without a
+    forced update (reached 6.5e-10)."""
     direction = np.eye(3)[2]
     scene = write_scene(tmp_path, STRIP + _pull(("x=0", "x=L"), direction))
-    sim = run_scene(scene, out_dir=tmp_path / "out")
+    sim = run_scene(scene, f'time.start="{start}"', out_dir=tmp_path / "out")
     body = np.genfromtxt(tmp_path / "out" / "body.csv", delimiter=",", names=True)
     speed = FORCE / (DRAG[2] * LENGTH * WIDTH)
     dt = sim.scene["time"]["dt"]
-    print(f"z at t = 0: {body['centroid_z'][0]:.6e} (F dt/(C A) = {speed * dt:.6e}); "
-          f"then z = {body['centroid_z']}")
+    ahead = dt if start == "equilibrium" else 0.0
+    print(f"{start}: z at t = 0: {body['centroid_z'][0]:.6e}; then z = {body['centroid_z']}")
     assert body["time"][0] == 0.0
-    assert abs(body["centroid_z"][0] / (speed * dt) - 1) < TOL
-    assert np.allclose(body["centroid_z"], speed * (body["time"] + dt), rtol=TOL, atol=0)
+    travel = speed * (body["time"][-1] + ahead)
+    err = np.abs(body["centroid_z"] - speed * (body["time"] + ahead)).max() / travel
+    print(f"error {err:.1e} of the travel")
+    assert err < (TOL if start == "rest" else 5e-9)
