@@ -79,7 +79,7 @@ def _energies(tmp_path, rho_inf, periods=10, steps_per_period=40):
 
 
 def test_energy_is_conserved_without_numerical_dissipation(tmp_path):
-    """ρ∞ = 1, no drag, 10 periods: total energy drifts < 1e-5 (reached: 3e-8).
+    """ρ∞ = 1, no drag, 10 periods: total energy drifts < 3e-7 (reached: 3.5e-8).
 
     Measured from the end of the first step: the force average of that step
     still holds half the released load (α_f F_n).
@@ -90,7 +90,7 @@ def test_energy_is_conserved_without_numerical_dissipation(tmp_path):
     print(f"rho_inf = 1: max energy drift {100 * drift:.2e} % over {len(e)} steps; "
           f"kinetic share up to {parts[:, 1].max() / e[0]:.3f}")
     assert parts[:, 1].max() > 0.9 * e[0], "energy must swing between elastic and kinetic"
-    assert drift < 1e-5  # reached: 3e-8
+    assert drift < 3e-7  # reached: 3.5e-8
 
 
 def test_energy_decays_with_numerical_dissipation(tmp_path):
