@@ -184,3 +184,25 @@ def test_quiet_run_that_succeeds_prints_nothing_and_its_compile_is_setup(tmp_pat
     assert done.returncode == 0 and done.stdout == "" and done.stderr == ""
     wall = json.loads((tmp_path / "out" / "summary.json").read_text())["wall_s"]
     assert wall["compile"] <= wall["setup"]
+
+
+def test_a_slow_set_up_says_it_is_compiling(tmp_path, capsys, monkeypatch):
+    """A set-up longer than COMPILE_NOTICE_AFTER (its forms not yet in the JIT cache)
+    says "compiling forms ..." once, before the run's own lines; --quiet does not."""
+    from conftest import run_scene
+    from rftfem import simulation
+    from rftfem.scene import load_scene
+
+    monkeypatch.setattr(simulation, "COMPILE_NOTICE_AFTER", 0.0)
+    scene = write_scene(tmp_path, FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
+                        + '[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n')
+    sim = simulation.Simulation(load_scene(scene, []), quiet=False)
+    try:
+        sim.run()
+    finally:
+        sim.close()
+    out = capsys.readouterr().out
+    assert out.count("compiling forms for this scene's effects (once; about 20-50 s)") == 1
+    assert out.index("compiling forms") < out.index("rftfem ")
+    run_scene(scene)  # quiet
+    assert "compiling" not in capsys.readouterr().out
