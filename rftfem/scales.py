@@ -60,7 +60,7 @@ def drive_periods(scene: dict) -> list[Drive]:
         if motion.get("kind", "travelling-wave") == "travelling-wave":
             w = motion.get("angular_frequency") or 0.0
             if w:
-                found.append(Drive(key, 2 * math.pi / abs(w), "the travelling wave"))
+                found.append(Drive(key, 2 * math.pi / abs(w), "the travelling wave's period"))
         elif motion.get("values"):
             found.append(_table_drive(f"{key}.values", motion["values"], end))
     for i, load in enumerate(scene.get("load") or []):

@@ -206,3 +206,25 @@ def test_a_slow_set_up_says_it_is_compiling(tmp_path, capsys, monkeypatch):
     assert out.index("compiling forms") < out.index("rftfem ")
     run_scene(scene)  # quiet
     assert "compiling" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("extra, words", [
+    ({"motion": [{"kind": "travelling-wave", "angular_frequency": 20 * 3.141592653589793}]},
+     "a quarter of the travelling wave's period, 0.1 (motion.0)"),
+    ({"load": [{"ramp": "table", "table": [[0.0, 0.0], [0.5, 1.0], [0.54, 0.0]]}]},
+     "half of the table's shortest interval (0.04) (load.0.table)"),
+    ({"load": [{"ramp": "table", "table": [[0.0, 1.0], [1e-12, 0.0], [1.0, 0.0]]}]}, None),
+    ({"motion": [{"kind": "table", "values": [[-10.0, 0.0], [-9.99, 1.0], [10.0, 0.0]]}]}, None),
+], ids=["travelling-wave", "load-table", "release-jump", "table-outside-the-run"])
+def test_aliasing_of_waves_and_tables(extra, words):
+    """dt = 0.05 against a travelling wave of period 0.1 and a load table with rows
+    0.04 apart: one warning each; a jump on purpose (a release 1e-12 after t = 0) and
+    rows outside [0, time.end] none."""
+    from rftfem.scales import aliasing_warnings
+
+    lines = aliasing_warnings({"time": {"dt": 0.05, "end": 1.0}, **extra})
+    print(lines)
+    if words is None:
+        assert lines == []
+    else:
+        assert len(lines) == 1 and words in lines[0]
