@@ -86,20 +86,12 @@ def test_free_plate_with_mass_accelerates_at_force_over_mass_from_rest(tmp_path,
     assert err < 2e-10 and first < 2e-10
 
 
-GRADIENT_PLATE = """
-title = "a stiff magnetized plate in a field gradient, in drag"
-[mesh]
-length = 1.0
-width = 1.0
-divisions = [2, 2]
-[shell]
-thickness = 0.1
-E = 1.0e8
-nu = 0.3
-[[magnetic.parts]]
-region = "all"
-magnetization = 2.0
-direction = [1.0, 0.0, 0.0]
+def _gradient_plate():
+    """test_magnetic_fields.py's stiff plate magnetized along X, in drag, under
+    B = G (x, −(y − ½), 0) with G = 0.5 at full strength from t = 0."""
+    from test_magnetic_fields import GRADIENT_PLATE
+
+    return GRADIENT_PLATE + """
 [time]
 dt = 0.1
 end = 1.0
@@ -118,7 +110,7 @@ def test_gradient_field_on_at_t0_drifts_at_the_resultant_speed_from_the_start(tm
     along X with t m G A along X: it drifts at t m G / C₁ from the t = 0 row on, u(t)/t
     at every row (reached: 2e-9, the plate's strain at E = 1e8; the old start gave
     +10 % over ten steps)."""
-    t, u = _centroid_moves(tmp_path, GRADIENT_PLATE)
+    t, u = _centroid_moves(tmp_path, _gradient_plate())
     u = u + [SIDE / 2 - 0.5, SIDE / 2 - 0.5, 0.0]  # this plate is 1 × 1
     speed = 0.1 * 2.0 * 0.5 / 0.4
     err = np.abs(u[1:, 0] / t[1:] / speed - 1).max()

@@ -440,6 +440,41 @@ direction = [0.3, -0.5, 0.8]
 """
 
 
+def turned_plate_works(model, stretch, tilt):
+    """The plate of TILTED (a model with its time set) turned by ``tilt`` about X
+    (θ = (ψ, 0) about the triads' a₁ = X, then the triad update) and stretched by
+    ``stretch`` along X: the magnetic residual's work on a virtual rigid rotation δφ
+    of the whole plate (δu = δφ × x, δd = δφ × d) for δφ along X, Y, Z, and R."""
+    from rftfem import compat
+
+    model.w.x.array[:] = 0.0
+    model.w.x.array[model.theta_dofs.reshape(-1, 2)[:, 0]] = tilt
+    model.update_triad()
+    R = np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)],
+                  [0, math.sin(tilt), math.cos(tilt)]])
+    d = model.triads[0][2].x.array.reshape(-1, 3)
+    assert np.abs(d - R[:, 2]).max() < 1e-14
+    X = model.Vu.tabulate_dof_coordinates()[:, :3]
+    x = X @ (R @ np.diag([stretch, 1.0, 1.0])).T
+    model.w.x.array[model.u_dofs] = (x - X).ravel()
+    F = compat.form(model.effects["magnetic"])
+    vec = compat.create_vector(F, model.W)
+    compat.assemble_vector(vec, F)
+    residual = vec.getArray().copy()
+    vec.destroy()
+    a1, a2 = (f.x.array.reshape(-1, 3) for f in model.triads[0][:2])
+    node = model.triad.node_maps[0]
+    works = []
+    for axis in np.eye(3):
+        virtual = np.zeros_like(model.w.x.array)
+        virtual[model.u_dofs] = np.cross(axis, x).ravel()
+        theta = virtual[model.theta_dofs].reshape(-1, 2)
+        theta[:, 0], theta[:, 1] = a1[node] @ axis, a2[node] @ axis
+        virtual[model.theta_dofs] = theta.ravel()
+        works.append(residual @ virtual)
+    return works, R
+
+
 @pytest.mark.parametrize("stretch, tilt", [(1.0, 0.0), (1.3, 0.0), (1.3, 0.7)])
 def test_couple_of_a_stretched_turned_plate_with_out_of_plane_magnetization(
         tmp_path, stretch, tilt):
@@ -453,43 +488,15 @@ def test_couple_of_a_stretched_turned_plate_with_out_of_plane_magnetization(
     component turns with the director, not with N), the J factor and the unit |F q₀|
     each show: with N ⊗ N in place of d ⊗ N the turned case fails, without J the
     stretched ones."""
-    from rftfem import compat
-
     phi = math.radians(40.0)
     model = build_model(TILTED.format(q0x=math.cos(phi), q0z=math.sin(phi)), tmp_path)
     model.set_time(1.0)
     b = model["magnetic"].field_at(1.0)
-    # the turn: θ = (ψ, 0) about the triad's a₁ = X at every node, then the triad update
-    model.w.x.array[:] = 0.0
-    model.w.x.array[model.theta_dofs.reshape(-1, 2)[:, 0]] = tilt
-    model.update_triad()
-    R = np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)],
-                  [0, math.sin(tilt), math.cos(tilt)]])
-    S = np.diag([stretch, 1.0, 1.0])
-    d = model.triads[0][2].x.array.reshape(-1, 3)
-    assert np.abs(d - R[:, 2]).max() < 1e-14
-    X = model.Vu.tabulate_dof_coordinates()[:, :3]
-    x = X @ (R @ S).T
-    model.w.x.array[model.u_dofs] = (x - X).ravel()
-
-    F = compat.form(model.effects["magnetic"])
-    vec = compat.create_vector(F, model.W)
-    compat.assemble_vector(vec, F)
-    residual = vec.getArray().copy()
-    vec.destroy()
-
+    works, R = turned_plate_works(model, stretch, tilt)
     q = R @ np.array([stretch * math.cos(phi), 0.0, math.sin(phi)])
     q /= np.linalg.norm(q)
     t, m, area = 0.1, 3.0, 2.0
-    a1, a2 = (f.x.array.reshape(-1, 3) for f in model.triads[0][:2])
-    node = model.triad.node_maps[0]
-    for axis in np.eye(3):
-        virtual = np.zeros_like(model.w.x.array)
-        virtual[model.u_dofs] = np.cross(axis, x).ravel()
-        theta = virtual[model.theta_dofs].reshape(-1, 2)
-        theta[:, 0], theta[:, 1] = a1[node] @ axis, a2[node] @ axis
-        virtual[model.theta_dofs] = theta.ravel()
-        work = residual @ virtual
+    for axis, work in zip(np.eye(3), works):
         exact = -t * m * stretch * area * np.cross(q, b) @ axis
         print(f"λ = {stretch}, ψ = {tilt}, δφ = {axis}: {work:+.15e} exact {exact:+.15e}")
         assert work == pytest.approx(exact, rel=1e-12, abs=1e-14 * t * m * area * 0.7)
