@@ -40,7 +40,7 @@ dt = {DT}
 [[load]]
 kind = "point-force"
 at = [{SIDE / 2}, {SIDE / 2}, 0.0]
-value = {list(FORCE * DIRECTION)}
+value = {[float(v) for v in FORCE * DIRECTION]}
 ramp = "constant"
 """
 
