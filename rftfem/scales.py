@@ -30,7 +30,7 @@ JUMP_SHARE = 1e-9
 @dataclass(frozen=True)
 class Drive:
     """A time scale of the scene: ``key`` the scene key, ``period`` in time units (for
-    a table twice its shortest interval), ``what`` the words for a message."""
+    a table four times its shortest interval), ``what`` the words for a message."""
 
     key: str
     period: float
@@ -39,7 +39,8 @@ class Drive:
 
 
 def _table_drive(key: str, rows, end: float) -> Drive | None:
-    """A table's drive: twice its shortest interval within [0, end] (jumps left out)."""
+    """A table's drive: its shortest interval within [0, end] (jumps left out), as a
+    quarter period: a step longer than it jumps over a row of the table."""
     t = np.asarray([row[0] for row in rows], dtype=float)
     if len(t) < 2:
         return None
@@ -48,7 +49,8 @@ def _table_drive(key: str, rows, end: float) -> Drive | None:
     if not inside.any():
         return None
     shortest = float(gaps[inside].min())
-    return Drive(key, 2 * shortest, f"the table's shortest interval ({shortest:.6g})", True)
+    return Drive(key, shortest / STEP_SHARE, f"the table's shortest interval, {shortest:.6g}",
+                 True)
 
 
 def drive_periods(scene: dict) -> list[Drive]:
@@ -86,7 +88,7 @@ def drive_periods(scene: dict) -> list[Drive]:
 
 def aliasing_warnings(scene: dict) -> list[str]:
     """One line for each drive that fixed steps of ``time.dt`` cannot follow: a step
-    longer than a quarter of its period (half a table's shortest interval)."""
+    longer than a quarter of its period, or than a table's shortest interval."""
     time_ = scene["time"]
     if time_.get("scheme") == "arc-length" or time_.get("tolerance") is not None:
         return []
@@ -95,8 +97,7 @@ def aliasing_warnings(scene: dict) -> list[str]:
     for d in drive_periods(scene):
         most = STEP_SHARE * d.period
         if dt > most * (1 + 1e-9):
-            scale = (f"half of {d.what}" if d.table
-                     else f"a quarter of {d.what}, {d.period:.6g}")
+            scale = d.what if d.table else f"a quarter of {d.what}, {d.period:.6g}"
             lines.append(f"time.dt = {fmt(dt)} is longer than {scale} ({d.key}): the "
                          f"steps cannot follow it and the answer is aliased; take time.dt "
                          f"<= {most:.3g}")

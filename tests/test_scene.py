@@ -94,7 +94,8 @@ def test_minimal_scene_gets_every_default(write):
                          "cell": "quadrilateral", "file": None, "regions": []}
     assert s["shell"] == {"thickness": 0.1, "E": 1.2e6, "nu": 0.0, "density": 0.0,
                           "axis": [1.0, 0.0, 0.0], "parts": []}
-    assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "rho_inf": 0.9,
+    assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "start": "rest",
+                         "rho_inf": 0.9,
                          "alpha": -0.05, "output_every": 1, "until": "end", "period": None,
                          "steady_tolerance": 1e-3, "max_steps": 1000, "max_cuts": 8,
                          "tolerance": None, "dt_min": None, "dt_max": None,
