@@ -196,16 +196,20 @@ class StepSolver:
         """The model's iterate set to ``x``."""
         self._sync(x)
 
-    def assemble_tangent(self):
+    def assemble_tangent(self, diagnostic: bool = False):
         """The step's tangent at the model's current state into ``A`` (the exact one:
-        no Newton update is under way)."""
+        no Newton update is under way).  A ``diagnostic`` one (a product, never
+        factorised: stepping.py's limit-point check) adds its time, not a call."""
         t0 = _time.perf_counter()
         self.model.start_newton()
         self.model.tangent_at_iterate()
         self.A.zeroEntries()
         compat.assemble_matrix(self.A, self.model.jacobian_form, self.model.bcs)
         self.A.assemble()
-        self._count("jacobian", t0)
+        if diagnostic:
+            self.timings["jacobian"] += _time.perf_counter() - t0
+        else:
+            self._count("jacobian", t0)
 
     def dirichlet_response(self):
         """The local array (ghosts included) of ``Δ`` with ``A Δ = 0`` on the free rows

@@ -198,7 +198,7 @@ class StepControl:
         size = x.dot(x)
         if size == 0.0:
             return None
-        solver.assemble_tangent()
+        solver.assemble_tangent(diagnostic=True)
         y = x.duplicate()
         try:
             solver.A.mult(x, y)

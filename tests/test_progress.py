@@ -1,4 +1,4 @@
-"""What a run prints: a quiet run one line, a run in a log (not a terminal) a line
+"""What a run prints: a quiet run nothing on success, a run in a log (not a terminal) a line
 every few seconds rather than one per step."""
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ def test_piped_run_of_2000_steps_prints_a_line_every_interval(monkeypatch):
     assert progress_lines[-1].startswith("t = 1.9")
 
 
-def test_quiet_run_prints_only_its_final_line(monkeypatch):
+def test_quiet_run_prints_nothing_on_success(monkeypatch):
     clock = _Clock()
     monkeypatch.setattr(output._time, "perf_counter", clock)
     stream = io.StringIO()
@@ -51,7 +51,7 @@ def test_quiet_run_prints_only_its_final_line(monkeypatch):
     p.log("step 3 at t = 0.003: halving dt")
     _updates(p, clock, 2000, 0.05)
     p.final("done: 2000 steps")
-    assert stream.getvalue().splitlines() == ["done: 2000 steps"]
+    assert stream.getvalue() == ""
 
 
 def test_other_ranks_print_nothing(monkeypatch):
@@ -64,3 +64,17 @@ def test_other_ranks_print_nothing(monkeypatch):
     p.update(1.0, 1, 1, 0.0)
     p.final("done")
     assert stream.getvalue() == ""
+
+
+def test_warnings_are_kept_and_go_to_stderr_when_quiet(monkeypatch, capsys):
+    """Every warning is kept in order (summary.json's `warnings`); a quiet run writes
+    it to stderr, a run that is not quiet to its own stream."""
+    stream = io.StringIO()
+    p = output.Progress(2.0, _Comm(), quiet=True, stream=stream, interval=0.0)
+    p.warn("warning: one")
+    p.warn("warning: two")
+    assert p.warnings == ["warning: one", "warning: two"]
+    assert stream.getvalue() == "" and capsys.readouterr().err == "warning: one\nwarning: two\n"
+    loud = output.Progress(2.0, _Comm(), stream=stream, interval=0.0)
+    loud.warn("warning: three")
+    assert stream.getvalue() == "warning: three\n" and loud.warnings == ["warning: three"]
