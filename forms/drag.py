@@ -61,3 +61,11 @@ def drag_force(coefficients, F_s, axis, velocity, g1, g2, G1, G2, dx):
     """The three components of the total drag force ``∫ C̃ v J dA₀`` (scalar forms)."""
     traction = _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2)
     return [traction[i] * dx for i in range(3)]
+
+
+def drag_moment(coefficients, F_s, axis, velocity, position, g1, g2, G1, G2, dx):
+    """The three components of the drag's moment about the origin, ``∫ x × C̃ v J dA₀``
+    with ``x`` the current position (scalar forms)."""
+    traction = _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2)
+    moment = ufl.cross(position, traction)
+    return [moment[i] * dx for i in range(3)]

@@ -187,6 +187,14 @@ def petsc_vec(f) -> PETSc.Vec:
     return f.vector
 
 
+def scatter_add(f) -> None:
+    """Sum a Function's ghost entries into their owners, then copy the sums back to
+    the ghosts (a nodal sum over cells of several processes)."""
+    vec = petsc_vec(f)
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+
 def create_vector(L, V) -> PETSc.Vec:
     """A ghosted PETSc vector for the linear form ``L`` on space ``V``."""
     try:

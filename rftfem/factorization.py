@@ -90,7 +90,8 @@ class Factorization:
         preconditioner, then leaves these factors alone.  The matrix keeps its
         nonzero pattern, so MUMPS's analysis is kept and only the numerical
         factorisation is made."""
-        ksp.setOperators(A, A)
+        operator = ksp.getOperators()[0]  # a coupled tangent's shell matrix stays
+        ksp.setOperators(operator if operator.getType() == "python" else A, A)
         pc = ksp.getPC()
         pc.setReusePreconditioner(False)
         pc.setUp()

@@ -162,6 +162,11 @@ class Model(StepStart, BodyMeasures):
         """The active component called ``name`` (``"drag"``, ``"magnetic"``, ...) or None."""
         return next((c for c in self.components if c.name == name), None)
 
+    @property
+    def fluid(self):
+        """The liquid's component (RFT drag or Stokes flow), or None."""
+        return next((c for c in self.components if getattr(c, "is_fluid", False)), None)
+
     def __getitem__(self, name: str):
         comp = self.get(name)
         if comp is None:

@@ -54,6 +54,13 @@ KRYLOV = {"ksp_type": "gmres", "ksp_rtol": 1e-8, "ksp_atol": 0.0, "ksp_max_it": 
           "ksp_gmres_restart": 40, "snes_lag_preconditioner": -2}
 
 
+#: with a nonlocal effect (Stokes flow) the tangent is a shell matrix, solved by GMRES
+#: preconditioned by the factors of its local part (coupled.py): as many iterations
+#: as the nonlocal part's spectrum needs (tens on the rigid disk), within one restart
+NONLOCAL_KRYLOV = {"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_atol": 0.0,
+                   "ksp_max_it": 400, "ksp_gmres_restart": 400}
+
+
 def tangent(scene_solver: dict | None = None, command_line: list[str] | None = None) -> str:
     """The Newton tangent a run asks for: ``solver.tangent`` in the scene, replaced by
     ``-tangent`` on the command line; one of ``TANGENTS``."""
@@ -97,7 +104,7 @@ def user_sets(key: str, scene_solver: dict | None = None,
 
 
 def defaults(reference_force: float, factorization: str = "every-iteration",
-             lu: str | None = "mumps") -> dict:
+             lu: str | None = "mumps", nonlocal_tangent: bool = False) -> dict:
     """Newton with full steps and a direct solver.
 
     PETSc's default backtracking line search stalls on large-rotation shells
@@ -136,6 +143,8 @@ def defaults(reference_force: float, factorization: str = "every-iteration",
         opts["pc_factor_mat_solver_type"] = lu
     if factorization != "every-iteration":
         opts.update(KRYLOV)
+    if nonlocal_tangent:
+        opts.update(NONLOCAL_KRYLOV)
     return opts
 
 
@@ -185,10 +194,12 @@ def parse_command_line(args: list[str]) -> dict:
 
 def merged(reference_force: float, scene_solver: dict | None = None,
            command_line: list[str] | None = None,
-           factorization: str = "every-iteration", lu: str | None = "mumps") -> dict:
-    """Defaults (for the resolved ``factorization`` and LU package), then the scene's
-    ``[solver]``, then command-line options."""
-    opts = defaults(reference_force, factorization, lu)
+           factorization: str = "every-iteration", lu: str | None = "mumps",
+           nonlocal_tangent: bool = False) -> dict:
+    """Defaults (for the resolved ``factorization`` and LU package, and a tangent with
+    a ``nonlocal_tangent`` part), then the scene's ``[solver]``, then command-line
+    options."""
+    opts = defaults(reference_force, factorization, lu, nonlocal_tangent)
     for key, value in (scene_solver or {}).items():
         if value is False:
             opts.pop(key, None)

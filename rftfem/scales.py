@@ -133,9 +133,9 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
         out.append(("magneto-elastic number", t * m * B * L ** 2 / D,
                     "t m B L² / D: the field's couple against bending over the length "
                     "(about 1 bends the body by a radian)"))
-    fluid = scene.get("fluid")
-    if fluid and fluid.get("drag"):
-        C = max(fluid["drag"])
+    fluid = model.fluid
+    if fluid is not None:
+        C = max(fluid.C)  # (Stokes flow: the slender-body drag of its viscosity)
         tau = C * L ** 4 / D
         out.append(("relaxation time / drive period" if period else "relaxation time",
                     tau / period if period else tau,

@@ -134,8 +134,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         solver = scene.get("solver")
         factorization = petsc_options.factorization(solver, petsc_args, unknowns)
         lu = petsc_options.lu_package(unknowns, self.comm.size)
+        nonlocal_tangent = any(getattr(c, "nonlocal_tangent", False)
+                               for c in self.model.components)
         self.options = petsc_options.merged(self.model.reference_force(), solver, petsc_args,
-                                            factorization, lu)
+                                            factorization, lu, nonlocal_tangent)
         # rftfem's choice of PETSc's LU falls back on MUMPS; a user's is kept
         fallback = lu == "petsc" and not petsc_options.user_sets(
             "pc_factor_mat_solver_type", solver, petsc_args)

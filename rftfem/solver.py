@@ -19,7 +19,7 @@ import time as _time
 
 from petsc4py import PETSc
 
-from . import compat, petsc_options
+from . import compat, coupled, petsc_options
 from .errors import SceneError
 from .factorization import Factorization
 
@@ -58,6 +58,9 @@ class StepSolver:
         self.work = compat.create_vector(model.forces_form, W)
         self.x = compat.create_vector(model.forces_form, W)
         self.A = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(options))
+        #: with a nonlocal effect (Stokes flow): the exact tangent as a shell matrix,
+        #: ``A`` (plus the effect's lumped blocks) its preconditioner (coupled.py)
+        self.coupled = coupled.tangent_for(model, self.A)
         #: wall seconds and calls: residuals (F, inertia, Dirichlet rows), Jacobians,
         #: liftings of a missed Dirichlet increment, and the linear solves (SNES's
         #: solve less the assembly within it: factorisation, substitution, updates)
@@ -71,7 +74,8 @@ class StepSolver:
         self.snes = PETSc.SNES().create(model.comm)
         self.snes.setOptionsPrefix(petsc_options.PREFIX)
         self.snes.setFunction(self._residual, self.b)
-        self.snes.setJacobian(self._jacobian, self.A)
+        self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A,
+                              self.A)
         self.snes.setConvergenceTest(self._converged)
         #: a residual this small that Newton no longer reduces is round-off: the
         #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
@@ -95,6 +99,8 @@ class StepSolver:
 
     def destroy(self):
         petsc_options.clear(self.options)
+        if self.coupled is not None:
+            self.coupled.destroy()
         for obj in (self.snes, self.F, self.F_n, self.b, self.work, self.x, self.A,
                     self._x_of_F, self._start):
             if obj is not None:
@@ -177,11 +183,13 @@ class StepSolver:
         t0 = _time.perf_counter()
         self._sync(x)
         self.model.tangent_at_iterate()
-        A.zeroEntries()
-        compat.assemble_matrix(A, self.model.jacobian_form, self.model.bcs)
-        A.assemble()
+        P.zeroEntries()  # (A: P itself, or the coupled tangent's shell matrix around it)
+        compat.assemble_matrix(P, self.model.jacobian_form, self.model.bcs)
+        P.assemble()
+        if self.coupled is not None:
+            self.coupled.update()
         self._count("jacobian", t0)
-        self.factors.choose(self.snes.getKSP(), A)
+        self.factors.choose(self.snes.getKSP(), P)
 
     # the calls of a Newton loop of rftfem's own (arclength.py)
     def residual(self, x, b):

@@ -112,7 +112,7 @@ class StepControl:
 
     def _free(self) -> bool:
         """No support, no prescribed motion and no drag hold the body's rigid motions."""
-        return not (self.scene["boundary"] or self.scene["motion"] or self.model.get("drag"))
+        return not (self.scene["boundary"] or self.scene["motion"] or self.model.fluid)
 
     def _unresolved_hint(self) -> str:
         """What to change when a step is not resolved and nothing holds the body: without
@@ -143,7 +143,7 @@ class StepControl:
         m, dt = self.model, self.scene["time"]["dt"]
         in_time = self.scheme.has_velocity
         loaded = not in_time or self.scene["time"].get("start", "rest") == "equilibrium"
-        start = BackwardEuler() if m.get("drag") else Static()
+        start = BackwardEuler() if m.fluid else Static()
         # no prediction here to correct: a state that meets the tolerance (the
         # reference state without loads) is the answer
         self.solver.force_iteration(False)

@@ -181,7 +181,7 @@ def test_overrides_scalar_array_word_index_and_new_table(write):
     assert s["mesh"]["divisions"] == [50, 4]
     assert s["mesh"]["cell"] == "triangle"
     assert s["load"][0]["value"] == [0.0, 52.36, 0.0]
-    assert s["fluid"] == {"drag": [1.0, 1.0, 2.0]}
+    assert s["fluid"]["drag"] == [1.0, 1.0, 2.0] and s["fluid"]["model"] == "rft"
     assert s["boundary"][0]["where"] == "x=L"
     assert s["solver"]["ksp_type"] == "preonly"
     assert s["title"] == "a new title"

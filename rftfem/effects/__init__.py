@@ -15,6 +15,7 @@ from __future__ import annotations
 from .base import LOAD_KIND_DOC, RAMP, TABLE, Effect
 from .boundary import Boundaries, check_reaction_names
 from .drag import Drag
+from .stokes import Stokes
 from .edge_loads import EdgeLoads
 from .elasticity import Elasticity
 from .hinge import Hinges
@@ -30,6 +31,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     Hinges,
     Inertia,
     Drag,
+    Stokes,
     Magnetic,
     EdgeLoads,
     PointForce,

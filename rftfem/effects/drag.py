@@ -1,4 +1,4 @@
-"""Resistive-force-theory drag (docs/model.md §5.4), the scene's ``[fluid]``.
+"""Resistive-force-theory drag (docs/model.md §5.4), ``[fluid] model = "rft"``.
 
 The traction ``C̃ v`` per current area resists the local velocity; its virtual
 work comes from ``forms.drag``.  The component also gives the drag's power
@@ -12,32 +12,25 @@ import numpy as np
 import ufl
 
 from rftfem.forms import drag
-from rftfem.schema import NONNEGATIVE, Leaf, Table, Vec
+from rftfem.errors import SceneError
 
+from . import fluid
 from .base import Effect
 
 
 class Drag(Effect):
     name = "drag"
-    keys = {
-    "fluid": Table({
-        "drag": Leaf(Vec(item=NONNEGATIVE, some_positive=True,
-                           expected="3 numbers >= 0 [along axis, across, normal], "
-                                    "at least one > 0"), required=True,
-                      unit="force·time/length³",
-                      doc="The drag coefficients [C1, C2, C3]: along the material axis "
-                          "(`shell.axis`) as the body carries it, across it in the surface, "
-                          "and along the current normal. The traction per current area is "
-                          "the sum of Ci (ei·v) ei over the three directions."),
-    }, optional=True,
-        doc="Resistive-force-theory drag of the surrounding fluid: a traction proportional "
-            "to the local velocity."),
-    }
-    columns = ["drag_power"]
+    keys = {"fluid": fluid.SCHEMA}
+    columns = ["drag_power"] + fluid.RESULTANT_COLUMNS
+    is_fluid = True
 
     @classmethod
     def active(cls, scene):
-        return bool(scene.get("fluid"))
+        return fluid.model_of(scene) == "rft"
+
+    @classmethod
+    def check(cls, scene):
+        fluid.check(scene)
 
     def __init__(self, model):
         from dolfinx import fem
@@ -46,10 +39,25 @@ class Drag(Effect):
         super().__init__(model)
         if model.triad.axis_along_normal:
             raise model.axis_error("the drag frame needs a tangent axis")
-        C = np.asarray(self.scene["fluid"]["drag"], dtype=PETSc.ScalarType)
+        #: the coefficients [C1, C2, C3]: the scene's, or from its viscosity
+        self.C = self._coefficients()
+        C = np.asarray(self.C, dtype=PETSc.ScalarType)
         self.coefficients = fem.Constant(model.mesh, C)
         self._forms = {}
         self._spin = None
+
+    def _coefficients(self) -> list[float]:
+        given = self.scene["fluid"]
+        if given.get("drag") is not None:
+            return [float(c) for c in given["drag"]]
+        m = self.model
+        owned = m.Vu.dofmap.index_map.size_local
+        x = np.concatenate(m.comm.allgather(m.Vu.tabulate_dof_coordinates()[:owned]))
+        length, width = fluid.body_extents(x, self.scene["shell"]["axis"])
+        if width <= 0.0:
+            raise SceneError("fluid.viscosity: the body has no width across shell.axis, so "
+                             "the slender-body drag is undefined; give fluid.drag")
+        return fluid.slender_body_drag(float(given["viscosity"]), length, width)
 
     def _term(self, term, *args):
         """A ``forms.drag`` term of the current iterate with the scene's coefficients."""
@@ -67,7 +75,7 @@ class Drag(Effect):
         motion = self.model.get("prescribed-motion")
         if motion is None:
             return []
-        return [max(self.scene["fluid"]["drag"]) * self.model.area() * motion.speed_scale()]
+        return [max(self.C) * self.model.area() * motion.speed_scale()]
 
     def _assembled(self, name, build):
         m = self.model
@@ -109,5 +117,14 @@ class Drag(Effect):
         centre.value[:] = m.centroid()
         return m.assemble_scalar(form)
 
+    def resultant(self) -> np.ndarray:
+        """The liquid's force and moment about the origin on the body,
+        ``−∫ C̃ v J dA₀`` and ``−∫ x × C̃ v J dA₀`` (global), with the stored velocity."""
+        m = self.model
+        forms = self._assembled("moment", lambda: self._term(
+            drag.drag_moment, m.v_n, ufl.SpatialCoordinate(m.mesh) + m.kinematics().u))
+        moment = np.array([m.assemble_scalar(f) for f in forms])
+        return -np.concatenate([self.force(), moment])
+
     def values(self, t):
-        return [self.power()]
+        return [self.power(), *self.resultant()]

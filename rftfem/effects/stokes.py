@@ -1,0 +1,190 @@
+"""Stokes flow around the body, ``[fluid] model = "stokes"`` (docs/stokes.md).
+
+The mid-surface is a single layer of regularized Stokeslets at the displacement
+nodes (``rftfem.stokeslets``).  No slip: the liquid's velocity at each node is the
+node's velocity ``v(u)`` of the time scheme, so the nodal forces of a step are
+
+    F = M(x)⁻¹ v(u),    x = X + u,
+
+the force the body exerts on the liquid; it enters the residual like drag (with
++, resisting).  The operator is nonlocal, so it is not a UFL form: the residual
+takes it through ``add_nodal_forces`` and the Newton tangent through
+:meth:`Stokes.tangent_product`, exact in the positions too,
+
+    dF = M⁻¹ (c_v du − G du),    G = ∂(M F)/∂x at fixed F,
+
+applied matrix-free by the solver (``rftfem.coupled``) around a preconditioner made
+of the sparse tangent plus the lumped blocks of ``M⁻¹`` (a local drag).
+
+Every process holds the whole body's nodes (gathered in rank order) and makes the
+same dense solve; each adds the forces of the nodes it owns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rftfem import stokeslets
+from rftfem.errors import SceneError
+
+from . import fluid
+from .base import Effect
+
+
+class Stokes(Effect):
+    name = "stokes"
+    is_fluid = True
+    #: the solver applies :meth:`tangent_product` besides the assembled tangent
+    nonlocal_tangent = True
+    columns = ["fluid_power"] + fluid.RESULTANT_COLUMNS
+
+    @classmethod
+    def active(cls, scene):
+        return fluid.model_of(scene) == "stokes"
+
+    def __init__(self, model):
+        super().__init__(model)
+        given = self.scene["fluid"]
+        self.viscosity = float(given["viscosity"])
+        comm = model.comm
+        im = model.Vu.dofmap.index_map
+        self.n_owned = im.size_local
+        counts = comm.allgather(self.n_owned)
+        self.offset = int(sum(counts[: comm.rank]))
+        #: the local dofs of ``w`` holding the owned nodes' displacement, (n_owned, 3)
+        self.owned_u = model.u_dofs.reshape(-1, 3)[: self.n_owned]
+        #: the reference positions of every node of the body, in rank order (N, 3)
+        self.X = self._gather(model.Vu.tabulate_dof_coordinates()[: self.n_owned])
+        #: each node's blob size δ (N,)
+        self.delta = self._gather(self._node_blobs(given.get("regularization")))
+        self._check_size()
+        length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
+        #: slender-body drag coefficients of the same viscosity (time scales only)
+        self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
+        self._resistance = None  # the factorised mobility of the last positions
+        self._last = None  # (positions, velocities, forces) of the last residual
+        self._tangent = None
+
+    # --- set-up -----------------------------------------------------------
+
+    def _gather(self, owned: np.ndarray) -> np.ndarray:
+        return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
+
+    def _node_blobs(self, uniform) -> np.ndarray:
+        """δ of the owned nodes: ``uniform`` everywhere if given, else the node
+        spacing (the mean over the cells around a node of the cell's size over 2,
+        the size √area on quadrilaterals, the equilateral side on triangles), halved
+        on the body's free edges (docs/stokes.md)."""
+        if uniform is not None:
+            return np.full(self.n_owned, float(uniform))
+        from dolfinx import fem, mesh as dmesh
+        import ufl
+
+        from rftfem import compat
+
+        m = self.model
+        msh = m.mesh
+        V0 = compat.function_space(msh, "DG", 0)
+        area = fem.assemble_vector(m.compile(ufl.TestFunction(V0) * m.dx)).array
+        triangle = msh.topology.cell_name() == "triangle"
+        size = np.sqrt(area * (4.0 / np.sqrt(3.0) if triangle else 1.0)) / 2.0
+        V = compat.function_space(msh, "Lagrange", 2)
+        total, count = (fem.Function(V) for _ in range(2))
+        cells = compat.cell_dofs(V)
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        np.add.at(total.x.array, cells[:n_cells], size[:n_cells, None])
+        np.add.at(count.x.array, cells[:n_cells], 1.0)
+        for f in (total, count):
+            compat.scatter_add(f)
+        spacing = total.x.array / np.maximum(count.x.array, 1.0)
+        fdim = msh.topology.dim - 1
+        msh.topology.create_connectivity(fdim, msh.topology.dim)
+        edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
+        spacing[edge] *= 0.5
+        return spacing[: self.n_owned]
+
+    def _check_size(self):
+        extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
+        largest = float(self.delta.max())
+        if largest >= 0.5 * extent:
+            raise SceneError(f"fluid.regularization: the blob ({largest:.4g}) is larger than "
+                             f"the body (its diagonal is {extent:.4g}); give a blob of about "
+                             "the node spacing, or leave the key out")
+
+    # --- state ------------------------------------------------------------
+
+    def _state(self):
+        """Global positions and velocities ``(x, v)`` of the current iterate, (N, 3) each."""
+        m, c = self.model, self.model.coef
+        n = self.n_owned
+        u = m.w.x.array[self.owned_u]
+        v = (float(c["cv"].value) * (u - m.u_n.x.array.reshape(-1, 3)[:n])
+             + float(c["cv_v"].value) * m.v_n.x.array.reshape(-1, 3)[:n]
+             + float(c["cv_a"].value) * m.a_n.x.array.reshape(-1, 3)[:n])
+        if m.drive:
+            v = v + m.drive[0].x.array.reshape(-1, 3)[:n]
+        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        return both[:, :3], both[:, 3:]
+
+    def resistance(self, x: np.ndarray) -> stokeslets.Resistance:
+        """The factorised mobility at the positions ``x`` (kept for the same ``x``)."""
+        if self._resistance is None or not np.array_equal(self._resistance.x, x):
+            self._resistance = stokeslets.Resistance(x, self.delta, self.viscosity)
+        return self._resistance
+
+    def nodal_forces(self) -> np.ndarray:
+        """The forces (N, 3) the body exerts on the liquid at the current iterate."""
+        x, v = self._state()
+        if self._last is not None and np.array_equal(self._last[0], x) \
+                and np.array_equal(self._last[1], v):
+            return self._last[2]
+        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
+        self._last = (x, v, F)
+        return F
+
+    def add_nodal_forces(self, F):
+        forces = self.nodal_forces()
+        F[self.owned_u] += forces[self.offset:self.offset + self.n_owned]
+
+    # --- the tangent ------------------------------------------------------
+
+    def prepare_tangent(self, scale: float) -> np.ndarray:
+        """Make the tangent of ``scale · F`` at the current iterate; returns the
+        lumped blocks of its velocity part for the owned nodes (n_owned, 3, 3)."""
+        F = self.nodal_forces()
+        x = self._last[0]
+        res = self.resistance(x)
+        cv = float(self.model.coef["cv"].value)
+        G = stokeslets.position_derivative(x, self.delta, self.viscosity, F)
+        self._tangent = (res, cv, G, scale)
+        lumped = res.lumped()[self.offset:self.offset + self.n_owned]
+        return scale * cv * lumped
+
+    def tangent_product(self, du: np.ndarray) -> np.ndarray:
+        """``scale · M⁻¹ (c_v du − G du)`` for a global displacement direction (3N,)."""
+        res, cv, G, scale = self._tangent
+        return scale * res.solve(cv * du - G @ du)
+
+    # --- outputs ----------------------------------------------------------
+
+    def force_scales(self):
+        motion = self.model.get("prescribed-motion")
+        if motion is None:
+            return []
+        return [max(self.C) * self.model.area() * motion.speed_scale()]
+
+    def _stored(self):
+        """Positions, velocities and forces of the last converged state (``u_n``, ``v_n``)."""
+        m, n = self.model, self.n_owned
+        u = m.u_n.x.array.reshape(-1, 3)[:n]
+        v = m.v_n.x.array.reshape(-1, 3)[:n]
+        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        x, v = both[:, :3], both[:, 3:]
+        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
+        return x, v, F
+
+    def values(self, t):
+        x, v, F = self._stored()
+        force = -F.sum(axis=0)
+        moment = -np.cross(x, F).sum(axis=0)
+        return [float(np.sum(F * v)), *force, *moment]

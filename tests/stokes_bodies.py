@@ -1,0 +1,79 @@
+"""gmsh meshes of the rigid bodies of the Stokes-flow tests: a flat disk and an
+ellipsoid (a sphere when its semi-axes are equal), second-order quadrilaterals."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _session():
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    return gmsh
+
+
+def _group(gmsh, dim, tags, name):
+    gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
+
+
+def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | None = None):
+    """A flat disk in the XY plane, centre at the origin: surface group "disk", its rim
+    the curve group "rim"; ``edge_size`` grades the cells towards the rim."""
+    gmsh = _session()
+    try:
+        gmsh.model.add("disk")
+        g = gmsh.model.geo
+        c = g.addPoint(0, 0, 0)
+        p = [g.addPoint(radius * math.cos(a), radius * math.sin(a), 0)
+             for a in np.arange(4) * math.pi / 2]
+        arcs = [g.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
+        surface = g.addPlaneSurface([g.addCurveLoop(arcs)])
+        g.synchronize()
+        _group(gmsh, 2, [surface], "disk")
+        _group(gmsh, 1, arcs, "rim")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", min(size, edge_size or size))
+        if edge_size is not None:
+            f = gmsh.model.mesh.field
+            dist = f.add("Distance")
+            f.setNumbers(dist, "CurvesList", arcs)
+            f.setNumber(dist, "NumPointsPerCurve", 400)
+            grade = f.add("Threshold")
+            f.setNumber(grade, "InField", dist)
+            f.setNumber(grade, "SizeMin", edge_size)
+            f.setNumber(grade, "SizeMax", size)
+            f.setNumber(grade, "DistMin", 0.0)
+            f.setNumber(grade, "DistMax", 0.5 * radius)
+            f.setAsBackgroundMesh(grade)
+            gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
+def write_ellipsoid(path, semi_axes=(1.0, 1.0, 1.0), size: float = 0.3):
+    """A closed ellipsoid surface centred at the origin (group "body")."""
+    gmsh = _session()
+    try:
+        gmsh.model.add("ellipsoid")
+        occ = gmsh.model.occ
+        ball = occ.addSphere(0, 0, 0, 1.0)
+        occ.dilate([(3, ball)], 0, 0, 0, *semi_axes)
+        occ.synchronize()
+        surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
+        _group(gmsh, 2, surfaces, "body")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
