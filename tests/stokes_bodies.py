@@ -64,16 +64,22 @@ def write_ellipsoid(path, semi_axes=(1.0, 1.0, 1.0), size: float = 0.3):
     try:
         gmsh.model.add("ellipsoid")
         occ = gmsh.model.occ
-        ball = occ.addSphere(0, 0, 0, 1.0)
-        occ.dilate([(3, ball)], 0, 0, 0, *semi_axes)
+        occ.addSphere(0, 0, 0, 1.0)
         occ.synchronize()
         surfaces = [tag for _, tag in gmsh.model.getEntities(2)]
         _group(gmsh, 2, surfaces, "body")
-        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-        gmsh.option.setNumber("Mesh.MeshSizeMin", size)
+        scale = np.asarray(semi_axes, dtype=float)
+        # mesh the unit sphere with cells of the ellipsoid's mean size, then stretch it
+        h = 2.0 * size / float(np.cbrt(np.prod(scale)))  # (halved by the subdivision)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", h)
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # all quadrilaterals
         gmsh.model.mesh.generate(2)
         gmsh.model.mesh.setOrder(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        for tag, x in zip(tags, xyz.reshape(-1, 3) * scale):
+            gmsh.model.mesh.setNode(int(tag), list(x), [])
         gmsh.write(str(path))
     finally:
         gmsh.finalize()
