@@ -302,3 +302,73 @@ def _assembled_action(solver, delta):
     x = delta.getArray().reshape(-1, c.block)[:, :3] * c.free
     out[:, :3] -= sum(np.einsum("nij,nj->ni", lumped, x) for lumped in c.lumped)
     return out.ravel()
+
+
+# --- both models: the resultant, RFT from the viscosity, and bad input ----------
+
+STRIP = """
+title = "a free strip"
+[mesh]
+length = 10.0
+width = 1.0
+divisions = [10, 2]
+[shell]
+thickness = 0.1
+E = 1.0e5
+nu = 0.3
+density = 0.0
+[time]
+end = 0.2
+dt = 0.1
+[fluid]
+{fluid}
+[[load]]
+kind = "point-force"
+at = [7.0, 0.5, 0.0]
+value = [0.2, -0.1, 1.0]
+ramp = "constant"
+"""
+
+
+@pytest.mark.parametrize("fluid", ["viscosity = 0.01", 'model = "stokes"\nviscosity = 0.01'],
+                         ids=["rft", "stokes"])
+def test_fluid_resultant_balances_the_load(tmp_path, fluid):
+    """Without inertia the liquid's resultant on a free body balances the load:
+    fluid_F = −P (to 1e-8) and fluid_M = −x × P about the origin, x the loaded point
+    where it has moved (reached 7e-8 relative in both models, whatever the Newton
+    tolerances: the balance of the shell's own moments, not the liquid's)."""
+    sim = Simulation(load_scene(write_scene(tmp_path, STRIP.format(fluid=fluid))),
+                     out_dir=None, quiet=True)
+    sim.run()
+    row = dict(zip(sim.body.header(), sim.body.values(sim.t)))
+    P, at = np.array([0.2, -0.1, 1.0]), np.array([7.0, 0.5, 0.0])
+    F = np.array([row[f"fluid_F{c}"] for c in "xyz"])
+    M = np.array([row[f"fluid_M{c}"] for c in "xyz"])
+    assert np.abs(F + P).max() < 1e-8
+    # the load acts at the material point, which has moved with the body
+    moved = at + _displacement_at(sim.model, at)
+    assert np.abs(M + np.cross(moved, P)).max() < 1e-6 * np.linalg.norm(np.cross(at, P))
+
+
+def _displacement_at(model, at):
+    X = model.Vu.tabulate_dof_coordinates()
+    i = int(np.argmin(np.linalg.norm(X - at, axis=1)))
+    assert np.linalg.norm(X[i] - at) < 1e-9
+    return model.u_n.x.array.reshape(-1, 3)[i]
+
+
+def test_rft_coefficients_from_the_viscosity(tmp_path):
+    """model = "rft" with a viscosity: a 10 × 1 strip gets, per unit area,
+    C1 = 2πμ/(ln 80 − ½), C2 = C3 = 4πμ/(ln 80 + ½) (slender-body theory with the
+    ribbon's equivalent radius w/4): 1.61853 μ and 2.57401 μ."""
+    text = STRIP.format(fluid="viscosity = 2.0")
+    sim = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True)
+    assert np.allclose(sim.model["drag"].C, [2 * 1.6185323, 2 * 2.5740070, 2 * 2.5740070],
+                       rtol=1e-6)
+
+
+def test_blob_larger_than_the_body(tmp_path):
+    """A blob of the body's size is refused in one line naming the key."""
+    text = STRIP.format(fluid='model = "stokes"\nviscosity = 1.0\nregularization = 20.0')
+    with pytest.raises(SceneError, match=r"^fluid.regularization: the blob \(20\) is larger"):
+        Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True)
