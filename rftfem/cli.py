@@ -234,6 +234,8 @@ def _cmd_check(args, console: _Console) -> int:
         return console.agree(SceneError.exit_status)
     console.out(f"scene OK: {scene['title']}")
     console.out("active effects: " + ", ".join(effects))
+    if scene.get("fluid"):
+        console.out(f"fluid: {scene['fluid'].get('model', 'rft')}")
     console.out(f"scheme: {scene['time']['scheme']}")
     if groups:
         console.out("scales:")

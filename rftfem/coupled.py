@@ -70,8 +70,6 @@ class CoupledTangent:
         y = Y.getArray().reshape(-1, self.block)
         y[:, :3] += extra * self.free
 
-    def destroy(self):
-        self.J.destroy()
 
 
 def tangent_for(model, A):

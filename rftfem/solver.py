@@ -99,9 +99,8 @@ class StepSolver:
 
     def destroy(self):
         petsc_options.clear(self.options)
-        if self.coupled is not None:
-            self.coupled.destroy()
         for obj in (self.snes, self.F, self.F_n, self.b, self.work, self.x, self.A,
+                    self.coupled.J if self.coupled is not None else None,
                     self._x_of_F, self._start):
             if obj is not None:
                 obj.destroy()

@@ -119,16 +119,18 @@ def tables(out: Path):
 
 def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
     """Per column, the largest magnitude of the vector it is a component of (a probe's
-    ux, uy, uz; centroid_x, _y, _z; ...) or of the column itself: what a relative
+    ux, uy, uz; centroid_x, _y, _z; a resultant's Fx, Fy, Fz; ...) or of the column itself: what a relative
     difference is measured against (a component that stays ~0 differs by round-off).
     Energies share one scale, the dissipated power's over the run included: the
     elastic energy of a body that turns rigidly is round-off (1e-12 against 1e-2 on
     the plate) and after a restart it differs in its 7th digit while every
     displacement agrees to round-off."""
     header = path.read_text().splitlines()[0].split(",")
+    power = ("drag_power", "fluid_power")
     groups = [h.rsplit("_", 1)[0] if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
-              else "energy" if h.endswith("_energy") or h == "drag_power" else h
+              else h[:-1] if h[-2:] in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+              else "energy" if h.endswith("_energy") or h in power else h
               for h in header]
     size = np.abs(table).max(axis=0)
-    size = np.where(np.array(header) == "drag_power", size * table[-1, 0], size)
+    size = np.where(np.isin(header, power), size * table[-1, 0], size)
     return np.array([max(size[j] for j, g2 in enumerate(groups) if g2 == g) for g in groups])

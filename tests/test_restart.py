@@ -33,6 +33,7 @@ import pytest
 
 from conftest import DEMOS, ROOT, fields_at, run_command
 from running import finish, rank_pids, start_run, tables, vector_scales, wait_for_steps
+from stokes_bodies import swimming_sheet_scene
 
 #: seed of the interrupt steps' draws: fixed, or RFTFEM_RESTART_SEED
 RESTART_SEED = int(os.environ.get("RFTFEM_RESTART_SEED") or 17)
@@ -52,6 +53,10 @@ CASES = {
     # 28 steps to t = 1 (2 rejected); a checkpoint every 3 steps, rows every 0.05
     "plate-bdf2-tolerance": (lambda folder: plate_scene(folder), 28,
                              ["output.checkpoint_every=3"]),
+    # Stokes flow (a nonlocal effect) under generalized-α: a sheet swimming by a
+    # travelling wave, 40 steps; a checkpoint every 4, a row every 3
+    "stokes-sheet": (lambda folder: swimming_sheet_scene(folder), 40,
+                     ["time.output_every=3", "output.checkpoint_every=4"]),
 }
 
 
@@ -138,7 +143,8 @@ def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case
 
 @pytest.mark.parametrize("np_", [1, pytest.param(2, marks=[pytest.mark.mpi, pytest.mark.long])],
                          ids=["serial", "np2"])
-@pytest.mark.parametrize("case", [c if c == "sheet" else pytest.param(c, marks=pytest.mark.long)
+@pytest.mark.parametrize("case", [c if c in ("sheet", "stokes-sheet")
+                                  else pytest.param(c, marks=pytest.mark.long)
                                   for c in CASES])  # the current leg: the sheet only (CI time)
 def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
     scene, n_steps, sets = CASES[case]
