@@ -336,7 +336,7 @@ def test_fluid_resultant_balances_the_load(tmp_path, fluid):
     """Without inertia the liquid's resultant on a free body balances the load:
     fluid_F = −P (to 1e-8) and fluid_M = −x × P about the origin, x the loaded point
     where it has moved (reached 7e-8 relative in both models, whatever the Newton
-    tolerances: the balance of the shell's own moments, not the liquid's)."""
+    tolerances: the elastic forces' own net moment, docs/model.md §5.7)."""
     sim = Simulation(load_scene(write_scene(tmp_path, STRIP.format(fluid=fluid))),
                      out_dir=None, quiet=True)
     sim.run()
