@@ -86,7 +86,7 @@ class Stokes(Effect):
         msh = m.mesh
         V0 = compat.function_space(msh, "DG", 0)
         area = fem.assemble_vector(m.compile(ufl.TestFunction(V0) * m.dx)).array
-        triangle = msh.topology.cell_name() == "triangle"
+        triangle = msh.topology.cell_type == dmesh.CellType.triangle
         size = np.sqrt(area * (4.0 / np.sqrt(3.0) if triangle else 1.0)) / 2.0
         V = compat.function_space(msh, "Lagrange", 2)
         total, count = (fem.Function(V) for _ in range(2))
