@@ -169,6 +169,106 @@ def position_derivative(x, delta, viscosity, forces) -> np.ndarray:
     return G.reshape(3 * n, 3 * n)
 
 
+# --- a no-slip plane wall -----------------------------------------------------
+
+
+class Wall:
+    """A no-slip plane through ``point`` with unit ``normal`` towards the liquid.
+
+    Its effect is the image system of a Stokeslet above a plane (Blake 1971): in
+    the wall's frame (wall z = 0, liquid z > 0), a force F at height h gives at x
+    the image velocity
+
+        W F = −S(R) F + 2h Σ_j D_jj F_j ∂Φ/∂R_j,   Φ(R) = h R/R³ − e₃/R − R R₃/R³,
+
+    with R = x − y*, y* the source mirrored in the plane, D = diag(1, 1, −1) and
+    S the (singular) Stokeslet.  The free part stays regularized; the images lie
+    at least twice the body's height above the wall away from every target, so
+    they are used unregularized: the velocity on the wall is then zero up to the
+    difference between the regularized and the singular free part, a Gaussian
+    tail e^(−(h/δ)²) of the body's height in blobs (docs/stokes.md)."""
+
+    def __init__(self, point, normal):
+        n = np.asarray(normal, dtype=float)
+        n = n / np.linalg.norm(n)
+        helper = np.eye(3)[int(np.argmin(np.abs(n)))]
+        e1 = np.cross(n, helper)
+        e1 /= np.linalg.norm(e1)
+        #: rows: the wall's frame (two tangents, the normal)
+        self.Q = np.array([e1, np.cross(n, e1), n])
+        self.point = np.asarray(point, dtype=float)
+
+    def heights(self, x) -> np.ndarray:
+        """Heights of the points ``x`` (N, 3) above the wall (negative: behind it)."""
+        return (np.asarray(x, dtype=float) - self.point) @ self.Q[2]
+
+    def _local(self, x):
+        return (x - self.point) @ self.Q.T
+
+    def image_velocity(self, targets, sources, forces):
+        """``Σ_j W(x_i, y_j) F_j`` (without 1/8πμ) at every target, (N_t, 3)."""
+        return self._all_pairs(targets, sources, forces).sum(axis=1)
+
+    def mobility(self, x, viscosity) -> np.ndarray:
+        """The images' part of the dense mobility (3N × 3N)."""
+        x = np.asarray(x, dtype=float)
+        n = len(x)
+        M = np.empty((n, 3, n, 3))
+        for rows in _chunks(n):
+            for k in range(3):  # unit forces along k at every source
+                unit = np.zeros((n, 3))
+                unit[:, k] = 1.0
+                M[rows, :, :, k] = self._all_pairs(x[rows], x, unit).transpose(0, 2, 1)
+        return M.reshape(3 * n, 3 * n) / (8 * pi * viscosity)
+
+    def position_derivative(self, x, viscosity, forces) -> np.ndarray:
+        """The images' part of ``G = ∂u/∂x`` at fixed forces, by complex steps
+        (exact to round-off): each pair's velocity differentiated in its target's
+        and in its source's position."""
+        x = np.asarray(x, dtype=float)
+        F = np.asarray(forces, dtype=float).reshape(-1, 3)
+        n = len(x)
+        G = np.zeros((n, 3, n, 3))
+        step = 1e-30
+        for rows in _chunks(n, 60_000):
+            idx = np.arange(rows.start, rows.stop)
+            for l in range(3):
+                dx = np.zeros(3, dtype=complex)
+                dx[l] = 1j * step
+                # the target moves: every source's image velocity at node i changes
+                vt = self._all_pairs(x[rows] + dx, x, F).imag / step
+                G[idx, :, idx, l] += vt.sum(axis=1)
+                # the source j moves: node i's velocity from j's image changes
+                vs = self._all_pairs(x[rows], x + dx, F).imag / step
+                G[rows, :, :, l] += vs.transpose(0, 2, 1)
+        return G.reshape(3 * n, 3 * n) / (8 * pi * viscosity)
+
+    def _all_pairs(self, targets, sources, forces):
+        """Per pair (N_t, N_s, 3): each source's image velocity at each target
+        (complex-safe, for the complex steps)."""
+        xi = self._local(targets)[:, None, :]
+        eta = self._local(sources)[None, :, :]
+        f = (np.asarray(forces) @ self.Q.T)[None, :, :]
+        h = eta[..., 2]
+        R = xi - eta * np.array([1.0, 1.0, -1.0])
+        Rn = np.sqrt(np.sum(R * R, axis=-1))
+        R3 = R[..., 2]
+        inv1, inv3 = 1.0 / Rn, 1.0 / Rn ** 3
+        inv5 = inv3 / Rn ** 2
+        RF = np.sum(R * f, axis=-1)
+        g = f * np.array([1.0, 1.0, -1.0])  # D F
+        Rg = np.sum(R * g, axis=-1)
+        g3 = g[..., 2]
+        e3 = np.array([0.0, 0.0, 1.0])
+        # Σ_j g_j ∂Φ/∂R_j
+        dphi = (h[..., None] * (g * inv3[..., None] - 3 * R * (Rg * inv5)[..., None])
+                + e3 * (Rg * inv3)[..., None]
+                - (g * R3[..., None] + R * g3[..., None]) * inv3[..., None]
+                + 3 * R * (R3 * Rg * inv5)[..., None])
+        u = -(f * inv1[..., None] + R * (RF * inv3)[..., None]) + 2 * h[..., None] * dphi
+        return u @ self.Q
+
+
 def _chunks(n: int, pairs: int = 250_000):
     """Row slices of about ``pairs`` node pairs each (bounded temporary memory)."""
     step = max(1, pairs // max(n, 1))
@@ -178,20 +278,26 @@ def _chunks(n: int, pairs: int = 250_000):
 class Resistance:
     """The factorised mobility of one configuration: forces from velocities.
 
-    Cholesky of the symmetric positive definite ``M`` (LU if round-off breaks it)."""
+    Cholesky of the symmetric positive definite ``M`` (LU if round-off breaks it);
+    with a ``wall``, ``M`` includes its images."""
 
-    def __init__(self, x, delta, viscosity):
+    def __init__(self, x, delta, viscosity, wall: Wall | None = None):
         import scipy.linalg as sl
 
         self.x = np.array(x, dtype=float)
         self.delta, self.viscosity = delta, viscosity
         M = mobility(self.x, delta, viscosity)
+        if wall is not None:
+            M += wall.mobility(self.x, viscosity)
         try:
             self._cho = sl.cho_factor(M, lower=True, overwrite_a=True, check_finite=False)
             self._lu = None
         except np.linalg.LinAlgError:
             self._cho = None
-            self._lu = sl.lu_factor(mobility(self.x, delta, viscosity), check_finite=False)
+            M = mobility(self.x, delta, viscosity)
+            if wall is not None:
+                M += wall.mobility(self.x, viscosity)
+            self._lu = sl.lu_factor(M, check_finite=False)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``M⁻¹ rhs`` (``rhs`` of length 3N, or 3N × k)."""

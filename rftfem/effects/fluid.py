@@ -22,7 +22,7 @@ SCHEMA = Table({
     "model": Leaf(Str(MODELS), "rft",
                   doc='The liquid: "rft" local resistive-force drag, "stokes" the nonlocal '
                       "Stokes flow of regularized Stokeslets on the mid-surface (sees every "
-                      "part of the body; docs/stokes.md)."),
+                      "part of the body and a wall; docs/stokes.md)."),
     "drag": Leaf(Vec(item=NONNEGATIVE, some_positive=True,
                      expected="3 numbers >= 0 [along axis, across, normal], at least one > 0"),
                  unit="force·time/length³",
@@ -42,6 +42,13 @@ SCHEMA = Table({
                                        "on the body's free edges",
                            doc='The blob size δ of the regularized Stokeslets (model = '
                                '"stokes"), the same at every node.'),
+    "wall": Table({
+        "point": Leaf(Vec(), required=True, unit="length",
+                      doc="A point of the no-slip plane."),
+        "normal": Leaf(Vec(nonzero=True), required=True,
+                       doc="The plane's normal, towards the body's side."),
+    }, optional=True, doc='A no-slip plane wall (model = "stokes"), by the images of the '
+                          "Stokeslets in the plane (docs/stokes.md)."),
 }, optional=True, doc="The liquid around the body: local resistive-force drag or Stokes flow.")
 
 
@@ -67,9 +74,10 @@ def check(scene: dict) -> None:
         if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
             raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
                              '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
-        if fluid.get("regularization") is not None:
-            raise SceneError('fluid.regularization: only with fluid.model = "stokes" (local '
-                             "drag has no blob)")
+        for key, what in (("regularization", "blob"), ("wall", "wall")):
+            if fluid.get(key) is not None:
+                raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '
+                                 f"has no {what})")
 
 
 def slender_body_drag(viscosity: float, length: float, width: float) -> list[float]:

@@ -58,6 +58,11 @@ class Stokes(Effect):
         #: each node's blob size δ (N,)
         self.delta = self._gather(self._node_blobs(given.get("regularization")))
         self._check_size()
+        wall = given.get("wall")
+        #: the no-slip plane (``[fluid.wall]``), or None
+        self.wall = stokeslets.Wall(wall["point"], wall["normal"]) if wall else None
+        if self.wall is not None:
+            self._check_wall()
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
         #: slender-body drag coefficients of the same viscosity (time scales only)
         self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
@@ -111,6 +116,15 @@ class Stokes(Effect):
                              f"the body (its diagonal is {extent:.4g}); give a blob of about "
                              "the node spacing, or leave the key out")
 
+    def _check_wall(self):
+        heights = self.wall.heights(self.X)
+        behind = int(np.sum(heights <= 0.0))
+        if behind:
+            raise SceneError(f"fluid.wall: the body crosses the wall: {behind} of its "
+                             f"{len(heights)} nodes are on or behind the plane (lowest at "
+                             f"{heights.min():.4g} along the normal); the normal points "
+                             "towards the body's side")
+
     # --- state ------------------------------------------------------------
 
     def _state(self):
@@ -129,7 +143,13 @@ class Stokes(Effect):
     def resistance(self, x: np.ndarray) -> stokeslets.Resistance:
         """The factorised mobility at the positions ``x`` (kept for the same ``x``)."""
         if self._resistance is None or not np.array_equal(self._resistance.x, x):
-            self._resistance = stokeslets.Resistance(x, self.delta, self.viscosity)
+            if self.wall is not None and self.wall.heights(x).min() <= 0.0:
+                # the body has reached the wall: no flow state exists; a residual of
+                # NaN makes the step fail and be cut (the solver says it is not finite)
+                self._resistance = _Crossed(x)
+            else:
+                self._resistance = stokeslets.Resistance(x, self.delta, self.viscosity,
+                                                         self.wall)
         return self._resistance
 
     def nodal_forces(self) -> np.ndarray:
@@ -156,6 +176,8 @@ class Stokes(Effect):
         res = self.resistance(x)
         cv = float(self.model.coef["cv"].value)
         G = stokeslets.position_derivative(x, self.delta, self.viscosity, F)
+        if self.wall is not None:
+            G += self.wall.position_derivative(x, self.viscosity, F)
         self._tangent = (res, cv, G, scale)
         lumped = res.lumped()[self.offset:self.offset + self.n_owned]
         return scale * cv * lumped
@@ -188,3 +210,16 @@ class Stokes(Effect):
         force = -F.sum(axis=0)
         moment = -np.cross(x, F).sum(axis=0)
         return [float(np.sum(F * v)), *force, *moment]
+
+
+class _Crossed:
+    """The resistance of a body that has crossed the wall: NaN forces."""
+
+    def __init__(self, x):
+        self.x = np.array(x)
+
+    def solve(self, rhs):
+        return np.full(np.shape(rhs), np.nan)
+
+    def lumped(self):
+        return np.zeros((len(self.x), 3, 3))
