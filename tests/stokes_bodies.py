@@ -20,9 +20,11 @@ def _group(gmsh, dim, tags, name):
     gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
 
 
-def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | None = None):
+def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | None = None,
+               tilt: float = 0.0):
     """A flat disk in the XY plane, centre at the origin: surface group "disk", its rim
-    the curve group "rim"; ``edge_size`` grades the cells towards the rim."""
+    the curve group "rim"; ``edge_size`` grades the cells towards the rim; ``tilt``
+    (rad) turns it about Y (its normal then leans towards +X)."""
     gmsh = _session()
     try:
         gmsh.model.add("disk")
@@ -53,6 +55,12 @@ def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | 
         gmsh.option.setNumber("Mesh.RecombineAll", 1)
         gmsh.model.mesh.generate(2)
         gmsh.model.mesh.setOrder(2)
+        if tilt:
+            c, s = math.cos(tilt), math.sin(tilt)
+            turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+            tags, xyz, _ = gmsh.model.mesh.getNodes()
+            for tag, x in zip(tags, xyz.reshape(-1, 3) @ turn.T):
+                gmsh.model.mesh.setNode(int(tag), list(x), [])
         gmsh.write(str(path))
     finally:
         gmsh.finalize()
