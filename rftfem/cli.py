@@ -235,7 +235,8 @@ def _cmd_check(args, console: _Console) -> int:
     console.out(f"scene OK: {scene['title']}")
     console.out("active effects: " + ", ".join(effects))
     if scene.get("fluid"):
-        console.out(f"fluid: {scene['fluid'].get('model', 'rft')}")
+        wall = ", wall" if scene["fluid"].get("wall") else ""
+        console.out(f"fluid: {scene['fluid'].get('model', 'rft')}{wall}")
     console.out(f"scheme: {scene['time']['scheme']}")
     if groups:
         console.out("scales:")

@@ -500,3 +500,18 @@ def test_tilted_disk_sediments_sideways(tmp_path):
           f"speed {np.linalg.norm(u) / np.linalg.norm(exact):.5f} of the exact")
     assert abs(angle - exact_angle) < 0.2
     assert abs(np.linalg.norm(u) / np.linalg.norm(exact) - 1) < 0.02
+
+
+def test_check_names_the_fluid_model(tmp_path):
+    """``rftfem check`` lists the liquid's model, and the wall."""
+    import subprocess
+    import sys
+
+    text = STRIP.format(fluid='model = "stokes"\nviscosity = 1.0\n[fluid.wall]\n'
+                              'point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]')
+    scene = write_scene(tmp_path, text)
+    done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene)],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "fluid: stokes, wall" in done.stdout.splitlines()
+    assert "active effects: elasticity, stokes, point-force" in done.stdout.splitlines()
