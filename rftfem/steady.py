@@ -102,9 +102,15 @@ def group_of(column: str) -> str:
     the column alone."""
     if is_position(column):
         return "position"
-    if column in ("elastic_energy", "kinetic_energy", "drag_power"):
+    if column in ("elastic_energy", "kinetic_energy", "drag_power", "fluid_power"):
         return "energy"
     return column
+
+
+def is_resultant(column: str) -> bool:
+    """Whether a column is a component of a resultant force or moment (``fluid_Fx``,
+    a reaction's ``NAME_Mz``)."""
+    return column[-3:-2] == "_" and column[-2] in "FM" and column[-1] in "xyz"
 
 
 def is_position(column: str) -> bool:
@@ -171,6 +177,10 @@ class SteadyWatch:
         self.period, self.tolerance, self.columns = period, tolerance, columns
         self.method = method
         self.position = np.array([is_position(c) for c in columns])
+        #: the columns the test reads: not the resultants (the liquid's, a reaction's),
+        #: which follow from the state the others watch and about zero are round-off
+        #: with no scale of their own (a free swimmer's net force)
+        self.decides = np.array([not is_resultant(c) for c in columns], dtype=bool)
         self.means, self.swings, self.estimates = [], [], []
         #: the result once steady (or at the end): dict for summary.json
         self.result = None
@@ -199,7 +209,7 @@ class SteadyWatch:
         # steady where its change over the period is below the tolerance
         change = np.abs(watched[-1] - watched[-2])
         agreement = np.where(np.isfinite(agreement), agreement, change)
-        steady = bool(np.all(agreement <= self.tolerance * scale))
+        steady = bool(np.all((agreement <= self.tolerance * scale)[self.decides]))
         self._keep(now, agreement, watched[-1], steady)
         return steady
 
@@ -208,7 +218,8 @@ class SteadyWatch:
         energies, with the drag power times the period; each other column alone):
         below it a column is round-off about zero."""
         groups = [group_of(c) for c in self.columns]
-        factor = np.array([self.period if c == "drag_power" else 1.0 for c in self.columns])
+        factor = np.array([self.period if c in ("drag_power", "fluid_power") else 1.0
+                           for c in self.columns])
         sized = size * factor
         out = np.empty_like(size)
         for g in set(groups):
