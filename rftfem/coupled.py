@@ -56,6 +56,30 @@ class CoupledTangent:
                 self.A.setValues(rows, rows, total[i], addv=PETSc.InsertMode.ADD)
         self.A.assemble()
 
+    def lift(self, b, x0, scale: float):
+        """``b −= scale · T (g − x0)`` on the free rows: the nonlocal tangent's part of
+        the lifting of the Dirichlet values ``g`` (the assembled part is dolfinx's
+        ``apply_lifting``), at the current iterate."""
+        from rftfem import compat
+
+        d = b.duplicate()
+        with d.localForm() as local:
+            local.set(0.0)
+        compat.set_bc(d, self.model.bcs, x0, 1.0)  # g − x0 on the Dirichlet rows
+        held = d.getArray(readonly=True).reshape(-1, self.block)[:, :3] * ~self.free
+        d.destroy()
+        if not self.model.comm.allreduce(bool(np.any(held))):
+            return
+        scale_f = 1.0 - float(self.model.coef["alpha_f"].value)
+        xg = self._gather(held).ravel()
+        extra = np.zeros((self.n_owned, 3))
+        for comp in self.components:
+            comp.prepare_tangent(scale_f)
+            extra += comp.tangent_product(xg).reshape(-1, 3)[comp.offset:comp.offset
+                                                             + self.n_owned]
+        y = b.getArray().reshape(-1, self.block)
+        y[:, :3] -= scale * extra * self.free
+
     def _gather(self, owned):
         return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
 

@@ -171,6 +171,8 @@ class StepSolver:
                     local.set(0.0)
                 compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
                 self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
+                if self.coupled is not None:
+                    self.coupled.lift(self.work, x, -1.0)
                 b.axpy(1.0, self.work)
                 self._count("lifting", t1)
                 t0 += _time.perf_counter() - t1  # not a residual's time
@@ -213,6 +215,8 @@ class StepSolver:
         self.A.zeroEntries()
         compat.assemble_matrix(self.A, self.model.jacobian_form, self.model.bcs)
         self.A.assemble()
+        if self.coupled is not None:
+            self.coupled.update()
         if diagnostic:
             self.timings["jacobian"] += _time.perf_counter() - t0
         else:
@@ -230,9 +234,11 @@ class StepSolver:
                 local.set(0.0)
         compat.apply_lifting(self.b, self.model.jacobian_form, bcs, self.work, 1.0)
         self.b.ghostUpdate(addv=_ADD, mode=_REVERSE)
+        if self.coupled is not None:
+            self.coupled.lift(self.b, self.work, 1.0)
         compat.set_bc(self.b, bcs)
         ksp = self.snes.getKSP()
-        ksp.setOperators(self.A, self.A)
+        ksp.setOperators(self.coupled.J if self.coupled is not None else self.A, self.A)
         ksp.solve(self.b, self.work)
         self.work.ghostUpdate(addv=_INSERT, mode=_FORWARD)
         with self.work.localForm() as local:

@@ -175,16 +175,20 @@ class Stokes(Effect):
         x = self._last[0]
         res = self.resistance(x)
         cv = float(self.model.coef["cv"].value)
-        G = stokeslets.position_derivative(x, self.delta, self.viscosity, F)
-        if self.wall is not None:
-            G += self.wall.position_derivative(x, self.viscosity, F)
-        self._tangent = (res, cv, G, scale)
+        kept = self._tangent
+        if kept is not None and kept[0] is res and kept[4] is F:
+            G = kept[2]  # the same iterate (a lifting made it): G depends on x and F only
+        else:
+            G = stokeslets.position_derivative(x, self.delta, self.viscosity, F)
+            if self.wall is not None:
+                G += self.wall.position_derivative(x, self.viscosity, F)
+        self._tangent = (res, cv, G, scale, F)
         lumped = res.lumped()[self.offset:self.offset + self.n_owned]
         return scale * cv * lumped
 
     def tangent_product(self, du: np.ndarray) -> np.ndarray:
         """``scale · M⁻¹ (c_v du − G du)`` for a global displacement direction (3N,)."""
-        res, cv, G, scale = self._tangent
+        res, cv, G, scale, _ = self._tangent
         return scale * res.solve(cv * du - G @ du)
 
     # --- outputs ----------------------------------------------------------
