@@ -210,7 +210,9 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
                      f" dofs on {comm.size} process(es)")
-        for line in scales.aliasing_warnings(scene):
+        for line in scales.aliasing_warnings(scene) + [
+                line for comp in self.model.components
+                for line in getattr(comp, "warnings", lambda: [])()]:
             progress.warn("warning: " + line)
         logs = self._open_outputs()
         try:

@@ -30,6 +30,10 @@ from rftfem.errors import SceneError
 from . import fluid
 from .base import Effect
 
+#: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
+#: at 5000, a Cholesky factorisation of ~1e12 flops a residual
+DENSE_NODES = 5000
+
 
 class Stokes(Effect):
     name = "stokes"
@@ -124,6 +128,16 @@ class Stokes(Effect):
                              f"{len(heights)} nodes are on or behind the plane (lowest at "
                              f"{heights.min():.4g} along the normal); the normal points "
                              "towards the body's side")
+
+    def warnings(self) -> list[str]:
+        """A body too large for the dense operator (docs/stokes.md, Cost)."""
+        n = len(self.X)
+        if n <= DENSE_NODES:
+            return []
+        gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
+        return [f'fluid.model = "stokes": {n} nodes make a dense operator of '
+                f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
+                f"meant for up to {DENSE_NODES} nodes in this version"]
 
     # --- state ------------------------------------------------------------
 
