@@ -118,9 +118,12 @@ def tables(out: Path):
 
 
 def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
-    """Per column, the largest magnitude of the vector it is a component of (a probe's
-    ux, uy, uz; centroid_x, _y, _z; a resultant's Fx, Fy, Fz; ...) or of the column itself: what a relative
-    difference is measured against (a component that stays ~0 differs by round-off).
+    """Per column, what a relative difference is measured against (a component that
+    stays ~0 differs by round-off): the largest magnitude of the vector it is a
+    component of (a probe's ux, uy, uz; centroid_x, _y, _z; ...) or of the column
+    itself.  A resultant's force and moment (``fluid_Fx`` … ``fluid_Mz``, a
+    reaction's) share one scale: the net force on a body turning in place is
+    round-off, measured against its moment.
     Energies share one scale, the dissipated power's over the run included: the
     elastic energy of a body that turns rigidly is round-off (1e-12 against 1e-2 on
     the plate) and after a restart it differs in its 7th digit while every
@@ -128,7 +131,7 @@ def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
     header = path.read_text().splitlines()[0].split(",")
     power = ("drag_power", "fluid_power")
     groups = [h.rsplit("_", 1)[0] if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
-              else h[:-1] if h[-2:] in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+              else h[:-2] if h[-2:] in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
               else "energy" if h.endswith("_energy") or h in power else h
               for h in header]
     size = np.abs(table).max(axis=0)
