@@ -71,11 +71,7 @@ class Drag(Effect):
         return self._term(drag.drag_work, self.model.velocity(k.u), k.du)
 
     def force_scales(self):
-        """Drag on the whole body moving at the fastest prescribed speed."""
-        motion = self.model.get("prescribed-motion")
-        if motion is None:
-            return []
-        return [max(self.C) * self.model.area() * motion.speed_scale()]
+        return fluid.force_scales(self)
 
     def _assembled(self, name, build):
         m = self.model

@@ -114,4 +114,14 @@ def body_extents(x: np.ndarray, axis) -> tuple[float, float]:
     return float(np.ptp(along)), float(np.ptp(across))
 
 
+def force_scales(component) -> list[float]:
+    """A liquid component's force scale for the Newton tolerances: its drag
+    coefficients ``C`` (the slender-body ones of a Stokes flow's viscosity) on the
+    whole body moving at the fastest prescribed speed."""
+    motion = component.model.get("prescribed-motion")
+    if motion is None:
+        return []
+    return [max(component.C) * component.model.area() * motion.speed_scale()]
+
+
 RESULTANT_COLUMNS = ["fluid_Fx", "fluid_Fy", "fluid_Fz", "fluid_Mx", "fluid_My", "fluid_Mz"]

@@ -208,10 +208,7 @@ class Stokes(Effect):
     # --- outputs ----------------------------------------------------------
 
     def force_scales(self):
-        motion = self.model.get("prescribed-motion")
-        if motion is None:
-            return []
-        return [max(self.C) * self.model.area() * motion.speed_scale()]
+        return fluid.force_scales(self)
 
     def _stored(self):
         """Positions, velocities and forces of the last converged state (``u_n``, ``v_n``)."""
