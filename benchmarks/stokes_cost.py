@@ -1,4 +1,4 @@
-"""What the dense Stokes operator costs against the number of nodes.
+"""What the Stokes operator costs against the number of nodes, dense and matrix-free.
 
 For a flat square plate of N nodes (a uniform grid, the blob its spacing) it
 times the three pieces of a Newton iteration with ``[fluid] model = "stokes"``
@@ -7,11 +7,18 @@ factorisation (every residual at new positions), the position derivative G
 (every tangent), and one tangent product (every GMRES iteration). Printed: the
 seconds of each per N, and the exponent of a power law fitted over the sizes.
 
-    .venv/bin/python benchmarks/stokes_cost.py                 # 500 … 3000 nodes
-    .venv/bin/python benchmarks/stokes_cost.py --nodes 500 1000 2000
+With ``--fast`` it times the matrix-free operator instead (``[fluid] operator =
+"fmm"``, rftfem/stokes_fmm.py): setting it up at new positions (near pairs and the
+clusters' Cholesky factors), one product M F (one fast multipole call), one solve
+M⁻¹ v by preconditioned conjugate gradients (a residual; its iterations printed),
+and the position derivative (set up once per tangent, then one product per GMRES
+iteration).  A tangent product is a solve plus a G product.
 
-The dense operator is meant for up to a few thousand nodes; the fast multipole
-path for larger bodies is not in this version.
+    .venv/bin/python benchmarks/stokes_cost.py                 # dense, 500 … 3000 nodes
+    .venv/bin/python benchmarks/stokes_cost.py --nodes 500 1000 2000
+    .venv/bin/python benchmarks/stokes_cost.py --fast          # 500 … 20 000 nodes
+
+The fast multipole library runs threaded: set OMP_NUM_THREADS to fix the threads.
 """
 
 from __future__ import annotations
@@ -51,8 +58,13 @@ def best(f, repeat: int = 2) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--nodes", type=int, nargs="+", default=[500, 1000, 2000, 3000])
+    parser.add_argument("--nodes", type=int, nargs="+")
+    parser.add_argument("--fast", action="store_true",
+                        help="the matrix-free operator (fast multipoles) instead of the dense one")
     args = parser.parse_args(argv)
+    if args.fast:
+        return fast(args.nodes or [500, 1000, 2000, 5000, 10000, 20000])
+    args.nodes = args.nodes or [500, 1000, 2000, 3000]
     rng = np.random.default_rng(0)
     rows = []
     print(f"{'nodes':>6} {'mobility+Cholesky s':>20} {'G s':>8} {'product s':>10}")
@@ -78,11 +90,54 @@ def main(argv=None) -> int:
         t_prod = best(lambda: res.solve(du - G @ du), repeat=5)
         rows.append((len(x), t_factor, t_g, t_prod))
         print(f"{len(x):6d} {t_factor:20.3f} {t_g:8.3f} {t_prod:10.4f}", flush=True)
-    if len(rows) >= 2:
-        a = np.array(rows)
-        for k, name in ((1, "mobility+Cholesky"), (2, "G"), (3, "product")):
-            slope = np.polyfit(np.log(a[:, 0]), np.log(a[:, k]), 1)[0]
-            print(f"exponent of {name}: {slope:.2f}")
+    exponents(rows, ["mobility+Cholesky", "G", "product"])
+    return 0
+
+
+def exponents(rows, names):
+    """The power of N fitted to each column over the sizes (printed)."""
+    if len(rows) < 2:
+        return
+    a = np.array(rows, dtype=float)
+    for k, name in enumerate(names, start=1):
+        slope = np.polyfit(np.log(a[:, 0]), np.log(a[:, k]), 1)[0]
+        print(f"exponent of {name}: {slope:.2f}")
+
+
+def fast(sizes) -> int:
+    """The matrix-free operator's pieces per N (the plate's free edges keep half blobs)."""
+    from rftfem import stokes_fmm
+
+    rng = np.random.default_rng(0)
+    rows = []
+    print(f"{'nodes':>6} {'set-up s':>9} {'M F s':>7} {'solve s':>8} {'CG its':>6} "
+          f"{'G set-up s':>10} {'G dx s':>7} {'vs dense':>9}")
+    for n in sizes:
+        x, h = plate(n)
+        x[:, 2] = 0.02 * np.sin(3.0 * x[:, 0])  # not exactly flat
+        delta = np.full(len(x), h)
+        edge = np.isclose(x[:, :2], 0.0).any(axis=1) | np.isclose(x[:, :2], 1.0).any(axis=1)
+        delta[edge] *= 0.5
+        v = rng.standard_normal(3 * len(x))
+        t0 = time.perf_counter()
+        res = stokes_fmm.FastResistance(x, delta, 1.0)
+        t_setup = time.perf_counter() - t0
+        t_apply = best(lambda: res.apply(v), repeat=1)
+        t0 = time.perf_counter()
+        F = res.solve(v)
+        t_solve = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        G = res.position_operator(F)
+        t_gset = time.perf_counter() - t0
+        t_g = best(lambda: G @ v, repeat=1)
+        check = ""
+        if len(x) <= 2100:  # against the dense Cholesky
+            dense = stokeslets.Resistance(x, delta, 1.0).solve(v)
+            check = f"{np.linalg.norm(F - dense) / np.linalg.norm(dense):9.1e}"
+        rows.append((len(x), t_setup, t_apply, t_solve, t_gset, t_g))
+        print(f"{len(x):6d} {t_setup:9.2f} {t_apply:7.3f} {t_solve:8.2f} "
+              f"{res.iterations[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}", flush=True)
+    exponents(rows, ["set-up", "M F", "solve", "G set-up", "G dx"])
     return 0
 
 

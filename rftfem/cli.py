@@ -236,6 +236,8 @@ def _cmd_check(args, console: _Console) -> int:
     console.out("active effects: " + ", ".join(effects))
     if scene.get("fluid"):
         wall = ", wall" if scene["fluid"].get("wall") else ""
+        operator = scene["fluid"].get("operator", "auto")
+        wall += f", {operator} operator" if operator != "auto" else ""
         console.out(f"fluid: {scene['fluid'].get('model', 'rft')}{wall}")
     console.out(f"scheme: {scene['time']['scheme']}")
     if groups:

@@ -109,20 +109,31 @@ def _pairs(x, delta, rows):
     return r, dist / d, d
 
 
-def mobility(x: np.ndarray, delta: np.ndarray, viscosity: float) -> np.ndarray:
-    """The dense ``3N × 3N`` matrix ``M`` with ``u = M F`` (node by node, xyz)."""
+def mobility(x: np.ndarray, delta: np.ndarray, viscosity: float, rows: slice | None = None
+             ) -> np.ndarray:
+    """The dense ``3N × 3N`` matrix ``M`` with ``u = M F`` (node by node, xyz), or
+    its rows of the target nodes ``rows`` (``3 len(rows) × 3N``)."""
     x = np.asarray(x, dtype=float)
     n = len(x)
-    M = np.empty((n, 3, n, 3))
-    for rows in _chunks(n):
-        r, rho, d = _pairs(x, delta, rows)
+    lo, hi = _bounds(rows, n)
+    M = np.empty((hi - lo, 3, n, 3))
+    for chunk in _chunks(hi - lo, total=n):
+        r, rho, d = _pairs(x, delta, _shift(chunk, lo))
         f0, f1, _, _ = radial(rho)
         a, b = f0 / d, f1 / d ** 3
         block = b[:, :, None, None] * r[:, :, :, None] * r[:, :, None, :]
         block += a[:, :, None, None] * np.eye(3)
-        M[rows] = block.transpose(0, 2, 1, 3)
+        M[chunk] = block.transpose(0, 2, 1, 3)
     M /= 8 * pi * viscosity
-    return M.reshape(3 * n, 3 * n)
+    return M.reshape(3 * (hi - lo), 3 * n)
+
+
+def _bounds(rows: slice | None, n: int) -> tuple[int, int]:
+    return (0, n) if rows is None else (rows.start, rows.stop)
+
+
+def _shift(chunk: slice, lo: int) -> slice:
+    return slice(chunk.start + lo, chunk.stop + lo)
 
 
 def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
@@ -131,7 +142,7 @@ def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
     F = np.asarray(forces, dtype=float).reshape(-1, 3)
     idx = np.arange(len(x)) if targets is None else np.asarray(targets)
     out = np.empty((len(idx), 3))
-    for rows in _chunks(len(idx)):
+    for rows in _chunks(len(idx), total=len(x)):
         r, rho, d = _pairs(x, delta, idx[rows])
         f0, f1, _, _ = radial(rho)
         rF = np.einsum("ijk,jk->ij", r, F)
@@ -140,8 +151,9 @@ def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
     return out / (8 * pi * viscosity)
 
 
-def position_derivative(x, delta, viscosity, forces) -> np.ndarray:
-    """``G = ∂u/∂x`` at fixed forces (dense ``3N × 3N``): ``du = M dF + G dx``.
+def position_derivative(x, delta, viscosity, forces, rows: slice | None = None) -> np.ndarray:
+    """``G = ∂u/∂x`` at fixed forces (dense ``3N × 3N``, or the rows of the target
+    nodes ``rows``): ``du = M dF + G dx``.
 
     With ``T_ij = ∂(S_δ(r) F_j)/∂r`` at ``r = x_i − x_j``,
     ``T = (a′/r) F⊗r + (b′/r)(r·F) r⊗r + b r⊗F + b (r·F) I``,
@@ -149,10 +161,12 @@ def position_derivative(x, delta, viscosity, forces) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     F = np.asarray(forces, dtype=float).reshape(-1, 3)
     n = len(x)
-    G = np.empty((n, 3, n, 3))
+    lo, hi = _bounds(rows, n)
+    G = np.empty((hi - lo, 3, n, 3))
     eye = np.eye(3)
-    for rows in _chunks(n):
-        r, rho, d = _pairs(x, delta, rows)
+    for chunk in _chunks(hi - lo, total=n):
+        targets = _shift(chunk, lo)
+        r, rho, d = _pairs(x, delta, targets)
         _, f1, f2, f3 = radial(rho)
         b, da, db = f1 / d ** 3, f2 / d ** 3, f3 / d ** 5
         rF = np.einsum("ijk,jk->ij", r, F)
@@ -162,11 +176,10 @@ def position_derivative(x, delta, viscosity, forces) -> np.ndarray:
         T += (b * rF)[:, :, None, None] * eye
         T = -T
         diag = -T.sum(axis=1)
-        local = np.arange(rows.start, rows.stop)
-        T[np.arange(len(local)), local] += diag
-        G[rows] = T.transpose(0, 2, 1, 3)
+        T[np.arange(chunk.stop - chunk.start), np.arange(targets.start, targets.stop)] += diag
+        G[chunk] = T.transpose(0, 2, 1, 3)
     G /= 8 * pi * viscosity
-    return G.reshape(3 * n, 3 * n)
+    return G.reshape(3 * (hi - lo), 3 * n)
 
 
 # --- a no-slip plane wall -----------------------------------------------------
@@ -209,39 +222,43 @@ class Wall:
         """``Σ_j W(x_i, y_j) F_j`` (without 1/8πμ) at every target, (N_t, 3)."""
         return self._all_pairs(targets, sources, forces).sum(axis=1)
 
-    def mobility(self, x, viscosity) -> np.ndarray:
-        """The images' part of the dense mobility (3N × 3N)."""
+    def mobility(self, x, viscosity, rows: slice | None = None) -> np.ndarray:
+        """The images' part of the dense mobility (3N × 3N, or the rows of ``rows``)."""
         x = np.asarray(x, dtype=float)
         n = len(x)
-        M = np.empty((n, 3, n, 3))
-        for rows in _chunks(n):
+        lo, hi = _bounds(rows, n)
+        M = np.empty((hi - lo, 3, n, 3))
+        for chunk in _chunks(hi - lo, total=n):
+            targets = x[_shift(chunk, lo)]
             for k in range(3):  # unit forces along k at every source
                 unit = np.zeros((n, 3))
                 unit[:, k] = 1.0
-                M[rows, :, :, k] = self._all_pairs(x[rows], x, unit).transpose(0, 2, 1)
-        return M.reshape(3 * n, 3 * n) / (8 * pi * viscosity)
+                M[chunk, :, :, k] = self._all_pairs(targets, x, unit).transpose(0, 2, 1)
+        return M.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
-    def position_derivative(self, x, viscosity, forces) -> np.ndarray:
-        """The images' part of ``G = ∂u/∂x`` at fixed forces, by complex steps
-        (exact to round-off): each pair's velocity differentiated in its target's
-        and in its source's position."""
+    def position_derivative(self, x, viscosity, forces, rows: slice | None = None) -> np.ndarray:
+        """The images' part of ``G = ∂u/∂x`` at fixed forces (or its rows of ``rows``),
+        by complex steps (exact to round-off): each pair's velocity differentiated in
+        its target's and in its source's position."""
         x = np.asarray(x, dtype=float)
         F = np.asarray(forces, dtype=float).reshape(-1, 3)
         n = len(x)
-        G = np.zeros((n, 3, n, 3))
+        lo, hi = _bounds(rows, n)
+        G = np.zeros((hi - lo, 3, n, 3))
         step = 1e-30
-        for rows in _chunks(n, 60_000):
-            idx = np.arange(rows.start, rows.stop)
+        for chunk in _chunks(hi - lo, 60_000, total=n):
+            local = np.arange(chunk.start, chunk.stop)
+            targets = x[_shift(chunk, lo)]
             for l in range(3):
                 dx = np.zeros(3, dtype=complex)
                 dx[l] = 1j * step
                 # the target moves: every source's image velocity at node i changes
-                vt = self._all_pairs(x[rows] + dx, x, F).imag / step
-                G[idx, :, idx, l] += vt.sum(axis=1)
+                vt = self._all_pairs(targets + dx, x, F).imag / step
+                G[local, :, local + lo, l] += vt.sum(axis=1)
                 # the source j moves: node i's velocity from j's image changes
-                vs = self._all_pairs(x[rows], x + dx, F).imag / step
-                G[rows, :, :, l] += vs.transpose(0, 2, 1)
-        return G.reshape(3 * n, 3 * n) / (8 * pi * viscosity)
+                vs = self._all_pairs(targets, x + dx, F).imag / step
+                G[chunk, :, :, l] += vs.transpose(0, 2, 1)
+        return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def _all_pairs(self, targets, sources, forces):
         """Per pair (N_t, N_s, 3): each source's image velocity at each target
@@ -269,9 +286,10 @@ class Wall:
         return u @ self.Q
 
 
-def _chunks(n: int, pairs: int = 250_000):
-    """Row slices of about ``pairs`` node pairs each (bounded temporary memory)."""
-    step = max(1, pairs // max(n, 1))
+def _chunks(n: int, pairs: int = 250_000, total: int | None = None):
+    """Slices of ``n`` rows of about ``pairs`` node pairs each (bounded temporary
+    memory), each row pairing with ``total`` nodes (default ``n``)."""
+    step = max(1, pairs // max(total or n, 1))
     return [slice(i, min(i + step, n)) for i in range(0, n, step)]
 
 
@@ -279,25 +297,34 @@ class Resistance:
     """The factorised mobility of one configuration: forces from velocities.
 
     Cholesky of the symmetric positive definite ``M`` (LU if round-off breaks it);
-    with a ``wall``, ``M`` includes its images."""
+    with a ``wall``, ``M`` includes its images.  Under MPI (``comm`` of more than
+    one process) each process evaluates the kernel on its ``rows`` (a slice of
+    target nodes, the slices in rank order covering all), the rows are gathered
+    and every process factorises the same matrix; the position derivative stays
+    distributed by rows."""
 
-    def __init__(self, x, delta, viscosity, wall: Wall | None = None):
+    def __init__(self, x, delta, viscosity, wall: Wall | None = None, comm=None,
+                 rows: slice | None = None):
         import scipy.linalg as sl
 
         self.x = np.array(x, dtype=float)
-        self.delta, self.viscosity = delta, viscosity
-        M = mobility(self.x, delta, viscosity)
-        if wall is not None:
-            M += wall.mobility(self.x, viscosity)
+        self.delta, self.viscosity, self.wall = delta, viscosity, wall
+        parallel = comm is not None and comm.size > 1
+        self.comm = comm if parallel else None
+        self.rows = rows if parallel else None
         try:
-            self._cho = sl.cho_factor(M, lower=True, overwrite_a=True, check_finite=False)
+            self._cho = sl.cho_factor(self._matrix(), lower=True, overwrite_a=True,
+                                      check_finite=False)
             self._lu = None
         except np.linalg.LinAlgError:
             self._cho = None
-            M = mobility(self.x, delta, viscosity)
-            if wall is not None:
-                M += wall.mobility(self.x, viscosity)
-            self._lu = sl.lu_factor(M, check_finite=False)
+            self._lu = sl.lu_factor(self._matrix(), check_finite=False)
+
+    def _matrix(self) -> np.ndarray:
+        M = mobility(self.x, self.delta, self.viscosity, self.rows)
+        if self.wall is not None:
+            M += self.wall.mobility(self.x, self.viscosity, self.rows)
+        return gather_rows(M, self.comm)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``M⁻¹ rhs`` (``rhs`` of length 3N, or 3N × k)."""
@@ -313,7 +340,41 @@ class Resistance:
         the local drag that preconditions the coupled tangent."""
         n = len(self.x)
         ones = np.tile(np.eye(3), (n, 1))
-        blocks = self.solve(ones).reshape(n, 3, 3)
-        blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
-        w, v = np.linalg.eigh(blocks)
-        return np.einsum("nij,nj,nkj->nik", v, np.clip(w, 0.0, None), v)
+        return lumped_blocks(self.solve(ones).reshape(n, 3, 3))
+
+    def position_operator(self, forces):
+        """``G = ∂(M F)/∂x`` at the fixed ``forces`` (dense, the images' part included;
+        under MPI an operator holding this process's rows)."""
+        G = position_derivative(self.x, self.delta, self.viscosity, forces, self.rows)
+        if self.wall is not None:
+            G += self.wall.position_derivative(self.x, self.viscosity, forces, self.rows)
+        return G if self.comm is None else RowBlocks(G, self.comm)
+
+
+class RowBlocks:
+    """A matrix distributed by rows in rank order: ``A @ v`` gathers the rows' products."""
+
+    def __init__(self, local: np.ndarray, comm):
+        self.local, self.comm = local, comm
+
+    def __matmul__(self, v):
+        return gather_rows(self.local @ v, self.comm)
+
+
+def gather_rows(local: np.ndarray, comm) -> np.ndarray:
+    """Every process's rows of an array stacked in rank order, on every process."""
+    if comm is None or comm.size == 1:
+        return local
+    counts = comm.allgather(local.shape[0])
+    width = int(np.prod(local.shape[1:], dtype=int))
+    out = np.empty((sum(counts),) + local.shape[1:])
+    comm.Allgatherv(np.ascontiguousarray(local, dtype=float),
+                    [out, [c * width for c in counts]])
+    return out
+
+
+def lumped_blocks(blocks: np.ndarray) -> np.ndarray:
+    """Nodal 3 × 3 ``blocks`` symmetrised, their eigenvalues clipped at 0."""
+    blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+    w, v = np.linalg.eigh(blocks)
+    return np.einsum("nij,nj,nkj->nik", v, np.clip(w, 0.0, None), v)

@@ -45,6 +45,12 @@ REF_APT=(
 
 CUR_VENV="$ROOT/.venv-current"
 CUR_PIP=(dolfinx-solver-real gmsh h5py hypothesis)
+# The fast multipole library of the matrix-free Stokes operator (rftfem/stokes_fmm.py).
+# Its wheels declare numpy >= 1.26 but run on Debian's numpy 1.24 (built against
+# numpy 2's backward-compatible ABI; tests/test_stokes.py checks it against the dense
+# operator), so the reference stack takes it without dependencies; the current
+# stack takes it through the project's `fast` extra.
+FMM_PIP="fmm3dpy==2.1.0"
 # Shared libraries the gmsh wheel's libgmsh links against (readelf NEEDED),
 # mapped to their Debian packages, plus a C compiler and libc headers for the
 # FFCx just-in-time compilation of forms.
@@ -139,7 +145,7 @@ setup_reference() {
     [[ -x $REF_PYTHON ]] || fail "$REF_PYTHON not found after installing the Debian packages"
 
     local want
-    want="$(stamp_of reference "$REF_PYTHON" "$ROOT")"
+    want="$(stamp_of reference "$REF_PYTHON" "$ROOT" "$FMM_PIP")"
     local check="sys.exit(os.path.realpath(sys.base_prefix) != '/usr')"
     if venv_ok "$REF_VENV" "$check" && [[ -z ${RFTFEM_SETUP_FORCE:-} ]] \
         && [[ "$(cat "$REF_VENV/$STAMP_NAME" 2>/dev/null)" == "$want" ]]; then
@@ -172,9 +178,11 @@ PY
     step "reference: pip install -e '.[test]' into .venv (constraints: $(tr '\n' ' ' <"$constraints"))"
     "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-build-isolation \
         -c "$constraints" -e '.[test]'
+    step "reference: pip install --no-deps $FMM_PIP into .venv"
+    "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-deps "$FMM_PIP"
 
     step "reference: checking that dolfinx, gmsh, pyvista and rftfem import"
-    "$REF_VENV/bin/python" -c 'import rftfem.render, dolfinx, gmsh, petsc4py, mpi4py; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
+    "$REF_VENV/bin/python" -c 'import rftfem.render, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$REF_VENV/$STAMP_NAME"
     say "reference: ready ($((SECONDS - t)) s)"
@@ -252,11 +260,11 @@ setup_current() {
     fi
     rm -f "$CUR_VENV/$STAMP_NAME"
 
-    step "current: pip install -e '.[test]' ${CUR_PIP[*]} into .venv-current"
-    "$CUR_VENV/bin/python" -m pip install "${pip_flags[@]}" -e '.[test]' "${CUR_PIP[@]}"
+    step "current: pip install -e '.[test,fast]' ${CUR_PIP[*]} into .venv-current"
+    "$CUR_VENV/bin/python" -m pip install "${pip_flags[@]}" -e '.[test,fast]' "${CUR_PIP[@]}"
 
     step "current: checking that dolfinx_solver, dolfinx, gmsh, pyvista and rftfem import"
-    "$CUR_VENV/bin/python" -c 'import rftfem.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
+    "$CUR_VENV/bin/python" -c 'import rftfem.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$CUR_VENV/$STAMP_NAME"
     say "current: ready ($((SECONDS - t)) s)"

@@ -17,6 +17,7 @@ from rftfem.errors import SceneError
 from rftfem.schema import NONNEGATIVE, POSITIVE, Leaf, Str, Table, Vec
 
 MODELS = ("rft", "stokes")
+OPERATORS = ("auto", "dense", "fmm")
 
 SCHEMA = Table({
     "model": Leaf(Str(MODELS), "rft",
@@ -42,6 +43,13 @@ SCHEMA = Table({
                                        "on the body's free edges",
                            doc='The blob size δ of the regularized Stokeslets (model = '
                                '"stokes"), the same at every node.'),
+    "operator": Leaf(Str(OPERATORS), "auto",
+                     doc='How the Stokes operator is applied (model = "stokes"): "dense" '
+                         "assembles and factorises the mobility (exact, memory 144 N² bytes "
+                         'for N nodes); "fmm" is matrix-free, fast multipoles (fmm3dpy) with '
+                         "a local blob correction and preconditioned conjugate gradients (no "
+                         'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
+                         "(docs/stokes.md §Cost and scale)."),
     "wall": Table({
         "point": Leaf(Vec(), required=True, unit="length",
                       doc="A point of the no-slip plane."),
@@ -70,12 +78,16 @@ def check(scene: dict) -> None:
                              "has no drag coefficients); give fluid.viscosity only")
         if fluid.get("viscosity") is None:
             raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
+        if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
+            raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
+                             '"dense" (or "auto") with fluid.wall')
     else:
         if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
             raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
                              '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
-        for key, what in (("regularization", "blob"), ("wall", "wall")):
-            if fluid.get(key) is not None:
+        for key, what in (("regularization", "blob"), ("wall", "wall"),
+                          ("operator", "nonlocal operator")):
+            if fluid.get(key) not in (None, "auto"):
                 raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '
                                  f"has no {what})")
 

@@ -16,15 +16,19 @@ takes it through ``add_nodal_forces`` and the Newton tangent through
 applied matrix-free by the solver (``rftfem.coupled``) around a preconditioner made
 of the sparse tangent plus the lumped blocks of ``M⁻¹`` (a local drag).
 
-Every process holds the whole body's nodes (gathered in rank order) and makes the
-same dense solve; each adds the forces of the nodes it owns.
+Every process holds the whole body's nodes (gathered in rank order); each
+evaluates the kernel for the nodes it owns (the mobility's rows, gathered, and the
+position derivative's, kept) and makes the same dense factorisation; each adds
+the forces of the nodes it owns.  The matrix-free
+operator (``fluid.operator = "fmm"``, ``rftfem.stokes_fmm``) runs on the first
+process only, threaded, and its results are broadcast.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from rftfem import stokeslets
+from rftfem import stokes_fmm, stokeslets
 from rftfem.errors import SceneError
 
 from . import fluid
@@ -67,6 +71,8 @@ class Stokes(Effect):
         self.wall = stokeslets.Wall(wall["point"], wall["normal"]) if wall else None
         if self.wall is not None:
             self._check_wall()
+        #: "dense" or "fmm": how the operator is applied
+        self.operator = self._choose_operator(given.get("operator", "auto"))
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
         #: slender-body drag coefficients of the same viscosity (time scales only)
         self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
@@ -129,10 +135,22 @@ class Stokes(Effect):
                              f"{heights.min():.4g} along the normal); the normal points "
                              "towards the body's side")
 
+    def _choose_operator(self, asked: str) -> str:
+        """"dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
+        nodes without a wall, when fmm3dpy is installed)."""
+        if asked == "auto":
+            big = len(self.X) > DENSE_NODES and self.wall is None
+            return "fmm" if big and stokes_fmm.available() else "dense"
+        if asked == "fmm" and not stokes_fmm.available():
+            raise SceneError('fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
+                             "is not installed; run the README's set-up, or use "
+                             'operator = "dense"')
+        return asked
+
     def warnings(self) -> list[str]:
         """A body too large for the dense operator (docs/stokes.md, Cost)."""
         n = len(self.X)
-        if n <= DENSE_NODES:
+        if n <= DENSE_NODES or self.operator == "fmm":
             return []
         gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
         return [f'fluid.model = "stokes": {n} nodes make a dense operator of '
@@ -161,9 +179,14 @@ class Stokes(Effect):
                 # the body has reached the wall: no flow state exists; a residual of
                 # NaN makes the step fail and be cut (the solver says it is not finite)
                 self._resistance = _Crossed(x)
+            elif self.operator == "fmm":
+                self._resistance = _OnFirst(
+                    self.model.comm, x,
+                    lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity))
             else:
-                self._resistance = stokeslets.Resistance(x, self.delta, self.viscosity,
-                                                         self.wall)
+                self._resistance = stokeslets.Resistance(
+                    x, self.delta, self.viscosity, self.wall, comm=self.model.comm,
+                    rows=slice(self.offset, self.offset + self.n_owned))
         return self._resistance
 
     def nodal_forces(self) -> np.ndarray:
@@ -193,9 +216,7 @@ class Stokes(Effect):
         if kept is not None and kept[0] is res and kept[4] is F:
             G = kept[2]  # the same iterate (a lifting made it): G depends on x and F only
         else:
-            G = stokeslets.position_derivative(x, self.delta, self.viscosity, F)
-            if self.wall is not None:
-                G += self.wall.position_derivative(x, self.viscosity, F)
+            G = res.position_operator(F)
         self._tangent = (res, cv, G, scale, F)
         lumped = res.lumped()[self.offset:self.offset + self.n_owned]
         return scale * cv * lumped
@@ -238,3 +259,35 @@ class _Crossed:
 
     def lumped(self):
         return np.zeros((len(self.x), 3, 3))
+
+
+class _OnFirst:
+    """A resistance made and applied on the first process only, its results
+    broadcast: the matrix-free operator is threaded, and every process must see
+    the same forces to round-off."""
+
+    def __init__(self, comm, x, make):
+        self.comm, self.x = comm, np.array(x)
+        self.res = make() if comm.rank == 0 else None
+
+    def _first(self, compute):
+        value = compute() if self.comm.rank == 0 else None
+        return self.comm.bcast(value, root=0) if self.comm.size > 1 else value
+
+    def solve(self, rhs):
+        return self._first(lambda: self.res.solve(rhs))
+
+    def lumped(self):
+        return self._first(self.res.lumped if self.res is not None else None)
+
+    def position_operator(self, forces):
+        return _FirstProduct(self, None if self.res is None
+                             else self.res.position_operator(forces))
+
+
+class _FirstProduct:
+    def __init__(self, owner: _OnFirst, operator):
+        self.owner, self.operator = owner, operator
+
+    def __matmul__(self, dx):
+        return self.owner._first(lambda: self.operator @ dx)
