@@ -17,6 +17,7 @@ iteration).  A tangent product is a solve plus a G product.
     .venv/bin/python benchmarks/stokes_cost.py                 # dense, 500 … 3000 nodes
     .venv/bin/python benchmarks/stokes_cost.py --nodes 500 1000 2000
     .venv/bin/python benchmarks/stokes_cost.py --fast          # 500 … 20 000 nodes
+    mpirun -n 2 .venv/bin/python benchmarks/stokes_cost.py     # the dense kernel by rows
 
 The fast multipole library runs threaded: set OMP_NUM_THREADS to fix the threads.
 """
@@ -47,11 +48,16 @@ def plate(n: int):
     return x, s[1] - s[0]
 
 
-def best(f, repeat: int = 2) -> float:
+def best(f, repeat: int = 2, comm=None) -> float:
+    """The shortest of ``repeat`` wall times of ``f()`` (the slowest process's)."""
     times = []
     for _ in range(repeat):
+        if comm is not None:
+            comm.Barrier()
         t0 = time.perf_counter()
         f()
+        if comm is not None:
+            comm.Barrier()
         times.append(time.perf_counter() - t0)
     return min(times)
 
@@ -65,32 +71,39 @@ def main(argv=None) -> int:
     if args.fast:
         return fast(args.nodes or [500, 1000, 2000, 5000, 10000, 20000])
     args.nodes = args.nodes or [500, 1000, 2000, 3000]
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    say = print if comm.rank == 0 else (lambda *a, **k: None)
     rng = np.random.default_rng(0)
     rows = []
-    print(f"{'nodes':>6} {'mobility+Cholesky s':>20} {'G s':>8} {'product s':>10}")
+    say(f"{comm.size} process(es)")
+    say(f"{'nodes':>6} {'mobility+Cholesky s':>20} {'G s':>8} {'product s':>10}")
     for n in args.nodes:
         x, h = plate(n)
         delta = np.full(len(x), h)
         F = rng.standard_normal((len(x), 3))
         du = rng.standard_normal(3 * len(x))
-        res = None
+        # each process evaluates the kernel on its share of the rows (as a run does)
+        cut = np.linspace(0, len(x), comm.size + 1).astype(int)
+        mine = slice(int(cut[comm.rank]), int(cut[comm.rank + 1]))
+        res = G = None
 
         def factor():
             nonlocal res
-            res = stokeslets.Resistance(x, delta, 1.0)
-
-        t_factor = best(factor)
-        G = None
+            res = stokeslets.Resistance(x, delta, 1.0, comm=comm, rows=mine)
 
         def derivative():
             nonlocal G
-            G = stokeslets.position_derivative(x, delta, 1.0, F)
+            G = res.position_operator(F)
 
-        t_g = best(derivative)
-        t_prod = best(lambda: res.solve(du - G @ du), repeat=5)
+        t_factor = best(factor, comm=comm)
+        t_g = best(derivative, comm=comm)
+        t_prod = best(lambda: res.solve(du - G @ du), repeat=5, comm=comm)
         rows.append((len(x), t_factor, t_g, t_prod))
-        print(f"{len(x):6d} {t_factor:20.3f} {t_g:8.3f} {t_prod:10.4f}", flush=True)
-    exponents(rows, ["mobility+Cholesky", "G", "product"])
+        say(f"{len(x):6d} {t_factor:20.3f} {t_g:8.3f} {t_prod:10.4f}", flush=True)
+    if comm.rank == 0:
+        exponents(rows, ["mobility+Cholesky", "G", "product"])
     return 0
 
 
