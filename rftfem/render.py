@@ -39,6 +39,8 @@ BACKGROUND = "white"
 #: some ambient light, so that faces seen edge-on or from behind keep their colour
 _LIGHTING = {"ambient": 0.3, "diffuse": 0.75, "specular": 0.1}
 REFERENCE_COLOR = "#b0b0b0"
+#: a no-slip wall of the scene ([fluid.wall]), drawn translucent under the body
+WALL_COLOR = "#8c7b6b"
 _LABELS = {"displacement": "u (magnitude)", "magnetization": "m along axis"}
 
 
@@ -123,6 +125,9 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     reference_edges = run.reference.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
+    wall = _wall(run, survey)
+    if wall is not None:
+        plotter.add_mesh(wall, color=WALL_COLOR, opacity=0.35, show_edges=False)
 
     drawing = BodyDrawing(run.reference)
     first = run.frame(idx[0])
@@ -214,6 +219,22 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
                         for p in (run.scene.get("output") or {}).get("probes", [])}
     return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
                     fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels)
+
+
+def _wall(run, survey: Survey):
+    """The scene's no-slip wall (``[fluid.wall]``) as a square under the whole run's
+    extent, or None."""
+    given = (run.scene.get("fluid") or {}).get("wall")
+    if not given:
+        return None
+    normal = np.asarray(given["normal"], dtype=float)
+    normal /= np.linalg.norm(normal)
+    point = np.asarray(given["point"], dtype=float)
+    middle = 0.5 * (np.asarray(survey.lo) + np.asarray(survey.hi))
+    centre = middle - np.dot(middle - point, normal) * normal
+    size = 1.2 * float(np.linalg.norm(np.asarray(survey.hi) - np.asarray(survey.lo))) \
+        + survey.body_size
+    return pv.Plane(center=centre, direction=normal, i_size=size, j_size=size)
 
 
 def _arrows(points, vectors, where, length: float):
