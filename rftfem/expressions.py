@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,6 +38,8 @@ class Formula:
     text: str
     tree: tuple
     names: frozenset
+    #: the scene key it was given for (for messages)
+    key: str = field(default="", compare=False)
 
     @property
     def constant(self) -> bool:
@@ -48,8 +50,16 @@ class Formula:
         return float(self.numbers({}))
 
     def numbers(self, env: dict):
-        """The formula's value for ``env`` (variable -> float or numpy array)."""
-        return _evaluate(self.tree, env, _NUMPY)
+        """The formula's value for ``env`` (variable -> float or numpy array).
+
+        A division by zero among floats (``1/t`` at ``t = 0``) is a SceneError naming
+        the key and the values; numpy arrays give inf or nan as numpy does."""
+        try:
+            return _evaluate(self.tree, env, _NUMPY)
+        except (ZeroDivisionError, OverflowError) as exc:
+            at = ", ".join(f"{k} = {v:g}" for k, v in env.items() if isinstance(v, (int, float)))
+            raise SceneError(f"{self.key or 'formula'}: '{self.text}' has no value"
+                             f"{' at ' + at if at else ''} ({exc})") from None
 
     def ufl(self, env: dict, number=None):
         """The formula as a UFL expression of ``env`` (variable -> UFL expression).
@@ -95,12 +105,80 @@ def parse(text, key: str, variables: tuple[str, ...]) -> Formula:
         value = float(text)
         if not math.isfinite(value):
             raise SceneError(f"{key}: expected a finite number, found {text!r}")
-        return Formula(repr(value), ("num", value), frozenset())
+        return Formula(repr(value), ("num", value), frozenset(), key)
     parser = _Parser(text, key, variables)
     tree = parser.expression()
     if parser.peek() is not None:
         parser.fail(f"unexpected '{parser.peek()[1]}'")
-    return Formula(text, tree, frozenset(parser.used))
+    if _check_constant_parts(tree, text, key):
+        _require_finite(tree, text, key)
+    return Formula(text, tree, frozenset(parser.used), key)
+
+
+def _check_constant_parts(tree, text: str, key: str) -> bool:
+    """Raise a :class:`SceneError` if a part of the formula that uses no variable has
+    no finite real value: ``X/0``, ``log(0)``, ``(-8)^(1/3)``, typically a scene
+    parameter set to 0 (parameters are numbers in the text by then).  Returns
+    whether ``tree`` itself is constant."""
+    kind = tree[0]
+    if kind == "num":
+        return True
+    if kind == "var":
+        return False
+    parts = [tree[1]] if kind == "neg" else list(tree[2]) if kind == "call" else [tree[2], tree[3]]
+    constant = [_check_constant_parts(p, text, key) for p in parts]
+    if all(constant):
+        return True
+    for part, const in zip(parts, constant):
+        if const:
+            _require_finite(part, text, key)
+    if kind not in ("neg", "call") and tree[1] == "/" and constant[1]:
+        with np.errstate(all="ignore"):
+            if _evaluate(tree[3], {}, _NUMPY) == 0:
+                raise SceneError(f"{key}: '{text}' divides by zero ({_show(tree)}); "
+                                 f"is a parameter 0?")
+    return False
+
+
+def _require_finite(part, text: str, key: str) -> None:
+    """Raise if the constant ``part`` has no finite real value, naming its smallest
+    part that has none."""
+    if _finite(part):
+        return
+    while True:
+        children = ([part[1]] if part[0] == "neg" else list(part[2]) if part[0] == "call"
+                    else [part[2], part[3]])
+        bad = [c for c in children if not _finite(c)]
+        if not bad:
+            break
+        part = bad[0]
+    raise SceneError(f"{key}: '{text}' has a part without a finite value "
+                     f"({_show(part)}); is a parameter 0 or out of range?")
+
+
+def _finite(part) -> bool:
+    if part[0] == "num":
+        return True
+    try:
+        with np.errstate(all="ignore"):
+            value = _evaluate(part, {}, _NUMPY)
+        return not isinstance(value, complex) and math.isfinite(float(value))
+    except (ZeroDivisionError, OverflowError, ValueError, TypeError):
+        return False
+
+
+def _show(tree) -> str:
+    """A formula's tree as text (for messages)."""
+    kind = tree[0]
+    if kind == "num":
+        return repr(tree[1])
+    if kind == "var":
+        return tree[1]
+    if kind == "neg":
+        return f"-{_show(tree[1])}"
+    if kind == "call":
+        return f"{tree[1]}({', '.join(_show(a) for a in tree[2])})"
+    return f"({_show(tree[2])} {tree[1]} {_show(tree[3])})"
 
 
 class _Parser:

@@ -58,6 +58,11 @@ def test_formula_of_variables_on_arrays():
     ("atan2(X)", ["atan2() takes 2 arguments"]),
     ("(X + 1", ["expected ')'"]),
     ("X $ 2", ["unexpected character '$'", "position 3"]),
+    # a part without a variable that has no value: typically a parameter set to 0
+    ("cos(2*pi*X/(0.0))", ["divides by zero", "/ 0.0)"]),
+    ("1/(2 - 2)", ["without a finite value"]),
+    ("X + log(0)", ["without a finite value", "log(0.0)"]),
+    ("X*(-8)^(1/3)", ["without a finite value"]),
 ])
 def test_bad_formulas_say_where(text, words):
     with pytest.raises(SceneError) as e:
@@ -66,6 +71,16 @@ def test_bad_formulas_say_where(text, words):
     assert "\n" not in msg and msg.startswith("magnetic.parts.0.magnetization: ")
     for w in words:
         assert w in msg, msg
+
+
+
+def test_a_formula_without_a_value_at_a_time_names_its_key():
+    f = parse("2e-6/t", "magnetic.field.B.0", ("t",))
+    assert f.numbers({"t": 0.5}) == pytest.approx(4e-6, rel=1e-15)
+    with pytest.raises(SceneError) as e:
+        f.numbers({"t": 0.0})
+    msg = str(e.value)
+    assert msg.startswith("magnetic.field.B.0: '2e-6/t' has no value at t = 0"), msg
 
 
 # ------------------------------------------------------------------ time tables
