@@ -15,8 +15,13 @@ class RunFailed(RuntimeError):
 
     def __init__(self, reason: str, time: float | None = None, step: int | None = None):
         self.reason, self.time, self.step = reason, time, step
+        #: the run's folder, with the outputs written before it failed (set by rftfem.run)
+        self.folder = None
         where = "" if time is None else f" at t = {time:.6g} (step {step})"
         super().__init__(f"run failed{where}: {reason}")
+
+    def __reduce__(self):  # pickles with its reason, time, step and folder
+        return (type(self), (self.reason, self.time, self.step), {"folder": self.folder})
 
 
 class RunInterrupted(RuntimeError):
@@ -46,3 +51,9 @@ class RunInterrupted(RuntimeError):
         where = "" if self.time is None else f" at t = {self.time:.6g} (step {self.step})"
         how = " at once (a second signal)" if self.immediate else " after its step"
         return f"run interrupted by {self.signal_name}{where}{how}"
+
+
+class RunWarning(UserWarning):
+    """What a run warns of (a step near a drive's period, a run not steady by its
+    end), issued by the Python API's quiet runs through :mod:`warnings`; the
+    warnings are also in summary.json's ``warnings``."""

@@ -167,7 +167,8 @@ class Progress:
     - elsewhere (CI, cluster logs, a pipe): a plain line at most every
       ``interval`` seconds (default 5 s, or ``RFTFEM_LOG_INTERVAL``), so a run of
       many cheap steps does not fill its log;
-    - ``quiet``: only what :meth:`warn` says (on stderr); errors go to stderr as always.
+    - ``quiet``: only what :meth:`warn` says (on stderr, or to ``warn``); errors go to
+      stderr as always.
 
     Notices (:meth:`log`: the opening line, step cuts) are printed unless quiet.
     A hand-written bar rather than tqdm or rich: it is twenty lines, works the
@@ -175,8 +176,11 @@ class Progress:
     """
 
     def __init__(self, end: float, comm, quiet: bool = False, stream=None,
-                 interval: float | None = None, label: str = "t"):
+                 interval: float | None = None, label: str = "t", warn=None):
         self.end, self.label = end, label
+        #: where a quiet run's warnings go instead of stderr (the Python API's
+        #: ``warnings.warn``)
+        self.warn_to = warn
         self.stream = stream or sys.stdout
         self.active = comm.rank == 0
         self.quiet = quiet
@@ -208,7 +212,9 @@ class Progress:
         :attr:`warnings` (summary.json's ``warnings``)."""
         self.warnings.append(text)
         if self.active:
-            if self.quiet:
+            if self.quiet and self.warn_to is not None:
+                self.warn_to(text)
+            elif self.quiet:
                 print(text, file=sys.stderr, flush=True)
             else:
                 self._write(text)

@@ -55,7 +55,8 @@ from rftfem.selectors import check_on_body, check_region_ref, hinge_line
 from rftfem.timeint import resolved_scheme
 from rftfem.validators import scene_parameters
 
-__all__ = ["load_scene", "apply_override", "active_effects", "resolved_scheme", "hinge_line",
+__all__ = ["load_scene", "apply_override", "set_key", "read_scene_file",
+           "parse_scene_text", "complete_scene", "with_overrides", "active_effects", "resolved_scheme", "hinge_line",
            "SCHEMA"]
 
 _BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
@@ -315,7 +316,13 @@ def apply_override(data: dict, text: str) -> None:
     key = key.strip()
     if not sep or not key:
         raise SceneError(f"--set: expected KEY=VALUE (e.g. time.dt=0.005), found '{text}'")
-    value = _parse_value(key, raw_value.strip())
+    set_key(data, key, _parse_value(key, raw_value.strip()))
+
+
+def set_key(data: dict, key: str, value: Any) -> None:
+    """Set the dotted ``key`` of the raw scene ``data`` to the Python ``value`` (in
+    place), as ``--set`` does once it has read its value; errors name ``--set`` so
+    that the Python API's messages are the command line's."""
     parts = key.split(".")
     if any(not p for p in parts):
         raise SceneError(f"--set {key}: expected a dotted key path like shell.thickness, "
@@ -384,12 +391,11 @@ def _parse_value(key: str, text: str) -> Any:
                      f"\"string\", [array] or bare word), found '{text}'")
 
 
-def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
-    """Read, override, validate and complete the scene in ``path`` (see module doc)."""
-    scene_path = Path(path).expanduser()
+def read_scene_file(path: str | os.PathLike) -> dict:
+    """The raw TOML table of the scene file ``path`` (nothing checked but TOML)."""
     shown = str(path)
     try:
-        data = scene_path.read_bytes()
+        data = Path(path).expanduser().read_bytes()
     except FileNotFoundError:
         raise SceneError(f"scene file '{shown}' not found") from None
     except IsADirectoryError:
@@ -398,17 +404,42 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
     except OSError as exc:
         raise SceneError(f"cannot read scene file '{shown}': {exc.strerror or exc}") from None
     try:
-        raw = tomllib.loads(data.decode("utf-8"))
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise SceneError(f"scene file '{shown}': expected a UTF-8 TOML file, found "
                          "binary or non-UTF-8 data") from None
+    return parse_scene_text(text, f"scene file '{shown}'")
+
+
+def parse_scene_text(text: str, shown: str = "scene text") -> dict:
+    """The raw TOML table of a scene given as text; ``shown`` names it in errors."""
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         msg = " ".join(str(exc).split())
-        raise SceneError(f"scene file '{shown}' is not valid TOML: {msg}") from None
+        raise SceneError(f"{shown} is not valid TOML: {msg}") from None
 
+
+def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
+    """Read, override, validate and complete the scene in ``path`` (see module doc)."""
+    raw = read_scene_file(path)
+    overrides = list(overrides)
     for text in overrides:
         apply_override(raw, text)
+    scene_path = Path(path).expanduser().resolve()
+    return complete_scene(raw, scene_path.parent, scene_path, overrides)
 
+
+def complete_scene(raw: dict, folder: str | os.PathLike, path: str | os.PathLike | None = None,
+                   overrides: Iterable[str] = ()) -> dict:
+    """Validate and complete the raw scene table ``raw`` (left as it is): relative
+    files (``mesh.file``, profiles) are read from ``folder``; ``path`` is the scene
+    file, if there is one, and ``overrides`` the ``--set`` texts already applied,
+    both for the record (summary.json)."""
+    import copy
+
+    kept = copy.deepcopy(raw)
+    raw = copy.deepcopy(raw)  # validation fills defaults in the tables it is given
     # the [parameters] first: the formulas that use them are validated with their numbers
     parameters = SCHEMA.fields["parameters"].validate(raw.get("parameters", {}), "parameters")
     with scene_parameters(parameters):
@@ -416,7 +447,7 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
         _cross_check(scene)
     scene["time"]["scheme"] = resolved_scheme(scene)
 
-    folder = scene_path.resolve().parent
+    folder = Path(folder).expanduser().resolve()
     mesh = scene["mesh"]
     if mesh["kind"] == "gmsh":
         mesh_file = (folder / Path(mesh["file"]).expanduser()).resolve()
@@ -434,9 +465,24 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
                              f"'{mesh['file']}' which cannot be read "
                              f"({exc.strerror or exc})") from None
         mesh["file"] = str(mesh_file)
-    scene["_path"] = str(scene_path.resolve())
+    scene["_path"] = None if path is None else str(path)
+    scene["_folder"] = str(folder)
     scene["_overrides"] = list(overrides)
+    scene["_raw"] = kept
     return scene
+
+
+def with_overrides(scene: dict, overrides: Iterable[str]) -> dict:
+    """A completed scene like ``scene`` with the ``--set`` texts ``overrides`` applied
+    after its own (the scene file is not read again)."""
+    import copy
+
+    raw = copy.deepcopy(scene["_raw"])
+    overrides = list(overrides)
+    for text in overrides:
+        apply_override(raw, text)
+    return complete_scene(raw, scene["_folder"], scene["_path"],
+                          [*scene.get("_overrides", []), *overrides])
 
 
 def active_effects(scene: dict) -> list[str]:

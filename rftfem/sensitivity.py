@@ -149,13 +149,12 @@ class _Adjoint:
         """The cells whose value the key decides, from the fields the Model would build
         with the key at two values (inheritance by shell.parts included)."""
         from rftfem.model import Model
-        from rftfem.scene import load_scene
+        from rftfem.scene import with_overrides
 
         scene, m = self.model.scene, self.model
         fields = []
         for value in PROBE_VALUES:
-            probe = SimpleNamespace(scene=load_scene(scene["_path"], list(scene["_overrides"])
-                                                     + [f"{key.text}={value!r}"]),
+            probe = SimpleNamespace(scene=with_overrides(scene, [f"{key.text}={value!r}"]),
                                     mesh=m.mesh, body=m.body)
             Model._init_materials(probe)
             fields.append(probe.material[MATERIAL_FIELDS[key.name]])

@@ -52,7 +52,7 @@ def build_model(scene: dict, comm, compile_forms: bool = True,
     the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
     from rftfem.meshes import build_body
 
-    scene_dir = Path(scene.get("_path", ".")).parent
+    scene_dir = Path(scene.get("_folder") or Path(scene.get("_path") or "scene.toml").parent)
     lines = [h["where"] for h in scene.get("hinge") or []]
     body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
     if tangent is None:
@@ -106,8 +106,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
 
     def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
                  petsc_args: list[str] | None = None, comm=None, observers=(),
-                 signals: bool = False, restart: Path | None = None):
+                 signals: bool = False, restart: Path | None = None, warn=None):
         self.scene = scene
+        #: a quiet run's warnings go here (a callable of the text) instead of stderr
+        self.warn = warn
         self.comm = comm or MPI.COMM_WORLD
         self.stops = StopRequests(self.comm) if signals else NoStops()
         if restart is not None and out_dir is not None and Path(out_dir) != Path(restart):
@@ -205,7 +207,8 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         summary = self._summary("running")
         wall_start = self._wall_start = _time.perf_counter()
         path = self.scheme.name == "arc-length"
-        progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t")
+        progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t",
+                            warn=self.warn)
         progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
@@ -319,11 +322,13 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
 
 def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
         petsc_args: list[str] | None = None, comm=None, observers=(),
-        signals: bool = False, restart: Path | None = None) -> dict:
+        signals: bool = False, restart: Path | None = None, warn=None) -> dict:
     """Run a validated scene; write outputs to ``out_dir``; return the summary.  With
     ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py);
-    with ``restart``, go on from the last checkpoint in that folder (checkpoint.py)."""
-    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals, restart)
+    with ``restart``, go on from the last checkpoint in that folder (checkpoint.py);
+    ``warn``: where a quiet run's warnings go instead of stderr."""
+    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals, restart,
+                     warn)
     try:
         return sim.run()
     finally:

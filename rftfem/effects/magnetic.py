@@ -247,7 +247,7 @@ class Magnetic(Effect):
             chi.x.array[chi_dofs[self.part_cells[i]]] = 1.0
             chi.x.scatter_forward()
             if part["profile"] is not None:
-                path = Path(self.scene["_path"]).parent / Path(part["profile"]).expanduser()
+                path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
                 points, values = read_profile(path, f"{where}.profile")
                 V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
                 Mp = fem.Function(V1, name=f"profile_{i}")
@@ -328,7 +328,7 @@ class Magnetic(Effect):
         V = compat.function_space(mesh, "DG", 0)  # cell midpoints suffice for a scale
         at = V.tabulate_dof_coordinates()[self.part_cells[i]]
         if part["profile"] is not None:
-            path = Path(self.scene["_path"]).parent / Path(part["profile"]).expanduser()
+            path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
             values = read_profile(path, f"magnetic.parts.{i}.profile")[1]
             local = float(np.linalg.norm(values, axis=1).max())
         else:

@@ -1,0 +1,244 @@
+"""The Python API (docs/python.md): scenes validated like the command line's, runs
+equal to the command line's to the bit, results as DataFrames, pickling."""
+
+from __future__ import annotations
+
+import io
+import pickle
+import subprocess
+import sys
+from contextlib import redirect_stderr
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rftfem
+from conftest import run_command
+from rftfem import cli
+
+BAD = Path(__file__).parent / "scenes_bad"
+DEMOS = Path(__file__).parents[1] / "demos"
+
+CANTILEVER = """
+title = "api cantilever"
+[mesh]
+length = 10.0
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+E = 1.0e4
+[time]
+end = 1.0
+dt = 0.25
+[[boundary]]
+where = "x=0"
+fix = ["clamped"]
+[[load]]
+kind = "edge-force"
+where = "x=L"
+value = [0.0, 0.0, 1.0e-3]
+[[output.probes]]
+name = "tip"
+at = [10.0, 0.5, 0.0]
+"""
+
+#: a short swim in drag (RFT, backward Euler) with a travelling wave: every table
+SWIM = ["time.end=0.0125", "time.dt=0.003125", "time.until=end", "output.fields=false"]
+
+
+def cli_error(*argv) -> str:
+    """The one line `rftfem ARGV` says on stderr, run in this process."""
+    err = io.StringIO()
+    with redirect_stderr(err):
+        status = cli.main([str(a) for a in argv])
+    assert status == 2, err.getvalue()
+    lines = err.getvalue().splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+def api_error(call) -> str:
+    with pytest.raises(rftfem.SceneError) as info:
+        call()
+    return f"rftfem: error: {info.value}"
+
+
+# ------------------------------------------------------------------ scenes
+
+
+def test_import_is_cheap_and_public_names_load_on_use():
+    code = ("import sys, rftfem; heavy = [m for m in ('dolfinx', 'ufl', 'numpy', 'pandas', "
+            "'pyvista') if m in sys.modules]; assert not heavy, heavy; "
+            "assert rftfem.load_scene.__module__ == 'rftfem.api'; "
+            "assert rftfem.Result.__module__ == 'rftfem.result'; print('ok')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.stdout.strip() == "ok", done.stderr
+
+
+@pytest.mark.parametrize("path", sorted(BAD.glob("*.toml")), ids=lambda p: p.stem)
+def test_every_bad_scene_gives_the_command_line_message(path):
+    def load_and_check():
+        rftfem.load_scene(path).check()
+
+    assert api_error(load_and_check) == cli_error("check", path)
+
+
+@pytest.mark.parametrize("key, value, text", [
+    ("shell.E", -5, "-5"),
+    ("shell.EE", 1.0, "1.0"),
+    ("load.3.value", [0, 0, 1], "[0,0,1]"),
+    ("time.scheme", "leapfrog", "leapfrog"),
+    ("mesh.divisions", [0, 1], "[0,1]"),
+    ("time.dt.x", 1, "1"),
+])
+def test_a_bad_change_gives_the_command_line_message(tmp_path, key, value, text):
+    path = tmp_path / "cantilever.toml"
+    path.write_text(CANTILEVER)
+    expected = cli_error("check", path, "--set", f"{key}={text}")
+    assert api_error(lambda: rftfem.load_scene(path, set={key: value})) == expected
+    scene = rftfem.load_scene(path)
+    before = scene.to_dict()
+    message = api_error(lambda: scene.__setitem__(key, value))
+    assert message == expected.replace("rftfem: error: --set: unknown", "rftfem: error: --set: "
+                                       "unknown")
+    assert scene.to_dict() == before and scene.overrides == []  # refused as a whole
+
+
+def test_changes_are_validated_and_read_back(tmp_path):
+    scene = rftfem.scene_from_toml(CANTILEVER, folder=tmp_path)
+    assert scene["shell.E"] == 1.0e4 and scene["shell.nu"] == 0.0  # a default filled in
+    assert scene["load.0.value"] == [0.0, 0.0, 1.0e-3]
+    assert scene["fluid"] is None and scene.get("fluid.drag", "none") == "none"
+    scene["shell.E"] = 2.0e4
+    assert scene["shell.E"] == 2.0e4 and scene.overrides == ["shell.E=20000.0"]
+    with pytest.raises(rftfem.SceneError, match="time.dt: expected a number <= time.end"):
+        scene["time.dt"] = 2.0
+    scene.update({"time.dt": 2.0, "time.end": 4.0})  # together they agree
+    assert (scene["time.dt"], scene["time.end"]) == (2.0, 4.0)
+    value = scene["load.0.value"]
+    value[2] = 99.0  # a copy: the scene is changed only through assignment
+    assert scene["load.0.value"][2] == 1.0e-3
+    with pytest.raises(rftfem.SceneError, match="unknown key 'shell.EE'"):
+        scene["shell.EE"]
+
+
+def test_a_scene_from_a_dict_or_text_is_the_file_scene(tmp_path):
+    import tomllib
+
+    path = DEMOS / "swimming_sheet.toml"
+    from_file = rftfem.load_scene(path)
+    raw = tomllib.loads(path.read_text())
+    assert rftfem.scene_from_dict(raw) == from_file
+    assert rftfem.scene_from_toml(path.read_text()) == from_file
+    assert rftfem.scene_from_toml(from_file.to_toml()) == from_file
+    with pytest.raises(rftfem.SceneError, match="scene text is not valid TOML"):
+        rftfem.scene_from_toml("title = ")
+
+
+def test_scenes_results_and_errors_pickle(tmp_path):
+    scene = rftfem.load_scene(DEMOS / "three_link.toml", set={"time.end": 0.5})
+    scene["shell.E"] = 3.0e5
+    back = pickle.loads(pickle.dumps(scene))
+    assert back == scene and back.overrides == scene.overrides and back.path == scene.path
+    (tmp_path / "summary.json").write_text('{"status": "ok"}')
+    result = pickle.loads(pickle.dumps(rftfem.Result(tmp_path)))
+    assert result.folder == tmp_path and result.ok
+    failed = rftfem.RunFailed("Newton diverged", 0.25, 3)
+    failed.folder = tmp_path
+    again = pickle.loads(pickle.dumps(failed))
+    assert (str(again), again.time, again.step, again.folder) == \
+        (str(failed), 0.25, 3, tmp_path)
+    error = pickle.loads(pickle.dumps(rftfem.SceneError("shell.E: expected ...")))
+    assert str(error) == "shell.E: expected ..."
+
+
+# ------------------------------------------------------------------ runs
+
+
+def test_an_api_run_is_the_command_line_run_to_the_bit(tmp_path, capfd):
+    scene_file = DEMOS / "swimming_sheet.toml"
+    overrides = dict(s.split("=", 1) for s in SWIM)
+    values = {"time.end": 0.0125, "time.dt": 0.003125, "time.until": "end",
+              "output.fields": False}
+    assert set(values) == set(overrides)
+    scene = rftfem.load_scene(scene_file, set=values)
+    capfd.readouterr()
+    result = rftfem.run(scene, out=tmp_path / "api")
+    said = capfd.readouterr()
+    assert said.out == "" and said.err == ""  # quiet by default
+    sets = [a for s in SWIM for a in ("--set", s)]
+    done = run_command([sys.executable, "-m", "rftfem", "run", scene_file, *sets,
+                        "--out", tmp_path / "cli", "--quiet"], timeout=300)
+    assert done.returncode == 0, done.stderr
+    cli_result = rftfem.Result(tmp_path / "cli")
+    for name in ("probes", "body", "steps"):
+        ours, theirs = getattr(result, name), getattr(cli_result, name)
+        if name == "steps":
+            ours, theirs = ours.drop(columns="wall_s"), theirs.drop(columns="wall_s")
+        assert list(ours.columns) == list(theirs.columns)
+        assert len(ours) > 1
+        assert np.array_equal(ours.to_numpy(), theirs.to_numpy()), name
+    assert result.summary["scene"] == cli_result.summary["scene"]
+    assert result.ok and result.summary["overrides"] == [
+        "time.end=0.0125", "time.dt=0.003125", 'time.until="end"', "output.fields=false"]
+    # a quantity is collect's
+    assert result.quantity("max(front_uz)") == result.probes["front_uz"].max()
+
+
+def test_a_failed_run_raises_run_failed_and_keeps_its_outputs(tmp_path, recwarn):
+    scene = rftfem.scene_from_toml(CANTILEVER, folder=tmp_path)
+    # a load that Newton cannot follow in a step: a huge tip force, no step cuts
+    scene.update({"load.0.value": [0.0, 0.0, 1.0e9], "time.max_cuts": 0})
+    with pytest.raises(rftfem.RunFailed) as info:
+        rftfem.run(scene, out=tmp_path / "out", petsc={"snes_max_it": 3})
+    assert info.value.folder == tmp_path / "out" and info.value.time is not None
+    result = rftfem.Result(info.value.folder)
+    assert result.status == "failed" and len(result.steps) >= 0
+    assert result.probes["time"].iloc[0] == 0.0  # the t = 0 row was kept
+
+
+FIELDS_AND_PICTURES = """
+import sys
+import numpy as np
+import rftfem
+
+folder = sys.argv[1]
+scene = rftfem.scene_from_toml(open(sys.argv[2]).read(), folder=folder)
+result = rftfem.run(scene, out=folder + "/out")   # loads pyvista before dolfinx
+mesh = result.fields(0.5, warp=True)
+assert mesh.field_data["time"][0] == 0.5 and mesh.n_points > 0
+u = mesh.point_data["displacement"]
+np.testing.assert_allclose(mesh.points, result.fields(0.5).points + u)
+tip = result.probes.set_index("time").loc[0.5, "tip_uz"]
+assert np.isclose(u[:, 2].max(), tip, rtol=1e-9), (u[:, 2].max(), tip)
+picture = result.render(size="320x240")
+assert picture.is_file() and picture.stat().st_size > 1000
+try:
+    result.render(folder + "/x.png", color="nope")
+except rftfem.SceneError as exc:
+    assert "--color nope: not a field" in str(exc), exc
+else:
+    raise AssertionError("no error")
+print("ok")
+"""
+
+
+def test_a_result_gives_fields_and_pictures(tmp_path):
+    """In a fresh process, as a user's script: rftfem.run loads pyvista first."""
+    (tmp_path / "scene.toml").write_text(CANTILEVER)
+    done = run_command([sys.executable, "-c", FIELDS_AND_PICTURES, tmp_path,
+                        tmp_path / "scene.toml"], timeout=300)
+    assert done.returncode == 0 and done.stdout.strip().endswith("ok"), done.stderr
+
+
+def test_a_picture_is_drawn_in_a_child_when_dolfinx_came_first(tmp_path):
+    """This test process has imported dolfinx: render() draws in a child process."""
+    import dolfinx  # noqa: F401
+
+    scene = rftfem.scene_from_toml(CANTILEVER, folder=tmp_path)
+    result = rftfem.run(scene, out=tmp_path / "out")
+    picture = result.render(tmp_path / "p.png", view="xz", size="320x240")
+    assert picture.stat().st_size > 1000
+    with pytest.raises(rftfem.SceneError, match="--color nope: not a field"):
+        result.render(tmp_path / "x.png", color="nope")
