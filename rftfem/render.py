@@ -20,6 +20,7 @@ this module imports pyvista, and must be imported before dolfinx in a process
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +40,8 @@ BACKGROUND = "white"
 #: some ambient light, so that faces seen edge-on or from behind keep their colour
 _LIGHTING = {"ambient": 0.3, "diffuse": 0.75, "specular": 0.1}
 REFERENCE_COLOR = "#b0b0b0"
+#: the trail of the centroid or a probe, drawn over the body
+TRAIL_COLOR = "#d62728"
 #: a no-slip wall of the scene ([fluid.wall]), drawn translucent under the body
 WALL_COLOR = "#8c7b6b"
 _LABELS = {"displacement": "u (magnitude)", "magnetization": "m along axis"}
@@ -54,16 +57,19 @@ class Rendered:
     color: str
     size: tuple[int, int]
     fps: float | None = None
+    #: the factor the displacements were drawn magnified by
+    scale: float = 1.0
     #: pixel (column, row from the top) of each probe's position at the last frame drawn
     probe_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: pixel of each probe's reference position (where it would be undeformed)
     reference_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def describe(self) -> str:
+        magnified = "" if self.scale == 1.0 else f", displacements × {self.scale:g}"
         if self.fps is None:
-            return f"t = {self.times[-1]:.6g}, colour {self.color}"
+            return f"t = {self.times[-1]:.6g}, colour {self.color}{magnified}"
         return (f"{self.frames} frames, t = {self.times[0]:.6g} to {self.times[-1]:.6g}, "
-                f"{self.fps:g} frames/s, colour {self.color}")
+                f"{self.fps:g} frames/s, colour {self.color}{magnified}")
 
 
 def _tick_format(clim) -> str:
@@ -77,9 +83,14 @@ def _tick_format(clim) -> str:
 
 def render(results, out, color: str | None = None, time: float | None = None,
            view: str = "iso", trail: str | None = None, fps: float | None = None,
-           every: int | None = None, size=(1024, 768)) -> Rendered:
-    """Draw the run in ``results`` to ``out`` (.png: one frame; .mp4/.gif: a film)."""
-    run = RunFields(Path(results))
+           every: int | None = None, size=(1024, 768), scale: float = 1.0) -> Rendered:
+    """Draw the run in ``results`` to ``out`` (.png: one frame; .mp4/.gif: a film),
+    its displacements magnified ``scale`` times (ParaView's warp by vector: the
+    body, the probes and the trail; colours keep the true values)."""
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise SceneError(f"--scale: expected a number > 0, found {scale}")
+    scale = float(scale)
+    run = RunFields(Path(results), scale)
     out = Path(out)
     film = out.suffix.lower() in (".mp4", ".gif")
     if color is None:
@@ -90,6 +101,9 @@ def render(results, out, color: str | None = None, time: float | None = None,
     if trail is None and view == "follow":
         trail = "centroid" if (run.folder / "body.csv").is_file() else None
     path = run.path_of(trail) if trail and trail != "none" else None
+    if path is not None and scale != 1.0:
+        # magnified about the start of the path, as every point's displacement is
+        path = (path[0], path[1][:1] + scale * (path[1] - path[1][:1]))
 
     if film:
         most = MAX_GIF_FRAMES if out.suffix.lower() == ".gif" else MAX_FILM_FRAMES
@@ -106,7 +120,12 @@ def render(results, out, color: str | None = None, time: float | None = None,
     except OSError as exc:
         raise SceneError(f"--out {out}: cannot write here ({exc.strerror or exc})") from None
 
-    plotter = pv.Plotter(off_screen=True, window_size=list(size))
+    # Films are drawn without multisampling: on a machine without a GPU (Mesa's
+    # software rasterizer) the 8 samples of a still picture double a frame's cost
+    # for a difference hard to see in a moving picture (docs/running.md)
+    theme = copy.deepcopy(pv.global_theme)
+    theme.multi_samples = 0 if film else 8
+    plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
     try:
         return _draw(plotter, run, out, film, idx, fps, color, clim, view, survey, path, size)
     except Exception:
@@ -122,6 +141,9 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     title = run.scene.get("title", run.folder.name)
     plotter.add_text(title, position="upper_edge", font_size=9, color="black")
     stamp = plotter.add_text("", position="lower_right", font_size=12, color="black")
+    if run.scale != 1.0:
+        plotter.add_text(f"displacements × {run.scale:g}", position="lower_edge",
+                         font_size=10, color="#b22222")
     reference_edges = run.reference.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
@@ -132,7 +154,7 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     drawing = BodyDrawing(run.reference)
     first = run.frame(idx[0])
     s = color_values(color, first, run)
-    body = drawing.surface(first["displacement"], None if s is None else {color: s})
+    body = drawing.surface(run.scale * first["displacement"], None if s is None else {color: s})
     if s is None:
         surface = plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
         edge_color = "#2a4f75"
@@ -151,20 +173,30 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
     surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
     surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
-    plotter.add_mesh(drawing.edges(first["displacement"]), color=edge_color, line_width=1)
-    outline = drawing.outline(first["displacement"])
+    plotter.add_mesh(drawing.edges(run.scale * first["displacement"]), color=edge_color,
+                     line_width=1)
+    outline = drawing.outline(run.scale * first["displacement"])
     plotter.add_mesh(outline, color="#202020", line_width=2)
     arrows = None
-    if color == "magnetization":  # arrows on the magnetized points only
-        magnetized = np.linalg.norm(first["magnetization"], axis=1) > 0.0
-        arrow_length = 0.05 * survey.body_size
-        arrows = plotter.add_mesh(_arrows(run.reference_points + first["displacement"],
-                                          first["magnetization"], magnetized,
-                                          arrow_length), color="black")
-    trail_mesh = None
+    if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
+        strength = np.linalg.norm(first["magnetization"], axis=1)
+        magnetized = strength > 0.0
+        # the strongest magnetization's arrow is 5 % of the body's size
+        arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
+        arrows = plotter.add_mesh(_arrows(run.points(first), first["magnetization"],
+                                          magnetized, arrow_length), color="black")
+    trail_mesh = here = None
     if path is not None:
         trail_mesh = pv.PolyData(path[1][:1].copy())
-        plotter.add_mesh(trail_mesh, color="#d62728", line_width=3, render_lines_as_tubes=False)
+        here = pv.PolyData(path[1][:1].copy())
+        _on_top(plotter, [
+            plotter.add_mesh(trail_mesh, color=TRAIL_COLOR, line_width=4),
+            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color="white", point_size=11,
+                             render_points_as_spheres=True),
+            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color=TRAIL_COLOR,
+                             point_size=7, render_points_as_spheres=True),
+            plotter.add_mesh(here, color=TRAIL_COLOR, point_size=11,
+                             render_points_as_spheres=True)])
     plotter.show_axes()
     follow = view == "follow"
 
@@ -187,13 +219,14 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
         t = float(run.times[i])
         frame = first if n == 0 else run.frame(i)
         s = color_values(color, frame, run)
-        moved = drawing.surface(frame["displacement"], None if s is None else {color: s})
+        u = run.scale * frame["displacement"]
+        moved = drawing.surface(u, None if s is None else {color: s})
         body.points = moved.points
         if s is not None:
             body.point_data[color] = moved.point_data[color]
-        drawing.edges(frame["displacement"])
-        drawing.outline(frame["displacement"])
-        nodes = run.reference_points + frame["displacement"]
+        drawing.edges(u)
+        drawing.outline(u)
+        nodes = run.points(frame)
         if arrows is not None:
             plotter.remove_actor(arrows, render=False)
             arrows = plotter.add_mesh(_arrows(nodes, frame["magnetization"], magnetized,
@@ -203,6 +236,7 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
             pts = path[1][keep] if keep.any() else path[1][:1]
             line = pv.lines_from_points(pts) if len(pts) > 1 else pv.PolyData(pts)
             trail_mesh.copy_from(line)
+            here.points = pts[-1:]
         if follow:
             aim(body.points)
         stamp.SetText(1, f"t = {t:.4g}")
@@ -218,7 +252,8 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     reference_pixels = {p["name"]: pixel_of(plotter, p["at"])
                         for p in (run.scene.get("output") or {}).get("probes", [])}
     return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
-                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels)
+                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
+                    scale=run.scale)
 
 
 def _wall(run, survey: Survey):
@@ -238,10 +273,29 @@ def _wall(run, survey: Survey):
 
 
 def _arrows(points, vectors, where, length: float):
-    """Arrows of one length along ``vectors`` at the selected points."""
+    """Arrows along ``vectors`` at the selected points, ``length`` times as long as
+    the vectors."""
     cloud = pv.PolyData(np.asarray(points)[where])
     cloud["m"] = np.asarray(vectors)[where]
-    return cloud.glyph(orient="m", scale=False, factor=length)
+    return cloud.glyph(orient="m", scale="m", factor=length)
+
+
+def _on_top(plotter, actors):
+    """Move ``actors`` to a layer drawn over the body with the same camera: a trail
+    runs through the body (a centroid lies inside a sheet), and would be hidden."""
+    from vtkmodules.vtkRenderingCore import vtkRenderer
+
+    overlay = vtkRenderer()
+    overlay.SetLayer(1)
+    overlay.SetActiveCamera(plotter.renderer.GetActiveCamera())
+    overlay.InteractiveOff()
+    window = plotter.ren_win
+    window.SetNumberOfLayers(max(2, window.GetNumberOfLayers()))
+    window.AddRenderer(overlay)
+    for actor in actors:
+        plotter.renderer.RemoveActor(actor)
+        overlay.AddActor(actor)
+    plotter._rftfem_overlay = overlay  # keep it alive with the plotter
 
 
 def _centroid(points) -> np.ndarray:

@@ -4,6 +4,7 @@ only once the options are good, by :mod:`rftfem.render`)."""
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import subprocess
 import sys
@@ -48,6 +49,10 @@ def add_arguments(parser: argparse.ArgumentParser):
     parser.add_argument("--every", metavar="N", type=int, default=None,
                         help="film: use every Nth output frame (default: at most 360 frames in "
                              "an MP4, 120 in a GIF)")
+    parser.add_argument("--scale", metavar="S", type=float, default=1.0,
+                        help="draw the displacements magnified S times (the body, probes and "
+                             "trail, as ParaView's warp by vector; the picture says so), so "
+                             "that a small deflection shows (default 1)")
     parser.add_argument("--size", metavar="WxH", default="1024x768",
                         help="picture size in pixels (default 1024x768)")
 
@@ -84,11 +89,14 @@ def main(args, console) -> int:
     if args.every is not None and args.every < 1:
         raise SceneError(f"--every: expected an integer >= 1, found {args.every}")
     size = _size(args.size)
+    if not (math.isfinite(args.scale) and args.scale > 0):
+        raise SceneError(f"--scale: expected a number > 0, found {args.scale:g}")
 
     from rftfem.render import render  # pyvista and VTK: only now
 
     done = render(results, out, color=args.color, time=args.time, view=args.view,
-                  trail=args.trail, fps=args.fps, every=args.every, size=size)
+                  trail=args.trail, fps=args.fps, every=args.every, size=size,
+                  scale=args.scale)
     console.out(f"rftfem render: wrote {out} ({done.describe()})")
     return 0
 

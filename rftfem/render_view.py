@@ -48,8 +48,10 @@ _BAD_XINCLUDE = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
 class RunFields:
     """The fields a run wrote, one frame at a time."""
 
-    def __init__(self, folder: Path):
+    def __init__(self, folder: Path, scale: float = 1.0):
         self.folder = Path(folder)
+        #: the factor displacements are drawn magnified by (render --scale)
+        self.scale = float(scale)
         xdmf = self.folder / "fields.xdmf"
         if not xdmf.is_file():
             raise SceneError(f"{self.folder}: no fields.xdmf here (not a results folder, "
@@ -126,6 +128,10 @@ class RunFields:
                 out[name] = np.asarray(blocks[k].point_data[name], dtype=float)
         return out
 
+    def points(self, frame: dict) -> np.ndarray:
+        """The nodes where they are drawn in ``frame``: reference + scale × u."""
+        return self.reference_points + self.scale * frame["displacement"]
+
     def nearest(self, t: float) -> int:
         lo, hi = self.times[0], self.times[-1]
         tol = 1e-9 * max(1.0, abs(hi))
@@ -165,7 +171,8 @@ class RunFields:
             except SceneError:  # no probes.csv (yet): nothing to report, the picture stands
                 return {}
             if len(times):
-                out[p["name"]] = xs[int(np.argmin(np.abs(times - t)))]
+                x = xs[int(np.argmin(np.abs(times - t)))]
+                out[p["name"]] = np.asarray(p["at"]) + self.scale * (x - np.asarray(p["at"]))
         return out
 
 
@@ -245,7 +252,7 @@ def survey_frames(run: RunFields, idx, color: str, path) -> Survey:
         if s is not None and len(s):
             smin, smax = min(smin, float(s.min())), max(smax, float(s.max()))
         if i in drawn:
-            x = run.reference_points + frame["displacement"]
+            x = run.points(frame)
             lo, hi = np.minimum(lo, x.min(axis=0)), np.maximum(hi, x.max(axis=0))
             body_size = max(body_size, float(np.linalg.norm(np.ptp(x, axis=0))))
     if path is not None:

@@ -67,14 +67,16 @@ def mpi_run(tmp_path_factory):
 _RENDER = """
 import json, sys
 from rftfem.render import render
-r = render(sys.argv[1], sys.argv[2], time=None if sys.argv[3] == "last" else float(sys.argv[3]))
+r = render(sys.argv[1], sys.argv[2], time=None if sys.argv[3] == "last" else float(sys.argv[3]),
+           **json.loads(sys.argv[4]))
 print(json.dumps({"pixels": r.probe_pixels, "reference_pixels": r.reference_pixels,
                   "times": r.times, "size": r.size}))
 """
 
 
-def render_png(run: Path, out: Path, time="last") -> dict:
-    done = subprocess.run([sys.executable, "-c", _RENDER, str(run), str(out), str(time)],
+def render_png(run: Path, out: Path, time="last", **options) -> dict:
+    done = subprocess.run([sys.executable, "-c", _RENDER, str(run), str(out), str(time),
+                           json.dumps(options)],
                           capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -375,3 +377,72 @@ def test_a_wall_of_the_scene_is_drawn_under_the_body(serial_run, tmp_path):
         pictures[name] = (np.abs(img - 255).sum(axis=2) > 30).mean()
     print(f"drawn pixels: {pictures}")
     assert pictures["wall"] > pictures["plain"] + 0.2
+
+
+def test_scale_draws_the_displacements_magnified(serial_run, tmp_path):
+    """--scale 0.5 draws the tip at its reference position plus half its displacement
+    (the body is there, projected with the picture's camera); that pixel is far from
+    the unscaled tip's; and the picture says the factor."""
+    import imageio.v3 as iio
+
+    full = render_png(serial_run, tmp_path / "full.png", 0.5)
+    half = render_png(serial_run, tmp_path / "half.png", 0.5, scale=0.5)
+    check_picture(tmp_path / "half.png", half, serial_run)
+    assert np.hypot(*np.subtract(half["pixels"]["tip"], full["pixels"]["tip"])) > 30
+    # the factor is written in red at the bottom of the picture
+    img = iio.imread(tmp_path / "half.png")[..., :3].astype(int)
+    red = (img[..., 0] > 150) & (img[..., 1] < 90) & (img[..., 2] < 90)
+    assert red[-60:].sum() > 50
+    done = _rftfem("render", serial_run, "--out", tmp_path / "s.png", "--scale", "3")
+    assert done.returncode == 0 and "displacements × 3" in done.stdout, done.stderr
+    _one_line_error(_rftfem("render", serial_run, "--scale", "0"), "--scale", "> 0")
+    _one_line_error(_rftfem("render", serial_run, "--scale", "nan"), "--scale")
+
+
+def test_a_trail_is_drawn_over_the_body(serial_run, tmp_path):
+    """A centroid's path runs inside or behind the body (a swimming sheet's centroid
+    lies in the sheet): the trail is drawn on top, in its colour, with markers at
+    its start and at the frame's time. Here the run's centroid is replaced by a path
+    under the strip near its clamp, seen from above: without the overlay the strip
+    hides all of it."""
+    import shutil
+
+    import imageio.v3 as iio
+
+    run = tmp_path / "hidden_trail"
+    shutil.copytree(serial_run, run)
+    lines = (run / "body.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    cols = [header.index(f"centroid_{c}") for c in "xyz"]
+    rows = []
+    for line in lines[1:]:
+        values = line.split(",")
+        t = float(values[0])
+        for c, v in zip(cols, (1.0 + 4.0 * t, 0.5, -1.0)):
+            values[c] = repr(v)
+        rows.append(",".join(values))
+    (run / "body.csv").write_text("\n".join([lines[0], *rows]) + "\n")
+    render_png(run, tmp_path / "trail.png", 0.5, trail="centroid", view="xy")
+    img = iio.imread(tmp_path / "trail.png")[..., :3].astype(int)
+    trail = np.abs(img - np.array([214, 39, 40])).sum(axis=2) < 40
+    print(f"trail pixels: {trail.sum()}")  # 484 drawn; 0 with the trail under the strip
+    assert trail.sum() > 250
+
+
+_ARROWS = """
+import numpy as np
+from rftfem.render import _arrows
+points = np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 9.0, 0.0]])
+m = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+glyphs = _arrows(points, m, np.linalg.norm(m, axis=1) > 0, 1.5)
+near = glyphs.points[:, 1] < 2.5
+print(np.ptp(glyphs.points[near, 0]), np.ptp(glyphs.points[~near, 0]))
+"""
+
+
+def test_magnetization_arrows_are_as_long_as_the_magnetization():
+    done = subprocess.run([sys.executable, "-c", _ARROWS], capture_output=True, text=True,
+                          timeout=300, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    weak, strong = map(float, done.stdout.split())
+    assert weak == pytest.approx(1.5, rel=1e-6) and strong == pytest.approx(3.0, rel=1e-6)
