@@ -62,8 +62,8 @@ fields = false
 def run(scene_file: Path, sets: list[str]):
     import time
 
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     sim = Simulation(load_scene(scene_file, sets), out_dir=None, quiet=True)
     t0 = time.perf_counter()

@@ -48,7 +48,7 @@ def main():
     from dolfinx import fem, io, mesh as dmesh
 
     from rftfem import compat
-    from rftfem.field_mesh import FieldMesh
+    from rftfem.outputs.field_mesh import FieldMesh
 
     nx, ny = args.cells
     msh = dmesh.create_rectangle(MPI.COMM_WORLD, [np.array([0.0, 0.0]), np.array([12.0, 1.0])],

@@ -38,8 +38,8 @@ import ufl
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
 from rftfem import compat, petsc_options
-from rftfem.scene import load_scene
-from rftfem.simulation import Simulation
+from rftfem.scene.reading import load_scene
+from rftfem.integration.simulation import Simulation
 
 from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
 

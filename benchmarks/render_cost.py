@@ -11,7 +11,7 @@ are timed on their own over the same frames:
 - draw + encode: the rest (VTK's rendering, reading the image back, ffmpeg).
 
 A still picture is timed too: it keeps 8 samples per pixel of antialiasing,
-which a film leaves out (rftfem/render.py says why).
+which a film leaves out (rftfem/outputs/render.py says why).
 
     .venv/bin/python benchmarks/render_cost.py [--results DIR] [--size 1024x768]
 
@@ -56,9 +56,9 @@ def main(argv=None) -> int:
             print(f"run: {time.perf_counter() - t0:.1f} s")
 
         # rendering in this process: pyvista before anything imports dolfinx
-        from rftfem.render import _arrows, render
-        from rftfem.render_body import BodyDrawing
-        from rftfem.render_view import MAX_FILM_FRAMES, RunFields, film_plan
+        from rftfem.outputs.render import _arrows, render
+        from rftfem.outputs.render_body import BodyDrawing
+        from rftfem.outputs.render_view import MAX_FILM_FRAMES, RunFields, film_plan
 
         size = tuple(int(v) for v in args.size.split("x"))
         t0 = time.perf_counter()

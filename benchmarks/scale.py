@@ -65,8 +65,8 @@ def one(size: str, steps: int, solver: str) -> None:
     import rftfem  # noqa: F401
     from mpi4py import MPI
 
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     nx, ny = (int(v) for v in size.split("x"))
     scene = load_scene(SCENE, [f"mesh.divisions=[{nx}, {ny}]", "output.fields=false"])

@@ -31,8 +31,8 @@ repository_python.ensure()
 import numpy as np
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem.scene import load_scene
-from rftfem.simulation import Simulation
+from rftfem.scene.reading import load_scene
+from rftfem.integration.simulation import Simulation
 
 from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
 

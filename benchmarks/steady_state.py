@@ -2,7 +2,7 @@
 
 The sheet's case I (demos/swimming_sheet.toml as shipped, 62 periods) is run
 once to its end; its output rows are then fed period by period to the steady
-watch of ``time.until = "periodic"`` (rftfem/steady.py) with each way of
+watch of ``time.until = "periodic"`` (rftfem/integration/steady.py) with each way of
 estimating the steady values:
 
 - ``none``:   the period means themselves (the transient run out);
@@ -46,10 +46,10 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tolerances", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4])
     args = parser.parse_args(argv)
-    from rftfem.quantities import read_csv
-    from rftfem.scene import load_scene
-    from rftfem.simulation import run
-    from rftfem.steady import SteadyWatch, scene_period
+    from rftfem.outputs.quantities import read_csv
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import run
+    from rftfem.integration.steady import SteadyWatch, scene_period
 
     scene = load_scene(ROOT / "demos" / "swimming_sheet.toml", ["output.fields=false",
                                                                  "time.output_every=1",

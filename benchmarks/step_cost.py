@@ -36,8 +36,8 @@ import repository_python  # noqa: E402
 repository_python.ensure()
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem.scene import load_scene
-from rftfem.simulation import Simulation
+from rftfem.scene.reading import load_scene
+from rftfem.integration.simulation import Simulation
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 

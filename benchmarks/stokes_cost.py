@@ -2,13 +2,13 @@
 
 For a flat square plate of N nodes (a uniform grid, the blob its spacing) it
 times the three pieces of a Newton iteration with ``[fluid] model = "stokes"``
-(rftfem/stokeslets.py): building the 3N × 3N mobility and its Cholesky
+(rftfem/model/stokeslets.py): building the 3N × 3N mobility and its Cholesky
 factorisation (every residual at new positions), the position derivative G
 (every tangent), and one tangent product (every GMRES iteration). Printed: the
 seconds of each per N, and the exponent of a power law fitted over the sizes.
 
 With ``--fast`` it times the matrix-free operator instead (``[fluid] operator =
-"fmm"``, rftfem/stokes_fmm.py): setting it up at new positions (near pairs and the
+"fmm"``, rftfem/model/stokes_fmm.py): setting it up at new positions (near pairs and the
 clusters' Cholesky factors), one product M F (one fast multipole call), one solve
 M⁻¹ v by preconditioned conjugate gradients (a residual; its iterations printed),
 and the position derivative (set up once per tangent, then one product per GMRES
@@ -36,7 +36,7 @@ repository_python.ensure()
 
 import numpy as np  # noqa: E402
 
-from rftfem import stokeslets  # noqa: E402
+from rftfem.model import stokeslets  # noqa: E402
 
 
 def plate(n: int):
@@ -119,7 +119,7 @@ def exponents(rows, names):
 
 def fast(sizes) -> int:
     """The matrix-free operator's pieces per N (the plate's free edges keep half blobs)."""
-    from rftfem import stokes_fmm
+    from rftfem.model import stokes_fmm
 
     rng = np.random.default_rng(0)
     rows = []

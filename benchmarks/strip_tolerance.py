@@ -31,7 +31,7 @@ import repository_python  # noqa: E402
 
 repository_python.ensure()
 
-from rftfem.quantities import evaluate
+from rftfem.outputs.quantities import evaluate
 
 from step_cost import DEMOS, write_csv
 

@@ -12,7 +12,7 @@ amplitude b.  The benchmark
    imports, then summary.json's ``wall_s.setup``: mesh, forms, model) and the
    stepping (``total − setup``);
 3. runs the sweep of ``--points`` amplitudes in this one process
-   (``rftfem.batch.run_here``, what ``rftfem study`` does one level at a time),
+   (``rftfem.studies.batch.run_here``, what ``rftfem study`` does one level at a time),
    and prints its wall time against the sum of its runs' stepping times.
 
 The goal (issue 34): the in-process sweep costs at most 1.5 × the sum of its
@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     parser.add_argument("--fresh", type=int, default=3,
                         help="fresh-process runs of one point to time (default 3)")
     args = parser.parse_args(argv)
-    from rftfem.batch import run_here
+    from rftfem.studies.batch import run_here
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

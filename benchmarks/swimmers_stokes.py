@@ -81,8 +81,8 @@ repository_python.ensure()
 
 import numpy as np  # noqa: E402
 
-from rftfem.effects.fluid import slender_body_drag  # noqa: E402
-from rftfem.toml_writer import document  # noqa: E402
+from rftfem.model.effects.fluid import slender_body_drag  # noqa: E402
+from rftfem.scene.toml_writer import document  # noqa: E402
 
 sys.path.insert(0, str(ROOT / "demos"))
 from bidirectional_strip import STEPPED_OUT_SLIP, sweep_row  # noqa: E402

@@ -107,8 +107,8 @@ class Centroid:
 
 def run_protocol(name: str, overrides: list[str], out: Path, comm):
     """One protocol in-process; returns (Phase1, Centroid, scene)."""
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     direction = PROTOCOLS[name]
     title = f'title="Bidirectional magnetic strip (paper section 4.3), field along {name}"'
@@ -333,7 +333,7 @@ def main(argv=None) -> int:
     plot_trajectories(curves, field["ramp_time"], args.out / "trajectory.png")
     print(f"wrote groups.md, trajectory.csv, shape_phase1.png, trajectory.png in {args.out}")
     # a picture and a film of each protocol, drawn by `rftfem render`
-    from rftfem.render_cli import draw_picture_and_film
+    from rftfem.outputs.render_cli import draw_picture_and_film
 
     for name in PROTOCOLS:
         draw_picture_and_film(args.out / f"protocol{name}", "strip", "--view", "follow")

@@ -111,7 +111,7 @@ def optimize(out: Path, names: list[str], method: str, budget: int, sets: dict,
 
 def measure(row: dict) -> dict:
     """The run's speed along X, along Z, its size and direction, and its rest moment."""
-    from rftfem import objective
+    from rftfem.studies import objective
 
     folder = row["folder"]
     ux = objective.parse(OBJECTIVE).evaluate(folder)

@@ -82,9 +82,9 @@ def field_formula(b_mT: float) -> str:
 
 
 def run(scene_file: Path, out: Path, sets=()):
-    from rftfem.quantities import read_csv
-    from rftfem.scene import load_scene
-    from rftfem.simulation import run as run_scene
+    from rftfem.outputs.quantities import read_csv
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import run as run_scene
 
     run_scene(load_scene(scene_file, list(sets)), out_dir=out, quiet=True)
     header, rows = read_csv(out / "probes.csv")

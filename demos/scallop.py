@@ -84,8 +84,8 @@ def swim(kind: str, arm_E: float, cycles: int, amplitude: float = 0.1, period: f
     """Run the scene with the given loop and arm modulus; return the centre's Y
     displacement at the end of every cycle (mm) and the run's summary."""
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     wl, wr = loop_tables(kind, amplitude, period, cycles)
     sets = [f"time.end={float(cycles * period)!r}",

@@ -36,7 +36,7 @@ import repository_python  # noqa: E402
 
 repository_python.ensure()
 
-from rftfem.render_cli import draw_picture_and_film  # noqa: E402
+from rftfem.outputs.render_cli import draw_picture_and_film  # noqa: E402
 
 #: the lowest height whose closest gap, h − b, is 2.5 blobs of the shipped mesh
 GAP_LOWEST = 0.5 + 2.5 * 0.25

@@ -59,9 +59,9 @@ def swim(b_mT: float, f: float, periods: int, out: Path, settle: float = 1.0,
          window: float = 0.5) -> dict:
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
     from rftfem.errors import RunFailed
-    from rftfem.quantities import read_csv
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.outputs.quantities import read_csv
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     span = max(periods / f, window)
     end = 2 / f + settle + span

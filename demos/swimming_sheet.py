@@ -52,7 +52,7 @@ repository_python.ensure()
 
 import numpy as np
 
-from rftfem.render_cli import draw_picture_and_film
+from rftfem.outputs.render_cli import draw_picture_and_film
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "swimming_sheet.toml"

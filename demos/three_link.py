@@ -79,8 +79,8 @@ def groups(E: float) -> dict:
 def run_case(name: str, density: float, out: Path):
     """Run one case; return (times, probe rows (n, 4, 3), centroid Y, summary)."""
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     (EL, EM, ER), driven = CASES[name]
     sets = [f"shell.density={density!r}"]
@@ -205,7 +205,7 @@ def main(argv=None) -> int:
     print(f"wrote {args.out / 'table4.csv'}, centroid.csv, reference.md, groups.md and "
           "three_link.png")
     # a picture and a film of the first case, drawn by `rftfem render`
-    from rftfem.render_cli import draw_picture_and_film
+    from rftfem.outputs.render_cli import draw_picture_and_film
 
     draw_picture_and_film(args.out / f"case_{args.cases[0]}", "swimmer", "--view", "follow")
     if failed:

@@ -21,9 +21,9 @@ import warnings
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from rftfem import toml_writer
+from rftfem.scene import toml_writer
 from rftfem.errors import RunFailed, RunWarning, SceneError
-from rftfem.scene import (complete_scene, parse_scene_text, read_scene_file, set_key)
+from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key)
 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
@@ -166,7 +166,7 @@ class Scene:
         """What ``rftfem check`` checks beyond the keys: build the body and the
         model (no forms compiled) so that selectors, regions and probes meet the
         mesh; return the active effects. Raises :class:`SceneError` as check does."""
-        from rftfem.simulation import check
+        from rftfem.integration.simulation import check
 
         return check(self.completed())
 
@@ -253,12 +253,12 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
     scene = _scene_of(scene)
     if "dolfinx" not in sys.modules:
         # pyvista first, so that Result.fields and .render work in this process
-        # afterwards (rftfem/compat_render.py); without pyvista, they draw elsewhere
+        # afterwards (rftfem/outputs/compat_render.py); without pyvista, they draw elsewhere
         try:
-            import rftfem.render  # noqa: F401  (pyvista with its plotting, VTK's rendering)
+            import rftfem.outputs.render  # noqa: F401  (pyvista with its plotting, VTK's rendering)
         except (ImportError, RuntimeError):
             pass
-    from rftfem.simulation import run as run_simulation
+    from rftfem.integration.simulation import run as run_simulation
 
     if out is None:
         out = restart if restart is not None else default_out(scene)

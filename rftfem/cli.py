@@ -83,7 +83,8 @@ def _build_parser() -> _Parser:
 
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
-    from rftfem import collect, optimize, render_cli, study
+    from rftfem.outputs import collect, render_cli
+    from rftfem.studies import optimize, study
 
     render_cli.add_arguments(sub.add_parser(
         "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
@@ -186,13 +187,13 @@ def _default_out(scene_file: str) -> Path:
 
 
 def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     out_dir = args.out if args.out is not None else (
         args.restart if args.restart is not None else _default_out(args.scene))
     try:
         scene = load_scene(args.scene, args.overrides)
-        from rftfem.simulation import run as run_simulation
+        from rftfem.integration.simulation import run as run_simulation
 
         console.refresh()  # the simulation brought in mpi4py
         run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args,
@@ -216,13 +217,13 @@ def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
 
 
 def _cmd_check(args, console: _Console) -> int:
-    from rftfem import scales
-    from rftfem.scene import active_effects, load_scene
+    from rftfem.scene import scales
+    from rftfem.scene.reading import active_effects, load_scene
 
     try:
         scene = load_scene(args.scene, args.overrides)
         try:
-            from rftfem.simulation import check_report
+            from rftfem.integration.simulation import check_report
         except ImportError:  # the simulation module is not there: a scene-only check
             def check_report(scene):
                 return active_effects(scene), []
@@ -255,9 +256,9 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
         console.err(f"rftfem {args.command}: error: unrecognized arguments: {' '.join(petsc_args)}")
         return 2
     if args.command == "render":
-        from rftfem.render_cli import main as tool
+        from rftfem.outputs.render_cli import main as tool
     else:
-        from rftfem.collect import main as tool
+        from rftfem.outputs.collect import main as tool
     try:
         return tool(args, console)
     except SceneError as exc:
@@ -268,9 +269,9 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
 def _cmd_many(args, petsc_args: list[str], console: _Console) -> int:
     """``study`` and ``optimize``: many runs of a scene (PETSc options go to each)."""
     if args.command == "study":
-        from rftfem.study import main as tool
+        from rftfem.studies.study import main as tool
     else:
-        from rftfem.optimize import main as tool
+        from rftfem.studies.optimize import main as tool
     try:
         return tool(args, petsc_args, console)
     except SceneError as exc:

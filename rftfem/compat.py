@@ -171,7 +171,7 @@ def form(ufl_form, jit_options: dict | None = None):
     except Exception as error:
         # the C compiler refused a user's flags: a bad option, not a traceback
         if FLAGS_FROM_ENVIRONMENT and "CompileError" in str(error):
-            from .errors import SceneError
+            from rftfem.errors import SceneError
 
             raise SceneError("RFTFEM_COMPILE_FLAGS: the C compiler failed with the flags "
                              f"'{' '.join(COMPILE_FLAGS)}' (unset it, or give flags it "
@@ -350,7 +350,7 @@ def repair_xdmf_namespace(path) -> None:
     namespace is ``http://...`` and nothing else, so ParaView's and VTK's
     readers ignore every ``xi:include`` (the time steps lose their mesh and VTK
     crashes). dolfinx 0.5 writes it right. Detected by content: a right file is
-    left alone. (``rftfem.render`` reads a file that was never repaired, e.g.
+    left alone. (``rftfem.outputs.render`` reads a file that was never repaired, e.g.
     of a killed run, through a repaired copy.)
     """
     from pathlib import Path

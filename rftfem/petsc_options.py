@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from petsc4py import PETSc
 
-from . import compat
-from .schema import (FACTORIZATIONS, MATRIX_TYPES, TANGENTS, check_factorization,
+from rftfem import compat
+from rftfem.scene.schema import (FACTORIZATIONS, MATRIX_TYPES, TANGENTS, check_factorization,
                      check_matrix_type, check_tangent)
 
 PREFIX = "rftfem_"
 
 #: The tangent's PETSc matrix type unless ``[solver] mat_type`` says otherwise: a
-#: block of (u, θ) rows per node (rftfem/model.py), inserted a node pair at a time (10×
+#: block of (u, θ) rows per node (rftfem/model/shell_model.py), inserted a node pair at a time (10×
 #: faster than entry by entry); PETSc's LU and MUMPS factorise it as it is
 #: (docs/performance.md, "What a Jacobian costs")
 MATRIX_TYPE = MATRIX_TYPES[0]  # "baij"

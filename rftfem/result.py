@@ -44,7 +44,7 @@ class Result:
         if name not in self._cache:
             import pandas as pd
 
-            from rftfem.quantities import read_csv
+            from rftfem.outputs.quantities import read_csv
 
             path = self.folder / _TABLES[name]
             if not path.is_file():
@@ -91,7 +91,7 @@ class Result:
     def quantity(self, expr: str) -> float:
         """The value of a quantity in collect's language, as ``rftfem collect
         --quantity`` computes it (``rate(front_ux, 1, 2)``, ``steady(front_ux)``, ...)."""
-        from rftfem.quantities import evaluate
+        from rftfem.outputs.quantities import evaluate
 
         return evaluate(expr, self.folder)
 
@@ -105,12 +105,12 @@ class Result:
     def _fields(self):
         if "fields" not in self._cache:
             try:
-                from rftfem.render_view import RunFields
-            except RuntimeError as exc:  # dolfinx came first (rftfem/compat_render.py)
+                from rftfem.outputs.render_view import RunFields
+            except RuntimeError as exc:  # dolfinx came first (rftfem/outputs/compat_render.py)
                 raise RuntimeError(
                     "Result.fields needs pyvista, which cannot join a process that imported "
                     "dolfinx before it on this stack: call rftfem.run (or import "
-                    "rftfem.render) before importing dolfinx, or open the Result in another "
+                    "rftfem.outputs.render) before importing dolfinx, or open the Result in another "
                     f"process ({exc})") from None
 
             self._cache["fields"] = RunFields(self.folder)
@@ -139,11 +139,11 @@ class Result:
         a film; ``options`` are render's, by their command-line names (``color``,
         ``time``, ``view``, ``trail``, ``scale``, ``fps``, ``every``, ``size`` as
         "WxH"). Drawn in this process if pyvista can join it, else in a child
-        process (after dolfinx was imported first, see rftfem/compat_render.py)."""
+        process (after dolfinx was imported first, see rftfem/outputs/compat_render.py)."""
         import argparse
 
-        from rftfem import render_cli
-        from rftfem.compat_render import import_pyvista
+        from rftfem.outputs import render_cli
+        from rftfem.outputs.compat_render import import_pyvista
 
         out = Path(out) if out is not None else self.folder / "render.png"
         argv = [str(self.folder), "--out", str(out)]

@@ -45,7 +45,7 @@ REF_APT=(
 
 CUR_VENV="$ROOT/.venv-current"
 CUR_PIP=(dolfinx-solver-real gmsh h5py hypothesis)
-# The fast multipole library of the matrix-free Stokes operator (rftfem/stokes_fmm.py).
+# The fast multipole library of the matrix-free Stokes operator (rftfem/model/stokes_fmm.py).
 # Its wheels declare numpy >= 1.26 but run on Debian's numpy 1.24 (built against
 # numpy 2's backward-compatible ABI; tests/test_stokes.py checks it against the dense
 # operator), so the reference stack takes it without dependencies; the current
@@ -182,7 +182,7 @@ PY
     "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-deps "$FMM_PIP"
 
     step "reference: checking that dolfinx, gmsh, pyvista and rftfem import"
-    "$REF_VENV/bin/python" -c 'import rftfem.render, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
+    "$REF_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$REF_VENV/$STAMP_NAME"
     say "reference: ready ($((SECONDS - t)) s)"
@@ -264,7 +264,7 @@ setup_current() {
     "$CUR_VENV/bin/python" -m pip install "${pip_flags[@]}" -e '.[test,fast]' "${CUR_PIP[@]}"
 
     step "current: checking that dolfinx_solver, dolfinx, gmsh, pyvista and rftfem import"
-    "$CUR_VENV/bin/python" -c 'import rftfem.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.render.pv.__version__)'
+    "$CUR_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$CUR_VENV/$STAMP_NAME"
     say "current: ready ($((SECONDS - t)) s)"

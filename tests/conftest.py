@@ -18,8 +18,8 @@ DEMOS = ROOT / "demos"
 
 def run_scene(scene_file, *overrides, out_dir=None, observers=(), petsc_args=None):
     """Load ``scene_file`` with ``--set`` style overrides, run it, return the Simulation."""
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     scene = load_scene(scene_file, list(overrides))
     sim = Simulation(scene, out_dir=out_dir, quiet=True, petsc_args=petsc_args,
@@ -37,8 +37,8 @@ def build_model(scene_text, tmp_path, overrides=(), comm=None, compile_forms=Fal
     from mpi4py import MPI
 
     from rftfem.meshes import build_body
-    from rftfem.model import Model
-    from rftfem.scene import load_scene
+    from rftfem.model.shell_model import Model
+    from rftfem.scene.reading import load_scene
 
     scene = load_scene(write_scene(tmp_path, scene_text), list(overrides))
     return Model(scene, build_body(comm or MPI.COMM_SELF, scene["mesh"]),
@@ -59,7 +59,7 @@ def rows_at(sim, times, probe=0):
 _READ_FIELDS = """
 import json, sys
 import numpy as np
-from rftfem.render_view import RunFields
+from rftfem.outputs.render_view import RunFields
 run = RunFields(sys.argv[1])
 point = np.array(json.loads(sys.argv[2]))
 i = int(np.argmin(np.linalg.norm(run.reference_points - point, axis=1)))

@@ -1,4 +1,4 @@
-"""Static path-following by arc length (rftfem/arclength.py) against an exact
+"""Static path-following by arc length (rftfem/integration/arclength.py) against an exact
 equilibrium path with two load limit points and a snap-back.
 
 The structure is one bar of a shallow two-bar (von Mises) truss, modelled as a
@@ -122,7 +122,7 @@ def soft_support(F0):
 
 def run_truss(tmp_path, **keys):
     sim = run_scene(truss_scene(tmp_path, **keys), out_dir=tmp_path / "out")
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, rows = read_csv(tmp_path / "out" / "probes.csv")
     return sim, rows[:, header.index("load_factor")], -rows[:, header.index("apex_uz")]
@@ -193,13 +193,13 @@ def test_each_step_keeps_its_arc_and_the_path_turns_back_at_the_limits(tmp_path)
     1.1e-13), no arc exceeds MAX_GROWTH times the first, and λ rises up to the first
     limit point (v = h/√3), falls between the two (through the flat bar), and rises
     past the second (v = −h/√3), as the exact F(w) does."""
-    from rftfem.arclength import MAX_GROWTH
+    from rftfem.integration.arclength import MAX_GROWTH
 
     F0 = 1.5 * F_LIMIT
     steps = ArcSteps()
     scene = truss_scene(tmp_path, force=-F0, dt=0.05)
     sim = run_scene(scene, out_dir=tmp_path / "out", observers=[steps])
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, rows = read_csv(tmp_path / "out" / "probes.csv")
     lam, w = rows[:, header.index("load_factor")], -rows[:, header.index("apex_uz")]
@@ -228,7 +228,7 @@ def test_support_reaction_is_the_bar_force(tmp_path):
     (0, b/2, 0) (reached 9e-13 of F_max)."""
     F0 = 1.5 * F_LIMIT
     sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05)
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, body = read_csv(tmp_path / "out" / "body.csv")
     r = np.stack([body[:, header.index(f"support_{c}")] for c in
@@ -264,7 +264,7 @@ def test_arc_length_branches_that_end_a_run(tmp_path):
 
 
 def _table(path):
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     return read_csv(path)
 
@@ -318,7 +318,7 @@ def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, 
 ])
 def test_bad_arc_length_settings_are_refused(tmp_path, sets, message):
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     scene = truss_scene(tmp_path, dt=0.05)
     with pytest.raises(SceneError) as err:

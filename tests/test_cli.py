@@ -131,8 +131,8 @@ def test_split_petsc_options():
 
 @pytest.fixture
 def fake_simulation(monkeypatch):
-    """A stand-in rftfem.simulation that records its calls."""
-    module = types.ModuleType("rftfem.simulation")
+    """A stand-in rftfem.integration.simulation that records its calls."""
+    module = types.ModuleType("rftfem.integration.simulation")
     module.calls = []
     module.options = []
     module.outcome = None
@@ -154,7 +154,7 @@ def fake_simulation(monkeypatch):
         return check(scene), []
 
     module.run, module.check, module.check_report = run, check, check_report
-    monkeypatch.setitem(sys.modules, "rftfem.simulation", module)
+    monkeypatch.setitem(sys.modules, "rftfem.integration.simulation", module)
     return module
 
 
@@ -204,7 +204,7 @@ def test_check_uses_simulation_check(good, fake_simulation, capsys):
 
 
 def test_check_falls_back_without_simulation_module(good, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "rftfem.simulation", None)  # import -> ImportError
+    monkeypatch.setitem(sys.modules, "rftfem.integration.simulation", None)  # import -> ImportError
     assert cli.main(["check", str(good), "--set", "shell.density=1"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out == ["scene OK: cli cantilever", "active effects: elasticity, inertia, edge-moment",

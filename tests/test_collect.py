@@ -21,7 +21,7 @@ import pytest
 from conftest import DEMOS, ROOT
 
 from rftfem import cli
-from rftfem import collect as C
+from rftfem.outputs import collect as C
 from rftfem.errors import SceneError
 
 ROLLUP = DEMOS / "rollup.toml"
@@ -421,13 +421,13 @@ def test_bad_input_one_line(runs, tmp_path, case, message):
 
 def test_collect_module_is_light():
     """collect is imported by every `rftfem` command: no dolfinx, pyvista, mpi4py."""
-    code = ("import json, sys, rftfem.collect; print(json.dumps(sorted(m for m in "
+    code = ("import json, sys, rftfem.outputs.collect; print(json.dumps(sorted(m for m in "
             "('dolfinx', 'pyvista', 'mpi4py', 'ufl', 'petsc4py') if m in sys.modules)))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, timeout=120)
     assert done.returncode == 0, done.stderr
     # rftfem/__init__.py may set up the FEniCSx stack; collect itself adds nothing
-    base = subprocess.run([sys.executable, "-c", code.replace("rftfem.collect", "rftfem")],
+    base = subprocess.run([sys.executable, "-c", code.replace("rftfem.outputs.collect", "rftfem")],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert json.loads(done.stdout) == json.loads(base.stdout)
 

@@ -6,10 +6,10 @@ import ufl
 
 from conftest import build_model, write_scene
 from rftfem import compat
-from rftfem.model import Model
+from rftfem.model.shell_model import Model
 from rftfem.meshes import build_body
-from rftfem.scene import load_scene
-from rftfem.timeint import make_scheme
+from rftfem.scene.reading import load_scene
+from rftfem.integration.schemes import make_scheme
 
 SCENE = """
 title = "random state for a Taylor test"

@@ -135,7 +135,7 @@ def test_magnetic_snap_as_shipped_brackets_its_limit(tmp_path):
     from rftfem.errors import RunFailed
 
     assert magnetic_snap.main(["--out", str(tmp_path / "demo")]) == 0
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, rows = read_csv(tmp_path / "demo" / "path" / "probes.csv")
     path = {name: rows[:, i] for i, name in enumerate(header)}

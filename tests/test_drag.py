@@ -166,7 +166,7 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
     assembles to zero (to round-off, 1e-13 of the term's value once the body moves
     by 1e-3 in one step); moving it makes the term non-zero."""
     from rftfem import compat
-    from rftfem.timeint import make_scheme
+    from rftfem.integration.schemes import make_scheme
 
     model = build_model(STRIP.replace("E = 1.0e6", "E = 1.0e6\ndensity = 1.0e-6"), tmp_path)
     model.set_coefficients(make_scheme(model.scene["time"]).coefficients(0.1))

@@ -70,9 +70,9 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
     dₙ, as a long spin leaves them (up to 180° apart within one cell), come back
     smooth and equal to the frames of the run, along the rolled strip's tangent;
     dₙ and the state (the force vector at θ = 0) are unchanged."""
-    from rftfem.triad import rotate
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.model.triad import rotate
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     scene = load_scene(DEMOS / "rollup.toml", ["time.end=0.5", "output.fields=false"])
     sim = Simulation(scene, quiet=True)

@@ -16,7 +16,7 @@ import pytest
 
 from conftest import ROOT, run_scene, write_scene
 from rftfem.errors import RunFailed
-from rftfem.quantities import evaluate
+from rftfem.outputs.quantities import evaluate
 from test_study import OMEGA, OMEGA_C, PROBES, adler_angle
 from test_magnetic import PLATE
 

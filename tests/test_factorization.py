@@ -90,7 +90,7 @@ def test_auto_keeps_the_factors_only_on_large_meshes():
 def test_an_unknown_policy_is_one_line(where):
     from rftfem.errors import SceneError
     from rftfem.petsc_options import factorization
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     with pytest.raises(SceneError) as err:
         if where == "scene":
@@ -126,11 +126,11 @@ def test_small_serial_runs_use_petscs_lu_and_fall_back_on_mumps(direct):
 
 
 def test_the_tangent_is_a_block_matrix_unless_asked(direct):
-    """The tangent holds a (u, θ) block per node pair (rftfem/model.py); ``mat_type =
+    """The tangent holds a (u, θ) block per node pair (rftfem/model/shell_model.py); ``mat_type =
     "aij"`` gives a point-wise one (for preconditioners that take no blocks) with the
     same tips to round-off.  Any other type is one line naming the key."""
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     def matrix_of(seen):
         return lambda sim: seen.add((sim.solver.A.getType(), sim.solver.A.getBlockSize()))

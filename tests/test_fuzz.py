@@ -45,7 +45,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from conftest import DEMOS
-from rftfem import cli, toml_writer
+from rftfem import cli
+from rftfem.scene import toml_writer
 
 #: hypothesis's seed: RFTFEM_FUZZ_SEED if set, else a fresh one for this run
 FUZZ_SEED = int(os.environ.get("RFTFEM_FUZZ_SEED") or random.SystemRandom().randrange(2**32))
@@ -246,7 +247,7 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
 def _form_key(scene: dict) -> tuple:
     """What decides which forms a run compiles (material values do not: they are
     cellwise Functions)."""
-    from rftfem.scene import active_effects
+    from rftfem.scene.reading import active_effects
 
     return (tuple(active_effects(scene)), scene["mesh"].get("cell"), scene["time"]["scheme"],
             (scene.get("solver") or {}).get("tangent"), scene["mesh"].get("kind"),
@@ -257,7 +258,7 @@ def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float 
     """time.end for two or three steps of the mutant (None: too many unknowns for a
     quick run, a dt that makes the end not a number, or, with ``same_forms_as``, a
     mutant whose forms differ from that demo's, which would take a compilation)."""
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     scene = load_scene(path, [a for a in args if a != "--set"])
     if same_forms_as is not None:

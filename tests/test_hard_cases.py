@@ -36,7 +36,7 @@ import numpy as np
 import pytest
 
 from conftest import DEMOS, ROOT, fields_at, run_command, write_scene
-from rftfem.quantities import evaluate, read_csv
+from rftfem.outputs.quantities import evaluate, read_csv
 
 pytestmark = pytest.mark.hard
 

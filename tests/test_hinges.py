@@ -104,7 +104,8 @@ class TieAndFold:
     def __call__(self, sim):
         from dolfinx import fem
 
-        from rftfem import compat, hinges
+        from rftfem import compat
+        from rftfem.model import hinges
 
         m = sim.model
         if self.forms is None:
@@ -463,9 +464,9 @@ PARTITION = """
 import sys
 from mpi4py import MPI
 import rftfem
-from rftfem.scene import load_scene
-from rftfem.selectors import cells_of
-from rftfem.simulation import build_model
+from rftfem.scene.reading import load_scene
+from rftfem.scene.selectors import cells_of
+from rftfem.integration.simulation import build_model
 model = build_model(load_scene(sys.argv[1], sys.argv[2:]), MPI.COMM_WORLD)
 n = model.mesh.topology.index_map(1).size_local
 owners = [MPI.COMM_WORLD.allgather(int((h.facets < n).sum()) > 0) for h in model.hinges]
@@ -539,7 +540,7 @@ def test_local_panel_components():
     """hinges._local_components against plain label spreading, on random cell-facet
     layouts (some facets shared by two cells, some closed by a hinge): the same
     panels, each named by its smallest cell."""
-    from rftfem.hinges import _local_components
+    from rftfem.model.hinges import _local_components
 
     rng = np.random.default_rng(7)
     for _ in range(20):

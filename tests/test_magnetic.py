@@ -123,7 +123,7 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
 
 def test_field_protocol():
     """b(t): linear ramp along `direction`, then right-handed rotation about the axis."""
-    from rftfem.magnetic_sources import UniformField
+    from rftfem.model.magnetic_sources import UniformField
 
     field_at = UniformField({"kind": "rotating", "strength": 2.0, "ramp_time": 0.5,
                              "direction": [2.0, 0.0, 0.0], "frequency": 4.0,
@@ -374,8 +374,8 @@ def test_energy_bookkeeping_in_rotating_field(tmp_path):
     not in the moment, fails both, which 1 % did not see).  Each term carries
     weight: dissipation over half the work, stored elastic energy over a tenth,
     kinetic energy at its peak over a hundredth (reached 0.79, 0.21, 0.018)."""
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     sim = Simulation(load_scene(write_scene(tmp_path, ENERGY)), quiet=True)
     book = EnergyBook(sim.model)

@@ -19,8 +19,8 @@ import pytest
 
 from conftest import build_model, run_scene, write_scene
 from rftfem.errors import SceneError
-from rftfem.expressions import parse
-from rftfem.magnetic_sources import TimeTable
+from rftfem.scene.expressions import parse
+from rftfem.model.magnetic_sources import TimeTable
 
 # ------------------------------------------------------------------ formulas
 
@@ -553,7 +553,7 @@ def _one_line_exit_2(args, *words):
 
 def _scene_error(tmp_path, text, *sets, build=False) -> str:
     """The SceneError of loading (``build``: and building the model of) a scene: one line."""
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     with pytest.raises(SceneError) as e:
         if build:

@@ -95,7 +95,7 @@ def test_a_waves_rates_are_its_derivatives():
     """The velocity and acceleration a second-order scheme imposes on driven dofs
     (Motion.rates) are the time derivatives of the prescribed value (Motion.at): central
     differences of ``at`` agree to 1e-7, inside the ramp, at its end and after it."""
-    from rftfem.effects.motion import Motion
+    from rftfem.model.effects.motion import Motion
 
     spec = {"kind": "travelling-wave", "amplitude": 0.3, "wavenumber": 0.7,
             "angular_frequency": 5.0, "origin": 0.2, "phase": 1.1, "ramp_time": 0.5}

@@ -13,9 +13,9 @@ import pytest
 from conftest import DEMOS, ROOT, run_command, run_scene, write_scene
 from rftfem import compat
 from rftfem.meshes import build_body
-from rftfem.model import Model
-from rftfem.scene import load_scene
-from rftfem.timeint import make_scheme
+from rftfem.model.shell_model import Model
+from rftfem.scene.reading import load_scene
+from rftfem.integration.schemes import make_scheme
 from test_consistency import SCENE, model_comm
 from test_hinges import free_link_scene
 

@@ -172,7 +172,7 @@ def test_bad_options_are_one_line_exit_2(tmp_path, args, message):
 def test_objective_formulas():
     """Quantities found inside a formula, max/min of the formula told from the quantity
     functions, scene() values read from a run's summary."""
-    from rftfem import objective
+    from rftfem.studies import objective
 
     ob = objective.parse("rate(centroid_x, 1, 2) / mean(drag_power, 1, 2) - 0.5")
     assert [q.text for q in ob.quantities] == ["rate(centroid_x, 1, 2)", "mean(drag_power, 1, 2)"]
@@ -283,7 +283,7 @@ def test_three_link_stroke_scene_against_rigid_links(tmp_path):
     """The design demo's scene at an unequal stroke (r = 0.56, φ = −π/2): the swim per
     dissipated energy over cycles 2 and 3 within 1 % of the rigid-link reference
     (reached −0.29 %; backward Euler at the same steps is 17 % off here)."""
-    from rftfem.objective import parse
+    from rftfem.studies.objective import parse
 
     out = tmp_path / "run"
     done = run_command([sys.executable, "-m", "rftfem", "run", str(STROKE), "--out", str(out),
@@ -313,7 +313,7 @@ def test_np_runs_each_evaluation_under_mpirun(tmp_path):
 def test_scenes_written_back_read_the_same():
     """best.toml's writer: every shipped scene, and strings TOML wants escaped, read back
     by tomllib as they were."""
-    from rftfem import toml_writer
+    from rftfem.scene import toml_writer
 
     for path in sorted((ROOT / "demos").glob("*.toml")):
         data = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -392,7 +392,7 @@ def test_stiffness_design_scene_against_linear_beam_theory(tmp_path):
     theory the demo script carries (reached −0.31 %)."""
     import importlib.util
 
-    from rftfem.objective import parse
+    from rftfem.studies.objective import parse
 
     spec = importlib.util.spec_from_file_location("stiffness_design",
                                                   ROOT / "demos" / "stiffness_design.py")
@@ -420,7 +420,7 @@ def _magnetic_design_demo():
 
 def _magnetic_design_run(demo, out, *sets):
     """One run of demos/magnetic_design.toml: (U along X, U along Z) in mm/s."""
-    from rftfem.objective import parse
+    from rftfem.studies.objective import parse
 
     done = run_command([sys.executable, "-m", "rftfem", "run", str(demo.SCENE), "--out", str(out),
                         "--quiet", *[f"--set={s}" for s in sets]], cwd=ROOT, timeout=900)
@@ -470,7 +470,7 @@ def test_child_runs_leave_the_mpi_job_variables_behind(monkeypatch):
     leaves PMIx/ORTE job variables in its environment; an mpirun that inherits them
     exits 1 without a word (test_np_runs_... failed so after test_sensitivity.py).
     Child runs get the environment without them, a user's OMPI_MCA_ settings kept."""
-    from rftfem.batch import child_environment
+    from rftfem.studies.batch import child_environment
 
     monkeypatch.setenv("PMIX_RANK", "0")
     monkeypatch.setenv("OMPI_MCA_orte_launch", "1")
@@ -487,7 +487,7 @@ def test_best_toml_finds_the_files_its_scene_names_from_any_folder(tmp_path):
     the profile)."""
     from types import SimpleNamespace
 
-    from rftfem.optimize_report import write_best
+    from rftfem.studies.optimize_report import write_best
 
     scene_dir, out = tmp_path / "scene", tmp_path / "elsewhere"
     scene_dir.mkdir()

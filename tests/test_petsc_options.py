@@ -11,8 +11,8 @@ from conftest import DEMOS
 
 def _tolerances(*overrides, petsc_args=()):
     """(rtol, atol, stol, max_it) of the SNES a Simulation of the roll-up builds."""
-    from rftfem.scene import load_scene
-    from rftfem.simulation import Simulation
+    from rftfem.scene.reading import load_scene
+    from rftfem.integration.simulation import Simulation
 
     scene = load_scene(DEMOS / "rollup.toml", ["mesh.divisions=[4,1]", *overrides])
     sim = Simulation(scene, quiet=True, petsc_args=list(petsc_args))

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 
-from rftfem import output
+from rftfem.outputs import writers as output
 
 
 class _Comm:

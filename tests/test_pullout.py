@@ -31,7 +31,7 @@ def _scene(tmp_path, octant, text):
 
 
 def _table(path):
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, rows = read_csv(path)
     return {name: rows[:, i] for i, name in enumerate(header)}

@@ -1,4 +1,4 @@
-"""Reactions of named ``[[boundary]]`` entries (rftfem/reactions.py): the force and
+"""Reactions of named ``[[boundary]]`` entries (rftfem/model/reactions.py): the force and
 moment each carries, against the loads they hold up.
 
 The forces balance to the solver's residual on the free rows.  The moments
@@ -54,7 +54,7 @@ FORCE = np.array([0.3, 0.2, -1.0])
 
 def body_rows(sim, name):
     """The reaction columns (n, 6) of ``name`` in body.csv, and the times."""
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     header, rows = read_csv(sim.out_dir / "body.csv")
     cols = [header.index(f"{name}_{c}") for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")]
@@ -188,7 +188,7 @@ def test_magnetic_strip_reaction_is_the_field_couple(tmp_path):
     (8 cells), strongly bent soft strip carry a moment of 3.8e-4 of it (the director
     interpolation's rotational consistency error, 7e-5 on 16 cells, 1.8e-5 on 32).
     Reached: force 1e-15 (5.7e-13 on the current stack), moment 2.3e-4."""
-    from rftfem.quantities import read_csv
+    from rftfem.outputs.quantities import read_csv
 
     sim = run_scene(write_scene(tmp_path, MAGNETIC), out_dir=tmp_path / "out")
     header, rows = read_csv(sim.out_dir / "body.csv")
@@ -213,7 +213,7 @@ def test_dynamic_reaction_balances_load_inertia_and_drag(tmp_path):
     from petsc4py import PETSc
 
     from rftfem import compat
-    from rftfem.timeint import Coefficients
+    from rftfem.integration.schemes import Coefficients
 
     scene = write_scene(tmp_path, CANTILEVER.format(
         density="density = 1.0", end=0.2, dt=0.02,
@@ -266,7 +266,7 @@ def test_dynamic_reaction_balances_load_inertia_and_drag(tmp_path):
 ])
 def test_a_name_given_twice_is_refused(tmp_path, bad, message):
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     text = CANTILEVER.format(density="", end=1.0, dt=0.25, scheme="", ramp="") + (
         f'[[motion]]\n{bad}\nwhere = "x=L"\ncomponent = "uy"\nkind = "table"\n'

@@ -14,7 +14,7 @@ against what the run itself wrote:
 - bad input exits 2 with one line.
 
 Rendering runs in child processes: on dolfinx 0.5, VTK cannot be loaded in
-a process that has imported dolfinx (see rftfem/compat_render.py).
+a process that has imported dolfinx (see rftfem/outputs/compat_render.py).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def mpi_run(tmp_path_factory):
 
 _RENDER = """
 import json, sys
-from rftfem.render import render
+from rftfem.outputs.render import render
 r = render(sys.argv[1], sys.argv[2], time=None if sys.argv[3] == "last" else float(sys.argv[3]),
            **json.loads(sys.argv[4]))
 print(json.dumps({"pixels": r.probe_pixels, "reference_pixels": r.reference_pixels,
@@ -255,7 +255,7 @@ def test_fields_file_has_the_xinclude_namespace_parsers_know(serial_run, tmp_pat
 _WRITTEN = """
 import json, sys
 import numpy as np
-from rftfem.render_view import RunFields
+from rftfem.outputs.render_view import RunFields
 run = RunFields(sys.argv[1])
 x = run.reference_points + run.frame(len(run.times) - 1)["displacement"]
 grid = run.reference
@@ -431,7 +431,7 @@ def test_a_trail_is_drawn_over_the_body(serial_run, tmp_path):
 
 _ARROWS = """
 import numpy as np
-from rftfem.render import _arrows
+from rftfem.outputs.render import _arrows
 points = np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0], [0.0, 9.0, 0.0]])
 m = np.array([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
 glyphs = _arrows(points, m, np.linalg.norm(m, axis=1) > 0, 1.5)

@@ -166,7 +166,8 @@ def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
 
 _KILLED_WRITING = """
 import os, sys
-from rftfem import checkpoint, cli
+from rftfem.outputs import checkpoint
+from rftfem import cli
 real = checkpoint.os.replace
 def replace(src, dst):
     if str(src).endswith("step-00000012.tmp"):
@@ -203,7 +204,8 @@ def test_checkpoint_killed_while_written_is_not_read(tmp_path):
 
 _SIGNAL_AFTER_CHECKPOINT = """
 import os, signal, sys
-from rftfem import checkpoint, cli
+from rftfem.outputs import checkpoint
+from rftfem import cli
 real = checkpoint.write
 def write(out_dir, step, *args):
     done = real(out_dir, step, *args)

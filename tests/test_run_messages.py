@@ -136,7 +136,7 @@ def test_a_step_longer_than_a_quarter_period_warns_once_and_is_kept(tmp_path, fi
 
 def test_periods_read_from_formulas():
     """sin/cos/tan arguments linear in t give their periods; others give none."""
-    from rftfem.expressions import parse, periods_in_time
+    from rftfem.scene.expressions import parse, periods_in_time
 
     def periods(text):
         return periods_in_time(parse(text, "k", ("x", "y", "z", "t")))
@@ -190,8 +190,8 @@ def test_a_slow_set_up_says_it_is_compiling(tmp_path, capsys, monkeypatch):
     """A set-up longer than COMPILE_NOTICE_AFTER (its forms not yet in the JIT cache)
     says "compiling forms ..." once, before the run's own lines; --quiet does not."""
     from conftest import run_scene
-    from rftfem import simulation
-    from rftfem.scene import load_scene
+    from rftfem.integration import simulation
+    from rftfem.scene.reading import load_scene
 
     monkeypatch.setattr(simulation, "COMPILE_NOTICE_AFTER", 0.0)
     scene = write_scene(tmp_path, FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
@@ -221,7 +221,7 @@ def test_aliasing_of_waves_and_tables(extra, words):
     """dt = 0.05 against a travelling wave of period 0.1 and a load table with rows
     0.04 apart: one warning each; rows 0.05 apart (each step lands on a row), a jump
     on purpose (a release 1e-12 after t = 0) and rows outside [0, time.end] none."""
-    from rftfem.scales import aliasing_warnings
+    from rftfem.scene.scales import aliasing_warnings
 
     lines = aliasing_warnings({"time": {"dt": 0.05, "end": 1.0}, **extra})
     print(lines)

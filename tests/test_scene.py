@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from rftfem.errors import SceneError
-from rftfem.scene import (active_effects, apply_override, hinge_line, load_scene,
+from rftfem.scene.reading import (active_effects, apply_override, hinge_line, load_scene,
                           resolved_scheme)
 
 BAD = Path(__file__).parent / "scenes_bad"

@@ -1,4 +1,4 @@
-"""Adjoint sensitivities of static scenes (rftfem/sensitivity.py, docs/model.md §7.6):
+"""Adjoint sensitivities of static scenes (rftfem/studies/sensitivity.py, docs/model.md §7.6):
 Taylor tests against the runs themselves, a closed form, the outputs of an ordinary
 run, and the keys and objectives it refuses.
 
@@ -123,7 +123,7 @@ MAGNET_KEYS = {
 
 
 def _objective(scene, objective, folder, overrides=()):
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     status, J, _ = run_with_gradient(scene, list(overrides), folder, [], objective, TIGHT)
     assert status == 0, (folder / "run.log").read_text()
@@ -133,7 +133,7 @@ def _objective(scene, objective, folder, overrides=()):
 def _taylor(tmp_path, text, keys, objective, h0=0.02):
     """The gradient of ``objective`` by ``keys``, then each key's Taylor residuals;
     returns ``{key: (orders of r₂, orders of r₁, r₂)}``."""
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     scene = write_scene(tmp_path, text)
     status, J, grad = run_with_gradient(scene, [], tmp_path / "base", list(keys), objective,
@@ -188,7 +188,7 @@ def test_against_central_differences(tmp_path, dt, tolerance):
     state after the last triad update, not the one the step converged to, ν is 1e-4
     off).  Two load steps leave out the triads' dependence on p through the first
     one (docs/model.md §7.6): within 2e-4 (reached 6.5e-5, ν; 2e-6 the others)."""
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     scene = write_scene(tmp_path, STRIP)
     step = [f"time.dt={dt}"]
@@ -212,7 +212,7 @@ def test_linear_cantilever_closed_form(tmp_path):
     dw/dt = −(3 w_b + w_s)/t.  On 16×1 cells w is 2.2e-5 below it; the gradient must
     meet the closed form within 2e-4, and the discrete model's own scaling (w ∝ 1/E and
     ∝ P in the linear range) within 1e-6."""
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     L, b, t, E = 10.0, 1.0, 0.1, 1.2e6
     I, G, k = b * t**3 / 12, E / 2, 5.0 / 6.0
@@ -237,8 +237,8 @@ def test_linear_cantilever_closed_form(tmp_path):
 def test_outputs_and_statuses_as_run_here(tmp_path):
     """The run writes what batch.run_here writes (probes and body rows to the bit), and
     gradient.json; a failed run and a bad scene give run_here's statuses and no value."""
-    from rftfem.batch import run_here
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.batch import run_here
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     scene = write_scene(tmp_path, STRIP)
     assert run_here(scene, [], tmp_path / "plain") == 0
@@ -278,7 +278,7 @@ def test_refused_keys_and_objectives(tmp_path, key, objective, said):
     """What cannot be differentiated is a SceneError of one line naming what can, before
     any run; so is a scene that is not static."""
     from rftfem.errors import SceneError
-    from rftfem.sensitivity import run_with_gradient
+    from rftfem.studies.gradient_runs import run_with_gradient
 
     scene = write_scene(tmp_path, STRIP)
     with pytest.raises(SceneError) as err:
@@ -292,8 +292,8 @@ def test_refused_scheme_and_supports(tmp_path):
     """A scene in time is refused; ``supports`` (what rftfem optimize asks first) says
     the same as the checks, from the keys' syntax alone or with the scene."""
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
-    from rftfem.sensitivity import check_request, supports
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies.sensitivity import check_request, supports
 
     path = write_scene(tmp_path, STRIP)
     scene = load_scene(path, ["time.scheme=backward-euler"])

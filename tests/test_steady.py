@@ -1,4 +1,4 @@
-"""Steady periodic states (``time.until = "periodic"``, rftfem/steady.py): the
+"""Steady periodic states (``time.until = "periodic"``, rftfem/integration/steady.py): the
 extrapolation of the period means, a run that stops once steady against an
 exact transient and against the swimming sheet's exact speed, and bad keys."""
 
@@ -41,7 +41,7 @@ TERMINAL, TAU = 1.0e-9 * 0.1 * 9810.0 / 1.0e-7, 1.0e-9 * 0.1 / 1.0e-7
 def test_extrapolations_are_exact_for_their_modes():
     """Aitken's Δ² is exact for one geometric mode, Shanks' e₂ for two (r and r²), and
     a constant column stays itself."""
-    from rftfem.steady import aitken, shanks
+    from rftfem.integration.steady import aitken, shanks
 
     k = np.arange(6.0)
     one = 3 + 2 * 0.8**k
@@ -58,7 +58,7 @@ def test_a_sideways_wobble_is_judged_against_the_swim():
     settling as 1 − 0.5^k, wobbling in y with a swing of 1 % of the swim a period and
     a drift that jitters by 2e-4 of the swim.  Found steady after 12 periods at the
     settled speed; judged against the wobble alone (its swing), never."""
-    from rftfem.steady import SteadyWatch
+    from rftfem.integration.steady import SteadyWatch
 
     n, per = 24, 20
     t = np.linspace(0.0, n, n * per + 1)
@@ -107,7 +107,7 @@ def test_sinking_strip_stops_once_steady_at_the_terminal_speed(tmp_path):
 ])
 def test_bad_periodic_settings_are_refused(tmp_path, text, sets, message):
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     with pytest.raises(SceneError) as err:
         load_scene(write_scene(tmp_path, text), sets)
@@ -117,7 +117,7 @@ def test_bad_periodic_settings_are_refused(tmp_path, text, sets, message):
 def test_collect_reads_the_steady_values(tmp_path):
     """``rftfem collect`` has steady.reached and a steady.NAME column per extrapolated
     value: two sinking strips of different drag give their own terminal speeds."""
-    from rftfem.collect import collect
+    from rftfem.outputs.collect import collect
 
     dirs = []
     for c3 in (1.0e-7, 2.0e-7):
@@ -137,7 +137,7 @@ def test_quantity_steady_reads_the_steady_values(tmp_path):
     steady value: the sinking strip's terminal speed; a periodic run stopped at its
     end before it was steady has no value (Unavailable: an empty cell); a run of
     time.until = "end" or an unknown name is an error naming what is there."""
-    from rftfem.quantities import Unavailable, evaluate
+    from rftfem.outputs.quantities import Unavailable, evaluate
 
     scene = write_scene(tmp_path, SINKING)
     run_scene(scene, out_dir=tmp_path / "steady")
@@ -146,8 +146,8 @@ def test_quantity_steady_reads_the_steady_values(tmp_path):
     run_scene(scene, "time.end=6e-4", out_dir=tmp_path / "short")   # 3 periods: too few
     with pytest.raises(Unavailable, match="stopped at time.end before it was steady"):
         evaluate("steady(centroid_z_rate)", tmp_path / "short")
-    from rftfem.collect import collect  # there an empty cell, though the run finished
-    from rftfem.quantities import parse
+    from rftfem.outputs.collect import collect  # there an empty cell, though the run finished
+    from rftfem.outputs.quantities import parse
 
     header, rows, _ = collect([tmp_path / "short"], [("U", parse("steady(centroid_z_rate)"))])
     assert rows[0][header.index("status")] == "ok" and rows[0][header.index("U")] == ""
@@ -179,7 +179,7 @@ def test_period_is_read_from_the_drivers(parts, period):
     """time.until = "periodic" finds its period: a travelling wave's 2π/|ω| (a table
     motion has none), a rotating field's 1/f, both when they agree, time.period over
     both."""
-    from rftfem.steady import scene_period
+    from rftfem.integration.steady import scene_period
 
     assert scene_period(_period_scene(**parts)) == pytest.approx(period, rel=1e-15)
 
@@ -188,7 +188,7 @@ def test_two_different_periods_are_refused():
     """A wave of period 0.5 and a field of 4 Hz: no single period; the message names
     both and asks for time.period."""
     from rftfem.errors import SceneError
-    from rftfem.steady import scene_period
+    from rftfem.integration.steady import scene_period
 
     scene = _period_scene(motion=[{"kind": "travelling-wave", "angular_frequency": 4 * np.pi}],
                           magnetic={"field": {"kind": "rotating", "frequency": 4.0}})

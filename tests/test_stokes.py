@@ -15,10 +15,10 @@ import pytest
 
 from conftest import write_scene
 from stokes_bodies import write_disk, write_ellipsoid
-from rftfem import stokeslets
+from rftfem.model import stokeslets
 from rftfem.errors import SceneError
-from rftfem.scene import load_scene
-from rftfem.simulation import Simulation
+from rftfem.scene.reading import load_scene
+from rftfem.integration.simulation import Simulation
 
 MU = 1.0  # viscosity
 A = 1.0  # the disk's and the sphere's radius
@@ -152,7 +152,7 @@ def test_fast_operator_matches_the_dense_one(monkeypatch):
     in the preconditioner: M F (reached 3e-15), M⁻¹ v by the conjugate gradients
     (2e-11), G dx (6e-14), the lumped blocks (1e-10).  Broke: the correction's cutoff
     at 3 blobs gives M F 4e-6."""
-    from rftfem import stokes_fmm
+    from rftfem.model import stokes_fmm
 
     monkeypatch.setattr(stokes_fmm, "CLUSTER_NODES", 100)
 
@@ -185,7 +185,7 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch):
     """A coarse stiff disk translated edgewise and turned by a couple: the run's
     fluid resultant and displacements with ``operator = "fmm"`` (clusters of 80
     nodes) equal the dense run's to 2e-11 (reached 1.2e-12)."""
-    from rftfem import stokes_fmm
+    from rftfem.model import stokes_fmm
 
     monkeypatch.setattr(stokes_fmm, "CLUSTER_NODES", 80)
     write_disk(tmp_path / "coarse.msh", radius=A, size=0.5)
@@ -318,7 +318,7 @@ def test_coupled_residual_taylor_order_two(tmp_path, wall, operator):
     matrix-free) under generalized-α, J the coupled shell-matrix tangent, from a
     random deformed, moving state.  Broke: dropping the position derivative G gives
     order 1; the fast operator's doublet term halved gives order 1.0."""
-    from rftfem.timeint import make_scheme
+    from rftfem.integration.schemes import make_scheme
 
     write_disk(tmp_path / "coarse.msh", radius=A, size=0.5)
     text = COUPLED.format(mesh=tmp_path / "coarse.msh")

@@ -17,7 +17,7 @@ import sys
 import pytest
 
 from conftest import ROOT, run_command, write_scene
-from rftfem.study import analyse
+from rftfem.studies.study import analyse
 from test_magnetic import AXES, MB, PLATE, PLATE_L, PLATE_T, PLATE_W
 
 PROBES = """
@@ -142,7 +142,7 @@ def test_time_refinement_of_the_magnetic_plate(tmp_path, scheme, order, dt):
 def test_bdf2_coefficients_on_variable_steps():
     """v_{n+1} of BDF2 for u = t² (which it differentiates exactly) after steps of
     0.1, 0.05 (halved) and 0.1 (doubled back), and backward Euler's at the first step."""
-    from rftfem.timeint import BDF2
+    from rftfem.integration.schemes import BDF2
 
     scheme, t, u = BDF2(), 0.0, lambda s: s**2
     v, w = 0.0, 0.0
@@ -217,7 +217,7 @@ def test_a_failed_level_stays_in_the_table(tmp_path):
 
 
 def test_levels_in_this_process_equal_separate_processes(tmp_path):
-    """One level at a time the levels run in the study's own process (rftfem/batch.py),
+    """One level at a time the levels run in the study's own process (rftfem/studies/batch.py),
     a failed level among them; with --processes each is a child `rftfem run`: the
     same statuses and the same values to round-off, and the levels after a failure
     in the same process are unharmed."""

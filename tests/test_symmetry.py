@@ -84,7 +84,7 @@ def test_half_model_with_a_free_edge_differs(tmp_path):
 ])
 def test_symmetry_input_errors(tmp_path, text, words):
     from rftfem.errors import SceneError
-    from rftfem.scene import load_scene
+    from rftfem.scene.reading import load_scene
 
     scene = FULL.format(width=0.5, across=1, force=1.0,
                         symmetry=f'[[boundary]]\nwhere = "y=W"\n{text}')

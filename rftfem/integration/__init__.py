@@ -1,0 +1,13 @@
+"""Time stepping and path following: a run of a scene.
+
+- ``simulation``: :class:`Simulation`, the run's state and its loop;
+- ``schemes``: the time integrators (generalized-α, HHT, backward Euler, BDF2,
+  static); ``step_control``: one step, its cuts and growth; ``error_control``:
+  error-controlled steps; ``arclength``: static path following; ``steady``:
+  stopping once periodic;
+- ``solver``, ``factorization``, ``coupled``: the Newton solve of a step around
+  PETSc SNES (the tangent's factorisation, the nonlocal operator's coupling);
+- ``run_outputs``, ``restart``: the run's outputs and summary.json, its
+  checkpoints and going on from them (the files themselves: ``rftfem.outputs``);
+- ``impulses``: velocity jumps of prescribed motions; ``interrupts``: signals.
+"""

@@ -1,0 +1,385 @@
+"""PETSc SNES around the model's residual (docs/model.md §6-7).
+
+The residual of a step is
+
+    R = (1 − α_f) F(w) + M a_{n+1−α_m}(w) + α_f F_n
+
+with ``F`` the sum of the non-inertial effects (one compiled form), the inertia
+term compiled only when the scene has inertia, and ``F_n`` the force vector kept
+from the last converged step.  Rows of Dirichlet dofs hold ``x − g``.  A step
+starts on its Dirichlet values when the predicted state meets them closely (it
+then needs no lifting); otherwise from the last state, and the lifting of the
+Dirichlet increment is assembled while the iterate misses the values.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+from petsc4py import PETSc
+
+from rftfem import compat, petsc_options
+from rftfem.integration import coupled
+from rftfem.errors import SceneError
+from rftfem.integration.convergence import NewtonTest
+from rftfem.integration.factorization import Factorization
+
+_INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
+#: a prediction that meets the prescribed values to this share of its own largest
+#: displacement increment starts Newton on them (no lifting)
+CONSISTENT = 0.25
+_FORWARD, _REVERSE = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+
+
+class StepSolver(NewtonTest):
+    """Newton solve of one step's residual with PETSc SNES (its convergence test:
+    :class:`~rftfem.integration.convergence.NewtonTest`)."""
+
+    def __init__(self, model, options: dict, factorization: str = "every-iteration",
+                 lu_fallback: str | None = None):
+        self.model = model
+        self.options = options
+        #: the LU package a failed solve is made again with (then kept), or None
+        self.lu_fallback = lu_fallback
+        #: when the tangent is factorised (factorization.py)
+        self.factors = Factorization(factorization)
+        W = model.W
+        self.F = compat.create_vector(model.forces_form, W)    # F(w), assembled
+        self.F_n = compat.create_vector(model.forces_form, W)  # F of the last step
+        self.b = compat.create_vector(model.forces_form, W)    # the residual
+        self.work = compat.create_vector(model.forces_form, W)
+        self.x = compat.create_vector(model.forces_form, W)
+        self.A = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(options))
+        #: with a nonlocal effect (Stokes flow): the exact tangent as a shell matrix,
+        #: ``A`` (plus the effect's lumped blocks) its preconditioner (coupled.py)
+        self.coupled = coupled.tangent_for(model, self.A)
+        #: wall seconds and calls: residuals (F, inertia, Dirichlet rows), Jacobians,
+        #: liftings of a missed Dirichlet increment, and the linear solves (SNES's
+        #: solve less the assembly within it: factorisation, substitution, updates)
+        self.timings = {"residual": 0.0, "jacobian": 0.0, "lifting": 0.0, "solve": 0.0}
+        self.calls = {"residual": 0, "jacobian": 0, "lifting": 0}
+        self._x_of_F = None  # the iterate of the last residual's F
+        self._start = None  # a solve's first iterate (a retry starts there again)
+        self.evaluations = 0
+
+        petsc_options.apply(options)
+        self.snes = PETSc.SNES().create(model.comm)
+        self.snes.setOptionsPrefix(petsc_options.PREFIX)
+        self.snes.setFunction(self._residual, self.b)
+        self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A,
+                              self.A)
+        self.snes.setConvergenceTest(self._converged)
+        #: a residual this small that Newton no longer reduces is round-off: the
+        #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
+        self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
+        #: the same for the membrane forces (MEMBRANE_ROUNDOFF_FACTOR of E t W)
+        self.noise = petsc_options.MEMBRANE_ROUNDOFF_FACTOR * model.membrane_force()
+        self._forced = False
+        self._fnorms = []
+        self._snorms = []
+        #: the largest rotation increment of each iterate of the last solve (after each
+        #: update), and why the last solve was stopped as diverging (None if it was not)
+        self.turns: list[float] = []
+        self.divergence: str | None = None
+        try:
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
+        except PETSc.Error as exc:
+            raise SceneError(f"solver: PETSc rejected an option of [solver] or the command "
+                             f"line: {petsc_message(exc)}") from None
+        self.force_iteration()
+
+    def destroy(self):
+        petsc_options.clear(self.options)
+        for obj in (self.snes, self.F, self.F_n, self.b, self.work, self.x, self.A,
+                    self.coupled.J if self.coupled is not None else None,
+                    self._x_of_F, self._start):
+            if obj is not None:
+                obj.destroy()
+
+    # --- assembly -------------------------------------------------------------
+
+    def _sync(self, x):
+        """Copy the SNES iterate into the model's mixed function (owned + ghosts).
+
+        The iterate's own ghosts are updated too: the lifting reads ``x`` with them.
+        """
+        x.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        w = compat.petsc_vec(self.model.w)
+        x.copy(w)
+        w.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+
+    def _assemble(self, vec, form):
+        with vec.localForm() as local:
+            local.set(0.0)
+        compat.assemble_vector(vec, form)
+        if form is self.model.forces_form:  # point forces join F before the ghost sums
+            with vec.localForm() as local:
+                self.model.add_nodal_forces(local.array)
+        vec.ghostUpdate(addv=_ADD, mode=_REVERSE)
+
+    @property
+    def assembly_time(self) -> float:
+        """Wall seconds in assembly of every kind."""
+        return self.timings["residual"] + self.timings["jacobian"] + self.timings["lifting"]
+
+    def _count(self, kind: str, t0: float):
+        self.timings[kind] += _time.perf_counter() - t0
+        self.calls[kind] += 1
+
+    def assemble_forces(self, out=None):
+        """``F(w)`` at the model's current iterate into ``out`` (default: ``self.F``)."""
+        t0 = _time.perf_counter()
+        self._assemble(self.F if out is None else out, self.model.forces_form)
+        self._count("residual", t0)
+
+    def _residual(self, snes, x, b):
+        t0 = _time.perf_counter()
+        self.evaluations += 1
+        m = self.model
+        self._sync(x)
+        alpha_f = float(m.coef["alpha_f"].value)
+        self._assemble(self.F, m.forces_form)
+        with b.localForm() as local:
+            local.set(0.0)
+        b.axpy(1.0 - alpha_f, self.F)
+        if alpha_f != 0.0:
+            b.axpy(alpha_f, self.F_n)
+        if m.inertia_form is not None:
+            self._assemble(self.work, m.inertia_form)
+            b.axpy(1.0, self.work)
+        # Dirichlet rows hold x − g.  Where the iterate does not meet the values
+        # (the first residual of a step that starts from the last state, solve),
+        # the other rows get the lifting A (g − x): the first Newton update then
+        # spreads the prescribed increment through the body.  Newton meets the
+        # values exactly in that update, so later residuals skip the assembly.
+        if m.has_moving_bcs:
+            with self.work.localForm() as local:
+                local.set(0.0)
+            compat.set_bc(self.work, m.bcs, x, -1.0)
+            if self.work.norm(PETSc.NormType.NORM_INFINITY) > 0.0:
+                t1 = _time.perf_counter()
+                with self.work.localForm() as local:
+                    local.set(0.0)
+                compat.apply_lifting(self.work, m.jacobian_form, m.bcs, x, -1.0)
+                self.work.ghostUpdate(addv=_ADD, mode=_REVERSE)
+                if self.coupled is not None:
+                    self.coupled.lift(self.work, x, -1.0)
+                b.axpy(1.0, self.work)
+                self._count("lifting", t1)
+                t0 += _time.perf_counter() - t1  # not a residual's time
+        compat.set_bc(b, m.bcs, x, -1.0)
+        self._x_of_F = x.copy(self._x_of_F)  # F belongs to this iterate (store_forces)
+        self._count("residual", t0)
+
+    def _jacobian(self, snes, x, A, P):
+        t0 = _time.perf_counter()
+        self._sync(x)
+        self.model.tangent_at_iterate()
+        P.zeroEntries()  # (A: P itself, or the coupled tangent's shell matrix around it)
+        compat.assemble_matrix(P, self.model.jacobian_form, self.model.bcs)
+        P.assemble()
+        if self.coupled is not None:
+            self.coupled.update()
+        self._count("jacobian", t0)
+        self.factors.choose(self.snes.getKSP(), P)
+
+    # the calls of a Newton loop of rftfem's own (arclength.py)
+    def residual(self, x, b):
+        """The step's residual at the iterate ``x`` into ``b`` (as SNES's callback)."""
+        self._residual(None, x, b)
+
+    def jacobian(self, x):
+        """The step's tangent at the iterate ``x`` into ``A`` (as SNES's callback)."""
+        self._jacobian(None, x, self.A, self.A)
+
+    def sync(self, x):
+        """The model's iterate set to ``x``."""
+        self._sync(x)
+
+    def assemble_tangent(self, diagnostic: bool = False):
+        """The step's tangent at the model's current state into ``A`` (the exact one:
+        no Newton update is under way).  A ``diagnostic`` one (a product, never
+        factorised: step_control.py's limit-point check) adds its time, not a call."""
+        t0 = _time.perf_counter()
+        self.model.start_newton()
+        self.model.tangent_at_iterate()
+        self.A.zeroEntries()
+        compat.assemble_matrix(self.A, self.model.jacobian_form, self.model.bcs)
+        self.A.assemble()
+        if self.coupled is not None:
+            self.coupled.update()
+        if diagnostic:
+            self.timings["jacobian"] += _time.perf_counter() - t0
+        else:
+            self._count("jacobian", t0)
+
+    def dirichlet_response(self):
+        """The local array (ghosts included) of ``Δ`` with ``A Δ = 0`` on the free rows
+        and ``Δ = g`` on the Dirichlet rows, ``g`` the values the model's conditions
+        hold now (``assemble_tangent`` first): the linearised step's answer to moving
+        its Dirichlet dofs alone (impulses.py)."""
+        t0 = _time.perf_counter()
+        bcs = self.model.bcs
+        for vec in (self.b, self.work):
+            with vec.localForm() as local:
+                local.set(0.0)
+        compat.apply_lifting(self.b, self.model.jacobian_form, bcs, self.work, 1.0)
+        self.b.ghostUpdate(addv=_ADD, mode=_REVERSE)
+        if self.coupled is not None:
+            self.coupled.lift(self.b, self.work, 1.0)
+        compat.set_bc(self.b, bcs)
+        ksp = self.snes.getKSP()
+        ksp.setOperators(self.coupled.J if self.coupled is not None else self.A, self.A)
+        ksp.solve(self.b, self.work)
+        self.work.ghostUpdate(addv=_INSERT, mode=_FORWARD)
+        with self.work.localForm() as local:
+            delta = local.array.copy()
+        self.timings["solve"] += _time.perf_counter() - t0
+        return delta
+
+    # --- solve ----------------------------------------------------------------
+
+    def solve(self):
+        """Newton from the model's current iterate; returns (converged, its, residual, reason)."""
+        t0 = _time.perf_counter()
+        a0 = self.assembly_time
+        w = compat.petsc_vec(self.model.w)
+        w.copy(self.x)
+        if self.model.has_moving_bcs:
+            self._start_on_motions(w)
+        self.model.start_newton()
+        self._start = self.x.copy(self._start)
+        retry = False
+        while True:
+            self.turns, self.divergence = [], None
+            self.factors.start_solve(retry)
+            try:
+                self.snes.solve(None, self.x)
+            except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
+                self._sync(self.x)
+                return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
+            reason = self.snes.getConvergedReason()
+            self.factors.end_solve(reason > 0)
+            retry = self._again(reason)
+            if retry is None:
+                break
+            self._start.copy(self.x)
+            self._sync(self.x)
+            self.model.start_newton()
+        self._sync(self.x)
+        its = self.snes.getIterationNumber()
+        norm = self.snes.getFunctionNorm()
+        self.timings["solve"] += (_time.perf_counter() - t0) - (self.assembly_time - a0)
+        name = _reason_name(reason)
+        if self.divergence is not None:
+            return False, its, norm, self.divergence
+        if name in compat.SNES_NOT_FINITE:
+            # PETSc keeps the last finite norm (0 before the first): say what it was
+            return False, its, math.nan, (f"the residual is not finite ({name}): a load, motion "
+                                          "or coefficient too large for double precision, or "
+                                          "a state that left the physical range")
+        return reason > 0, its, norm, name
+
+    def _again(self, reason: int) -> bool | None:
+        """Whether a solve that ended with ``reason`` is made again from its start:
+        True with new factors for every tangent (GMRES gave up on old ones), False
+        with more MUMPS workspace (it ran out) or with MUMPS instead of PETSc's own LU
+        (any failure of a solve with rftfem's choice of PETSc's LU, which does not
+        pivot); None if not."""
+        name = _reason_name(reason)
+        ksp = self.snes.getKSP()
+        if name == "DIVERGED_LINEAR_SOLVE":
+            if self.factors.stale:
+                return True
+            if petsc_options.grow_factor_workspace(ksp, self.options):
+                return False
+        pc = ksp.getPC()
+        if (reason <= 0 or self.divergence is not None) and self.lu_fallback \
+                and pc.getType() == "lu":
+            pc.reset()  # (the package cannot change under existing factors)
+            pc.setFactorSolverType(self.lu_fallback)
+            self.options["pc_factor_mat_solver_type"] = self.lu_fallback
+            petsc_options.apply({"pc_factor_mat_solver_type": self.lu_fallback})
+            self.lu_fallback = None
+            return False
+        return None
+
+    @property
+    def lu(self) -> str | None:
+        """The LU package in use (None if the preconditioner is not an LU)."""
+        pc = self.snes.getKSP().getPC()
+        return (pc.getFactorSolverType() or "petsc") if pc.getType() == "lu" else None
+
+    def _start_on_motions(self, w):
+        """Put the iterate on the step's Dirichlet values if the prediction came
+        within ``CONSISTENT`` of them (relative to the predicted step); else start
+        from the last state (the lifting then spreads the increment).  Set on the
+        boundary alone, values far from a prediction leave a kink at the body's
+        edge from which Newton may not converge quadratically (the three-link's
+        edges from rest: 18 iterations against 3 with the lifting)."""
+        m = self.model
+        with self.work.localForm() as local:
+            local.set(0.0)
+        compat.set_bc(self.work, m.bcs, self.x, 1.0)  # g − x on the Dirichlet rows
+        miss = self.work.norm(PETSc.NormType.NORM_INFINITY)
+        if miss == 0.0:
+            return
+        if miss <= CONSISTENT * m.predicted_step:
+            compat.set_bc(self.x, m.bcs)
+        elif m.predicted_step > 0.0:
+            m.restore()
+            w.copy(self.x)
+
+    def raw_residual(self):
+        """The local array (owned entries complete) of the converged step's residual
+        before its Dirichlet rows are replaced: ``(1 − α_f) F + α_f F_n`` plus inertia,
+        at the model's current iterate (reactions.py)."""
+        m = self.model
+        if self._x_of_F is not None:
+            self.work.waxpy(-1.0, self._x_of_F, compat.petsc_vec(m.w))
+            fresh = self.work.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+        else:
+            fresh = False
+        if not fresh:
+            self.assemble_forces()
+            self._x_of_F = compat.petsc_vec(m.w).copy(self._x_of_F)
+        alpha_f = float(m.coef["alpha_f"].value)
+        out = (1.0 - alpha_f) * self.F.array
+        if alpha_f != 0.0:
+            out += alpha_f * self.F_n.array
+        if m.inertia_form is not None:
+            self._assemble(self.work, m.inertia_form)
+            out += self.work.array
+        return out
+
+    def forget_forces(self):
+        """The last assembled ``F`` no longer belongs to its iterate (the loads or the
+        time changed at the same state): the next ``store_forces`` assembles anew."""
+        if self._x_of_F is not None:
+            self._x_of_F.destroy()
+            self._x_of_F = None
+
+    def store_forces(self):
+        """Keep ``F`` at the converged state as ``F_n`` for the next step: the last
+        residual's F when SNES evaluated it there (its own convergence test, as
+        newtonls with full steps does), else a new assembly."""
+        if self._x_of_F is not None:
+            self.work.waxpy(-1.0, self._x_of_F, self.x)
+            if self.work.norm(PETSc.NormType.NORM_INFINITY) == 0.0:
+                self.F.copy(self.F_n)
+                return
+        self.assemble_forces(self.F_n)
+
+
+def _reason_name(reason: int) -> str:
+    names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+    return names.get(reason, str(reason))
+
+
+def petsc_message(exc) -> str:
+    """The last line of PETSc's own error text (what went wrong), else the error code."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    text = lines[-1] if lines else ""
+    return text[4:] if text.startswith("[0] ") else (text or repr(exc))

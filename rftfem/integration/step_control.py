@@ -1,0 +1,290 @@
+"""One step and its control (the room of :class:`~rftfem.integration.simulation.Simulation` that
+owns them, docs/model.md §6.7-6.8): a Newton solve of a step from its prediction,
+the turn limit that rejects a step whose directors turned too far, the halvings
+after a failed attempt and the doubling back, the start of a run in equilibrium,
+and the advance over one nominal step.  Error-controlled steps are
+error_control.py's.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+
+from rftfem.integration import impulses
+from rftfem.errors import RunFailed, RunInterrupted
+from rftfem.integration.schemes import BackwardEuler, Static
+
+#: static load steps: the most a sub-step should turn a director (rad).  A converged
+#: load step that turned one further is followed by halved sub-steps, and a cut
+#: sub-step is doubled again only while the doubled one would stay within it; in time
+#: ``time.max_rotation`` plays this part.  (Newton took 5 updates for load steps
+#: turning the roll-up's tip 0.4 rad, 6 to 10 for 0.8 rad on a curled strip, 7 or 8
+#: for 1.6 rad, and often failed from 1.6 rad on.)
+STATIC_TURN = 0.5
+#: the most halvings one failed attempt makes at once (docs/model.md §6.8)
+MOST_HALVINGS = 3
+#: a static run whose steps stall where the tangent's stiffness along the last step
+#: (``Δwᵀ K Δw / Δwᵀ Δw``) fell below this share of the first step's has met a limit
+#: point (docs/model.md §6.8)
+LIMIT_POINT_STIFFNESS = 0.1
+
+
+class StepControl:
+    """Step methods of a Simulation."""
+
+    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True,
+                 error_check=None):
+        m = self.model
+        t0 = _time.perf_counter()
+        m.set_coefficients(scheme.coefficients(dt))
+        m.set_time(t_new, scheme)
+        # the recent rates carried on (fewer Newton iterations: 3.0 to 2.1 per step on
+        # the swimming sheet, 10.4 to 4.6 on the three-link).  In static load steps
+        # only with the increments turned (a body of one colour): the roll-up then
+        # needs 3.8 instead of 4.6 a step, 6.0 instead of 7.8 at L/t = 1e5 (before the
+        # contraction test of solver.py, 5.25 with it); a
+        # polynomial in the load parameter (a hinged body's) made its first
+        # residuals grow 5000-fold, so there the step starts from the last state
+        m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
+        self.wall["loads"] += _time.perf_counter() - t0
+        ok, its, res, reason = self.solver.solve()
+        if self.stops.immediate:
+            # a second signal inside a residual or Jacobian: PETSc turned it into a failed
+            # solve (and may have left a vector locked); stop, do not cut
+            raise RunInterrupted(self.stops.signum, immediate=True)
+        if ok and not math.isfinite(res):
+            ok, reason = False, "non-finite residual"
+        limit = self._turn_limit(scheme)
+        #: how many times too long a failed attempt was, where it shows (None: unknown)
+        self.overreach = None
+        if ok:
+            # the solver measured it at every update, the converged iterate's last
+            turns = self.solver.turns
+            self.last_turn = turns[-1] if turns else m.largest_rotation_increment()
+        elif self.solver.divergence is not None and self.solver.turns:
+            # the first update's turn is the linearized one: it says how far the
+            # step reached beyond what Newton can take
+            self.overreach = self.solver.turns[0] / limit
+        if ok and limit_rotation and scheme.has_velocity and self.last_turn > limit:
+            ok, reason = False, (f"a director turned {self.last_turn:.3g} rad > "
+                                 f"time.max_rotation = {limit:g}")
+            self.overreach = self.last_turn / limit
+        self.rejected = False
+        if ok and error_check is not None:
+            too_big = error_check()
+            if too_big:
+                ok, reason, self.rejected = False, too_big, True
+        self.counts["newton_iterations"] += its
+        if not ok:
+            m.restore()
+            return False, its, res, reason
+        if m.keep_predictions:  # the step's error estimate (§6.9), for summary.json
+            err = self._local_error()
+            if err is not None:
+                self.time_errors.append(err)
+        if self.reactions:
+            self.reactions.compute(self.solver.raw_residual())
+        self.solver.store_forces()
+        t0 = _time.perf_counter()
+        m.accept(scheme, dt, t_new)
+        if m.drive and scheme.has_inertia:
+            impulses.corner(m, self.solver, t_new)
+        self.wall["update"] += _time.perf_counter() - t0
+        return True, its, res, reason
+
+    def _turn_limit(self, scheme) -> float:
+        """The turn of a director a step should stay within: ``time.max_rotation`` in
+        time, ``STATIC_TURN`` in static load steps."""
+        return self.scene["time"]["max_rotation"] if scheme.has_velocity else STATIC_TURN
+
+    def _halvings(self) -> int:
+        """How many times to halve after the failed attempt: once, or as many times as
+        its overreach asks (a turn 5 times too large: 3), at most ``MOST_HALVINGS``."""
+        if self.overreach is None or self.overreach <= 2.0:
+            return 1
+        return min(MOST_HALVINGS, math.ceil(math.log2(self.overreach)))
+
+    def _may_double(self, scheme) -> bool:
+        """Whether a cut sub-step may be doubled: the doubled one would turn the
+        directors by no more than 0.9 of the scheme's turn limit."""
+        return 2.0 * self.last_turn <= 0.9 * self._turn_limit(scheme)
+
+    def _free(self) -> bool:
+        """No support, no prescribed motion and no drag hold the body's rigid motions."""
+        return not (self.scene["boundary"] or self.scene["motion"] or self.model.fluid)
+
+    def _unresolved_hint(self) -> str:
+        """What to change when a step is not resolved and nothing holds the body: without
+        mass either its stiffness is singular for every step size."""
+        if self._free() and self.model.inertia_form is None:
+            return ("; nothing holds this body: without a [[boundary]], a [[motion]], a "
+                    "[fluid] or mass its rigid motions are free and every step is singular")
+        return ""
+
+    def _initial_equilibrium(self):
+        """The state a run starts in (docs/model.md §6.7), at rest: ``v = a = 0``, or
+        with inertia the acceleration the t = 0 forces give it.
+
+        A run in time starts in its initial state: the reference, or the shape the
+        t = 0 motions impose with the rest of the body in elastic equilibrium.  The
+        loads (``[[load]]``, the magnetic field) are off in that solve, so a load
+        already on at t = 0 moves the body from the first step on, not before it.
+        Static runs, and runs in time with ``time.start = "equilibrium"``, start in
+        static equilibrium with the t = 0 loads instead (a pre-loaded body released).
+
+        With drag the body may be free (no Dirichlet condition on its rigid motions),
+        and a static solve would be singular.  The t = 0 solve then carries the drag
+        of reaching that state from the reference in one step ``dt`` (backward Euler),
+        which lets the fluid hold the body; without loads and motions at t = 0 the
+        reference meets it exactly and no update is made.  The forces kept for the
+        first step (``F_n``) are those of the start with its t = 0 loads on.
+        """
+        m, dt = self.model, self.scene["time"]["dt"]
+        in_time = self.scheme.has_velocity
+        loaded = not in_time or self.scene["time"].get("start", "rest") == "equilibrium"
+        start = BackwardEuler() if m.fluid else Static()
+        # no prediction here to correct: a state that meets the tolerance (the
+        # reference state without loads) is the answer
+        self.solver.force_iteration(False)
+        m.loads_on = loaded
+        try:
+            ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
+        finally:
+            self.solver.force_iteration()
+            m.loads_on = True
+        if not ok:
+            what = "the t = 0 loads and motions" if loaded else "the t = 0 motions"
+            hint = ("; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
+                    "no load may be on at t = 0" if self._free() and loaded else "")
+            raise RunFailed(f"no static equilibrium with {what} ({reason})" + hint
+                            + (self._ramp_hint() if loaded else ""), 0.0, 0)
+        m.v_n.x.array[:] = 0.0
+        m.a_n.x.array[:] = 0.0
+        m.increments = []  # reaching t = 0 is no rate to go on at
+        # the loads at t = 0 on, the body at rest: the forces of the start
+        m.set_coefficients(Static().coefficients(dt))
+        m.set_time(0.0)
+        self.solver.forget_forces()
+        if self.reactions and not loaded:
+            self.reactions.compute(self.solver.raw_residual())
+        if self.scheme.has_inertia:
+            try:
+                impulses.initial_acceleration(m, self.solver)
+            except RuntimeError as exc:
+                raise RunFailed(f"no initial acceleration: {exc}", 0.0, 0) from None
+        if m.drive and self.scheme.has_inertia:
+            # the driven dofs move off at the motion's own rate, the body with them
+            m.set_coefficients(self.scheme.coefficients(dt))
+            impulses.corner(m, self.solver, 0.0, start=True)
+        m.set_coefficients(Static().coefficients(dt))
+        self.solver.store_forces()
+
+    def _tangent_along_last_step(self) -> float | None:
+        """The tangent's stiffness along the last accepted increment ``Δw`` at the
+        current state, ``Δwᵀ K Δw / Δwᵀ Δw`` (None before a step moved the body)."""
+        from rftfem import compat
+
+        m, solver = self.model, self.solver
+        if not m.increments:
+            return None
+        du, theta, _ = m.increments[0]
+        x = solver.work
+        with x.localForm() as local:
+            local.set(0.0)
+            local.array[m.u_dofs] = du
+            local.array[m.theta_dofs] = theta
+        compat.set_bc(x, m.bcs, None, 0.0)
+        size = x.dot(x)
+        if size == 0.0:
+            return None
+        solver.assemble_tangent(diagnostic=True)
+        y = x.duplicate()
+        try:
+            solver.A.mult(x, y)
+            return x.dot(y) / size
+        finally:
+            y.destroy()
+
+    def _path_stiffness(self, dt: float) -> None:
+        """After the first static load step that moved the body: the tangent's
+        stiffness along it, the scale of ``_limit_point_hint``."""
+        if getattr(self, "_first_stiffness", None) is None:
+            self._first_stiffness = self._tangent_along_last_step()
+
+    def _limit_point_hint(self) -> str:
+        """For a static run whose steps stall: a limit point, if the path's stiffness
+        fell below ``LIMIT_POINT_STIFFNESS`` of its start."""
+        first = getattr(self, "_first_stiffness", None)
+        if self.scheme.has_velocity or self.scheme.name == "arc-length" or not first:
+            return ""
+        along = self._tangent_along_last_step()
+        stiffness = along / first if along is not None else None
+        if stiffness is None or stiffness >= LIMIT_POINT_STIFFNESS:
+            return ""
+        return (f"; a limit point: the loads stall at t = {self.t:.6g} and the tangent's "
+                f"stiffness along the last step fell to {stiffness:.2g} of the first's, so "
+                f"load control cannot go on; follow the path past it with time.scheme = "
+                f'"arc-length"')
+
+    def _ramp_hint(self) -> str:
+        """For a run that failed in static equilibrium: the loads already on at t = 0,
+        to be ramped."""
+        keys = self.model.loads_at_start()
+        if not keys:
+            return ""
+        return (f"; {', '.join(keys)} {'is' if len(keys) == 1 else 'are'} already on at "
+                f"t = 0: ramp {'it' if len(keys) == 1 else 'them'} from 0 with t (ramp = "
+                '"linear", or a table or field that starts at 0)')
+
+    def _advance(self, t_end: float, steps_log, progress):
+        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.
+
+        The sub-step starts where the last nominal step left it (``self.level``
+        halvings), so a nominal step too long for Newton is not tried whole again
+        at every step; after two good sub-steps it is doubled, if the doubled one
+        would not turn the directors too far (``_may_double``)."""
+        max_cuts = self.scene["time"]["max_cuts"]
+        level = min(self.level, max_cuts)
+        dt = (t_end - self.t) / 2**level
+        good = 0
+        while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
+            dt = min(dt, t_end - self.t)
+            wall0 = _time.perf_counter()
+            ok, its, res, reason = self._attempt(self.t + dt, dt, self.scheme)
+            if ok:
+                self.t += dt
+                self.counts["steps"] += 1
+                if not self.scheme.has_velocity:
+                    self._path_stiffness(dt)
+                if steps_log is not None:
+                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0]
+                                  + ([self.t] if self.static_run else []))
+                for f in self.observers:
+                    f(self)
+                good += 1
+                if not self.scheme.has_velocity and self.last_turn > STATIC_TURN \
+                        and level < max_cuts:
+                    # a load step that turned too far: the next ones shorter (no failure)
+                    halvings = min(MOST_HALVINGS, max_cuts - level,
+                                   math.ceil(math.log2(self.last_turn / STATIC_TURN)))
+                    dt, level, good = dt / 2**halvings, level + halvings, 0
+                elif level > 0 and good >= 2 and self._may_double(self.scheme):
+                    dt, level, good = 2 * dt, level - 1, 0
+                continue
+            if level >= max_cuts:
+                raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
+                                f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
+                                f"dt = {dt:.3e}" + self._unresolved_hint()
+                                + self._limit_point_hint()
+                                + ("" if self.scheme.has_velocity else self._ramp_hint()),
+                                self.t + dt, self.step)
+            halvings = min(self._halvings(), max_cuts - level)
+            self.counts["dt_cuts"] += 1
+            level, good = level + halvings, 0
+            dt /= 2**halvings
+            progress.log(f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
+                         f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)"
+                                                          if halvings > 1 else ""))
+        self.level = level
+        self.t = t_end  # exact nominal time, free of round-off from the sub-steps

@@ -1,0 +1,179 @@
+"""What every effect component has: :class:`Effect`, and the keys all loads share.
+
+An effect is one term of the virtual-work balance (docs/model.md §5), or one
+kind of condition on the unknowns, together with everything a scene, a run and
+its outputs need to know about it.  Its class says what it owns in a scene and
+when the scene asks for it; an instance, built by the :class:`~rftfem.model.shell_model.Model`
+only for a scene that asks for it, holds its coefficients and gives its UFL
+terms, Dirichlet conditions and diagnostics.  Every method has a default that
+does nothing, so a component writes only what its effect has.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rftfem.scene.schema import Leaf, Pairs, Str, table_iff
+
+
+class Effect:
+    """One effect: its scene keys and checks, its terms, its outputs."""
+
+    #: the name ``rftfem check`` and summary.json list when the effect is active
+    name = ""
+    #: top-level scene keys the effect owns, ``{key: schema node}``
+    keys: dict = {}
+    #: the ``[[load]]`` kinds it handles: ``{kind: {key: Leaf}}``, and a sentence each
+    load_kinds: dict = {}
+    kind_docs: dict = {}
+
+    # --- the scene (no mesh) -------------------------------------------------
+
+    @classmethod
+    def active(cls, scene: dict) -> bool:
+        """Whether the scene asks for this effect (then the Model builds it)."""
+        return False
+
+    @classmethod
+    def names(cls, scene: dict) -> list[str]:
+        """The active effect names it reports, in order."""
+        return [cls.name] if cls.name and cls.active(scene) else []
+
+    @classmethod
+    def check(cls, scene: dict) -> None:
+        """Checks of its keys against the rest of the scene (after the schema)."""
+
+    # --- the model ------------------------------------------------------------
+
+    def __init__(self, model):
+        self.model = model
+        self.scene = model.scene
+
+    def energy(self):
+        """A stored energy (UFL scalar form) whose derivative is a force, or None."""
+
+    def forces(self):
+        """Virtual work of its other non-inertial forces, internal minus external, or None."""
+
+    def tangent_correction(self):
+        """A 0-form whose second derivative is added to the Newton tangent, not to the
+        residual (the converged state is the same), or None."""
+
+    def inertia(self):
+        """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
+
+    def add_nodal_forces(self, F: np.ndarray) -> None:
+        """Add forces given at nodes, not as a UFL form, to the local array of ``F``
+        (internal minus external, like :meth:`forces`): a point force is the one case.
+        Dead, so they add nothing to the Jacobian."""
+
+    def bcs(self) -> list:
+        """Dirichlet conditions it imposes."""
+        return []
+
+    def reaction_dofs(self) -> list:
+        """``(name, local mixed-space dofs)`` of its named entries, whose reactions
+        body.csv carries (reactions.py)."""
+        return []
+
+    #: whether its Dirichlet values change in time
+    moving = False
+    #: whether it is an applied load: switched off by ``Model.loads_on = False`` (the
+    #: start of a run in time, docs/model.md §6.7), on by default
+    is_load = False
+
+    def loads_at_start(self) -> list[str]:
+        """The key paths of its loads that are already on at t = 0 (a static run that
+        fails says to ramp them)."""
+        return []
+
+    def set_time(self, t: float) -> None:
+        """Set its time-dependent values to time ``t``."""
+
+    def force_scales(self) -> list[float]:
+        """Force scales it adds to the Newton tolerances (docs/model.md §7.3)."""
+        return []
+
+    # --- outputs ----------------------------------------------------------------
+
+    #: its body.csv columns
+    columns: list[str] = []
+
+    def values(self, t: float) -> list[float]:
+        """Its body.csv values at time ``t`` (global, on every rank)."""
+        return []
+
+    def fields(self) -> dict:
+        """Extra fields.xdmf fields: ``{name: Function or UFL vector expression}``."""
+        return {}
+
+
+# --------------------------------------------------------------------- loads
+
+LOAD_KIND_DOC = "What the load is; its kind decides its other keys (below)."
+#: the keys every ``[[load]]`` has besides ``kind``, whatever its kind
+RAMP = Leaf(Str(("linear", "constant", "table")), "linear",
+            doc='The scale in time: "linear" t / time.end, "constant" 1, "table" '
+                "interpolated in `table`.")
+TABLE = Leaf(Pairs("scale"), unit="[time, 1]",
+             default_doc='none: required only with ramp = "table"',
+             doc="The scale, piecewise linear in time; before the first and after the last "
+                 "time it keeps the end value.")
+
+
+class Load(Effect):
+    """An effect made of the ``[[load]]`` entries of its ``load_kinds``: active when
+    the scene has one, each entry's ramp checked, the entries kept as
+    :attr:`entries` (``(index, entry)``, the index as in the scene)."""
+
+    @classmethod
+    def active(cls, scene):
+        return bool(loads_of(scene, cls.load_kinds))
+
+    @classmethod
+    def check(cls, scene):
+        for i, load in loads_of(scene, cls.load_kinds):
+            check_ramp(load, f"load.{i}")
+            cls.check_entry(load, f"load.{i}", scene)
+
+    @classmethod
+    def check_entry(cls, load: dict, path: str, scene: dict) -> None:
+        """Checks of one entry (at ``path``) against the rest of the scene."""
+
+    def __init__(self, model):
+        super().__init__(model)
+        self.entries = loads_of(self.scene, self.load_kinds)
+
+    is_load = True
+
+    def scale(self, load: dict, t: float) -> float:
+        """The entry's ramp at time ``t`` (0 while the model's loads are off)."""
+        if not self.model.loads_on:
+            return 0.0
+        return ramp_scale(load, t, self.scene["time"]["end"])
+
+    def loads_at_start(self):
+        end = self.scene["time"]["end"]
+        return [f"load.{i}" for i, ld in self.entries
+                if ramp_scale(ld, 0.0, end) != 0.0 and np.any(np.asarray(ld["value"]) != 0.0)]
+
+
+def loads_of(scene: dict, kinds) -> list[tuple[int, dict]]:
+    """``(index, entry)`` of the scene's ``[[load]]`` entries of the given kinds."""
+    return [(i, ld) for i, ld in enumerate(scene.get("load") or []) if ld.get("kind") in kinds]
+
+
+def check_ramp(load: dict, path: str) -> None:
+    """A ``table`` exactly when ``ramp = "table"``."""
+    table_iff(load, path, "ramp", "table", "[t, scale] pairs")
+
+
+def ramp_scale(load: dict, t: float, end: float) -> float:
+    """Scale factor of a ``[[load]]`` at time ``t``: linear t / end, constant 1, or the table."""
+    kind = load.get("ramp", "linear")
+    if kind == "linear":
+        return t / end
+    if kind == "constant":
+        return 1.0
+    table = np.asarray(load["table"], dtype=float)
+    return float(np.interp(t, table[:, 0], table[:, 1]))

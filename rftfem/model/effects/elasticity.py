@@ -1,0 +1,96 @@
+"""Elasticity of the shell (docs/model.md §3, §5.2): the stored energy Π of its
+membrane, bending and transverse-shear strains.  Always active; the material
+values come from ``[shell]`` and ``[[shell.parts]]`` (cellwise fields of the Model).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+
+from rftfem.forms import elasticity, kinematics
+
+from rftfem.model.effects.base import Effect
+
+
+def cell_diameter(mesh):
+    """h of the shear and membrane weight t²/h² (forms.elasticity): UFL's
+    ``CellDiameter``, the largest distance between a cell's vertices, where UFL can
+    compute it (straight cells); on curved cells (a second-order gmsh file) the same
+    distance from the vertex nodes, as a cellwise field."""
+    from dolfinx import fem
+
+    from rftfem import compat
+
+    cells, degree = compat.geometry_cells(mesh)
+    if degree == 1:
+        return ufl.CellDiameter(mesh)
+    corners = 3 if mesh.topology.cell_type.name == "triangle" else 4
+    x = mesh.geometry.x[cells[:, :corners]]  # vertices come first in each cell's nodes
+    pairs = [(i, j) for i in range(corners) for j in range(i + 1, corners)]
+    h = np.max([np.linalg.norm(x[:, i] - x[:, j], axis=1) for i, j in pairs], axis=0)
+    V0 = compat.function_space(mesh, "DG", 0)
+    field = fem.Function(V0, name="cell_diameter")
+    field.x.array[compat.cell_dofs(V0)[: len(h), 0]] = h
+    field.x.scatter_forward()
+    return field
+
+
+class Elasticity(Effect):
+    name = "elasticity"
+
+    @classmethod
+    def active(cls, scene):
+        return True
+
+    def __init__(self, model):
+        super().__init__(model)
+        mat = model.material
+        self.h = cell_diameter(model.mesh)
+        k = model.kinematics()
+        self._energy = elasticity.stored_energy(self.strains(k), k.G1, k.G2, mat["E"],
+                                                mat["nu"], mat["t"], model.dx, self.h)
+
+    def strains(self, k):
+        """``(ε, κ, γ)`` of the kinematics ``k`` (Model.kinematics_of)."""
+        D = kinematics.unit(self.model.D)
+        return (kinematics.membrane_strain(k.g1, k.g2, k.G1, k.G2),
+                kinematics.bending_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
+                kinematics.shear_strain(k.g1, k.g2, k.d, k.G1, k.G2, D))
+
+    def energy(self):
+        return self._energy
+
+    def tangent_correction(self):
+        """The mixed-integration-point term of the Newton tangent (docs/model.md §7.4):
+        the membrane and shear strains' linearization defects between the previous
+        Newton iterate and the current one (the Model's ``newton_*`` functions)."""
+        m, mat = self.model, self.model.material
+        previous = self.strains(m.kinematics_of(m.newton_previous))
+        current = self.strains(m.kinematics_of(m.newton_current))
+        # bending is left exact: its linearized moments made Newton slower (the strip
+        # at 50 steps per period: 7.9 iterations a step against 4.9 without)
+        defects = [current[i] - previous[i]
+                   - ufl.derivative(previous[i], m.newton_previous, m.newton_update)
+                   for i in (0, 2)]
+        k = m.kinematics()
+        return elasticity.mixed_point_tangent(self.strains(k), defects, k.G1, k.G2, mat["E"],
+                                              mat["nu"], mat["t"], m.dx, self.h)
+
+    def _largest(self, key: str) -> float:
+        """The largest value of a shell key over the shell and its parts."""
+        shell = self.scene["shell"]
+        return max([shell[key]] + [p[key] for p in shell.get("parts", []) if key in p])
+
+    def force_scales(self):
+        """The bending force ``D W / L²`` that bends the body by order one."""
+        shell, body = self.scene["shell"], self.model.body
+        E = self._largest("E")
+        D = E * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
+        return [D * max(body.width, 1e-300) / body.length**2]
+
+    def membrane_force(self) -> float:
+        """The membrane force ``E t W`` that stretches the body by order one (the
+        largest modulus and thickness of its parts): its residual's round-off scale."""
+        width = self.model.body.width
+        return self._largest("E") * self._largest("thickness") * max(width, 1e-300)

@@ -1,0 +1,139 @@
+"""The scene's ``[fluid]``: its keys, shared by the two liquid models.
+
+``model = "rft"`` is resistive-force drag (drag.py), with the coefficients given
+(``drag``) or made from the viscosity by the slender-body formula of
+:func:`slender_body_drag`; ``model = "stokes"`` is the nonlocal Stokes flow of
+regularized Stokeslets (stokes.py, docs/stokes.md).  Both report the liquid's
+resultant force and moment on the body (``fluid_Fx`` … ``fluid_Mz``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rftfem.errors import SceneError
+from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Leaf, Str, Table, Vec
+
+MODELS = ("rft", "stokes")
+OPERATORS = ("auto", "dense", "fmm")
+
+SCHEMA = Table({
+    "model": Leaf(Str(MODELS), "rft",
+                  doc='The liquid: "rft" local resistive-force drag, "stokes" the nonlocal '
+                      "Stokes flow of regularized Stokeslets on the mid-surface (sees every "
+                      "part of the body and a wall; docs/stokes.md)."),
+    "drag": Leaf(Vec(item=NONNEGATIVE, some_positive=True,
+                     expected="3 numbers >= 0 [along axis, across, normal], at least one > 0"),
+                 unit="force·time/length³",
+                 default_doc='none: with model = "rft" give `drag` or `viscosity`',
+                 doc="The drag coefficients [C1, C2, C3] (model = \"rft\"): along the "
+                     "material axis (`shell.axis`) as the body carries it, across it in the "
+                     "surface, and along the current normal. The traction per current area "
+                     "is the sum of Ci (ei·v) ei over the three directions."),
+    "viscosity": Leaf(POSITIVE, unit="force·time/length²",
+                      default_doc='none: required with model = "stokes"',
+                      doc="The liquid's dynamic viscosity μ. With model = \"rft\" (instead of "
+                          "`drag`) the three coefficients come from slender-body theory for "
+                          "the body's length and width (docs/stokes.md §RFT from the "
+                          "viscosity)."),
+    "regularization": Leaf(POSITIVE, unit="length",
+                           default_doc="from the mesh: the local node spacing, half of it "
+                                       "on the body's free edges",
+                           doc='The blob size δ of the regularized Stokeslets (model = '
+                               '"stokes"), the same at every node.'),
+    "operator": Leaf(Str(OPERATORS), "auto",
+                     doc='How the Stokes operator is applied (model = "stokes"): "dense" '
+                         "assembles and factorises the mobility (exact, memory 144 N² bytes "
+                         'for N nodes); "fmm" is matrix-free, fast multipoles (fmm3dpy) with '
+                         "a local blob correction and preconditioned conjugate gradients (no "
+                         'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
+                         "(docs/stokes.md §Cost and scale)."),
+    "wall": Table({
+        "point": Leaf(Vec(), required=True, unit="length",
+                      doc="A point of the no-slip plane."),
+        "normal": Leaf(Vec(nonzero=True), required=True,
+                       doc="The plane's normal, towards the body's side."),
+    }, optional=True, doc='A no-slip plane wall (model = "stokes"), by the images of the '
+                          "Stokeslets in the plane (docs/stokes.md)."),
+}, optional=True, doc="The liquid around the body: local resistive-force drag or Stokes flow.")
+
+
+def model_of(scene: dict) -> str | None:
+    """``"rft"``, ``"stokes"`` or None (no ``[fluid]``)."""
+    fluid = scene.get("fluid")
+    return fluid.get("model", "rft") if fluid else None
+
+
+def check(scene: dict) -> None:
+    """The keys each model needs and refuses (one line each, exit 2)."""
+    fluid = scene.get("fluid")
+    if not fluid:
+        return
+    model = fluid.get("model", "rft")
+    if model == "stokes":
+        if fluid.get("drag") is not None:
+            raise SceneError('fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
+                             "has no drag coefficients); give fluid.viscosity only")
+        if fluid.get("viscosity") is None:
+            raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
+        if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
+            raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
+                             '"dense" (or "auto") with fluid.wall')
+    else:
+        if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
+            raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
+                             '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
+        for key, what in (("regularization", "blob"), ("wall", "wall"),
+                          ("operator", "nonlocal operator")):
+            if fluid.get(key) not in (None, "auto"):
+                raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '
+                                 f"has no {what})")
+
+
+def slender_body_drag(viscosity: float, length: float, width: float) -> list[float]:
+    """RFT coefficients per unit area ``[C1, C2, C3]`` of a flat ribbon of ``length``
+    along the axis and ``width`` across (docs/stokes.md).
+
+    Slender-body theory for a straight filament of length L and radius b gives per
+    unit length ``c∥ = 2πμ / (ln(2L/b) − ½)`` and ``c⊥ = 4πμ / (ln(2L/b) + ½)``; a flat
+    ribbon of width w moves like a filament of radius b = w/4 (the equivalent radius of
+    a flat plate in two-dimensional Stokes flow, for both directions across it).  Per
+    unit area: ``C1 = c∥/w`` along the axis, ``C2 = C3 = c⊥/w`` across and normal."""
+    L, w = max(length, width), min(length, width)
+    log = math.log(2.0 * L / (w / 4.0))
+    c_par = 2.0 * math.pi * viscosity / (log - 0.5)
+    c_perp = 4.0 * math.pi * viscosity / (log + 0.5)
+    if length >= width:
+        return [c_par / w, c_perp / w, c_perp / w]
+    return [c_perp / w, c_par / w, c_perp / w]
+
+
+def body_extents(x: np.ndarray, axis) -> tuple[float, float]:
+    """The extent of the reference nodes ``x`` along ``axis`` and across it in the
+    body's plane (its largest extent normal to the axis)."""
+    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    along = x @ axis
+    rest = x - np.outer(along, axis)
+    centre = rest.mean(axis=0)
+    spread = rest - centre
+    if len(x) > 1:
+        _, s, vt = np.linalg.svd(spread, full_matrices=False)
+        across = spread @ vt[0]
+    else:
+        across = np.zeros(1)
+    return float(np.ptp(along)), float(np.ptp(across))
+
+
+def force_scales(component) -> list[float]:
+    """A liquid component's force scale for the Newton tolerances: its drag
+    coefficients ``C`` (the slender-body ones of a Stokes flow's viscosity) on the
+    whole body moving at the fastest prescribed speed."""
+    motion = component.model.get("prescribed-motion")
+    if motion is None:
+        return []
+    return [max(component.C) * component.model.area() * motion.speed_scale()]
+
+
+RESULTANT_COLUMNS = ["fluid_Fx", "fluid_Fy", "fluid_Fz", "fluid_Mx", "fluid_My", "fluid_Mz"]

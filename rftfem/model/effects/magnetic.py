@@ -1,0 +1,374 @@
+"""Magnetic couples and forces (docs/model.md §5.5), the scene's ``[magnetic]``.
+
+Hard-magnetic regions carry a remanent magnetization ``M = m q₀`` that turns
+with the material (``q = F q₀ / |F q₀|``).  Each part's ``m`` and ``q₀`` are
+numbers, formulas of the reference coordinates or a profile file.
+
+- A uniform applied field ``b(t)`` (``kind`` "rotating", "expression" of t,
+  "table") does the virtual work ``∫ t m b·δq J dA₀``: couples only
+  (``forms.magnetic.magnetic_work``).
+- A nonuniform field ``B(x, t)`` ("expression" of x, y, z, t, or "dipole") enters
+  as the potential energy ``−∫ t (F M)·B(x, t) dA₀`` at the current position
+  ``x = X + u``; its derivative gives the couple and the gradient force together
+  (``forms.magnetic.magnetic_energy``).
+
+The component writes the field and the body's total magnetic moment to
+body.csv and the magnetization to fields.xdmf.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import ufl
+
+from rftfem.errors import SceneError
+from rftfem.scene.expressions import parse
+from rftfem.forms import kinematics, magnetic
+from rftfem.model.magnetic_sources import (FIELD_KINDS, NonuniformField, UniformField, check_field,
+                                     constant_maker, is_uniform, profile_values, read_profile)
+from rftfem.scene.schema import (NONNEGATIVE, Array, Formula, Formulas, Leaf, Num, Rows, Str, Table,
+                           Vec, check_unique)
+from rftfem.scene.selectors import cells_of, check_region_ref
+
+from rftfem.model.effects.base import Effect
+
+REFERENCE = ("X", "Y", "Z")
+class Magnetic(Effect):
+    name = "magnetic"
+    keys = {
+    "magnetic": Table({
+        "parts": Array(Table({
+            "region": Leaf(Str(name=True), required=True,
+                            doc="The magnetized region, or \"all\" (the whole body); a cell takes "
+                                "one magnetization."),
+            "magnetization": Leaf(Formula(REFERENCE, NONNEGATIVE), None, unit="current/length",
+                                   default_doc="required unless `profile` is given",
+                                   doc="The size of the remanent magnetization: a number "
+                                       "(0 switches the part off) or a formula of the "
+                                       "reference coordinates X, Y, Z (a negative value "
+                                       "reverses the direction there)."),
+            "direction": Leaf(Formulas(REFERENCE, nonzero=True), None,
+                               default_doc="required unless `profile` is given",
+                               doc="The magnetization's direction in the reference state "
+                                   "(normalised), each entry a number or a formula of X, Y, "
+                                   "Z; it turns with the material fibre."),
+            "profile": Leaf(Str(), None, default_doc="none",
+                             doc="Instead of `magnetization` and `direction`: a CSV file "
+                                 "(path relative to the scene file) of rows X,Y,Z,mx,my,mz, "
+                                 "the remanent magnetization vector at points of a grid "
+                                 "covering the part, interpolated (multilinear) to the "
+                                 "part's nodes."),
+        }), min_items=1, doc="The magnetized regions of the body."),
+        "field": Table({
+            "kind": Leaf(Str(choices=tuple(FIELD_KINDS)), "rotating",
+                          doc="Uniform fields: \"rotating\" (ramps up along `direction`, "
+                              "then turns about `rotation_axis`), \"expression\" "
+                              "(`B`, formulas of t), \"table\" (`values`). Nonuniform "
+                              "fields, whose gradient also pulls the body: \"expression\" "
+                              "with formulas of x, y, z (the current position) and t, "
+                              "\"dipole\" (a point dipole `moment` at `position` or "
+                              "moving along `path`)."),
+            "strength": Leaf(NONNEGATIVE, None, unit="force/(current·length)",
+                              default_doc="0 (kind \"rotating\")",
+                              doc="The size of the applied flux density once ramped up "
+                                  "(tesla in SI units; 1 mT is 1e-6 N/(A·mm))."),
+            "ramp_time": Leaf(NONNEGATIVE, None, unit="time", default_doc="0",
+                               doc="The time the field takes to grow linearly from 0 to "
+                                   "`strength` along `direction`; 0 starts at full "
+                                   "strength."),
+            "direction": Leaf(Vec(nonzero=True), None, default_doc="[1, 0, 0]",
+                               doc="The field's direction during the ramp and when it starts "
+                                   "to turn (normalised)."),
+            "frequency": Leaf(Num(), None, unit="1/time", default_doc="0",
+                               doc="Turns per unit time after `ramp_time` (Hz with "
+                                   "seconds), right-handed about `rotation_axis`; negative "
+                                   "turns the other way, 0 keeps the field still."),
+            "rotation_axis": Leaf(Vec(nonzero=True), None, default_doc="[0, 0, 1]",
+                                   doc="The axis the field turns about (normalised); not "
+                                       "parallel to `direction` when the frequency is not "
+                                       "0."),
+            "B": Leaf(Formulas(("x", "y", "z", "t")), None, unit="force/(current·length)",
+                       default_doc="required with kind \"expression\"",
+                       doc="The field's three components: numbers or formulas of t "
+                           "(uniform), or of x, y, z and t (nonuniform: x is the current "
+                           "position of the mid-surface)."),
+            "values": Leaf(Rows(("t", "Bx", "By", "Bz")), None,
+                            default_doc="required with kind \"table\"",
+                            doc="Rows [t, Bx, By, Bz] with increasing t; the field is held at "
+                                "the first and last rows outside them."),
+            "interpolation": Leaf(Str(choices=("linear", "cubic")), None,
+                                   default_doc="\"linear\" (kind \"table\")",
+                                   doc="Between rows: \"linear\", or \"cubic\" (a not-a-knot "
+                                       "spline, four rows at least)."),
+            "moment": Leaf(Vec(nonzero=True), None, unit="current·length²",
+                            default_doc="required with kind \"dipole\"",
+                            doc="The source dipole's moment (A·mm² with mm); its flux density "
+                                "is μ₀/(4π) (3 r (m·r)/|r|⁵ − m/|r|³), μ₀/(4π) = 1e-7 N/A²."),
+            "position": Leaf(Vec(), None, unit="length",
+                              default_doc="one of `position`, `path` with kind \"dipole\"",
+                              doc="Where the dipole stays."),
+            "path": Leaf(Rows(("t", "x", "y", "z")), None, unit="time, length",
+                          default_doc="one of `position`, `path` with kind \"dipole\"",
+                          doc="Rows [t, x, y, z]: the dipole moves along them (linear in "
+                              "between, held at the ends)."),
+        }, doc="The applied field: uniform (it turns the magnetized parts) or nonuniform (it "
+               "also pulls them along its gradient)."),
+    }, optional=True,
+        doc="Couples of an applied magnetic field on magnetized (hard-magnetic) regions."),
+    }
+    columns = ["field_x", "field_y", "field_z", "moment_x", "moment_y", "moment_z"]
+
+    @classmethod
+    def active(cls, scene):
+        return bool(scene.get("magnetic"))
+
+    @classmethod
+    def names(cls, scene):
+        """"magnetic", then what the scene adds to today's uniform couple: the field's
+        kind, its gradient force, magnetization profiles."""
+        if not cls.active(scene):
+            return []
+        mag = scene["magnetic"]
+        kind = mag["field"]["kind"]
+        out = ["magnetic"]
+        if kind != "rotating":
+            out.append(f"magnetic field: {kind}")
+        if not is_uniform(mag["field"]):
+            out.append("magnetic gradient force")
+        if any(_varies(part) for part in mag["parts"]):
+            out.append("magnetization profile")
+        return out
+
+    @classmethod
+    def check(cls, scene):
+        if not scene["magnetic"]:
+            return
+        check_field(scene["magnetic"]["field"])
+        for i, part in enumerate(scene["magnetic"]["parts"]):
+            where = f"magnetic.parts.{i}"
+            check_region_ref(part["region"], f"{where}.region", scene)
+            if part["profile"] is not None:
+                for key in ("magnetization", "direction"):
+                    if part[key] is not None:
+                        raise SceneError(f"{where}.{key}: not used with {where}.profile (the "
+                                         "profile file gives the magnetization vector)")
+            else:
+                for key in ("magnetization", "direction"):
+                    if part[key] is None:
+                        raise SceneError(f"missing required key '{where}.{key}' (or give "
+                                         f"{where}.profile)")
+        check_unique(scene["magnetic"]["parts"], "region", "magnetic.parts", "region")
+
+    def __init__(self, model):
+        """The remanent magnetization ``M = m q₀``: with plain numbers stored cellwise
+        (DG0 vector); with formulas or profiles a UFL expression ``Σ χ_p M_p(X)`` (χ_p
+        the part's cells).  The forms are integrated over the magnetized cells only."""
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        from rftfem import compat
+
+        super().__init__(model)
+        mag, mesh = self.scene["magnetic"], model.mesh
+        self.parts = mag["parts"]
+        owner = {}
+        for i, part in enumerate(self.parts):
+            cells = cells_of(model.body, [part["region"]], f"magnetic.parts.{i}.region")
+            for j, other in owner.items():
+                if model.comm.allreduce(int(np.isin(cells, other).sum())):
+                    raise SceneError(f"magnetic.parts.{i}.region: '{part['region']}' overlaps "
+                                     f"magnetic.parts.{j}.region; a cell has one magnetization")
+            owner[i] = cells
+        self.part_cells = owner
+        plain = not any(_varies(part) for part in self.parts)
+        if plain:
+            # today's forms, to the last bit: M cellwise, parts switched off (0, e.g. in
+            # a sweep) left out of the measure, q = F q₀ with q₀ = M/|M|
+            V = compat.function_space(mesh, "DG", 0, (3,))
+            self.remanence = fem.Function(V, name="remanent_magnetization")
+            dofs = compat.cell_dofs(V)[:, 0]
+            for i, part in enumerate(self.parts):
+                q0 = np.asarray(part["direction"], dtype=float)
+                self.remanence.x.array.reshape(-1, 3)[dofs[owner[i]]] = (
+                    part["magnetization"] * q0 / np.linalg.norm(q0))
+            self.remanence.x.scatter_forward()
+            on = [owner[i] for i, part in enumerate(self.parts) if part["magnetization"] > 0]
+            M = self.remanence
+        else:
+            M = self._remanence_expression(mesh)
+            on = list(owner.values())
+        cells = np.unique(np.concatenate(on or [np.empty(0, np.int32)])).astype(np.int32)
+        tags = compat.create_meshtags(mesh, mesh.topology.dim, cells,
+                                      np.ones(len(cells), dtype=np.int32))
+        self.dx = ufl.Measure("dx", domain=mesh, subdomain_data=tags,
+                              metadata={"quadrature_degree": 4})(1)
+        k = model.kinematics()
+        self.M = M
+        self.m = ufl.sqrt(ufl.dot(M, M))
+        self.F = kinematics.deformation_gradient(k.g1, k.g2, k.d, k.G1, k.G2,
+                                                 kinematics.unit_normal(k.G1, k.G2))
+        self.q = (magnetic.magnetization_direction(self.F, M / self.m) if plain
+                  else magnetic.safe_direction(self.F * M))
+        self.magnetization = magnetic.magnetization(self.F, M)
+        self.J = kinematics.area_ratio(k.g1, k.g2, k.G1, k.G2)
+        self._moment_forms = None
+        field = mag["field"]
+        self.uniform = is_uniform(field)
+        if self.uniform:
+            self.source = UniformField(field)
+            self.field = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
+        else:
+            self.source = NonuniformField(field)
+            x = ufl.SpatialCoordinate(mesh) + k.u  # the current mid-surface position
+            #: 1, or 0 while the model's loads are off (a uniform field is set to 0)
+            self.switch = fem.Constant(mesh, PETSc.ScalarType(1.0))
+            self.field = self.switch * self.source.ufl(mesh, x)
+            nodes = model.Vu.tabulate_dof_coordinates()
+            self.source.check_outside(nodes, _largest_cell(mesh, model.comm), model.comm)
+
+    def _remanence_expression(self, mesh):
+        """``Σ χ_p M_p(X)``: each part's magnetization (numbers, formulas of the reference
+        coordinates, or its profile interpolated to P1) on its cells."""
+        from dolfinx import fem
+
+        from rftfem import compat
+
+        X = ufl.SpatialCoordinate(mesh)
+        env = {"X": X[0], "Y": X[1], "Z": X[2]}
+        number = constant_maker(mesh)
+        chi_space = compat.function_space(mesh, "DG", 0)
+        chi_dofs = compat.cell_dofs(chi_space)[:, 0]
+        total = None
+        for i, part in enumerate(self.parts):
+            where = f"magnetic.parts.{i}"
+            chi = fem.Function(chi_space, name=f"part_{i}")
+            chi.x.array[chi_dofs[self.part_cells[i]]] = 1.0
+            chi.x.scatter_forward()
+            if part["profile"] is not None:
+                path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
+                points, values = read_profile(path, f"{where}.profile")
+                V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
+                Mp = fem.Function(V1, name=f"profile_{i}")
+                nodes = np.unique(compat.cell_dofs(V1)[self.part_cells[i]])
+                at = V1.tabulate_dof_coordinates()[nodes]
+                Mp.x.array.reshape(-1, 3)[nodes] = profile_values(points, values, at,
+                                                                  f"{where}.profile")
+                Mp.x.scatter_forward()
+            else:
+                m = _ufl_of(part["magnetization"], f"{where}.magnetization", env, number)
+                d = [_ufl_of(v, f"{where}.direction.{c}", env, number)
+                     for c, v in enumerate(part["direction"])]
+                d = ufl.as_vector(d)
+                Mp = m * d / ufl.sqrt(ufl.dot(d, d))
+            total = chi * Mp if total is None else total + chi * Mp
+        return total
+
+    def forces(self):
+        k, t = self.model.kinematics(), self.model.material["t"]
+        if self.uniform:
+            dq = ufl.derivative(self.q, self.model.w, k.w_test)
+            return -magnetic.magnetic_work(t, self.m, self.field, dq, self.J, self.dx)
+        energy = magnetic.magnetic_energy(t, self.F, self.M, self.field, self.dx)
+        return ufl.derivative(energy, self.model.w, k.w_test)
+
+    is_load = True
+
+    def set_time(self, t):
+        on = 1.0 if self.model.loads_on else 0.0
+        if self.uniform:
+            self.field.value[:] = on * self.source.at(t)
+        else:
+            self.switch.value = on
+            self.source.set_time(t)
+
+    def loads_at_start(self):
+        return ["magnetic.field"] if np.any(self.field_at(0.0) != 0.0) else []
+
+    def field_at(self, t: float) -> np.ndarray:
+        """The applied field at time ``t``: ``b(t)``, or a nonuniform field at the
+        body's current centroid."""
+        if self.uniform:
+            return self.source.at(t)
+        return self.source.at(self.model.centroid()[None, :], t)[0]
+
+    def moment(self) -> np.ndarray:
+        """Total magnetic moment ``∫ t m q J dA₀`` of the current iterate (global).
+
+        The field's torque on a rigid body is ``Q × b``; the field's work over a
+        step is ``b·ΔQ`` to first order (the couple's virtual work is ``b·δq``).
+        """
+        m = self.model
+        if self._moment_forms is None:
+            self._moment_forms = [m.compile(c) for c in magnetic.magnetic_moment(
+                m.material["t"], self.m, self.q, self.J, self.dx)]
+        return np.array([m.assemble_scalar(f) for f in self._moment_forms])
+
+    def force_scales(self):
+        """The largest couple of one part, ``t m B A``, as a force over the length."""
+        m, shell = self.model, self.scene["shell"]
+        end = self.scene["time"]["end"]
+        if self.uniform:
+            strength = self.source.scale(end)
+        else:
+            strength = self.source.scale(m.Vu.tabulate_dof_coordinates(), end, m.comm)
+        return [shell["thickness"] * self._largest_magnetization(i) * strength
+                * m.area(self.part_cells[i]) / m.body.length
+                for i in range(len(self.parts))]
+
+    def _largest_magnetization(self, i: int) -> float:
+        part = self.parts[i]
+        if not _varies(part):
+            return part["magnetization"]
+        # sampled at the part's P2 nodes (formulas) or the profile's points
+        from rftfem import compat
+
+        mesh = self.model.mesh
+        V = compat.function_space(mesh, "DG", 0)  # cell midpoints suffice for a scale
+        at = V.tabulate_dof_coordinates()[self.part_cells[i]]
+        if part["profile"] is not None:
+            path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
+            values = read_profile(path, f"magnetic.parts.{i}.profile")[1]
+            local = float(np.linalg.norm(values, axis=1).max())
+        else:
+            env = {"X": at[:, 0], "Y": at[:, 1], "Z": at[:, 2]}
+            m = parse(part["magnetization"], "m", REFERENCE).numbers(env)
+            local = float(np.max(np.abs(m), initial=0.0))
+        return self.model.comm.allreduce(local, op=_max())
+
+    def values(self, t):
+        return [*self.field_at(t), *self.moment()]
+
+    def fields(self):
+        return {"magnetization": self.magnetization}  # m q, 0 off the parts
+
+
+def _varies(part: dict) -> bool:
+    """Whether a part's magnetization varies over it (formulas or a profile file)."""
+    return part["profile"] is not None or isinstance(part["magnetization"], str) \
+        or any(isinstance(v, str) for v in part["direction"])
+
+
+def _ufl_of(value, key: str, env: dict, number):
+    """A number or formula of the reference coordinates as UFL, its numbers Constants."""
+    if isinstance(value, str):
+        return parse(value, key, REFERENCE).ufl(env, number)
+    return number(float(value))
+
+
+def _largest_cell(mesh, comm) -> float:
+    """The largest cell diameter (from the cells' geometry nodes)."""
+    from rftfem import compat
+
+    cells = compat.geometry_cells(mesh)[0]
+    x = mesh.geometry.x[cells]
+    local = float(np.linalg.norm(x[:, :, None, :] - x[:, None, :, :], axis=-1).max()) \
+        if len(cells) else 0.0
+    return comm.allreduce(local, op=_max())
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX

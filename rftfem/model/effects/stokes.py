@@ -1,0 +1,293 @@
+"""Stokes flow around the body, ``[fluid] model = "stokes"`` (docs/stokes.md).
+
+The mid-surface is a single layer of regularized Stokeslets at the displacement
+nodes (``rftfem.model.stokeslets``).  No slip: the liquid's velocity at each node is the
+node's velocity ``v(u)`` of the time scheme, so the nodal forces of a step are
+
+    F = M(x)⁻¹ v(u),    x = X + u,
+
+the force the body exerts on the liquid; it enters the residual like drag (with
++, resisting).  The operator is nonlocal, so it is not a UFL form: the residual
+takes it through ``add_nodal_forces`` and the Newton tangent through
+:meth:`Stokes.tangent_product`, exact in the positions too,
+
+    dF = M⁻¹ (c_v du − G du),    G = ∂(M F)/∂x at fixed F,
+
+applied matrix-free by the solver (``rftfem.integration.coupled``) around a preconditioner made
+of the sparse tangent plus the lumped blocks of ``M⁻¹`` (a local drag).
+
+Every process holds the whole body's nodes (gathered in rank order); each
+evaluates the kernel for the nodes it owns (the mobility's rows, gathered, and the
+position derivative's, kept) and makes the same dense factorisation; each adds
+the forces of the nodes it owns.  The matrix-free
+operator (``fluid.operator = "fmm"``, ``rftfem.model.stokes_fmm``) runs on the first
+process only, threaded, and its results are broadcast.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rftfem.model import stokes_fmm, stokeslets
+from rftfem.errors import SceneError
+
+from rftfem.model.effects import fluid
+from rftfem.model.effects.base import Effect
+
+#: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
+#: at 5000, a Cholesky factorisation of ~1e12 flops a residual
+DENSE_NODES = 5000
+
+
+class Stokes(Effect):
+    name = "stokes"
+    is_fluid = True
+    #: the solver applies :meth:`tangent_product` besides the assembled tangent
+    nonlocal_tangent = True
+    columns = ["fluid_power"] + fluid.RESULTANT_COLUMNS
+
+    @classmethod
+    def active(cls, scene):
+        return fluid.model_of(scene) == "stokes"
+
+    def __init__(self, model):
+        super().__init__(model)
+        given = self.scene["fluid"]
+        self.viscosity = float(given["viscosity"])
+        comm = model.comm
+        im = model.Vu.dofmap.index_map
+        self.n_owned = im.size_local
+        counts = comm.allgather(self.n_owned)
+        self.offset = int(sum(counts[: comm.rank]))
+        #: the local dofs of ``w`` holding the owned nodes' displacement, (n_owned, 3)
+        self.owned_u = model.u_dofs.reshape(-1, 3)[: self.n_owned]
+        #: the reference positions of every node of the body, in rank order (N, 3)
+        self.X = self._gather(model.Vu.tabulate_dof_coordinates()[: self.n_owned])
+        #: each node's blob size δ (N,)
+        self.delta = self._gather(self._node_blobs(given.get("regularization")))
+        self._check_size()
+        wall = given.get("wall")
+        #: the no-slip plane (``[fluid.wall]``), or None
+        self.wall = stokeslets.Wall(wall["point"], wall["normal"]) if wall else None
+        if self.wall is not None:
+            self._check_wall()
+        #: "dense" or "fmm": how the operator is applied
+        self.operator = self._choose_operator(given.get("operator", "auto"))
+        length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
+        #: slender-body drag coefficients of the same viscosity (time scales only)
+        self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
+        self._resistance = None  # the factorised mobility of the last positions
+        self._last = None  # (positions, velocities, forces) of the last residual
+        self._tangent = None
+
+    # --- set-up -----------------------------------------------------------
+
+    def _gather(self, owned: np.ndarray) -> np.ndarray:
+        return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
+
+    def _node_blobs(self, uniform) -> np.ndarray:
+        """δ of the owned nodes: ``uniform`` everywhere if given, else the node
+        spacing (the mean over the cells around a node of the cell's size over 2,
+        the size √area on quadrilaterals, the equilateral side on triangles), halved
+        on the body's free edges (docs/stokes.md)."""
+        if uniform is not None:
+            return np.full(self.n_owned, float(uniform))
+        from dolfinx import fem, mesh as dmesh
+        import ufl
+
+        from rftfem import compat
+
+        m = self.model
+        msh = m.mesh
+        V0 = compat.function_space(msh, "DG", 0)
+        area = fem.assemble_vector(m.compile(ufl.TestFunction(V0) * m.dx)).array
+        triangle = msh.topology.cell_type == dmesh.CellType.triangle
+        size = np.sqrt(area * (4.0 / np.sqrt(3.0) if triangle else 1.0)) / 2.0
+        V = compat.function_space(msh, "Lagrange", 2)
+        total, count = (fem.Function(V) for _ in range(2))
+        cells = compat.cell_dofs(V)
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        np.add.at(total.x.array, cells[:n_cells], size[:n_cells, None])
+        np.add.at(count.x.array, cells[:n_cells], 1.0)
+        for f in (total, count):
+            compat.scatter_add(f)
+        spacing = total.x.array / np.maximum(count.x.array, 1.0)
+        fdim = msh.topology.dim - 1
+        msh.topology.create_connectivity(fdim, msh.topology.dim)
+        edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
+        spacing[edge] *= 0.5
+        return spacing[: self.n_owned]
+
+    def _check_size(self):
+        extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
+        largest = float(self.delta.max())
+        if largest >= 0.5 * extent:
+            raise SceneError(f"fluid.regularization: the blob ({largest:.4g}) is larger than "
+                             f"the body (its diagonal is {extent:.4g}); give a blob of about "
+                             "the node spacing, or leave the key out")
+
+    def _check_wall(self):
+        heights = self.wall.heights(self.X)
+        behind = int(np.sum(heights <= 0.0))
+        if behind:
+            raise SceneError(f"fluid.wall: the body crosses the wall: {behind} of its "
+                             f"{len(heights)} nodes are on or behind the plane (lowest at "
+                             f"{heights.min():.4g} along the normal); the normal points "
+                             "towards the body's side")
+
+    def _choose_operator(self, asked: str) -> str:
+        """"dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
+        nodes without a wall, when fmm3dpy is installed)."""
+        if asked == "auto":
+            big = len(self.X) > DENSE_NODES and self.wall is None
+            return "fmm" if big and stokes_fmm.available() else "dense"
+        if asked == "fmm" and not stokes_fmm.available():
+            raise SceneError('fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
+                             "is not installed; run the README's set-up, or use "
+                             'operator = "dense"')
+        return asked
+
+    def warnings(self) -> list[str]:
+        """A body too large for the dense operator (docs/stokes.md, Cost)."""
+        n = len(self.X)
+        if n <= DENSE_NODES or self.operator == "fmm":
+            return []
+        gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
+        return [f'fluid.model = "stokes": {n} nodes make a dense operator of '
+                f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
+                f"meant for up to {DENSE_NODES} nodes in this version"]
+
+    # --- state ------------------------------------------------------------
+
+    def _state(self):
+        """Global positions and velocities ``(x, v)`` of the current iterate, (N, 3) each."""
+        m, c = self.model, self.model.coef
+        n = self.n_owned
+        u = m.w.x.array[self.owned_u]
+        v = (float(c["cv"].value) * (u - m.u_n.x.array.reshape(-1, 3)[:n])
+             + float(c["cv_v"].value) * m.v_n.x.array.reshape(-1, 3)[:n]
+             + float(c["cv_a"].value) * m.a_n.x.array.reshape(-1, 3)[:n])
+        if m.drive:
+            v = v + m.drive[0].x.array.reshape(-1, 3)[:n]
+        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        return both[:, :3], both[:, 3:]
+
+    def resistance(self, x: np.ndarray) -> stokeslets.Resistance:
+        """The factorised mobility at the positions ``x`` (kept for the same ``x``)."""
+        if self._resistance is None or not np.array_equal(self._resistance.x, x):
+            if self.wall is not None and self.wall.heights(x).min() <= 0.0:
+                # the body has reached the wall: no flow state exists; a residual of
+                # NaN makes the step fail and be cut (the solver says it is not finite)
+                self._resistance = _Crossed(x)
+            elif self.operator == "fmm":
+                self._resistance = _OnFirst(
+                    self.model.comm, x,
+                    lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity))
+            else:
+                self._resistance = stokeslets.Resistance(
+                    x, self.delta, self.viscosity, self.wall, comm=self.model.comm,
+                    rows=slice(self.offset, self.offset + self.n_owned))
+        return self._resistance
+
+    def nodal_forces(self) -> np.ndarray:
+        """The forces (N, 3) the body exerts on the liquid at the current iterate."""
+        x, v = self._state()
+        if self._last is not None and np.array_equal(self._last[0], x) \
+                and np.array_equal(self._last[1], v):
+            return self._last[2]
+        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
+        self._last = (x, v, F)
+        return F
+
+    def add_nodal_forces(self, F):
+        forces = self.nodal_forces()
+        F[self.owned_u] += forces[self.offset:self.offset + self.n_owned]
+
+    # --- the tangent ------------------------------------------------------
+
+    def prepare_tangent(self, scale: float) -> np.ndarray:
+        """Make the tangent of ``scale · F`` at the current iterate; returns the
+        lumped blocks of its velocity part for the owned nodes (n_owned, 3, 3)."""
+        F = self.nodal_forces()
+        x = self._last[0]
+        res = self.resistance(x)
+        cv = float(self.model.coef["cv"].value)
+        kept = self._tangent
+        if kept is not None and kept[0] is res and kept[4] is F:
+            G = kept[2]  # the same iterate (a lifting made it): G depends on x and F only
+        else:
+            G = res.position_operator(F)
+        self._tangent = (res, cv, G, scale, F)
+        lumped = res.lumped()[self.offset:self.offset + self.n_owned]
+        return scale * cv * lumped
+
+    def tangent_product(self, du: np.ndarray) -> np.ndarray:
+        """``scale · M⁻¹ (c_v du − G du)`` for a global displacement direction (3N,)."""
+        res, cv, G, scale, _ = self._tangent
+        return scale * res.solve(cv * du - G @ du)
+
+    # --- outputs ----------------------------------------------------------
+
+    def force_scales(self):
+        return fluid.force_scales(self)
+
+    def _stored(self):
+        """Positions, velocities and forces of the last converged state (``u_n``, ``v_n``)."""
+        m, n = self.model, self.n_owned
+        u = m.u_n.x.array.reshape(-1, 3)[:n]
+        v = m.v_n.x.array.reshape(-1, 3)[:n]
+        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        x, v = both[:, :3], both[:, 3:]
+        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
+        return x, v, F
+
+    def values(self, t):
+        x, v, F = self._stored()
+        force = -F.sum(axis=0)
+        moment = -np.cross(x, F).sum(axis=0)
+        return [float(np.sum(F * v)), *force, *moment]
+
+
+class _Crossed:
+    """The resistance of a body that has crossed the wall: NaN forces."""
+
+    def __init__(self, x):
+        self.x = np.array(x)
+
+    def solve(self, rhs):
+        return np.full(np.shape(rhs), np.nan)
+
+    def lumped(self):
+        return np.zeros((len(self.x), 3, 3))
+
+
+class _OnFirst:
+    """A resistance made and applied on the first process only, its results
+    broadcast: the matrix-free operator is threaded, and every process must see
+    the same forces to round-off."""
+
+    def __init__(self, comm, x, make):
+        self.comm, self.x = comm, np.array(x)
+        self.res = make() if comm.rank == 0 else None
+
+    def _first(self, compute):
+        value = compute() if self.comm.rank == 0 else None
+        return self.comm.bcast(value, root=0) if self.comm.size > 1 else value
+
+    def solve(self, rhs):
+        return self._first(lambda: self.res.solve(rhs))
+
+    def lumped(self):
+        return self._first(self.res.lumped if self.res is not None else None)
+
+    def position_operator(self, forces):
+        return _FirstProduct(self, None if self.res is None
+                             else self.res.position_operator(forces))
+
+
+class _FirstProduct:
+    def __init__(self, owner: _OnFirst, operator):
+        self.owner, self.operator = owner, operator
+
+    def __matmul__(self, dx):
+        return self.owner._first(lambda: self.operator @ dx)

@@ -1,0 +1,348 @@
+"""A scene turned into unknowns, state and the sum of its effects' forms.
+
+The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
+the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
+``(a₁, a₂, dₙ)`` of the last converged step (docs/model.md §4).  All of them are
+second-order Lagrange fields on the same nodes, so they are held as one blocked
+field ``w`` in [P2]^(3+2c) (c the number of panel colours, below): every node
+carries its ``(u, θ¹, θ², ...)`` block, and the tangent is a block matrix whose
+cell matrices PETSc inserts a node pair at a time.  The triad is kept as
+three [P2]³ functions, rotated node by node after each converged step, and its
+in-plane pair turned about dₙ onto the convected material axis (``update_triad``).
+Hinge lines cut the body into panels of several colours, each with its own θ
+and triad (rftfem/model/hinges.py).
+
+Everything else is an effect component (rftfem/model/effects): the Model builds the
+ones the scene asks for, in the registry's order, and adds up their terms
+(docs/model.md §5).
+"""
+
+from __future__ import annotations
+
+import time as _time
+from types import SimpleNamespace
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from petsc4py import PETSc
+
+from rftfem.forms import hinge, kinematics
+
+from rftfem import compat
+from rftfem.model import effects, hinges
+from rftfem.model.dirichlet import DirichletSpaces
+from rftfem.model.measures import BodyMeasures
+from rftfem.model.step_state import StepStart
+from rftfem.errors import SceneError
+from rftfem.scene.schema import unit_vector
+from rftfem.scene.selectors import cells_of
+from rftfem.model.triad import Triads
+
+
+class Model(StepStart, BodyMeasures):
+    """Function spaces, state, material fields and the active effects of one scene;
+    what a step starts from is step_state.py's, the whole-body measures measures.py's."""
+
+    def __init__(self, scene: dict, body, compile_forms: bool = True,
+                 tangent: str = "mixed-point"):
+        self.scene, self.body, self.compile_forms = scene, body, compile_forms
+        self.mesh = body.mesh
+        self.comm = self.mesh.comm
+        tdim = self.mesh.topology.dim
+        self.mesh.topology.create_connectivity(tdim - 1, tdim)
+        self.timings = {"compile": 0.0}
+        #: whether the applied loads (``[[load]]`` entries, the magnetic field) act: off
+        #: for the solve of a run's initial state in time (docs/model.md §6.7); the
+        #: components read it when their time is set
+        self.loads_on = True
+        self.dx = ufl.Measure("dx", domain=self.mesh)
+        self._kinematics = None
+
+        # hinges cut the body into panels; panels that touch get different colours,
+        # and each colour has its own rotation field and triad (forms/hinge.py)
+        self.hinges = hinges.resolve(self, scene)
+        self.n_colours, self.colours, self.colour_indicators = 1, None, None
+        if self.hinges:
+            cut = np.unique(np.concatenate([h.facets for h in self.hinges]))
+            labels = hinges.panel_labels(self.mesh, cut)
+            self.colours, self.n_colours = hinges.colour_panels(self.mesh, labels, cut,
+                                                                self.hinges)
+        if self.n_colours > 1:  # χ_c, 1 on the cells of colour c (DG0)
+            self.colour_indicators = hinges.indicators(self.mesh, self.colours, self.n_colours)
+
+        # unknowns: u, then one θ per colour, node by node; the state of the last step
+        self.block = 3 + 2 * self.n_colours
+        self.W = compat.function_space(self.mesh, "Lagrange", 2, (self.block,))
+        self.Vu = compat.function_space(self.mesh, "Lagrange", 2, (3,))
+        self.u_dofs = self._block_dofs(range(3))
+        #: per colour, its rotation dofs of ``w`` in (θ¹, θ²) pairs, node by node
+        self.theta_dofs_of = [self._block_dofs((3 + 2 * c, 4 + 2 * c))
+                              for c in range(self.n_colours)]
+        #: every rotation dof of ``w``, in (θ¹, θ²) pairs
+        self.theta_dofs = np.concatenate(self.theta_dofs_of)
+        self.w = fem.Function(self.W, name="w")
+        self.u_n, self.v_n, self.a_n = (fem.Function(self.Vu, name=n)
+                                        for n in ("u_n", "v_n", "a_n"))
+        #: the last two accepted steps' (Δu, θ, dt), newest first: the next step's prediction
+        self.increments = []
+        #: the largest displacement increment of the last prediction (0: none made)
+        self.predicted_step = 0.0
+        #: the last predictions {past steps used: (u, θ)}, or None; made only when
+        #: ``keep_predictions`` (error-controlled steps)
+        self.prediction = None
+        self.keep_predictions = False
+
+        #: the previous and the current Newton iterate and their difference: the data of
+        #: the mixed-integration-point tangent (docs/model.md §7.4), set by the solver
+        self.newton_previous, self.newton_current, self.newton_update = (
+            fem.Function(self.W, name=n) for n in ("w_previous", "w_current", "w_update"))
+        self.mixed_point = tangent == "mixed-point"
+        self._newton_last = None  # the iterate of the last tangent (tangent_at_iterate)
+        #: whether a solve's first mixed-point tangent carries the stress resultants of
+        #: the last converged state (time steps) or those of its own start (static
+        #: load steps); set by the Simulation from its scheme (docs/model.md §7.4)
+        self.first_tangent_converged = False
+
+        # the nodal triads (a1, a2, dn) of each colour and the reference director D
+        self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
+        self.triads, self.D = self.triad.frames, self.triad.D
+        self.dn, self.material_axis = self.triads[0][2], self.triad.material_axis
+        self._init_materials()
+        #: the time scheme's coefficients of velocity and acceleration (rftfem/integration/schemes.py)
+        self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
+                     for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
+        self.coefficients = None  # the last ones set (timeint.Coefficients)
+        #: prescribed motions in a second-order scheme: corrections to the velocity and
+        #: acceleration that make them the motion's own on the driven dofs (motion.py)
+        self.drive = None
+        if effects.Motions.active(scene) and effects.Inertia.active(scene):
+            self.drive = (fem.Function(self.Vu, name="v_drive"),
+                          fem.Function(self.Vu, name="a_drive"))
+
+        # the effects, then their sum; Dirichlet values are kept per component space
+        self.dirichlet = DirichletSpaces()
+        self.components = [cls(self) for cls in effects.REGISTRY if cls.active(scene)]
+        self._sum_terms()
+        self.bcs = [bc for comp in self.components for bc in comp.bcs()]
+        self.bcs += hinges.inactive_rotation_bcs(self)
+        self.has_moving_bcs = any(comp.moving for comp in self.components)
+
+    def _block_dofs(self, fields) -> np.ndarray:
+        """The local dofs of ``w`` that hold ``fields`` (positions in a node's block),
+        node by node in the order of ``Vu``'s nodes.  The two spaces number their nodes
+        alike (same mesh, same scalar element); checked on the first call."""
+        if not getattr(self, "_nodes_checked", False):
+            x_w, x_u = (V.tabulate_dof_coordinates() for V in (self.W, self.Vu))
+            size = float(np.abs(x_u).max()) if x_u.size else 0.0
+            same = (self.W.dofmap.index_map.size_local == self.Vu.dofmap.index_map.size_local
+                    and x_w.shape == x_u.shape and np.allclose(x_w, x_u, rtol=0.0,
+                                                                atol=1e-9 * size))
+            if not same:
+                raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
+            self._nodes_checked = True
+        im = self.Vu.dofmap.index_map
+        nodes = np.arange(im.size_local + im.num_ghosts)
+        return (self.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
+
+    def displacement_space(self, i: int):
+        """The sub-space of ``w`` holding the displacement component ``i`` (0: x)."""
+        return self.W.sub(i)
+
+    def rotation_space(self, colour: int, i: int):
+        """The sub-space of ``w`` holding ``θ^(i+1)`` of the colour ``colour``."""
+        return self.W.sub(3 + 2 * colour + i)
+
+    def split(self, w):
+        """``(u, [θ of each colour])`` of a field or test function of ``W``."""
+        u = ufl.as_vector([w[i] for i in range(3)])
+        thetas = [ufl.as_vector([w[3 + 2 * c], w[4 + 2 * c]]) for c in range(self.n_colours)]
+        return u, thetas
+
+    def get(self, name: str):
+        """The active component called ``name`` (``"drag"``, ``"magnetic"``, ...) or None."""
+        return next((c for c in self.components if c.name == name), None)
+
+    @property
+    def fluid(self):
+        """The liquid's component (RFT drag or Stokes flow), or None."""
+        return next((c for c in self.components if getattr(c, "is_fluid", False)), None)
+
+    def __getitem__(self, name: str):
+        comp = self.get(name)
+        if comp is None:
+            raise KeyError(f"the scene has no active effect '{name}'")
+        return comp
+
+    def loads_at_start(self) -> list[str]:
+        """The key paths of the loads already on at t = 0 (``load.0``, ``magnetic.field``)."""
+        return [key for comp in self.components for key in comp.loads_at_start()]
+
+    def active_effects(self) -> list[str]:
+        """The active effect names, as ``rftfem check`` lists them."""
+        return effects.active_effects(self.scene)
+
+    # --- set-up -----------------------------------------------------------
+
+    def axis_error(self, why: str) -> SceneError:
+        """The error of a ``shell.axis`` along the normal, for an effect that needs it."""
+        return SceneError(f"shell.axis: expected a direction not along the shell normal ({why}),"
+                          f" found {self.scene['shell']['axis']}, along the normal at "
+                          f"{self.triad.axis_along_normal} nodes")
+
+    def _init_materials(self):
+        """Cellwise (DG0) E, ν, t, ρ: one compiled form serves every scene."""
+        V0 = compat.function_space(self.mesh, "DG", 0)
+        shell = self.scene["shell"]
+        dofs = compat.cell_dofs(V0)[:, 0]
+        self.material = {}
+        for key, name in (("E", "E"), ("nu", "nu"), ("thickness", "t"), ("density", "rho")):
+            f = fem.Function(V0, name=name)
+            f.x.array[:] = float(shell[key])
+            for i, part in enumerate(shell.get("parts", [])):
+                if key in part:
+                    cells = cells_of(self.body, [part["region"]], f"shell.parts.{i}.region")
+                    f.x.array[dofs[cells]] = float(part[key])
+            f.x.scatter_forward()
+            self.material[name] = f
+
+    # --- forms --------------------------------------------------------------
+
+    def compile(self, ufl_form):
+        """A UFL form compiled for assembly (its time counted in ``timings``)."""
+        t0 = _time.perf_counter()
+        form = compat.form(ufl_form)
+        self.timings["compile"] += _time.perf_counter() - t0
+        return form
+
+    def assemble_scalar(self, form) -> float:
+        """A compiled scalar form, summed over all processes."""
+        return self.comm.allreduce(fem.assemble_scalar(form))
+
+    def kinematics(self) -> SimpleNamespace:
+        """UFL kinematics of the current iterate (built once): ``u``, the rotations
+        ``thetas``, the director ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and
+        the test functions ``w_test`` (all unknowns) and ``du`` (its displacement part)."""
+        if self._kinematics is None:
+            w_test = ufl.TestFunction(self.W)
+            self._kinematics = self.kinematics_of(self.w)
+            self._kinematics.w_test, self._kinematics.du = w_test, self.split(w_test)[0]
+        return self._kinematics
+
+    def kinematics_of(self, w) -> SimpleNamespace:
+        """The kinematics of ``kinematics()`` for any function ``w`` of ``W`` (its
+        rotations measured in the step's triads), without test functions."""
+        u, thetas = self.split(w)
+        G1, G2 = kinematics.covariant_basis(self.mesh)
+        directors = [kinematics.director(theta, *triad)
+                     for theta, triad in zip(thetas, self.triads)]
+        d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
+             else directors[0])
+        g1, g2 = kinematics.surface_basis(u, G1, G2)
+        return SimpleNamespace(u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
+                               F_s=kinematics.surface_deformation_gradient(u))
+
+    def velocity(self, u):
+        """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
+        c = self.coef
+        v = c["cv"] * (u - self.u_n) + c["cv_v"] * self.v_n + c["cv_a"] * self.a_n
+        return v + self.drive[0] if self.drive else v
+
+    def acceleration(self, u):
+        """``a_{n+1−α_m}`` as a function of the unknown displacement."""
+        c = self.coef
+        a = c["ca"] * (u - self.u_n) + c["ca_v"] * self.v_n + c["ca_a"] * self.a_n
+        return a + self.drive[1] if self.drive else a
+
+    def _sum_terms(self):
+        """Stored energy, forces ``F(w)`` (every non-inertial effect), inertia, and the
+        step's Jacobian ``∂/∂w [(1 − α_f) F + inertia]`` (docs/model.md §5, §6)."""
+        w_test = self.kinematics().w_test
+        energies = [c.energy() for c in self.components]
+        self.energy = sum((e for e in energies if e is not None), 0)
+        #: virtual work of every non-inertial effect, by component name
+        self.effects = {}
+        for c, energy in zip(self.components, energies):
+            terms = [ufl.derivative(energy, self.w, w_test)] if energy is not None else []
+            terms += [work for work in [c.forces()] if work is not None]
+            if terms:
+                self.effects[c.name] = sum(terms[1:], terms[0])
+        inertia = [c.inertia() for c in self.components if c.inertia() is not None]
+        self.inertia = sum(inertia[1:], inertia[0]) if inertia else None
+        terms = list(self.effects.values())
+        self.forces_ufl = sum(terms[1:], terms[0])
+        residual = (1 - self.coef["alpha_f"]) * self.forces_ufl + (self.inertia or 0)
+        trial = ufl.TrialFunction(self.W)
+        self.jacobian_ufl = ufl.derivative(residual, self.w, trial)
+        corrections = [c.tangent_correction() for c in self.components] if self.mixed_point \
+            else []
+        for corr in (c for c in corrections if c is not None):
+            self.jacobian_ufl += (1 - self.coef["alpha_f"]) * ufl.derivative(
+                ufl.derivative(corr, self.w, w_test), self.w, trial)
+        self.forces_form = self.inertia_form = self.jacobian_form = None
+        if self.compile_forms:
+            self.forces_form = self.compile(self.forces_ufl)
+            if self.inertia is not None:
+                self.inertia_form = self.compile(self.inertia)
+            self.jacobian_form = self.compile(self.jacobian_ufl)
+
+    def add_nodal_forces(self, F: np.ndarray):
+        """Add the components' nodal forces to the local array of an assembled ``F``."""
+        for comp in self.components:
+            comp.add_nodal_forces(F)
+
+    # --- per-step updates ---------------------------------------------------
+
+    def set_coefficients(self, c):
+        self.coefficients = c
+        for key in self.coef:
+            self.coef[key].value = getattr(c, key)
+
+    def set_time(self, t: float, scheme=None):
+        """Loads and motions at ``t``; with a second-order ``scheme``, the driven dofs'
+        exact rates of the step ending at ``t`` (after ``set_coefficients``)."""
+        for comp in self.components:
+            comp.set_time(t)
+        if self.drive:
+            self["prescribed-motion"].drive_step(
+                t if scheme is not None and scheme.has_inertia else None, self.coefficients)
+
+    def drive_state(self, t: float, scheme) -> None:
+        """With a second-order scheme (None: the model's own), the driven dofs' stored
+        rates at ``t`` (motion.py)."""
+        if self.drive and (scheme is None or scheme.has_inertia):
+            self["prescribed-motion"].drive_state(t)
+
+    def restore(self):
+        """Reset the iterate to the last converged state (θ = 0)."""
+        self.w.x.array[self.u_dofs] = self.u_n.x.array
+        self.w.x.array[self.theta_dofs] = 0.0
+
+    def update_triad(self):
+        """Rotate the nodal triads by the converged θ and realign them (triad.py); θ = 0."""
+        self.triad.update(self.w.x.array, self.theta_dofs_of)
+        self.w.x.array[self.theta_dofs] = 0.0
+
+    def accept(self, scheme, dt: float, t: float | None = None):
+        """After convergence at ``t``: update the state (u_n, v_n, a_n) and the triad,
+        and keep the step's increment (Δu, θ) and dt for the next steps' prediction."""
+        u = self.w.x.array[self.u_dofs]
+        du = u - self.u_n.x.array
+        v, a = scheme.update(du, self.v_n.x.array, self.a_n.x.array, dt)
+        self.increments = [(du, self.w.x.array[self.theta_dofs].copy(), dt)] + self.increments[:1]
+        self.v_n.x.array[:] = v
+        self.a_n.x.array[:] = a
+        if t is not None:
+            self.drive_state(t, scheme)
+        self.u_n.x.array[:] = u
+        self.update_triad()
+
+    @property
+    def displacement(self):
+        """The displacement of the last converged step (the Function ``u_n``)."""
+        return self.u_n
+
+    def destroy(self):
+        """Free the nodal projection's PETSc objects.  Forms and functions stay usable;
+        a triad update after this rotates the triads but no longer realigns them."""
+        self.triad.destroy()

@@ -1,0 +1,313 @@
+"""Pictures and films of a run, drawn off-screen with pyvista from its results folder.
+
+The input is what a run writes (``fields.xdmf``/``.h5``, ``summary.json``,
+``probes.csv``, ``body.csv``), so a run of one process and a run under
+``mpirun`` render alike, and a failed run renders up to its last good step.
+Frames are read one at a time and drawn into one scene whose points and colours
+are replaced in place: memory does not grow with the number of frames.
+
+A film is drawn with a fixed camera that sees the body at every frame (a first
+pass over the frames finds their bounds and the colour range), or with
+``view="follow"`` with a camera that keeps its distance and direction and moves
+with the centroid. Reading the run, that survey and the camera are in
+:mod:`rftfem.outputs.render_view`; this module draws and writes.
+
+Import order matters (see :mod:`rftfem.outputs.compat_render`):
+this module imports pyvista, and must be imported before dolfinx in a process
+(``rftfem render`` never imports dolfinx; a run that renders at its end starts
+``rftfem render`` as a child process).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rftfem.outputs.compat_render import import_pyvista
+from rftfem.errors import SceneError
+from rftfem.outputs.render_body import BodyDrawing
+from rftfem.outputs.render_view import (MAX_FILM_FRAMES, MAX_GIF_FRAMES, RunFields, Survey,
+                                 color_fields, color_limits, color_values, film_plan,
+                                 pixel_of, place_camera, survey_frames)
+
+pv = import_pyvista()
+
+BACKGROUND = "white"
+#: some ambient light, so that faces seen edge-on or from behind keep their colour
+_LIGHTING = {"ambient": 0.3, "diffuse": 0.75, "specular": 0.1}
+REFERENCE_COLOR = "#b0b0b0"
+#: the trail of the centroid or a probe, drawn over the body
+TRAIL_COLOR = "#d62728"
+#: a no-slip wall of the scene ([fluid.wall]), drawn translucent under the body
+WALL_COLOR = "#8c7b6b"
+_LABELS = {"displacement": "u (magnitude)", "magnetization": "m along axis"}
+
+
+@dataclass
+class Rendered:
+    """What :func:`render` drew: for messages and for checking the picture."""
+
+    out: Path
+    frames: int
+    times: list[float]
+    color: str
+    size: tuple[int, int]
+    fps: float | None = None
+    #: the factor the displacements were drawn magnified by
+    scale: float = 1.0
+    #: pixel (column, row from the top) of each probe's position at the last frame drawn
+    probe_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: pixel of each probe's reference position (where it would be undeformed)
+    reference_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def describe(self) -> str:
+        magnified = "" if self.scale == 1.0 else f", displacements × {self.scale:g}"
+        if self.fps is None:
+            return f"t = {self.times[-1]:.6g}, colour {self.color}{magnified}"
+        return (f"{self.frames} frames, t = {self.times[0]:.6g} to {self.times[-1]:.6g}, "
+                f"{self.fps:g} frames/s, colour {self.color}{magnified}")
+
+
+def _tick_format(clim) -> str:
+    """Enough significant digits that the colour bar's labels differ."""
+    lo, hi = clim
+    span, scale = hi - lo, max(abs(lo), abs(hi))
+    digits = 3 if span <= 0 else max(3, min(7, math.ceil(math.log10(scale / span)) + 3))
+    return f"%.{digits}g"
+
+
+
+def render(results, out, color: str | None = None, time: float | None = None,
+           view: str = "iso", trail: str | None = None, fps: float | None = None,
+           every: int | None = None, size=(1024, 768), scale: float = 1.0) -> Rendered:
+    """Draw the run in ``results`` to ``out`` (.png: one frame; .mp4/.gif: a film),
+    its displacements magnified ``scale`` times (ParaView's warp by vector: the
+    body, the probes and the trail; colours keep the true values)."""
+    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise SceneError(f"--scale: expected a number > 0, found {scale}")
+    scale = float(scale)
+    run = RunFields(Path(results), scale)
+    out = Path(out)
+    film = out.suffix.lower() in (".mp4", ".gif")
+    if color is None:
+        color = "magnetization" if "magnetization" in run.fields else "displacement"
+    if color not in color_fields(run):
+        raise SceneError(f"--color {color}: not a field of this run "
+                         f"(choose from {', '.join(color_fields(run))})")
+    if trail is None and view == "follow":
+        trail = "centroid" if (run.folder / "body.csv").is_file() else None
+    path = run.path_of(trail) if trail and trail != "none" else None
+    if path is not None and scale != 1.0:
+        # magnified about the start of the path, as every point's displacement is
+        path = (path[0], path[1][:1] + scale * (path[1] - path[1][:1]))
+
+    if film:
+        most = MAX_GIF_FRAMES if out.suffix.lower() == ".gif" else MAX_FILM_FRAMES
+        idx, fps = film_plan(len(run.times), every, fps, most)
+    else:
+        idx, fps = np.array([len(run.times) - 1 if time is None else run.nearest(time)]), None
+    survey = survey_frames(run, idx, color, path)
+    clim = color_limits(color, *survey.srange)
+
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open(out, "wb"):
+            pass
+    except OSError as exc:
+        raise SceneError(f"--out {out}: cannot write here ({exc.strerror or exc})") from None
+
+    # Films are drawn without multisampling: on a machine without a GPU (Mesa's
+    # software rasterizer) the 8 samples of a still picture double a frame's cost
+    # for a difference hard to see in a moving picture (docs/running.md)
+    theme = copy.deepcopy(pv.global_theme)
+    theme.multi_samples = 0 if film else 8
+    plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
+    try:
+        return _draw(plotter, run, out, film, idx, fps, color, clim, view, survey, path, size)
+    except Exception:
+        out.unlink(missing_ok=True)
+        raise
+    finally:
+        plotter.close()
+
+
+def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, path,
+          size) -> Rendered:
+    plotter.set_background(BACKGROUND)
+    title = run.scene.get("title", run.folder.name)
+    plotter.add_text(title, position="upper_edge", font_size=9, color="black")
+    stamp = plotter.add_text("", position="lower_right", font_size=12, color="black")
+    if run.scale != 1.0:
+        plotter.add_text(f"displacements × {run.scale:g}", position="lower_edge",
+                         font_size=10, color="#b22222")
+    reference_edges = run.reference.extract_feature_edges(
+        boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
+    plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
+    wall = _wall(run, survey)
+    if wall is not None:
+        plotter.add_mesh(wall, color=WALL_COLOR, opacity=0.35, show_edges=False)
+
+    drawing = BodyDrawing(run.reference)
+    first = run.frame(idx[0])
+    s = color_values(color, first, run)
+    body = drawing.surface(run.scale * first["displacement"], None if s is None else {color: s})
+    if s is None:
+        surface = plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
+        edge_color = "#2a4f75"
+    else:
+        cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
+        surface = plotter.add_mesh(body, scalars=color, clim=clim, cmap=cmap,
+                                   smooth_shading=True, **_LIGHTING,
+                                   scalar_bar_args={"title": _LABELS.get(color, color),
+                                                    "color": "black", "fmt": _tick_format(clim),
+                                                    "vertical": True, "position_x": 0.86,
+                                                    "position_y": 0.25, "height": 0.5,
+                                                    "width": 0.06})
+        edge_color = "#303030"
+    # the cells' edges, curved as the cells are (the surface pushed back a little in
+    # depth so that the lines on it are not hidden), and the body's outline as lines:
+    # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
+    surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
+    surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
+    plotter.add_mesh(drawing.edges(run.scale * first["displacement"]), color=edge_color,
+                     line_width=1)
+    outline = drawing.outline(run.scale * first["displacement"])
+    plotter.add_mesh(outline, color="#202020", line_width=2)
+    arrows = None
+    if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
+        strength = np.linalg.norm(first["magnetization"], axis=1)
+        magnetized = strength > 0.0
+        # the strongest magnetization's arrow is 5 % of the body's size
+        arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
+        arrows = plotter.add_mesh(_arrows(run.points(first), first["magnetization"],
+                                          magnetized, arrow_length), color="black")
+    trail_mesh = here = None
+    if path is not None:
+        trail_mesh = pv.PolyData(path[1][:1].copy())
+        here = pv.PolyData(path[1][:1].copy())
+        _on_top(plotter, [
+            plotter.add_mesh(trail_mesh, color=TRAIL_COLOR, line_width=4),
+            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color="white", point_size=11,
+                             render_points_as_spheres=True),
+            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color=TRAIL_COLOR,
+                             point_size=7, render_points_as_spheres=True),
+            plotter.add_mesh(here, color=TRAIL_COLOR, point_size=11,
+                             render_points_as_spheres=True)])
+    plotter.show_axes()
+    follow = view == "follow"
+
+    def aim(points):
+        if follow:
+            place_camera(plotter, view, None, None, _centroid(points), 1.15 * survey.body_size)
+        else:
+            place_camera(plotter, view, survey.lo, survey.hi)
+
+    aim(body.points)
+
+    if film:
+        if out.suffix.lower() == ".gif":
+            plotter.open_gif(str(out), fps=fps)
+        else:
+            # even sizes suffice for H.264; the default (16) would resize the frames
+            plotter.open_movie(str(out), framerate=fps, quality=6, macro_block_size=2)
+    times = []
+    for n, i in enumerate(idx):
+        t = float(run.times[i])
+        frame = first if n == 0 else run.frame(i)
+        s = color_values(color, frame, run)
+        u = run.scale * frame["displacement"]
+        moved = drawing.surface(u, None if s is None else {color: s})
+        body.points = moved.points
+        if s is not None:
+            body.point_data[color] = moved.point_data[color]
+        drawing.edges(u)
+        drawing.outline(u)
+        nodes = run.points(frame)
+        if arrows is not None:
+            plotter.remove_actor(arrows, render=False)
+            arrows = plotter.add_mesh(_arrows(nodes, frame["magnetization"], magnetized,
+                                              arrow_length), color="black", render=False)
+        if trail_mesh is not None:
+            keep = path[0] <= t + 1e-12 * max(1.0, abs(t))
+            pts = path[1][keep] if keep.any() else path[1][:1]
+            line = pv.lines_from_points(pts) if len(pts) > 1 else pv.PolyData(pts)
+            trail_mesh.copy_from(line)
+            here.points = pts[-1:]
+        if follow:
+            aim(body.points)
+        stamp.SetText(1, f"t = {t:.4g}")
+        times.append(t)
+        if film:
+            plotter.write_frame()
+    probe_pixels = {}
+    if not film:
+        plotter.render()
+        plotter.screenshot(str(out))
+    for name, x in run.probe_positions(times[-1]).items():
+        probe_pixels[name] = pixel_of(plotter, x)
+    reference_pixels = {p["name"]: pixel_of(plotter, p["at"])
+                        for p in (run.scene.get("output") or {}).get("probes", [])}
+    return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
+                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
+                    scale=run.scale)
+
+
+def _wall(run, survey: Survey):
+    """The scene's no-slip wall (``[fluid.wall]``) as a square under the whole run's
+    extent, or None."""
+    given = (run.scene.get("fluid") or {}).get("wall")
+    if not given:
+        return None
+    normal = np.asarray(given["normal"], dtype=float)
+    normal /= np.linalg.norm(normal)
+    point = np.asarray(given["point"], dtype=float)
+    middle = 0.5 * (np.asarray(survey.lo) + np.asarray(survey.hi))
+    centre = middle - np.dot(middle - point, normal) * normal
+    size = 1.2 * float(np.linalg.norm(np.asarray(survey.hi) - np.asarray(survey.lo))) \
+        + survey.body_size
+    return pv.Plane(center=centre, direction=normal, i_size=size, j_size=size)
+
+
+def _arrows(points, vectors, where, length: float):
+    """Arrows along ``vectors`` at the selected points, ``length`` times as long as
+    the vectors."""
+    cloud = pv.PolyData(np.asarray(points)[where])
+    cloud["m"] = np.asarray(vectors)[where]
+    return cloud.glyph(orient="m", scale="m", factor=length)
+
+
+def _on_top(plotter, actors):
+    """Move ``actors`` to a layer drawn over the body with the same camera: a trail
+    runs through the body (a centroid lies inside a sheet), and would be hidden."""
+    from vtkmodules.vtkRenderingCore import vtkRenderer
+
+    overlay = vtkRenderer()
+    overlay.SetLayer(1)
+    overlay.SetActiveCamera(plotter.renderer.GetActiveCamera())
+    overlay.InteractiveOff()
+    window = plotter.ren_win
+    window.SetNumberOfLayers(max(2, window.GetNumberOfLayers()))
+    window.AddRenderer(overlay)
+    for actor in actors:
+        plotter.renderer.RemoveActor(actor)
+        overlay.AddActor(actor)
+    plotter._rftfem_overlay = overlay  # keep it alive with the plotter
+
+
+def _centroid(points) -> np.ndarray:
+    return np.asarray(points, dtype=float).mean(axis=0)
+
+
+def render_after_run(folder: Path, kind: str) -> Path:
+    """``output.render``: the picture or film of a run that has just ended."""
+    out = Path(folder) / f"render.{kind}"
+    render(folder, out)
+    return out
+
+
+__all__ = ["render", "RunFields", "Rendered", "render_after_run", "color_fields",
+           "MAX_FILM_FRAMES"]

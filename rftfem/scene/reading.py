@@ -1,0 +1,247 @@
+"""Scenes: read a TOML scene, apply ``--set`` overrides, validate, fill defaults.
+
+The keys are the user-facing contract documented in docs/scenes.md, whose "Scene
+keys" part is generated from :data:`SCHEMA` (``python -m rftfem.scene.reference``).
+This module reads the file (or text, or a dict) and applies ``--set``; the
+tables ``title``, ``[shell]``, ``[time]``, ``[output]`` and ``[solver]`` and the
+checks across them are in :mod:`rftfem.scene.keys` (``[mesh]`` in
+:mod:`rftfem.scene.mesh_keys`). Every effect component
+(:mod:`rftfem.model.effects`) brings its own keys (``[fluid]``, ``[magnetic]``,
+``[[hinge]]``, ``[[boundary]]``, ``[[motion]]``, and its ``[[load]]`` kinds) and
+checks them. :func:`load_scene` returns a plain nested ``dict``
+(JSON-serialisable, so it can be echoed in summary.json) in which every key of
+the schema is present:
+
+- scalars and arrays get their documented default;
+- optional arrays of tables (``boundary``, ``load``, ``motion``, ``hinge``,
+  ``mesh.regions``, ``shell.parts``, ``output.probes``) default to ``[]``;
+- the optional effect tables ``fluid`` and ``magnetic`` are ``None`` when the
+  scene does not have them (``if scene["fluid"]:`` switches the effect);
+- keys that only apply to another variant are ``None`` (``mesh.file`` unless
+  ``kind = "gmsh"``, ``mesh.link_width`` and ``mesh.hinge_stiffness`` unless
+  ``kind = "three-link"``, ``load.N.table`` unless ``ramp = "table"``,
+  ``motion.N.values`` unless ``kind = "table"``); a ``[[load]]`` entry has the
+  keys of its kind only;
+- ``mesh.width`` is the body's width: 1.0 by default, ``3 * link_width`` for
+  ``kind = "three-link"``;
+- a ``shell.parts`` entry inherits every material value it does not set
+  (E, nu, thickness, density) from ``[shell]``;
+- ``time.scheme`` holds the resolved scheme (never ``"auto"``);
+- ``mesh.file`` is an absolute path; ``scene["_path"]`` is the absolute path of
+  the scene file.
+
+Every problem raises :class:`rftfem.errors.SceneError` with a one-line message
+that names the full key path (``load.0.value``), what was expected and what was
+found. Checks that need the mesh (gmsh physical-group names, a ``where`` that
+matches no dof) are left to the model and its components. Scenes are data:
+nothing in them is evaluated.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from rftfem.errors import SceneError
+from rftfem.integration.schemes import resolved_scheme
+from rftfem.model import effects
+from rftfem.scene.keys import SCHEMA, cross_check
+from rftfem.scene.schema import Array, Free, Leaf, Table, err, join, section, suggest, validate_table
+from rftfem.scene.selectors import hinge_line
+from rftfem.scene.validators import scene_parameters
+
+__all__ = ["load_scene", "apply_override", "set_key", "read_scene_file",
+           "parse_scene_text", "complete_scene", "with_overrides",
+           "active_effects", "resolved_scheme", "hinge_line", "SCHEMA"]
+
+_BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
+
+
+def apply_override(data: dict, text: str) -> None:
+    """Apply one ``--set a.b.c=VALUE`` to the raw scene ``data`` (in place).
+
+    VALUE is read as a TOML value; if it is not one but is a bare word
+    (``triangle``, ``x=L``, ``plate.msh``) it is taken as a string. Arrays of
+    tables are addressed by index (``load.0.value``). A path that is not in the
+    schema, or an index out of range, raises SceneError naming the path. Missing
+    tables on the way are created (``--set fluid.drag=[1,1,2]``).
+    """
+    key, sep, raw_value = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise SceneError(f"--set: expected KEY=VALUE (e.g. time.dt=0.005), found '{text}'")
+    set_key(data, key, _parse_value(key, raw_value.strip()))
+
+
+def set_key(data: dict, key: str, value: Any) -> None:
+    """Set the dotted ``key`` of the raw scene ``data`` to the Python ``value`` (in
+    place), as ``--set`` does once it has read its value; errors name ``--set`` so
+    that the Python API's messages are the command line's."""
+    parts = key.split(".")
+    if any(not p for p in parts):
+        raise SceneError(f"--set {key}: expected a dotted key path like shell.thickness, "
+                         f"found an empty component")
+
+    spec: Any = SCHEMA
+    node: Any = data
+    path = ""
+    for n, part in enumerate(parts):
+        last = n == len(parts) - 1
+        here = join(path, part)
+        if isinstance(spec, Table):
+            if part not in spec.fields:
+                raise SceneError(f"--set: unknown key '{here}'"
+                                 + (suggest(part, spec.fields, path + "." if path else "")
+                                    or f" (valid keys{' in ' + section(path) if path else ''}:"
+                                       f" {', '.join(spec.fields)})"))
+            sub = spec.fields[part]
+            if last:
+                node[part] = value
+                return
+            if isinstance(sub, Leaf):
+                raise SceneError(f"--set {key}: '{here}' is a value, not a table, so "
+                                 f"'{key}' does not exist")
+            if part not in node:
+                node[part] = [] if isinstance(sub, Array) else {}
+            child = node[part]
+            if isinstance(sub, Array):
+                if not isinstance(child, list):
+                    raise err(here, f"an array of tables [[{here}]]", child)
+            elif not isinstance(child, dict):
+                raise err(here, f"a table {section(here)}", child)
+            spec, node, path = sub, child, here
+        elif isinstance(spec, Array):
+            if not re.fullmatch(r"\d+", part):
+                raise SceneError(f"--set {key}: expected an index into [[{path}]] after "
+                                 f"'{path}', found '{part}'")
+            index = int(part)
+            if index >= len(node):
+                raise SceneError(f"--set {key}: index {index} out of range, the scene has "
+                                 f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}")
+            if last:
+                node[index] = value
+                return
+            if not isinstance(node[index], dict):
+                raise err(here, "a table", node[index])
+            spec, node, path = spec.item, node[index], here
+        elif isinstance(spec, Free):
+            if not last:
+                raise SceneError(f"--set {key}: '{here}' is a PETSc option, not a table")
+            node[part] = value
+            return
+
+
+def _parse_value(key: str, text: str) -> Any:
+    if "\n" not in text and "\r" not in text:
+        try:
+            parsed = tomllib.loads("v = " + text)
+        except tomllib.TOMLDecodeError:
+            parsed = None
+        if parsed is not None and list(parsed) == ["v"]:
+            return parsed["v"]
+    if _BARE_WORD_RE.match(text):
+        return text
+    raise SceneError(f"--set {key}: expected a TOML value (a number, true/false, "
+                     f"\"string\", [array] or bare word), found '{text}'")
+
+
+def read_scene_file(path: str | os.PathLike) -> dict:
+    """The raw TOML table of the scene file ``path`` (nothing checked but TOML)."""
+    shown = str(path)
+    try:
+        data = Path(path).expanduser().read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"scene file '{shown}' not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"scene file '{shown}': expected a TOML file, found a directory") \
+            from None
+    except OSError as exc:
+        raise SceneError(f"cannot read scene file '{shown}': {exc.strerror or exc}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file '{shown}': expected a UTF-8 TOML file, found "
+                         "binary or non-UTF-8 data") from None
+    return parse_scene_text(text, f"scene file '{shown}'")
+
+
+def parse_scene_text(text: str, shown: str = "scene text") -> dict:
+    """The raw TOML table of a scene given as text; ``shown`` names it in errors."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = " ".join(str(exc).split())
+        raise SceneError(f"{shown} is not valid TOML: {msg}") from None
+
+
+def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
+    """Read, override, validate and complete the scene in ``path`` (see module doc)."""
+    raw = read_scene_file(path)
+    overrides = list(overrides)
+    for text in overrides:
+        apply_override(raw, text)
+    scene_path = Path(path).expanduser().resolve()
+    return complete_scene(raw, scene_path.parent, scene_path, overrides)
+
+
+def complete_scene(raw: dict, folder: str | os.PathLike, path: str | os.PathLike | None = None,
+                   overrides: Iterable[str] = ()) -> dict:
+    """Validate and complete the raw scene table ``raw`` (left as it is): relative
+    files (``mesh.file``, profiles) are read from ``folder``; ``path`` is the scene
+    file, if there is one, and ``overrides`` the ``--set`` texts already applied,
+    both for the record (summary.json)."""
+    import copy
+
+    kept = copy.deepcopy(raw)
+    raw = copy.deepcopy(raw)  # validation fills defaults in the tables it is given
+    # the [parameters] first: the formulas that use them are validated with their numbers
+    parameters = SCHEMA.fields["parameters"].validate(raw.get("parameters", {}), "parameters")
+    with scene_parameters(parameters):
+        scene = validate_table(SCHEMA, raw, "")
+        cross_check(scene)
+    scene["time"]["scheme"] = resolved_scheme(scene)
+
+    folder = Path(folder).expanduser().resolve()
+    mesh = scene["mesh"]
+    if mesh["kind"] == "gmsh":
+        mesh_file = (folder / Path(mesh["file"]).expanduser()).resolve()
+        if not mesh_file.exists():
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which does not exist ({mesh_file})")
+        if not mesh_file.is_file():
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which is not a regular file ({mesh_file})")
+        try:
+            with open(mesh_file, "rb") as fh:
+                fh.read(1)
+        except OSError as exc:
+            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
+                             f"'{mesh['file']}' which cannot be read "
+                             f"({exc.strerror or exc})") from None
+        mesh["file"] = str(mesh_file)
+    scene["_path"] = None if path is None else str(path)
+    scene["_folder"] = str(folder)
+    scene["_overrides"] = list(overrides)
+    scene["_raw"] = kept
+    return scene
+
+
+def with_overrides(scene: dict, overrides: Iterable[str]) -> dict:
+    """A completed scene like ``scene`` with the ``--set`` texts ``overrides`` applied
+    after its own (the scene file is not read again)."""
+    import copy
+
+    raw = copy.deepcopy(scene["_raw"])
+    overrides = list(overrides)
+    for text in overrides:
+        apply_override(raw, text)
+    return complete_scene(raw, scene["_folder"], scene["_path"],
+                          [*scene.get("_overrides", []), *overrides])
+
+
+def active_effects(scene: dict) -> list[str]:
+    """The effects the scene asks for, in the registry's order (rftfem/model/effects)."""
+    return effects.active_effects(scene)

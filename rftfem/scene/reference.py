@@ -1,0 +1,336 @@
+"""The generated parts of docs/scenes.md: the scene keys and the command line.
+
+    python -m rftfem.scene.reference           # rewrite the generated parts
+    python -m rftfem.scene.reference --check   # exit 1 if they are out of date
+
+docs/scenes.md is hand-written except between marker comments::
+
+    <!-- generated: scene keys -->
+    ...
+    <!-- end generated -->
+
+The "scene keys" part comes from walking :data:`rftfem.scene.keys.SCHEMA`: every key's
+full path (``mesh.length``, ``[[motion]].amplitude``), the values it accepts (the
+validator's ``expected`` text), its default, unit and meaning (the ``doc`` and
+``unit`` of the schema node). A key without ``doc``, or an optional key whose
+default is nothing and that does not say what it gets instead (``default_doc``),
+is an error: :class:`UndocumentedKey`. The "command line" part is the
+``format_help()`` of :func:`rftfem.cli._build_parser` and of each subcommand,
+formatted at a fixed width so that it does not depend on the terminal.
+
+Importing this module needs neither dolfinx nor MPI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import os
+import sys
+from pathlib import Path
+from typing import Any, Iterator
+
+from rftfem.scene import schema as _schema
+from rftfem.scene import reading as _scene
+from rftfem.scene import toml_writer
+
+#: docs/scenes.md of the source tree this module belongs to
+DOC_PATH = Path(__file__).resolve().parents[2] / "docs" / "scenes.md"
+#: the generated parts, by name; each sits between ``<!-- generated: NAME -->`` and END
+PARTS = ("scene keys", "command line")
+END = "<!-- end generated -->"
+#: the width the help texts are formatted at (the COLUMNS argparse sees)
+HELP_COLUMNS = 80
+REGENERATE = "python -m rftfem.scene.reference"
+
+
+class UndocumentedKey(ValueError):
+    """A schema key the reference cannot describe (no ``doc``, or no default text)."""
+
+
+def start_marker(part: str) -> str:
+    return f"<!-- generated: {part} -->"
+
+
+# ------------------------------------------------------------------ scene keys
+
+
+def _toml(value: Any) -> str:
+    """A default value as it would be written in a scene."""
+    return toml_writer.value(value)
+
+
+def _cell(text: str) -> str:
+    """Text for one cell of a Markdown table."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _heading(display: str) -> str:
+    return display if display.startswith("[[") else f"[{display}]"
+
+
+def _require_doc(node: Any, path: str) -> str:
+    doc = (getattr(node, "doc", "") or "").strip()
+    if not doc:
+        raise UndocumentedKey(f"scene key '{path}' has no doc: give its schema node in "
+                              "rftfem/scene/keys.py, rftfem/scene/mesh_keys.py or its effect's module in rftfem/model/effects a "
+                              "doc=\"...\" (what it means), then run "
+                              f"{REGENERATE}")
+    return doc
+
+
+def _default(leaf: Any, path: str) -> str:
+    if leaf.required:
+        return "required"
+    if leaf.default_doc:
+        return leaf.default_doc
+    if leaf.default is None:
+        raise UndocumentedKey(f"scene key '{path}' has no default and no default_doc: say "
+                              "in its schema node what a scene without it gets "
+                              "(default_doc=\"...\")")
+    return f"`{_toml(leaf.default)}`"
+
+
+def _join(display: str, key: str) -> str:
+    return f"{display}.{key}" if display else key
+
+
+def walk(schema: Any = None) -> Iterator[tuple[str, Any]]:
+    """``(display path, node)`` of every node below ``schema``, depth first in schema
+    order: ``mesh``, ``mesh.kind``, ..., ``[[mesh.regions]]``, ``[[mesh.regions]].name``,
+    ...; the keys of a ``_Free`` table appear as ``solver.*``."""
+    schema = _scene.SCHEMA if schema is None else schema
+
+    def visit(table, display):
+        for key, sub in table.fields.items():
+            path = _join(display, key)
+            if isinstance(sub, _schema.Array):
+                item = f"[[{path}]]"
+                yield item, sub
+                yield from visit(sub.item, item)
+            elif isinstance(sub, _schema.Table):
+                yield path, sub
+                yield from visit(sub, path)
+            elif isinstance(sub, _schema.Free):
+                yield path, sub
+                yield path + ".*", sub
+            else:
+                yield path, sub
+
+    yield from visit(schema, "")
+
+
+def documented_paths(schema: Any = None) -> list[str]:
+    """Every key path the reference lists (tables as ``[mesh]``, arrays as ``[[load]]``)."""
+    out = []
+    for path, node in walk(schema):
+        if isinstance(node, _schema.Leaf) or path.endswith(".*"):
+            out.append(path)
+        else:
+            out.append(_heading(path))
+    return out
+
+
+def _status(node: Any) -> str:
+    if isinstance(node, _schema.Array):
+        if node.min_items:
+            n = node.min_items
+            return f"Array of tables, at least {n} entr{'y' if n == 1 else 'ies'}."
+        return "Optional array of tables, any number of entries."
+    if isinstance(node, _schema.Free):
+        return "Optional table."
+    if node.required:
+        return "Required table."
+    if node.optional:
+        return "Optional table; without it the effect is off."
+    return "Optional table; without it every key takes its default."
+
+
+_HEADER = ["| Key | Accepted values | Default | Unit | Meaning |",
+           "| --- | --- | --- | --- | --- |"]
+
+
+def scene_keys_markdown(schema: Any = None) -> str:
+    """The "scene keys" part: one section per table, one row per key."""
+    schema = _scene.SCHEMA if schema is None else schema
+    _require_doc(schema, "(the top level)")
+    sections: list[tuple[str, str, list[str]]] = []  # (heading, text, rows)
+
+    def table_section(display, node, title, text):
+        rows: list[str] = []
+        sections.append((title, text, rows))
+        fields = node.item.fields if isinstance(node, _schema.Array) else node.fields
+        for key, sub in fields.items():
+            path = _join(display, key)
+            if isinstance(sub, _schema.Leaf):
+                doc = _require_doc(sub, path)
+                rows.append("| " + " | ".join([
+                    f"`{path}`", _cell(sub.check.describe(key)), _cell(_default(sub, path)),
+                    _cell(sub.unit or "—"), _cell(doc)]) + " |")
+        for key, sub in fields.items():
+            path = _join(display, key)
+            if isinstance(sub, _schema.Kinds):
+                item = f"[[{path}]]"
+                table_section(item, _schema.Table(sub.common), f"`{item}`",
+                              f"{_status(sub)} {_require_doc(sub, item)}")
+                for kind, fields in sub.kinds.items():
+                    text = sub.kind_docs.get(kind) or ""
+                    if not text:
+                        raise UndocumentedKey(f"{item} kind '{kind}' has no doc")
+                    table_section(item, _schema.Table(fields),
+                                  f'`{item}` with kind = "{kind}"', text)
+            elif isinstance(sub, _schema.Array):
+                item = f"[[{path}]]"
+                table_section(item, sub, f"`{item}`",
+                              f"{_status(sub)} {_require_doc(sub, item)}")
+            elif isinstance(sub, _schema.Table):
+                table_section(path, sub, f"`[{path}]`",
+                              f"{_status(sub)} {_require_doc(sub, path)}")
+            elif isinstance(sub, _schema.Free):
+                doc = _require_doc(sub, path)
+                sections.append((f"`[{path}]`", f"{_status(sub)} {doc}", [
+                    "| " + " | ".join([f"`{path}.*`", _cell(sub.expected),
+                                       sub.entry_default, "—",
+                                       _cell(sub.entry_doc.format(path=path))]) + " |"]))
+
+    table_section("", schema, "Top level", _require_doc(schema, "(the top level)"))
+    out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from "
+           "the schema (rftfem/scene/reading.py, rftfem/scene/mesh_keys.py, rftfem/model/effects) -->", ""]
+    for title, text, rows in sections:
+        out += [f"### {title}", "", " ".join(text.split()), ""]
+        if rows:
+            out += _HEADER + rows + [""]
+    return "\n".join(out).rstrip("\n")
+
+
+# ---------------------------------------------------------------- command line
+
+
+def _help(parser: argparse.ArgumentParser) -> str:
+    """``parser.format_help()`` at HELP_COLUMNS columns, without trailing blanks."""
+    saved = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = str(HELP_COLUMNS)
+    try:
+        text = parser.format_help()
+    finally:
+        if saved is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = saved
+    return "\n".join(line.rstrip() for line in text.strip("\n").splitlines())
+
+
+def command_line_markdown(parser: argparse.ArgumentParser | None = None) -> str:
+    """The "command line" part: the help of ``rftfem`` and of each subcommand."""
+    if parser is None:
+        from rftfem.cli import _build_parser
+
+        parser = _build_parser()
+    out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from the "
+           "command-line parser -->", ""]
+    parsers = [(parser.prog, parser)]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            parsers += [(sub.prog, sub) for sub in action.choices.values()]
+    for prog, p in parsers:
+        out += [f"### `{prog}`", "", "```text", _help(p), "```", ""]
+    return "\n".join(out).rstrip("\n")
+
+
+# --------------------------------------------------------------- the document
+
+
+#: the function that writes each generated part
+GENERATORS = {"scene keys": scene_keys_markdown, "command line": command_line_markdown}
+
+
+def generate() -> dict[str, str]:
+    """The current text of every generated part, by name."""
+    return {name: GENERATORS[name]() for name in PARTS}
+
+
+def _span(text: str, part: str) -> tuple[int, int]:
+    """Start and end offsets of the body of ``part`` in ``text`` (between the markers)."""
+    start = start_marker(part)
+    if text.count(start) != 1:
+        raise ValueError(f"expected exactly one line '{start}' in the document, found "
+                         f"{text.count(start)}")
+    i = text.index(start) + len(start)
+    j = text.find(END, i)
+    if j < 0:
+        raise ValueError(f"no '{END}' after '{start}'")
+    return i, j
+
+
+def extract(text: str) -> dict[str, str]:
+    """The generated parts as they stand in a document's ``text``."""
+    out = {}
+    for part in PARTS:
+        i, j = _span(text, part)
+        out[part] = text[i:j].strip("\n")
+    return out
+
+
+def replace(text: str, parts: dict[str, str]) -> str:
+    """``text`` with the body of each generated part replaced."""
+    for part, body in parts.items():
+        i, j = _span(text, part)
+        text = text[:i] + "\n" + body + "\n" + text[j:]
+    return text
+
+
+def stale_parts(text: str, parts: dict[str, str] | None = None) -> list[str]:
+    """The names of the parts whose text in ``text`` differs from what is generated now."""
+    parts = generate() if parts is None else parts
+    found = extract(text)
+    return [name for name in PARTS if found[name] != parts[name]]
+
+
+def diff(text: str, parts: dict[str, str] | None = None, limit: int = 40) -> str:
+    """A unified diff (at most ``limit`` lines) of the stale parts, document -> generated."""
+    parts = generate() if parts is None else parts
+    found = extract(text)
+    lines: list[str] = []
+    for name in PARTS:
+        if found[name] != parts[name]:
+            lines += difflib.unified_diff(found[name].splitlines(), parts[name].splitlines(),
+                                          f"docs/scenes.md ({name})", f"generated ({name})",
+                                          lineterm="", n=1)
+    if len(lines) > limit:
+        lines = lines[:limit] + [f"... ({len(lines) - limit} more lines)"]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m rftfem.scene.reference",
+        description="Rewrite the generated parts of docs/scenes.md (scene keys from "
+                    "the schema, command line from rftfem/cli.py).")
+    ap.add_argument("--check", action="store_true",
+                    help="change nothing; exit 1 if the document is out of date")
+    ap.add_argument("--file", type=Path, default=DOC_PATH, help=f"default: {DOC_PATH}")
+    args = ap.parse_args(argv)
+    try:
+        text = args.file.read_text(encoding="utf-8")
+        parts = generate()
+        stale = stale_parts(text, parts)
+    except (OSError, ValueError) as exc:
+        print(f"scene_reference: error: {exc}", file=sys.stderr)
+        return 2
+    if args.check:
+        if stale:
+            print(f"{args.file}: out of date ({', '.join(stale)}); regenerate with "
+                  f"{REGENERATE}\n{diff(text, parts)}", file=sys.stderr)
+            return 1
+        print(f"{args.file}: up to date")
+        return 0
+    if stale:
+        args.file.write_text(replace(text, parts), encoding="utf-8")
+        print(f"{args.file}: rewrote {', '.join(stale)}")
+    else:
+        print(f"{args.file}: up to date")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

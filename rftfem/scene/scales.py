@@ -1,0 +1,164 @@
+"""The scales of a scene: the drives' periods, and the dimensionless groups that make
+a slip of units show (docs/scenes.md "Scales").
+
+- :func:`drive_periods`: every time scale a scene drives its body with (a field's
+  frequency, a travelling wave, a ``sin`` of t in a formula, a table's rows);
+- :func:`aliasing_warnings`: the drives that ``time.dt`` is too long to follow, one
+  line each, which a run prints at its start and keeps in summary.json;
+- :func:`groups`: what ``rftfem check`` prints: steps per drive period, L/t, the
+  magneto-elastic number, the fluid's relaxation time against the period (the sperm
+  number) and the deflection the loads would give over the length.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rftfem.scene.expressions import parse, periods_in_time
+from rftfem.scene.validators import fmt
+
+#: a step longer than this share of a drive's period cannot follow it
+STEP_SHARE = 0.25
+#: table intervals shorter than this share of time.end are jumps on purpose (a load
+#: released right after t = 0), not a drive to resolve
+JUMP_SHARE = 1e-9
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A time scale of the scene: ``key`` the scene key, ``period`` in time units (for
+    a table four times its shortest interval), ``what`` the words for a message."""
+
+    key: str
+    period: float
+    what: str
+    table: bool = False
+
+
+def _table_drive(key: str, rows, end: float) -> Drive | None:
+    """A table's drive: its shortest interval within [0, end] (jumps left out), as a
+    quarter period: a step longer than it jumps over a row of the table."""
+    t = np.asarray([row[0] for row in rows], dtype=float)
+    if len(t) < 2:
+        return None
+    gaps = np.diff(t)
+    inside = (t[1:] > 0.0) & (t[:-1] < end) & (gaps > JUMP_SHARE * end)
+    if not inside.any():
+        return None
+    shortest = float(gaps[inside].min())
+    return Drive(key, shortest / STEP_SHARE, f"the table's shortest interval, {shortest:.6g}",
+                 True)
+
+
+def drive_periods(scene: dict) -> list[Drive]:
+    """Every drive of the scene whose time scale can be read (see the module's text)."""
+    end = scene["time"]["end"]
+    found: list[Drive] = []
+    for i, motion in enumerate(scene.get("motion") or []):
+        key = f"motion.{i}"
+        if motion.get("kind", "travelling-wave") == "travelling-wave":
+            w = motion.get("angular_frequency") or 0.0
+            if w:
+                found.append(Drive(key, 2 * math.pi / abs(w), "the travelling wave's period"))
+        elif motion.get("values"):
+            found.append(_table_drive(f"{key}.values", motion["values"], end))
+    for i, load in enumerate(scene.get("load") or []):
+        if load.get("ramp") == "table" and load.get("table"):
+            found.append(_table_drive(f"load.{i}.table", load["table"], end))
+    field = (scene.get("magnetic") or {}).get("field") or {}
+    kind = field.get("kind", "rotating")
+    if kind == "rotating" and field.get("frequency"):
+        found.append(Drive("magnetic.field.frequency", 1.0 / abs(field["frequency"]),
+                           f"the field's rotation period at {fmt(float(field['frequency']))} Hz"))
+    elif kind == "expression":
+        periods = [p for i, b in enumerate(field.get("B") or [])
+                   for p in periods_in_time(parse(b, f"magnetic.field.B.{i}",
+                                                  ("x", "y", "z", "t")))]
+        if periods:
+            found.append(Drive("magnetic.field.B", min(periods), "the period of the field's sin or cos of t"))
+    elif kind == "table" and field.get("values"):
+        found.append(_table_drive("magnetic.field.values", field["values"], end))
+    elif kind == "dipole" and field.get("path"):
+        found.append(_table_drive("magnetic.field.path", field["path"], end))
+    return [d for d in found if d is not None]
+
+
+def aliasing_warnings(scene: dict) -> list[str]:
+    """One line for each drive that fixed steps of ``time.dt`` cannot follow: a step
+    longer than a quarter of its period, or than a table's shortest interval."""
+    time_ = scene["time"]
+    if time_.get("scheme") == "arc-length" or time_.get("tolerance") is not None:
+        return []
+    dt = time_["dt"]
+    lines = []
+    for d in drive_periods(scene):
+        most = STEP_SHARE * d.period
+        if dt > most * (1 + 1e-9):
+            scale = d.what if d.table else f"a quarter of {d.what}, {d.period:.6g}"
+            lines.append(f"time.dt = {fmt(dt)} is longer than {scale} ({d.key}): the "
+                         f"steps cannot follow it and the answer is aliased; take time.dt "
+                         f"<= {most:.3g}")
+    return lines
+
+
+def _bending_stiffness(shell: dict) -> float:
+    """``D = E t³ / (12 (1 − ν²))`` of the shell's own values (not its parts')."""
+    return shell["E"] * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
+
+
+def groups(scene: dict, model) -> list[tuple[str, float, str]]:
+    """``(name, value, meaning)`` of the scene's dimensionless groups (serial or
+    collective: every rank returns the same)."""
+    shell, time_ = scene["shell"], scene["time"]
+    L = model.body.length
+    width = model.area() / L
+    t = shell["thickness"]
+    D = _bending_stiffness(shell)
+    out = [("L/t", L / t, "slenderness: length over thickness")]
+    drives = drive_periods(scene)
+    period = min((d.period for d in drives if not d.table), default=None)
+    if drives and time_.get("scheme") != "arc-length":
+        d = min(drives, key=lambda d: d.period)
+        out.append(("steps per drive period", d.period / time_["dt"],
+                    f"{d.key}; fewer than 4 alias the drive"))
+    magnetic = model.get("magnetic")
+    if magnetic is not None:
+        end = time_["end"]
+        B = (magnetic.source.scale(end) if magnetic.uniform else magnetic.source.scale(
+            model.Vu.tabulate_dof_coordinates(), end, model.comm))
+        m = max(magnetic._largest_magnetization(i) for i in range(len(magnetic.parts)))
+        out.append(("magneto-elastic number", t * m * B * L ** 2 / D,
+                    "t m B L² / D: the field's couple against bending over the length "
+                    "(about 1 bends the body by a radian)"))
+    fluid = model.fluid
+    if fluid is not None:
+        C = max(fluid.C)  # (Stokes flow: the slender-body drag of its viscosity)
+        tau = C * L ** 4 / D
+        out.append(("relaxation time / drive period" if period else "relaxation time",
+                    tau / period if period else tau,
+                    "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
+                    + ("" if period else " (time units; no periodic drive)")))
+        if period:
+            out.append(("sperm number", (2 * math.pi * tau / period) ** 0.25,
+                        "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
+                        "fluid confines the bending near the driven end"))
+    force = max((f for comp in model.components for f in comp.force_scales()
+                 if comp.is_load), default=0.0)
+    if force > 0.0:
+        deflection = force * L ** 2 / (3 * D * width)
+        note = "P L² / (3 D W) of the loads' largest force P: a cantilever's tip"
+        if deflection < 1e-5:
+            note += "; so small that the units of E or of the loads may be off"
+        elif deflection > 1e3:
+            note += "; so large that the units of E or of the loads may be off"
+        out.append(("deflection / length", deflection, note))
+    return out
+
+
+def format_groups(rows) -> list[str]:
+    """The groups as aligned lines for ``rftfem check``."""
+    width = max((len(name) for name, _, _ in rows), default=0)
+    return [f"  {name:<{width}}  {value:<10.3g}  {meaning}" for name, value, meaning in rows]

@@ -1,0 +1,384 @@
+"""The evaluations of ``rftfem optimize`` (rftfem/studies/optimize.py): the parameters and
+their unit box, one run folder per evaluation, its objective and constraints, the
+penalties, optimize.csv.
+
+:class:`Parameter` is one ``--vary KEY=LO:HI[:log]``, mapped to [0, 1] (linearly,
+or linearly in its logarithm); :class:`Evaluator` runs the points a method asks
+for (in this process, or as child runs side by side), scores them and writes a
+row of optimize.csv as each ends.  The score a method minimises (``merit``) is
+the signed objective plus a constraint's penalty, or for a failed run a value
+worse than any seen.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+import shutil
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rftfem.scene import toml_writer
+from rftfem.studies.batch import failure_reason, launcher, run_child, run_here
+from rftfem.errors import SceneError
+
+#: forward-difference step of l-bfgs-b without an adjoint, a fraction of each interval
+FD_STEP = 1e-3
+
+
+class BudgetSpent(Exception):
+    """The budget of runs is used up: the method stops with the best so far."""
+
+
+
+# --- the parameters ----------------------------------------------------------------
+
+
+@dataclass
+class Parameter:
+    """One ``--vary KEY=LO:HI[:log]``: the key, its interval and its scene value."""
+
+    key: str
+    lo: float
+    hi: float
+    log: bool
+    set_key: str            # the key of --set (the vector's for a component)
+    index: int | None       # the component, or None
+    vector: list | None     # the scene's vector (for a component)
+    start: float
+
+    def from_unit(self, z: float) -> float:
+        z = min(1.0, max(0.0, float(z)))
+        if z == self.to_unit(self.start):  # the scene's own value, not a round trip
+            return self.start
+        if self.log:
+            return math.exp(math.log(self.lo) + z * (math.log(self.hi) - math.log(self.lo)))
+        return self.lo + z * (self.hi - self.lo)
+
+    def to_unit(self, x: float) -> float:
+        if self.log:
+            return (math.log(x) - math.log(self.lo)) / (math.log(self.hi) - math.log(self.lo))
+        return (x - self.lo) / (self.hi - self.lo)
+
+    def dx_dz(self, x: float) -> float:
+        return x * (math.log(self.hi) - math.log(self.lo)) if self.log else self.hi - self.lo
+
+    def override(self, x: float) -> str:
+        if self.index is None:
+            return f"{self.set_key}={toml_writer.value(x)}"
+        vec = list(self.vector)
+        vec[self.index] = x
+        return f"{self.set_key}={toml_writer.value(vec)}"
+
+
+def _lookup(scene: dict, key: str):
+    node = scene
+    for part in key.split("."):
+        if isinstance(node, list) and re.fullmatch(r"\d+", part) and int(part) < len(node):
+            node = node[int(part)]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return None
+    return node
+
+
+def parse_vary(text: str, scene: dict) -> Parameter:
+    """``KEY=LO:HI[:log]`` against the loaded scene (its value is the start)."""
+    key, sep, rng = text.partition("=")
+    key = key.strip()
+    bits = [b.strip() for b in rng.split(":")]
+    if not sep or not key or len(bits) not in (2, 3) or (len(bits) == 3 and bits[2] != "log"):
+        raise SceneError(f"--vary '{text}': expected KEY=LO:HI or KEY=LO:HI:log "
+                         f"(e.g. shell.E=1e5:1e7:log)")
+    try:
+        lo, hi = float(bits[0]), float(bits[1])
+    except ValueError:
+        raise SceneError(f"--vary '{text}': expected numbers LO and HI, found "
+                         f"'{bits[0]}' and '{bits[1]}'") from None
+    log = len(bits) == 3
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise SceneError(f"--vary '{text}': expected finite LO < HI, found {lo:g} and {hi:g}")
+    if log and lo <= 0:
+        raise SceneError(f"--vary '{text}': a log scale needs LO > 0, found {lo:g}")
+    head, _, last = key.rpartition(".")
+    value, set_key, index, vector = _lookup(scene, key), key, None, None
+    if isinstance(_lookup(scene, head), list) and re.fullmatch(r"\d+", last) \
+            and not isinstance(value, dict):
+        vector, set_key, index = list(_lookup(scene, head)), head, int(last)
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
+        raise SceneError(f"--vary {key}: expected a key with a number value, found "
+                         f"{toml_writer.value(value) if not isinstance(value, dict) else 'a table'}")
+    start = float(value) if value is not None and lo <= value <= hi else None
+    p = Parameter(key, lo, hi, log, set_key, index, vector, math.nan)
+    p.start = start if start is not None else p.from_unit(0.5)
+    return p
+
+
+# --- the evaluations ---------------------------------------------------------------
+
+
+@dataclass
+class Evaluation:
+    index: int
+    folder: Path
+    x: list[float]
+    status: str = "not run"
+    objective: float | None = None
+    constraints: list = field(default_factory=list)
+    merit: float = math.nan
+    failure: str = ""
+    wall: float | None = None
+    reused: bool = False
+    gradient: list | None = None   # d objective / d x (the adjoint's), if computed
+
+
+class Evaluator:
+    """Runs evaluations (a folder each), reads their objective and constraints, writes
+    the CSV rows, keeps the best; ``merit(z)`` is what a method minimises."""
+
+    def __init__(self, scene_file, overrides, params, objective, constraints, sign, out,
+                 budget, jobs, np_, reuse, petsc_args, console, gradients=False):
+        self.scene_file, self.overrides, self.params = scene_file, list(overrides), params
+        self.objective, self.constraints, self.sign = objective, constraints, sign
+        self.out, self.budget, self.jobs, self.reuse = out, budget, jobs, reuse
+        self.console, self.petsc_args, self.gradients = console, list(petsc_args), gradients
+        self.launcher = launcher(np_)
+        self.in_process = jobs == 1 and np_ == 1
+        self.evaluations: list[Evaluation] = []
+        self._cache: dict[tuple, Evaluation] = {}
+        self._csv = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
+        self._writer = csv.writer(self._csv, lineterminator="\n")
+        self._writer.writerow(["evaluation", "folder", "status", *[p.key for p in params],
+                               "objective", *[c.text for c in constraints], "merit",
+                               "wall_s", "reused", "failure"])
+        self._csv.flush()
+
+    def close(self):
+        self._csv.close()
+
+    # --- the runs
+
+    def overrides_of(self, x) -> list[str]:
+        return [*self.overrides, *[p.override(v) for p, v in zip(self.params, x)]]
+
+    def xs(self, z) -> list[float]:
+        return [p.from_unit(v) for p, v in zip(self.params, z)]
+
+    def _key(self, x) -> tuple:
+        return tuple(float(f"{v:.12g}") for v in x)
+
+    def evaluate(self, zs) -> list[Evaluation]:
+        """The evaluations at the unit points ``zs`` (runs side by side with --jobs);
+        BudgetSpent once the budget is used and points are left."""
+        todo, results = [], []
+        for z in zs:
+            x = self.xs(z)
+            ev = self._cache.get(self._key(x))
+            if ev is None:
+                if len(self.evaluations) >= self.budget:
+                    break
+                ev = Evaluation(len(self.evaluations) + 1,
+                                self.out / f"eval-{len(self.evaluations) + 1:04d}", x)
+                self.evaluations.append(ev)
+                self._cache[self._key(x)] = ev
+                todo.append(ev)
+            results.append(ev)
+        # each is scored (and its row written) as it ends
+        if self.in_process or len(todo) <= 1:
+            for ev in todo:
+                self._run(ev)
+                self._score(ev)
+        else:  # --jobs at a time, scored in the order asked for (a failed run's score
+            # then does not depend on which run ended first)
+            with ThreadPoolExecutor(max_workers=self.jobs) as pool:
+                for k in range(0, len(todo), self.jobs):
+                    chunk = todo[k:k + self.jobs]
+                    list(pool.map(self._run, chunk))
+                    for ev in chunk:
+                        self._score(ev)
+        if len(results) < len(zs):
+            raise BudgetSpent
+        return results
+
+    def _run(self, ev: Evaluation) -> None:
+        overrides = self.overrides_of(ev.x)
+        t0 = time.perf_counter()
+        if self.reuse and _done(ev.folder, self.scene_file, overrides, self.gradients):
+            ev.reused, status = True, 0
+        else:
+            if ev.folder.exists():
+                shutil.rmtree(ev.folder)
+            ev.folder.mkdir(parents=True)
+            if self.gradients:
+                from rftfem.studies.gradient_runs import run_with_gradient
+
+                status, _, _ = run_with_gradient(
+                    self.scene_file, overrides, ev.folder, [p.key for p in self.params],
+                    adjoint_quantity(self.objective).text, self.petsc_args)
+            elif self.in_process:
+                status = run_here(self.scene_file, overrides, ev.folder, self.petsc_args)
+            else:
+                status = run_child(self.scene_file, overrides, ev.folder, self.launcher,
+                                   self.petsc_args)
+        ev.wall = time.perf_counter() - t0
+        self._read(ev, status)
+
+    def _read(self, ev: Evaluation, status: int) -> None:
+        from rftfem.outputs.quantities import RunFolder, Unavailable
+
+        try:
+            run = RunFolder(ev.folder)
+        except SceneError:
+            run = None
+        if run is None or run.summary is None:
+            ev.status, ev.failure = "failed", failure_reason(ev.folder / "run.log", status)
+            return
+        if status != 0 or run.status != "ok":
+            reason = (run.summary.get("failure") or {}).get("reason") or \
+                failure_reason(ev.folder / "run.log", status)
+            ev.status, ev.failure = "failed", str(reason)
+            return
+        try:
+            ev.objective = self.objective.evaluate(run)
+            ev.constraints = [c.objective.evaluate(run) for c in self.constraints]
+        except Unavailable as exc:
+            ev.status, ev.failure = "failed", str(exc)
+            return
+        # any other SceneError (an unknown column) is a bad option: it ends the loop
+        ev.status = "ok"
+        if self.gradients:
+            ev.gradient = _read_gradient(run, self.objective, self.params)
+
+    def _score(self, ev: Evaluation) -> None:
+        ok = [e for e in self.evaluations if e.status in ("ok", "infeasible")
+              and e is not ev and not math.isnan(e.merit)]
+        if ev.status == "ok":
+            violation = sum(c.violation(v) / max(abs(c.bound), 1e-300)
+                            for c, v in zip(self.constraints, ev.constraints))
+            scale = max([abs(e.objective) for e in ok] + [abs(ev.objective), 1e-300])
+            ev.merit = self.sign * ev.objective + 10.0 * scale * violation
+            if violation > 0:
+                ev.status = "infeasible"
+        else:  # worse than any seen: the method turns away
+            merits = [e.merit for e in ok]
+            if merits:
+                worst, best = max(merits), min(merits)
+                ev.merit = worst + max(worst - best, 0.1 * abs(worst), 1e-300)
+            else:
+                ev.merit = 1e10
+        self._write(ev)
+        best = self.best()
+        self.console.out(
+            f"  {ev.folder.name}: {ev.status}{' (reused)' if ev.reused else ''}  "
+            + "  ".join(f"{p.key}={v:.6g}" for p, v in zip(self.params, ev.x))
+            + (f"  objective {ev.objective:.6g}" if ev.objective is not None else "")
+            + (f"; {ev.failure}" if ev.failure else "")
+            + (f"  (best {best.objective:.6g}, {best.folder.name})" if best else ""))
+
+    def _write(self, ev: Evaluation) -> None:
+        cons = ev.constraints or [None] * len(self.constraints)
+        self._writer.writerow([ev.index, ev.folder.name, ev.status, *[repr(v) for v in ev.x],
+                               _num(ev.objective), *[_num(v) for v in cons], _num(ev.merit),
+                               _num(ev.wall, ".3f"), int(ev.reused), ev.failure])
+        self._csv.flush()
+
+    def best(self) -> Evaluation | None:
+        """The feasible evaluation with the best objective (else the lowest merit)."""
+        feasible = [e for e in self.evaluations if e.status == "ok"]
+        if feasible:
+            return min(feasible, key=lambda e: self.sign * e.objective)
+        scored = [e for e in self.evaluations if e.status == "infeasible"]
+        return min(scored, key=lambda e: e.merit) if scored else None
+
+    # --- what the methods call
+
+    def merit(self, z) -> float:
+        return self.evaluate([z])[0].merit
+
+    def merits(self, zs) -> list[float]:
+        return [ev.merit for ev in self.evaluate(zs)]
+
+    def constraint_margins(self, z) -> list[float]:
+        """COBYLA's constraints (≥ 0 when met), relative to each bound; a failed run
+        counts as violating them all."""
+        ev = self.evaluate([z])[0]
+        if ev.status not in ("ok", "infeasible"):
+            return [-1.0] * len(self.constraints)
+        return [((c.bound - v) if c.sense == "<=" else (v - c.bound)) / max(abs(c.bound), 1e-300)
+                for c, v in zip(self.constraints, ev.constraints)]
+
+    def merit_and_gradient(self, z):
+        """The merit and its gradient in the unit box: the adjoint's when the runs give
+        one, else forward differences (their runs side by side with --jobs)."""
+        import numpy as np
+
+        z = np.clip(np.asarray(z, float), 0.0, 1.0)
+        ev = self.evaluate([z])[0]
+        if ev.gradient is not None and ev.status == "ok":
+            dz = [g * p.dx_dz(x) for g, p, x in zip(ev.gradient, self.params, ev.x)]
+            return ev.merit, self.sign * np.array(dz)
+        steps = [FD_STEP if zj + FD_STEP <= 1.0 else -FD_STEP for zj in z]
+        points = [z + h * np.eye(len(z))[j] for j, h in enumerate(steps)]
+        merits = self.merits(points)
+        return ev.merit, np.array([(m - ev.merit) / h for m, h in zip(merits, steps)])
+
+
+def _done(folder: Path, scene_file, overrides: list[str], gradients: bool) -> bool:
+    """A finished run (ok or failed) of the same scene and overrides is in ``folder``."""
+    try:
+        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    if gradients and summary.get("status") == "ok" and not (folder / "gradient.json").is_file():
+        return False
+    return (summary.get("status") in ("ok", "failed")
+            and summary.get("overrides") == list(overrides)
+            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
+
+
+def adjoint_quantity(objective):
+    """The one quantity of ``objective`` read from the run, or None if it has several
+    (the others may be ``scene(KEY)`` values, whose derivatives are known)."""
+    from rftfem.studies.objective import SceneValue
+
+    read = [q for q in objective.quantities if not isinstance(q, SceneValue)]
+    return read[0] if len(read) == 1 else None
+
+
+def _read_gradient(run, objective, params) -> list | None:
+    """d objective / d parameter: the run quantity's derivative from gradient.json (the
+    adjoint's), a ``scene(KEY)``'s 1 for its own key, through the formula by the chain
+    rule (its partial derivatives by central differences)."""
+    from rftfem.studies.objective import SceneValue
+
+    try:
+        data = json.loads((run.dir / "gradient.json").read_text(encoding="utf-8"))
+        dq_run = [float(data["gradient"][p.key]) for p in params]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    env = {f"q{i}": q.evaluate(run) for i, q in enumerate(objective.quantities)}
+    total = [0.0] * len(params)
+    for i, q in enumerate(objective.quantities):
+        name, v = f"q{i}", env[f"q{i}"]
+        h = 1e-6 * max(abs(v), 1e-300)
+        up, down = dict(env, **{name: v + h}), dict(env, **{name: v - h})
+        dfdq = (float(objective.formula.numbers(up)) - float(objective.formula.numbers(down))) \
+            / (2 * h)
+        dq = ([1.0 if q.key == p.key else 0.0 for p in params] if isinstance(q, SceneValue)
+              else dq_run)
+        total = [t + dfdq * d for t, d in zip(total, dq)]
+    return total
+
+
+def _num(v, fmt: str = ".10g") -> str:
+    return "" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, fmt)
+
+
+
+__all__ = ["Parameter", "parse_vary", "Evaluation", "Evaluator", "BudgetSpent", "FD_STEP",
+           "adjoint_quantity"]

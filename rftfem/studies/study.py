@@ -1,0 +1,325 @@
+"""``rftfem study``: what accuracy costs, for one scene, measured.
+
+    rftfem study SCENE.toml --quantity NAME=EXPR [--refine dt|mesh|both ...]
+                 [--levels N] [--set KEY=VALUE ...] [--out DIR] [--jobs J | --np P]
+
+The scene runs at ``N`` successive refinements of each kind asked for, level 0
+being the scene as given (with its ``--set`` overrides):
+
+* ``dt``: ``time.dt`` halved per level, ``time.output_every`` doubled, so that
+  every level writes its rows at the same times;
+* ``mesh``: ``mesh.divisions`` doubled per level (generated strips only);
+* ``both``: both at once.
+
+Each level is an ordinary run in its own folder ``DIR/<kind>-<k>``
+(level 0 is shared by the kinds, ``DIR/level-0``), so every run can be opened,
+rendered and collected as any other.  One level at a time (``--jobs 1``, no
+``--np``), the levels run in the study's own process (rftfem/studies/batch.py: the
+imports and the compiled forms' loading are paid once); with ``--jobs``,
+``--np`` or ``--processes`` each is a child ``rftfem run``.
+
+For every level and quantity the study reports the value, its change from the
+level before, the observed order
+
+    p_k = log2(|Q_{k-1} − Q_{k-2}| / |Q_k − Q_{k-1}|)        (from level 2 on)
+
+and the Richardson estimate of the level's error
+
+    E_k = |Q_k − Q_{k-1}| / (2^p − 1)
+
+with ``p`` the observed order where it is known and positive, capped at the
+nominal order of the kind (the scheme's order for ``dt``: 1 for backward Euler,
+2 for the others; 2 for ``mesh`` and ``both``), and the nominal order where no
+order is observed; the order used is in the table.  The estimate assumes the
+levels are in the asymptotic range: an observed order far from the nominal one
+says they are not (a change that falls faster than the scheme allows is one
+level leaving a pre-asymptotic regime, not a better method).
+
+Written to DIR: ``study.csv`` (a row per level and quantity), ``study.md`` (the
+same as tables, with the command) and ``study.png`` (estimated error against
+wall time, log-log, a curve per kind; one panel per quantity).  The wall time
+of a level is its run's total minus its form compilation (a warm cache costs
+nothing then).  A level that fails (bad scene at that resolution, exit 3,
+a quantity it has no data for) stays in the tables as failed, with its reason,
+and the levels after it still run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from functools import partial
+from pathlib import Path
+
+from rftfem.studies.batch import check_jobs, failure_reason, finished, run_child, run_here
+from rftfem.studies.batch import launcher as batch_launcher
+from rftfem.errors import SceneError
+from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
+
+KINDS = ("dt", "mesh", "both")
+
+DESCRIPTION = """\
+Run a scene at successive refinements (dt halved, mesh divisions doubled, or
+both) and report, for each level, the cost (unknowns, steps, Newton iterations,
+dt cuts, wall time without compilation), the quantities asked for, their change,
+the observed order of convergence and a Richardson error estimate. Writes
+study.csv, study.md and study.png (estimated error against wall time)."""
+
+EPILOG = """\
+quantities (--quantity NAME=EXPR, at least one) are those of `rftfem collect`:
+  COLUMN@TIME, rate(COLUMN, A, B), mean(COLUMN, A, B), max(...), min(...),
+  spin(PROBE_A, PROBE_B, AXIS, A, B)  (mean turning rate of the line A->B about
+  the axis x, y or z, in rad per unit time), steady(NAME)  (a steady value of a
+  time.until = "periodic" run, e.g. steady(centroid_x_rate))
+examples:
+  rftfem study demos/swimming_sheet.toml --refine dt --levels 3 \\
+      --quantity 'speed=steady(front_ux_rate)'
+  rftfem study demos/rollup.toml --refine mesh --levels 4 --quantity 'tip=tip_uz@0.25'
+  rftfem study demos/bidirectional_strip.toml --refine dt --levels 3 --jobs 2 \\
+      --quantity 'speed=rate(centroid_z, 1.1, 2.1)'
+exit status: 0 study written (also with failed levels), 2 bad option or scene"""
+
+
+@dataclass
+class Level:
+    """One run of the study."""
+
+    kind: str              # "dt", "mesh", "both" (level 0: "base")
+    k: int
+    overrides: list[str]
+    folder: Path
+    dt: float = math.nan
+    divisions: list[int] | None = None
+    status: str = "not run"
+    failure: str = ""
+    dofs: int | None = None
+    steps: int | None = None
+    newton: int | None = None
+    cuts: int | None = None
+    wall: float | None = None
+    compile: float | None = None
+    values: dict = field(default_factory=dict)  # quantity name -> float or None
+    exit_status: int = 0
+
+
+# --- the levels ---------------------------------------------------------------------
+
+
+def _toml(value) -> str:
+    if isinstance(value, list):
+        return "[" + ",".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, list[Level]]:
+    """The levels of each kind (level 0 is the same object in every kind)."""
+    time_ = scene["time"]
+    dt0, every0 = float(time_["dt"]), int(time_.get("output_every", 1))
+    mesh = scene.get("mesh") or {}
+    div0 = mesh.get("divisions") if mesh.get("kind", "strip") != "gmsh" else None
+    if any(k in ("mesh", "both") for k in kinds) and not div0:
+        raise SceneError("--refine mesh: the scene's [mesh] has no divisions to double "
+                         "(a mesh read from a file is refined in gmsh, not here)")
+    if scene["time"]["scheme"] == "static" and any(k in ("dt", "both") for k in kinds):
+        raise SceneError("--refine dt: the scene is static (time.scheme resolves to "
+                         "\"static\"): its steps are load steps with no time error to refine")
+    base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None)
+    plans = {}
+    for kind in kinds:
+        series = [base]
+        for k in range(1, levels):
+            sets, f = [], 2**k
+            dt, div = dt0, base.divisions
+            if kind in ("dt", "both"):
+                dt = dt0 / f
+                sets += [f"time.dt={dt!r}", f"time.output_every={every0 * f}"]
+            if kind in ("mesh", "both"):
+                div = [n * f for n in div0]
+                sets.append(f"mesh.divisions={_toml(div)}")
+            series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div))
+        plans[kind] = series
+    return plans
+
+
+def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
+              petsc_args: list[str], reuse: bool = False, in_process: bool = False) -> None:
+    """Run one level (a fresh folder) and read its summary into ``level``; with
+    ``reuse``, a finished run of the same level is read instead.  ``in_process``:
+    run it in this process (rftfem/studies/batch.py), else as a child ``rftfem run``."""
+    if reuse and finished(level.folder, scene_file, [*overrides, *level.overrides]):
+        level.status = "reused"
+    elif level.folder.exists():
+        shutil.rmtree(level.folder)
+    if level.status != "reused":
+        level.folder.mkdir(parents=True)
+        run = run_here if in_process else partial(run_child, launcher=launcher)
+        level.exit_status = run(scene_file, [*overrides, *level.overrides], level.folder,
+                                petsc_args=petsc_args)
+    _read_summary(level)
+
+
+def _read_summary(level: Level) -> None:
+    status = level.exit_status
+    try:
+        summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        summary = None
+    if summary is None:
+        level.status = "failed"
+        level.failure = failure_reason(level.folder / "run.log", status)
+        return
+    level.status = summary.get("status", "failed") if status == 0 else "failed"
+    failure = summary.get("failure") or {}
+    level.failure = str(failure.get("reason", "")) if level.status != "ok" else ""
+    if status != 0 and not level.failure:
+        level.failure = f"exit status {status}"
+    counts, wall = summary.get("counts") or {}, summary.get("wall_s") or {}
+    level.dofs, level.steps = summary.get("dofs"), counts.get("steps")
+    level.newton, level.cuts = counts.get("newton_iterations"), counts.get("dt_cuts")
+    level.compile = wall.get("compile")
+    if wall.get("total") is not None:
+        level.wall = wall["total"] - (level.compile or 0.0)
+
+
+def evaluate_level(level: Level, quantities) -> None:
+    from rftfem.outputs.quantities import RunFolder
+
+    if level.status != "ok":
+        level.values = {name: None for name, _ in quantities}
+        return
+    run = RunFolder(level.folder)
+    for name, q in quantities:
+        try:
+            level.values[name] = q.evaluate(run)
+        except SceneError as exc:
+            level.values[name] = None
+            level.status, level.failure = "failed", f"quantity {name}: {exc}"
+
+
+# --- orders and estimates ---------------------------------------------------------
+
+
+def add_arguments(parser):
+    import argparse
+
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = EPILOG
+    parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
+    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
+                        dest="quantities", help="what to converge (grammar below); repeatable")
+    parser.add_argument("--refine", metavar="KIND", action="append", default=[],
+                        help="dt, mesh or both (repeatable, or comma-separated: "
+                             "--refine dt,mesh); default dt")
+    parser.add_argument("--levels", metavar="N", type=int, default=3,
+                        help="levels per kind, the scene itself included (default 3; "
+                             "3 give one observed order)")
+    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                        dest="overrides", help="override a scene key in every level; repeatable")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
+                        help="study folder (default: results/study-<scene file stem>)")
+    parser.add_argument("--jobs", metavar="J", type=int, default=1,
+                        help="levels run at the same time, each one process (default 1)")
+    parser.add_argument("--np", metavar="P", type=int, default=1,
+                        help="run each level under mpirun -n P (one level at a time)")
+    parser.add_argument("--processes", action="store_true",
+                        help="run each level as its own `rftfem run` process, also with "
+                             "--jobs 1 (by default one-at-a-time levels run in the study's "
+                             "own process, which pays the imports and form loading once)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="keep the levels whose folder holds a finished run of the same "
+                             "scene file and overrides (a study extended or re-analysed)")
+
+
+def _kinds(options: list[str]) -> list[str]:
+    kinds = [k.strip() for text in (options or ["dt"]) for k in text.split(",") if k.strip()]
+    for k in kinds:
+        if k not in KINDS:
+            raise SceneError(f"--refine: unknown kind '{k}' (expected {', '.join(KINDS)})")
+    return list(dict.fromkeys(kinds))
+
+
+def main(args, petsc_args: list[str], console) -> int:
+    from rftfem.outputs.collect import parse_option
+    from rftfem.scene.reading import load_scene, resolved_scheme
+
+    if not args.quantities:
+        raise SceneError("--quantity: give at least one quantity to converge "
+                         "(e.g. --quantity 'tip=tip_uz@end')")
+    quantities = [parse_option(q) for q in args.quantities]
+    names = [n for n, _ in quantities]
+    if len(set(names)) < len(names):
+        raise SceneError("--quantity: a name is given twice")
+    kinds = _kinds(args.refine)
+    if args.levels < 2:
+        raise SceneError(f"--levels: expected at least 2, found {args.levels}")
+    check_jobs(args.jobs, args.np, "levels")
+    scene = load_scene(args.scene, args.overrides)
+    scene["time"]["scheme"] = resolved_scheme(scene)
+    out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
+    plans = plan(scene, kinds, args.levels, out)
+    # every level's scene must be valid before anything runs
+    for series in plans.values():
+        for lv in series[1:]:
+            try:
+                load_scene(args.scene, [*args.overrides, *lv.overrides])
+            except SceneError as exc:
+                raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
+    launcher = batch_launcher(args.np)
+    levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
+    console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
+                f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
+    t0 = time.perf_counter()
+
+    # one run at a time on one process: all in this process, paying the imports and
+    # loading the compiled forms once (rftfem/studies/batch.py); else each its own process
+    in_process = args.jobs == 1 and args.np == 1 and not args.processes
+
+    def one(lv: Level):
+        run_level(lv, args.scene, args.overrides, launcher, petsc_args, args.reuse,
+                  in_process)
+        evaluate_level(lv, quantities)
+        what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
+        console.out(f"  {lv.folder.name}: {lv.status} ({what}"
+                    + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
+                    + (f"; {lv.failure}" if lv.failure else "") + ")")
+
+    if in_process:  # in the main thread: gmsh and PETSc want it
+        for lv in levels:
+            one(lv)
+    else:
+        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+            list(pool.map(one, levels))
+    rows = table_rows(plans, quantities, scene["time"]["scheme"])
+    command = " ".join(["rftfem study", _quote(args.scene),
+                        *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",
+                        *[f"--quantity {_quote(q)}" for q in args.quantities],
+                        *[f"--set {_quote(o)}" for o in args.overrides]]
+                       + ([f"--np {args.np}"] if args.np > 1 else []) + petsc_args)
+    write_csv(rows, out / "study.csv")
+    md = markdown(rows, command)
+    (out / "study.md").write_text(md + "\n", encoding="utf-8")
+    drawn = plot(rows, out / "study.png")
+    console.out(md)
+    failed = sum(lv.status != "ok" for lv in levels)
+    console.err(f"rftfem study: {len(levels) - failed} of {len(levels)} runs ok in "
+                f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"
+                + (", study.png" if drawn else "") + f" in {out}")
+    return 0
+
+
+def _quote(arg: str) -> str:
+    import shlex
+
+    return shlex.quote(arg)
+
+
+__all__ = ["main", "add_arguments", "plan", "analyse", "Level", "DESCRIPTION", "EPILOG",
+           "KINDS", "SCHEME_ORDER"]
