@@ -84,7 +84,7 @@ def _build_parser() -> _Parser:
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
     from rftfem.outputs import collect, render_cli
-    from rftfem.studies import optimize, study
+    from rftfem.studies import optimize, study, sweep
 
     render_cli.add_arguments(sub.add_parser(
         "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
@@ -97,6 +97,9 @@ def _build_parser() -> _Parser:
     study.add_arguments(sub.add_parser(
         "study", help="what accuracy costs: a scene at successive refinements",
         allow_abbrev=False, description=study.DESCRIPTION))
+    sweep.add_arguments(sub.add_parser(
+        "sweep", help="a scene over a grid of values of any keys, by any executor",
+        allow_abbrev=False, description=sweep.DESCRIPTION))
     optimize.add_arguments(sub.add_parser(
         "optimize", help="search scene parameters for the best value of a quantity",
         allow_abbrev=False, description=optimize.DESCRIPTION))
@@ -267,9 +270,12 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
 
 
 def _cmd_many(args, petsc_args: list[str], console: _Console) -> int:
-    """``study`` and ``optimize``: many runs of a scene (PETSc options go to each)."""
+    """``study``, ``sweep`` and ``optimize``: many runs of a scene (PETSc options go to
+    each)."""
     if args.command == "study":
         from rftfem.studies.study import main as tool
+    elif args.command == "sweep":
+        from rftfem.studies.sweep import main as tool
     else:
         from rftfem.studies.optimize import main as tool
     try:
@@ -296,7 +302,7 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_run(args, petsc_args, console)
         if args.command in ("render", "collect"):
             return _cmd_tool(args, petsc_args, console)
-        if args.command in ("study", "optimize"):
+        if args.command in ("study", "optimize", "sweep"):
             return _cmd_many(args, petsc_args, console)
         return _cmd_check(args, console)
     except KeyboardInterrupt:

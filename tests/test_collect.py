@@ -475,3 +475,25 @@ def test_parameter_study_demo(tmp_path):
         ("0.1", "0.5", "ok"), ("0.1", "1.0", "ok"), ("0.2", "0.5", "ok"), ("0.2", "1.0", "ok")]
     speed = {(r["motion.0.amplitude"], r["motion.0.wavenumber"]): float(r["speed"]) for r in rows}
     assert speed[("0.2", "0.5")] > 2 * speed[("0.1", "0.5")] > 0
+
+
+def test_parameter_sweep_demo_is_the_parameter_study(tmp_path):
+    """demos/parameter_sweep.sh (one `rftfem sweep`) gives the runs of
+    demos/parameter_study.sh (a shell loop and `rftfem collect`): the same speeds and
+    powers to the bit, in sweep.csv with the varied keys first."""
+    env = env_with_rftfem()
+    for script, out in (("parameter_study.sh", "study"), ("parameter_sweep.sh", "sweep")):
+        done = subprocess.run(["bash", str(DEMOS / script), "-j", "2", out], cwd=tmp_path,
+                              env=env, capture_output=True, text=True, timeout=3600)
+        assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    study_rows = table((tmp_path / "study" / "table.csv").read_text())
+    sweep_rows = table((tmp_path / "sweep" / "sweep.csv").read_text())
+    key = ("motion.0.amplitude", "motion.0.wavenumber")
+    assert list(sweep_rows[0])[:3] == [*key, "status"]
+    study_values = {tuple(r[k] for k in key): (r["speed"], r["power"]) for r in study_rows}
+    sweep_values = {tuple(r[k] for k in key): (r["speed"], r["power"]) for r in sweep_rows}
+    assert len(sweep_values) == 4 and all(r["status"] == "ok" for r in sweep_rows)
+    for k, (speed, power) in sweep_values.items():
+        assert float(speed) == float(study_values[k][0]) and \
+            float(power) == float(study_values[k][1]), k
+    assert (tmp_path / "sweep" / "sweep.png").stat().st_size > 5000

@@ -185,13 +185,15 @@ def test_objective_formulas():
     assert math.isclose(objective.parse("-tip_uz@0.5*2").formula.numbers({"q0": 1.0}), -2.0)
 
 
-@pytest.mark.parametrize("jobs", [1, 2])
-def test_a_grid_on_a_log_scale_is_geometric(tmp_path, jobs):
+@pytest.mark.parametrize("executor, jobs", [("local", 1), ("local", 2), ("dask", 2)])
+def test_a_grid_on_a_log_scale_is_geometric(tmp_path, executor, jobs):
     """--method grid with LO:HI:log: the budget's points equally spaced in log E, the
-    tip deflection ∝ 1/E (linear range); with --jobs 2 as child runs side by side."""
+    tip deflection ∝ 1/E (linear range); with --jobs 2 as child runs side by side,
+    locally or on a local Dask cluster."""
     out = tmp_path / "opt"
     done = optimize(out, "--vary", "shell.E=1e5:1e7:log", "--objective", "tip_uz@end",
-                    "--method", "grid", "--budget", 3, "--jobs", jobs, *CANTILEVER)
+                    "--method", "grid", "--budget", 3, "--jobs", jobs, "--executor", executor,
+                    *CANTILEVER)
     assert done.returncode == 0, done.stderr
     table = rows(out)
     assert [float(r["shell.E"]) for r in table] == pytest.approx([1e5, 1e6, 1e7], rel=1e-12)

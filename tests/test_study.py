@@ -220,7 +220,7 @@ def test_levels_in_this_process_equal_separate_processes(tmp_path):
     """One level at a time the levels run in the study's own process (rftfem/studies/batch.py),
     a failed level among them; with --processes each is a child `rftfem run`: the
     same statuses and the same values to round-off, and the levels after a failure
-    in the same process are unharmed."""
+    in the same process are unharmed; so on a local Dask cluster of two workers."""
     scene = write_scene(tmp_path, PLATE + PROBES)
     sets = ["--refine", "dt", "--levels", 3, "--set", "magnetic.field.frequency=1.0",
             "--set", "magnetic.field.rotation_axis=[0, 1, 0]", "--set", "time.end=0.4",
@@ -228,15 +228,20 @@ def test_levels_in_this_process_equal_separate_processes(tmp_path):
             "--set", "time.max_rotation=0.4", "--set", "output.fields=false",
             "--quantity", "rate=spin(a, b, y, 0, 0.4)"]
     tables = {}
-    for way in ("here", "processes"):
+    ways = {"here": [], "processes": ["--processes"],
+            "dask": ["--executor", "dask", "--jobs", "2"]}
+    for way, options in ways.items():
         out = tmp_path / way
-        done = study(out, scene, *sets, *(["--processes"] if way == "processes" else []))
+        done = study(out, scene, *sets, *options)
         assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
         tables[way] = rows_of(out)
-    for here, child in zip(tables["here"], tables["processes"]):
-        assert here["status"] == child["status"]
-        if here["value"]:
-            assert number(here["value"]) == pytest.approx(number(child["value"]), rel=1e-12)
+    for way in ("processes", "dask"):
+        assert len(tables[way]) == len(tables["here"])
+        for here, child in zip(tables["here"], tables[way]):
+            assert here["status"] == child["status"]
+            if here["value"]:
+                assert number(here["value"]) == pytest.approx(number(child["value"]),
+                                                              rel=1e-12)
     assert [r["status"] for r in tables["here"]] == ["failed", "ok", "ok"]
 
 

@@ -68,9 +68,11 @@ def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
 
 
 def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
-              launcher: list[str] = (), petsc_args: list[str] | None = None) -> int:
+              launcher: list[str] = (), petsc_args: list[str] | None = None,
+              die_with_parent: bool = False) -> int:
     """The same run as a child ``rftfem run`` (under ``launcher``, e.g. ``mpirun -n 2``),
-    its output in ``folder/run.log``; its exit status."""
+    its output in ``folder/run.log``; its exit status.  ``die_with_parent``: the child
+    is killed when this process dies (Linux), as a Dask worker's run must be."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     cmd = [*launcher, sys.executable, "-m", "rftfem", "run", str(scene_file), "--out",
@@ -81,13 +83,25 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     env = child_environment(bool(launcher))
     for _ in range(2):
         with open(folder / "run.log", "w", encoding="utf-8") as log:
-            status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
+            status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
+                                     preexec_fn=_die_with_parent if die_with_parent else None)
         # a launch that ends in failure having said nothing at all (gmsh 4.8's start
         # now and then: tests/conftest.py run_command) is made once more; every real
         # failure says why
         if status == 0 or (folder / "run.log").stat().st_size > 0:
             break
     return status
+
+
+def _die_with_parent():
+    """In the child, before it runs: ask Linux to kill it when its parent dies."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 #: prefixes of the variables an MPI process (a singleton too) leaves for its own

@@ -49,7 +49,8 @@ import time
 from pathlib import Path
 
 from rftfem.studies import objective as objectives
-from rftfem.studies.batch import check_jobs
+from rftfem.studies import executors
+from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.errors import SceneError
 from rftfem.studies.optimize_evaluations import BudgetSpent, Evaluator, parse_vary
 from rftfem.studies.optimize_report import plot, write_best
@@ -208,6 +209,7 @@ def add_arguments(parser):
                              "has several to make (grid; l-bfgs-b's differences)")
     parser.add_argument("--np", metavar="P", type=int, default=1,
                         help="run each evaluation under mpirun -n P")
+    executors.add_arguments(parser)
     parser.add_argument("--reuse", action="store_true",
                         help="read evaluations whose folder holds a finished run of the same "
                              "overrides instead of running them (resumes an optimisation)")
@@ -233,7 +235,7 @@ def main(args, petsc_args: list[str], console) -> int:
     method = _method(args.method)
     if args.budget < 1:
         raise SceneError(f"--budget: expected at least 1 run, found {args.budget}")
-    check_jobs(args.jobs, args.np, "runs")
+    check_executor_options(args.jobs, args.np, args.executor, "runs")
     objective = objectives.parse(args.objective)
     constraints = [objectives.parse_constraint(c) for c in args.constraint]
     if method == "l-bfgs-b" and constraints:
@@ -251,12 +253,18 @@ def main(args, petsc_args: list[str], console) -> int:
             except SceneError as exc:
                 raise SceneError(f"--vary {p.key}={p.lo:g}:{p.hi:g}: at {x:g}: {exc}") from None
     static = resolved_scheme(scene) == "static"
+    # gradients by the adjoint are taken in this process: with the local executor only
     gradients = (method == "l-bfgs-b" and static and args.np == 1 and args.jobs == 1
-                 and _differentiable(keys, objective, scene))
+                 and args.executor == "local" and _differentiable(keys, objective, scene))
+    executor = make_executor(args.executor, args.jobs, args.np, args.slurm,
+                             args.executor_config, args.print_job_script)
+    if executor is None:  # --print-job-script
+        return 0
     out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
+        executor.close()
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
     if not args.reuse:
         for old in out.glob("eval-[0-9]*"):
@@ -276,12 +284,13 @@ def main(args, petsc_args: list[str], console) -> int:
         console.err(f"rftfem optimize: note: {method} makes one run at a time; --jobs "
                     f"{args.jobs} has nothing to run side by side (grid and l-bfgs-b do)")
     ev = Evaluator(args.scene, args.overrides, params, objective, constraints, sign, out,
-                   args.budget, args.jobs, args.np, args.reuse, petsc_args, console, gradients)
+                   args.budget, args.jobs, executor, args.reuse, petsc_args, console, gradients)
     t0 = time.perf_counter()
     try:
         why = search(method, ev, [p.to_unit(p.start) for p in params], args.budget)
     finally:
         ev.close()
+        executor.close()
         best = ev.best()
         if best is not None:
             write_best(ev, best, out / "best.toml", command)

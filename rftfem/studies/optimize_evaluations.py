@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rftfem.scene import toml_writer
-from rftfem.studies.batch import failure_reason, launcher, run_child, run_here
+from rftfem.studies.batch import failure_reason
 from rftfem.errors import SceneError
 
 #: forward-difference step of l-bfgs-b without an adjoint, a fraction of each interval
@@ -142,13 +142,14 @@ class Evaluator:
     the CSV rows, keeps the best; ``merit(z)`` is what a method minimises."""
 
     def __init__(self, scene_file, overrides, params, objective, constraints, sign, out,
-                 budget, jobs, np_, reuse, petsc_args, console, gradients=False):
+                 budget, jobs, executor, reuse, petsc_args, console, gradients=False):
         self.scene_file, self.overrides, self.params = scene_file, list(overrides), params
         self.objective, self.constraints, self.sign = objective, constraints, sign
         self.out, self.budget, self.jobs, self.reuse = out, budget, jobs, reuse
         self.console, self.petsc_args, self.gradients = console, list(petsc_args), gradients
-        self.launcher = launcher(np_)
-        self.in_process = jobs == 1 and np_ == 1
+        #: where the runs happen (rftfem/studies/executors.py)
+        self.executor = executor
+        self.in_process = getattr(executor, "in_process", False)
         self.evaluations: list[Evaluation] = []
         self._cache: dict[tuple, Evaluation] = {}
         self._csv = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
@@ -220,11 +221,9 @@ class Evaluator:
                 status, _, _ = run_with_gradient(
                     self.scene_file, overrides, ev.folder, [p.key for p in self.params],
                     adjoint_quantity(self.objective).text, self.petsc_args)
-            elif self.in_process:
-                status = run_here(self.scene_file, overrides, ev.folder, self.petsc_args)
             else:
-                status = run_child(self.scene_file, overrides, ev.folder, self.launcher,
-                                   self.petsc_args)
+                status = self.executor.run(self.scene_file, overrides, ev.folder,
+                                           self.petsc_args)
         ev.wall = time.perf_counter() - t0
         self._read(ev, status)
 

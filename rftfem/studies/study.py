@@ -52,11 +52,11 @@ import shutil
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 
-from rftfem.studies.batch import check_jobs, failure_reason, finished, run_child, run_here
-from rftfem.studies.batch import launcher as batch_launcher
+from rftfem.studies import executors
+from rftfem.studies.batch import failure_reason, finished
+from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.errors import SceneError
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
@@ -145,20 +145,20 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, lis
     return plans
 
 
-def run_level(level: Level, scene_file: str, overrides: list[str], launcher: list[str],
-              petsc_args: list[str], reuse: bool = False, in_process: bool = False) -> None:
+def run_level(level: Level, scene_file: str, overrides: list[str], executor,
+              petsc_args: list[str], reuse: bool = False) -> None:
     """Run one level (a fresh folder) and read its summary into ``level``; with
-    ``reuse``, a finished run of the same level is read instead.  ``in_process``:
-    run it in this process (rftfem/studies/batch.py), else as a child ``rftfem run``."""
+    ``reuse``, a finished run of the same level is read instead.  The run is the
+    ``executor``'s (rftfem/studies/executors.py: in this process, a child ``rftfem
+    run``, or a Dask worker's)."""
     if reuse and finished(level.folder, scene_file, [*overrides, *level.overrides]):
         level.status = "reused"
     elif level.folder.exists():
         shutil.rmtree(level.folder)
     if level.status != "reused":
         level.folder.mkdir(parents=True)
-        run = run_here if in_process else partial(run_child, launcher=launcher)
-        level.exit_status = run(scene_file, [*overrides, *level.overrides], level.folder,
-                                petsc_args=petsc_args)
+        level.exit_status = executor.run(scene_file, [*overrides, *level.overrides],
+                                         level.folder, petsc_args)
     _read_summary(level)
 
 
@@ -229,6 +229,7 @@ def add_arguments(parser):
                         help="run each level as its own `rftfem run` process, also with "
                              "--jobs 1 (by default one-at-a-time levels run in the study's "
                              "own process, which pays the imports and form loading once)")
+    executors.add_arguments(parser)
     parser.add_argument("--reuse", action="store_true",
                         help="keep the levels whose folder holds a finished run of the same "
                              "scene file and overrides (a study extended or re-analysed)")
@@ -256,7 +257,7 @@ def main(args, petsc_args: list[str], console) -> int:
     kinds = _kinds(args.refine)
     if args.levels < 2:
         raise SceneError(f"--levels: expected at least 2, found {args.levels}")
-    check_jobs(args.jobs, args.np, "levels")
+    check_executor_options(args.jobs, args.np, args.executor, "levels")
     scene = load_scene(args.scene, args.overrides)
     scene["time"]["scheme"] = resolved_scheme(scene)
     out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
@@ -272,31 +273,36 @@ def main(args, petsc_args: list[str], console) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
-    launcher = batch_launcher(args.np)
+    # one run at a time on one process: all in this process, paying the imports and
+    # loading the compiled forms once (rftfem/studies/batch.py); else each its own process
+    in_process = (args.executor == "local" and args.jobs == 1 and args.np == 1
+                  and not args.processes)
+    executor = make_executor(args.executor, args.jobs, args.np, args.slurm,
+                             args.executor_config, args.print_job_script, in_process)
+    if executor is None:  # --print-job-script
+        return 0
     levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
     console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
                 f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
     t0 = time.perf_counter()
 
-    # one run at a time on one process: all in this process, paying the imports and
-    # loading the compiled forms once (rftfem/studies/batch.py); else each its own process
-    in_process = args.jobs == 1 and args.np == 1 and not args.processes
-
     def one(lv: Level):
-        run_level(lv, args.scene, args.overrides, launcher, petsc_args, args.reuse,
-                  in_process)
+        run_level(lv, args.scene, args.overrides, executor, petsc_args, args.reuse)
         evaluate_level(lv, quantities)
         what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
         console.out(f"  {lv.folder.name}: {lv.status} ({what}"
                     + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
                     + (f"; {lv.failure}" if lv.failure else "") + ")")
 
-    if in_process:  # in the main thread: gmsh and PETSc want it
-        for lv in levels:
-            one(lv)
-    else:
-        with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-            list(pool.map(one, levels))
+    try:
+        if in_process:  # in the main thread: gmsh and PETSc want it
+            for lv in levels:
+                one(lv)
+        else:
+            with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+                list(pool.map(one, levels))
+    finally:
+        executor.close()
     rows = table_rows(plans, quantities, scene["time"]["scheme"])
     command = " ".join(["rftfem study", _quote(args.scene),
                         *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",

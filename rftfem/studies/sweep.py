@@ -1,0 +1,366 @@
+"""``rftfem sweep``: a scene over a grid of values of any keys, run by an executor.
+
+    rftfem sweep SCENE --vary KEY=v1,v2,... --vary KEY=LO:HI:N[:log] ...
+                 --quantity NAME=EXPR ... [--executor E] [--jobs J] [--np P]
+                 [--reuse] [--out DIR] [--set KEY=VALUE ...]
+
+Every combination of the varied values is an ordinary run folder in ``--out``
+(default ``results/sweep-<scene stem>``), named by its values. The quantities
+(collect's language) are read from each finished run. ``sweep.csv`` has a row
+per combination: the varied keys first, then ``status`` and the quantities,
+then the folder, the wall time and, for a run that failed, why. ``sweep.png``
+draws the quantities: a line against the key for one varied key, a heat map
+for two numeric ones, small multiples beyond (rftfem/studies/sweep_report.py).
+
+Every combination's scene is checked before anything runs. ``--reuse`` keeps
+the runs a folder already holds finished (same scene file and overrides), so a
+sweep cut short runs only what is missing. The executors are those of
+:mod:`rftfem.studies.executors`.
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+import re
+import shlex
+import shutil
+import sys
+import threading
+import time
+import tomllib
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rftfem.errors import SceneError
+from rftfem.studies import executors
+
+DESCRIPTION = ("Run a scene over a grid of values of any keys (every combination of the "
+               "--vary lists and ranges, each an ordinary run folder); write sweep.csv "
+               "(the varied keys, status, the quantities) and sweep.png.")
+EPILOG = """examples:
+  rftfem sweep demos/swimming_sheet.toml --vary motion.0.amplitude=0.05,0.1,0.15 \\
+      --quantity 'U=steady(front_ux_rate)'
+  rftfem sweep demos/sheet_robot.toml --vary magnetic.field.frequency=2:8:4 \\
+      --vary magnetic.field.B=1e-3:4e-3:3:log --quantity 'x=rate(centroid_x, 2, 3)' \\
+      --executor dask --jobs 2
+
+exit status: 0 the sweep ran (failed runs are rows of sweep.csv), 2 bad option or scene"""
+
+#: most combinations a sweep may have (a typo in N should not start a million runs)
+MAX_RUNS = 10_000
+_RANGE = re.compile(r"^([^:]+):([^:]+):([^:]+)(?::(log|lin))?$")
+
+
+@dataclass
+class Vary:
+    key: str
+    values: list
+
+
+@dataclass
+class Point:
+    """One combination: its values, folder and what became of its run."""
+
+    index: int
+    values: tuple
+    folder: Path
+    overrides: list[str]
+    status: str = "pending"
+    exit_status: int | None = None
+    wall: float | None = None
+    reason: str = ""
+    quantities: dict = field(default_factory=dict)
+
+
+def add_arguments(parser) -> None:
+    parser.epilog = EPILOG
+    parser.formatter_class = __import__("argparse").RawDescriptionHelpFormatter
+    parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
+    parser.add_argument("--vary", metavar="KEY=VALUES", action="append", default=[],
+                        help="a key and its values: v1,v2,... (TOML values) or LO:HI:N "
+                             "(N numbers from LO to HI, evenly; LO:HI:N:log, geometrically); "
+                             "repeatable: every combination runs")
+    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
+                        dest="quantities",
+                        help="a column of sweep.csv from each run (collect's quantity "
+                             "language, e.g. 'U=steady(front_ux_rate)'); repeatable")
+    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
+                        dest="overrides", help="override a scene key in every run; repeatable")
+    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
+                        help="the sweep's folder (default results/sweep-<scene stem>)")
+    parser.add_argument("--jobs", metavar="J", type=int, default=1,
+                        help="runs side by side (local processes, or Dask workers)")
+    parser.add_argument("--np", metavar="P", type=int, default=1,
+                        help="each run under mpirun -n P")
+    parser.add_argument("--reuse", action="store_true",
+                        help="keep the runs --out already holds finished with the same scene "
+                             "and overrides; run only the others")
+    executors.add_arguments(parser)
+
+
+# ------------------------------------------------------------------ the grid
+
+
+def _lookup(scene: dict, key: str):
+    node = scene
+    for part in key.split("."):
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return None
+    return node
+
+
+def _toml_value(text: str, what: str):
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        if re.fullmatch(r"[A-Za-z_][\w.\-]*", text):
+            return text  # a bare word, as --set takes it
+        raise SceneError(f"{what}: '{text}' is not a value (a number, true/false, "
+                         "\"text\" or [array])") from None
+
+
+def parse_vary(text: str, scene: dict) -> Vary:
+    """``KEY=v1,v2`` or ``KEY=LO:HI:N[:log]`` against the loaded ``scene`` (the key's
+    present value tells a numeric key from another)."""
+    key, sep, spec = text.partition("=")
+    key, spec = key.strip(), spec.strip()
+    what = f"--vary {text}"
+    if not sep or not key or not spec:
+        raise SceneError(f"{what}: expected KEY=v1,v2,... or KEY=LO:HI:N[:log]")
+    match = _RANGE.match(spec)
+    if match and "[" not in spec:
+        lo_text, hi_text, n_text, scale = match.groups()
+        current = _lookup(scene, key)
+        if isinstance(current, bool) or not isinstance(current, (int, float)):
+            found = "absent" if current is None else repr(current)
+            raise SceneError(f"{what}: a range LO:HI:N needs a numeric key; {key} is "
+                             f"{found} in the scene (give its values as a list)")
+        try:
+            lo, hi = float(lo_text), float(hi_text)
+            n = int(n_text)
+        except ValueError:
+            raise SceneError(f"{what}: expected numbers LO:HI and a whole number N") from None
+        if n < 2 or not (math.isfinite(lo) and math.isfinite(hi)) or lo == hi:
+            raise SceneError(f"{what}: expected N >= 2 and finite LO != HI")
+        if scale == "log":
+            if lo <= 0 or hi <= 0:
+                raise SceneError(f"{what}: a log range needs LO and HI > 0")
+            values = [math.exp(math.log(lo) + k * (math.log(hi) - math.log(lo)) / (n - 1))
+                      for k in range(n)]
+        else:
+            values = [lo + k * (hi - lo) / (n - 1) for k in range(n)]
+        values[0], values[-1] = lo, hi
+        if isinstance(current, int) and all(float(v).is_integer() for v in values):
+            values = [int(v) for v in values]
+        return Vary(key, values)
+    values = [_toml_value(v.strip(), what) for v in _split_list(spec)]
+    if not values:
+        raise SceneError(f"{what}: no values")
+    return Vary(key, values)
+
+
+def _split_list(spec: str) -> list[str]:
+    """Split on the commas outside brackets and quotes."""
+    parts, depth, quote, cur = [], 0, None, ""
+    for ch in spec:
+        if quote:
+            quote = None if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(cur)
+            cur = ""
+            continue
+        cur += ch
+    parts.append(cur)
+    return [p for p in (p.strip() for p in parts) if p]
+
+
+def _text(value) -> str:
+    from rftfem.scene import toml_writer
+
+    return toml_writer.value(value)
+
+
+def _name(value) -> str:
+    text = f"{value:.6g}" if isinstance(value, float) else str(value)
+    return re.sub(r"[^\w.+\-]", "", text.replace(",", "_")) or "x"
+
+
+def grid(varies: list[Vary], out: Path, overrides: list[str]) -> list[Point]:
+    points = []
+    for i, values in enumerate(itertools.product(*[v.values for v in varies])):
+        label = "_".join(f"{v.key.split('.')[-1]}={_name(x)}" for v, x in zip(varies, values))
+        sets = [f"{v.key}={_text(x)}" for v, x in zip(varies, values)]
+        points.append(Point(i, values, out / f"{i + 1:04d}_{label}"[:120],
+                            [*overrides, *sets]))
+    return points
+
+
+# ------------------------------------------------------------------ running
+
+
+class _Progress:
+    """One line: redrawn in place on a terminal, else printed at most every 30 s."""
+
+    def __init__(self, total: int, console):
+        self.total, self.console, self.t0 = total, console, time.perf_counter()
+        self.done = self.failed = self.reused = 0
+        self.tty = sys.stdout.isatty()
+        self.last = 0.0
+        self.lock = threading.Lock()
+
+    def finished(self, point: Point):
+        with self.lock:
+            self.done += 1
+            self.failed += point.status == "failed"
+            self.reused += point.status == "reused"
+            line = (f"rftfem sweep: {self.done}/{self.total} runs done"
+                    + (f", {self.failed} failed" if self.failed else "")
+                    + (f", {self.reused} reused" if self.reused else "")
+                    + f", {time.perf_counter() - self.t0:.0f} s")
+            now = time.perf_counter()
+            if self.tty:
+                sys.stdout.write("\r\033[K" + line + ("\n" if self.done == self.total else ""))
+                sys.stdout.flush()
+            elif now - self.last > 30 or self.done == self.total:
+                self.console.out(line)
+                self.last = now
+
+
+def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
+              quantities) -> None:
+    from rftfem.studies.batch import failure_reason, finished
+
+    t0 = time.perf_counter()
+    if reuse and finished(point.folder, scene_file, point.overrides):
+        point.status = "reused"
+    else:
+        if point.folder.exists():
+            shutil.rmtree(point.folder)
+        point.folder.mkdir(parents=True)
+        point.exit_status = executor.run(scene_file, point.overrides, point.folder, petsc_args)
+        point.status = "ok" if point.exit_status == 0 else "failed"
+        if point.exit_status != 0:
+            point.reason = failure_reason(point.folder / "run.log", point.exit_status)
+    point.wall = time.perf_counter() - t0
+    if point.status != "failed":
+        _read_quantities(point, quantities)
+
+
+def _read_quantities(point: Point, quantities) -> None:
+    from rftfem.outputs.quantities import RunFolder, Unavailable
+
+    run = RunFolder(point.folder)
+    for name, quantity in quantities:
+        try:
+            point.quantities[name] = quantity.evaluate(run)
+        except (Unavailable, SceneError) as exc:
+            point.quantities[name] = None
+            point.reason = (point.reason + "; " if point.reason else "") + f"{name}: {exc}"
+
+
+def write_csv(points: list[Point], varies: list[Vary], names: list[str], path: Path) -> None:
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow([v.key for v in varies] + ["status", *names, "folder", "wall_s",
+                                                   "reason"])
+        for p in points:
+            q = [("" if p.quantities.get(n) is None else repr(float(p.quantities[n])))
+                 for n in names]
+            writer.writerow([_cell(x) for x in p.values]
+                            + [p.status, *q, p.folder.name,
+                               "" if p.wall is None else f"{p.wall:.2f}", p.reason])
+
+
+def _cell(value) -> str:
+    return repr(value) if isinstance(value, float) else (
+        _text(value) if not isinstance(value, str) else value)
+
+
+def main(args, petsc_args: list[str], console) -> int:
+    from rftfem.outputs.collect import parse_option
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies import sweep_report
+
+    if not args.vary:
+        raise SceneError("--vary: give at least one key to vary (e.g. --vary shell.E=1e5,2e5)")
+    executors.check_executor_options(args.jobs, args.np, args.executor, "runs")
+    scene = load_scene(args.scene, args.overrides)
+    varies = [parse_vary(v, scene) for v in args.vary]
+    keys = [v.key for v in varies]
+    if len(set(keys)) < len(keys):
+        raise SceneError("--vary: a key is given twice")
+    quantities = [parse_option(q) for q in args.quantities]
+    names = [n for n, _ in quantities]
+    if len(set(names)) < len(names):
+        raise SceneError("--quantity: a name is given twice")
+    count = math.prod(len(v.values) for v in varies)
+    if count > MAX_RUNS:
+        raise SceneError(f"--vary: {count} combinations, more than {MAX_RUNS}")
+    out = args.out if args.out is not None else Path("results") / f"sweep-{Path(args.scene).stem}"
+    points = grid(varies, out, args.overrides)
+    for p in points:  # every combination is a valid scene before anything runs
+        try:
+            load_scene(args.scene, p.overrides)
+        except SceneError as exc:
+            raise SceneError(f"run {p.folder.name}: {exc}") from None
+    executor = executors.make_executor(
+        args.executor, args.jobs, args.np, args.slurm, args.executor_config,
+        args.print_job_script)
+    if executor is None:  # --print-job-script
+        return 0
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        executor.close()
+        raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
+    console.out(f"rftfem sweep: {len(points)} runs of {args.scene} in {out}, "
+                f"executor {executor.describe()}")
+    progress = _Progress(len(points), console)
+
+    def one(p: Point):
+        try:
+            run_point(p, args.scene, executor, petsc_args, args.reuse, quantities)
+        except Exception as exc:  # the engine failed this run: a row, not a crash
+            p.status, p.reason = "failed", f"{exc.__class__.__name__}: {exc}"[:300]
+        progress.finished(p)
+        write_csv(points, varies, names, out / "sweep.csv")  # what is known so far
+
+    t0 = time.perf_counter()
+    try:
+        local_here = isinstance(executor, executors.LocalExecutor) and executor.in_process
+        if local_here:  # gmsh and PETSc want the main thread
+            for p in points:
+                one(p)
+        else:
+            with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+                list(pool.map(one, points))
+    finally:
+        executor.close()
+        write_csv(points, varies, names, out / "sweep.csv")
+    drawn = sweep_report.plot(points, varies, names, out / "sweep.png", args.scene)
+    command = " ".join(["rftfem sweep", shlex.quote(args.scene),
+                        *[f"--vary {shlex.quote(v)}" for v in args.vary],
+                        *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
+                        *[f"--set {shlex.quote(o)}" for o in args.overrides]])
+    (out / "command.txt").write_text(command + "\n", encoding="utf-8")
+    failed = sum(p.status == "failed" for p in points)
+    console.err(f"rftfem sweep: {len(points) - failed} of {len(points)} runs ok in "
+                f"{time.perf_counter() - t0:.0f} s; sweep.csv"
+                + (", sweep.png" if drawn else "") + f" in {out}")
+    return 0
+
+
+__all__ = ["main", "add_arguments", "parse_vary", "grid", "Vary", "Point", "DESCRIPTION"]

@@ -1,0 +1,251 @@
+"""``rftfem sweep`` and the executors (rftfem/studies/sweep.py, executors.py): a grid
+of runs equal to separate ``rftfem run`` calls to the bit, on this process, on a
+local Dask cluster, and after a worker dies; the SLURM job script; bad options."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import run_command
+
+CANTILEVER = """
+title = "sweep cantilever"
+[mesh]
+length = 10.0
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+E = 1.0e4
+[time]
+end = 1.0
+dt = 0.25
+[[boundary]]
+where = "x=0"
+fix = ["clamped"]
+[[load]]
+kind = "edge-force"
+where = "x=L"
+value = [0.0, 0.0, 1.0e-3]
+[[output.probes]]
+name = "tip"
+at = [10.0, 0.5, 0.0]
+"""
+#: the same in drag, 400 steps: a run of a few seconds to kill a worker during
+SLOW = CANTILEVER.replace("dt = 0.25", "dt = 0.0025").replace(
+    '[[output.probes]]', '[fluid]\ndrag = [1.0e-3, 1.0e-3, 2.0e-3]\n[[output.probes]]')
+
+
+def rftfem(*args, cwd, timeout=600):
+    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
+                       timeout=timeout)
+
+
+def read_rows(path: Path) -> list[dict]:
+    with open(path, encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def tables(folder: Path) -> dict:
+    out = {}
+    for name in ("probes.csv", "body.csv", "steps.csv"):
+        rows = list(csv.reader(open(folder / name, encoding="utf-8")))
+        if name == "steps.csv":
+            k = rows[0].index("wall_s")
+            rows = [r[:k] + r[k + 1:] for r in rows]
+        out[name] = rows
+    return out
+
+
+@pytest.fixture
+def scene(tmp_path):
+    path = tmp_path / "cantilever.toml"
+    path.write_text(CANTILEVER)
+    return path
+
+
+@pytest.mark.parametrize("executor", ["local", "dask"])
+def test_a_sweep_equals_separate_runs_to_the_bit(scene, tmp_path, executor):
+    """2 × 2 (a list and a range): every run folder's tables are those of `rftfem run`
+    with the same --set, bit for bit; sweep.csv has the varied keys first, then status
+    and the quantity, which is the closed-form tip deflection's ratios (w ∝ 1/(E t³))."""
+    options = ["--executor", executor] + (["--jobs", "2"] if executor == "dask" else [])
+    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--vary",
+                  "shell.thickness=0.1:0.2:2", "--quantity", "w=max(tip_uz)",
+                  "--out", tmp_path / "sweep", *options, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    rows = read_rows(tmp_path / "sweep" / "sweep.csv")
+    assert list(rows[0])[:4] == ["shell.E", "shell.thickness", "status", "w"]
+    assert [(r["shell.E"], r["shell.thickness"], r["status"]) for r in rows] == [
+        ("10000.0", "0.1", "ok"), ("10000.0", "0.2", "ok"),
+        ("20000.0", "0.1", "ok"), ("20000.0", "0.2", "ok")]
+    w = {(float(r["shell.E"]), float(r["shell.thickness"])): float(r["w"]) for r in rows}
+    assert w[(1e4, 0.1)] / w[(2e4, 0.1)] == pytest.approx(2.0, rel=2e-3)  # 1/E (small w)
+    assert w[(1e4, 0.1)] / w[(1e4, 0.2)] == pytest.approx(8.0, rel=2e-2)  # 1/t³
+    assert (tmp_path / "sweep" / "sweep.png").stat().st_size > 5000
+    for r in rows[::3]:  # two of the four against their own `rftfem run`
+        folder = tmp_path / "sweep" / r["folder"]
+        alone = tmp_path / f"alone-{r['folder']}"
+        done = rftfem("run", scene, "--out", alone, "--quiet",
+                      "--set", f"shell.E={r['shell.E']}", "--set",
+                      f"shell.thickness={r['shell.thickness']}", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        assert tables(folder) == tables(alone)
+
+
+def test_reuse_runs_only_what_is_missing_and_a_failed_run_is_a_row(scene, tmp_path):
+    out = tmp_path / "sweep"
+    args = ["sweep", scene, "--vary", "shell.E=1e4,2e4,-1", "--quantity",
+            "w=max(tip_uz)", "--out", out]
+    # E = -1 is refused before anything runs: every combination is checked first
+    done = rftfem(*args, cwd=tmp_path)
+    assert done.returncode == 2 and "shell.E" in done.stderr and not out.exists()
+    # one Newton update a step and no step cuts cannot follow the bending: a failure
+    args[3] = "solver.snes_max_it=1,50"
+    args += ["--set", "time.max_cuts=0"]
+    done = rftfem(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    rows = read_rows(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["failed", "ok"]
+    assert "run failed" in rows[0]["reason"] and rows[0]["w"] == ""
+    stamp = (out / rows[1]["folder"] / "summary.json").stat().st_mtime_ns
+    done = rftfem(*args, "--reuse", cwd=tmp_path)
+    rows = read_rows(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["failed", "reused"]
+    assert (out / rows[1]["folder"] / "summary.json").stat().st_mtime_ns == stamp
+
+
+def _children_running(pid: int, folder_part: str) -> list:
+    import psutil
+
+    found = []
+    for proc in psutil.Process(pid).children(recursive=True):
+        try:
+            line = " ".join(proc.cmdline())
+        except psutil.Error:
+            continue
+        if " run " in f" {line} " and folder_part in line:
+            found.append(proc)
+    return found
+
+
+@pytest.mark.long
+def test_a_dead_worker_costs_one_retry_then_a_failed_row_that_reuse_finishes(tmp_path):
+    """Four Dask workers, four runs of a few seconds. The worker running the first run
+    is killed (its child run dies with it), and so is the worker the run is given to
+    next: the sweep still ends with every row, the first one failed because its worker
+    died; `--reuse` then runs only that one."""
+    import psutil  # distributed's dependency
+
+    scene = tmp_path / "slow.toml"
+    scene.write_text(SLOW)
+    out = tmp_path / "sweep"
+    args = [sys.executable, "-m", "rftfem", "sweep", str(scene), "--vary",
+            "shell.E=1e4,2e4,3e4,4e4", "--quantity", "w=max(tip_uz)", "--out", str(out),
+            "--executor", "dask", "--jobs", "4"]
+    sweep = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    killed, orphans = [], []
+    try:
+        deadline = time.time() + 240
+        while len(killed) < 2 and time.time() < deadline and sweep.poll() is None:
+            runs = _children_running(sweep.pid, "0001_E=10000")
+            workers = {r.parent().pid for r in runs if r.parent() is not None}
+            for worker in workers - set(killed):
+                os.kill(worker, signal.SIGKILL)
+                killed.append(worker)
+                time.sleep(1.0)  # the run (seconds long) dies with its worker at once
+                orphans += [r.pid for r in runs if r.is_running()
+                            and r.status() != psutil.STATUS_ZOMBIE]
+            time.sleep(0.2)
+        stdout, stderr = sweep.communicate(timeout=600)
+    finally:
+        if sweep.poll() is None:
+            sweep.kill()
+    assert len(killed) == 2, (killed, stderr[-2000:])
+    assert sweep.returncode == 0, stderr[-2000:]
+    rows = read_rows(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["failed", "ok", "ok", "ok"], rows
+    assert "worker" in rows[0]["reason"] and "died" in rows[0]["reason"]
+    # the killed workers' runs died with them (no orphan writes into the folder)
+    assert not orphans, orphans
+    done = run_command([*args, "--reuse"], cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = read_rows(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["ok", "reused", "reused", "reused"]
+
+
+def test_the_slurm_job_script_has_its_directives(scene, tmp_path):
+    config = tmp_path / "cluster.toml"
+    config.write_text('[slurm]\nqueue = "short"\naccount = "soft-robots"\n'
+                      'job_extra = ["--constraint=cpu"]\n')
+    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--executor", "slurm",
+                  "--executor-config", config, "--slurm", "walltime=00:20:00",
+                  "--slurm", "memory=2GB", "--np", "2", "--print-job-script",
+                  "--out", tmp_path / "s", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    script = done.stdout
+    directives = [ln for ln in script.splitlines() if ln.startswith("#SBATCH")]
+    for expected in ("-p short", "-A soft-robots", "-t 00:20:00", "--cpus-per-task=2",
+                     "--constraint=cpu"):
+        assert any(expected in d for d in directives), (expected, directives)
+    assert any("--mem=" in d for d in directives)
+    assert script.startswith("#!/")
+    assert sys.executable in script and "distributed.cli.dask_worker" in script
+    assert not (tmp_path / "s").exists()  # nothing ran, nothing submitted
+
+
+def _one_line(done, *words):
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+
+
+def test_bad_options_are_one_line_and_exit_2(scene, tmp_path):
+    vary = ["--vary", "shell.E=1e4,2e4"]
+    _one_line(rftfem("sweep", scene, *vary, "--executor", "spark", cwd=tmp_path),
+              "--executor spark", "dask://HOST:PORT")
+    t0 = time.perf_counter()
+    _one_line(rftfem("sweep", scene, *vary, "--executor", "dask://127.0.0.1:9", cwd=tmp_path),
+              "no Dask scheduler answers", "127.0.0.1:9")
+    assert time.perf_counter() - t0 < 10 + 5  # the interpreter's start included
+    _one_line(rftfem("sweep", scene, "--vary", "time.scheme=1:2:3", cwd=tmp_path),
+              "time.scheme", "numeric key")
+    _one_line(rftfem("sweep", scene, "--vary", "shell.E=a:b:3", cwd=tmp_path),
+              "--vary shell.E=a:b:3", "numbers")
+    _one_line(rftfem("sweep", scene, "--vary", "shell.E=1:2:3:log", "--vary",
+                     "shell.E=3,4", cwd=tmp_path), "a key is given twice")
+    _one_line(rftfem("sweep", scene, "--vary", "shell.EE=1,2", cwd=tmp_path),
+              "unknown key 'shell.EE'")
+    _one_line(rftfem("sweep", scene, *vary, "--slurm", "queue=x", cwd=tmp_path),
+              "--executor slurm")
+    _one_line(rftfem("sweep", scene, *vary, "--executor", "slurm", "--slurm", "nodes=3",
+                     "--print-job-script", cwd=tmp_path), "--slurm nodes=3")
+    _one_line(rftfem("sweep", scene, cwd=tmp_path), "--vary")
+
+
+def test_ranges_and_lists_parse_as_documented():
+    from rftfem.errors import SceneError
+    from rftfem.studies.sweep import parse_vary
+
+    scene = {"shell": {"E": 1.0}, "time": {"output_every": 1, "scheme": "bdf2"},
+             "mesh": {"divisions": [4, 1]}}
+    assert parse_vary("shell.E=1:3:3", scene).values == [1.0, 2.0, 3.0]
+    np.testing.assert_allclose(parse_vary("shell.E=1e3:1e5:3:log", scene).values,
+                               [1e3, 1e4, 1e5], rtol=1e-14)
+    assert parse_vary("time.output_every=1:4:4", scene).values == [1, 2, 3, 4]
+    assert parse_vary("mesh.divisions=[4,1],[8,2]", scene).values == [[4, 1], [8, 2]]
+    assert parse_vary("time.scheme=bdf2,backward-euler", scene).values == [
+        "bdf2", "backward-euler"]
+    with pytest.raises(SceneError, match="log range needs LO and HI > 0"):
+        parse_vary("shell.E=0:1:3:log", scene)
