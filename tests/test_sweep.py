@@ -101,6 +101,22 @@ def test_a_sweep_equals_separate_runs_to_the_bit(scene, tmp_path, executor):
         assert tables(folder) == tables(alone)
 
 
+@pytest.mark.mpi
+def test_a_dask_worker_runs_np_processes_under_mpirun(scene, tmp_path):
+    """--np 2 on a Dask worker: the worker starts `mpirun -n 2 rftfem run`; the run
+    reports two processes and its tip deflection is the serial one to round-off."""
+    common = ["--vary", "shell.E=1e4", "--quantity", "w=max(tip_uz)"]
+    for name, options in (("serial", []), ("mpi", ["--executor", "dask", "--np", "2"])):
+        done = rftfem("sweep", scene, *common, "--out", tmp_path / name, *options,
+                      cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    serial, mpi = (read_rows(tmp_path / n / "sweep.csv")[0] for n in ("serial", "mpi"))
+    assert mpi["status"] == "ok", mpi["reason"]
+    summary = (tmp_path / "mpi" / mpi["folder"] / "summary.json").read_text()
+    assert '"mpi_size": 2' in summary
+    assert float(mpi["w"]) == pytest.approx(float(serial["w"]), rel=1e-10)
+
+
 def test_reuse_runs_only_what_is_missing_and_a_failed_run_is_a_row(scene, tmp_path):
     out = tmp_path / "sweep"
     args = ["sweep", scene, "--vary", "shell.E=1e4,2e4,-1", "--quantity",
