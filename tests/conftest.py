@@ -152,3 +152,29 @@ def cli_run(mpirun):
         return Path(out)
 
     return run
+
+
+#: a small clamped strip bent by a tip force (4 × 1 cells, four load steps, probe
+#: ``tip``): the cheapest complete run, for tests of the machinery around a run
+CANTILEVER = """
+title = "small cantilever"
+[mesh]
+length = 10.0
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+E = 1.0e4
+[time]
+end = 1.0
+dt = 0.25
+[[boundary]]
+where = "x=0"
+fix = ["clamped"]
+[[load]]
+kind = "edge-force"
+where = "x=L"
+value = [0.0, 0.0, 1.0e-3]
+[[output.probes]]
+name = "tip"
+at = [10.0, 0.5, 0.0]
+"""

@@ -14,34 +14,12 @@ import numpy as np
 import pytest
 
 import rftfem
-from conftest import run_command
+from conftest import CANTILEVER, run_command
 from rftfem import cli
 
 BAD = Path(__file__).parent / "scenes_bad"
 DEMOS = Path(__file__).parents[1] / "demos"
 
-CANTILEVER = """
-title = "api cantilever"
-[mesh]
-length = 10.0
-divisions = [4, 1]
-[shell]
-thickness = 0.1
-E = 1.0e4
-[time]
-end = 1.0
-dt = 0.25
-[[boundary]]
-where = "x=0"
-fix = ["clamped"]
-[[load]]
-kind = "edge-force"
-where = "x=L"
-value = [0.0, 0.0, 1.0e-3]
-[[output.probes]]
-name = "tip"
-at = [10.0, 0.5, 0.0]
-"""
 
 #: a short swim in drag (RFT, backward Euler) with a travelling wave: every table
 SWIM = ["time.end=0.0125", "time.dt=0.003125", "time.until=end", "output.fields=false"]

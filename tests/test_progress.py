@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import io
 
-from rftfem.outputs import writers as output
+from rftfem.outputs import progress as output
 
 
 class _Comm:

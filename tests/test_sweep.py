@@ -15,30 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import run_command
+from conftest import CANTILEVER, run_command
 
-CANTILEVER = """
-title = "sweep cantilever"
-[mesh]
-length = 10.0
-divisions = [4, 1]
-[shell]
-thickness = 0.1
-E = 1.0e4
-[time]
-end = 1.0
-dt = 0.25
-[[boundary]]
-where = "x=0"
-fix = ["clamped"]
-[[load]]
-kind = "edge-force"
-where = "x=L"
-value = [0.0, 0.0, 1.0e-3]
-[[output.probes]]
-name = "tip"
-at = [10.0, 0.5, 0.0]
-"""
 #: the same in drag, 400 steps: a run of a few seconds to kill a worker during
 SLOW = CANTILEVER.replace("dt = 0.25", "dt = 0.0025").replace(
     '[[output.probes]]', '[fluid]\ndrag = [1.0e-3, 1.0e-3, 2.0e-3]\n[[output.probes]]')

@@ -34,7 +34,8 @@ from rftfem.integration.error_control import ErrorControl
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.interrupts import NoStops, StopRequests
 from rftfem.model.shell_model import Model
-from rftfem.outputs.writers import BodyLog, Probes, Progress, render_in_child, write_json
+from rftfem.outputs.progress import Progress, render_in_child
+from rftfem.outputs.writers import BodyLog, Probes, write_json
 from rftfem.model.reactions import Reactions
 from rftfem.integration.restart import Restarts
 from rftfem.integration.run_outputs import RunOutputs

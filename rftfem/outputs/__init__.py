@@ -1,7 +1,8 @@
 """What a run leaves behind, and reading it again.
 
-- ``writers``: probes.csv, body.csv, steps.csv, the fields (XDMF) and the
-  progress line; ``field_mesh``: the mesh the fields are written on;
+- ``writers``: probes.csv, body.csv, steps.csv and the fields (XDMF);
+  ``field_mesh``: the mesh the fields are written on; ``progress``: the progress
+  line and warnings while a run runs;
 - ``checkpoint``: what a checkpoint holds and what a restart reads (the run's
   side of both is in ``rftfem.integration``: ``run_outputs``, ``restart``);
 - ``quantities``: the quantity language over a results folder; ``collect``:
