@@ -112,3 +112,35 @@ def initial_acceleration(model, solver) -> None:
     finally:
         for obj in (ksp, M, F, a, diag):
             obj.destroy()
+
+
+def frictional_acceleration(model, solver, dt: float) -> None:
+    """The acceleration at t = 0 of a body that rests on a plane with friction.
+
+    A regularized Coulomb law has no force at zero slip, so :func:`initial_acceleration`
+    gives such a body the acceleration it would have on ice, and the first step
+    starts it sliding where static friction should hold it.  Here the acceleration
+    is instead the mean one of a first step ``dt`` from rest, found with every force,
+    friction at that step's slip rate among them (docs/contact.md §3):
+
+        M a + F(u₀ + ½ a dt²) = 0,   the slip rate (u − u₀)/dt,
+
+    solved by Newton for ``u``, then ``a = 2 (u − u₀)/dt²``; the state is restored.
+    """
+    from rftfem.integration.schemes import Coefficients
+
+    saved = model.coefficients
+    model.set_coefficients(Coefficients(cv=1.0 / dt, ca=2.0 / dt**2, dt=dt))
+    contact = model.get("contact")
+    contact.set_time(0.0)
+    try:
+        ok, its, res, reason = solver.solve()
+        if not ok:
+            raise RuntimeError(f"the first step's mean acceleration on the planes: {reason}")
+        u = model.w.x.array[model.u_dofs]
+        model.a_n.x.array[:] = 2.0 * (u - model.u_n.x.array) / dt**2
+    finally:
+        model.restore()
+        model.set_coefficients(saved)
+        contact.set_time(0.0)
+        solver.forget_forces()

@@ -36,6 +36,8 @@ class Coefficients:
     alpha_f: float = 0.0
     #: the weight of ``a_n`` in ``a_{n+1−α_m}`` (prescribed motions' exact rates, motion.py)
     alpha_m: float = 0.0
+    #: the step (0: none, as for the initial acceleration); contact friction's slip rate
+    dt: float = 0.0
 
 
 class Scheme:
@@ -54,7 +56,7 @@ class Scheme:
     error_fraction = 1.0
 
     def coefficients(self, dt: float) -> Coefficients:
-        return Coefficients()
+        return Coefficients(dt=dt)
 
     def update(self, du, v_n, a_n, dt):
         """``(v_{n+1}, a_{n+1})`` after convergence, from ``du = u_{n+1} − u_n`` (arrays)."""
@@ -83,7 +85,7 @@ class BackwardEuler(Scheme):
     error_fraction = 0.5
 
     def coefficients(self, dt):
-        return Coefficients(cv=1.0 / dt)
+        return Coefficients(cv=1.0 / dt, dt=dt)
 
     def update(self, du, v_n, a_n, dt):
         return du / dt, 0.0 * a_n
@@ -114,9 +116,9 @@ class BDF2(Scheme):
 
     def coefficients(self, dt):
         if self.dt_prev is None:
-            return Coefficients(cv=1.0 / dt)
+            return Coefficients(cv=1.0 / dt, dt=dt)
         r = dt / self.dt_prev
-        return Coefficients(cv=(1 + 2 * r) / ((1 + r) * dt), cv_a=-r / (1 + r))
+        return Coefficients(cv=(1 + 2 * r) / ((1 + r) * dt), cv_a=-r / (1 + r), dt=dt)
 
     def update(self, du, v_n, a_n, dt):
         c = self.coefficients(dt)
@@ -163,7 +165,8 @@ class GeneralizedAlpha(Scheme):
         # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
         return Coefficients(cv=v_u, cv_v=v_v, cv_a=v_a,
                             ca=(1 - am) * a_u, ca_v=(1 - am) * a_v,
-                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f, alpha_m=am)
+                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f, alpha_m=am,
+                            dt=dt)
 
     def update(self, du, v_n, a_n, dt):
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)

@@ -171,6 +171,9 @@ class StepControl:
         if self.scheme.has_inertia:
             try:
                 impulses.initial_acceleration(m, self.solver)
+                contact = m.get("contact")
+                if contact is not None and contact.holds_at_rest():
+                    impulses.frictional_acceleration(m, self.solver, dt)
             except RuntimeError as exc:
                 raise RunFailed(f"no initial acceleration: {exc}", 0.0, 0) from None
         if m.drive and self.scheme.has_inertia:

@@ -25,6 +25,7 @@ from rftfem.model.effects.motion import Motions
 from rftfem.model.effects.point_force import PointForce
 from rftfem.model.effects.pressure import Pressure
 from rftfem.model.effects.gravity import Gravity
+from rftfem.model.effects.contact import Contact
 
 REGISTRY: tuple[type[Effect], ...] = (
     Elasticity,
@@ -37,6 +38,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     PointForce,
     Pressure,
     Gravity,
+    Contact,
     Boundaries,
     Motions,
 )

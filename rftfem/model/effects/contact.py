@@ -1,0 +1,309 @@
+"""Contact with planes and Coulomb friction, the scene's ``[[contact]]`` (docs/contact.md).
+
+Each entry is a plane the shell's lower face (the mid-surface less half the
+thickness along the director) may not cross: a barrier pressure pushes it back
+within a documented depth, and friction resists its slip.  Both are one UFL
+work of the current iterate (``forms.contact``), so the Newton tangent is
+``ufl.derivative`` of it, the friction's dependence on the pressure included.
+
+The slip velocity is the lower face's tangential displacement over the step
+divided by the step, measured from the state the step starts from.  That state
+is copied when the step's time is set, so after the step is accepted the
+body.csv values (the plane's force, the friction's power) are still those of
+the step that ended.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import ufl
+
+from rftfem.errors import SceneError
+from rftfem.forms import contact as forms
+from rftfem.forms.hinge import panel_director
+from rftfem.forms.kinematics import area_ratio, unit
+from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fmt, join
+from rftfem.scene.validators import POSITIVE
+
+from rftfem.model.effects.base import Effect
+
+#: the barrier's reach δ as a share of the thinnest shell thickness
+REACH_OF_THICKNESS = 0.1
+#: the default slip velocity scale ε_v as a share of the body's size per time.end
+SLIP_OF_SPEED = 1.0e-3
+#: how far below the plane (a share of δ) a node's lower face may start: round-off
+START_DEPTH = 1.0e-3
+COLUMNS = ["contact_Fx", "contact_Fy", "contact_Fz", "contact_area", "contact_energy",
+           "friction_power"]
+
+
+class Coefficient(Validator):
+    """A friction coefficient ≥ 0: one number, or ``[forward, backward, sideways]``."""
+
+    expected = "a number >= 0 or [forward, backward, sideways], numbers >= 0"
+
+    def __call__(self, value, path):
+        if isinstance(value, list):
+            if len(value) != 3:
+                raise err(path, self.expected, value)
+            out = []
+            for i, v in enumerate(value):
+                if isinstance(v, bool) or not isinstance(v, (int, float)) \
+                        or not math.isfinite(float(v)) or v < 0:
+                    raise err(path, self.expected, value,
+                              f" (entry {i}: {fmt(v)})")
+                out.append(float(v))
+            return out
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(float(value)) or value < 0:
+            raise err(path, self.expected, value)
+        return float(value)
+
+
+def _triple(mu) -> list[float]:
+    return list(mu) if isinstance(mu, list) else [float(mu)] * 3
+
+
+SCHEMA = Array(Table({
+    "kind": Leaf(Str(("plane",)), required=True,
+                 doc='What the body touches: "plane", an infinite plane.'),
+    "point": Leaf(Vec(), required=True, unit="length", doc="A point of the plane."),
+    "normal": Leaf(Vec(nonzero=True), required=True,
+                   doc="The plane's normal, pointing to the side the body stays on "
+                       "(any length; normalised)."),
+    "friction": Leaf(Coefficient(), 0.0,
+                     doc="The kinetic Coulomb coefficient μ_k: one number, or [forward, "
+                         "backward, sideways] for slip along +shell.axis, along −shell.axis "
+                         "and across it (the axis as the body carries it, projected on "
+                         "the plane). 0: frictionless."),
+    "static_friction": Leaf(Coefficient(), None,
+                            default_doc="equal to `friction`",
+                            doc="The static coefficient μ_s (same shapes as `friction`): "
+                                "the friction force reaches μ_s times the pressure at slip "
+                                "speed `slip_velocity`, and falls to μ_k beyond it "
+                                "(docs/contact.md §2)."),
+    "distance": Leaf(POSITIVE, None, unit="length",
+                     default_doc="0.1 × the thinnest shell thickness",
+                     doc="The barrier's reach δ: it pushes on the lower face within δ "
+                         "of the plane, on either side; a face pressed with the reference "
+                         "pressure rests on the plane, a lighter one floats less than δ "
+                         "above it, and none goes deeper than δ below it (while the "
+                         "pressure stays under ~420 times the reference)."),
+    "stiffness": Leaf(POSITIVE, None, unit="force/length³",
+                      default_doc="the reference pressure / ((2 ln 2 + 1) δ)",
+                      doc="The barrier's stiffness κ in the pressure −κ b′(g + δ). The "
+                          "default makes the reference pressure (the heaviest part's weight "
+                          "per area under the scene's gravity, along the plane's normal; "
+                          "without gravity the bending "
+                          "pressure D t / L⁴) rest the face on the plane (docs/contact.md §1)."),
+    "slip_velocity": Leaf(POSITIVE, None, unit="length/time",
+                          default_doc="1e-3 × the body's diagonal / time.end",
+                          doc="The velocity scale ε_v of the smoothed stick–slip law: below "
+                              "it the friction force grows from 0 to μ_s times the pressure "
+                              "(a sticking body creeps slower than ε_v); above it it falls "
+                              "to μ_k within a few ε_v."),
+}), doc="Planes the body touches with its lower face (the mid-surface less half the "
+        "thickness along the director): a barrier keeps it from crossing them, Coulomb "
+        "friction resists its slip (docs/contact.md).")
+
+
+class Contact(Effect):
+    name = "contact"
+    keys = {"contact": SCHEMA}
+    columns = COLUMNS
+
+    @classmethod
+    def active(cls, scene):
+        return bool(scene.get("contact"))
+
+    @classmethod
+    def check(cls, scene):
+        from rftfem.integration.schemes import resolved_scheme
+
+        for i, plane in enumerate(scene.get("contact") or []):
+            if plane["static_friction"] is None:
+                plane["static_friction"] = plane["friction"]
+            kinetic, static = _triple(plane["friction"]), _triple(plane["static_friction"])
+            for j, (k, s) in enumerate(zip(kinetic, static)):
+                if s < k:
+                    raise SceneError(f"contact.{i}.static_friction: expected at least "
+                                     f"contact.{i}.friction ({fmt(plane['friction'])}), found "
+                                     f"{fmt(plane['static_friction'])}"
+                                     + (f" (entry {j})" if isinstance(plane["friction"], list)
+                                        or isinstance(plane["static_friction"], list) else ""))
+        if scene.get("contact") and scene.get("time") and \
+                resolved_scheme(scene) == "arc-length":
+            raise SceneError('contact: not with time.scheme = "arc-length" (friction depends '
+                             "on the path a body takes, not on a load factor); use "
+                             '"static" load steps or a scheme in time')
+
+    def __init__(self, model):
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        super().__init__(model)
+        m = self.model
+        self.entries = list(self.scene["contact"])
+        k = m.kinematics()
+        t = m.material["t"]
+        Vu = m.Vu
+        #: the state the step starts from: the displacement and each colour's director
+        self.u_start = fem.Function(Vu, name="u_start")
+        self.dn_start = [fem.Function(Vu, name=f"dn_start_{c}") for c in range(m.n_colours)]
+        self.inv_dt = fem.Constant(m.mesh, PETSc.ScalarType(0.0))
+        #: per plane, κ as a Constant: 0 while the model's loads are off (the initial
+        #: state of a run in time is found without them, docs/contact.md §1)
+        self.stiffnesses = []
+        X = ufl.SpatialCoordinate(m.mesh)
+        d_start = [unit(dn) for dn in self.dn_start]
+        if m.n_colours > 1:
+            d0 = panel_director(m.colour_indicators, d_start)
+        else:
+            d0 = d_start[0]
+        face = forms.lower_face(X + k.u, k.d, t)
+        face_start = forms.lower_face(X + self.u_start, d0, t)
+        w_test = k.w_test
+        face_virtual = ufl.derivative(face, m.w, w_test)
+        self.dx = m.dx(metadata={"quadrature_degree": 4})
+
+        size = self._body_size()
+        thinnest = min(p["thickness"] for p in [self.scene["shell"], *self.scene["shell"]["parts"]]
+                       if "thickness" in p)
+        end = float(self.scene["time"]["end"])
+        self.planes = []
+        work, outputs = [], {name: [] for name in ("force", "area", "energy", "power")}
+        for i, plane in enumerate(self.entries):
+            normal = np.asarray(plane["normal"], dtype=float)
+            normal /= np.linalg.norm(normal)
+            reach = plane["distance"] or REACH_OF_THICKNESS * thinnest
+            stiffness = plane["stiffness"] or (self._reference_pressure(size, normal)
+                                               / (forms.SLOPE_ON_PLANE * reach))
+            v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / end
+            self.planes.append({"normal": normal, "point": np.asarray(plane["point"], float),
+                                "reach": reach, "stiffness": stiffness, "slip_velocity": v_scale})
+            const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
+                     (("reach", reach), ("stiffness", stiffness), ("v_scale", v_scale))}
+            self.stiffnesses.append(const["stiffness"])
+            n = fem.Constant(m.mesh, normal.astype(PETSc.ScalarType))
+            p = fem.Constant(m.mesh, np.asarray(plane["point"], dtype=PETSc.ScalarType))
+            g = forms.gap(face, p, n)
+            pressure = forms.contact_pressure(const["stiffness"], g, const["reach"])
+            v_slip = forms.slip_velocity(face, face_start, n, self.inv_dt)
+            kinetic, static = plane["friction"], plane["static_friction"]
+            if max(_triple(static)) == 0.0:
+                traction = 0 * v_slip
+            elif isinstance(kinetic, list) or isinstance(static, list):
+                axis = k.F_s * m.material_axis
+                frame = forms.friction_frame(axis, n)
+                traction = forms.friction_traction(
+                    pressure, v_slip, const["v_scale"],
+                    [PETSc.ScalarType(x) for x in _triple(kinetic)],
+                    [PETSc.ScalarType(x) for x in _triple(static)], frame)
+            else:
+                traction = forms.friction_traction(pressure, v_slip, const["v_scale"],
+                                                   float(kinetic), float(static))
+            work.append(forms.contact_work(pressure, traction, n, face_virtual, self.dx))
+            J = area_ratio(k.g1, k.g2, k.G1, k.G2)
+            outputs["force"].append(pressure * n + traction)
+            outputs["area"].append(ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J))
+            outputs["energy"].append(const["stiffness"] * forms.barrier(g, const["reach"]))
+            outputs["power"].append(-ufl.dot(traction, v_slip))
+        self._work = sum(work[1:], work[0])
+        self._outputs = {name: sum(terms[1:], terms[0]) for name, terms in outputs.items()}
+        self._compiled = None
+        self._check_start()
+
+    # --- scales and the start ---------------------------------------------------
+
+    def _nodes(self) -> np.ndarray:
+        m = self.model
+        owned = m.Vu.dofmap.index_map.size_local
+        return m.Vu.tabulate_dof_coordinates()[:owned]
+
+    def _body_size(self) -> float:
+        m = self.model
+        x = self._nodes()
+        lo = np.min(m.comm.allgather(x.min(axis=0) if len(x) else np.full(3, np.inf)), axis=0)
+        hi = np.max(m.comm.allgather(x.max(axis=0) if len(x) else np.full(3, -np.inf)), axis=0)
+        return float(np.linalg.norm(hi - lo))
+
+    def _reference_pressure(self, size: float, normal: np.ndarray) -> float:
+        """The pressure the default stiffness rests on the plane: the largest weight per
+        area over the shell's parts under the scene's gravity, its part along the
+        plane's normal (all of it if gravity is parallel to the plane); without
+        gravity the pressure D t / L⁴ that bends the body by its thickness."""
+        shell = self.scene["shell"]
+        parts = [shell, *shell["parts"]]
+        weights = []
+        for ld in self.scene.get("load") or []:
+            if ld["kind"] != "gravity":
+                continue
+            g = np.asarray(ld["value"], dtype=float)
+            g_n = abs(float(g @ normal)) or float(np.linalg.norm(g))
+            weights += [abs(p.get("density", shell["density"]) - ld["fluid_density"])
+                        * p.get("thickness", shell["thickness"]) * g_n for p in parts]
+        if weights and max(weights) > 0.0:
+            return max(weights)
+        t, E, nu = shell["thickness"], shell["E"], shell["nu"]
+        return E * t**3 / (12 * (1 - nu**2)) * t / size**4
+
+    def _check_start(self):
+        """No node's lower face may start below a plane (beyond round-off)."""
+        from rftfem import compat
+
+        m = self.model
+        X = m.Vu.tabulate_dof_coordinates()
+        D = m.D.x.array.reshape(-1, 3)
+        cells = compat.cell_dofs(m.Vu)
+        t_cell = m.material["t"].x.array[compat.cell_dofs(m.material["t"].function_space)[:, 0]]
+        faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
+        for i, plane in enumerate(self.planes):
+            g = (faces.reshape(-1, 3) - plane["point"]) @ plane["normal"]
+            low = float(g.min()) if len(g) else np.inf
+            low, where = min(m.comm.allgather(
+                (low, faces.reshape(-1, 3)[int(np.argmin(g))].tolist() if len(g) else None)),
+                key=lambda pair: pair[0])
+            if low < -START_DEPTH * plane["reach"]:
+                at = ", ".join(f"{c:.4g}" for c in where)
+                raise SceneError(f"contact.{i}: the body starts through the plane: its lower "
+                                 f"face is {-low:.4g} below it at ({at}) (the normal points to "
+                                 "the side the body stays on; the lower face is the mid-surface "
+                                 "less half the thickness along the director)")
+
+    # --- the effect ----------------------------------------------------------------
+
+    def forces(self):
+        return self._work
+
+    def set_time(self, t):
+        """The step ending at ``t`` starts from the model's last converged state: keep it,
+        and the step's 1/Δt (0 where no step is set, as in the initial acceleration)."""
+        m = self.model
+        self.u_start.x.array[:] = m.u_n.x.array
+        for dn, (_, _, frame_dn) in zip(self.dn_start, m.triads):
+            dn.x.array[:] = frame_dn.x.array
+        dt = getattr(m.coefficients, "dt", 0.0) if m.coefficients is not None else 0.0
+        self.inv_dt.value = 1.0 / dt if dt > 0.0 else 0.0
+        for kappa, plane in zip(self.stiffnesses, self.planes):
+            kappa.value = plane["stiffness"] if m.loads_on else 0.0
+
+    def values(self, t):
+        m = self.model
+        if self._compiled is None:
+            out = self._outputs
+            self._compiled = ([m.compile(out["force"][i] * self.dx) for i in range(3)]
+                              + [m.compile(out[name] * self.dx)
+                                 for name in ("area", "energy", "power")])
+        return [m.assemble_scalar(f) for f in self._compiled]
+
+    def holds_at_rest(self) -> bool:
+        """Whether friction may hold the body at the current state: a plane with friction
+        presses on it (then its acceleration at rest is not the frictionless one)."""
+        rubbing = [max(_triple(p["static_friction"])) > 0.0 for p in self.entries]
+        return any(rubbing) and self.values(0.0)[3] > 0.0
+
+    def plane_settings(self) -> list[dict]:
+        """Each plane's resolved settings (normal, point, reach, stiffness, slip velocity)."""
+        return self.planes
