@@ -25,7 +25,7 @@ import math
 import ufl
 
 #: where the logarithmic barrier is continued by its Taylor polynomial, as a share of
-#: ŝ = 2δ: there the contact pressure is ≈ 420 times that on the plane
+#: ŝ = 2δ: there the contact pressure is ≈ 850 times that on the plane
 CLAMP = 1.0e-3
 #: ``−b′(δ)/δ = 2 ln 2 + 1``: the barrier's slope on the plane, per unit reach
 SLOPE_ON_PLANE = 2 * math.log(2.0) + 1

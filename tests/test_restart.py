@@ -58,7 +58,24 @@ CASES = {
     # travelling wave, 40 steps; a checkpoint every 4, a row every 3
     "stokes-sheet": (lambda folder: swimming_sheet_scene(folder), 40,
                      ["time.output_every=3", "output.checkpoint_every=4"]),
+    # contact: a strip sliding down a slope with anisotropic friction, its friction
+    # measured from each step's start (generalized-α), 40 steps; a checkpoint every 4
+    "contact-slope": (lambda folder: slope_scene(folder), 40,
+                      ["time.output_every=3", "output.checkpoint_every=4"]),
 }
+
+
+def slope_scene(folder: Path) -> Path:
+    import math
+
+    from test_contact import STRIP, tilted
+
+    text = STRIP.format(end=0.04, dt=1e-3, rho_inf=0.5, gravity=list(tilted(math.atan(0.4))),
+                        mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6],
+                        extra='[[output.probes]]\nname = "corner"\nat = [2.0, 0.5, 0.0]\n')
+    path = Path(folder) / "slope.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
 
 
 def plate_scene(folder: Path) -> Path:

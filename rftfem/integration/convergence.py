@@ -78,6 +78,9 @@ class NewtonTest:
             return R.DIVERGED_DTOL
         if fnorm <= rtol * self._fnorms[0]:
             return R.CONVERGED_FNORM_RELATIVE
+        if self.shortened:  # a shortened update is no measure of the distance left
+            self.shortened = False
+            return R.CONVERGED_ITERATING
         if snorm < stol * xnorm:
             return R.CONVERGED_SNORM_RELATIVE
         if it >= 2 and self._snorms[-2] > 0.0:

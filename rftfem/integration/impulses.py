@@ -77,9 +77,17 @@ def initial_acceleration(model, solver) -> None:
     comm = model.comm
     F = compat.create_vector(model.forces_form, model.W)
     solver.assemble_forces(F)
+    if model.end_form is not None:  # the contact forces at t = 0
+        F_end = F.duplicate()
+        with F_end.localForm() as local:
+            local.set(0.0)
+        compat.assemble_vector(F_end, model.end_form)
+        F_end.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        F.axpy(1.0, F_end)
+        F_end.destroy()
     # the mass matrix: the step's Jacobian with c_a = 1 and the forces weighted by 1 − α_f = 0
     saved = model.coefficients
-    model.set_coefficients(Coefficients(ca=1.0, alpha_f=1.0))
+    model.set_coefficients(Coefficients(ca=1.0, alpha_f=1.0, end_weight=0.0))
     M = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(solver.options))
     model.start_newton()
     model.tangent_at_iterate()

@@ -10,7 +10,10 @@ the stored state ``(u_n, v_n, a_n)``, all linearly:
 and with which weight ``α_f`` the non-inertial forces of the last step enter
 the residual
 
-    R = M a_{n+1−α_m} + (1 − α_f) F(u_{n+1}, v_{n+1}, d_{n+1}, t_{n+1}) + α_f F_n.
+    R = M a_{n+1−α_m} + (1 − α_f) F(u_{n+1}, v_{n+1}, d_{n+1}, t_{n+1}) + α_f F_n
+        + F_end(u_{n+1})
+
+(``F_end``: the contact forces, taken in full at the step's end).
 
 Averaging *forces* rather than states is what lets the director be updated
 multiplicatively (there is no meaningful "average director").  Which scheme a scene
@@ -38,6 +41,9 @@ class Coefficients:
     alpha_m: float = 0.0
     #: the step (0: none, as for the initial acceleration); contact friction's slip rate
     dt: float = 0.0
+    #: the weight of the forces taken at the step's end (``Effect.end_forces``): 0 only
+    #: where the step's tangent stands for the mass matrix (impulses.py)
+    end_weight: float = 1.0
 
 
 class Scheme:

@@ -70,6 +70,9 @@ class StepSolver(NewtonTest):
         self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A,
                               self.A)
         self.snes.setConvergenceTest(self._converged)
+        #: effects that shorten a Newton update (contact: keeps the lower face off the
+        #: far side of its barrier, docs/contact.md §3)
+        self._step_limits = [c for c in model.components if hasattr(c, "newton_step_fraction")]
         #: a residual this small that Newton no longer reduces is round-off: the
         #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
         self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()
@@ -82,12 +85,15 @@ class StepSolver(NewtonTest):
         #: update), and why the last solve was stopped as diverging (None if it was not)
         self.turns: list[float] = []
         self.divergence: str | None = None
+        self.shortened = False
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
             raise SceneError(f"solver: PETSc rejected an option of [solver] or the command "
                              f"line: {petsc_message(exc)}") from None
+        if self._step_limits:  # after setFromOptions, which makes the line search anew
+            self.snes.setLineSearchPreCheck(self._limit_update)
         self.force_iteration()
 
     def destroy(self):
@@ -149,6 +155,9 @@ class StepSolver(NewtonTest):
         if m.inertia_form is not None:
             self._assemble(self.work, m.inertia_form)
             b.axpy(1.0, self.work)
+        if m.end_form is not None:
+            self._assemble(self.work, m.end_form)
+            b.axpy(float(m.coef["end_weight"].value), self.work)
         # Dirichlet rows hold x − g.  Where the iterate does not meet the values
         # (the first residual of a step that starts from the last state, solve),
         # the other rows get the lifting A (g − x): the first Newton update then
@@ -172,6 +181,16 @@ class StepSolver(NewtonTest):
         compat.set_bc(b, m.bcs, x, -1.0)
         self._x_of_F = x.copy(self._x_of_F)  # F belongs to this iterate (store_forces)
         self._count("residual", t0)
+
+    def _limit_update(self, x, y):
+        """Scale the Newton update ``−y`` at ``x`` by the smallest fraction the effects
+        allow (SNES's line-search pre-check)."""
+        fraction = min(c.newton_step_fraction(x.array_r, y.array_r) for c in self._step_limits)
+        #: whether the last update was shortened (then its length says nothing of the
+        #: distance to the solution: convergence.py's step tests skip it)
+        self.shortened = fraction < 1.0
+        if self.shortened:
+            y.scale(fraction)
 
     def _jacobian(self, snes, x, A, P):
         t0 = _time.perf_counter()
@@ -334,7 +353,8 @@ class StepSolver(NewtonTest):
 
     def raw_residual(self):
         """The local array (owned entries complete) of the converged step's residual
-        before its Dirichlet rows are replaced: ``(1 − α_f) F + α_f F_n`` plus inertia,
+        before its Dirichlet rows are replaced: ``(1 − α_f) F + α_f F_n`` plus inertia and
+        the step-end forces,
         at the model's current iterate (reactions.py)."""
         m = self.model
         if self._x_of_F is not None:
@@ -352,6 +372,9 @@ class StepSolver(NewtonTest):
         if m.inertia_form is not None:
             self._assemble(self.work, m.inertia_form)
             out += self.work.array
+        if m.end_form is not None:
+            self._assemble(self.work, m.end_form)
+            out += float(m.coef["end_weight"].value) * self.work.array
         return out
 
     def forget_forces(self):

@@ -111,7 +111,8 @@ class Model(StepStart, BodyMeasures):
         self._init_materials()
         #: the time scheme's coefficients of velocity and acceleration (rftfem/integration/schemes.py)
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
-                     for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f")}
+                     for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f",
+                               "end_weight")}
         self.coefficients = None  # the last ones set (timeint.Coefficients)
         #: prescribed motions in a second-order scheme: corrections to the velocity and
         #: acceleration that make them the motion's own on the driven dofs (motion.py)
@@ -269,9 +270,14 @@ class Model(StepStart, BodyMeasures):
                 self.effects[c.name] = sum(terms[1:], terms[0])
         inertia = [c.inertia() for c in self.components if c.inertia() is not None]
         self.inertia = sum(inertia[1:], inertia[0]) if inertia else None
+        ends = [c.end_forces() for c in self.components if c.end_forces() is not None]
+        #: forces taken in full at the step's end (contact), or None
+        self.end_forces = sum(ends[1:], ends[0]) if ends else None
         terms = list(self.effects.values())
         self.forces_ufl = sum(terms[1:], terms[0])
         residual = (1 - self.coef["alpha_f"]) * self.forces_ufl + (self.inertia or 0)
+        if self.end_forces is not None:
+            residual += self.coef["end_weight"] * self.end_forces
         trial = ufl.TrialFunction(self.W)
         self.jacobian_ufl = ufl.derivative(residual, self.w, trial)
         corrections = [c.tangent_correction() for c in self.components] if self.mixed_point \
@@ -279,11 +285,13 @@ class Model(StepStart, BodyMeasures):
         for corr in (c for c in corrections if c is not None):
             self.jacobian_ufl += (1 - self.coef["alpha_f"]) * ufl.derivative(
                 ufl.derivative(corr, self.w, w_test), self.w, trial)
-        self.forces_form = self.inertia_form = self.jacobian_form = None
+        self.forces_form = self.inertia_form = self.jacobian_form = self.end_form = None
         if self.compile_forms:
             self.forces_form = self.compile(self.forces_ufl)
             if self.inertia is not None:
                 self.inertia_form = self.compile(self.inertia)
+            if self.end_forces is not None:
+                self.end_form = self.compile(self.end_forces)
             self.jacobian_form = self.compile(self.jacobian_ufl)
 
     def add_nodal_forces(self, F: np.ndarray):

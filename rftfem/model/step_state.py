@@ -41,10 +41,24 @@ class StepStart:
             polynomial = self._extrapolated_rates(dt, turn=False)
             self.prediction = {1: (u_n + dt * du / dt_1, dt * theta / dt_1),
                                len(self.increments): (u_n + dt * polynomial[0], dt * qt)}
-        self.w.x.array[self.u_dofs] = u_n + dt * qu
-        self.w.x.array[self.theta_dofs] = dt * qt
+        fraction = self._prediction_fraction(u_n, dt * qu)
+        self.w.x.array[self.u_dofs] = u_n + fraction * dt * qu
+        self.w.x.array[self.theta_dofs] = fraction * dt * qt
         local = float(np.abs(qu).max()) * dt if len(qu) else 0.0
         self.predicted_step = self.comm.allreduce(local, op=MPI.MAX)
+
+    def _prediction_fraction(self, u_n, du) -> float:
+        """The part of a predicted increment ``du`` the effects allow (contact: the
+        prediction may not carry the lower face through its barrier, as a Newton update
+        may not; solver.py), 1 without such effects."""
+        limits = [c for c in self.components if hasattr(c, "newton_step_fraction")]
+        if not limits:
+            return 1.0
+        start = np.zeros_like(self.w.x.array)
+        start[self.u_dofs] = u_n
+        step = np.zeros_like(start)
+        step[self.u_dofs] = -du
+        return min(c.newton_step_fraction(start, step, keep=0.3) for c in limits)
 
     def _extrapolated_rates(self, dt: float, turn: bool = True):
         """The rates ``(q_u, q_θ)`` of ``predict`` for a step of ``dt``.  With ``turn``,

@@ -119,6 +119,10 @@ def check_request(scene: dict, keys: list[str], objective: str) -> tuple[list[Ke
         raise SceneError(f"gradients: time.scheme resolves to '{scene['time']['scheme']}'; "
                          'adjoint sensitivities are for static runs (time.scheme = "static") '
                          "only (docs/model.md §7.6)")
+    if scene.get("contact"):
+        raise SceneError("gradients: the scene has [[contact]], whose friction depends on the "
+                         "path of the load steps; adjoint sensitivities are for scenes "
+                         "without contact (use finite differences: rftfem study)")
     parsed = [parse_key(k) for k in keys]
     for key in parsed:
         _check_key(scene, key)

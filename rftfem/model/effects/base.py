@@ -59,6 +59,11 @@ class Effect:
         """A 0-form whose second derivative is added to the Newton tangent, not to the
         residual (the converged state is the same), or None."""
 
+    def end_forces(self):
+        """Virtual work of forces taken in full at the step's end, not averaged with the
+        last step's by ``α_f`` (contact: an averaged barrier force gains energy in an
+        impact a step resolves badly), or None.  Not part of ``F`` or ``F_n``."""
+
     def inertia(self):
         """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
 

@@ -90,7 +90,7 @@ SCHEMA = Array(Table({
                          "of the plane, on either side; a face pressed with the reference "
                          "pressure rests on the plane, a lighter one floats less than δ "
                          "above it, and none goes deeper than δ below it (while the "
-                         "pressure stays under ~420 times the reference)."),
+                         "pressure stays under ~850 times the reference)."),
     "stiffness": Leaf(POSITIVE, None, unit="force/length³",
                       default_doc="the reference pressure / ((2 ln 2 + 1) δ)",
                       doc="The barrier's stiffness κ in the pressure −κ b′(g + δ). The "
@@ -213,6 +213,7 @@ class Contact(Effect):
         self._work = sum(work[1:], work[0])
         self._outputs = {name: sum(terms[1:], terms[0]) for name, terms in outputs.items()}
         self._compiled = None
+        self._nodes = None
         self._check_start()
 
     # --- scales and the start ---------------------------------------------------
@@ -236,16 +237,18 @@ class Contact(Effect):
         gravity the pressure D t / L⁴ that bends the body by its thickness."""
         shell = self.scene["shell"]
         parts = [shell, *shell["parts"]]
-        weights = []
+        along, whole = 0.0, 0.0  # the largest weight per area: along n, and all of it
         for ld in self.scene.get("load") or []:
             if ld["kind"] != "gravity":
                 continue
             g = np.asarray(ld["value"], dtype=float)
-            g_n = abs(float(g @ normal)) or float(np.linalg.norm(g))
-            weights += [abs(p.get("density", shell["density"]) - ld["fluid_density"])
-                        * p.get("thickness", shell["thickness"]) * g_n for p in parts]
-        if weights and max(weights) > 0.0:
-            return max(weights)
+            for p in parts:
+                w = abs(p.get("density", shell["density"]) - ld["fluid_density"]) \
+                    * p.get("thickness", shell["thickness"])
+                along = max(along, w * abs(float(g @ normal)))
+                whole = max(whole, w * float(np.linalg.norm(g)))
+        if along > 0.0 or whole > 0.0:
+            return along or whole
         t, E, nu = shell["thickness"], shell["E"], shell["nu"]
         return E * t**3 / (12 * (1 - nu**2)) * t / size**4
 
@@ -272,9 +275,53 @@ class Contact(Effect):
                                  "the side the body stays on; the lower face is the mid-surface "
                                  "less half the thickness along the director)")
 
+    # --- Newton updates ----------------------------------------------------------
+
+    def _nodal_data(self):
+        """The owned nodes' reference positions, their rows of ``w``'s owned array, and
+        the thickest adjacent cell's thickness (for the gaps of ``newton_step_fraction``)."""
+        from rftfem import compat
+
+        m = self.model
+        owned_dofs = m.W.dofmap.index_map.size_local * m.W.dofmap.index_map_bs
+        u_dofs = m.u_dofs.reshape(-1, 3)
+        keep = np.all(u_dofs < owned_dofs, axis=1)
+        X = m.Vu.tabulate_dof_coordinates()
+        cells = compat.cell_dofs(m.Vu)
+        t_cell = m.material["t"].x.array[compat.cell_dofs(m.material["t"].function_space)[:, 0]]
+        t_node = np.zeros(len(X))
+        np.maximum.at(t_node, cells.ravel(), np.repeat(t_cell, cells.shape[1]))
+        return X[keep], u_dofs[keep], t_node[keep], keep
+
+    def newton_step_fraction(self, x: np.ndarray, y: np.ndarray, keep: float = 0.2) -> float:
+        """The longest part of the Newton update ``−y`` from ``x`` (owned arrays of
+        ``w``) that keeps every node's barrier argument ``s = g + δ`` above ``keep`` of
+        its value, ``s + Δs ≥ keep·s`` (IPC's filtered line search, on the nodal
+        displacements with the director of the step's start): a Newton update that
+        would jump a node through the barrier into its clamped region is shortened.
+        A step's prediction keeps 0.3 (step_state.py): from deep in the barrier Newton
+        climbs back only by doubling ``s`` an update.  Global over processes."""
+        if self._nodes is None:
+            self._nodes = self._nodal_data()
+        X, rows, t, owned = self._nodes
+        d = self.dn_start[0].x.array.reshape(-1, 3)[owned]
+        u, du = x[rows], -y[rows]
+        fraction = 1.0
+        for plane in self.planes:
+            n, reach = plane["normal"], plane["reach"]
+            s = (X + u - 0.5 * t[:, None] * d - plane["point"]) @ n + reach
+            ds = du @ n
+            # closing in, ending within the barrier's reach, and not already past its
+            # logarithmic part (there the Taylor polynomial holds it, and Newton walks out)
+            closing = (ds < 0.0) & (s < 2.0 * reach - ds) & (s > forms.CLAMP * 2.0 * reach)
+            if np.any(closing):
+                fraction = min(fraction, float(np.min((1.0 - keep) * s[closing]
+                                                      / -ds[closing])))
+        return self.model.comm.allreduce(min(fraction, 1.0), op=_mpi_min())
+
     # --- the effect ----------------------------------------------------------------
 
-    def forces(self):
+    def end_forces(self):
         return self._work
 
     def set_time(self, t):
@@ -307,3 +354,8 @@ class Contact(Effect):
     def plane_settings(self) -> list[dict]:
         """Each plane's resolved settings (normal, point, reach, stiffness, slip velocity)."""
         return self.planes
+
+
+def _mpi_min():
+    from mpi4py import MPI
+    return MPI.MIN

@@ -1,0 +1,300 @@
+"""``[[contact]]`` kind = "plane": a strip on a floor, against exact answers.
+
+A stiff strip 2 × 0.5 × 0.1 mm (density 1e-9 t/mm³, so m = 1e-10 t) lies on the
+plane z = −0.05 with its lower face, and moves as a rigid block:
+
+- at rest under its weight the plane carries the weight, whatever the strip's
+  density pattern, and no point sinks deeper than the barrier's reach δ;
+- on an incline (gravity tilted by α) it sticks while tan α < μ_s, else slides
+  at a = g (sin α − μ_k cos α); with anisotropic coefficients each direction
+  meets its own (REFERENCES K, adapted from PyElastica's friction cases);
+- pushed by an edge force F it stays for F < μ_s m g, else its kinetic energy
+  is t² (F − μ_k m g)² / (2m);
+- the friction's work (∫ friction_power dt) is the mechanical energy lost;
+- a dropped strip bounces without gaining energy, and the hard steps (impact,
+  lift-off, the onset of sliding) take at most six Newton iterations.
+
+The contact forces act in full at each step's end, so a strip sliding at constant
+friction meets its exact acceleration to 3e-8 on both stacks; the tolerances are
+about ten times what both stacks reach.  The rolling hoop is tests/test_contact_rolling.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import run_scene, write_scene
+
+G, RHO, T, AREA = 9810.0, 1.0e-9, 0.1, 1.0
+MASS = RHO * T * AREA
+FLOOR = -0.05  # the strip's mid-surface at z = 0 rests its lower face on it
+
+STRIP = """
+title = "a strip on a floor"
+[mesh]
+length = 2.0
+width = 0.5
+divisions = [4, 1]
+[shell]
+thickness = 0.1
+E = 1.2e6
+nu = 0.3
+density = 1.0e-9
+[time]
+end = {end}
+dt = {dt}
+rho_inf = {rho_inf}
+[[load]]
+kind = "gravity"
+value = {gravity}
+ramp = "constant"
+[[contact]]
+kind = "plane"
+point = [0.0, 0.0, -0.05]
+normal = [0.0, 0.0, 1.0]
+friction = {mu_k}
+static_friction = {mu_s}
+{extra}
+"""
+
+
+def strip(tmp_path, name, gravity=(0.0, 0.0, -G), mu_k=0.3, mu_s=0.4, end=0.05, dt=1e-3,
+          rho_inf=0.0, extra="", sets=()):
+    text = STRIP.format(end=end, dt=dt, rho_inf=rho_inf, gravity=[float(g) for g in gravity],
+                        mu_k=mu_k, mu_s=mu_s, extra=extra)
+    out = tmp_path / name
+    sim = run_scene(write_scene(tmp_path, text, name=f"{name}.toml"), *sets, out_dir=out)
+    body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
+    steps = np.genfromtxt(out / "steps.csv", delimiter=",", names=True)
+    return sim, body, steps
+
+
+def tilted(alpha, direction=(1.0, 0.0)):
+    """Gravity tilted by α: its part along the floor along ``direction``."""
+    s = G * math.sin(alpha)
+    return (s * direction[0], s * direction[1], -G * math.cos(alpha))
+
+
+def fitted_acceleration(body, axis="x"):
+    """Twice the leading coefficient of a quadratic through the second half."""
+    t, x = body["time"], body[f"centroid_{axis}"]
+    half = len(t) // 2
+    return 2.0 * np.polyfit(t[half:], x[half:], 2)[0]
+
+
+def test_strip_rests_on_the_floor_with_its_weight(tmp_path):
+    """Static load steps; the left half three times as dense: the plane's resultant
+    equals the weight to 1e-6 (reached 2e-15), the lower face stays above −δ
+    everywhere (the heavy end sinks, the light end floats), nothing slides."""
+    extra = """
+[[mesh.regions]]
+name = "heavy"
+x = [0.0, 1.0]
+[[shell.parts]]
+region = "heavy"
+density = 3.0e-9
+[[output.probes]]
+name = "heavy_end"
+at = [0.0, 0.25, 0.0]
+[[output.probes]]
+name = "light_end"
+at = [2.0, 0.25, 0.0]
+"""
+    sim, body, _ = strip(tmp_path, "rest", end=1.0, dt=0.5, extra=extra,
+                         sets=["time.scheme=static"])
+    weight = (3.0 + 1.0) / 2 * MASS * G
+    last = body[-1]
+    assert abs(last["contact_Fz"] - weight) < 1e-6 * weight, last["contact_Fz"] / weight - 1
+    assert abs(last["contact_Fx"]) < 1e-9 * weight and abs(last["contact_Fy"]) < 1e-9 * weight
+    reach = sim.model.get("contact").planes[0]["reach"]
+    assert reach == pytest.approx(0.1 * T)
+    probes = np.genfromtxt(tmp_path / "rest" / "probes.csv", delimiter=",", names=True)
+    heavy, light = probes["heavy_end_uz"][-1], probes["light_end_uz"][-1]
+    print(f"weight {last['contact_Fz'] / weight - 1:.1e}; ends at {heavy:.4g}, {light:.4g} "
+          f"(δ = {reach:g})")
+    assert -reach < heavy < 0.0 < light < reach  # lower faces within ±δ of the plane
+    # it tilts about its lower face, which friction holds: the mid-surface shifts by
+    # (t/2) × the tilt
+    tilt = (light - heavy) / 2.0
+    assert 0.0 < abs(last["centroid_x"] - 1.0) < 1.01 * T / 2 * tilt
+
+
+@pytest.mark.parametrize("direction, mu, slides", [
+    ((1.0, 0.0), 0.2, True),     # forward (+shell.axis): μ_s 0.25 < tan α, slides at μ_k 0.2
+    ((-1.0, 0.0), 0.3, True),    # backward: μ_s 0.35 < tan α, slides at μ_k 0.3
+    ((0.0, 1.0), 0.5, False),    # sideways: μ_s 0.6 > tan α, sticks
+], ids=["forward", "backward", "sideways"])
+def test_incline_with_anisotropic_friction(tmp_path, direction, mu, slides):
+    """tan α = 0.4 with friction [0.2, 0.3, 0.5] and static [0.25, 0.35, 0.6] along
+    the strip's axis (X): slides down along ±X at g (sin α − μ_k cos α) within 3e-7
+    (reached 3.9e-9 and 2.6e-8), sticks across (creeps below the slip velocity ε_v,
+    friction = m g sin α within 4e-5, reached 3.8e-6)."""
+    alpha = math.atan(0.4)
+    sim, body, _ = strip(tmp_path, "incline", gravity=tilted(alpha, direction),
+                         mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6])
+    axis = "x" if direction[0] else "y"
+    sign = direction[0] + direction[1]
+    if slides:
+        exact = G * (math.sin(alpha) - mu * math.cos(alpha))
+        a = sign * fitted_acceleration(body, axis)
+        print(f"{direction}: a = {a:.6g}, exact {exact:.6g}, error {a / exact - 1:.1e}")
+        assert abs(a / exact - 1) < 3e-7
+    else:
+        creep = abs(body[f"centroid_{axis}"][-1] - body[f"centroid_{axis}"][0])
+        v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+        friction = -sign * body[f"contact_F{axis}"][-1]
+        print(f"sticks: crept {creep:.3g} (ε_v t = {v_scale * 0.05:.3g}), friction / "
+              f"m g sin α - 1 = {friction / (MASS * G * math.sin(alpha)) - 1:.1e}")
+        assert creep < v_scale * 0.05
+        assert abs(friction / (MASS * G * math.sin(alpha)) - 1) < 4e-5
+
+
+def test_sticks_below_the_static_coefficient(tmp_path):
+    """Isotropic μ_s = 0.4 > tan α = 0.35 > μ_k = 0.3: a body started sliding would
+    go on sliding, so this checks that it starts sticking (its t = 0 acceleration
+    comes from the first step with friction, not from the frictionless forces)."""
+    alpha = math.atan(0.35)
+    sim, body, _ = strip(tmp_path, "stick", gravity=tilted(alpha))
+    v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+    creep = body["centroid_x"][-1] - body["centroid_x"][0]
+    print(f"crept {creep:.3g} in 0.05 (ε_v t = {v_scale * 0.05:.3g})")
+    assert 0.0 <= creep < v_scale * 0.05
+
+
+@pytest.mark.parametrize("push", [0.8, 2.0])
+def test_pushed_strip(tmp_path, push):
+    """An edge force F = push · μ_s m g on the edge x = 0 along +X: below μ_s m g the
+    strip stays (creeps below ε_v); above it its kinetic energy is
+    t² (F − μ_k m g)² / (2m) (within 1e-9 at the end of the run, reached 5e-11)."""
+    F = push * 0.4 * MASS * G
+    extra = f"""
+[[load]]
+kind = "edge-force"
+where = "x=0"
+value = [{F!r}, 0.0, 0.0]
+ramp = "constant"
+"""
+    sim, body, _ = strip(tmp_path, "push", extra=extra)
+    t, x = body["time"], body["centroid_x"] - 1.0
+    v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+    if push < 1.0:
+        print(f"F < μ_s m g: moved {x[-1]:.3g} (ε_v t = {v_scale * t[-1]:.3g})")
+        assert 0.0 <= x[-1] < v_scale * t[-1]
+        return
+    exact = t[-1] ** 2 * (F - 0.3 * MASS * G) ** 2 / (2 * MASS)
+    kinetic = body["kinetic_energy"][-1]
+    print(f"kinetic energy {kinetic:.6g}, exact {exact:.6g}: {kinetic / exact - 1:.1e}")
+    assert abs(kinetic / exact - 1) < 1e-9
+
+
+def test_friction_work_is_the_energy_lost(tmp_path):
+    """Sliding down tan α = 0.5 with the trapezoidal rule (ρ∞ = 1, no numerical
+    dissipation): the kinetic energy gained falls short of the weight's work by
+    the friction's work, to 1e-4 of it.  A row's friction_power is the mean over
+    the step that ended there, so the work is the sum of power × dt (within 2e-5,
+    reached 1.9e-6)."""
+    alpha = math.atan(0.5)
+    g = np.array(tilted(alpha))
+    _, body, _ = strip(tmp_path, "energy", gravity=g, rho_inf=1.0)
+    centroid = np.stack([body["centroid_x"], body["centroid_y"], body["centroid_z"]], axis=1)
+    weight_work = MASS * (centroid - centroid[0]) @ g
+    stored = body["kinetic_energy"] + body["elastic_energy"] + body["contact_energy"]
+    lost = weight_work - (stored - stored[0])
+    power = body["friction_power"]
+    work = np.concatenate([[0.0], np.cumsum(np.diff(body["time"]) * power[1:])])
+    print(f"lost {lost[-1]:.6g}, friction work {work[-1]:.6g}: {lost[-1] / work[-1] - 1:.1e}")
+    assert work[-1] > 0.1 * weight_work[-1]  # friction takes a good part of it
+    assert abs(lost[-1] / work[-1] - 1) < 2e-5
+
+
+def test_dropped_strip_bounces_without_gaining_energy(tmp_path):
+    """Dropped from 0.3 mm (three thicknesses) above the floor, it hits it at 77 mm/s,
+    with the trapezoidal rule (ρ∞ = 1): the energy never grows (within 1e-6 of the
+    weight's work over the fall), each impact loses some (the contact forces act in
+    full at a step's end: restitution 0.44 at this step, docs/contact.md), the strip
+    comes back up, and no step takes more than 6 Newton iterations (reached 5)."""
+    fall = 0.3
+    _, body, steps = strip(tmp_path, "drop", rho_inf=1.0, end=0.03, dt=2.5e-4,
+                           mu_k=0.0, mu_s=0.0, sets=[f"contact.0.point=[0, 0, {-0.05 - fall}]"])
+    energy = (body["kinetic_energy"] + body["elastic_energy"] + body["contact_energy"]
+              + MASS * G * body["centroid_z"])
+    z = body["centroid_z"] + fall  # the mid-surface over its height resting on the floor
+    lowest = np.flatnonzero(np.diff(np.sign(np.diff(z))) > 0) + 1
+    peaks = np.flatnonzero(np.diff(np.sign(np.diff(z))) < 0) + 1
+    restitution = np.sqrt(z[peaks[0]] / fall)
+    print(f"energy growth {(np.diff(energy).max()) / (MASS * G * fall):.1e}; lowest "
+          f"{z[lowest]} (reach 0.01); restitution {restitution:.3f}; Newton iterations max "
+          f"{steps['newton_its'].max():.0f}")
+    assert len(lowest) >= 2 and len(peaks) >= 1  # down, up, down again
+    assert np.diff(energy).max() < 1e-6 * MASS * G * fall
+    assert 0.3 < restitution < 0.6
+    assert (z[lowest] > -0.01).all()  # never deeper than the barrier's reach
+    assert steps["newton_its"].max() <= 6
+
+
+def test_onset_of_sliding_converges_in_six_iterations(tmp_path):
+    """An edge force ramped from 0 to 1.5 μ_s m g over the run: the strip sticks,
+    then breaks loose near μ_s m g and slides; no step takes more than 6 Newton
+    iterations."""
+    F = 1.5 * 0.4 * MASS * G
+    extra = f"""
+[[load]]
+kind = "edge-force"
+where = "x=0"
+value = [{F!r}, 0.0, 0.0]
+"""
+    _, body, steps = strip(tmp_path, "onset", extra=extra, end=0.1, dt=1e-3)
+    x, t = body["centroid_x"] - 1.0, body["time"]
+    moving = t[np.flatnonzero(np.gradient(x, t) > 10 * 0.4 * 2.06e-3 / 0.1)]
+    print(f"breaks loose at t = {moving[0]:.3g} (F/(μ_s m g) = {1.5 * moving[0] / 0.1:.3f}); "
+          f"Newton iterations max {steps['newton_its'].max():.0f}, mean "
+          f"{steps['newton_its'].mean():.2f}")
+    assert 0.97 <= 1.5 * moving[0] / 0.1 < 1.1
+    assert steps["newton_its"].max() <= 6
+
+
+def test_lift_off_and_landing_converge_in_six_iterations(tmp_path):
+    """Gravity turned upwards for a while (a table ramp: 1, then −1 from 5 ms to 8 ms,
+    then 1 again): the strip leaves the floor, flies up and lands again; the plane
+    lets go of it entirely (no force while it is more than δ above), it lands where
+    it lifted off (no friction), and no step takes more than 6 Newton iterations."""
+    extra = "table = [[0.0, 1.0], [0.005, 1.0], [0.0051, -1.0], [0.008, -1.0], [0.0081, 1.0]]"
+    text = STRIP.format(end=0.03, dt=2.5e-4, rho_inf=0.5, gravity=[0.0, 0.0, -G], mu_k=0.0,
+                        mu_s=0.0, extra="").replace('ramp = "constant"', 'ramp = "table"\n'
+                                                    + extra)
+    out = tmp_path / "lift"
+    run_scene(write_scene(tmp_path, text, name="lift.toml"), out_dir=out)
+    body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
+    steps = np.genfromtxt(out / "steps.csv", delimiter=",", names=True)
+    airborne = body["contact_Fz"] == 0.0
+    print(f"airborne {airborne.sum()} of {len(body)} rows, highest "
+          f"{body['centroid_z'].max():.3g}; Newton iterations max "
+          f"{steps['newton_its'].max():.0f}, mean {steps['newton_its'].mean():.2f}")
+    assert airborne[body["time"] > 0.006].any() and not airborne[-1]
+    assert body["centroid_z"].max() > 0.05  # well off the floor
+    assert abs(body["centroid_x"][-1] - 1.0) < 1e-9
+    assert steps["newton_its"].max() <= 6
+
+
+@pytest.mark.mpi
+def test_two_processes_slide_as_one(tmp_path, cli_run):
+    """The anisotropic slope of test_incline_with_anisotropic_friction (backward) under
+    mpirun -n 2: body.csv as in serial to 1e-9 of the sliding distance, contact forces
+    to 1e-9 of the weight."""
+    alpha = math.atan(0.4)
+    text = STRIP.format(end=0.02, dt=1e-3, rho_inf=0.0, gravity=list(tilted(alpha, (-1, 0))),
+                        mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6],
+                        extra="")
+    scene = write_scene(tmp_path, text.replace("divisions = [4, 1]", "divisions = [8, 2]"))
+    tables = [np.genfromtxt(cli_run(scene, tmp_path / f"np{n}", np=n) / "body.csv",
+                            delimiter=",", names=True) for n in (1, 2)]
+    serial, two = tables
+    slid = abs(serial["centroid_x"][-1] - serial["centroid_x"][0])
+    assert slid > 0.1
+    assert np.abs(two["centroid_x"] - serial["centroid_x"]).max() < 1e-9 * slid
+    for c in ("contact_Fx", "contact_Fz", "friction_power"):
+        scale = np.abs(serial[c]).max()
+        assert np.abs(two[c] - serial[c]).max() < 1e-9 * scale, c
