@@ -11,12 +11,12 @@ plane z = −0.05 with its lower face, and moves as a rigid block:
 - pushed by an edge force F it stays for F < μ_s m g, else its kinetic energy
   is t² (F − μ_k m g)² / (2m);
 - the friction's work (∫ friction_power dt) is the mechanical energy lost;
-- a dropped strip bounces without gaining energy, and the hard steps (impact,
-  lift-off, the onset of sliding) take at most six Newton iterations.
+- a dropped strip bounces without gaining energy (keeps it exactly with ρ∞ = 1),
+  and the hard steps (impact, lift-off, the onset of sliding) take at most six
+  Newton iterations.
 
-The contact forces act in full at each step's end, so a strip sliding at constant
-friction meets its exact acceleration to 3e-8 on both stacks; the tolerances are
-about ten times what both stacks reach.  The rolling hoop is tests/test_contact_rolling.py.
+A strip sliding at constant friction meets its exact acceleration to 3e-8 on both
+stacks; the tolerances are about ten times what both stacks reach.  The rolling hoop is tests/test_contact_rolling.py.
 """
 
 from __future__ import annotations
@@ -198,8 +198,8 @@ def test_friction_work_is_the_energy_lost(tmp_path):
     """Sliding down tan α = 0.5 with the trapezoidal rule (ρ∞ = 1, no numerical
     dissipation): the kinetic energy gained falls short of the weight's work by
     the friction's work, to 1e-4 of it.  A row's friction_power is the mean over
-    the step that ended there, so the work is the sum of power × dt (within 2e-5,
-    reached 1.9e-6)."""
+    the step that ended there, so the work is the sum of power × dt (within 5e-7,
+    reached 4e-8)."""
     alpha = math.atan(0.5)
     g = np.array(tilted(alpha))
     _, body, _ = strip(tmp_path, "energy", gravity=g, rho_inf=1.0)
@@ -211,17 +211,20 @@ def test_friction_work_is_the_energy_lost(tmp_path):
     work = np.concatenate([[0.0], np.cumsum(np.diff(body["time"]) * power[1:])])
     print(f"lost {lost[-1]:.6g}, friction work {work[-1]:.6g}: {lost[-1] / work[-1] - 1:.1e}")
     assert work[-1] > 0.1 * weight_work[-1]  # friction takes a good part of it
-    assert abs(lost[-1] / work[-1] - 1) < 2e-5
+    assert abs(lost[-1] / work[-1] - 1) < 5e-7
 
 
-def test_dropped_strip_bounces_without_gaining_energy(tmp_path):
-    """Dropped from 0.3 mm (three thicknesses) above the floor, it hits it at 77 mm/s,
-    with the trapezoidal rule (ρ∞ = 1): the energy never grows (within 1e-6 of the
-    weight's work over the fall), each impact loses some (the contact forces act in
-    full at a step's end: restitution 0.44 at this step, docs/contact.md), the strip
-    comes back up, and no step takes more than 6 Newton iterations (reached 5)."""
-    fall = 0.3
-    _, body, steps = strip(tmp_path, "drop", rho_inf=1.0, end=0.03, dt=2.5e-4,
+@pytest.mark.parametrize("rho_inf", [1.0, 0.5])
+def test_dropped_strip_bounces_without_gaining_energy(tmp_path, rho_inf):
+    """Dropped from 0.1 mm (a thickness) above the floor, it hits it at 44 mm/s (an
+    impact the default barrier takes within its reach).  The barrier's pressure over
+    a step is its secant (forms.step_pressure): with the trapezoidal rule (ρ∞ = 1)
+    the energy is kept to 1e-9 of m g h through every bounce and the strip rebounds
+    to its height (restitution 1 within 1e-3); with ρ∞ = 0.5 impacts only lose
+    energy (restitution 0.81).  No point goes deeper than the reach δ, and no step
+    takes more than 6 Newton iterations (reached 5 and 6)."""
+    fall = 0.1
+    _, body, steps = strip(tmp_path, "drop", rho_inf=rho_inf, end=0.03, dt=2.5e-4,
                            mu_k=0.0, mu_s=0.0, sets=[f"contact.0.point=[0, 0, {-0.05 - fall}]"])
     energy = (body["kinetic_energy"] + body["elastic_energy"] + body["contact_energy"]
               + MASS * G * body["centroid_z"])
@@ -229,12 +232,15 @@ def test_dropped_strip_bounces_without_gaining_energy(tmp_path):
     lowest = np.flatnonzero(np.diff(np.sign(np.diff(z))) > 0) + 1
     peaks = np.flatnonzero(np.diff(np.sign(np.diff(z))) < 0) + 1
     restitution = np.sqrt(z[peaks[0]] / fall)
-    print(f"energy growth {(np.diff(energy).max()) / (MASS * G * fall):.1e}; lowest "
-          f"{z[lowest]} (reach 0.01); restitution {restitution:.3f}; Newton iterations max "
-          f"{steps['newton_its'].max():.0f}")
+    growth = (energy - energy[0]).max() / (MASS * G * fall)
+    print(f"ρ∞ = {rho_inf}: energy growth {growth:.1e}; lowest {z[lowest]} (reach 0.01); "
+          f"restitution {restitution:.4f}; Newton iterations max {steps['newton_its'].max():.0f}")
     assert len(lowest) >= 2 and len(peaks) >= 1  # down, up, down again
-    assert np.diff(energy).max() < 1e-6 * MASS * G * fall
-    assert 0.3 < restitution < 0.6
+    assert growth < 1e-9
+    if rho_inf == 1.0:
+        assert abs(restitution - 1.0) < 1e-3
+    else:
+        assert 0.5 < restitution < 0.95 and energy[-1] < energy[0] - 0.1 * MASS * G * fall
     assert (z[lowest] > -0.01).all()  # never deeper than the barrier's reach
     assert steps["newton_its"].max() <= 6
 
@@ -261,11 +267,11 @@ value = [{F!r}, 0.0, 0.0]
 
 
 def test_lift_off_and_landing_converge_in_six_iterations(tmp_path):
-    """Gravity turned upwards for a while (a table ramp: 1, then −1 from 5 ms to 8 ms,
+    """Gravity turned upwards for a while (a table ramp: 1, then −1 from 5 ms to 7 ms,
     then 1 again): the strip leaves the floor, flies up and lands again; the plane
     lets go of it entirely (no force while it is more than δ above), it lands where
     it lifted off (no friction), and no step takes more than 6 Newton iterations."""
-    extra = "table = [[0.0, 1.0], [0.005, 1.0], [0.0051, -1.0], [0.008, -1.0], [0.0081, 1.0]]"
+    extra = "table = [[0.0, 1.0], [0.005, 1.0], [0.0051, -1.0], [0.007, -1.0], [0.0071, 1.0]]"
     text = STRIP.format(end=0.03, dt=2.5e-4, rho_inf=0.5, gravity=[0.0, 0.0, -G], mu_k=0.0,
                         mu_s=0.0, extra="").replace('ramp = "constant"', 'ramp = "table"\n'
                                                     + extra)
@@ -277,8 +283,9 @@ def test_lift_off_and_landing_converge_in_six_iterations(tmp_path):
     print(f"airborne {airborne.sum()} of {len(body)} rows, highest "
           f"{body['centroid_z'].max():.3g}; Newton iterations max "
           f"{steps['newton_its'].max():.0f}, mean {steps['newton_its'].mean():.2f}")
-    assert airborne[body["time"] > 0.006].any() and not airborne[-1]
-    assert body["centroid_z"].max() > 0.05  # well off the floor
+    lifted = np.flatnonzero(airborne & (body["time"] > 0.006))
+    assert len(lifted) and (~airborne[lifted[0]:]).any()  # up, and down again
+    assert body["centroid_z"].max() > 0.03  # well off the floor
     assert abs(body["centroid_x"][-1] - 1.0) < 1e-9
     assert steps["newton_its"].max() <= 6
 

@@ -94,10 +94,10 @@ SCHEMA = Array(Table({
     "stiffness": Leaf(POSITIVE, None, unit="force/length³",
                       default_doc="the reference pressure / ((2 ln 2 + 1) δ)",
                       doc="The barrier's stiffness κ in the pressure −κ b′(g + δ). The "
-                          "default makes the reference pressure (the heaviest part's weight "
-                          "per area under the scene's gravity, along the plane's normal; "
-                          "without gravity the bending "
-                          "pressure D t / L⁴) rest the face on the plane (docs/contact.md §1)."),
+                          "default makes the reference pressure (the body's weight along the "
+                          "plane's normal over the area of its lower face within reach at the "
+                          "start; without gravity the bending pressure D t / L⁴) rest the face "
+                          "on the plane (docs/contact.md §1)."),
     "slip_velocity": Leaf(POSITIVE, None, unit="length/time",
                           default_doc="1e-3 × the body's diagonal / time.end",
                           doc="The velocity scale ε_v of the smoothed stick–slip law: below "
@@ -153,6 +153,9 @@ class Contact(Effect):
         self.u_start = fem.Function(Vu, name="u_start")
         self.dn_start = [fem.Function(Vu, name=f"dn_start_{c}") for c in range(m.n_colours)]
         self.inv_dt = fem.Constant(m.mesh, PETSc.ScalarType(0.0))
+        #: 1 in a step of a scheme with inertia (the barrier's pressure over the step,
+        #: forms.step_pressure), 0 in static and first-order steps (its end value)
+        self.in_time = fem.Constant(m.mesh, PETSc.ScalarType(0.0))
         #: per plane, κ as a Constant: 0 while the model's loads are off (the initial
         #: state of a run in time is found without them, docs/contact.md §1)
         self.stiffnesses = []
@@ -164,8 +167,7 @@ class Contact(Effect):
             d0 = d_start[0]
         face = forms.lower_face(X + k.u, k.d, t)
         face_start = forms.lower_face(X + self.u_start, d0, t)
-        w_test = k.w_test
-        face_virtual = ufl.derivative(face, m.w, w_test)
+        face_virtual = ufl.derivative(face, m.w, k.w_test)
         self.dx = m.dx(metadata={"quadrature_degree": 4})
 
         size = self._body_size()
@@ -174,47 +176,65 @@ class Contact(Effect):
         end = float(self.scene["time"]["end"])
         self.planes = []
         work, outputs = [], {name: [] for name in ("force", "area", "energy", "power")}
+        start_areas = []
         for i, plane in enumerate(self.entries):
             normal = np.asarray(plane["normal"], dtype=float)
             normal /= np.linalg.norm(normal)
             reach = plane["distance"] or REACH_OF_THICKNESS * thinnest
-            stiffness = plane["stiffness"] or (self._reference_pressure(size, normal)
-                                               / (forms.SLOPE_ON_PLANE * reach))
             v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / end
             self.planes.append({"normal": normal, "point": np.asarray(plane["point"], float),
-                                "reach": reach, "stiffness": stiffness, "slip_velocity": v_scale})
+                                "reach": reach, "stiffness": plane["stiffness"],
+                                "slip_velocity": v_scale})
             const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
-                     (("reach", reach), ("stiffness", stiffness), ("v_scale", v_scale))}
+                     (("reach", reach), ("stiffness", 0.0), ("v_scale", v_scale))}
             self.stiffnesses.append(const["stiffness"])
             n = fem.Constant(m.mesh, normal.astype(PETSc.ScalarType))
             p = fem.Constant(m.mesh, np.asarray(plane["point"], dtype=PETSc.ScalarType))
-            g = forms.gap(face, p, n)
-            pressure = forms.contact_pressure(const["stiffness"], g, const["reach"])
+            g, g_start = forms.gap(face, p, n), forms.gap(face_start, p, n)
+            pressure = forms.step_pressure(const["stiffness"], g, g_start, const["reach"],
+                                           m.coef["alpha_f"], self.in_time)
             v_slip = forms.slip_velocity(face, face_start, n, self.inv_dt)
-            kinetic, static = plane["friction"], plane["static_friction"]
-            if max(_triple(static)) == 0.0:
-                traction = 0 * v_slip
-            elif isinstance(kinetic, list) or isinstance(static, list):
-                axis = k.F_s * m.material_axis
-                frame = forms.friction_frame(axis, n)
-                traction = forms.friction_traction(
-                    pressure, v_slip, const["v_scale"],
-                    [PETSc.ScalarType(x) for x in _triple(kinetic)],
-                    [PETSc.ScalarType(x) for x in _triple(static)], frame)
-            else:
-                traction = forms.friction_traction(pressure, v_slip, const["v_scale"],
-                                                   float(kinetic), float(static))
+            traction = self._friction(plane, pressure, v_slip, const["v_scale"], n)
             work.append(forms.contact_work(pressure, traction, n, face_virtual, self.dx))
             J = area_ratio(k.g1, k.g2, k.G1, k.G2)
+            within = ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J)
+            start_areas.append(within)
             outputs["force"].append(pressure * n + traction)
-            outputs["area"].append(ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J))
+            outputs["area"].append(within)
             outputs["energy"].append(const["stiffness"] * forms.barrier(g, const["reach"]))
             outputs["power"].append(-ufl.dot(traction, v_slip))
         self._work = sum(work[1:], work[0])
         self._outputs = {name: sum(terms[1:], terms[0]) for name, terms in outputs.items()}
+        for plane, area in zip(self.planes, start_areas):
+            if plane["stiffness"] is None:
+                plane["stiffness"] = (self._reference_pressure(size, plane["normal"], area)
+                                      / (forms.SLOPE_ON_PLANE * plane["reach"]))
+        for kappa, plane in zip(self.stiffnesses, self.planes):
+            kappa.value = plane["stiffness"]
         self._compiled = None
         self._nodes = None
         self._check_start()
+
+    def _friction(self, plane, pressure, v_slip, v_scale, n):
+        """The friction traction of one plane's entry (forms.friction_traction), its
+        coefficients as constants (a new pair needs no new compiled form)."""
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        m = self.model
+        kinetic, static = plane["friction"], plane["static_friction"]
+        if max(_triple(static)) == 0.0:
+            return 0 * v_slip
+        anisotropic = isinstance(kinetic, list) or isinstance(static, list)
+        if anisotropic:
+            mu = [fem.Constant(m.mesh, np.asarray(_triple(c), dtype=PETSc.ScalarType))
+                  for c in (kinetic, static)]
+            frame = forms.friction_frame(m.kinematics().F_s * m.material_axis, n)
+            return forms.friction_traction(pressure, v_slip, v_scale,
+                                           [mu[0][i] for i in range(3)],
+                                           [mu[1][i] for i in range(3)], frame)
+        mu = [fem.Constant(m.mesh, PETSc.ScalarType(c)) for c in (kinetic, static)]
+        return forms.friction_traction(pressure, v_slip, v_scale, mu[0], mu[1])
 
     # --- scales and the start ---------------------------------------------------
 
@@ -230,25 +250,28 @@ class Contact(Effect):
         hi = np.max(m.comm.allgather(x.max(axis=0) if len(x) else np.full(3, -np.inf)), axis=0)
         return float(np.linalg.norm(hi - lo))
 
-    def _reference_pressure(self, size: float, normal: np.ndarray) -> float:
-        """The pressure the default stiffness rests on the plane: the largest weight per
-        area over the shell's parts under the scene's gravity, its part along the
-        plane's normal (all of it if gravity is parallel to the plane); without
-        gravity the pressure D t / L⁴ that bends the body by its thickness."""
-        shell = self.scene["shell"]
-        parts = [shell, *shell["parts"]]
-        along, whole = 0.0, 0.0  # the largest weight per area: along n, and all of it
-        for ld in self.scene.get("load") or []:
-            if ld["kind"] != "gravity":
-                continue
-            g = np.asarray(ld["value"], dtype=float)
-            for p in parts:
-                w = abs(p.get("density", shell["density"]) - ld["fluid_density"]) \
-                    * p.get("thickness", shell["thickness"])
-                along = max(along, w * abs(float(g @ normal)))
-                whole = max(whole, w * float(np.linalg.norm(g)))
-        if along > 0.0 or whole > 0.0:
-            return along or whole
+    def _reference_pressure(self, size: float, normal: np.ndarray, within) -> float:
+        """The pressure the default stiffness rests on the plane: the body's weight
+        along the plane's normal under the scene's gravity (net of buoyancy) over the
+        area of its lower face within the barrier's reach at the start (``within``, a
+        UFL area density), or over its whole area if none is; all of the weight if
+        gravity lies in the plane.  Without gravity the pressure D t / L⁴ that bends
+        the body by its thickness."""
+        m, shell = self.model, self.scene["shell"]
+        gravity = [ld for ld in self.scene.get("load") or [] if ld["kind"] == "gravity"]
+        if gravity:
+            rho, t = m.material["rho"], m.material["t"]
+            mass = m.assemble_scalar(m.compile(rho * t * self.dx))
+            volume = m.assemble_scalar(m.compile(t * self.dx))
+            along = max(abs(mass - ld["fluid_density"] * volume)
+                        * abs(float(np.asarray(ld["value"], dtype=float) @ normal))
+                        for ld in gravity)
+            whole = max(abs(mass - ld["fluid_density"] * volume)
+                        * float(np.linalg.norm(ld["value"])) for ld in gravity)
+            weight = along or whole
+            if weight > 0.0:
+                touching = m.assemble_scalar(m.compile(within * self.dx))
+                return weight / (touching if touching > 0.0 else m.area())
         t, E, nu = shell["thickness"], shell["E"], shell["nu"]
         return E * t**3 / (12 * (1 - nu**2)) * t / size**4
 
@@ -333,6 +356,8 @@ class Contact(Effect):
             dn.x.array[:] = frame_dn.x.array
         dt = getattr(m.coefficients, "dt", 0.0) if m.coefficients is not None else 0.0
         self.inv_dt.value = 1.0 / dt if dt > 0.0 else 0.0
+        inertia = m.coefficients is not None and m.coefficients.ca != 0.0
+        self.in_time.value = 1.0 if inertia else 0.0
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane["stiffness"] if m.loads_on else 0.0
 
