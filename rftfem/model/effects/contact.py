@@ -28,6 +28,7 @@ from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fm
 from rftfem.scene.validators import POSITIVE
 
 from rftfem.model.effects.base import Effect
+from rftfem.model.effects.contact_updates import UpdateLimits
 
 #: the barrier's reach δ as a share of the thinnest shell thickness
 REACH_OF_THICKNESS = 0.1
@@ -99,7 +100,8 @@ SCHEMA = Array(Table({
                           "start; without gravity the bending pressure D t / L⁴) rest the face "
                           "on the plane (docs/contact.md §1)."),
     "slip_velocity": Leaf(POSITIVE, None, unit="length/time",
-                          default_doc="1e-3 × the body's diagonal / time.end",
+                          default_doc="1e-3 × the body's diagonal / the shortest drive "
+                                      "period (time.end without a periodic drive)",
                           doc="The velocity scale ε_v of the smoothed stick–slip law: below "
                               "it the friction force grows from 0 to μ_s times the pressure "
                               "(a sticking body creeps slower than ε_v); above it it falls "
@@ -109,7 +111,7 @@ SCHEMA = Array(Table({
         "friction resists its slip (docs/contact.md).")
 
 
-class Contact(Effect):
+class Contact(UpdateLimits, Effect):
     name = "contact"
     keys = {"contact": SCHEMA}
     columns = COLUMNS
@@ -173,7 +175,7 @@ class Contact(Effect):
         size = self._body_size()
         thinnest = min(p["thickness"] for p in [self.scene["shell"], *self.scene["shell"]["parts"]]
                        if "thickness" in p)
-        end = float(self.scene["time"]["end"])
+        span = self._time_scale()
         self.planes = []
         work, outputs = [], {name: [] for name in ("force", "area", "energy", "power")}
         start_areas = []
@@ -181,10 +183,11 @@ class Contact(Effect):
             normal = np.asarray(plane["normal"], dtype=float)
             normal /= np.linalg.norm(normal)
             reach = plane["distance"] or REACH_OF_THICKNESS * thinnest
-            v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / end
+            v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / span
             self.planes.append({"normal": normal, "point": np.asarray(plane["point"], float),
                                 "reach": reach, "stiffness": plane["stiffness"],
-                                "slip_velocity": v_scale})
+                                "slip_velocity": v_scale,
+                                "rubs": max(_triple(plane["static_friction"])) > 0.0})
             const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
                      (("reach", reach), ("stiffness", 0.0), ("v_scale", v_scale))}
             self.stiffnesses.append(const["stiffness"])
@@ -250,6 +253,14 @@ class Contact(Effect):
         hi = np.max(m.comm.allgather(x.max(axis=0) if len(x) else np.full(3, -np.inf)), axis=0)
         return float(np.linalg.norm(hi - lo))
 
+    def _time_scale(self) -> float:
+        """The scene's shortest periodic drive (a travelling wave, a rotating field, a
+        field periodic in t), else ``time.end``: the default slip velocity's time."""
+        from rftfem.scene.scales import drive_periods
+
+        periods = [d.period for d in drive_periods(self.scene) if not d.table]
+        return min(periods) if periods else float(self.scene["time"]["end"])
+
     def _reference_pressure(self, size: float, normal: np.ndarray, within) -> float:
         """The pressure the default stiffness rests on the plane: the body's weight
         along the plane's normal under the scene's gravity (net of buoyancy) over the
@@ -298,50 +309,6 @@ class Contact(Effect):
                                  "the side the body stays on; the lower face is the mid-surface "
                                  "less half the thickness along the director)")
 
-    # --- Newton updates ----------------------------------------------------------
-
-    def _nodal_data(self):
-        """The owned nodes' reference positions, their rows of ``w``'s owned array, and
-        the thickest adjacent cell's thickness (for the gaps of ``newton_step_fraction``)."""
-        from rftfem import compat
-
-        m = self.model
-        owned_dofs = m.W.dofmap.index_map.size_local * m.W.dofmap.index_map_bs
-        u_dofs = m.u_dofs.reshape(-1, 3)
-        keep = np.all(u_dofs < owned_dofs, axis=1)
-        X = m.Vu.tabulate_dof_coordinates()
-        cells = compat.cell_dofs(m.Vu)
-        t_cell = m.material["t"].x.array[compat.cell_dofs(m.material["t"].function_space)[:, 0]]
-        t_node = np.zeros(len(X))
-        np.maximum.at(t_node, cells.ravel(), np.repeat(t_cell, cells.shape[1]))
-        return X[keep], u_dofs[keep], t_node[keep], keep
-
-    def newton_step_fraction(self, x: np.ndarray, y: np.ndarray, keep: float = 0.2) -> float:
-        """The longest part of the Newton update ``−y`` from ``x`` (owned arrays of
-        ``w``) that keeps every node's barrier argument ``s = g + δ`` above ``keep`` of
-        its value, ``s + Δs ≥ keep·s`` (IPC's filtered line search, on the nodal
-        displacements with the director of the step's start): a Newton update that
-        would jump a node through the barrier into its clamped region is shortened.
-        A step's prediction keeps 0.3 (step_state.py): from deep in the barrier Newton
-        climbs back only by doubling ``s`` an update.  Global over processes."""
-        if self._nodes is None:
-            self._nodes = self._nodal_data()
-        X, rows, t, owned = self._nodes
-        d = self.dn_start[0].x.array.reshape(-1, 3)[owned]
-        u, du = x[rows], -y[rows]
-        fraction = 1.0
-        for plane in self.planes:
-            n, reach = plane["normal"], plane["reach"]
-            s = (X + u - 0.5 * t[:, None] * d - plane["point"]) @ n + reach
-            ds = du @ n
-            # closing in, ending within the barrier's reach, and not already past its
-            # logarithmic part (there the Taylor polynomial holds it, and Newton walks out)
-            closing = (ds < 0.0) & (s < 2.0 * reach - ds) & (s > forms.CLAMP * 2.0 * reach)
-            if np.any(closing):
-                fraction = min(fraction, float(np.min((1.0 - keep) * s[closing]
-                                                      / -ds[closing])))
-        return self.model.comm.allreduce(min(fraction, 1.0), op=_mpi_min())
-
     # --- the effect ----------------------------------------------------------------
 
     def end_forces(self):
@@ -379,8 +346,3 @@ class Contact(Effect):
     def plane_settings(self) -> list[dict]:
         """Each plane's resolved settings (normal, point, reach, stiffness, slip velocity)."""
         return self.planes
-
-
-def _mpi_min():
-    from mpi4py import MPI
-    return MPI.MIN
