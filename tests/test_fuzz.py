@@ -72,7 +72,7 @@ def print_seed(request):
 BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8"))
          for p in sorted(DEMOS.glob("*.toml"))}
 TOP_KEYS = ("title", "mesh", "shell", "time", "fluid", "magnetic", "load", "boundary", "motion",
-            "hinge", "output", "solver", "parameters", "--set", "scene file")
+            "hinge", "contact", "output", "solver", "parameters", "--set", "scene file")
 EDGE_NUMBERS = [0, -1, 0.0, -0.0, 1e308, -1e308, 1e-308, math.nan, math.inf, -math.inf, 2**70,
                 -(2**70), 1, 3, 1e-12]
 

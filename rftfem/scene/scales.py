@@ -13,6 +13,7 @@ a slip of units show (docs/scenes.md "Scales").
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,8 +106,11 @@ def aliasing_warnings(scene: dict) -> list[str]:
 
 
 def _bending_stiffness(shell: dict) -> float:
-    """``D = E t³ / (12 (1 − ν²))`` of the shell's own values (not its parts')."""
-    return shell["E"] * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
+    """``D = E t³ / (12 (1 − ν²))`` of the shell's own values (not its parts'), at least
+    the smallest normal float (a thickness of 1e-290 makes t³ zero; the groups that
+    divide by D are then huge, not a division by zero)."""
+    return max(shell["E"] * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2)),
+               sys.float_info.min)
 
 
 def groups(scene: dict, model) -> list[tuple[str, float, str]]:
