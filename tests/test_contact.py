@@ -401,3 +401,15 @@ def test_slip_turning_round_converges_without_cuts(tmp_path):
     assert len(turns) >= 3
     assert len(steps) == 200  # no step cut
     assert steps["newton_its"].max() <= 12 and steps["newton_its"].mean() < 2.5
+
+
+def test_a_slip_velocity_too_large_for_sticking_warns(tmp_path):
+    """slip_velocity = 10 mm/s on the 2 mm strip over a 0.05 s run lets a sticking body
+    creep 24 % of its size: the run warns (log and summary.json) that friction then
+    acts as a drag; the default (0.1 %) does not."""
+    sim, _, _ = strip(tmp_path, "creep", gravity=tilted(math.atan(0.35)), dt=0.01,
+                      sets=["contact.0.slip_velocity=10"])
+    warnings = [w for w in sim.summary["warnings"] if "contact.0.slip_velocity" in w]
+    assert len(warnings) == 1 and "creep 0.24 of its size" in warnings[0], warnings
+    sim, _, _ = strip(tmp_path, "no_creep", gravity=tilted(math.atan(0.35)), dt=0.01)
+    assert not [w for w in sim.summary["warnings"] if "slip_velocity" in w]

@@ -28,12 +28,15 @@ from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fm
 from rftfem.scene.validators import POSITIVE
 
 from rftfem.model.effects.base import Effect
-from rftfem.model.effects.contact_updates import UpdateLimits
+from rftfem.model.effects.contact_updates import UpdateLimits, cell_thickness
 
 #: the barrier's reach δ as a share of the thinnest shell thickness
 REACH_OF_THICKNESS = 0.1
 #: the default slip velocity scale ε_v as a share of the body's size per time.end
 SLIP_OF_SPEED = 1.0e-3
+#: the creep a drive period (or the run) allows, as a share of the body's size, above
+#: which a run warns that static friction is not modelled
+CREEP_WARNING = 0.05
 #: how far below the plane (a share of δ) a node's lower face may start: round-off
 START_DEPTH = 1.0e-3
 COLUMNS = ["contact_Fx", "contact_Fy", "contact_Fz", "contact_area", "contact_energy",
@@ -172,7 +175,8 @@ class Contact(UpdateLimits, Effect):
         face_virtual = ufl.derivative(face, m.w, k.w_test)
         self.dx = m.dx(metadata={"quadrature_degree": 4})
 
-        size = self._body_size()
+        #: the body's diagonal (reference)
+        self.size = size = self._body_size()
         thinnest = min(p["thickness"] for p in [self.scene["shell"], *self.scene["shell"]["parts"]]
                        if "thickness" in p)
         span = self._time_scale()
@@ -241,14 +245,14 @@ class Contact(UpdateLimits, Effect):
 
     # --- scales and the start ---------------------------------------------------
 
-    def _nodes(self) -> np.ndarray:
+    def _owned_coordinates(self) -> np.ndarray:
         m = self.model
         owned = m.Vu.dofmap.index_map.size_local
         return m.Vu.tabulate_dof_coordinates()[:owned]
 
     def _body_size(self) -> float:
         m = self.model
-        x = self._nodes()
+        x = self._owned_coordinates()
         lo = np.min(m.comm.allgather(x.min(axis=0) if len(x) else np.full(3, np.inf)), axis=0)
         hi = np.max(m.comm.allgather(x.max(axis=0) if len(x) else np.full(3, -np.inf)), axis=0)
         return float(np.linalg.norm(hi - lo))
@@ -288,13 +292,10 @@ class Contact(UpdateLimits, Effect):
 
     def _check_start(self):
         """No node's lower face may start below a plane (beyond round-off)."""
-        from rftfem import compat
-
         m = self.model
         X = m.Vu.tabulate_dof_coordinates()
         D = m.D.x.array.reshape(-1, 3)
-        cells = compat.cell_dofs(m.Vu)
-        t_cell = m.material["t"].x.array[compat.cell_dofs(m.material["t"].function_space)[:, 0]]
+        cells, t_cell = cell_thickness(m)
         faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
         for i, plane in enumerate(self.planes):
             g = (faces.reshape(-1, 3) - plane["point"]) @ plane["normal"]
@@ -336,6 +337,17 @@ class Contact(UpdateLimits, Effect):
                               + [m.compile(out[name] * self.dx)
                                  for name in ("area", "energy", "power")])
         return [m.assemble_scalar(f) for f in self._compiled]
+
+    def warnings(self) -> list[str]:
+        """A slip velocity so large that a sticking body creeps more than 5 % of its size
+        in a drive period (or the run) does not model sticking: a warning."""
+        size, span = self.size, self._time_scale()
+        return [f"contact.{i}.slip_velocity = {plane['slip_velocity']:.3g}: a body that "
+                f"sticks may creep {plane['slip_velocity'] * span / size:.2g} of its size "
+                f"in {span:.3g} (a drive period, or time.end), so friction acts as a drag, "
+                f"not as static friction; give a smaller slip_velocity (docs/contact.md §2)"
+                for i, plane in enumerate(self.planes)
+                if plane["slip_velocity"] * span > CREEP_WARNING * size]
 
     def holds_at_rest(self) -> bool:
         """Whether friction may hold the body at the current state: a plane with friction

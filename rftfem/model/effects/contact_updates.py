@@ -25,15 +25,12 @@ class UpdateLimits:
     def _nodal_data(self):
         """The owned nodes' reference positions, their rows of ``w``'s owned array, and
         the thickest adjacent cell's thickness (for the gaps of ``newton_step_fraction``)."""
-        from rftfem import compat
-
         m = self.model
         owned_dofs = m.W.dofmap.index_map.size_local * m.W.dofmap.index_map_bs
         u_dofs = m.u_dofs.reshape(-1, 3)
         keep = np.all(u_dofs < owned_dofs, axis=1)
         X = m.Vu.tabulate_dof_coordinates()
-        cells = compat.cell_dofs(m.Vu)
-        t_cell = m.material["t"].x.array[compat.cell_dofs(m.material["t"].function_space)[:, 0]]
+        cells, t_cell = cell_thickness(m)
         t_node = np.zeros(len(X))
         np.maximum.at(t_node, cells.ravel(), np.repeat(t_cell, cells.shape[1]))
         return X[keep], u_dofs[keep], t_node[keep], keep
@@ -93,6 +90,14 @@ class UpdateLimits:
         # halvings, and a slip the update overshot is walked back without a cycle
         return float(np.min(0.5 * speed2[turning] / -along[turning]))
 
+
+
+def cell_thickness(model):
+    """Each cell's nodes of ``Vu`` (cells × nodes) and its thickness (DG0)."""
+    from rftfem import compat
+
+    t = model.material["t"]
+    return compat.cell_dofs(model.Vu), t.x.array[compat.cell_dofs(t.function_space)[:, 0]]
 
 
 def _mpi_min():
