@@ -143,6 +143,23 @@ def _split_petsc(argv: list[str]) -> tuple[list[str], list[str]]:
     return rest, petsc
 
 
+def _glue_values(argv: list[str]) -> list[str]:
+    """``--set VALUE`` as ``--set=VALUE``: argparse would take a value that starts
+    with '-' (``--set -x=1``) for an option and answer with its own usage error, where
+    the scene reader names the bad key."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] == "--":
+            return out + argv[i:]
+        if argv[i] == "--set" and i + 1 < len(argv):
+            out.append(f"--set={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
+
+
 def _mpi_comm():
     """COMM_WORLD if this process runs under an MPI launcher (or mpi4py is loaded)."""
     if "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _MPI_ENV):
@@ -290,6 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     console = _Console()
     rest, petsc_args = _split_petsc(argv)
+    rest = _glue_values(rest)
     try:
         args = _build_parser().parse_args(rest)
     except _UsageError as exc:

@@ -88,6 +88,8 @@ def test_bad_set_path(good):
     assert "mesh.length" in line
     assert_one_line_error(rftfem("check", good, "--set", "load.4.value=[0,1,0]"), "load.4.value")
     assert_one_line_error(rftfem("check", good, "--set", "shell.nu=0.5"), "shell.nu")
+    # a value that starts with '-' is still the value of --set, and its key is named
+    assert_one_line_error(rftfem("check", good, "--set", "-=false"), "unknown key '-'")
 
 
 def test_unknown_options(good):

@@ -144,6 +144,14 @@ def assert_same_run(ref: Path, run: Path, rtol=1e-10):
     np.testing.assert_allclose(f_run, f_ref, rtol=0, atol=1e-10 * np.abs(f_ref).max())
 
 
+def ended_before_signal(out, status) -> bool:
+    """The run had finished (summary status ok) when the signal came: exit 0, or
+    -SIGTERM when it landed after the run had given its handlers back."""
+    summary = out / "summary.json"
+    return status in (0, -signal.SIGTERM) and summary.exists() and \
+        json.loads(summary.read_text()).get("status") == "ok"
+
+
 def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case=""):
     """Start a run, SIGTERM it (one of its ranks) after a step drawn at random (seeded
     with RESTART_SEED, ``case`` and ``np_``, and printed); the step."""
@@ -160,9 +168,10 @@ def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case
         os.kill(ranks[-1], signal.SIGTERM)
         os.kill(ranks[-1], signal.SIGCONT)
         status, stderr = finish(proc)
-        if status != 0:
+        if status != 0 and not ended_before_signal(out, status):
             break
-        # it had ended all its steps before it was frozen: again, stopped earlier
+        # it had ended all its steps before it was frozen (exit 0, or killed by the
+        # signal on its way out, after its handlers were gone): again, stopped earlier
         print(f"the run ended before the signal; again, after step {max(6, k // 2)}")
         k = max(6, k // 2)
         shutil.rmtree(out)
