@@ -1,45 +1,107 @@
 """Stored energy of the Reissner-Mindlin shell and its locking cure (docs/model.md §3).
 
-    ψ = ½ t ε:C:ε + ½ (t³/12) κ:C:κ + ½ t k_s μ γ_a A^{ab} γ_b
-    C(e) = E/(1−ν²) [ν tr(A⁻¹e) A⁻¹ + (1−ν) A⁻¹ e A⁻¹],   μ = E/(2(1+ν)),  k_s = 5/6
+    ψ = ½ t ε:C:ε + ½ (t³/12) κ:C:κ + ½ t k_s γ·H·γ,   k_s = 5/6
+
+``C`` is the plane-stress law: isotropic,
+
+    C(e) = E/(1−ν²) [ν tr(A⁻¹e) A⁻¹ + (1−ν) A⁻¹ e A⁻¹],   H = μ A⁻¹,  μ = E/(2(1+ν)),
+
+or orthotropic in the frame (a, b) of the fibre a (in the surface) and b = N × a:
+with ẽ = T e Tᵀ the strain's components in that frame (T's rows the contravariant
+components of a and b),
+
+    σ̃ = Q [ẽ₁₁, ẽ₂₂, 2ẽ₁₂],  Q = 1/(1−ν12ν21) [[E1, ν21E1, 0], [ν12E2, E2, 0],
+                                                [0, 0, (1−ν12ν21)G12]],  ν21 = ν12E2/E1,
+    C(e) = Tᵀ σ̃ T,   H = G13 a⊗a + G23 b⊗b (contravariant: Tᵀ diag(G13, G23) T).
+
+Every coefficient may vary over the body (material fields); with E1 = E2 = E,
+G12 = G13 = G23 = E/(2(1+ν)) the orthotropic law is the isotropic one (Tᵀ T = A⁻¹).
 
 Locking: partial selective reduced integration (PSRI).  The membrane and shear
 energies are split as ``α ψ`` at full quadrature plus ``(1 − α) ψ`` at reduced
-quadrature with ``α = t²/h²`` per cell (h the cell diameter), clipped to 1;
-bending is always fully integrated.  With Q2 (P2) displacements and rotations,
-full degree 4 and reduced degree 2 (2×2 Gauss on quadrilaterals).
+quadrature with ``α = t²/h²`` (h the cell diameter, t the local thickness), clipped
+to 1; bending is always fully integrated.  With Q2 (P2) displacements and
+rotations, full degree 4 and reduced degree 2 (2×2 Gauss on quadrilaterals).
 """
 
 from __future__ import annotations
 
 import ufl
 
-from .kinematics import metric
+from .kinematics import metric, unit, unit_normal
 
 SHEAR_CORRECTION = 5.0 / 6.0
 FULL_DEGREE = 4
 REDUCED_DEGREE = 2
 
 
-def plane_stress(e, A_inv, E, nu):
-    """Contravariant stress resultant density ``C(e)`` of covariant strain ``e``."""
-    return E / (1 - nu**2) * (nu * ufl.tr(A_inv * e) * A_inv + (1 - nu) * A_inv * e * A_inv)
+class Isotropic:
+    """The isotropic plane-stress law of modulus ``E`` and Poisson's ratio ``nu``."""
+
+    def __init__(self, E, nu):
+        self.E, self.nu = E, nu
+
+    def stress(self, e, A_inv):
+        """Contravariant stress resultant density ``C(e)`` of covariant strain ``e``."""
+        E, nu = self.E, self.nu
+        return E / (1 - nu**2) * (nu * ufl.tr(A_inv * e) * A_inv + (1 - nu) * A_inv * e * A_inv)
+
+    def shear(self, gamma, A_inv):
+        """Contravariant shear force density ``H γ`` (over t k_s) of covariant ``γ``."""
+        return self.E / (2 * (1 + self.nu)) * A_inv * gamma
 
 
-def membrane_energy(eps, A_inv, E, nu, t):
+class Orthotropic:
+    """The orthotropic plane-stress law along the fibre field ``fibre`` (projected on
+    the reference surface spanned by ``G1, G2`` and normalised)."""
+
+    def __init__(self, E1, E2, G12, nu12, G13, G23, fibre, G1, G2):
+        self.moduli = (E1, E2, G12, nu12, G13, G23)
+        self.T = fibre_frame(fibre, G1, G2)
+
+    def stress(self, e, A_inv):
+        E1, E2, G12, nu12, _, _ = self.moduli
+        nu21 = nu12 * E2 / E1
+        T = self.T
+        local = T * e * T.T
+        scale = 1 / (1 - nu12 * nu21)
+        s11 = scale * (E1 * local[0, 0] + nu21 * E1 * local[1, 1])
+        s22 = scale * (nu12 * E2 * local[0, 0] + E2 * local[1, 1])
+        s12 = G12 * 2 * local[0, 1]
+        return T.T * ufl.as_matrix([[s11, s12], [s12, s22]]) * T
+
+    def shear(self, gamma, A_inv):
+        _, _, _, _, G13, G23 = self.moduli
+        T = self.T
+        local = T * gamma
+        return T.T * ufl.as_vector([G13 * local[0], G23 * local[1]])
+
+
+def fibre_frame(fibre, G1, G2):
+    """``T``: the rows are the contravariant components (in the basis G₁, G₂) of the
+    unit fibre ``a`` (``fibre`` projected on the surface) and of ``b = N × a``."""
+    N = unit_normal(G1, G2)
+    a = unit(fibre - ufl.dot(fibre, N) * N)
+    b = ufl.cross(N, a)
+    A_inv = ufl.inv(metric(G1, G2))
+    ca = A_inv * ufl.as_vector([ufl.dot(G1, a), ufl.dot(G2, a)])
+    cb = A_inv * ufl.as_vector([ufl.dot(G1, b), ufl.dot(G2, b)])
+    return ufl.as_matrix([[ca[0], ca[1]], [cb[0], cb[1]]])
+
+
+def membrane_energy(eps, A_inv, law, t):
     """``½ t ε:C(ε)`` per reference area."""
-    return 0.5 * t * ufl.inner(eps, plane_stress(eps, A_inv, E, nu))
+    return 0.5 * t * ufl.inner(eps, law.stress(eps, A_inv))
 
 
-def bending_energy(kappa, A_inv, E, nu, t):
+def bending_energy(kappa, A_inv, law, t):
     """``½ (t³/12) κ:C(κ)`` per reference area."""
-    return 0.5 * t**3 / 12 * ufl.inner(kappa, plane_stress(kappa, A_inv, E, nu))
+    return 0.5 * t**3 / 12 * ufl.inner(kappa, law.stress(kappa, A_inv))
 
 
-def shear_energy(gamma, A_inv, E, nu, t):
-    """``½ t k_s μ γ_a A^{ab} γ_b`` per reference area."""
-    mu = E / (2 * (1 + nu))
-    return 0.5 * t * SHEAR_CORRECTION * mu * ufl.dot(gamma, A_inv * gamma)
+def shear_energy(gamma, A_inv, law, t):
+    """``½ t k_s γ·H γ`` per reference area."""
+    return 0.5 * t * SHEAR_CORRECTION * ufl.dot(gamma, law.shear(gamma, A_inv))
 
 
 def psri_weight(t, h):
@@ -47,23 +109,24 @@ def psri_weight(t, h):
     return ufl.min_value(t**2 / h**2, 1.0)
 
 
-def stored_energy(strains, G1, G2, E, nu, t, dx, h):
+def stored_energy(strains, G1, G2, law, t, dx, h):
     """Total stored energy ``Π = ∫ ψ dA₀`` with PSRI (a UFL 0-form).
 
-    ``strains = (ε, κ, γ)``; ``dx`` is the reference area measure (its subdomain
-    data may be set; the quadrature degrees are set here); ``h`` the cell size.
+    ``strains = (ε, κ, γ)``; ``law`` an :class:`Isotropic` or :class:`Orthotropic`;
+    ``dx`` is the reference area measure (its subdomain data may be set; the
+    quadrature degrees are set here); ``h`` the cell size.
     """
     eps, kappa, gamma = strains
     A_inv = ufl.inv(metric(G1, G2))
-    psi_b = bending_energy(kappa, A_inv, E, nu, t)
-    psi_ms = membrane_energy(eps, A_inv, E, nu, t) + shear_energy(gamma, A_inv, E, nu, t)
+    psi_b = bending_energy(kappa, A_inv, law, t)
+    psi_ms = membrane_energy(eps, A_inv, law, t) + shear_energy(gamma, A_inv, law, t)
     alpha = psri_weight(t, h)
     dx_full = dx(metadata={"quadrature_degree": FULL_DEGREE})
     dx_reduced = dx(metadata={"quadrature_degree": REDUCED_DEGREE})
     return (psi_b + alpha * psi_ms) * dx_full + (1 - alpha) * psi_ms * dx_reduced
 
 
-def mixed_point_tangent(strains, defects, G1, G2, E, nu, t, dx, h):
+def mixed_point_tangent(strains, defects, G1, G2, law, t, dx, h):
     """The 0-form ``−∫ [n(R_ε):ε + q(R_γ)·γ] dA₀`` whose second derivative, added to the
     exact tangent, gives the tangent of the mixed-integration-point Newton method
     (docs/model.md §7.4).
@@ -80,9 +143,8 @@ def mixed_point_tangent(strains, defects, G1, G2, E, nu, t, dx, h):
     eps, _, gamma = strains
     R_eps, R_gamma = defects
     A_inv = ufl.inv(metric(G1, G2))
-    mu = E / (2 * (1 + nu))
-    n_defect = t * plane_stress(R_eps, A_inv, E, nu)
-    q_defect = t * SHEAR_CORRECTION * mu * A_inv * R_gamma
+    n_defect = t * law.stress(R_eps, A_inv)
+    q_defect = t * SHEAR_CORRECTION * law.shear(R_gamma, A_inv)
     work = ufl.inner(n_defect, eps) + ufl.dot(q_defect, gamma)
     alpha = psri_weight(t, h)
     dx_full = dx(metadata={"quadrature_degree": FULL_DEGREE})

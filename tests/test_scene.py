@@ -92,8 +92,10 @@ def test_minimal_scene_gets_every_default(write):
     assert s["mesh"] == {"kind": "strip", "length": 10.0, "width": 1.0, "link_width": None,
                          "hinge_stiffness": None, "divisions": [16, 1],
                          "cell": "quadrilateral", "file": None, "regions": []}
-    assert s["shell"] == {"thickness": 0.1, "E": 1.2e6, "nu": 0.0, "density": 0.0,
-                          "axis": [1.0, 0.0, 0.0], "parts": []}
+    assert s["shell"] == {"material": "isotropic", "thickness": 0.1, "E": 1.2e6, "nu": 0.0,
+                          "density": 0.0, "E1": None, "E2": None, "G12": None, "nu12": None,
+                          "G13": None, "G23": None, "axis": [1.0, 0.0, 0.0], "fibre": None,
+                          "parts": []}
     assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "start": "rest",
                          "rho_inf": 0.9,
                          "alpha": -0.05, "output_every": 1, "until": "end", "period": None,

@@ -216,9 +216,12 @@ STATIC_SCHEMES = ("static", "arc-length")
 def has_density(scene: dict) -> bool:
     """Whether ``shell.density`` or some ``shell.parts`` density is above 0."""
     shell = scene.get("shell") or {}
-    if (shell.get("density") or 0.0) > 0.0:
-        return True
-    return any((part.get("density") or 0.0) > 0.0 for part in shell.get("parts") or [])
+
+    def positive(value) -> bool:  # a formula or profile (>= 0, checked): somewhere > 0
+        return isinstance(value, (str, dict)) or (value or 0.0) > 0.0
+
+    return positive(shell.get("density")) or any(positive(part.get("density"))
+                                                 for part in shell.get("parts") or [])
 
 
 def resolved_scheme(scene: dict) -> str:

@@ -13,9 +13,7 @@ are in :mod:`rftfem.forms.magnetic`.
 
 from __future__ import annotations
 
-import csv
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -293,85 +291,5 @@ def _max_op():
 
 
 # ------------------------------------------------------------------ profiles
-
-
-def read_profile(path: Path, key: str) -> tuple[np.ndarray, np.ndarray]:
-    """Rows ``X, Y, Z, mx, my, mz`` of a profile file (a header line is allowed)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneError(f"{key}: cannot read the profile file '{path}' "
-                         f"({exc.strerror or exc})") from None
-    rows = []
-    for n, row in enumerate(csv.reader(text.splitlines()), start=1):
-        if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
-            continue
-        try:
-            values = [float(v) for v in row]
-        except ValueError:
-            if not rows and n == 1:
-                continue  # a header
-            raise SceneError(f"{key}: line {n} of '{path}' is not six numbers "
-                             f"X,Y,Z,mx,my,mz: {','.join(row)[:60]}") from None
-        if len(values) != 6 or not all(math.isfinite(v) for v in values):
-            raise SceneError(f"{key}: line {n} of '{path}' is not six finite numbers "
-                             f"X,Y,Z,mx,my,mz: {','.join(row)[:60]}")
-        rows.append(values)
-    if not rows:
-        raise SceneError(f"{key}: the profile file '{path}' has no rows X,Y,Z,mx,my,mz")
-    rows = np.array(rows)
-    return rows[:, :3], rows[:, 3:]
-
-
-def profile_values(points: np.ndarray, values: np.ndarray, at: np.ndarray,
-                   key: str) -> np.ndarray:
-    """The profile's magnetization at the points ``at`` (n, 3): multilinear
-    interpolation on the grid the file's points form.  Coordinates with a single
-    value in the file are not interpolated along (the profile does not vary there).
-    The grid must be complete and cover every point asked for."""
-    axes, where = [], []
-    for c in range(3):
-        u = np.unique(points[:, c])
-        if len(u) > 1:
-            axes.append(u)
-            where.append(c)
-    span = max(float(np.ptp(points, axis=0).max()), float(np.ptp(at, axis=0).max())
-               if len(at) else 0.0, 1.0)
-    tol = 1e-9 * span
-    shape = [len(a) for a in axes]
-    if int(np.prod(shape)) != len(points):
-        raise SceneError(f"{key}: the profile's {len(points)} points are not a complete grid "
-                         f"({' x '.join(map(str, shape)) or '1'} = {int(np.prod(shape))} "
-                         f"points expected from its distinct {'XYZ'[where[0]] if where else ''} "
-                         "values): points are missing or repeated")
-    index = tuple(np.searchsorted(a, points[:, c]) for a, c in zip(axes, where))
-    grid = np.full((*shape, 3), np.nan)
-    grid[index] = values
-    if np.isnan(grid).any():
-        missing = np.argwhere(np.isnan(grid[..., 0]))[0]
-        point = [float(axes[k][i]) for k, i in enumerate(missing)]
-        raise SceneError(f"{key}: the profile has no row at {fmt(point)} "
-                         f"({'/'.join('XYZ'[c] for c in where)}): its grid has a hole")
-    for a, c in zip(axes, where):
-        outside = (at[:, c] < a[0] - tol) | (at[:, c] > a[-1] + tol)
-        if outside.any():
-            p = at[np.argmax(outside)]
-            raise SceneError(f"{key}: the profile does not cover the body: the point "
-                             f"{fmt([round(float(v), 9) for v in p])} lies outside its "
-                             f"{'XYZ'[c]} range [{fmt(float(a[0]))}, {fmt(float(a[-1]))}]")
-    out = np.zeros((len(at), 3))
-    # multilinear: sum over the 2^d corners of each point's grid cell
-    lo, frac = [], []
-    for a, c in zip(axes, where):
-        i = np.clip(np.searchsorted(a, at[:, c], side="right") - 1, 0, len(a) - 2)
-        lo.append(i)
-        frac.append(np.clip((at[:, c] - a[i]) / (a[i + 1] - a[i]), 0.0, 1.0))
-    for corner in range(2 ** len(axes)):
-        weight = np.ones(len(at))
-        idx = []
-        for k in range(len(axes)):
-            bit = (corner >> k) & 1
-            weight = weight * (frac[k] if bit else 1 - frac[k])
-            idx.append(lo[k] + bit)
-        out += weight[:, None] * grid[tuple(idx)]
-    return out
+# (rftfem/model/profiles.py; imported here for the magnetic component)
+from rftfem.model.profiles import profile_values, read_profile  # noqa: E402,F401

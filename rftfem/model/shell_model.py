@@ -36,7 +36,6 @@ from rftfem.model.measures import BodyMeasures
 from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
 from rftfem.scene.schema import unit_vector
-from rftfem.scene.selectors import cells_of
 from rftfem.model.triad import Triads
 
 
@@ -192,20 +191,31 @@ class Model(StepStart, BodyMeasures):
                           f"{self.triad.axis_along_normal} nodes")
 
     def _init_materials(self):
-        """Cellwise (DG0) E, ν, t, ρ: one compiled form serves every scene."""
-        V0 = compat.function_space(self.mesh, "DG", 0)
-        shell = self.scene["shell"]
-        dofs = compat.cell_dofs(V0)[:, 0]
-        self.material = {}
-        for key, name in (("E", "E"), ("nu", "nu"), ("thickness", "t"), ("density", "rho")):
-            f = fem.Function(V0, name=name)
-            f.x.array[:] = float(shell[key])
-            for i, part in enumerate(shell.get("parts", [])):
-                if key in part:
-                    cells = cells_of(self.body, [part["region"]], f"shell.parts.{i}.region")
-                    f.x.array[dofs[cells]] = float(part[key])
-            f.x.scatter_forward()
-            self.material[name] = f
+        """The material fields (rftfem/model/materials.py): cellwise (DG0) where every
+        value is a number, so one compiled form serves every such scene; DG2 where a
+        formula or profile sets it.  ``material_ranges``: each key's (min, max, mean)."""
+        from rftfem.model import materials
+
+        self.material, self.material_ranges = materials.build(self)
+
+    def material_value(self, key: str, how: str = "max", value=None) -> float:
+        """A material key's largest (``how = "max"``), smallest (``"min"``) or mean value
+        over the body, or ``"shell"``: [shell]'s own number (its mean if a field), for
+        scales and tolerances.  ``value``: a part's value, itself if a number.  ``E`` and
+        ``nu`` of an orthotropic shell: the larger in-plane modulus, ``nu12``."""
+        from rftfem.scene.fields import is_field
+
+        if value is not None and not is_field(value):
+            return float(value)
+        ranges = self.material_ranges
+        if key not in ranges:
+            key = {"E": "E1", "nu": "nu12"}[key]
+            if key == "E1":
+                return max(self.material_value("E1", how), self.material_value("E2", how))
+        if how == "shell":
+            own = self.scene["shell"][key]
+            return float(own) if not is_field(own) else ranges[key][2]
+        return ranges[key][("min", "max", "mean").index(how)]
 
     # --- forms --------------------------------------------------------------
 

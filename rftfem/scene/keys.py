@@ -15,6 +15,7 @@ from rftfem.errors import SceneError
 from rftfem.integration import steady
 from rftfem.integration.schemes import resolved_scheme
 from rftfem.model import effects
+from rftfem.scene.material_keys import PART_MATERIAL, SHELL_MATERIAL, check_material
 from rftfem.scene.mesh_keys import MESH, check_mesh
 from rftfem.scene.schema import (FACTORIZATIONS, MATRIX_TYPES, MAX_STEPS, NONNEGATIVE, POSITIVE,
                                  TANGENTS, Array, Bool, Free, Int, Leaf, Num, Parameters, Str,
@@ -24,9 +25,6 @@ from rftfem.scene.selectors import check_on_body, check_region_ref
 
 __all__ = ["SCHEMA", "cross_check"]
 
-_PART_MATERIAL = ("E", "nu", "thickness", "density")
-
-_INHERITED = "inherited from [shell]"
 
 SCHEMA = Table({
     "title": Leaf(Str(), required=True,
@@ -34,34 +32,22 @@ SCHEMA = Table({
                        "of a run show it."),
     "mesh": MESH,
     "shell": Table({
-        "thickness": Leaf(POSITIVE, 0.1, unit="length", doc="Shell thickness."),
-        "E": Leaf(POSITIVE, 1.2e6, unit="force/length²", doc="Young's modulus."),
-        "nu": Leaf(Num(-1.0, 0.5, lo_open=True, hi_open=True), 0.0,
-                    doc="Poisson's ratio."),
-        "density": Leaf(NONNEGATIVE, 0.0, unit="mass/length³",
-                         doc="Mass per volume, with mass in force·time²/length (t/mm³ for "
-                             "N, mm, s). Above 0 (here or in a part) the body has inertia "
-                             "and the automatic scheme is generalized-alpha."),
+        **{k: v for k, v in SHELL_MATERIAL.items() if k != "fibre"},
         "axis": Leaf(Vec(nonzero=True), [1.0, 0.0, 0.0],
                       doc="The material axis E1* in reference coordinates (normalised, not "
                           "along the normal). The drag frame follows it: C1 acts along the "
                           "axis as the body carries it, C2 across it in the surface."),
+        "fibre": SHELL_MATERIAL["fibre"],
         "parts": Array(Table({
             "region": Leaf(Str(name=True), required=True,
                             doc="The region (of `[[mesh.regions]]`, a built-in three-link "
                                 "region or a gmsh physical surface); one part per region."),
-            "E": Leaf(POSITIVE, unit="force/length²", default_doc=_INHERITED,
-                       doc="Young's modulus on the region."),
-            "nu": Leaf(Num(-1.0, 0.5, lo_open=True, hi_open=True), default_doc=_INHERITED,
-                        doc="Poisson's ratio on the region."),
-            "thickness": Leaf(POSITIVE, unit="length", default_doc=_INHERITED,
-                               doc="Thickness on the region."),
-            "density": Leaf(NONNEGATIVE, unit="mass/length³", default_doc=_INHERITED,
-                             doc="Density on the region."),
+            **PART_MATERIAL,
         }), doc="Material values that differ on a region; a part takes what it leaves out "
                 "from [shell]."),
     }, required=True,
-        doc="The material (isotropic, plane stress) and thickness of the shell."),
+        doc="The material (isotropic or orthotropic, plane stress) and thickness of the "
+            "shell; each value a number or a field over the body."),
     "time": Table({
         "end": Leaf(POSITIVE, 1.0, unit="time",
                      doc='The time the run stops at; linear load ramps reach their full value '
@@ -217,9 +203,7 @@ def cross_check(scene: dict) -> None:
     # shell parts: region references, inherited material values
     for i, part in enumerate(shell["parts"]):
         check_region_ref(part["region"], f"shell.parts.{i}.region", scene)
-        for key in _PART_MATERIAL:
-            if part[key] is None:
-                part[key] = shell[key]
+    check_material(shell)
     check_unique(shell["parts"], "region", "shell.parts", "region")
 
     # rftfem's own keys of [solver] (petsc_options is not imported here: PETSc would

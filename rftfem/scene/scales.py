@@ -105,12 +105,12 @@ def aliasing_warnings(scene: dict) -> list[str]:
     return lines
 
 
-def _bending_stiffness(shell: dict) -> float:
-    """``D = E t³ / (12 (1 − ν²))`` of the shell's own values (not its parts'), at least
-    the smallest normal float (a thickness of 1e-290 makes t³ zero; the groups that
-    divide by D are then huge, not a division by zero)."""
-    return max(shell["E"] * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2)),
-               sys.float_info.min)
+def _bending_stiffness(model) -> float:
+    """``D = E t³ / (12 (1 − ν²))`` of the shell's own values (not its parts'; a field's
+    mean), at least the smallest normal float (a thickness of 1e-290 makes t³ zero; the
+    groups that divide by D are then huge, not a division by zero)."""
+    E, t, nu = (model.material_value(k, "shell") for k in ("E", "thickness", "nu"))
+    return max(E * t ** 3 / (12 * (1 - nu ** 2)), sys.float_info.min)
 
 
 def groups(scene: dict, model) -> list[tuple[str, float, str]]:
@@ -119,8 +119,8 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
     shell, time_ = scene["shell"], scene["time"]
     L = model.body.length
     width = model.area() / L
-    t = shell["thickness"]
-    D = _bending_stiffness(shell)
+    t = model.material_value("thickness", "shell")
+    D = _bending_stiffness(model)
     out = [("L/t", L / t, "slenderness: length over thickness")]
     drives = drive_periods(scene)
     period = min((d.period for d in drives if not d.table), default=None)

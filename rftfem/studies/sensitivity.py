@@ -152,7 +152,7 @@ class _Adjoint:
         fields = []
         for value in PROBE_VALUES:
             probe = SimpleNamespace(scene=with_overrides(scene, [f"{key.text}={value!r}"]),
-                                    mesh=m.mesh, body=m.body)
+                                    mesh=m.mesh, body=m.body, comm=m.comm)
             Model._init_materials(probe)
             fields.append(probe.material[MATERIAL_FIELDS[key.name]])
         high, low = fields

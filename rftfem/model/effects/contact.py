@@ -177,8 +177,7 @@ class Contact(UpdateLimits, Effect):
 
         #: the body's diagonal (reference)
         self.size = size = self._body_size()
-        thinnest = min(p["thickness"] for p in [self.scene["shell"], *self.scene["shell"]["parts"]]
-                       if "thickness" in p)
+        thinnest = m.material_value("thickness", "min")
         span = self._time_scale()
         self.planes = []
         work, outputs = [], {name: [] for name in ("force", "area", "energy", "power")}
@@ -287,7 +286,7 @@ class Contact(UpdateLimits, Effect):
             if weight > 0.0:
                 touching = m.assemble_scalar(m.compile(within * self.dx))
                 return weight / (touching if touching > 0.0 else m.area())
-        t, E, nu = shell["thickness"], shell["E"], shell["nu"]
+        t, E, nu = (m.material_value(k, "shell") for k in ("thickness", "E", "nu"))
         return E * t**3 / (12 * (1 - nu**2)) * t / size**4
 
     def _check_start(self):

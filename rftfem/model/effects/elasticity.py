@@ -36,6 +36,14 @@ def cell_diameter(mesh):
     return field
 
 
+def material_law(mat: dict, G1, G2):
+    """The plane-stress law of the Model's material fields (forms.elasticity)."""
+    if "fibre" in mat:
+        return elasticity.Orthotropic(*(mat[k] for k in ("E1", "E2", "G12", "nu12", "G13",
+                                                         "G23", "fibre")), G1, G2)
+    return elasticity.Isotropic(mat["E"], mat["nu"])
+
+
 class Elasticity(Effect):
     name = "elasticity"
 
@@ -48,8 +56,9 @@ class Elasticity(Effect):
         mat = model.material
         self.h = cell_diameter(model.mesh)
         k = model.kinematics()
-        self._energy = elasticity.stored_energy(self.strains(k), k.G1, k.G2, mat["E"],
-                                                mat["nu"], mat["t"], model.dx, self.h)
+        self.law = material_law(mat, k.G1, k.G2)
+        self._energy = elasticity.stored_energy(self.strains(k), k.G1, k.G2, self.law,
+                                                mat["t"], model.dx, self.h)
 
     def strains(self, k):
         """``(ε, κ, γ)`` of the kinematics ``k`` (Model.kinematics_of)."""
@@ -74,23 +83,20 @@ class Elasticity(Effect):
                    - ufl.derivative(previous[i], m.newton_previous, m.newton_update)
                    for i in (0, 2)]
         k = m.kinematics()
-        return elasticity.mixed_point_tangent(self.strains(k), defects, k.G1, k.G2, mat["E"],
-                                              mat["nu"], mat["t"], m.dx, self.h)
-
-    def _largest(self, key: str) -> float:
-        """The largest value of a shell key over the shell and its parts."""
-        shell = self.scene["shell"]
-        return max([shell[key]] + [p[key] for p in shell.get("parts", []) if key in p])
+        return elasticity.mixed_point_tangent(self.strains(k), defects, k.G1, k.G2, self.law,
+                                              mat["t"], m.dx, self.h)
 
     def force_scales(self):
-        """The bending force ``D W / L²`` that bends the body by order one."""
-        shell, body = self.scene["shell"], self.model.body
-        E = self._largest("E")
-        D = E * shell["thickness"] ** 3 / (12 * (1 - shell["nu"] ** 2))
+        """The bending force ``D W / L²`` that bends the body by order one (the largest
+        modulus, the mean thickness and ν)."""
+        m, body = self.model, self.model.body
+        t, nu = m.material_value("thickness", "shell"), m.material_value("nu", "shell")
+        D = m.material_value("E") * t ** 3 / (12 * (1 - nu ** 2))
         return [D * max(body.width, 1e-300) / body.length**2]
 
     def membrane_force(self) -> float:
         """The membrane force ``E t W`` that stretches the body by order one (the
         largest modulus and thickness of its parts): its residual's round-off scale."""
         width = self.model.body.width
-        return self._largest("E") * self._largest("thickness") * max(width, 1e-300)
+        m = self.model
+        return m.material_value("E") * m.material_value("thickness") * max(width, 1e-300)

@@ -53,8 +53,13 @@ class Gravity(Load):
 
     def force_scales(self):
         """The largest net weight |ρ − ρ_f| t |g| A over the shell and its parts."""
-        shell = self.scene["shell"]
-        return [max(abs(p["density"] - ld["fluid_density"]) * p["thickness"]
-                    for p in [shell, *shell["parts"]])
+        m, shell = self.model, self.scene["shell"]
+
+        def net(p, ld):  # a field's extremes of density, its largest thickness
+            rho = {m.material_value("density", how, p["density"]) for how in ("min", "max")}
+            return (max(abs(r - ld["fluid_density"]) for r in rho)
+                    * m.material_value("thickness", "max", p["thickness"]))
+
+        return [max(net(p, ld) for p in [shell, *shell["parts"]])
                 * float(np.linalg.norm(ld["value"])) * self.model.area()
                 for _, ld in self.entries]

@@ -307,13 +307,13 @@ class Magnetic(Effect):
 
     def force_scales(self):
         """The largest couple of one part, ``t m B A``, as a force over the length."""
-        m, shell = self.model, self.scene["shell"]
+        m = self.model
         end = self.scene["time"]["end"]
         if self.uniform:
             strength = self.source.scale(end)
         else:
             strength = self.source.scale(m.Vu.tabulate_dof_coordinates(), end, m.comm)
-        return [shell["thickness"] * self._largest_magnetization(i) * strength
+        return [m.material_value("thickness", "shell") * self._largest_magnetization(i) * strength
                 * m.area(self.part_cells[i]) / m.body.length
                 for i in range(len(self.parts))]
 
