@@ -290,3 +290,13 @@ def keep_fields_until(main: Path, t: float, at_t: bool = True):
             if time is not None and float(time.get("Value")) > limit:
                 grid.remove(step)
     _write_xdmf(tree, main)
+
+
+def write_cell_field(path: Path, mesh, f) -> None:
+    """One cellwise (DG0) Function on the body's mesh, in XDMF for ParaView (all ranks
+    write collectively)."""
+    with io.XDMFFile(mesh.comm, str(path), "w") as file:
+        file.write_mesh(mesh)
+        file.write_function(f)
+    if mesh.comm.rank == 0:
+        compat.repair_xdmf_namespace(path)

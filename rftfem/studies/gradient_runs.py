@@ -10,7 +10,7 @@ from pathlib import Path
 from rftfem.errors import SceneError
 from rftfem.studies.sensitivity import check_request, gradient, keep_last_step
 
-__all__ = ["run_with_gradient"]
+__all__ = ["run_with_gradient", "run_with_field_gradients"]
 
 
 def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
@@ -23,10 +23,31 @@ def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
     (docs/model.md §7.6), also written to folder/gradient.json.  A failed run gives
     ``(status, None, None)``; a key or objective that cannot be differentiated is a
     SceneError, raised before the run."""
+    status, result = _run(scene_file, overrides, folder, keys, (), objective, petsc_args)
+    if status != 0:
+        return status, None, None
+    return 0, result["value"], result["gradient"]
+
+
+def run_with_field_gradients(scene_file, overrides: list[str], folder, fields: list[str],
+                             objective: str, petsc_args=None
+                             ) -> tuple[int, float | None, dict | None]:
+    """As ``run_with_gradient`` for field keys (``shell.thickness``, ...,
+    rftfem/studies/field_gradients.py): ``(0, J, {key: FieldGradient})``.  Each key's
+    per-cell gradient is written to folder/gradient-KEY.xdmf (a cell field for
+    ParaView), a profile's to folder/gradient-KEY.csv (rows X,Y,Z,dJ/dvalue)."""
+    status, result = _run(scene_file, overrides, folder, [], fields, objective, petsc_args)
+    if status != 0:
+        return status, None, None
+    return 0, result["value"], result["fields"]
+
+
+def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args):
     from rftfem.studies.batch import run_here
     from rftfem.outputs.writers import write_json
     from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import Simulation
+    from rftfem.studies.field_gradients import check_field_keys
 
     try:
         scene = load_scene(str(scene_file), list(overrides))
@@ -35,6 +56,7 @@ def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
     if scene is not None:
         try:
             check_request(scene, list(keys), objective)
+            check_field_keys(scene, list(fields))
         except SceneError as exc:  # said in run.log too, as run_here says a bad scene
             Path(folder).mkdir(parents=True, exist_ok=True)
             (Path(folder) / "run.log").write_text(f"rftfem: error: {exc}\n", encoding="utf-8")
@@ -49,16 +71,40 @@ def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
             sim.run()
             t1 = time.perf_counter()
             parsed, target = check_request(scene, list(keys), objective)
-            J, grad = gradient(sim, last, parsed, target)
+            got = gradient(sim, last, parsed, target, fields=list(fields))
+            J, grad = got[0], got[1]
             print(f"rftfem: the gradient by the adjoint in {time.perf_counter() - t1:.2f} s")
-            write_json(Path(out_dir) / "gradient.json",
-                       {"objective": objective, "value": J, "gradient": dict(zip(keys, grad))},
-                       sim.comm)
+            data = {"objective": objective, "value": J, "gradient": dict(zip(keys, grad))}
+            if fields:
+                data["fields"] = {g.key: _write_field(sim.model, g, Path(out_dir))
+                                  for g in got[2]}
+                result["fields"] = {g.key: g for g in got[2]}
+            write_json(Path(out_dir) / "gradient.json", data, sim.comm)
             result.update(value=J, gradient=grad)
         finally:
             sim.close()
 
     status = run_here(scene_file, overrides, Path(folder), petsc_args, simulate=simulate)
-    if status != 0:
-        return status, None, None
-    return 0, result["value"], result["gradient"]
+    return status, result
+
+
+def _write_field(model, g, out_dir: Path) -> dict:
+    """A field gradient's files; their names and the total (the derivative by a
+    uniform change of the field) for gradient.json."""
+    import numpy as np
+
+    from rftfem.outputs.writers import write_cell_field
+
+    stem = f"gradient-{g.key}"
+    write_cell_field(out_dir / f"{stem}.xdmf", model.mesh, g.cells)
+    n = g.cells.function_space.dofmap.index_map.size_local
+    total = model.comm.allreduce(float(np.sum(g.cells.x.array[:n])))
+    out = {"cells": f"{stem}.xdmf", "uniform": total}
+    if g.profile is not None:
+        points, values = g.profile
+        if model.comm.rank == 0:
+            rows = "\n".join(",".join(repr(float(v)) for v in (*p, d))
+                             for p, d in zip(points, values))
+            (out_dir / f"{stem}.csv").write_text(f"X,Y,Z,d_{g.key}\n{rows}\n", encoding="utf-8")
+        out["profile"] = f"{stem}.csv"
+    return out

@@ -346,16 +346,18 @@ class _Adjoint:
         return lam
 
 
-def gradient(sim, last: dict, keys: list[Key], objective: Objective):
+def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     """``(J, [dJ/dkey])`` at the state ``last`` that the run's last step converged to
     (``keep_last_step``), for a finished static Simulation whose solver and model are
-    still alive (before ``sim.close()``)."""
+    still alive (before ``sim.close()``).  With ``fields`` (field keys, e.g.
+    ``shell.thickness``): ``(J, [dJ/dkey], [FieldGradient])``
+    (rftfem/studies/field_gradients.py)."""
     m = sim.model
     _restore(m, last)
     m.set_time(sim.scene["time"]["end"])
     adj = _Adjoint(sim)
     J, dJdw, J_form = adj.objective(objective)
-    if not keys:
+    if not keys and not fields:
         dJdw.destroy()
         return float(J), []
     lam = adj.multiplier(dJdw)
@@ -376,9 +378,14 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective):
                 dJdp = m.assemble_scalar(m.compile(partial))
         out.append(float(dJdp - lam.dot(dRdp)))
         dRdp.destroy()
+    by_field = []
+    if fields:
+        from rftfem.studies.field_gradients import field_gradients
+
+        by_field = field_gradients(adj, lam, J_form, list(fields))
     for v in (dJdw, lam):
         v.destroy()
-    return float(J), out
+    return (float(J), out, by_field) if fields else (float(J), out)
 
 
 __all__ = ["gradient", "keep_last_step", "check_request", "supports",

@@ -75,6 +75,13 @@ def _check_key(scene: dict, key: Key) -> None:
         if key.index >= n:
             fail(f"index {key.index} out of range, the scene has {n} [[{table}]] "
                  f"entr{'y' if n == 1 else 'ies'}")
+    if key.kind == "material":
+        holder = scene["shell"] if key.index is None else scene["shell"]["parts"][key.index]
+        if isinstance(holder.get(key.name), (str, dict)):
+            fail("the value is a field (a formula or profile); its gradient is one value "
+                 "per cell or profile point (rftfem optimize --vary-field)")
+        if key.name in ("E", "nu") and scene["shell"]["material"] == "orthotropic":
+            fail("the shell is orthotropic; E and nu are not used")
     if key.kind == "load":
         load = scene["load"][key.index]
         vector = isinstance(load.get("value"), list)
