@@ -142,6 +142,8 @@ def _material_gradient(m, key, f, nodal) -> FieldGradient:
 
     V = f.function_space
     grad = FieldGradient(key, _per_cell(m, V, nodal), nodal)
+    totals = _totals(m, f)
+    grad.extra = {name: value for name, (value, _) in totals.items()}
     sources = owners(m, key.split(".")[-1])
     profiles = [i for i, (_, value, _) in enumerate(sources)
                 if is_field(value) and isinstance(value, dict)]
@@ -160,11 +162,33 @@ def _material_gradient(m, key, f, nodal) -> FieldGradient:
     nodes = np.nonzero(owner[:n_owned] == i)[0]
     rows, weights = profile_weights(points, V.tabulate_dof_coordinates()[nodes],
                                     f"{where}.profile")
-    local = np.zeros(len(points))
-    np.add.at(local, rows.ravel(), (weights * nodal[nodes, None]).ravel())
-    grad.profile = (points, m.comm.allreduce(local, op=MPI.SUM))
+
+    def on_profile(vector):
+        local = np.zeros(len(points))
+        np.add.at(local, rows.ravel(), (weights * vector[nodes, None]).ravel())
+        return m.comm.allreduce(local, op=MPI.SUM)
+
+    grad.profile = (points, on_profile(nodal))
     grad.profile_file = value["profile"]
+    grad.extra.update({f"d_{name}": on_profile(d) for name, (_, d) in totals.items()})
     return grad
+
+
+def _totals(m, f) -> dict:
+    """The body's mass ∫ρt dA and volume ∫t dA, each with its nodal derivative by the
+    field ``f`` (zero if they do not depend on it)."""
+    import ufl
+
+    rho, t = m.material["rho"], m.material["t"]
+    v = ufl.TestFunction(f.function_space)
+    out = {}
+    for name, integrand in (("mass", rho * t), ("volume", t)):
+        form = integrand * m.dx
+        value = m.assemble_scalar(m.compile(form))
+        d = (_assemble(m, ufl.derivative(form, f, v), f.function_space)
+             if f in (rho, t) else np.zeros(len(f.x.array)))
+        out[name] = (value, d)
+    return out
 
 
 def _magnetization_gradient(m, key, index, M, nodal) -> FieldGradient:

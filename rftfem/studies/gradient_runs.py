@@ -99,7 +99,8 @@ def _write_field(model, g, out_dir: Path) -> dict:
     write_cell_field(out_dir / f"{stem}.xdmf", model.mesh, g.cells)
     n = g.cells.function_space.dofmap.index_map.size_local
     total = model.comm.allreduce(float(np.sum(g.cells.x.array[:n])))
-    out = {"cells": f"{stem}.xdmf", "uniform": total}
+    out = {"cells": f"{stem}.xdmf", "uniform": total,
+           **{k: v for k, v in g.extra.items() if not k.startswith("d_")}}
     if g.profile is not None:
         points, values = g.profile
         if model.comm.rank == 0:

@@ -188,6 +188,11 @@ def add_arguments(parser):
     parser.add_argument("--vary", metavar="KEY=LO:HI", action="append", default=[],
                         help="a scalar scene key and its interval (LO:HI:log for a log "
                              "scale; load.0.value.1 for a component); repeatable")
+    parser.add_argument("--vary-field", metavar="KEY=LO:HI", default=None, dest="vary_field",
+                        help="instead of --vary: the values of a material field (shell."
+                             "thickness, shell.E, shell.nu, shell.density) on its profile grid, "
+                             "each in [LO, HI], with exact gradients (static scenes); "
+                             "constraints 'mass=start', 'volume<=V'")
     parser.add_argument("--objective", metavar="EXPR", default=None,
                         help="what to optimise: a formula of collect's quantities")
     sense = parser.add_mutually_exclusive_group()
@@ -227,6 +232,10 @@ def _method(name: str) -> str:
 def main(args, petsc_args: list[str], console) -> int:
     from rftfem.scene.reading import load_scene, resolved_scheme
 
+    if args.vary_field is not None:
+        from rftfem.studies.optimize_field_cli import main as field_main
+
+        return field_main(args, petsc_args, console)
     if not args.vary:
         raise SceneError("--vary: give at least one KEY=LO:HI to search")
     if args.objective is None:
