@@ -30,19 +30,22 @@ def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
 
 
 def run_with_field_gradients(scene_file, overrides: list[str], folder, fields: list[str],
-                             objective: str, petsc_args=None
+                             objective, petsc_args=None, combine=None
                              ) -> tuple[int, float | None, dict | None]:
     """As ``run_with_gradient`` for field keys (``shell.thickness``, ...,
     rftfem/studies/field_gradients.py): ``(0, J, {key: FieldGradient})``.  Each key's
     per-cell gradient is written to folder/gradient-KEY.xdmf (a cell field for
-    ParaView), a profile's to folder/gradient-KEY.csv (rows X,Y,Z,dJ/dvalue)."""
-    status, result = _run(scene_file, overrides, folder, [], fields, objective, petsc_args)
+    ParaView), a profile's to folder/gradient-KEY.csv (rows X,Y,Z,dJ/dvalue).  With
+    ``combine``, ``objective`` is a list of quantities and J = f(them) (``combine``
+    as in sensitivity.gradient)."""
+    status, result = _run(scene_file, overrides, folder, [], fields, objective, petsc_args,
+                          combine)
     if status != 0:
         return status, None, None
     return 0, result["value"], result["fields"]
 
 
-def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args):
+def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, combine=None):
     from rftfem.studies.batch import run_here
     from rftfem.outputs.writers import write_json
     from rftfem.scene.reading import load_scene
@@ -55,7 +58,8 @@ def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args):
         scene = None  # run_here says why, in run.log, and returns exit status 2
     if scene is not None:
         try:
-            check_request(scene, list(keys), objective)
+            for text in (objective if combine else [objective]):
+                check_request(scene, list(keys), text)
             check_field_keys(scene, list(fields))
         except SceneError as exc:  # said in run.log too, as run_here says a bad scene
             Path(folder).mkdir(parents=True, exist_ok=True)
@@ -70,7 +74,11 @@ def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args):
             last = keep_last_step(sim.model)
             sim.run()
             t1 = time.perf_counter()
-            parsed, target = check_request(scene, list(keys), objective)
+            if combine:
+                parsed = check_request(scene, list(keys), objective[0])[0]
+                target = ([check_request(scene, [], text)[1] for text in objective], combine)
+            else:
+                parsed, target = check_request(scene, list(keys), objective)
             got = gradient(sim, last, parsed, target, fields=list(fields))
             J, grad = got[0], got[1]
             print(f"rftfem: the gradient by the adjoint in {time.perf_counter() - t1:.2f} s")

@@ -13,14 +13,13 @@ import numpy as np
 from rftfem.errors import SceneError
 from rftfem.studies import objective as objectives
 from rftfem.studies.optimize_fields import (optimize_field, parse_field_constraint,
-                                            parse_vary_field)
+                                            parse_vary_field, run_quantities)
 
 __all__ = ["main"]
 
 
 def main(args, petsc_args, console) -> int:
     from rftfem.scene.reading import load_scene, resolved_scheme
-    from rftfem.studies.optimize_evaluations import adjoint_quantity
     from rftfem.studies.sensitivity_request import supports
 
     if args.vary:
@@ -46,11 +45,11 @@ def main(args, petsc_args, console) -> int:
         raise SceneError("--vary-field: field gradients are for static scenes (time.scheme "
                          '= "static")')
     objective = objectives.parse(args.objective)
-    quantity = adjoint_quantity(objective)
-    if quantity is None or not supports([], quantity.text, scene):
-        raise SceneError(f"--objective '{args.objective}': --vary-field needs an objective of "
-                         "one quantity the adjoint differentiates (a probe's displacement "
-                         "at end, centroid_x|y|z@end, elastic_energy@end)")
+    texts, _ = run_quantities(objective)
+    if not texts or not all(supports([], text, scene) for text in texts):
+        raise SceneError(f"--objective '{args.objective}': --vary-field needs a formula of "
+                         "quantities the adjoint differentiates (probes' displacements at "
+                         "end, centroid_x|y|z@end, elastic_energy@end)")
     design = parse_vary_field(args.vary_field, scene)
     out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
     try:

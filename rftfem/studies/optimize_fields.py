@@ -144,9 +144,8 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
     from scipy import optimize
 
     from rftfem.studies.gradient_runs import run_with_field_gradients
-    from rftfem.studies.optimize_evaluations import adjoint_quantity
 
-    quantity = adjoint_quantity(objective)
+    texts, combine = run_quantities(objective)
     evaluations: list[_Evaluation] = []
     cache: dict[bytes, _Evaluation] = {}
     span = design.hi - design.lo
@@ -171,13 +170,12 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
         t0 = time.perf_counter()
         status, J, grads = run_with_field_gradients(
             args.scene, [*args.overrides, f'{design.key}="{csv_file}"'], ev.folder,
-            [design.key], quantity.text, petsc_args)
+            [design.key], texts, petsc_args, combine)
         ev.wall = time.perf_counter() - t0
         if status == 0:
             g = grads[design.key]
             ev.status, ev.totals = "ok", dict(g.extra)
-            ev.objective, dfdq = _objective(objective, ev.folder)
-            ev.gradient = dfdq * g.profile[1]
+            ev.objective, ev.gradient = J, g.profile[1]
         else:
             ev.failure = f"exit status {status} (see {ev.folder.name}/run.log)"
         writer.writerow([ev.index, ev.folder.name, ev.status, _num(ev.objective),
@@ -210,6 +208,11 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
         start = first.totals[c.name]
         bound = start if c.bound is None else c.bound
         slope = _linear_slope(first, c.name, span)  # linear: value(z0) + slope·(z − z0)
+        if not np.any(slope):
+            handle.close()
+            raise SceneError(f"--constraint '{c.text}': the body's {c.name} does not depend "
+                             f"on {design.key}" + (" (its density is 0)" if c.name == "mass"
+                                                   else ""))
 
         def fun(z, c=c, bound=bound, start=start, slope=slope):
             value = start + slope @ (np.asarray(z) - z0)
@@ -255,23 +258,30 @@ def _feasible(ev, constraints, first, rtol: float = 1e-6) -> bool:
     return True
 
 
-def _objective(objective, folder: Path) -> tuple[float, float]:
-    """The objective of a run folder and its derivative by its one run quantity
-    (central differences through the formula)."""
-    from rftfem.outputs.quantities import RunFolder
+def run_quantities(objective) -> tuple[list[str], object]:
+    """The objective's run quantities (texts for the adjoint, e.g. ``tip_uz@end``) and
+    ``combine(values) -> (J, [∂J/∂value])``: the formula and its partial derivatives
+    (central differences; ``scene(KEY)`` values are read from the scene once)."""
+    from rftfem.studies.objective import SceneValue
 
-    run = RunFolder(folder)
-    env = {f"q{i}": q.evaluate(run) for i, q in enumerate(objective.quantities)}
-    value = float(objective.formula.numbers(env))
-    from rftfem.studies.optimize_evaluations import adjoint_quantity
+    run = [i for i, q in enumerate(objective.quantities) if not isinstance(q, SceneValue)]
+    if any(isinstance(q, SceneValue) for q in objective.quantities):
+        raise SceneError(f"--objective '{objective.text}': with --vary-field write numbers, "
+                         "not scene(KEY)")
 
-    q = adjoint_quantity(objective)
-    name = f"q{objective.quantities.index(q)}"
-    v = env[name]
-    h = 1e-6 * max(abs(v), 1e-300)
-    up = float(objective.formula.numbers(dict(env, **{name: v + h})))
-    down = float(objective.formula.numbers(dict(env, **{name: v - h})))
-    return value, (up - down) / (2 * h)
+    def combine(values):
+        env = {f"q{i}": float(v) for i, v in zip(run, values)}
+        value = float(objective.formula.numbers(env))
+        partials = []
+        for i in run:
+            v = env[f"q{i}"]
+            h = 1e-6 * max(abs(v), 1e-12)
+            up = float(objective.formula.numbers(dict(env, **{f"q{i}": v + h})))
+            down = float(objective.formula.numbers(dict(env, **{f"q{i}": v - h})))
+            partials.append((up - down) / (2 * h))
+        return value, partials
+
+    return [objective.quantities[i].text for i in run], combine
 
 
 def _num(v) -> str:

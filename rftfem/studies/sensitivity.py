@@ -351,12 +351,17 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     (``keep_last_step``), for a finished static Simulation whose solver and model are
     still alive (before ``sim.close()``).  With ``fields`` (field keys, e.g.
     ``shell.thickness``): ``(J, [dJ/dkey], [FieldGradient])``
-    (rftfem/studies/field_gradients.py)."""
+    (rftfem/studies/field_gradients.py).  ``objective`` may be ``(objectives,
+    combine)``: J = f(J₁, J₂, ...) with ``combine([J_i]) -> (J, [∂f/∂J_i])``, whose
+    ∂J/∂w is Σ ∂f/∂J_i ∂J_i/∂w (one adjoint solve)."""
     m = sim.model
     _restore(m, last)
     m.set_time(sim.scene["time"]["end"])
     adj = _Adjoint(sim)
-    J, dJdw, J_form = adj.objective(objective)
+    if isinstance(objective, tuple):
+        J, dJdw, J_form = _combined(adj, *objective)
+    else:
+        J, dJdw, J_form = adj.objective(objective)
     if not keys and not fields:
         dJdw.destroy()
         return float(J), []
@@ -386,6 +391,19 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     for v in (dJdw, lam):
         v.destroy()
     return (float(J), out, by_field) if fields else (float(J), out)
+
+
+def _combined(adj, objectives, combine):
+    """``(J, ∂J/∂w, J's form or None)`` of ``J = f(J₁, J₂, ...)`` at the iterate."""
+    parts = [adj.objective(o) for o in objectives]
+    J, weights = combine([p[0] for p in parts])
+    dJdw = parts[0][1]
+    dJdw.scale(weights[0])
+    for (_, g, _), w in zip(parts[1:], weights[1:]):
+        dJdw.axpy(w, g)
+        g.destroy()
+    forms = [w * form for (_, _, form), w in zip(parts, weights) if form is not None]
+    return J, dJdw, (sum(forms[1:], forms[0]) if forms else None)
 
 
 __all__ = ["gradient", "keep_last_step", "check_request", "supports",
