@@ -213,8 +213,8 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
     hypothesis.note(f"RFTFEM_FUZZ_SEED={FUZZ_SEED}")
     path = tmp_path / f"{name}.toml"
     path.write_text(to_toml(scene), encoding="utf-8")
-    # a mutant that points at a file of the demo folder (a gmsh mesh) finds it there
-    for extra in DEMOS.glob("*.msh"):
+    # a mutant that points at a file of the demo folder (a gmsh mesh, a profile) finds it
+    for extra in [*DEMOS.glob("*.msh"), *DEMOS.glob("*.csv")]:
         (tmp_path / extra.name).write_bytes(extra.read_bytes())
     args = [arg for s in sets for arg in ("--set", s)]
     what = (f"a mutant of demos/{name}.toml, --set {sets}, written to {path} "
@@ -245,13 +245,20 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
 
 
 def _form_key(scene: dict) -> tuple:
-    """What decides which forms a run compiles (material values do not: they are
+    """What decides which forms a run compiles (material numbers do not: they are
     cellwise Functions)."""
     from rftfem.scene.reading import active_effects
 
+    shell = scene["shell"]
+    # a number is a cellwise value; a formula or profile anywhere makes the key a DG2
+    # field, and an orthotropic law other forms (rftfem/model/materials.py)
+    fields = tuple(any(isinstance(p.get(k), (str, dict)) for p in [shell, *shell["parts"]])
+                   for k in ("E", "nu", "thickness", "density", "E1", "E2", "G12", "nu12",
+                             "G13", "G23"))
+    fibre = tuple(isinstance(v, str) for v in shell.get("fibre") or [])
     return (tuple(active_effects(scene)), scene["mesh"].get("cell"), scene["time"]["scheme"],
             (scene.get("solver") or {}).get("tangent"), scene["mesh"].get("kind"),
-            scene["mesh"].get("file"))
+            scene["mesh"].get("file"), shell["material"], fields, fibre)
 
 
 def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float | None:
