@@ -5,6 +5,9 @@
                     [--method NAME] [--budget N] [--jobs J | --np P] [--reuse]
                     [--set KEY=VALUE ...] [--out DIR]
 
+``--vary-field KEY=LO:HI`` instead searches the values of a material field
+(rftfem/studies/optimize_fields.py, docs/materials.md).
+
 Each ``--vary`` is a scalar scene key (``shell.E``, ``magnetic.field.frequency``;
 a component of a vector value as ``load.0.value.1``) and its interval; a
 ``:log`` suffix (``--vary shell.E=1e5:1e7:log``) searches it on a log scale.
@@ -85,6 +88,13 @@ examples:
       --constraint 'steady(drag_power)<=2e-5' --budget 20
   rftfem optimize demos/three_link_stroke.toml --vary motion.1.phase=-3:-0.15 \\
       --objective '-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)' --maximize
+  rftfem optimize demos/thickness_design.toml --vary-field shell.thickness=0.05:0.2 \
+      --constraint mass=start --maximize \
+      --objective 'atan((tip_uz@end - back_uz@end)/(0.5 + tip_ux@end - back_ux@end))'
+--vary-field: the values of a material field on its profile grid (the scene's
+profile, or a strip's node lines) are the variables, with exact gradients
+(static scenes); l-bfgs-b, or slsqp with constraints on mass or volume
+(=, <=, >=; a number or 'start'); writes best-KEY.csv and best.toml reading it
 exit status: 0 optimisation written (also when runs failed), 2 bad option or scene"""
 
 
