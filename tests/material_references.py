@@ -339,3 +339,62 @@ def bang_bang_coefficients(L, tbar, tmin, tmax):
     defl = (tmax * b * (a * L - a * a / 2) + tmin * (a * a * L / 2 - a ** 3 / 6)) \
         / tmin ** 3 + b ** 3 / (3 * tmax ** 2)
     return a, rot, defl
+
+
+# Piecewise-LINEAR t (rftfem's profile: n values, linear between equal-spaced
+# nodes): J = int_0^L k mt / t^3 dx with t = P t_n, mt = Q t_n at 16 Gauss
+# points a segment (smooth there: exact to ~1e-15), and for that rule exactly
+#     dJ/dt_n = Q^T (w k / t^3) - 3 P^T (w k mt / t^4).
+# k = 1: tip rotation; chord = d: k = min(1, (L - x)/d), the slope of the chord
+# of the last d (theta_L less int kappa (x - L + d)/d over it; L - d a node).
+
+def _linear_strip(L, n, chord, m=16):
+    e, h = n - 1, L / (n - 1)
+    g, gw = np.polynomial.legendre.leggauss(m)
+    xi = (g + 1) / 2
+    P, Q = np.zeros((e * m, n)), np.zeros((e * m, n))
+    for k in range(e):
+        r = slice(k * m, (k + 1) * m)
+        P[r, k], P[r, k + 1] = 1 - xi, xi
+        Q[r, k] = h * (1 - xi) ** 2 / 2             # int_x^{x_k+1} of the two hats
+        Q[r, k + 1] = h * (1 - xi * xi) / 2 + (h / 2 if k + 1 < e else 0.0)
+        Q[r, k + 2:] = h - h / 2 * (np.arange(k + 2, n) == n - 1)  # later ones
+    x = h * (np.arange(e)[:, None] + xi).ravel()
+    w = np.tile(gw * h / 2, e) * (np.minimum(1.0, (L - x) / chord) if chord else 1.0)
+    return P, Q, w
+
+
+def magnetic_strip_linear_coefficient(t_nodes, L, chord=0.0, grad=False):
+    """J (with grad, also dJ/dt_nodes) of piecewise-linear t; theta = 12 M0 B J / E."""
+    t = np.asarray(t_nodes, float)
+    P, Q, w = _linear_strip(L, len(t), chord)
+    tq, mq = P @ t, Q @ t
+    J = w @ (mq / tq ** 3)
+    return (J, Q.T @ (w / tq ** 3) - 3 * P.T @ (w * mq / tq ** 4)) if grad else J
+
+
+def magnetic_strip_piecewise_linear_optimum(L, tbar, tmin, tmax, n_nodes, chord=0.0):
+    """Optimum over piecewise-linear t (n_nodes values in [tmin, tmax], mean tbar by
+    the trapezoid rule): SLSQP, exact gradient, from uniform, two ramps and five
+    seeded random starts; the best feasible end (the tmin | one ramp | tmax profile
+    for n_nodes <= 81; at 301 it stops short).  Returns (t_nodes, J)."""
+    n, lo, hi = n_nodes, tmin / tbar, tmax / tbar
+    c = np.r_[0.5, np.ones(n - 2), 0.5] / (n - 1)   # mean = c @ t
+    J0 = magnetic_strip_linear_coefficient(np.full(n, tbar), L, chord)
+
+    def f(u):
+        J, g = magnetic_strip_linear_coefficient(u * tbar, L, chord, grad=True)
+        return -J / J0, -g * tbar / J0
+
+    x, rng = np.linspace(-0.5, 0.5, n), np.random.default_rng(1)
+    us = [np.ones(n), 1 + x, 1 - x, *rng.uniform(lo, hi, (5, n))]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "Values in x were outside bounds")
+        ends = [optimize.minimize(f, np.clip(u / (c @ u), lo, hi), jac=True,
+                                  method="SLSQP", bounds=[(lo, hi)] * n, options={
+                                      "ftol": 1e-15, "maxiter": 2000}, constraints=[
+                                      {"type": "eq", "fun": lambda u: c @ u - 1.0,
+                                       "jac": lambda u: c}]).x for u in us]
+    t = tbar * min((np.clip(u, lo, hi) for u in ends if abs(c @ u - 1) < 1e-9),
+                   key=lambda u: f(u)[0])
+    return t, magnetic_strip_linear_coefficient(t, L, chord)

@@ -211,8 +211,9 @@ def add_arguments(parser):
                        help="seek the smallest objective (the default)")
     parser.add_argument("--constraint", metavar="EXPR<=V", action="append", default=[],
                         help="EXPR<=V or EXPR>=V, EXPR as the objective; repeatable")
-    parser.add_argument("--method", metavar="NAME", default=DEFAULT_METHOD,
-                        help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD})")
+    parser.add_argument("--method", metavar="NAME", default=None,
+                        help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD}; with "
+                             "--vary-field l-bfgs-b, or slsqp with constraints)")
     parser.add_argument("--budget", metavar="N", type=int, default=DEFAULT_BUDGET,
                         help=f"at most N runs (default {DEFAULT_BUDGET})")
     parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
@@ -251,7 +252,7 @@ def main(args, petsc_args: list[str], console) -> int:
     if args.objective is None:
         raise SceneError("--objective: give the quantity to optimise (e.g. "
                          "--objective 'steady(front_ux_rate)')")
-    method = _method(args.method)
+    method = _method(args.method or DEFAULT_METHOD)
     if args.budget < 1:
         raise SceneError(f"--budget: expected at least 1 run, found {args.budget}")
     check_executor_options(args.jobs, args.np, args.executor, "runs")

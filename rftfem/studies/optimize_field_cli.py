@@ -32,14 +32,19 @@ def main(args, petsc_args, console) -> int:
     if args.np != 1 or args.jobs != 1 or args.executor != "local":
         raise SceneError("--vary-field: the runs and their gradients are taken in this "
                          "process, one at a time (no --np, --jobs or --executor)")
-    method = args.method.strip().lower().replace("_", "-")
+    if args.reuse:
+        raise SceneError("--reuse: not with --vary-field (each search runs its evaluations "
+                         "afresh)")
     constraints = [parse_field_constraint(c) for c in args.constraint]
-    if method not in ("cobyla", "l-bfgs-b", "slsqp"):  # cobyla: the default of --vary
+    method = (args.method or ("slsqp" if constraints else "l-bfgs-b")).strip().lower()
+    method = method.replace("_", "-").replace("lbfgsb", "l-bfgs-b")
+    if method not in ("l-bfgs-b", "slsqp"):
         raise SceneError(f"--method {args.method}: --vary-field searches with l-bfgs-b "
-                         "(bounds) or slsqp (with constraints)")
+                         "(bounds) or slsqp (bounds and constraints)")
     if method == "l-bfgs-b" and constraints:
         raise SceneError("--constraint: l-bfgs-b takes bounds only; with --vary-field and a "
                          "constraint the method is slsqp (the default)")
+    args.method = method
     scene = load_scene(args.scene, args.overrides)
     if resolved_scheme(scene) != "static":
         raise SceneError("--vary-field: field gradients are for static scenes (time.scheme "
@@ -59,7 +64,7 @@ def main(args, petsc_args, console) -> int:
     for old in out.glob("eval-[0-9]*"):
         shutil.rmtree(old, ignore_errors=True)
     sign = -1.0 if args.maximize else 1.0
-    console.out(f"rftfem optimize: {'slsqp' if constraints else 'l-bfgs-b'} over the "
+    console.out(f"rftfem optimize: {method} over the "
                 f"{len(design.start)} values of {design.key} in [{design.lo:g}, {design.hi:g}] "
                 f"({'maximise' if sign < 0 else 'minimise'} {args.objective}"
                 + "".join(f"; {c.text}" for c in constraints)

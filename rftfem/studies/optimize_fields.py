@@ -176,6 +176,8 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
             g = grads[design.key]
             ev.status, ev.totals = "ok", dict(g.extra)
             ev.objective, ev.gradient = J, g.profile[1]
+            if constraints and not _feasible(ev, constraints, evaluations[0]):
+                ev.status = "infeasible"  # asked for by the method on its way
         else:
             ev.failure = f"exit status {status} (see {ev.folder.name}/run.log)"
         writer.writerow([ev.index, ev.folder.name, ev.status, _num(ev.objective),
@@ -185,21 +187,22 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
         handle.flush()
         console.out(f"  {ev.folder.name}: {ev.status}"
                     + (f"  objective {ev.objective:.8g}  mass {ev.totals['mass']:.6g}  "
-                       f"volume {ev.totals['volume']:.6g}" if ev.status == "ok" else
+                       f"volume {ev.totals['volume']:.6g}" if ev.objective is not None else
                        f"; {ev.failure}"))
         return ev
 
     z0 = (design.start - design.lo) / span
     first = run(z0)
-    if first.status != "ok":
+    if first.objective is None:
         handle.close()
         return None, "the start failed", evaluations
     scale = max(abs(first.objective), 1e-300)
 
     def merit(z):
         ev = run(z)
-        if ev.status != "ok":  # worse than any seen: the line search steps back
-            worst = max(sign * e.objective for e in evaluations if e.status == "ok") / scale
+        if ev.objective is None:  # a failed run: worse than any seen, the search steps back
+            worst = max(sign * e.objective for e in evaluations
+                        if e.objective is not None) / scale
             return worst + max(abs(worst), 1.0), np.zeros(len(z))
         return sign * ev.objective / scale, sign * ev.gradient * span / scale
 
@@ -222,10 +225,10 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
             return (-slope if c.sense == "<=" else slope) / max(abs(bound), 1e-300)
 
         cons.append({"type": "eq" if c.sense == "=" else "ineq", "fun": fun, "jac": jac})
-    method = "SLSQP" if cons else "L-BFGS-B"
+    method = "SLSQP" if args.method == "slsqp" else "L-BFGS-B"
     bounds = [(0.0, 1.0)] * len(z0)
     try:
-        if cons:
+        if method == "SLSQP":
             res = optimize.minimize(merit, z0, jac=True, method=method, bounds=bounds,
                                     constraints=cons,
                                     options={"maxiter": args.budget, "ftol": F_TOLERANCE})
@@ -237,7 +240,7 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
     except _Budget:
         why = f"{method}: the budget of {args.budget} runs is spent"
     handle.close()
-    feasible = [e for e in evaluations if e.status == "ok" and _feasible(e, constraints, first)]
+    feasible = [e for e in evaluations if e.status == "ok"]
     best = min(feasible, key=lambda e: sign * e.objective) if feasible else None
     return best, why, evaluations
 
@@ -272,10 +275,12 @@ def run_quantities(objective) -> tuple[list[str], object]:
     def combine(values):
         env = {f"q{i}": float(v) for i, v in zip(run, values)}
         value = float(objective.formula.numbers(env))
+        # steps of 1e-6 of the quantities' common size (one of them may be 0)
+        size = max([abs(float(v)) for v in values] + [1e-300])
         partials = []
         for i in run:
             v = env[f"q{i}"]
-            h = 1e-6 * max(abs(v), 1e-12)
+            h = 1e-6 * max(abs(v), size)
             up = float(objective.formula.numbers(dict(env, **{f"q{i}": v + h})))
             down = float(objective.formula.numbers(dict(env, **{f"q{i}": v - h})))
             partials.append((up - down) / (2 * h))
