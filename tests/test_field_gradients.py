@@ -238,3 +238,53 @@ def test_profile_gradient_carries_the_cells(tmp_path):
         print(f"grid point X = {X[k]}: adjoint {values[k]:.10e}, central difference "
               f"{fd:.10e}, {abs(values[k] / fd - 1):.2e}")
         assert abs(values[k] / fd - 1) < 1e-6
+
+
+_READ_CELLS = """
+import json, sys
+import numpy as np
+import pyvista as pv
+grid = [b for b in pv.read(sys.argv[1]) if "gradient" in b.cell_data][0]
+values = np.asarray(grid.cell_data["gradient"])
+print(json.dumps({"dtype": str(values.dtype), "x": grid.cell_centers().points[:, 0].tolist(),
+                  "values": values.tolist()}))
+"""
+
+
+def test_outputs_of_a_field_gradient(tmp_path):
+    """gradient.json (the value, the mass and volume, the files), gradient-KEY.csv (the
+    profile's gradient, X,Y,Z,dJ/dvalue) and gradient-KEY.xdmf, read back by VTK's
+    XDMF reader (as ParaView does, in a child process) as doubles equal to the cells'
+    gradients."""
+    import json
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+    from rftfem.studies.gradient_runs import run_with_field_gradients
+
+    scene = write_scene(tmp_path, TAPERED)
+    X = np.linspace(0, 10, 11)
+    (tmp_path / "t.csv").write_text("X,Y,Z,t\n" + "".join(
+        f"{float(x)!r},0,0,{0.15 - 0.01 * float(x)!r}\n" for x in X), encoding="utf-8")
+    out = tmp_path / "run"
+    status, J, fields = run_with_field_gradients(scene, ['shell.thickness="t.csv"'], out,
+                                                 ["shell.thickness"], "tip_uz@end")
+    assert status == 0
+    g = fields["shell.thickness"]
+    data = json.loads((out / "gradient.json").read_text())
+    entry = data["fields"]["shell.thickness"]
+    assert data["value"] == J and entry["volume"] == pytest.approx(1.0, rel=1e-12)
+    assert entry["uniform"] == pytest.approx(g.cells.x.array.sum(), rel=1e-12)
+    rows = np.loadtxt(out / entry["profile"], delimiter=",", skiprows=1)
+    np.testing.assert_allclose(rows[:, 0], X)
+    np.testing.assert_allclose(rows[:, 3], g.profile[1], rtol=1e-15)
+    done = subprocess.run([sys.executable, "-c", _READ_CELLS, str(out / entry["cells"])],
+                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    back = json.loads(done.stdout.strip().splitlines()[-1])
+    assert back["dtype"] == "float64"
+    x = g.cells.function_space.tabulate_dof_coordinates()[:, 0]
+    ours = g.cells.x.array[np.argsort(x)]
+    theirs = np.asarray(back["values"])[np.argsort(back["x"])]
+    np.testing.assert_allclose(theirs, ours, rtol=1e-14, atol=0)

@@ -300,3 +300,4 @@ def write_cell_field(path: Path, mesh, f) -> None:
         file.write_function(f)
     if mesh.comm.rank == 0:
         compat.repair_xdmf_namespace(path)
+        declare_double_precision(path)

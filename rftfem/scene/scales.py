@@ -159,6 +159,10 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
         elif deflection > 1e3:
             note += "; so large that the units of E or of the loads may be off"
         out.append(("deflection / length", deflection, note))
+    for key, (lo, hi, mean) in getattr(model, "material_ranges", {}).items():
+        if hi > lo:  # a field, or parts that differ
+            out.append((f"shell.{key} max/min", hi / lo if lo > 0 else math.inf,
+                        f"over the body: {lo:.4g} … {hi:.4g}, mean over its nodes {mean:.4g}"))
     contact = model.get("contact")
     for i, plane in enumerate(contact.planes if contact is not None else []):
         out.append((f"contact.{i} reach / t", plane["reach"] / t,
