@@ -293,8 +293,8 @@ def keep_fields_until(main: Path, t: float, at_t: bool = True):
 
 
 def write_cell_field(path: Path, mesh, f) -> None:
-    """One cellwise (DG0) Function on the body's mesh, in XDMF for ParaView (all ranks
-    write collectively)."""
+    """One cellwise (DG0) Function, or one of the mesh's own degree (P1), on the body's
+    mesh, in XDMF for ParaView (all ranks write collectively)."""
     with io.XDMFFile(mesh.comm, str(path), "w") as file:
         file.write_mesh(mesh)
         file.write_function(f)

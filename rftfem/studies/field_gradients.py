@@ -48,6 +48,8 @@ class FieldGradient:
     profile: tuple | None = None
     profile_file: str | None = None
     extra: dict = field(default_factory=dict)
+    #: a nodal (P1 vector) field instead of ``cells`` (a magnetization profile's)
+    nodal_field: object = None
 
 
 def check_field_keys(scene: dict, keys: list[str]) -> None:
@@ -60,11 +62,19 @@ def check_field_keys(scene: dict, keys: list[str]) -> None:
                 raise SceneError(f"field gradient '{key}': the scene has {len(parts)} "
                                  "[[magnetic.parts]]")
             part = parts[int(m[1])]
-            if not isinstance(part["magnetization"], (int, float)) or \
-                    any(isinstance(v, str) for v in part["direction"]):
-                raise SceneError(f"field gradient '{key}': only a part magnetized by a "
-                                 "number along a direction of numbers has a cellwise "
-                                 "magnetization to differentiate")
+            if part.get("profile") is None and (
+                    not isinstance(part["magnetization"], (int, float))
+                    or any(isinstance(v, str) for v in part["direction"])):
+                raise SceneError(f"field gradient '{key}': the part is magnetized by a "
+                                 "formula; a gradient is by the values of a number (per "
+                                 "cell) or of a profile (per grid point)")
+            if part.get("profile") is None and any(
+                    p.get("profile") is not None or not isinstance(p["magnetization"],
+                                                                    (int, float))
+                    or any(isinstance(v, str) for v in p["direction"]) for p in parts):
+                raise SceneError(f"field gradient '{key}': another part is magnetized by a "
+                                 "formula or profile; a cellwise gradient needs every part "
+                                 "magnetized by numbers")
             continue
         if key not in FIELD_KEYS:
             raise SceneError(f"field gradient '{key}': expected one of {FIELDS_SUPPORTED}")
@@ -87,13 +97,19 @@ def field_gradients(adj, lam, J_form, keys: list[str]) -> list[FieldGradient]:
     out = []
     for key in keys:
         mag = re.fullmatch(r"magnetic\.parts\.(\d+)\.magnetization", key)
-        f = m["magnetic"].remanence if mag else m.material[FORM_NAMES[key.split(".")[-1]]]
+        profiled = mag and int(mag[1]) in getattr(m["magnetic"], "profile_fields", {})
+        if profiled:
+            f = m["magnetic"].profile_fields[int(mag[1])][0]
+        else:
+            f = m["magnetic"].remanence if mag else m.material[FORM_NAMES[key.split(".")[-1]]]
         v = ufl.TestFunction(f.function_space)
         form = -ufl.derivative(work, f, v)
         if J_form is not None and f in J_form.coefficients():
             form = form + ufl.derivative(J_form, f, v)
         nodal = _assemble(m, form, f.function_space)
-        if mag:
+        if profiled:
+            out.append(_magnetization_profile_gradient(m, key, int(mag[1]), f, nodal))
+        elif mag:
             out.append(_magnetization_gradient(m, key, int(mag[1]), f, nodal))
         else:
             out.append(_material_gradient(m, key, f, nodal))
@@ -189,6 +205,41 @@ def _totals(m, f) -> dict:
              if f in (rho, t) else np.zeros(len(f.x.array)))
         out[name] = (value, d)
     return out
+
+
+def _magnetization_profile_gradient(m, key, index, Mp, nodal) -> FieldGradient:
+    """A part magnetized by a profile: its vector values at the P1 nodes are ``W p``
+    (p the grid's vectors), so dJ/dp = Wᵀ dJ/dMp, (points, 3); the nodal gradient
+    (a P1 vector field) is what the XDMF file shows."""
+    from mpi4py import MPI
+
+    from rftfem import compat
+    from rftfem.model.profiles import profile_weights
+
+    _, points = m["magnetic"].profile_fields[index]
+    V = Mp.function_space
+    n_owned = V.dofmap.index_map.size_local
+    nodes = np.unique(compat.cell_dofs(V)[m["magnetic"].part_cells[index]])
+    nodes = nodes[nodes < n_owned]
+    rows, weights = profile_weights(points, V.tabulate_dof_coordinates()[nodes],
+                                    f"{key.rsplit('.', 1)[0]}.profile")
+    per_node = nodal.reshape(-1, 3)[nodes]
+    local = np.zeros((len(points), 3))
+    for k in range(rows.shape[1]):
+        np.add.at(local, rows[:, k], weights[:, k, None] * per_node)
+    grad = FieldGradient(key, None, nodal)
+    grad.nodal_field = _nodal_field(Mp, nodal)
+    grad.profile = (points, m.comm.allreduce(local, op=MPI.SUM))
+    grad.profile_file = m.scene["magnetic"]["parts"][index]["profile"]
+    return grad
+
+
+def _nodal_field(f, nodal):
+    from dolfinx import fem
+
+    g = fem.Function(f.function_space, name="gradient")
+    g.x.array[:] = nodal
+    return g
 
 
 def _magnetization_gradient(m, key, index, M, nodal) -> FieldGradient:

@@ -104,16 +104,23 @@ def _write_field(model, g, out_dir: Path) -> dict:
     from rftfem.outputs.writers import write_cell_field
 
     stem = f"gradient-{g.key}"
-    write_cell_field(out_dir / f"{stem}.xdmf", model.mesh, g.cells)
-    n = g.cells.function_space.dofmap.index_map.size_local
-    total = model.comm.allreduce(float(np.sum(g.cells.x.array[:n])))
-    out = {"cells": f"{stem}.xdmf", "uniform": total,
-           **{k: v for k, v in g.extra.items() if not k.startswith("d_")}}
+    if g.cells is not None:
+        write_cell_field(out_dir / f"{stem}.xdmf", model.mesh, g.cells)
+        n = g.cells.function_space.dofmap.index_map.size_local
+        total = model.comm.allreduce(float(np.sum(g.cells.x.array[:n])))
+        out = {"cells": f"{stem}.xdmf", "uniform": total}
+    else:  # a magnetization profile's gradient at the nodes
+        write_cell_field(out_dir / f"{stem}.xdmf", model.mesh, g.nodal_field)
+        out = {"nodes": f"{stem}.xdmf"}
+    out.update({k: v for k, v in g.extra.items() if not k.startswith("d_")})
     if g.profile is not None:
         points, values = g.profile
+        values = np.asarray(values).reshape(len(points), -1)
+        names = ("mx", "my", "mz") if values.shape[1] == 3 else ("value",)
         if model.comm.rank == 0:
-            rows = "\n".join(",".join(repr(float(v)) for v in (*p, d))
+            rows = "\n".join(",".join(repr(float(v)) for v in (*p, *d))
                              for p, d in zip(points, values))
-            (out_dir / f"{stem}.csv").write_text(f"X,Y,Z,d_{g.key}\n{rows}\n", encoding="utf-8")
+            header = ",".join(["X", "Y", "Z"] + [f"dJ/d{n}" for n in names])
+            (out_dir / f"{stem}.csv").write_text(f"{header}\n{rows}\n", encoding="utf-8")
         out["profile"] = f"{stem}.csv"
     return out

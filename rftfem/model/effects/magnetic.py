@@ -237,6 +237,7 @@ class Magnetic(Effect):
 
         X = ufl.SpatialCoordinate(mesh)
         env = {"X": X[0], "Y": X[1], "Z": X[2]}
+        self.profile_fields = {}
         number = constant_maker(mesh)
         chi_space = compat.function_space(mesh, "DG", 0)
         chi_dofs = compat.cell_dofs(chi_space)[:, 0]
@@ -256,6 +257,8 @@ class Magnetic(Effect):
                 Mp.x.array.reshape(-1, 3)[nodes] = profile_values(points, values, at,
                                                                   f"{where}.profile")
                 Mp.x.scatter_forward()
+                #: a profile's P1 field and grid points, for gradients by its values
+                self.profile_fields[i] = (Mp, points)
             else:
                 m = _ufl_of(part["magnetization"], f"{where}.magnetization", env, number)
                 d = [_ufl_of(v, f"{where}.direction.{c}", env, number)
