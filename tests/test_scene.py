@@ -113,7 +113,9 @@ def test_good_scene_values_and_inherited_part_values(write):
     s = load_scene(write(GOOD))
     assert s["mesh"]["length"] == 12.0 and isinstance(s["mesh"]["length"], float)
     part = s["shell"]["parts"][0]
-    assert part == {"region": "end1", "E": 400.0, "nu": 0.0, "thickness": 0.1, "density": 0.0}
+    assert part == {"region": "end1", "E": 400.0, "nu": 0.0, "thickness": 0.1, "density": 0.0,
+                    "E1": None, "E2": None, "G12": None, "nu12": None, "G13": None,
+                    "G23": None}
     assert s["load"][0] == {"kind": "edge-moment", "where": "x=L", "value": [0.0, 52.36, 0.0],
                             "ramp": "linear", "table": None}
     assert s["solver"] == {"snes_rtol": 1e-8, "pc_type": "lu"}

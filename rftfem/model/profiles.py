@@ -97,7 +97,7 @@ def profile_weights(points: np.ndarray, at: np.ndarray, key: str
         if outside.any():
             p = at[np.argmax(outside)]
             raise SceneError(f"{key}: the profile does not cover the body: the point "
-                             f"{fmt([round(float(v), 9) for v in p])} lies outside its "
+                             f"{fmt([round(float(v), 9) + 0.0 for v in p])} lies outside its "
                              f"{'XYZ'[c]} range [{fmt(float(a[0]))}, {fmt(float(a[-1]))}]")
     lo, frac = [], []
     for a, c in zip(grid.axes, grid.where):

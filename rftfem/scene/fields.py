@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.scene.validators import Formula, Num, Validator, err, fmt
+from rftfem.scene.validators import Formula, Num, Validator, err, fmt, found
 
 REFERENCE = ("X", "Y", "Z")
 
@@ -49,6 +49,17 @@ class MaterialField(Validator):
             return {"profile": name.strip()}
         if isinstance(value, str) and value.strip().lower().endswith(".csv"):
             return {"profile": value.strip()}
+        if isinstance(value, str):
+            from rftfem.scene.expressions import parse, substitute
+            from rftfem.scene.validators import _PARAMETERS
+
+            try:
+                parse(substitute(value, _PARAMETERS.get()), path, REFERENCE)
+            except SceneError as exc:  # say what the key takes, then what is wrong
+                why = str(exc).removeprefix(f"{path}: ")
+                raise SceneError(f"{path}: expected {self.number.expected}, a formula of "
+                                 f"X, Y, Z or a profile file; found {found(value)} "
+                                 f"({why})") from None
         return self.formula(value, path)
 
     def describe(self, name: str) -> str:
