@@ -159,29 +159,33 @@ def _fibre(model):
 
 
 def _check_fibre(model, f):
-    """The fibre must not be along the normal: its tangential part at least a tenth of
-    it at every cell's centre (a one-line SceneError naming the point)."""
+    """At every node of the fibre field (a cell's centre for numbers) the fibre must
+    not vanish nor lie along the normal: its tangential part at least a tenth of it
+    (a one-line SceneError naming the point)."""
     from rftfem import compat
 
     cells, _ = compat.geometry_cells(model.mesh)
     x = model.mesh.geometry.x[cells[:, :3]]  # three vertices of each cell
     normals = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
     normals /= np.linalg.norm(normals, axis=1)[:, None]
-    centres = model.mesh.geometry.x[cells].mean(axis=1)
-    dofs = compat.cell_dofs(f.function_space)
-    values = f.x.array.reshape(-1, 3)[dofs].mean(axis=1)[: len(cells)]
-    size = np.linalg.norm(values, axis=1)
-    along = np.abs(np.einsum("ij,ij->i", values, normals))
-    bad = (size == 0) | (along > np.sqrt(1 - 0.01) * size)
+    dofs = compat.cell_dofs(f.function_space)[: len(cells)]  # (cells, nodes)
+    values = f.x.array.reshape(-1, 3)[dofs]
+    size = np.linalg.norm(values, axis=2)
+    along = np.abs(np.einsum("cnj,cj->cn", values, normals))
+    zero = size <= 1e-12 * max(float(size.max()) if size.size else 0.0, 1e-300)
+    bad = zero | (along > np.sqrt(1 - 0.01) * size)
     first = model.comm.allreduce(model.comm.rank if bad.any() else model.comm.size,
                                  op=_mpi_min())
     if first < model.comm.size:
-        point = None
+        line = None
         if model.comm.rank == first:
-            point = fmt([round(float(v), 9) + 0.0 for v in centres[int(np.argmax(bad))]])
-        point = model.comm.bcast(point, root=first)
-        raise SceneError(f"shell.fibre: the fibre is along the surface's normal at {point} "
-                         "(it must lie in the surface, where it is projected)")
+            c, n = np.unravel_index(int(np.argmax(bad)), bad.shape)
+            at = f.function_space.tabulate_dof_coordinates()[dofs[c, n]]
+            point = fmt([round(float(v), 9) + 0.0 for v in at])
+            line = (f"shell.fibre: the fibre is zero at {point}" if zero[c, n] else
+                    f"shell.fibre: the fibre is along the surface's normal at {point}")
+            line += " (it must lie in the surface, where it is projected)"
+        raise SceneError(model.comm.bcast(line, root=first))
 
 
 def _check_poisson_field(model):

@@ -56,6 +56,10 @@ def main(args, petsc_args, console) -> int:
                          "quantities the adjoint differentiates (probes' displacements at "
                          "end, centroid_x|y|z@end, elastic_energy@end)")
     design = parse_vary_field(args.vary_field, scene)
+    if isinstance(scene["shell"][design.name], str):  # a formula becomes a profile
+        console.err(f"rftfem optimize: note: {design.key}'s formula is sampled at the "
+                    f"{len(design.start)} grid points, linear between them: the search "
+                    "starts from that profile, not from the formula itself")
     out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
     try:
         out.mkdir(parents=True, exist_ok=True)
