@@ -35,6 +35,13 @@ usage: ./dev.sh TARGET [ARGS...]
   test-current [ARGS]   test suite on the current stack (.venv-current), without `slow`
                         and `long` but for the `both_stacks` ones (./dev.sh test-current
                         -m long runs every long one)
+  test-kernels [STACK] [ARGS]
+                        the suite (as `test` or `test-current`) once under each other
+                        OpenBLAS kernel type and once on one BLAS thread: STACK is
+                        reference (default), current or all; RFTFEM_KERNELS lists the
+                        variants (default: Haswell SkylakeX Sandybridge threads1);
+                        RFTFEM_KERNEL_JOBS=2 runs two variants side by side. Logs in
+                        results/kernels/. About 45 min a variant on 2 cores.
   bench                 run benchmarks/*.py on the reference stack
   race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
                         20 minutes, --quick for a few); creates .venv-elastica if missing
@@ -60,6 +67,31 @@ run_pytest() {
         echo "dev.sh: FAILED: pytest collected no tests (exit 5); a run that tests nothing does not pass" >&2
         return 1
     fi
+    return "$rc"
+}
+
+# test-kernels: one pytest run of stack $1 under variant $2 (an OpenBLAS kernel type,
+# or threads1: the machine's own kernels on one thread), the rest pytest's arguments;
+# its output goes to results/kernels/STACK-VARIANT.log with the captured prints of the
+# passing tests (-rP), so the figures each variant reached can be compared.
+kernel_variant() {
+    local stack=$1 variant=$2; shift 2
+    local log="$ROOT/results/kernels/$stack-$variant.log" t=$SECONDS rc=0
+    local venv=$REF_VENV
+    if [[ $stack == current ]]; then
+        venv=$CUR_VENV
+        if [[ $# -eq 0 ]]; then set -- "${CURRENT_TEST_ARGS[@]}"; fi
+    fi
+    echo "dev.sh: test-kernels: $stack stack, $variant: $log"
+    (
+        if [[ $variant == threads1 ]]; then
+            export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+        else
+            export OPENBLAS_CORETYPE=$variant
+        fi
+        run_pytest "$venv" -rP -p no:cacheprovider "$@"
+    ) >"$log" 2>&1 || rc=$?
+    echo "dev.sh: test-kernels: $stack $variant: $(tail -n 1 "$log") ($((SECONDS - t)) s, exit $rc)"
     return "$rc"
 }
 
@@ -92,6 +124,39 @@ case $target in
         # the default selection only when no test paths or options are given
         if [[ $# -eq 0 ]]; then set -- "${CURRENT_TEST_ARGS[@]}"; fi
         run_pytest "$CUR_VENV" "$@"
+        ;;
+    test-kernels)
+        stacks=(reference)
+        case ${1:-} in
+            reference|current) stacks=("$1"); shift ;;
+            all) stacks=(reference current); shift ;;
+        esac
+        for stack in "${stacks[@]}"; do setup "$stack"; done
+        mkdir -p results/kernels
+        read -r -a variants <<<"${RFTFEM_KERNELS:-Haswell SkylakeX Sandybridge threads1}"
+        jobs=${RFTFEM_KERNEL_JOBS:-1}
+        failed=0
+        pids=()
+        for stack in "${stacks[@]}"; do
+            for variant in "${variants[@]}"; do
+                if [[ $jobs -le 1 ]]; then
+                    kernel_variant "$stack" "$variant" "$@" || failed=1
+                    continue
+                fi
+                kernel_variant "$stack" "$variant" "$@" &
+                pids+=($!)
+                if [[ ${#pids[@]} -ge $jobs ]]; then
+                    wait "${pids[0]}" || failed=1
+                    pids=("${pids[@]:1}")
+                fi
+            done
+        done
+        for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+        if [[ $failed -ne 0 ]]; then
+            echo "dev.sh: test-kernels: FAILED under some kernels (results/kernels/*.log)" >&2
+            exit 1
+        fi
+        echo "dev.sh: test-kernels: passed under every kernel"
         ;;
     bench)
         setup reference

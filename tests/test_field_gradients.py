@@ -202,10 +202,17 @@ def test_tapered_cantilever_closed_form(tmp_path):
 
 def test_profile_gradient_carries_the_cells(tmp_path):
     """The same taper as a profile (11 points along X, linear: equal to the formula at
-    every node): the cells' gradients agree with the formula's to 1e-10, the
+    every node): the cells' gradients agree with the formula's to 2e-9, the
     profile's values sum to the cells' total (the weights at each node sum to 1), and
     two grid values moved by ±1e-4 of themselves in the file give the profile's
-    gradient within 1e-6 (reached 1.7e-8)."""
+    gradient within 1e-6 (reached 1.7e-8).
+
+    The two fields agree at the nodes to 1e-16, but each gradient passes through two
+    solves (the state and its adjoint) whose round-off depends on the BLAS kernels:
+    the largest relative difference of a cell was 5.5e-11 to 1.7e-10 across CPUs and
+    ``OPENBLAS_CORETYPE`` (Cooperlake, SkylakeX, Haswell, Sandybridge; both stacks),
+    about the same scaled by the largest gradient, so it is not the small gradients
+    near the free end.  The bound is about 10 times the largest."""
     scene = write_scene(tmp_path, TAPERED)
     X = np.linspace(0, 10, 11)
 
@@ -221,7 +228,9 @@ def test_profile_gradient_carries_the_cells(tmp_path):
     _, (profile,) = _solve(scene, ['shell.thickness="t.csv"'], "tip_uz@end",
                            ["shell.thickness"])
     a, b = formula.cells.x.array, profile.cells.x.array
-    assert np.allclose(a, b, rtol=1e-10, atol=0), np.abs(a / b - 1).max()
+    print(f"cells' gradients, formula against profile: {np.abs(a / b - 1).max():.2e}; "
+          f"scaled by the largest {np.abs(a - b).max() / np.abs(b).max():.2e}")
+    assert np.allclose(a, b, rtol=2e-9, atol=0), np.abs(a / b - 1).max()
     points, values = profile.profile
     assert points.shape == (11, 3)
     assert abs(values.sum() / b.sum() - 1) < 1e-12
