@@ -41,7 +41,7 @@ usage: ./dev.sh TARGET [ARGS...]
                         reference (default), current or all; RFTFEM_KERNELS lists the
                         variants (default: Haswell SkylakeX Sandybridge threads1);
                         RFTFEM_KERNEL_JOBS=2 runs two variants side by side. Logs in
-                        results/kernels/. About 45 min a variant on 2 cores.
+                        results/kernels/ (RFTFEM_KERNEL_LOGS). About 50 min a variant.
   bench                 run benchmarks/*.py on the reference stack
   race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
                         20 minutes, --quick for a few); creates .venv-elastica if missing
@@ -72,11 +72,11 @@ run_pytest() {
 
 # test-kernels: one pytest run of stack $1 under variant $2 (an OpenBLAS kernel type,
 # or threads1: the machine's own kernels on one thread), the rest pytest's arguments;
-# its output goes to results/kernels/STACK-VARIANT.log with the captured prints of the
+# its output goes to $KERNEL_LOGS/STACK-VARIANT.log with the captured prints of the
 # passing tests (-rP), so the figures each variant reached can be compared.
 kernel_variant() {
     local stack=$1 variant=$2; shift 2
-    local log="$ROOT/results/kernels/$stack-$variant.log" t=$SECONDS rc=0
+    local log="$KERNEL_LOGS/$stack-$variant.log" t=$SECONDS rc=0
     local venv=$REF_VENV
     if [[ $stack == current ]]; then
         venv=$CUR_VENV
@@ -89,7 +89,9 @@ kernel_variant() {
         else
             export OPENBLAS_CORETYPE=$variant
         fi
-        run_pytest "$venv" -rP -p no:cacheprovider "$@"
+        # which kernels every OpenBLAS of the stack runs, refused if not the variant's
+        "$venv/bin/python" scripts/blas_kernels.py "$variant" &&
+            run_pytest "$venv" -rP -p no:cacheprovider "$@"
     ) >"$log" 2>&1 || rc=$?
     echo "dev.sh: test-kernels: $stack $variant: $(tail -n 1 "$log") ($((SECONDS - t)) s, exit $rc)"
     return "$rc"
@@ -132,7 +134,8 @@ case $target in
             all) stacks=(reference current); shift ;;
         esac
         for stack in "${stacks[@]}"; do setup "$stack"; done
-        mkdir -p results/kernels
+        KERNEL_LOGS=${RFTFEM_KERNEL_LOGS:-$ROOT/results/kernels}
+        mkdir -p "$KERNEL_LOGS"
         read -r -a variants <<<"${RFTFEM_KERNELS:-Haswell SkylakeX Sandybridge threads1}"
         jobs=${RFTFEM_KERNEL_JOBS:-1}
         failed=0
@@ -153,7 +156,7 @@ case $target in
         done
         for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
         if [[ $failed -ne 0 ]]; then
-            echo "dev.sh: test-kernels: FAILED under some kernels (results/kernels/*.log)" >&2
+            echo "dev.sh: test-kernels: FAILED under some kernels (logs in $KERNEL_LOGS)" >&2
             exit 1
         fi
         echo "dev.sh: test-kernels: passed under every kernel"
