@@ -49,6 +49,9 @@ class Body:
     length: float = 0.0  # extent in X of the reference body (global)
     width: float = 0.0  # extent in Y of the reference body (global)
     hinges: list[str] = field(default_factory=list)  # built-in hinge line names (in edges)
+    #: a gmsh file's :class:`~rftfem.meshes.surface_checks.SurfaceReport` (cells by
+    #: type, cells turned, free edges, pieces); None for the built-in meshes
+    report: object = None
 
 
 from .gmsh_file import read_gmsh  # noqa: E402

@@ -238,6 +238,7 @@ def _prepare_file(gmsh, path: str):
     untagged = [(2, t) for _, t in model.getEntities(2) if t not in owner]
     if untagged:
         model.removeEntities(untagged, recursive=False)
+    report = _check_cells(model, path, types.pop(), sorted(owner))
     model.mesh.renumberNodes()  # dolfinx wants node tags 1..N
 
     edges: dict[str, list[int]] = {}
@@ -260,7 +261,45 @@ def _prepare_file(gmsh, path: str):
             if name:
                 points[name] = np.vstack([points.get(name, np.empty((0, 3))),
                                           np.asarray(xyz).reshape(-1, 3)])
-    return regions, edges, points
+    return regions, edges, points, report
+
+
+def _check_cells(model, path: str, cell_type: int, entities: list[int]):
+    """Rank 0: the checks of :mod:`.surface_checks` on the body's cells; cells that
+    face the other way from their neighbours are written back turned (their nodes
+    reordered), so that dolfinx reads one orientation.  Returns the report."""
+    from .surface_checks import REVERSED, check_surface
+
+    tags, nodes, entity_of = [], [], []
+    for e in entities:
+        _, element_tags, node_tags = model.mesh.getElements(2, e)
+        if len(element_tags):
+            tags.append(np.asarray(element_tags[0]))
+            nodes.append(np.asarray(node_tags[0]).reshape(len(element_tags[0]), -1))
+            entity_of.append(np.full(len(element_tags[0]), e))
+    tags, nodes, entity_of = np.concatenate(tags), np.vstack(nodes), np.concatenate(entity_of)
+    node_tags, xyz, _ = model.mesh.getNodes()
+    index = np.zeros(int(np.max(node_tags)) + 1, dtype=np.int64)
+    index[np.asarray(node_tags, dtype=np.int64)] = np.arange(len(node_tags))
+    points = model.mesh.getIntegrationPoints(cell_type, "Gauss4")[0]
+    # (components, values[, orientations]): gmsh 4.8 and later differ in the tuple's length
+    grads = model.mesh.getBasisFunctions(cell_type, points, "GradLagrange")[1]
+    grads = np.asarray(grads).reshape(len(points) // 3, nodes.shape[1], 3)[:, :, :2]
+    try:
+        turn, report = check_surface(cell_type, index[nodes], np.asarray(xyz).reshape(-1, 3),
+                                     grads, tags)
+    except ValueError as e:
+        _fail(path, str(e))
+    if turn.any():
+        nodes[turn] = nodes[turn][:, REVERSED[cell_type]]
+        for e in np.unique(entity_of[turn]):
+            inside, coords, _ = model.mesh.getNodes(2, int(e), includeBoundary=False)
+            mine = entity_of == e
+            model.mesh.clear([(2, int(e))])
+            model.mesh.addNodes(2, int(e), inside, coords)
+            model.mesh.addElements(2, int(e), [cell_type], [tags[mine]],
+                                   [nodes[mine].ravel()])
+    return report
 
 
 def _extents(comm, mesh) -> tuple[float, float]:
@@ -289,7 +328,11 @@ def read_gmsh(comm, path):
     physical surface contains are dropped with their elements (gmsh/dolfinx
     behaviour; done explicitly here so every dolfinx version agrees). A
     surface entity may belong to one physical surface only (each cell carries
-    one tag). The normal of each cell follows the node order in the file.
+    one tag). The normal of each cell follows the node order in the file, except
+    that cells facing the other way from their neighbours are turned to face as
+    most of their piece does (:mod:`.surface_checks`, which also refuses cells of
+    no area or turned inside out, unmerged coincident nodes and a surface that
+    cannot be oriented); ``report`` says what was found.
 
     ``length`` and ``width`` are the global bounding-box extents in X and Y.
     The file is read on rank 0; names are broadcast. Errors (not a ``.msh``
@@ -298,10 +341,11 @@ def read_gmsh(comm, path):
     ``SceneError("mesh.file: ...")`` on every rank.
     """
     path = os.fspath(path)
-    mesh, cell_tags, facet_tags, regions, edges, points = _model_to_body(
+    mesh, cell_tags, facet_tags, regions, edges, points, report = _model_to_body(
         comm, lambda gmsh: _prepare_file(gmsh, path))
     length, width = _extents(comm, mesh)
     from . import Body
 
     return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
-                regions=regions, edges=edges, points=points, length=length, width=width)
+                regions=regions, edges=edges, points=points, length=length, width=width,
+                report=report)

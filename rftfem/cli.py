@@ -246,8 +246,8 @@ def _cmd_check(args, console: _Console) -> int:
             from rftfem.integration.simulation import check_report
         except ImportError:  # the simulation module is not there: a scene-only check
             def check_report(scene):
-                return active_effects(scene), []
-        effects, groups = check_report(scene)
+                return active_effects(scene), [], []
+        effects, groups, mesh_lines = check_report(scene)
         console.refresh()
     except SceneError as exc:
         console.refresh()
@@ -255,6 +255,8 @@ def _cmd_check(args, console: _Console) -> int:
         return console.agree(SceneError.exit_status)
     console.out(f"scene OK: {scene['title']}")
     console.out("active effects: " + ", ".join(effects))
+    for line in mesh_lines:
+        console.out(line)
     if scene.get("fluid"):
         wall = ", wall" if scene["fluid"].get("wall") else ""
         operator = scene["fluid"].get("operator", "auto")

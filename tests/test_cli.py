@@ -153,7 +153,7 @@ def fake_simulation(monkeypatch):
         return ["elasticity", "edge-moment"]
 
     def check_report(scene):
-        return check(scene), []
+        return check(scene), [], []
 
     module.run, module.check, module.check_report = run, check, check_report
     monkeypatch.setitem(sys.modules, "rftfem.integration.simulation", module)

@@ -67,13 +67,16 @@ def check(scene: dict, comm=None) -> list[str]:
     return check_report(scene, comm)[0]
 
 
-def check_report(scene: dict, comm=None) -> tuple[list[str], list]:
-    """``check``, and the scene's dimensionless groups (scales.py)."""
+def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
+    """``check``, the scene's dimensionless groups (scales.py) and, for a gmsh file,
+    what reading its mesh found (cells, orientation, free edges, pieces)."""
     comm = comm or MPI.COMM_WORLD
     _quiet_compilers()
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
-    return model.active_effects(), scales.groups(scene, model)
+    report = model.body.report
+    return (model.active_effects(), scales.groups(scene, model),
+            report.lines() if report is not None else [])
 
 
 def _make_out_dir(out: Path | None, comm):
@@ -215,6 +218,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
                      f" dofs on {comm.size} process(es)")
+        report = self.model.body.report
+        if report is not None and report.turned:
+            progress.log(f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
+                         f"to face as their neighbours")
         for line in scales.aliasing_warnings(scene) + [
                 line for comp in self.model.components
                 for line in getattr(comp, "warnings", lambda: [])()]:

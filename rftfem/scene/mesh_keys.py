@@ -54,7 +54,12 @@ MESH = Table({
                   doc="The gmsh .msh file, relative to the scene file's folder unless "
                       "absolute. Its named physical surfaces are the regions, its named "
                       "physical curves are edges for `where` and hinge lines, its named "
-                      "physical points are points a [[boundary]] or [[motion]] may hold."),
+                      "physical points are points a [[boundary]] or [[motion]] may hold. "
+                      "Checked as it is read: cells facing the other way from their "
+                      "neighbours are turned (the run's log says how many); cells of no "
+                      "area or turned inside out, coincident nodes not merged and a "
+                      "surface that cannot be oriented are refused; `rftfem check` "
+                      "lists cells, orientation, free edges and pieces."),
     "regions": Array(Table({
         "name": Leaf(Str(name=True), required=True,
                       doc="The region's name, unique; not a selector (all, x=0, x=L, "
