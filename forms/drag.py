@@ -35,15 +35,29 @@ def drag_tensor(coefficients, frame):
     return sum(c * ufl.outer(e, e) for c, e in zip(coefficients, frame))
 
 
+def transverse_drag_tensor(coefficients, normal):
+    """``C̃`` of a liquid that resists every tangent direction alike (``C₁ = C₂``):
+    ``C₁ (I − e₃⊗e₃) + C₃ e₃⊗e₃``, the same tensor as ``drag_tensor`` with no
+    material axis (a closed surface has none that is tangent everywhere)."""
+    tangent, normal_c = coefficients[0], coefficients[2]
+    return tangent * ufl.Identity(3) + (normal_c - tangent) * ufl.outer(normal, normal)
+
+
 def drag_traction(coefficients, frame, velocity):
     """RFT traction per current area, ``C̃ v`` (resisting: it enters the residual with +)."""
     return ufl.dot(drag_tensor(coefficients, frame), velocity)
 
 
 def _traction_per_reference_area(coefficients, F_s, axis, velocity, g1, g2, G1, G2):
-    """``C̃ v J``: the traction in the current frame times the area ratio."""
-    frame = drag_frame(convected_axis(F_s, axis, G1, G2), g1, g2)
-    return drag_traction(coefficients, frame, velocity) * area_ratio(g1, g2, G1, G2)
+    """``C̃ v J``: the traction in the current frame times the area ratio; with
+    ``axis`` None the liquid resists every tangent direction alike
+    (``transverse_drag_tensor``)."""
+    if axis is None:
+        traction = ufl.dot(transverse_drag_tensor(coefficients, unit_normal(g1, g2)), velocity)
+    else:
+        frame = drag_frame(convected_axis(F_s, axis, G1, G2), g1, g2)
+        traction = drag_traction(coefficients, frame, velocity)
+    return traction * area_ratio(g1, g2, G1, G2)
 
 
 def drag_work(coefficients, F_s, axis, velocity, du, g1, g2, G1, G2, dx):

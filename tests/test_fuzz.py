@@ -256,7 +256,10 @@ def _form_key(scene: dict) -> tuple:
                    for k in ("E", "nu", "thickness", "density", "E1", "E2", "G12", "nu12",
                              "G13", "G23"))
     fibre = tuple(isinstance(v, str) for v in shell.get("fibre") or [])
-    return (tuple(active_effects(scene)), scene["mesh"].get("cell"), scene["time"]["scheme"],
+    # RFT drag with C1 = C2 takes the form without a material axis (forms/drag.py)
+    drag = (scene.get("fluid") or {}).get("drag")
+    axis_free = isinstance(drag, list) and len(drag) == 3 and drag[0] == drag[1]
+    return (tuple(active_effects(scene)), axis_free, scene["mesh"].get("cell"), scene["time"]["scheme"],
             (scene.get("solver") or {}).get("tangent"), scene["mesh"].get("kind"),
             scene["mesh"].get("file"), shell["material"], fields, fibre)
 

@@ -186,9 +186,10 @@ class Model(StepStart, BodyMeasures):
 
     def axis_error(self, why: str) -> SceneError:
         """The error of a ``shell.axis`` along the normal, for an effect that needs it."""
+        at = ", ".join(f"{v:.6g}" for v in self.triad.axis_normal_point)
         return SceneError(f"shell.axis: expected a direction not along the shell normal ({why}),"
                           f" found {self.scene['shell']['axis']}, along the normal at "
-                          f"{self.triad.axis_along_normal} nodes")
+                          f"{self.triad.axis_along_normal} node(s), the first at ({at})")
 
     def _init_materials(self):
         """The material fields (rftfem/model/materials.py): cellwise (DG0) where every

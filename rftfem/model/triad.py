@@ -81,6 +81,10 @@ class Triads:
         bad = np.linalg.norm(a1, axis=1) < 1e-6
         #: nodes (global count) where the material axis lies along the normal
         self.axis_along_normal = self.comm.allreduce(int(bad.sum()))
+        #: the reference position of one such node (the lowest rank's first), or None
+        X = self.model.Vu.tabulate_dof_coordinates()
+        points = self.comm.allgather(X[np.flatnonzero(bad)[0]] if bad.any() else None)
+        self.axis_normal_point = next((p for p in points if p is not None), None)
         if bad.any():  # material axis along the normal: take any tangent
             other = np.where(np.abs(D[bad, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
             a1[bad] = other - np.sum(other * D[bad], axis=1)[:, None] * D[bad]

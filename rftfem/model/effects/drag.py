@@ -37,10 +37,15 @@ class Drag(Effect):
         from petsc4py import PETSc
 
         super().__init__(model)
-        if model.triad.axis_along_normal:
-            raise model.axis_error("the drag frame needs a tangent axis")
         #: the coefficients [C1, C2, C3]: the scene's, or from its viscosity
         self.C = self._coefficients()
+        #: C1 = C2: the liquid resists every tangent direction alike, and the drag needs
+        #: no material axis (forms.drag.transverse_drag_tensor): a closed body can have it
+        self.axis_free = self.C[0] == self.C[1]
+        if model.triad.axis_along_normal and not self.axis_free:
+            raise model.axis_error("the drag frame needs a tangent axis where C1 and C2 "
+                                   "differ; give fluid.drag with C1 = C2 for a body "
+                                   "without one")
         C = np.asarray(self.C, dtype=PETSc.ScalarType)
         self.coefficients = fem.Constant(model.mesh, C)
         self._forms = {}
@@ -63,7 +68,8 @@ class Drag(Effect):
         """A ``forms.drag`` term of the current iterate with the scene's coefficients."""
         m, C = self.model, self.coefficients
         k = m.kinematics()
-        return term([C[0], C[1], C[2]], k.F_s, m.material_axis, *args, k.g1, k.g2, k.G1, k.G2,
+        axis = None if self.axis_free else m.material_axis
+        return term([C[0], C[1], C[2]], k.F_s, axis, *args, k.g1, k.g2, k.G1, k.G2,
                     m.dx(metadata={"quadrature_degree": 4}))
 
     def forces(self):

@@ -31,7 +31,8 @@ SCHEMA = Table({
                  doc="The drag coefficients [C1, C2, C3] (model = \"rft\"): along the "
                      "material axis (`shell.axis`) as the body carries it, across it in the "
                      "surface, and along the current normal. The traction per current area "
-                     "is the sum of Ci (ei·v) ei over the three directions."),
+                     "is the sum of Ci (ei·v) ei over the three directions. With C1 = C2 "
+                     "no material axis is needed (a closed body can have such drag)."),
     "viscosity": Leaf(POSITIVE, unit="force·time/length²",
                       default_doc='none: required with model = "stokes"',
                       doc="The liquid's dynamic viscosity μ. With model = \"rft\" (instead of "
