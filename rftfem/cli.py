@@ -247,7 +247,7 @@ def _cmd_check(args, console: _Console) -> int:
         except ImportError:  # the simulation module is not there: a scene-only check
             def check_report(scene):
                 return active_effects(scene), [], []
-        effects, groups, mesh_lines = check_report(scene)
+        effects, groups, mesh_lines = check_report(scene)  # mesh and fluid lines
         console.refresh()
     except SceneError as exc:
         console.refresh()
@@ -255,13 +255,17 @@ def _cmd_check(args, console: _Console) -> int:
         return console.agree(SceneError.exit_status)
     console.out(f"scene OK: {scene['title']}")
     console.out("active effects: " + ", ".join(effects))
+    fluid_lines = [line for line in mesh_lines if line.startswith("fluid: ")]
     for line in mesh_lines:
-        console.out(line)
+        if line not in fluid_lines:
+            console.out(line)
     if scene.get("fluid"):
         wall = ", wall" if scene["fluid"].get("wall") else ""
         operator = scene["fluid"].get("operator", "auto")
         wall += f", {operator} operator" if operator != "auto" else ""
         console.out(f"fluid: {scene['fluid'].get('model', 'rft')}{wall}")
+    for line in fluid_lines:
+        console.out(line)
     console.out(f"scheme: {scene['time']['scheme']}")
     if groups:
         console.out("scales:")

@@ -62,6 +62,11 @@ def test_sphere_sinks_at_its_terminal_speed(sphere, drag):
     done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out),
                         "--quiet", "--set", "output.fields=false"], cwd=ROOT)
     assert done.returncode == 0, done.stderr[-2000:]
+    import json
+
+    fluid = json.loads((out / "summary.json").read_text())["fluid"]
+    assert fluid == {"model": "rft", "drag": list(drag), "from": "fluid.drag",
+                     "axis_free": True}
     body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
     speed = -np.diff(body["centroid_z"]) / np.diff(body["time"])
     exact = RHO * T * G / ((2 * c1 + c3) / 3)

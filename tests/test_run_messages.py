@@ -175,6 +175,42 @@ def test_check_prints_the_scales_and_shows_a_unit_slip(tmp_path):
     assert "units" in line_b and "units" not in line_a
 
 
+def _group_line(text, name):
+    return next(ln for ln in text.splitlines() if ln.startswith(f"  {name} "))
+
+
+def test_check_flags_fluid_groups_and_thickness_in_other_units(tmp_path):
+    """The slips a new user made, each flagged by `rftfem check` ("units?"), the same
+    scene in the right units not: drag coefficients a million times too large (a
+    viscosity in Pa·s for N·s/mm²) put the relaxation time at 1.6e6 drive periods
+    and the sperm number at 56, outside 1e-4 … 1e4 only for the relaxation; a
+    thickness in µm (1000 times too thick) puts L/t at 0.2, below 5.  The RFT
+    coefficients are printed with where they came from."""
+    sheet = ROOT / "demos" / "swimming_sheet.toml"
+    good = rftfem("check", sheet).stdout
+    thick = rftfem("check", sheet, "--set", "shell.thickness=50.0").stdout
+    pa = rftfem("check", sheet, "--set", "fluid.drag=[3e-3,3e-3,5.67e-3]").stdout
+    print(good, thick, pa)
+    assert "fluid: drag coefficients [3e-09, 3e-09, 5.67e-09] from fluid.drag" in good
+    assert "units?" not in good and "no thin shell" not in good
+    assert "no thin shell" in _group_line(thick, "L/t")
+    relax = _group_line(pa, "relaxation time / drive period")
+    assert float(relax.split()[5]) == pytest.approx(1.58e6, rel=0.01)
+    assert "units?" in relax and "1 mPa·s = 1e-9 N·s/mm²" in relax
+    assert "units?" not in _group_line(pa, "sperm number")
+    assert "outside 1e-4 … 1e4: units?" in relax
+    # from the viscosity: the slender-body coefficients of the sheet's length and width
+    text = sheet.read_text(encoding="utf-8")
+    drag = next(ln for ln in text.splitlines() if ln.startswith("drag = "))
+    visc = rftfem("check", write_scene(tmp_path, text.replace(drag, "viscosity = 1.0e-9"),
+                                       "viscous.toml")).stdout
+    line = next(ln for ln in visc.splitlines() if ln.startswith("fluid: drag coefficients"))
+    print(line)
+    assert "from fluid.viscosity = 1e-09 (slender-body drag" in line
+    C = [float(c) for c in line.split("[")[1].split("]")[0].split(",")]
+    assert C[0] < C[1] == C[2]   # along the axis, across it and normal
+
+
 def test_quiet_run_that_succeeds_prints_nothing_and_its_compile_is_setup(tmp_path):
     """--quiet on success: no byte on stdout or stderr; summary.json's compile time is
     within its set-up time."""

@@ -131,6 +131,8 @@ class RunOutputs:
                else {}),
             "factorization": {"policy": self.solver.factors.policy,
                               "made": self.solver.factors.made, "lu": self.solver.lu},
+            **({"fluid": self.model.fluid.describe()}
+               if hasattr(self.model.fluid, "describe") else {}),
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
             "wall_s": {"setup": self.setup_time, "compile": self.model.timings["compile"],

@@ -75,8 +75,13 @@ def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
     report = model.body.report
-    return (model.active_effects(), scales.groups(scene, model),
-            report.lines() if report is not None else [])
+    lines = report.lines() if report is not None else []
+    fluid = model.fluid
+    if fluid is not None and hasattr(fluid, "describe"):
+        d = fluid.describe()
+        lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
+                     f" from {d['from']}")
+    return model.active_effects(), scales.groups(scene, model), lines
 
 
 def _make_out_dir(out: Path | None, comm):

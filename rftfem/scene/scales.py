@@ -121,7 +121,11 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
     width = model.area() / L
     t = model.material_value("thickness", "shell")
     D = _bending_stiffness(model)
-    out = [("L/t", L / t, "slenderness: length over thickness")]
+    slender = "slenderness: length over thickness"
+    if L / t < 5:
+        slender += ("; below 5 the body is no thin shell: the thickness's units may be off "
+                    "(µm for mm?)")
+    out = [("L/t", L / t, slender)]
     drives = drive_periods(scene)
     period = min((d.period for d in drives if not d.table), default=None)
     if drives and time_.get("scheme") != "arc-length":
@@ -144,11 +148,13 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
         out.append(("relaxation time / drive period" if period else "relaxation time",
                     tau / period if period else tau,
                     "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
-                    + ("" if period else " (time units; no periodic drive)")))
+                    + (_units_note(tau / period) if period else
+                       " (time units; no periodic drive)")))
         if period:
-            out.append(("sperm number", (2 * math.pi * tau / period) ** 0.25,
+            sperm = (2 * math.pi * tau / period) ** 0.25
+            out.append(("sperm number", sperm,
                         "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
-                        "fluid confines the bending near the driven end"))
+                        "fluid confines the bending near the driven end" + _units_note(sperm)))
     force = max((f for comp in model.components for f in comp.force_scales()
                  if comp.is_load), default=0.0)
     if force > 0.0:
@@ -173,6 +179,19 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
                     "ε_v time.end / L: how far a sticking body may creep in the run, over "
                     "its length"))
     return out
+
+
+#: a fluid group outside this range is flagged: no swimmer of a shell's proportions has
+#: it, and a viscosity in Pa·s instead of N·s/mm² (1e6 times too large) lands there
+FLUID_RANGE = (1e-4, 1e4)
+
+
+def _units_note(value: float) -> str:
+    lo, hi = FLUID_RANGE
+    if lo <= value <= hi:
+        return ""
+    return (f"; outside {lo:.0e} … {hi:.0e}: units? (the viscosity or drag, or E; "
+            "1 mPa·s = 1e-9 N·s/mm²)").replace("e-0", "e-").replace("e+0", "e")
 
 
 def format_groups(rows) -> list[str]:

@@ -51,6 +51,16 @@ class Drag(Effect):
         self._forms = {}
         self._spin = None
 
+    def describe(self) -> dict:
+        """The coefficients the run uses and where they came from (``rftfem check``,
+        summary.json's ``fluid``)."""
+        given = self.scene["fluid"]
+        source = ("fluid.drag" if given.get("drag") is not None else
+                  f"fluid.viscosity = {given['viscosity']:g} (slender-body drag of the "
+                  f"body's length and width along shell.axis)")
+        return {"model": "rft", "drag": [float(c) for c in self.C], "from": source,
+                "axis_free": bool(self.axis_free)}
+
     def _coefficients(self) -> list[float]:
         given = self.scene["fluid"]
         if given.get("drag") is not None:
