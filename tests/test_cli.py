@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_command
+from conftest import ROOT, run_command
 from rftfem import cli
 from rftfem.errors import RunFailed, SceneError
 
@@ -234,3 +234,70 @@ def test_out_of_memory_is_one_line(good, fake_simulation, capsys):
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("rftfem: error: out of memory")
     assert "mesh.divisions" in err[0]
+
+
+def _help_examples():
+    """(command, its arguments) of every example in the --help of sweep, study and
+    optimize, continuation lines joined."""
+    import shlex
+
+    from rftfem.studies import optimize, study, sweep
+
+    out = []
+    for module in (sweep, study, optimize):
+        text = module.EPILOG.split("examples:")[1]
+        text = text.replace("\\\n", " ")
+        for line in text.splitlines():
+            words = shlex.split(line.strip()) if line.strip().startswith("rftfem ") else []
+            if words:
+                out.append(pytest.param(words[1], words[2:], id=f"{words[1]}-{words[2]}"))
+    return out
+
+
+@pytest.mark.parametrize("command, args", _help_examples())
+def test_help_examples_name_keys_their_scenes_have(command, args):
+    """Every example of `sweep`, `study` and `optimize --help` names a shipped scene,
+    and every key it varies or sets is one that scene takes at the example's first
+    value (sweep's help once varied magnetic.field.frequency of a scene whose field
+    is an expression: exit 2)."""
+    from rftfem.scene.reading import load_scene
+
+    scene, rest = ROOT / args[0], args[1:]
+    assert scene.is_file(), scene
+    sets = []
+    for option, value in zip(rest, rest[1:]):
+        if option in ("--vary", "--vary-field"):
+            key, values = value.split("=", 1)
+            sets.append(f"{key}={values.replace(':', ',').split(',')[0]}")
+        elif option == "--set":
+            sets.append(value)
+    assert sets or command == "study", args
+    load_scene(scene, sets)  # raises SceneError naming the key
+
+
+def test_a_vector_component_has_one_address_everywhere(tmp_path):
+    """`load.0.value.2` addresses the third component of a vector value in --set, the
+    Python API and sweep's --vary alike, as it does in optimize's --vary and in
+    scene(KEY) (it was refused: "'load.0.value' is a value, not a table"); a
+    component past the vector's end, or of a value that is no vector, is named in one
+    line."""
+    import rftfem
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies.sweep import parse_vary
+
+    demo = ROOT / "demos" / "end_shear.toml"
+    assert load_scene(demo, ["load.0.value.2=3.5"])["load"][0]["value"] == [0.0, 0.0, 3.5]
+    scene = rftfem.load_scene(demo)
+    scene["load.0.value.1"] = 2.0
+    assert scene["load.0.value"] == [0.0, 2.0, 4.0] and scene["load.0.value.1"] == 2.0
+    vary = parse_vary("load.0.value.2=1:3:3", load_scene(demo))
+    assert vary.values == [1.0, 2.0, 3.0]
+    for value in vary.values:
+        assert load_scene(demo, [f"load.0.value.2={value!r}"])["load"][0]["value"][2] == value
+    with pytest.raises(SceneError, match=r"index 5 out of range, 'load.0.value' has 3 "):
+        load_scene(demo, ["load.0.value.5=1"])
+    with pytest.raises(SceneError, match=r"'load.0.ramp' is 'linear', not a vector"):
+        load_scene(demo, ["load.0.ramp.1=1"])
+    done = run_command([sys.executable, "-m", "rftfem", "check", str(demo), "--set",
+                        "load.0.value.2=-4"], cwd=ROOT)
+    assert done.returncode == 0, done.stderr

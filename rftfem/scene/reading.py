@@ -102,8 +102,8 @@ def set_key(data: dict, key: str, value: Any) -> None:
                 node[part] = value
                 return
             if isinstance(sub, Leaf):
-                raise SceneError(f"--set {key}: '{here}' is a value, not a table, so "
-                                 f"'{key}' does not exist")
+                _set_component(node, part, parts[n + 1:], key, here, value)
+                return
             if part not in node:
                 node[part] = [] if isinstance(sub, Array) else {}
             child = node[part]
@@ -132,6 +132,26 @@ def set_key(data: dict, key: str, value: Any) -> None:
                 raise SceneError(f"--set {key}: '{here}' is a PETSc option, not a table")
             node[part] = value
             return
+
+
+def _set_component(node: dict, part: str, rest: list[str], key: str, here: str,
+                   value: Any) -> None:
+    """``--set load.0.value.2=3``: one component of the vector at ``here`` (the same
+    addresses as ``rftfem optimize --vary`` and the quantities' ``scene(KEY)``)."""
+    if len(rest) != 1 or not re.fullmatch(r"\d+", rest[0]):
+        raise SceneError(f"--set {key}: '{here}' is a value, not a table, so "
+                         f"'{key}' does not exist")
+    vector = node.get(part)
+    if not isinstance(vector, list):
+        raise SceneError(f"--set {key}: '{here}' is "
+                         + ("not set in the scene" if vector is None else
+                            f"{vector!r}, not a vector")
+                         + f", so it has no component {rest[0]}; set the whole value")
+    index = int(rest[0])
+    if index >= len(vector):
+        raise SceneError(f"--set {key}: index {index} out of range, '{here}' has "
+                         f"{len(vector)} components")
+    vector[index] = value
 
 
 def _parse_value(key: str, text: str) -> Any:

@@ -43,9 +43,9 @@ DESCRIPTION = ("Run a scene over a grid of values of any keys (every combination
 EPILOG = """examples:
   rftfem sweep demos/swimming_sheet.toml --vary motion.0.amplitude=0.05,0.1,0.15 \\
       --quantity 'U=steady(front_ux_rate)'
-  rftfem sweep demos/sheet_robot.toml --vary magnetic.field.frequency=2:8:4 \\
-      --vary magnetic.field.B=1e-3:4e-3:3:log --quantity 'x=rate(centroid_x, 2, 3)' \\
-      --executor dask --jobs 2
+  rftfem sweep demos/bidirectional_strip.toml --vary magnetic.field.frequency=2:8:4 \\
+      --vary magnetic.field.strength=1e-5:4e-5:3:log \\
+      --quantity 'speed=rate(centroid_z, 1.1, 2.1)' --executor dask --jobs 2
 
 exit status: 0 the sweep ran (failed runs are rows of sweep.csv), 2 bad option or scene"""
 
