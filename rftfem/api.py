@@ -23,7 +23,8 @@ from typing import Any, Iterable, Mapping
 
 from rftfem.scene import toml_writer
 from rftfem.errors import RunFailed, RunWarning, SceneError
-from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key)
+from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key,
+                                  unset_key, unset_text)
 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
@@ -34,6 +35,34 @@ def _override_text(key: str, value: Any) -> str:
         return f"{key}={toml_writer.value(value)}"
     except (TypeError, ValueError):
         return f"{key}={value!r}"
+
+
+def _change(raw: dict, changes: Mapping[str, Any]) -> list[str]:
+    """Make ``changes`` (dotted keys to values) in the raw table; their override texts.
+    A value None removes the key, as ``--unset`` does (TOML has no null)."""
+    texts = []
+    for key, value in changes.items():
+        _split(key)
+        if value is None:
+            unset_key(raw, key)
+            texts.append(unset_text(key))
+        else:
+            value = _plain(copy.deepcopy(value))
+            set_key(raw, key, value)
+            texts.append(_override_text(key, value))
+    return texts
+
+
+def _plain(value: Any) -> Any:
+    """Tuples and numpy arrays as lists, numpy scalars as Python numbers: the values a
+    TOML scene holds (``scene["mesh.divisions"] = (20, 4)``)."""
+    if isinstance(value, tuple) or type(value).__module__ == "numpy":
+        value = value.tolist() if hasattr(value, "tolist") else list(value)
+    if isinstance(value, list):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
 
 
 def _split(key: str) -> list[str]:
@@ -135,6 +164,35 @@ class Scene:
     def __setitem__(self, key: str, value: Any) -> None:
         self.update({key: value})
 
+    def __delitem__(self, key: str) -> None:
+        """``del scene["fluid.drag"]``: remove a key the scene sets (its default, or
+        nothing, then applies), as ``--unset`` does; KeyError if the scene does not
+        set it."""
+        if not self._remove(key):
+            raise KeyError(key)
+
+    _NO_DEFAULT = object()
+
+    def pop(self, key: str, default: Any = _NO_DEFAULT) -> Any:
+        """Remove ``key`` and return the value the scene had set there (``default``, or
+        KeyError, if it set none)."""
+        removed = self._remove(key)
+        if removed:
+            return removed[0]
+        if default is Scene._NO_DEFAULT:
+            raise KeyError(key)
+        return default
+
+    def _remove(self, key: str) -> list:
+        _split(key)
+        raw = copy.deepcopy(self._raw)
+        removed = unset_key(raw, key)
+        if removed:
+            overrides = [*self._overrides, unset_text(key)]
+            scene = complete_scene(raw, self._folder, self._path, overrides)
+            self._raw, self._scene, self._overrides = raw, scene, overrides
+        return removed
+
     def update(self, changes: Mapping[str, Any] | None = None, **_: Any) -> None:
         """Make several changes at once and validate once (for changes that only
         agree together, such as time.dt and time.end)."""
@@ -142,11 +200,7 @@ class Scene:
             raise TypeError("Scene.update takes a dict of dotted keys: "
                             "scene.update({'time.dt': 0.01})")
         raw = copy.deepcopy(self._raw)
-        texts = []
-        for key, value in (changes or {}).items():
-            _split(key)
-            set_key(raw, key, copy.deepcopy(value))
-            texts.append(_override_text(key, value))
+        texts = _change(raw, changes or {})
         overrides = [*self._overrides, *texts]
         scene = complete_scene(raw, self._folder, self._path, overrides)
         self._raw, self._scene, self._overrides = raw, scene, overrides
@@ -196,11 +250,7 @@ def load_scene(path: str | os.PathLike, set: Mapping[str, Any] | None = None) ->
     """Read the scene file ``path``, with the changes ``set`` (dotted keys to
     values, as ``--set``), and validate it as ``rftfem run`` does."""
     raw = read_scene_file(path)
-    texts = []
-    for key, value in (set or {}).items():
-        _split(key)
-        set_key(raw, key, copy.deepcopy(value))
-        texts.append(_override_text(key, value))
+    texts = _change(raw, set or {})
     path = Path(path).expanduser().resolve()
     return Scene(raw, path.parent, path, texts)
 

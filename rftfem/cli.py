@@ -41,6 +41,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _build_parser() -> _Parser:
+    from rftfem.scene.overrides import add_override_arguments
+
     parser = _Parser(
         prog="rftfem",
         description="Large-rotation shells in viscous fluid (RFT drag, magnetic couples) "
@@ -61,10 +63,7 @@ def _build_parser() -> _Parser:
     run.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     run.add_argument("--out", metavar="DIR", type=Path, default=None,
                      help="output folder (default: results/<scene file stem>)")
-    run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                     dest="overrides",
-                     help="override one scene key, VALUE in TOML syntax "
-                          "(e.g. --set load.0.value=[0,52.36,0]); repeatable")
+    add_override_arguments(run)
     run.add_argument("--quiet", action="store_true",
                      help="plain log lines instead of a progress bar")
     run.add_argument("--restart", metavar="DIR", type=Path, default=None,
@@ -78,8 +77,7 @@ def _build_parser() -> _Parser:
                     "and the time scheme.",
         epilog="exit status: 0 ok, 2 bad scene or option")
     check.add_argument("scene", metavar="SCENE.toml", help="the scene file")
-    check.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                       dest="overrides", help="override one scene key (TOML value); repeatable")
+    add_override_arguments(check)
 
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
@@ -127,7 +125,7 @@ def _split_petsc(argv: list[str]) -> tuple[list[str], list[str]]:
         if tok == "--":
             rest.extend(argv[i:])
             break
-        if tok in ("--out", "--set") and i + 1 < len(argv):
+        if tok in ("--out", "--set", "--unset") and i + 1 < len(argv):
             rest.extend(argv[i: i + 2])
             i += 2
             continue
@@ -151,8 +149,8 @@ def _glue_values(argv: list[str]) -> list[str]:
     while i < len(argv):
         if argv[i] == "--":
             return out + argv[i:]
-        if argv[i] == "--set" and i + 1 < len(argv):
-            out.append(f"--set={argv[i + 1]}")
+        if argv[i] in ("--set", "--unset") and i + 1 < len(argv):
+            out.append(f"{argv[i]}={argv[i + 1]}")
             i += 2
             continue
         out.append(argv[i])

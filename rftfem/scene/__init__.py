@@ -1,6 +1,7 @@
 """Scenes: reading a TOML scene, its keys and their checks (docs/scenes.md).
 
-- ``reading``: read a file or text, apply ``--set``, validate and complete;
+- ``reading``: read a file or text, apply ``--set`` and ``--unset``, validate and
+  complete; ``overrides``: those two options on every command that reads a scene;
 - ``keys``: the top-level tables (``title``, ``[shell]``, ``[time]``, ``[output]``,
   ``[solver]``) and the checks across them; ``mesh_keys`` the ``[mesh]`` table;
   each effect's keys live with the effect (``rftfem.model.effects``);

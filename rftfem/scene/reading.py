@@ -53,15 +53,29 @@ from rftfem.scene.schema import Array, Free, Leaf, Table, err, join, section, su
 from rftfem.scene.selectors import hinge_line
 from rftfem.scene.validators import scene_parameters
 
-__all__ = ["load_scene", "apply_override", "set_key", "read_scene_file",
+__all__ = ["load_scene", "apply_override", "set_key", "unset_key", "unset_text", "read_scene_file",
            "parse_scene_text", "complete_scene", "with_overrides",
            "active_effects", "resolved_scheme", "hinge_line", "SCHEMA"]
 
 _BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
 
 
+#: an override text that removes its key (``--unset KEY``) rather than setting it:
+#: overrides travel as texts (summary.json, a sweep's child runs, a restart)
+UNSET = "--unset "
+#: the value set_key takes to remove a key
+_REMOVE = object()
+
+
+def unset_text(key: str) -> str:
+    """The override text of ``--unset KEY``."""
+    return UNSET + key.strip()
+
+
 def apply_override(data: dict, text: str) -> None:
-    """Apply one ``--set a.b.c=VALUE`` to the raw scene ``data`` (in place).
+    """Apply one ``--set a.b.c=VALUE`` to the raw scene ``data`` (in place), or one
+    ``--unset a.b.c`` (the text ``unset_text`` makes): the key is removed, and its
+    default, or nothing, takes its place.
 
     VALUE is read as a TOML value; if it is not one but is a bare word
     (``triangle``, ``x=L``, ``plate.msh``) it is taken as a string. Arrays of
@@ -69,6 +83,9 @@ def apply_override(data: dict, text: str) -> None:
     schema, or an index out of range, raises SceneError naming the path. Missing
     tables on the way are created (``--set fluid.drag=[1,1,2]``).
     """
+    if text.startswith(UNSET):
+        unset_key(data, text[len(UNSET):].strip())
+        return
     key, sep, raw_value = text.partition("=")
     key = key.strip()
     if not sep or not key:
@@ -76,7 +93,24 @@ def apply_override(data: dict, text: str) -> None:
     set_key(data, key, _parse_value(key, raw_value.strip()))
 
 
-def set_key(data: dict, key: str, value: Any) -> None:
+def unset_key(data: dict, key: str) -> list:
+    """Remove the dotted ``key`` from the raw scene ``data`` (in place): a key of a
+    table, or an entry of an array of tables (``load.1``; the later entries move
+    up).  The path must be one the schema has; a key the scene does not set is left
+    as it is.  Returns ``[the value removed]``, or ``[]``."""
+    if not key:
+        raise SceneError("--unset: expected a dotted key path like fluid.drag, found ''")
+    removed = []
+    try:
+        set_key(data, key, _REMOVE, removed)
+    except SceneError as exc:
+        text = str(exc)
+        raise SceneError("--unset" + text[len("--set"):] if text.startswith("--set")
+                         else text) from None
+    return removed
+
+
+def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> None:
     """Set the dotted ``key`` of the raw scene ``data`` to the Python ``value`` (in
     place), as ``--set`` does once it has read its value; errors name ``--set`` so
     that the Python API's messages are the command line's."""
@@ -99,12 +133,21 @@ def set_key(data: dict, key: str, value: Any) -> None:
                                        f" {', '.join(spec.fields)})"))
             sub = spec.fields[part]
             if last:
-                node[part] = value
+                if value is _REMOVE:
+                    if part in node:
+                        _removed.append(node.pop(part))
+                else:
+                    node[part] = value
                 return
             if isinstance(sub, Leaf):
+                if value is _REMOVE:
+                    raise SceneError(f"--unset {key}: '{here}' is a value: unset it "
+                                     f"whole, not one component")
                 _set_component(node, part, parts[n + 1:], key, here, value)
                 return
             if part not in node:
+                if value is _REMOVE:
+                    return  # nothing on the way, nothing to remove
                 node[part] = [] if isinstance(sub, Array) else {}
             child = node[part]
             if isinstance(sub, Array):
@@ -122,7 +165,10 @@ def set_key(data: dict, key: str, value: Any) -> None:
                 raise SceneError(f"--set {key}: index {index} out of range, the scene has "
                                  f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}")
             if last:
-                node[index] = value
+                if value is _REMOVE:
+                    _removed.append(node.pop(index))
+                else:
+                    node[index] = value
                 return
             if not isinstance(node[index], dict):
                 raise err(here, "a table", node[index])
@@ -130,7 +176,11 @@ def set_key(data: dict, key: str, value: Any) -> None:
         elif isinstance(spec, Free):
             if not last:
                 raise SceneError(f"--set {key}: '{here}' is a PETSc option, not a table")
-            node[part] = value
+            if value is _REMOVE:
+                if part in node:
+                    _removed.append(node.pop(part))
+            else:
+                node[part] = value
             return
 
 

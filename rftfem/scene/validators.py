@@ -173,12 +173,22 @@ class Num(Validator):
         return x
 
 
+def _whole(value):
+    """A float that is a whole number (``20.0``, as Python and numpy give) as the
+    integer it is; anything else as it is."""
+    if isinstance(value, float) and math.isfinite(value) and value.is_integer() \
+            and abs(value) < 2 ** 53:
+        return int(value)
+    return value
+
+
 class Int(Validator):
     def __init__(self, lo: int | None = None):
         self.lo = lo
         self.expected = "an integer" if lo is None else f"an integer >= {lo}"
 
     def __call__(self, value, path):
+        value = _whole(value)
         if isinstance(value, bool) or not isinstance(value, int):
             raise err(path, self.expected, value)
         if self.lo is not None and value < self.lo:
@@ -237,9 +247,12 @@ class Divisions(Validator):
     expected = "[n_length, n_width], two integers >= 1"
 
     def __call__(self, value, path):
+        given = value
+        if isinstance(value, list):
+            value = [_whole(v) for v in value]
         if (not isinstance(value, list) or len(value) != 2
                 or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)):
-            raise err(path, self.expected, value)
+            raise err(path, self.expected, given)
         if value[0] * value[1] > MAX_CELLS:
             raise SceneError(f"{path}: {value[0]} x {value[1]} = {value[0] * value[1]:.3g} cells, "
                              f"more than the {MAX_CELLS:.0e} a run can be made of (a typo?)")

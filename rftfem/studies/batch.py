@@ -77,8 +77,9 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     folder.mkdir(parents=True, exist_ok=True)
     cmd = [*launcher, sys.executable, "-m", "rftfem", "run", str(scene_file), "--out",
            str(folder), "--quiet"]
-    for text in overrides:
-        cmd += ["--set", text]
+    from rftfem.scene.overrides import as_arguments
+
+    cmd += as_arguments(list(overrides))
     cmd += list(petsc_args or [])
     env = child_environment(bool(launcher))
     for _ in range(2):

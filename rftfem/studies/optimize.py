@@ -216,8 +216,9 @@ def add_arguments(parser):
                              "--vary-field l-bfgs-b, or slsqp with constraints)")
     parser.add_argument("--budget", metavar="N", type=int, default=DEFAULT_BUDGET,
                         help=f"at most N runs (default {DEFAULT_BUDGET})")
-    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                        dest="overrides", help="override a scene key in every run; repeatable")
+    from rftfem.scene.overrides import add_override_arguments
+
+    add_override_arguments(parser)  # --set and --unset, for every run
     parser.add_argument("--out", metavar="DIR", type=Path, default=None,
                         help="folder (default: results/optimize-<scene file stem>)")
     parser.add_argument("--jobs", metavar="J", type=int, default=1,

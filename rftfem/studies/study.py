@@ -217,8 +217,9 @@ def add_arguments(parser):
     parser.add_argument("--levels", metavar="N", type=int, default=3,
                         help="levels per kind, the scene itself included (default 3; "
                              "3 give one observed order)")
-    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                        dest="overrides", help="override a scene key in every level; repeatable")
+    from rftfem.scene.overrides import add_override_arguments
+
+    add_override_arguments(parser)  # --set and --unset, for every run
     parser.add_argument("--out", metavar="DIR", type=Path, default=None,
                         help="study folder (default: results/study-<scene file stem>)")
     parser.add_argument("--jobs", metavar="J", type=int, default=1,

@@ -87,8 +87,9 @@ def add_arguments(parser) -> None:
                         dest="quantities",
                         help="a column of sweep.csv from each run (collect's quantity "
                              "language, e.g. 'U=steady(front_ux_rate)'); repeatable")
-    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                        dest="overrides", help="override a scene key in every run; repeatable")
+    from rftfem.scene.overrides import add_override_arguments
+
+    add_override_arguments(parser)  # --set and --unset, for every run
     parser.add_argument("--out", metavar="DIR", type=Path, default=None,
                         help="the sweep's folder (default results/sweep-<scene stem>)")
     parser.add_argument("--jobs", metavar="J", type=int, default=1,

@@ -76,7 +76,9 @@ def check(scene: dict) -> None:
     if model == "stokes":
         if fluid.get("drag") is not None:
             raise SceneError('fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
-                             "has no drag coefficients); give fluid.viscosity only")
+                             "has no drag coefficients); give fluid.viscosity only: drop "
+                             "the drag with --unset fluid.drag (Python: del "
+                             "scene[\"fluid.drag\"])")
         if fluid.get("viscosity") is None:
             raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
         if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
