@@ -243,3 +243,17 @@ def test_ranges_and_lists_parse_as_documented():
         "bdf2", "backward-euler"]
     with pytest.raises(SceneError, match="log range needs LO and HI > 0"):
         parse_vary("shell.E=0:1:3:log", scene)
+
+
+def test_a_quantity_that_cannot_be_read_marks_its_row(scene, tmp_path):
+    """A quantity the runs cannot give (a column no run writes): the rows say
+    "ok, quantity missing" with the reason, the other quantity is there, and stderr
+    says so once; before, the row read "ok" with an empty cell and nothing said."""
+    out = tmp_path / "sweep"
+    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--quantity", "w=max(tip_uz)",
+                  "--quantity", "v=max(no_such_column)", "--out", out, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    rows = read_rows(out / "sweep.csv")
+    assert [r["status"] for r in rows] == ["ok, quantity missing"] * 2
+    assert all(r["w"] and not r["v"] and "v: " in r["reason"] for r in rows)
+    assert "2 run(s) ok without every quantity (status 'quantity missing')" in done.stderr

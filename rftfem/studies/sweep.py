@@ -226,7 +226,7 @@ class _Progress:
         with self.lock:
             self.done += 1
             self.failed += point.status == "failed"
-            self.reused += point.status == "reused"
+            self.reused += point.status.startswith("reused")
             line = (f"rftfem sweep: {self.done}/{self.total} runs done"
                     + (f", {self.failed} failed" if self.failed else "")
                     + (f", {self.reused} reused" if self.reused else "")
@@ -264,12 +264,16 @@ def _read_quantities(point: Point, quantities) -> None:
     from rftfem.outputs.quantities import RunFolder, Unavailable
 
     run = RunFolder(point.folder)
+    missing = False
     for name, quantity in quantities:
         try:
             point.quantities[name] = quantity.evaluate(run)
         except (Unavailable, SceneError) as exc:
             point.quantities[name] = None
             point.reason = (point.reason + "; " if point.reason else "") + f"{name}: {exc}"
+            missing = True
+    if missing:  # the run is fine, its row is not: say so in the status column
+        point.status += ", quantity missing"
 
 
 def write_csv(points: list[Point], varies: list[Vary], names: list[str], path: Path) -> None:
@@ -352,12 +356,19 @@ def main(args, petsc_args: list[str], console) -> int:
         executor.close()
         write_csv(points, varies, names, out / "sweep.csv")
     drawn = sweep_report.plot(points, varies, names, out / "sweep.png", args.scene)
+    from rftfem.scene.overrides import as_arguments
+
     command = " ".join(["rftfem sweep", shlex.quote(args.scene),
                         *[f"--vary {shlex.quote(v)}" for v in args.vary],
                         *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
-                        *[f"--set {shlex.quote(o)}" for o in args.overrides]])
+                        *map(shlex.quote, as_arguments(args.overrides))])
     (out / "command.txt").write_text(command + "\n", encoding="utf-8")
     failed = sum(p.status == "failed" for p in points)
+    missing = [p for p in points if p.status.endswith("quantity missing")]
+    if missing:
+        console.err(f"rftfem sweep: {len(missing)} run(s) ok without every quantity "
+                    f"(status 'quantity missing'), the first in {missing[0].folder.name}: "
+                    f"{missing[0].reason}")
     console.err(f"rftfem sweep: {len(points) - failed} of {len(points)} runs ok in "
                 f"{time.perf_counter() - t0:.0f} s; sweep.csv"
                 + (", sweep.png" if drawn else "") + f" in {out}")
