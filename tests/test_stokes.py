@@ -579,7 +579,11 @@ def test_check_names_the_fluid_model(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert "fluid: stokes, wall" in done.stdout.splitlines()
-    assert "active effects: elasticity, stokes, point-force" in done.stdout.splitlines()
+    assert "active effects: elasticity, stokes, stokes wall, point-force" in done.stdout.splitlines()
+    import rftfem  # the Python API's check lists the same (it left the wall out)
+
+    assert rftfem.load_scene(scene).check() == ["elasticity", "stokes", "stokes wall",
+                                                "point-force"]
 
 
 DRIVEN = """

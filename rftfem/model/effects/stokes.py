@@ -50,6 +50,14 @@ class Stokes(Effect):
     def active(cls, scene):
         return fluid.model_of(scene) == "stokes"
 
+    @classmethod
+    def names(cls, scene):
+        """"stokes", and "stokes wall" when the liquid has a plane wall (its images):
+        what `rftfem check`, ``Scene.check()`` and summary.json list alike."""
+        if not cls.active(scene):
+            return []
+        return ["stokes"] + (["stokes wall"] if scene["fluid"].get("wall") else [])
+
     def __init__(self, model):
         super().__init__(model)
         given = self.scene["fluid"]
