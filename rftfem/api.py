@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 from rftfem.scene import toml_writer
-from rftfem.errors import RunFailed, RunWarning, SceneError
+from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
 from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key,
                                   unset_key, unset_text)
 
@@ -295,7 +295,11 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
     ``warnings``); ``petsc`` takes PETSc options as on the
     command line (``["-ksp_type", "gmres"]``, or a dict without dashes);
     ``restart`` goes on from that folder's last checkpoint. A failed run raises
-    :class:`RunFailed` (its ``folder`` holds the outputs written so far)."""
+    :class:`RunFailed` (its ``folder`` holds the outputs written so far).  As on the
+    command line, SIGINT and SIGTERM (Ctrl-C, a batch system's time limit) stop the
+    run after its step, with its summary written ("interrupted") and every file
+    closed, and raise :class:`RunInterrupted` (its ``folder`` too); a second signal
+    stops it at once."""
     import sys
 
     from rftfem.result import Result
@@ -322,10 +326,10 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
 
     try:
         run_simulation(scene.completed(), out_dir=Path(out), quiet=bool(quiet),
-                       petsc_args=list(petsc or []), comm=comm,
+                       petsc_args=list(petsc or []), comm=comm, signals=True,
                        restart=None if restart is None else Path(restart),
                        warn=warn if quiet else None)
-    except RunFailed as exc:
+    except (RunFailed, RunInterrupted) as exc:
         exc.folder = Path(out)
         raise
     return Result(out)

@@ -81,8 +81,18 @@ class Result:
 
     @property
     def status(self) -> str:
-        """"ok", "failed", "interrupted" or "running", from the summary."""
-        return str(self.summary.get("status"))
+        """"ok", "failed" or "interrupted", from the summary; "running" for a run that
+        has not written its summary's last word: one still going, or one killed
+        without a chance to (SIGKILL, a node that died).  A summary older than the
+        tables is a newer run's in an old folder: "running" too (as ``rftfem
+        collect``'s "running-or-interrupted")."""
+        from rftfem.outputs.quantities import RunFolder
+
+        try:
+            status = RunFolder(self.folder).status
+        except SceneError:  # summary.json half written
+            return "running"
+        return "running" if status in ("running-or-interrupted", "missing-summary") else status
 
     @property
     def ok(self) -> bool:

@@ -145,3 +145,39 @@ def test_failed_run_keeps_its_rows(tmp_path, peak, words):
     np.testing.assert_allclose(steps[:, 0], 0.05 * np.arange(1, 11), rtol=0, atol=1e-12)
     for name, times in fields_times(out).items():
         np.testing.assert_allclose(times, probes[:, 0], rtol=0, atol=1e-12, err_msg=name)
+
+
+_API_RUN = """
+import sys
+import rftfem
+from rftfem.errors import RunInterrupted
+scene = rftfem.load_scene(sys.argv[1], {"time.output_every": 7, "time.until": "end"})
+try:
+    rftfem.run(scene, out=sys.argv[2])
+except RunInterrupted as exc:
+    print(f"interrupted: {exc.folder}")
+    sys.exit(exc.exit_status)
+"""
+
+
+def test_the_python_api_stops_on_sigterm_and_result_reads_a_running_folder(tmp_path):
+    """`rftfem.run` under SIGTERM stops after its step as the command line does: the
+    summary says "interrupted" (it died with exit 143 and no summary before) and the
+    RunInterrupted it raises names the folder.  While the run goes on, its folder's
+    summary says "running" and `Result(folder).status` reads it (it raised
+    "summary.json: missing")."""
+    import subprocess
+
+    from rftfem import Result
+
+    out = tmp_path / "api-run"
+    proc = subprocess.Popen([sys.executable, "-c", _API_RUN, str(SHEET), str(out)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
+    assert Result(out).status == "running"
+    proc.send_signal(signal.SIGTERM)
+    status, stderr = finish(proc)
+    assert status == 143, stderr[-2000:]
+    assert proc.stdout is not None
+    _check_outputs(out, immediate=False)
+    assert Result(out).status == "interrupted"
