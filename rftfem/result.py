@@ -99,11 +99,12 @@ class Result:
         return self.status == "ok"
 
     def quantity(self, expr: str) -> float:
-        """The value of a quantity in collect's language, as ``rftfem collect
-        --quantity`` computes it (``rate(front_ux, 1, 2)``, ``steady(front_ux)``, ...)."""
-        from rftfem.outputs.quantities import evaluate
+        """The value of a formula of quantities, as ``rftfem collect --quantity``
+        computes it (``rate(front_ux, 1, 2)``, ``steady(front_ux)``,
+        ``rate(c_x, 2, 4) / scene(magnetic.field.frequency)``, ...)."""
+        from rftfem.outputs import formulas
 
-        return evaluate(expr, self.folder)
+        return formulas.parse(expr, "quantity").evaluate(self.folder)
 
     # --- fields and pictures -----------------------------------------------------
 

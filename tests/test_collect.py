@@ -497,3 +497,21 @@ def test_parameter_sweep_demo_is_the_parameter_study(tmp_path):
         assert float(speed) == float(study_values[k][0]) and \
             float(power) == float(study_values[k][1]), k
     assert (tmp_path / "sweep" / "sweep.png").stat().st_size > 5000
+
+
+def test_quantities_take_arithmetic_and_scene_values(tmp_path, capsys):
+    """collect, sweep, study and Result.quantity take optimize's formulas of quantities
+    (they refused '/'): a rate over a scene value, a difference of two quantities."""
+    from rftfem import Result
+
+    scene = {"title": "A", "time": {"dt": 0.1, "end": 2.0},
+             "magnetic": {"field": {"frequency": 4.0}}}
+    run = fake_run(tmp_path / "a", scene)
+    status, out, _ = collect_inproc(capsys, run, "--quantity",
+                                    "step=rate(tip_uz, 0, 2) / scene(magnetic.field.frequency)",
+                                    "--quantity", "d=tip_uz@2 - tip_uz@1")
+    assert status == 0
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert float(rows[0]["step"]) == pytest.approx(2.0 / 4.0)
+    assert float(rows[0]["d"]) == pytest.approx(2.0)
+    assert Result(run).quantity("rate(tip_uz, 0, 2)/2") == pytest.approx(1.0)

@@ -222,7 +222,9 @@ def parse_option(option: str) -> tuple[str, Quantity]:
     name = name.strip()
     if not name:
         raise SceneError(f"--quantity '{option}': no name before '=' (NAME=EXPR)")
-    return name, parse(expr)
+    from rftfem.outputs import formulas
+
+    return name, formulas.parse(expr, "--quantity")
 
 
 def summary_line(runs: list[RunFolder], dirs) -> str:
