@@ -9,11 +9,13 @@ forces (the body's rigid rotation rate is then the mobility's answer).
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 
-from conftest import write_scene
+from conftest import ROOT, write_scene
 from stokes_bodies import write_disk, write_ellipsoid
 from rftfem.model import stokeslets
 from rftfem.errors import SceneError
@@ -623,3 +625,27 @@ def test_lifting_carries_the_liquid(tmp_path):
     counts = sim.counts
     print(f"driven strip: {counts['newton_iterations']} updates in {counts['steps']} steps")
     assert counts["newton_iterations"] <= 16
+
+
+@pytest.mark.parametrize("height, verdict", [(1.5, "fine"), (0.9, "warned"), (0.6, "refused")])
+def test_a_wall_too_close_is_warned_of_or_refused(height, verdict):
+    """The shipped sheet near a wall (amplitude 0.5, blob 0.25 on its mesh) with the
+    wall at h: the closest gap with the wave's reach, h − 0.5, is 4 blobs at the
+    shipped 1.5 (fine), 1.6 at 0.9 (a warning at check and at the run's start: the
+    images need 2.5) and 0.4 at 0.6 (refused in one line naming the node); before,
+    every one ran with exit 0."""
+    scene = ROOT / "demos" / "sheet_near_wall.toml"
+    done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene), "--set",
+                           f"fluid.wall.point=[0.0, 0.0, {-height}]"],
+                          capture_output=True, text=True, timeout=600)
+    if verdict == "refused":
+        assert done.returncode == 2
+        err = done.stderr.strip().splitlines()
+        assert len(err) == 1 and "fluid.wall: the body comes within 0.4 blobs" in err[0], err
+        assert "0.5 of which the motions take" in err[0]
+        return
+    assert done.returncode == 0, done.stderr
+    warned = [ln for ln in done.stdout.splitlines() if ln.startswith("warning: fluid.wall")]
+    assert bool(warned) == (verdict == "warned"), done.stdout
+    if warned:
+        assert "within 1.6 blobs" in warned[0]

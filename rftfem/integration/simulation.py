@@ -81,6 +81,9 @@ def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
         d = fluid.describe()
         lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
                      f" from {d['from']}")
+    # what the run would warn of at its start (a wall too close, a body too large)
+    lines += [f"warning: {line}" for comp in model.components
+              for line in getattr(comp, "warnings", lambda: [])()]
     return model.active_effects(), scales.groups(scene, model), lines
 
 

@@ -131,6 +131,7 @@ class Motions(Effect):
         """The fastest prescribed speed (for the drag's force scale)."""
         return max(m.speed_scale() for m in self.motions)
 
+
     def drive_step(self, t, coefficients) -> None:
         """The corrections ``model.drive`` that make the velocity ``v_{n+1}`` and the
         blended acceleration ``a_{n+1−α_m}`` of the step ending at ``t`` exact on the
@@ -160,6 +161,20 @@ class Motions(Effect):
             v, a = motion.rates(t, side=+1)
             m.v_n.x.array[motion.u_index] = v
             m.a_n.x.array[motion.u_index] = a
+
+
+def reach(scene: dict, direction) -> float:
+    """How far the scene's ``[[motion]]`` entries may move a node along the unit
+    ``direction``: each one's largest displacement along it, added (a bound, for the
+    Stokes wall's closest gap)."""
+    total = 0.0
+    for spec in scene.get("motion") or []:
+        if spec["kind"] == "table":
+            size = max((abs(float(v)) for _, v in spec["values"]), default=0.0)
+        else:
+            size = abs(float(spec.get("amplitude", 0.0)))
+        total += size * abs(float(direction[DISPLACEMENT_COMPONENTS[spec["component"]]]))
+    return total
 
 
 class Motion:

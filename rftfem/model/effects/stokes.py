@@ -39,6 +39,16 @@ from rftfem.model.effects.base import Effect
 DENSE_NODES = 5000
 
 
+#: the closest gap between body and wall, in blobs, under which a run is refused, and
+#: under which it is warned of (the wall's images are singular, the body's own
+#: Stokeslets regularized: the no-slip error on the wall is e^(−(gap/δ)²))
+WALL_GAP_REFUSED, WALL_GAP_WARNED = 1.0, 2.5
+
+
+def _point(x) -> str:
+    return "(" + ", ".join(f"{v:.4g}" for v in x) + ")"
+
+
 class Stokes(Effect):
     name = "stokes"
     is_fluid = True
@@ -142,6 +152,20 @@ class Stokes(Effect):
                              f"{len(heights)} nodes are on or behind the plane (lowest at "
                              f"{heights.min():.4g} along the normal); the normal points "
                              "towards the body's side")
+        from rftfem.model.effects import motion
+
+        reach = motion.reach(self.scene, self.wall.Q[2])
+        #: the closest gap between body and wall in blobs, the prescribed motions'
+        #: reach towards the wall taken off (docs/stokes.md: the images need 2.5)
+        self.wall_gap = float(np.min((heights - reach) / self.delta))
+        if self.wall_gap < WALL_GAP_REFUSED:
+            i = int(np.argmin((heights - reach) / self.delta))
+            raise SceneError(
+                f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the wall "
+                f"(at the node {_point(self.X[i])}, {heights[i]:.4g} above it"
+                + (f", {reach:.4g} of which the motions take" if reach else "")
+                + f", blob {self.delta[i]:.3g}); the wall's images need "
+                f"{WALL_GAP_WARNED} blobs: move the wall away or refine the mesh")
 
     def _choose_operator(self, asked: str) -> str:
         """"dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
@@ -156,14 +180,21 @@ class Stokes(Effect):
         return asked
 
     def warnings(self) -> list[str]:
-        """A body too large for the dense operator (docs/stokes.md, Cost)."""
+        """A body too large for the dense operator (docs/stokes.md, Cost); a wall
+        closer than WALL_GAP_WARNED blobs."""
+        out = []
+        if self.wall is not None and self.wall_gap < WALL_GAP_WARNED:
+            out.append(f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the "
+                       f"wall (with the motions' reach); under {WALL_GAP_WARNED} the "
+                       f"images leak and the speeds near the wall are off: move the wall "
+                       f"away or refine the mesh")
         n = len(self.X)
         if n <= DENSE_NODES or self.operator == "fmm":
-            return []
+            return out
         gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
-        return [f'fluid.model = "stokes": {n} nodes make a dense operator of '
-                f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
-                f"meant for up to {DENSE_NODES} nodes in this version"]
+        return out + [f'fluid.model = "stokes": {n} nodes make a dense operator of '
+                      f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
+                      f"meant for up to {DENSE_NODES} nodes in this version"]
 
     # --- state ------------------------------------------------------------
 
