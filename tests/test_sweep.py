@@ -257,3 +257,38 @@ def test_a_quantity_that_cannot_be_read_marks_its_row(scene, tmp_path):
     assert [r["status"] for r in rows] == ["ok, quantity missing"] * 2
     assert all(r["w"] and not r["v"] and "v: " in r["reason"] for r in rows)
     assert "2 run(s) ok without every quantity (status 'quantity missing')" in done.stderr
+
+
+def test_sweep_png_gives_each_quantity_its_own_axis(tmp_path):
+    """Quantities of different units (a speed and a power) are drawn in panels of their
+    own, each labelled on its y axis, not on one axis (the first's scale flattened
+    the other); with a second, non-numeric key, a row of panels per quantity."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rftfem.studies import sweep_report
+    from rftfem.studies.sweep import Point, Vary
+
+    def points(varies):
+        out = []
+        for k, values in enumerate(np.ndindex(*[len(v.values) for v in varies])):
+            vals = tuple(v.values[i] for v, i in zip(varies, values))
+            out.append(Point(k, vals, tmp_path / f"p{k}", [], status="ok",
+                             quantities={"speed": 1e-3 * k, "power": 1e-9 * k * k}))
+        return out
+
+    one = [Vary("shell.E", [1.0, 2.0, 3.0])]
+    pts = points(one)
+    fig = sweep_report._lines(plt, pts, one, ["speed", "power"], {p.values: p for p in pts},
+                              np.array([1.0, 2.0, 3.0]), None)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["speed", "power"]
+    plt.close(fig)
+    two = [Vary("shell.E", [1.0, 2.0]), Vary("mesh.cell", ["quadrilateral", "triangle"])]
+    pts = points(two)
+    fig = sweep_report._lines(plt, pts, two, ["speed", "power"], {p.values: p for p in pts},
+                              np.array([1.0, 2.0]), None)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["speed", "speed", "power", "power"]
+    plt.close(fig)
+    assert sweep_report.plot(pts, two, ["speed", "power"], tmp_path / "s.png", "x.toml")

@@ -1,9 +1,10 @@
 """sweep.png: the quantities of a sweep against its varied keys.
 
-One varied key: each quantity against it (a panel per quantity). Two, both
-numeric: a heat map per quantity over the grid. Otherwise small multiples: one
-panel per combination of the keys after the first (at most 16), each the
-quantities against the first key. Failed runs are gaps. Keys whose values are
+One varied key: each quantity against it, a panel per quantity (each its own y
+axis: the quantities of a sweep have different units). Two, both numeric: a heat
+map per quantity over the grid. Otherwise small multiples: a row of panels per
+quantity, one panel per combination of the keys after the first (at most 16),
+the quantity against the first key. Failed runs are gaps. Keys whose values are
 not numbers are drawn at evenly spaced positions with their values as labels.
 """
 
@@ -30,6 +31,36 @@ def _axis(values):
 def _value(point, name) -> float:
     v = point.quantities.get(name) if point.status != "failed" else None
     return np.nan if v is None else float(v)
+
+
+def _lines(plt, points, varies, names, by_values, x, labels):
+    """Each quantity against the first key: a row of panels per quantity (each with
+    its own units on its y axis), a panel per combination of the other keys (at most
+    MAX_PANELS, four to a row)."""
+    first, rest = varies[0], varies[1:]
+    combos = [()] if not rest else list(np.ndindex(*[len(v.values) for v in rest]))
+    combos = combos[:MAX_PANELS]
+    cols = min(4, len(combos))
+    block = (len(combos) + cols - 1) // cols        # rows of panels per quantity
+    fig, axes = plt.subplots(block * len(names), cols, figsize=(4.5 * cols, 3.2 * block
+                                                                * len(names)), squeeze=False)
+    for r, name in enumerate(names):
+        for k, combo in enumerate(combos):
+            ax = axes[r * block + k // cols][k % cols]
+            others = tuple(v.values[i] for v, i in zip(rest, combo))
+            y = [_value(by_values[(a, *others)], name) for a in first.values]
+            ax.plot(x, y, "o-")
+            if labels:
+                ax.set_xticks(x, labels)
+            ax.set_xlabel(first.key)
+            ax.set_ylabel(name)
+            if rest:
+                ax.set_title(", ".join(f"{v.key.split('.')[-1]} = {o:.4g}"
+                                       if isinstance(o, float) else f"{v.key.split('.')[-1]} = {o}"
+                                       for v, o in zip(rest, others)), fontsize=9)
+        for k in range(len(combos), block * cols):
+            axes[r * block + k // cols][k % cols].axis("off")
+    return fig
 
 
 def plot(points, varies, names, path: Path, title: str) -> bool:
@@ -67,28 +98,7 @@ def plot(points, varies, names, path: Path, title: str) -> bool:
             ax.set_title(name)
             fig.colorbar(mesh, ax=ax)
     else:
-        rest = varies[1:]
-        combos = [()] if not rest else list(np.ndindex(*[len(v.values) for v in rest]))
-        combos = combos[:MAX_PANELS]
-        cols = min(4, len(combos))
-        rows = (len(combos) + cols - 1) // cols
-        fig, axes = plt.subplots(rows, cols, figsize=(4.5 * cols, 3.5 * rows), squeeze=False)
-        for k, combo in enumerate(combos):
-            ax = axes[k // cols][k % cols]
-            others = tuple(v.values[i] for v, i in zip(rest, combo))
-            for name in names:
-                y = [_value(by_values[(a, *others)], name) for a in first.values]
-                ax.plot(x, y, "o-", label=name)
-            if labels:
-                ax.set_xticks(x, labels)
-            ax.set_xlabel(first.key)
-            if rest:
-                ax.set_title(", ".join(f"{v.key.split('.')[-1]} = {o:.4g}"
-                                       if isinstance(o, float) else f"{v.key.split('.')[-1]} = {o}"
-                                       for v, o in zip(rest, others)), fontsize=9)
-            ax.legend(fontsize=8)
-        for k in range(len(combos), rows * cols):
-            axes[k // cols][k % cols].axis("off")
+        fig = _lines(plt, points, varies, names, by_values, x, labels)
     fig.suptitle(f"rftfem sweep of {Path(title).name}", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
