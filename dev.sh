@@ -41,7 +41,7 @@ usage: ./dev.sh TARGET [ARGS...]
                         reference (default), current or all; RFTFEM_KERNELS lists the
                         variants (default: Haswell SkylakeX Sandybridge threads1);
                         RFTFEM_KERNEL_JOBS=2 runs two variants side by side. Logs in
-                        results/kernels/ (RFTFEM_KERNEL_LOGS). About 50 min a variant.
+                        results/kernels/ (RFTFEM_KERNEL_LOGS). About 25 min a variant.
   bench                 run benchmarks/*.py on the reference stack
   race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
                         20 minutes, --quick for a few); creates .venv-elastica if missing
