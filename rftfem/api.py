@@ -45,14 +45,25 @@ def _change(raw: dict, changes: Mapping[str, Any]) -> list[str]:
     texts = []
     for key, value in changes.items():
         _split(key)
-        if value is None:
-            unset_key(raw, key)
-            texts.append(unset_text(key))
-        else:
-            value = _plain(copy.deepcopy(value))
-            set_key(raw, key, value)
-            texts.append(_override_text(key, value))
+        try:
+            if value is None:
+                unset_key(raw, key)
+                texts.append(unset_text(key))
+            else:
+                value = _plain(copy.deepcopy(value))
+                set_key(raw, key, value)
+                texts.append(_override_text(key, value))
+        except SceneError as exc:
+            raise SceneError(_python_form(str(exc), key)) from None
     return texts
+
+
+def _python_form(message: str, key: str) -> str:
+    """A --set/--unset message as Python's: ``scene["KEY"]: ...``."""
+    for prefix in (f"--set {key}: ", f"--unset {key}: ", "--set: ", "--unset: "):
+        if message.startswith(prefix):
+            return f'scene["{key}"]: ' + message[len(prefix):]
+    return message
 
 
 def _plain(value: Any) -> Any:
