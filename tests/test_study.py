@@ -17,6 +17,7 @@ import sys
 import pytest
 
 from conftest import ROOT, run_command, write_scene
+from rftfem.errors import SceneError
 from rftfem.studies.study import analyse
 from test_magnetic import AXES, MB, PLATE, PLATE_L, PLATE_T, PLATE_W
 
@@ -336,3 +337,41 @@ def test_levels_under_mpirun(tmp_path, mpirun):
         assert done.returncode == 0
         with open(tmp_path / "root" / "study.csv", newline="") as f:
             assert [r["status"] for r in csv.DictReader(f)] == ["ok", "ok"]
+
+
+@pytest.mark.parametrize("ratio", [1.5, 3.0])
+def test_analyse_with_another_refinement_factor(ratio):
+    """h divided by ``ratio`` per level: the observed order and the estimate are exact
+    on a power law (with log2 and 2^p they were off by log2(ratio))."""
+    values = [1.5 + 0.3 * ratio ** (-2 * k) for k in range(4)]
+    rows = analyse(values, nominal=2, ratio=ratio)
+    assert rows[3]["order"] == pytest.approx(2.0, abs=1e-9)
+    assert rows[3]["error_estimate"] == pytest.approx(values[3] - 1.5, rel=1e-9)
+    assert rows[1]["error_estimate"] == pytest.approx(abs(values[1] - values[0])
+                                                      / (ratio**2 - 1))
+
+
+def test_one_direction_and_other_factors(tmp_path):
+    """--refine mesh.x refines the strip's divisions along X only (a Stokes sheet's
+    dense operator grows with the nodes: doubling both ways quadruples them),
+    --factor 1.5 rounds divisions to whole cells; dt takes whole factors only; a
+    Stokes scene's mesh levels assume order 1 until one is observed."""
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies.study import plan
+    from rftfem.studies.study_report import nominal_order
+
+    scene = load_scene(ROOT / "demos" / "swimming_sheet.toml", ["mesh.divisions=[20, 4]"])
+    plans = plan(scene, ["mesh.x", "mesh.y", "mesh"], 3, tmp_path, factor=1.5)
+    assert [lv.divisions for lv in plans["mesh.x"]] == [[20, 4], [30, 4], [45, 4]]
+    assert [lv.divisions for lv in plans["mesh.y"]] == [[20, 4], [20, 6], [20, 9]]
+    assert [lv.divisions for lv in plans["mesh"]] == [[20, 4], [30, 6], [45, 9]]
+    assert plans["mesh.x"][1].overrides == ["mesh.divisions=[30,4]"]
+    with pytest.raises(SceneError, match=r"--factor 1.5 with --refine dt"):
+        plan(scene, ["dt"], 3, tmp_path, factor=1.5)
+    assert [lv.dt for lv in plan(scene, ["dt"], 3, tmp_path, factor=3.0)["dt"]] == \
+        pytest.approx([scene["time"]["dt"] / 3**k for k in range(3)])
+    assert nominal_order("mesh.x", "generalized-alpha", stokes=True) == 1
+    assert nominal_order("mesh", "generalized-alpha") == 2
+    done = study(tmp_path, ROOT / "demos" / "rollup.toml", "--refine", "mesh",
+                 "--factor", "1", "--quantity", "t=tip_uz@end", timeout=120)
+    assert done.returncode == 2 and "--factor: expected a number > 1" in done.stderr

@@ -9,7 +9,12 @@ being the scene as given (with its ``--set`` overrides):
 * ``dt``: ``time.dt`` halved per level, ``time.output_every`` doubled, so that
   every level writes its rows at the same times;
 * ``mesh``: ``mesh.divisions`` doubled per level (generated strips only);
+  ``mesh.x`` and ``mesh.y`` the divisions along X or Y alone (a Stokes sheet's
+  dense operator grows with the square of the nodes);
 * ``both``: both at once.
+
+``--factor F`` refines by F instead of 2 per level (divisions rounded to whole
+cells; dt takes a whole F only, so that every level writes rows at the same times).
 
 Each level is an ordinary run in its own folder ``DIR/<kind>-<k>``
 (level 0 is shared by the kinds, ``DIR/level-0``), so every run can be opened,
@@ -21,15 +26,16 @@ imports and the compiled forms' loading are paid once); with ``--jobs``,
 For every level and quantity the study reports the value, its change from the
 level before, the observed order
 
-    p_k = log2(|Q_{k-1} − Q_{k-2}| / |Q_k − Q_{k-1}|)        (from level 2 on)
+    p_k = log(|Q_{k-1} − Q_{k-2}| / |Q_k − Q_{k-1}|) / log F        (from level 2 on)
 
 and the Richardson estimate of the level's error
 
-    E_k = |Q_k − Q_{k-1}| / (2^p − 1)
+    E_k = |Q_k − Q_{k-1}| / (F^p − 1)
 
 with ``p`` the observed order where it is known and positive, capped at the
 nominal order of the kind (the scheme's order for ``dt``: 1 for backward Euler,
-2 for the others; 2 for ``mesh`` and ``both``), and the nominal order where no
+2 for the others; 2 for the mesh kinds, 1 in Stokes flow, whose regularized
+single layer is first order in the spacing), and the nominal order where no
 order is observed; the order used is in the table.  The estimate assumes the
 levels are in the asymptotic range: an observed order far from the nominal one
 says they are not (a change that falls faster than the scheme allows is one
@@ -60,7 +66,9 @@ from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.errors import SceneError
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
-KINDS = ("dt", "mesh", "both")
+KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both")
+#: which of mesh.divisions each kind refines
+_DIVIDED = {"mesh": (0, 1), "both": (0, 1), "mesh.x": (0,), "mesh.y": (1,)}
 
 DESCRIPTION = """\
 Run a scene at successive refinements (dt halved, mesh divisions doubled, or
@@ -115,30 +123,37 @@ def _toml(value) -> str:
     return repr(value)
 
 
-def plan(scene: dict, kinds: list[str], levels: int, out: Path) -> dict[str, list[Level]]:
-    """The levels of each kind (level 0 is the same object in every kind)."""
+def plan(scene: dict, kinds: list[str], levels: int, out: Path,
+         factor: float = 2.0) -> dict[str, list[Level]]:
+    """The levels of each kind (level 0 is the same object in every kind), each
+    ``factor`` times finer than the one before (divisions rounded to whole cells)."""
     time_ = scene["time"]
     dt0, every0 = float(time_["dt"]), int(time_.get("output_every", 1))
     mesh = scene.get("mesh") or {}
     div0 = mesh.get("divisions") if mesh.get("kind", "strip") != "gmsh" else None
-    if any(k in ("mesh", "both") for k in kinds) and not div0:
+    if any(k in _DIVIDED for k in kinds) and not div0:
         raise SceneError("--refine mesh: the scene's [mesh] has no divisions to double "
                          "(a mesh read from a file is refined in gmsh, not here)")
     if scene["time"]["scheme"] == "static" and any(k in ("dt", "both") for k in kinds):
         raise SceneError("--refine dt: the scene is static (time.scheme resolves to "
                          "\"static\"): its steps are load steps with no time error to refine")
+    if any(k in ("dt", "both") for k in kinds) and not float(factor).is_integer():
+        raise SceneError(f"--factor {factor:g} with --refine dt: the levels would write "
+                         "their rows at different times (time.output_every is scaled by "
+                         "the factor); use a whole factor for dt")
     base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None)
     plans = {}
     for kind in kinds:
         series = [base]
         for k in range(1, levels):
-            sets, f = [], 2**k
+            sets, f = [], factor**k
             dt, div = dt0, base.divisions
             if kind in ("dt", "both"):
                 dt = dt0 / f
-                sets += [f"time.dt={dt!r}", f"time.output_every={every0 * f}"]
-            if kind in ("mesh", "both"):
-                div = [n * f for n in div0]
+                sets += [f"time.dt={dt!r}", f"time.output_every={every0 * round(f)}"]
+            if kind in _DIVIDED:
+                div = [max(1, round(n * f)) if i in _DIVIDED[kind] else n
+                       for i, n in enumerate(div0)]
                 sets.append(f"mesh.divisions={_toml(div)}")
             series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div))
         plans[kind] = series
@@ -212,8 +227,12 @@ def add_arguments(parser):
     parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
                         dest="quantities", help="what to converge (grammar below); repeatable")
     parser.add_argument("--refine", metavar="KIND", action="append", default=[],
-                        help="dt, mesh or both (repeatable, or comma-separated: "
+                        help="dt, mesh, mesh.x or mesh.y (the strip's divisions along X "
+                             "or Y only) or both (repeatable, or comma-separated: "
                              "--refine dt,mesh); default dt")
+    parser.add_argument("--factor", metavar="F", type=float, default=2.0,
+                        help="refinement from one level to the next (default 2; a mesh "
+                             "takes any F > 1, its divisions rounded; dt a whole F)")
     parser.add_argument("--levels", metavar="N", type=int, default=3,
                         help="levels per kind, the scene itself included (default 3; "
                              "3 give one observed order)")
@@ -246,6 +265,7 @@ def _kinds(options: list[str]) -> list[str]:
 
 def main(args, petsc_args: list[str], console) -> int:
     from rftfem.outputs.collect import parse_option
+    from rftfem.scene.overrides import as_arguments
     from rftfem.scene.reading import load_scene, resolved_scheme
 
     if not args.quantities:
@@ -256,13 +276,15 @@ def main(args, petsc_args: list[str], console) -> int:
     if len(set(names)) < len(names):
         raise SceneError("--quantity: a name is given twice")
     kinds = _kinds(args.refine)
+    if not (args.factor > 1.0 and math.isfinite(args.factor)):
+        raise SceneError(f"--factor: expected a number > 1, found {args.factor:g}")
     if args.levels < 2:
         raise SceneError(f"--levels: expected at least 2, found {args.levels}")
     check_executor_options(args.jobs, args.np, args.executor, "levels")
     scene = load_scene(args.scene, args.overrides)
     scene["time"]["scheme"] = resolved_scheme(scene)
     out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
-    plans = plan(scene, kinds, args.levels, out)
+    plans = plan(scene, kinds, args.levels, out, args.factor)
     # every level's scene must be valid before anything runs
     for series in plans.values():
         for lv in series[1:]:
@@ -304,11 +326,13 @@ def main(args, petsc_args: list[str], console) -> int:
                 list(pool.map(one, levels))
     finally:
         executor.close()
-    rows = table_rows(plans, quantities, scene["time"]["scheme"])
+    stokes = (scene.get("fluid") or {}).get("model") == "stokes"
+    rows = table_rows(plans, quantities, scene["time"]["scheme"], args.factor, stokes)
     command = " ".join(["rftfem study", _quote(args.scene),
                         *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",
+                        *([f"--factor {args.factor:g}"] if args.factor != 2.0 else []),
                         *[f"--quantity {_quote(q)}" for q in args.quantities],
-                        *[f"--set {_quote(o)}" for o in args.overrides]]
+                        *map(_quote, as_arguments(args.overrides))]
                        + ([f"--np {args.np}"] if args.np > 1 else []) + petsc_args)
     write_csv(rows, out / "study.csv")
     md = markdown(rows, command)

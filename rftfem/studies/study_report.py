@@ -14,14 +14,21 @@ SCHEME_ORDER = {"backward-euler": 1, "bdf2": 2, "generalized-alpha": 2, "hht": 2
 #: nominal order assumed for mesh refinement (9-node / 6-node elements) when the
 #: levels are too few to observe one
 MESH_ORDER = 2
+#: the same in Stokes flow: the regularized single layer at the nodes is first
+#: order in the spacing (docs/stokes.md), whatever the shell's elements give
+STOKES_MESH_ORDER = 1
 
-def nominal_order(kind: str, scheme: str) -> int:
-    return SCHEME_ORDER.get(scheme, 2) if kind == "dt" else MESH_ORDER
+
+def nominal_order(kind: str, scheme: str, stokes: bool = False) -> int:
+    if kind == "dt":
+        return SCHEME_ORDER.get(scheme, 2)
+    return STOKES_MESH_ORDER if stokes else MESH_ORDER
 
 
-def analyse(values: list[float | None], nominal: int) -> list[dict]:
+def analyse(values: list[float | None], nominal: int, ratio: float = 2.0) -> list[dict]:
     """Per level: change from the level before, observed order, the order used and
-    the Richardson error estimate (None where they cannot be had)."""
+    the Richardson error estimate (None where they cannot be had); ``ratio`` is the
+    refinement factor from one level to the next."""
     rows = []
     for k, q in enumerate(values):
         row = {"change": None, "order": None, "order_used": None, "error_estimate": None,
@@ -31,15 +38,15 @@ def analyse(values: list[float | None], nominal: int) -> list[dict]:
             row["change"] = q - prev
             older = values[k - 2] if k >= 2 else None
             if older is not None and q != prev and prev != older:
-                row["order"] = math.log2(abs(prev - older) / abs(q - prev))
+                row["order"] = math.log(abs(prev - older) / abs(q - prev)) / math.log(ratio)
             # an observed order above the nominal one means the levels are not yet in
             # the asymptotic range (the change fell faster than the scheme can make it
             # fall): taken as it is, it would understate the error
             p = min(row["order"], nominal) if row["order"] is not None and row["order"] > 0.1 \
                 else nominal
             row["order_used"] = p
-            row["error_estimate"] = abs(q - prev) / (2**p - 1)
-            row["extrapolated"] = q + (q - prev) / (2**p - 1)
+            row["error_estimate"] = abs(q - prev) / (ratio**p - 1)
+            row["extrapolated"] = q + (q - prev) / (ratio**p - 1)
         rows.append(row)
     return rows
 
@@ -53,11 +60,13 @@ def _fmt(x, spec=".6g") -> str:
     return format(x, spec)
 
 
-def table_rows(plans, quantities, scheme: str) -> list[dict]:
+def table_rows(plans, quantities, scheme: str, ratio: float = 2.0,
+               stokes: bool = False) -> list[dict]:
     rows = []
     for kind, series in plans.items():
         for name, _ in quantities:
-            stats = analyse([lv.values.get(name) for lv in series], nominal_order(kind, scheme))
+            stats = analyse([lv.values.get(name) for lv in series],
+                            nominal_order(kind, scheme, stokes), ratio)
             for lv, st in zip(series, stats):
                 rows.append({
                     "kind": kind, "level": lv.k, "quantity": name, "folder": str(lv.folder),
