@@ -355,28 +355,33 @@ def test_rolled_up_turns_are_round_in_the_picture(serial_run, tmp_path):
     assert variation < 0.02
 
 
-def test_a_wall_of_the_scene_is_drawn_under_the_body(serial_run, tmp_path):
-    """A run whose scene has ``[fluid.wall]`` shows the wall: a plane under the body
-    covers much of the picture, where the same run without the wall is white there.
-    (The roll-up run with a wall put into its stored scene: only the drawing is
-    tested here.)"""
+@pytest.mark.parametrize("what", ["wall", "contact"])
+def test_a_wall_of_the_scene_is_drawn_under_the_body(serial_run, tmp_path, what):
+    """A run whose scene has ``[fluid.wall]``, or a contact floor (``[[contact]]``
+    kind "plane": a crawler floated in grey before), shows it: a plane under the body
+    with an arrow to the body's side covers much of the picture, where the same run
+    without it is white there.  (The roll-up run with the plane put into its stored
+    scene: only the drawing is tested here.)"""
     import shutil
 
     import imageio.v3 as iio
 
-    run = tmp_path / "with_wall"
+    run = tmp_path / f"with_{what}"
     shutil.copytree(serial_run, run)
     summary = json.loads((run / "summary.json").read_text())
-    summary["scene"]["fluid"] = {"model": "stokes", "viscosity": 1.0,
-                                 "wall": {"point": [0.0, 0.0, -5.0], "normal": [0.0, 0.0, 1.0]}}
+    plane = {"point": [0.0, 0.0, -5.0], "normal": [0.0, 0.0, 1.0]}
+    if what == "wall":
+        summary["scene"]["fluid"] = {"model": "stokes", "viscosity": 1.0, "wall": plane}
+    else:
+        summary["scene"]["contact"] = [{"kind": "plane", **plane, "friction": 0.3}]
     (run / "summary.json").write_text(json.dumps(summary))
     pictures = {}
-    for name, folder in (("plain", serial_run), ("wall", run)):
+    for name, folder in (("plain", serial_run), (what, run)):
         render_png(folder, tmp_path / f"{name}.png")
         img = iio.imread(tmp_path / f"{name}.png")[..., :3].astype(int)
         pictures[name] = (np.abs(img - 255).sum(axis=2) > 30).mean()
     print(f"drawn pixels: {pictures}")
-    assert pictures["wall"] > pictures["plain"] + 0.2
+    assert pictures[what] > pictures["plain"] + 0.2
 
 
 def test_scale_draws_the_displacements_magnified(serial_run, tmp_path):

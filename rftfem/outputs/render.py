@@ -147,9 +147,9 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     reference_edges = run.reference.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
-    wall = _wall(run, survey)
-    if wall is not None:
-        plotter.add_mesh(wall, color=WALL_COLOR, opacity=0.35, show_edges=False)
+    for plane, arrow in _planes(run, survey):
+        plotter.add_mesh(plane, color=WALL_COLOR, opacity=0.35, show_edges=False)
+        plotter.add_mesh(arrow, color=WALL_COLOR)
 
     drawing = BodyDrawing(run.reference)
     first = run.frame(idx[0])
@@ -256,20 +256,34 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
                     scale=run.scale)
 
 
-def _wall(run, survey: Survey):
-    """The scene's no-slip wall (``[fluid.wall]``) as a square under the whole run's
-    extent, or None."""
-    given = (run.scene.get("fluid") or {}).get("wall")
-    if not given:
-        return None
-    normal = np.asarray(given["normal"], dtype=float)
-    normal /= np.linalg.norm(normal)
-    point = np.asarray(given["point"], dtype=float)
+def _planes(run, survey: Survey) -> list:
+    """The scene's no-slip wall (``[fluid.wall]``) and contact floors (``[[contact]]``
+    of kind "plane"), each as a square across the whole run's extent with an arrow
+    along its normal, on the side the body and the liquid are: ``(plane, arrow)``."""
+    given = [(run.scene.get("fluid") or {}).get("wall")]
+    given += [c for c in (run.scene.get("contact") or []) if c.get("kind", "plane") == "plane"]
     middle = 0.5 * (np.asarray(survey.lo) + np.asarray(survey.hi))
-    centre = middle - np.dot(middle - point, normal) * normal
     size = 1.2 * float(np.linalg.norm(np.asarray(survey.hi) - np.asarray(survey.lo))) \
         + survey.body_size
-    return pv.Plane(center=centre, direction=normal, i_size=size, j_size=size)
+    out = []
+    for plane in given:
+        if not plane:
+            continue
+        normal = np.asarray(plane["normal"], dtype=float)
+        normal /= np.linalg.norm(normal)
+        point = np.asarray(plane["point"], dtype=float)
+        centre = middle - np.dot(middle - point, normal) * normal
+        out.append((pv.Plane(center=centre, direction=normal, i_size=size, j_size=size),
+                    pv.Arrow(start=centre + 0.4 * size * _across(normal), direction=normal,
+                             scale=0.12 * size)))
+    return out
+
+
+def _across(normal) -> np.ndarray:
+    """A unit vector in the plane of ``normal`` (where its arrow stands, off the body)."""
+    other = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    v = np.cross(normal, other)
+    return v / np.linalg.norm(v)
 
 
 def _arrows(points, vectors, where, length: float):
