@@ -385,9 +385,10 @@ def test_a_wall_of_the_scene_is_drawn_under_the_body(serial_run, tmp_path, what)
 
 
 def test_scale_draws_the_displacements_magnified(serial_run, tmp_path):
-    """--scale 0.5 draws the tip at its reference position plus half its displacement
-    (the body is there, projected with the picture's camera); that pixel is far from
-    the unscaled tip's; and the picture says the factor."""
+    """--scale 0.5 on the clamped roll-up (a body held in place: all of its
+    displacement is shape) draws the tip at its reference position plus half its
+    displacement (the body is there, projected with the picture's camera); that
+    pixel is far from the unscaled tip's; and the picture says the factor."""
     import imageio.v3 as iio
 
     full = render_png(serial_run, tmp_path / "full.png", 0.5)
@@ -402,6 +403,29 @@ def test_scale_draws_the_displacements_magnified(serial_run, tmp_path):
     assert done.returncode == 0 and "displacements × 3" in done.stdout, done.stderr
     _one_line_error(_rftfem("render", serial_run, "--scale", "0"), "--scale", "> 0")
     _one_line_error(_rftfem("render", serial_run, "--scale", "nan"), "--scale")
+
+
+def test_scale_keeps_the_rigid_motion_true():
+    """A walker's feet went through its floor under --scale: the whole motion was
+    magnified.  Now a body moved rigidly (turned and shifted) is drawn where it is at
+    any scale, the drawn centroid is the true one, and a small deformation on top of
+    a rigid motion is what is magnified (to the rigid fit's own small change)."""
+    from rftfem.outputs.render_view import magnified
+
+    X = np.array([[x, y, z] for x in np.linspace(-4, 4, 17) for y in np.linspace(-1, 1, 5)
+                  for z in (-0.05, 0.05)])   # a plate, symmetric about its centre
+    a = 0.7
+    R = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0, 0, 1.0]])
+    rigid = X @ R.T + [30.0, -2.0, 0.5]
+    drawn, _ = magnified(X, rigid - X, 20.0)
+    assert np.abs(drawn - rigid).max() < 1e-12
+    bend = np.zeros_like(X)
+    bend[:, 2] = 1e-3 * X[:, 0] ** 2        # a small bending, in the body's own frame
+    bend -= bend.mean(axis=0)
+    x = rigid + bend @ R.T
+    drawn, _ = magnified(X, x - X, 20.0)
+    assert np.allclose(drawn.mean(axis=0), x.mean(axis=0), rtol=0, atol=1e-12)
+    assert np.abs((drawn - rigid) - 20.0 * bend @ R.T).max() < 1e-9
 
 
 def test_a_trail_is_drawn_over_the_body(serial_run, tmp_path):

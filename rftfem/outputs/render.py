@@ -63,9 +63,12 @@ class Rendered:
     probe_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: pixel of each probe's reference position (where it would be undeformed)
     reference_pixels: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: what the scale magnified: "displacements × S" (a held body), "deformation × S
+    #: (the rigid motion true)" (a free one)
+    magnified: str = ""
 
     def describe(self) -> str:
-        magnified = "" if self.scale == 1.0 else f", displacements × {self.scale:g}"
+        magnified = ("" if self.scale == 1.0 else f", {self.magnified}")
         if self.fps is None:
             return f"t = {self.times[-1]:.6g}, colour {self.color}{magnified}"
         return (f"{self.frames} frames, t = {self.times[0]:.6g} to {self.times[-1]:.6g}, "
@@ -101,8 +104,9 @@ def render(results, out, color: str | None = None, time: float | None = None,
     if trail is None and view == "follow":
         trail = "centroid" if (run.folder / "body.csv").is_file() else None
     path = run.path_of(trail) if trail and trail != "none" else None
-    if path is not None and scale != 1.0:
-        # magnified about the start of the path, as every point's displacement is
+    if path is not None and scale != 1.0 and run.held:
+        # a held body's displacement is magnified about the reference, the trail too;
+        # a free body's trail is drawn true (its rigid motion is not magnified)
         path = (path[0], path[1][:1] + scale * (path[1] - path[1][:1]))
 
     if film:
@@ -142,8 +146,8 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     plotter.add_text(title, position="upper_edge", font_size=9, color="black")
     stamp = plotter.add_text("", position="lower_right", font_size=12, color="black")
     if run.scale != 1.0:
-        plotter.add_text(f"displacements × {run.scale:g}", position="lower_edge",
-                         font_size=10, color="#b22222")
+        plotter.add_text(_magnified(run), position="lower_edge", font_size=10,
+                         color="#b22222")
     reference_edges = run.reference.extract_feature_edges(
         boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
@@ -154,7 +158,7 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     drawing = BodyDrawing(run.reference)
     first = run.frame(idx[0])
     s = color_values(color, first, run)
-    body = drawing.surface(run.scale * first["displacement"], None if s is None else {color: s})
+    body = drawing.surface(run.shown(first), None if s is None else {color: s})
     if s is None:
         surface = plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
         edge_color = "#2a4f75"
@@ -173,9 +177,8 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
     surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
     surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
-    plotter.add_mesh(drawing.edges(run.scale * first["displacement"]), color=edge_color,
-                     line_width=1)
-    outline = drawing.outline(run.scale * first["displacement"])
+    plotter.add_mesh(drawing.edges(run.shown(first)), color=edge_color, line_width=1)
+    outline = drawing.outline(run.shown(first))
     plotter.add_mesh(outline, color="#202020", line_width=2)
     arrows = None
     if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
@@ -219,7 +222,7 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
         t = float(run.times[i])
         frame = first if n == 0 else run.frame(i)
         s = color_values(color, frame, run)
-        u = run.scale * frame["displacement"]
+        u = run.shown(frame)
         moved = drawing.surface(u, None if s is None else {color: s})
         body.points = moved.points
         if s is not None:
@@ -253,7 +256,15 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
                         for p in (run.scene.get("output") or {}).get("probes", [])}
     return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
                     fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
-                    scale=run.scale)
+                    scale=run.scale, magnified=_magnified(run))
+
+
+def _magnified(run) -> str:
+    if run.scale == 1.0:
+        return ""
+    if run.held:
+        return f"displacements × {run.scale:g}"
+    return f"deformation × {run.scale:g} (the rigid motion true)"
 
 
 def _planes(run, survey: Survey) -> list:

@@ -50,8 +50,10 @@ class RunFields:
 
     def __init__(self, folder: Path, scale: float = 1.0):
         self.folder = Path(folder)
-        #: the factor displacements are drawn magnified by (render --scale)
+        #: the factor the deformation is drawn magnified by (render --scale)
         self.scale = float(scale)
+        #: the rigid fit of the last frame drawn with a scale (``shown``)
+        self._fit = (np.eye(3), np.zeros(3), np.zeros(3))
         xdmf = self.folder / "fields.xdmf"
         if not xdmf.is_file():
             raise SceneError(f"{self.folder}: no fields.xdmf here (not a results folder, "
@@ -128,9 +130,29 @@ class RunFields:
                 out[name] = np.asarray(blocks[k].point_data[name], dtype=float)
         return out
 
+    def shown(self, frame: dict) -> np.ndarray:
+        """The displacement drawn in ``frame``: with ``scale`` 1 the computed one; for
+        a body held in place (``held``) all of it magnified; else the frame's best-fit
+        rigid motion as it is and the deformation from it magnified (``magnified``),
+        so that a swimmer's or walker's travel stays true and only its shape change is
+        scaled.  The fit is kept for the probes."""
+        u = frame["displacement"]
+        if self.scale == 1.0:
+            return u
+        if self.held:  # a body held in place has no rigid motion: all of u is shape
+            return self.scale * u
+        drawn, self._fit = magnified(self.reference_points, u, self.scale)
+        return drawn - self.reference_points
+
+    @property
+    def held(self) -> bool:
+        """Whether the scene holds the body in place (a ``[[boundary]]``): then --scale
+        magnifies its whole displacement, about the reference."""
+        return bool(self.scene.get("boundary"))
+
     def points(self, frame: dict) -> np.ndarray:
-        """The nodes where they are drawn in ``frame``: reference + scale × u."""
-        return self.reference_points + self.scale * frame["displacement"]
+        """The nodes where they are drawn in ``frame``."""
+        return self.reference_points + self.shown(frame)
 
     def nearest(self, t: float) -> int:
         lo, hi = self.times[0], self.times[-1]
@@ -172,8 +194,32 @@ class RunFields:
                 return {}
             if len(times):
                 x = xs[int(np.argmin(np.abs(times - t)))]
-                out[p["name"]] = np.asarray(p["at"]) + self.scale * (x - np.asarray(p["at"]))
+                at = np.asarray(p["at"], dtype=float)
+                if self.scale == 1.0:
+                    out[p["name"]] = x
+                elif self.held:
+                    out[p["name"]] = at + self.scale * (x - at)
+                else:  # as the body is drawn: the last drawn frame's rigid fit
+                    R, c_ref, c_now = self._fit
+                    rigid = R @ (at - c_ref) + c_now
+                    out[p["name"]] = rigid + self.scale * (x - rigid)
         return out
+
+
+def magnified(X: np.ndarray, u: np.ndarray, scale: float):
+    """Points ``X + u`` drawn with their deformation magnified ``scale`` times about
+    the best-fit rigid motion (Kabsch: the rotation R and the centroids' shift that
+    bring ``X`` closest to ``X + u`` in the least-squares sense): ``rigid + scale ×
+    (x − rigid)``.  A rigid motion is drawn as it is, and the drawn centroid is the
+    true one.  Returns ``(drawn points, (R, centroid of X, centroid of x))``."""
+    x = X + u
+    c_ref, c_now = X.mean(axis=0), x.mean(axis=0)
+    H = (X - c_ref).T @ (x - c_now)
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    rigid = (X - c_ref) @ R.T + c_now
+    return rigid + scale * (x - rigid), (R, c_ref, c_now)
 
 
 # ---------------------------------------------------------------- colouring
