@@ -260,7 +260,13 @@ def test_help_examples_name_keys_their_scenes_have(command, args):
     and every key it varies or sets is one that scene takes at the example's first
     value (sweep's help once varied magnetic.field.frequency of a scene whose field
     is an expression: exit 2)."""
-    from rftfem.scene.reading import load_scene
+    assert _load_example(args) or command == "study", args
+
+
+def _load_example(args) -> list[str]:
+    """Load an example's scene with its --set, --unset and the first value of each
+    --vary (a SceneError names a key the scene does not take); the changes made."""
+    from rftfem.scene.reading import load_scene, unset_text
 
     scene, rest = ROOT / args[0], args[1:]
     assert scene.is_file(), scene
@@ -271,8 +277,10 @@ def test_help_examples_name_keys_their_scenes_have(command, args):
             sets.append(f"{key}={values.replace(':', ',').split(',')[0]}")
         elif option == "--set":
             sets.append(value)
-    assert sets or command == "study", args
-    load_scene(scene, sets)  # raises SceneError naming the key
+        elif option == "--unset":
+            sets.append(unset_text(value))
+    load_scene(scene, sets)
+    return sets
 
 
 def test_a_vector_component_has_one_address_everywhere(tmp_path):
@@ -301,3 +309,31 @@ def test_a_vector_component_has_one_address_everywhere(tmp_path):
     done = run_command([sys.executable, "-m", "rftfem", "check", str(demo), "--set",
                         "load.0.value.2=-4"], cwd=ROOT)
     assert done.returncode == 0, done.stderr
+
+
+def _doc_examples():
+    """Every `rftfem run|check|sweep|study|optimize` line in README.md and docs/ that
+    names a shipped scene (continuation lines joined; synopses with SCENE.toml and
+    lines with shell variables are not examples of one scene)."""
+    import re
+    import shlex
+
+    out = []
+    for md in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        text = re.sub(r"\\\n\s*", " ", md.read_text(encoding="utf-8"))
+        for n, line in enumerate(text.splitlines()):
+            s = line.strip()
+            m = re.match(r"(?:\.venv/bin/)?rftfem (run|check|sweep|study|optimize) (.*)", s)
+            if not m or "$" in s or "SCENE.toml" in s:
+                continue
+            words = shlex.split(m[2].split(" #")[0])
+            if words and words[0].endswith(".toml"):
+                out.append(pytest.param(m[1], words, id=f"{md.name}:{n + 1}"))
+    return out
+
+
+@pytest.mark.parametrize("command, args", _doc_examples())
+def test_doc_examples_name_keys_their_scenes_have(command, args):
+    """Every example in the docs names a shipped scene and keys it takes (as
+    test_help_examples_name_keys_their_scenes_have does for --help)."""
+    _load_example(args)
