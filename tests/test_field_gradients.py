@@ -367,3 +367,8 @@ def test_public_gradient_takes_a_scene_and_raises(tmp_path):
     with pytest.raises(rftfem.SceneError) as info:
         rftfem.gradient(scene, "tip_uz@end", keys=["shell.EE"], out=tmp_path / "bad")
     assert "\n" not in str(info.value) and "shell.EE" in str(info.value)
+    from rftfem.studies.gradient_runs import run_with_field_gradients
+
+    with pytest.raises(rftfem.SceneError, match="for a rftfem.Scene use rftfem.gradient"):
+        run_with_field_gradients(scene, [], tmp_path / "old", ["shell.thickness"],
+                                 "tip_uz@end")

@@ -536,6 +536,11 @@ def test_sphere_near_a_wall(tmp_path, meshes, h):
     assert abs(towards - 1) < 0.03
     if h >= 2.0:
         assert abs(parallel - 1) < 0.03
+    # body.csv's closest gap in blobs: at rest, the set-up's (h − a over the blob there)
+    assert stokes.columns[-1] == "wall_gap_blobs"
+    gap = stokes.values(0.0)[-1]
+    assert gap == pytest.approx(stokes.wall_gap, rel=1e-12)
+    assert gap == pytest.approx(((stokes.X[:, 2] + h) / stokes.delta).min(), rel=1e-12)
 
 
 def test_wall_the_body_crosses(tmp_path, meshes):

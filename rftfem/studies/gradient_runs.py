@@ -4,6 +4,7 @@ evaluates when it can differentiate its objective."""
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -46,6 +47,9 @@ def run_with_field_gradients(scene_file, overrides: list[str], folder, fields: l
 
 
 def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, combine=None):
+    if not isinstance(scene_file, (str, os.PathLike)):  # a Scene object, a dict ...
+        raise SceneError(f"expected the scene's file, found {type(scene_file).__name__}; for "
+                         "a rftfem.Scene use rftfem.gradient(scene, objective, keys, fields)")
     from rftfem.studies.batch import run_here
     from rftfem.outputs.writers import write_json
     from rftfem.scene.reading import load_scene

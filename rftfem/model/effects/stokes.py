@@ -89,6 +89,8 @@ class Stokes(Effect):
         self.wall = stokeslets.Wall(wall["point"], wall["normal"]) if wall else None
         if self.wall is not None:
             self._check_wall()
+            #: body.csv's closest gap to the wall in blobs, row by row
+            self.columns = [*type(self).columns, "wall_gap_blobs"]
         #: "dense" or "fmm": how the operator is applied
         self.operator = self._choose_operator(given.get("operator", "auto"))
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
@@ -284,7 +286,10 @@ class Stokes(Effect):
         x, v, F = self._stored()
         force = -F.sum(axis=0)
         moment = -np.cross(x, F).sum(axis=0)
-        return [float(np.sum(F * v)), *force, *moment]
+        out = [float(np.sum(F * v)), *force, *moment]
+        if self.wall is not None:  # the closest gap in blobs (the set-up's check, row by row)
+            out.append(float((self.wall.heights(x) / self.delta).min()))
+        return out
 
 
 class _Crossed:
