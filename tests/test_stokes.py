@@ -654,3 +654,33 @@ def test_a_wall_too_close_is_warned_of_or_refused(height, verdict):
     assert bool(warned) == (verdict == "warned"), done.stdout
     if warned:
         assert "within 1.6 blobs" in warned[0]
+
+
+def test_a_body_pushed_onto_the_wall_is_warned_of_then_stopped(tmp_path):
+    """A coarse disk 0.8 above a wall (over 2.5 blobs: no warning at the start)
+    pushed onto it by a point force: at the first step it comes within 2.5 blobs (one
+    warning, in summary.json), and at the third within one blob, where the run
+    fails (exit 3) naming the time, the step and the node, its rows kept, each with
+    body.csv's wall_gap_blobs."""
+    import json
+
+    write_disk(tmp_path / "disk.msh", radius=A, size=0.4)
+    text = BODY.format(mesh=tmp_path / "disk.msh", end=1.0, dt=0.05, mu=float(MU))
+    text += ("[fluid.wall]\npoint = [0.0, 0.0, -0.8]\nnormal = [0.0, 0.0, 1.0]\n"
+             '[[load]]\nkind = "point-force"\nat = [0.0, 0.0, 0.0]\n'
+             'value = [0.0, 0.0, -1000.0]\nramp = "constant"\n[output]\nfields = false\n')
+    scene = write_scene(tmp_path, text)
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out),
+                           "--quiet"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 3, done.stderr[-2000:]
+    assert "run failed at t = 0.15 (step 3): the body came within 0.99" in done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    warned = [w for w in summary["warnings"] if "blobs of the wall" in w]
+    assert len(warned) == 1 and "at t = 0.05" in warned[0], summary["warnings"]
+    body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
+    print(body["time"], body["wall_gap_blobs"])
+    assert body["time"][-1] == pytest.approx(0.15)
+    assert body["wall_gap_blobs"][0] > 2.5 > body["wall_gap_blobs"][1] > 1.0
+    assert body["wall_gap_blobs"][-1] < 1.0

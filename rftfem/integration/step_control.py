@@ -240,6 +240,20 @@ class StepControl:
                 f"t = 0: ramp {'it' if len(keys) == 1 else 'them'} from 0 with t (ramp = "
                 '"linear", or a table or field that starts at 0)')
 
+    def _after_step(self, progress):
+        """Each component's look at the accepted state (``after_step``): a state it
+        refuses fails the run here (RunFailed, with this time and step), one it
+        doubts is warned of."""
+        for comp in self.model.components:
+            try:
+                lines = comp.after_step(self.t)
+            except RunFailed as exc:
+                if exc.time is None:
+                    raise RunFailed(exc.reason, self.t, self.step) from None
+                raise
+            for line in lines:
+                progress.warn("warning: " + line)
+
     def _advance(self, t_end: float, steps_log, progress):
         """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.
 
@@ -265,6 +279,7 @@ class StepControl:
                                   + ([self.t] if self.static_run else []))
                 for f in self.observers:
                     f(self)
+                self._after_step(progress)
                 good += 1
                 if not self.scheme.has_velocity and self.last_turn > STATIC_TURN \
                         and level < max_cuts:

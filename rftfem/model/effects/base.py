@@ -99,6 +99,12 @@ class Effect:
         """Force scales it adds to the Newton tolerances (docs/model.md §7.3)."""
         return []
 
+    def after_step(self, t: float) -> list[str]:
+        """A look at the converged state of an accepted step (time ``t``): raise
+        :class:`~rftfem.errors.RunFailed` for a state it refuses (the run fails
+        there, its rows kept), or return warnings for one it doubts."""
+        return []
+
     # --- outputs ----------------------------------------------------------------
 
     #: its body.csv columns

@@ -272,6 +272,33 @@ class Stokes(Effect):
     def force_scales(self):
         return fluid.force_scales(self)
 
+    def after_step(self, t: float) -> list[str]:
+        """The wall's closest gap at the converged state of an accepted step: under
+        WALL_GAP_REFUSED blobs the run fails (RunFailed: the images no longer hold the
+        wall's no slip); under WALL_GAP_WARNED it is warned of once, if the set-up's
+        check did not already."""
+        if self.wall is None:
+            return []
+        m, n = self.model, self.n_owned
+        u = m.u_n.x.array.reshape(-1, 3)[:n]
+        x = self._gather(self.X[self.offset:self.offset + n] + u)
+        gaps = self.wall.heights(x) / self.delta
+        gap = float(gaps.min())
+        if gap < WALL_GAP_REFUSED:
+            from rftfem.errors import RunFailed
+
+            i = int(np.argmin(gaps))
+            raise RunFailed(f"the body came within {gap:.3g} blobs of the wall (the node now "
+                            f"at {_point(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
+                            "move the wall away or refine the mesh")
+        if gap < WALL_GAP_WARNED and self.wall_gap >= WALL_GAP_WARNED \
+                and not getattr(self, "_gap_warned", False):
+            self._gap_warned = True
+            return [f"fluid.wall: at t = {t:.6g} the body came within {gap:.3g} blobs of the "
+                    f"wall; under {WALL_GAP_WARNED} the images leak (body.csv: "
+                    "wall_gap_blobs)"]
+        return []
+
     def _stored(self):
         """Positions, velocities and forces of the last converged state (``u_n``, ``v_n``)."""
         m, n = self.model, self.n_owned
