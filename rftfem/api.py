@@ -18,7 +18,6 @@ from __future__ import annotations
 import copy
 import os
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
@@ -27,8 +26,7 @@ from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
 from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key,
                                   unset_key, unset_text)
 
-__all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run", "gradient",
-           "Gradient"]
+__all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
 
 def _override_text(key: str, value: Any) -> str:
@@ -347,67 +345,3 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
         raise
     return Result(out)
 
-
-@dataclass
-class Gradient:
-    """What :func:`gradient` returns: the objective's value, its derivatives by the
-    scalar keys (a pandas Series indexed by key) and by the fields (key -> a pandas
-    DataFrame of x, y, z and the derivative by the value at each cell), and the run
-    folder (gradient.json, gradient-KEY.xdmf/.csv)."""
-
-    value: float
-    keys: Any
-    fields: dict
-    folder: Path
-
-
-def gradient(scene, objective: str, keys: Iterable[str] = (), fields: Iterable[str] = (),
-             out: str | os.PathLike | None = None) -> Gradient:
-    """Run the static ``scene`` (a Scene, a file or a dict) into ``out`` and return
-    the derivatives of ``objective`` (a quantity of the last state, ``tip_uz@end``)
-    by scalar ``keys`` (``shell.E``, ``load.0.value.2``) and by material ``fields``
-    (``shell.thickness``: per cell), by the adjoint (docs/model.md §7.6), as
-    ``rftfem optimize`` gets them.  A bad key or objective raises SceneError, a run
-    that fails RunFailed (its ``folder`` set)."""
-    import tempfile
-
-    import pandas as pd
-
-    from rftfem.studies.gradient_runs import _run
-
-    scene, keys, fields = _scene_of(scene), list(keys), list(fields)
-    out = Path(out) if out is not None else default_out(scene)
-    # the scene as its file with its changes, or as a file of its own in its folder
-    # (where its relative file names are read from)
-    if scene.path is not None:
-        source, overrides = scene.path, scene.overrides
-    else:
-        handle, name = tempfile.mkstemp(".toml", ".rftfem-gradient-", scene.folder)
-        os.close(handle)
-        source, overrides = scene.save(name), []
-    try:
-        status, result = _run(source, overrides, out, keys, fields, objective, [])
-    finally:
-        if scene.path is None:
-            source.unlink(missing_ok=True)
-    if status != 0:
-        log = (out / "run.log").read_text(encoding="utf-8", errors="replace")
-        line = next((ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
-                    f"the run ended with exit status {status}")
-        text = line.removeprefix("rftfem: ").removeprefix("error: ")
-        if status == SceneError.exit_status:
-            raise SceneError(text)
-        exc = RunFailed(text)
-        exc.folder = out
-        raise exc
-    tables = {}
-    for key, g in (result.get("fields") or {}).items():
-        if g.cells is None:
-            continue
-        x = g.cells.function_space.tabulate_dof_coordinates()
-        n = g.cells.function_space.dofmap.index_map.size_local
-        tables[key] = pd.DataFrame({"x": x[:n, 0], "y": x[:n, 1], "z": x[:n, 2],
-                                    f"d/d{key}": g.cells.x.array[:n]})
-    return Gradient(float(result["value"]),
-                    pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
-                    tables, out)

@@ -6,12 +6,15 @@ from __future__ import annotations
 
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Iterable
 
 from rftfem.errors import SceneError
-from rftfem.studies.sensitivity import check_request, gradient, keep_last_step
+from rftfem.studies.sensitivity import check_request, keep_last_step
+from rftfem.studies.sensitivity import gradient as adjoint_gradient
 
-__all__ = ["run_with_gradient", "run_with_field_gradients"]
+__all__ = ["run_with_gradient", "run_with_field_gradients", "gradient", "Gradient"]
 
 
 def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
@@ -83,7 +86,7 @@ def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, com
                 target = ([check_request(scene, [], text)[1] for text in objective], combine)
             else:
                 parsed, target = check_request(scene, list(keys), objective)
-            got = gradient(sim, last, parsed, target, fields=list(fields))
+            got = adjoint_gradient(sim, last, parsed, target, fields=list(fields))
             J, grad = got[0], got[1]
             print(f"rftfem: the gradient by the adjoint in {time.perf_counter() - t1:.2f} s")
             data = {"objective": objective, "value": J, "gradient": dict(zip(keys, grad))}
@@ -128,3 +131,70 @@ def _write_field(model, g, out_dir: Path) -> dict:
             (out_dir / f"{stem}.csv").write_text(f"{header}\n{rows}\n", encoding="utf-8")
         out["profile"] = f"{stem}.csv"
     return out
+
+
+
+@dataclass
+class Gradient:
+    """What :func:`gradient` returns: the objective's value, its derivatives by the
+    scalar keys (a pandas Series indexed by key) and by the fields (key -> a pandas
+    DataFrame of x, y, z and the derivative by the value at each cell), and the run
+    folder (gradient.json, gradient-KEY.xdmf/.csv)."""
+
+    value: float
+    keys: Any
+    fields: dict
+    folder: Path
+
+
+def gradient(scene, objective: str, keys: Iterable[str] = (), fields: Iterable[str] = (),
+             out: str | os.PathLike | None = None) -> Gradient:
+    """Run the static ``scene`` (a Scene, a file or a dict) into ``out`` and return
+    the derivatives of ``objective`` (a quantity of the last state, ``tip_uz@end``)
+    by scalar ``keys`` (``shell.E``, ``load.0.value.2``) and by material ``fields``
+    (``shell.thickness``: per cell), by the adjoint (docs/model.md §7.6), as
+    ``rftfem optimize`` gets them.  A bad key or objective raises SceneError, a run
+    that fails RunFailed (its ``folder`` set)."""
+    import tempfile
+
+    import pandas as pd
+
+    from rftfem.api import _scene_of, default_out
+    from rftfem.errors import RunFailed
+
+    scene, keys, fields = _scene_of(scene), list(keys), list(fields)
+    out = Path(out) if out is not None else default_out(scene)
+    # the scene as its file with its changes, or as a file of its own in its folder
+    # (where its relative file names are read from)
+    if scene.path is not None:
+        source, overrides = scene.path, scene.overrides
+    else:
+        handle, name = tempfile.mkstemp(".toml", ".rftfem-gradient-", scene.folder)
+        os.close(handle)
+        source, overrides = scene.save(name), []
+    try:
+        status, result = _run(source, overrides, out, keys, fields, objective, [])
+    finally:
+        if scene.path is None:
+            source.unlink(missing_ok=True)
+    if status != 0:
+        log = (out / "run.log").read_text(encoding="utf-8", errors="replace")
+        line = next((ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
+                    f"the run ended with exit status {status}")
+        text = line.removeprefix("rftfem: ").removeprefix("error: ")
+        if status == SceneError.exit_status:
+            raise SceneError(text)
+        exc = RunFailed(text)
+        exc.folder = out
+        raise exc
+    tables = {}
+    for key, g in (result.get("fields") or {}).items():
+        if g.cells is None:
+            continue
+        x = g.cells.function_space.tabulate_dof_coordinates()
+        n = g.cells.function_space.dofmap.index_map.size_local
+        tables[key] = pd.DataFrame({"x": x[:n, 0], "y": x[:n, 1], "z": x[:n, 2],
+                                    f"d/d{key}": g.cells.x.array[:n]})
+    return Gradient(float(result["value"]),
+                    pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
+                    tables, out)
