@@ -109,8 +109,13 @@ thickness = 0.2
 def test_weight_on_at_the_start_falls_freely_from_rest(tmp_path):
     """A weight already on at t = 0 (ramp = "constant"): the free strip starts at rest
     in its reference state and falls as z = −g t²/2 at every row, t = 0 included
-    (generalized-α from the consistent acceleration −g; reached 1.3e-14 of the fall on
-    the reference stack, 2.4e-13 on the current one).
+    (generalized-α from the consistent acceleration −g).  Round-off alone separates
+    them, and it moves with the CPU: 1.3e-14 of the fall on the reference stack and
+    2.4e-13 on the current one on one machine; on an AVX-512 EPYC 5.6e-13 (reference:
+    its own, Haswell, SkylakeX kernels and one thread; 1.5e-12 with Sandybridge's) and
+    2.9e-12 (current, every kernel type: the forms are compiled for the CPU, which no
+    BLAS setting reaches).  The bound is 10 times the largest; a start that missed
+    the consistent acceleration is off by O(dt), 1e-2.
     Before the start of a run was defined this failed: no static equilibrium."""
     out = tmp_path / "out"
     run_scene(write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant", "time.dt=0.02",
@@ -120,4 +125,4 @@ def test_weight_on_at_the_start_falls_freely_from_rest(tmp_path):
     err = np.abs(body["centroid_z"] - exact).max() / abs(exact[-1])
     print(f"constant weight: fall error {err:.1e} of {exact[-1]:.4g}")
     assert body["centroid_z"][0] == 0.0
-    assert err < 2.5e-12
+    assert err < 3e-11
