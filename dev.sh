@@ -39,7 +39,8 @@ usage: ./dev.sh TARGET [ARGS...]
                         the suite (as `test` or `test-current`) once under each other
                         OpenBLAS kernel type and once on one BLAS thread: STACK is
                         reference (default), current or all; RFTFEM_KERNELS lists the
-                        variants (default: Haswell SkylakeX Sandybridge threads1);
+                        variants (default: Haswell SkylakeX Sandybridge threads1; also
+                        forms-O2: the forms compiled without the CPU's vector flags);
                         RFTFEM_KERNEL_JOBS=2 runs two variants side by side. Logs in
                         results/kernels/ (RFTFEM_KERNEL_LOGS). About 25 min a variant.
   bench                 run benchmarks/*.py on the reference stack
@@ -84,13 +85,20 @@ kernel_variant() {
     fi
     echo "dev.sh: test-kernels: $stack stack, $variant: $log"
     (
+        local check=$variant
         if [[ $variant == threads1 ]]; then
             export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+        elif [[ $variant == forms-O2 ]]; then
+            # the forms compiled without the CPU's vector instructions and reassociation
+            # (their round-off moves with the CPU too, which no BLAS setting reaches);
+            # every form is compiled again once for these flags
+            export RFTFEM_COMPILE_FLAGS="-O2 -g0"
+            check=""
         else
             export OPENBLAS_CORETYPE=$variant
         fi
         # which kernels every OpenBLAS of the stack runs, refused if not the variant's
-        "$venv/bin/python" scripts/blas_kernels.py "$variant" &&
+        "$venv/bin/python" scripts/blas_kernels.py $check &&
             run_pytest "$venv" -rP -p no:cacheprovider "$@"
     ) >"$log" 2>&1 || rc=$?
     echo "dev.sh: test-kernels: $stack $variant: $(tail -n 1 "$log") ($((SECONDS - t)) s, exit $rc)"

@@ -114,7 +114,8 @@ def test_weight_on_at_the_start_falls_freely_from_rest(tmp_path):
     2.4e-13 on the current one on one machine; on an AVX-512 EPYC 5.6e-13 (reference:
     its own, Haswell, SkylakeX kernels and one thread; 1.5e-12 with Sandybridge's) and
     2.9e-12 (current, every kernel type: the forms are compiled for the CPU, which no
-    BLAS setting reaches).  The bound is 10 times the largest; a start that missed
+    BLAS setting reaches; 1.1e-12 on the reference stack with the forms compiled by
+    -O2 alone, the test-kernels variant forms-O2).  The bound is 10 times the largest; a start that missed
     the consistent acceleration is off by O(dt), 1e-2.
     Before the start of a run was defined this failed: no static equilibrium."""
     out = tmp_path / "out"
