@@ -410,7 +410,7 @@ def test_scale_keeps_the_rigid_motion_true():
     magnified.  Now a body moved rigidly (turned and shifted) is drawn where it is at
     any scale, the drawn centroid is the true one, and a small deformation on top of
     a rigid motion is what is magnified (to the rigid fit's own small change)."""
-    from rftfem.outputs.render_view import magnified
+    from rftfem.outputs.rigid_fit import magnified
 
     X = np.array([[x, y, z] for x in np.linspace(-4, 4, 17) for y in np.linspace(-1, 1, 5)
                   for z in (-0.05, 0.05)])   # a plate, symmetric about its centre

@@ -326,7 +326,9 @@ def test_unknown_key_without_close_match_lists_keys(write):
 
 def test_wrong_types(write):
     assert "found the string \"many\"" in scene_error(write(GOOD), ['mesh.divisions="many"'])
-    msg = scene_error(write(GOOD), ["mesh.divisions=[16.0, 1]"])
+    # a whole float is the integer it is (issue 62: Python and numpy give them)
+    assert load_scene(write(GOOD), ["mesh.divisions=[16.0, 1]"])["mesh"]["divisions"] == [16, 1]
+    msg = scene_error(write(GOOD), ["mesh.divisions=[16.5, 1]"])
     assert msg.startswith("mesh.divisions:") and "integers" in msg
     msg = scene_error(write(GOOD), ["shell.density=true"])  # bools are not numbers
     assert msg.startswith("shell.density:") and "boolean" in msg

@@ -9,5 +9,6 @@
   arithmetic of quantities and scene values (every command's ``--quantity``,
   optimize's objective); ``collect``: tables of many folders;
 - ``render``, ``render_body``, ``render_view``, ``render_cli``: pictures and
-  films (pyvista, never dolfinx; ``compat_render`` says why).
+  films (pyvista, never dolfinx; ``compat_render`` says why); ``rigid_fit``: the
+  best-fit rigid motion ``render --scale`` keeps true (numpy only).
 """

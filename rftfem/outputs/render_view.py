@@ -22,6 +22,7 @@ import numpy as np
 from rftfem.outputs.compat_render import import_pyvista
 from rftfem.errors import SceneError
 from rftfem.outputs.quantities import read_csv
+from rftfem.outputs.rigid_fit import magnified
 
 pv = import_pyvista()
 
@@ -204,22 +205,6 @@ class RunFields:
                     rigid = R @ (at - c_ref) + c_now
                     out[p["name"]] = rigid + self.scale * (x - rigid)
         return out
-
-
-def magnified(X: np.ndarray, u: np.ndarray, scale: float):
-    """Points ``X + u`` drawn with their deformation magnified ``scale`` times about
-    the best-fit rigid motion (Kabsch: the rotation R and the centroids' shift that
-    bring ``X`` closest to ``X + u`` in the least-squares sense): ``rigid + scale ×
-    (x − rigid)``.  A rigid motion is drawn as it is, and the drawn centroid is the
-    true one.  Returns ``(drawn points, (R, centroid of X, centroid of x))``."""
-    x = X + u
-    c_ref, c_now = X.mean(axis=0), x.mean(axis=0)
-    H = (X - c_ref).T @ (x - c_now)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
-    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
-    rigid = (X - c_ref) @ R.T + c_now
-    return rigid + scale * (x - rigid), (R, c_ref, c_now)
 
 
 # ---------------------------------------------------------------- colouring
