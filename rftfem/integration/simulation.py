@@ -68,17 +68,15 @@ def check(scene: dict, comm=None) -> list[str]:
 
 
 def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
-    """``check``, the scene's dimensionless groups (scales.py) and, for a gmsh file,
-    what reading its mesh found (cells, orientation, free edges, pieces)."""
+    """``check``, the scene's groups (scales.py) and lines on its mesh and liquid."""
     comm = comm or MPI.COMM_WORLD
     _quiet_compilers()
     model = build_model(scene, comm, compile_forms=False)
     Probes(model, scene.get("output", {}).get("probes", []))
     report = model.body.report
     lines = report.lines() if report is not None else []
-    fluid = model.fluid
-    if fluid is not None and hasattr(fluid, "describe"):
-        d = fluid.describe()
+    if hasattr(model.fluid, "describe"):  # RFT drag: its coefficients and their source
+        d = model.fluid.describe()
         lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
                      f" from {d['from']}")
     # what the run would warn of at its start (a wall too close, a body too large)

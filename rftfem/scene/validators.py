@@ -173,13 +173,9 @@ class Num(Validator):
         return x
 
 
-def _whole(value):
-    """A float that is a whole number (``20.0``, as Python and numpy give) as the
-    integer it is; anything else as it is."""
-    if isinstance(value, float) and math.isfinite(value) and value.is_integer() \
-            and abs(value) < 2 ** 53:
-        return int(value)
-    return value
+def _whole(v):
+    """A whole float (``20.0``, as Python and numpy give) as the integer it is."""
+    return int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
 
 
 class Int(Validator):
@@ -247,9 +243,7 @@ class Divisions(Validator):
     expected = "[n_length, n_width], two integers >= 1"
 
     def __call__(self, value, path):
-        given = value
-        if isinstance(value, list):
-            value = [_whole(v) for v in value]
+        given, value = value, [_whole(v) for v in value] if isinstance(value, list) else value
         if (not isinstance(value, list) or len(value) != 2
                 or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)):
             raise err(path, self.expected, given)
