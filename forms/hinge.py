@@ -27,11 +27,13 @@ from .kinematics import unit
 
 
 def panel_director(indicators, directors):
-    """``d = Σ_c χ_c d_c``: the director of the colour each cell belongs to
-    (written as a choice, so no product of two colours' directors is formed)."""
-    d = directors[0]
+    """``d = Σ_c χ_c d_c``: the director of the colour each cell belongs to (the
+    indicators are 1 on their own cells and 0 elsewhere, so on every cell one term is
+    left).  A sum, not a ``conditional``: FFCx 0.5 cannot factorise a conditional
+    whose branches hold different components of the test function."""
+    d = indicators[0] * directors[0]
     for chi, dc in zip(indicators[1:], directors[1:]):
-        d = ufl.conditional(ufl.gt(chi, 0.5), dc, d)
+        d = d + chi * dc
     return d
 
 

@@ -39,33 +39,6 @@ def area_ratio(g1, g2, G1, G2):
     return ufl.sqrt(ufl.dot(n, n) / ufl.dot(N, N))
 
 
-# --- finite rotations ------------------------------------------------------
-
-#: below this value of |theta|^2 the rotation coefficients use their Taylor
-#: series; the first omitted term is then < 1e-4^4/8! ~ 2e-21.
-SERIES_THRESHOLD = 1.0e-4
-
-
-def rotation_coefficients(s):
-    """``(cos|θ|, sin|θ|/|θ|, (1 - cos|θ|)/|θ|²)`` as functions of ``s = θ·θ``.
-
-    Near ``s = 0`` a Taylor series in ``s`` replaces the closed form, so neither
-    the value nor any derivative takes ``sqrt`` of zero: the tangent at θ = 0
-    (the start of every Newton solve) is finite.  The closed-form branch sees
-    ``s`` clipped from below so that its own derivative stays finite too.
-    """
-    small = ufl.lt(s, SERIES_THRESHOLD)
-    s_big = ufl.conditional(small, SERIES_THRESHOLD, s)
-    angle = ufl.sqrt(s_big)
-    cos_series = 1 - s / 2 + s**2 / 24 - s**3 / 720 + s**4 / 40320
-    sinc_series = 1 - s / 6 + s**2 / 120 - s**3 / 5040 + s**4 / 362880
-    vers_series = 0.5 - s / 24 + s**2 / 720 - s**3 / 40320 + s**4 / 3628800
-    c = ufl.conditional(small, cos_series, ufl.cos(angle))
-    sc = ufl.conditional(small, sinc_series, ufl.sin(angle) / angle)
-    vc = ufl.conditional(small, vers_series, (1 - ufl.cos(angle)) / s_big)
-    return c, sc, vc
-
-
 def surface_deformation_gradient(u):
     """``F_s = I + grad u``; on tangent vectors, where it is used, it equals ``grad x``."""
     return ufl.Identity(3) + ufl.grad(u)
@@ -87,22 +60,19 @@ def convected_axis(F_s, axis, G1, G2):
     return F_s * tangent_axis(axis, G1, G2)
 
 
-def rotation_vector(theta, a1, a2):
-    """Rotation increment ``θ = θ¹ a₁ + θ² a₂`` from its two components (docs/model.md §4.1)."""
-    return theta[0] * a1 + theta[1] * a2
+# --- the director -----------------------------------------------------------
 
 
-def director(theta, a1, a2, dn):
-    """Current director ``d = cos|θ| dₙ + (sin|θ|/|θ|) θ × dₙ`` (docs/model.md §4.2).
+def interpolated_director(d_nodal):
+    """The director between the nodes (docs/model.md §4.3): the nodal directors
+    ``d_I`` (unit vectors, each its node's last director turned exactly by its
+    rotation increment) interpolated, ``Σ N_I d_I``, and normalised.
 
-    ``(a1, a2, dn)`` is the nodal triad of the last converged step, interpolated;
-    ``dn`` is normalised where interpolated.  ``θ`` has no drilling component, so
-    this is the exact rotation of ``dn`` by ``θ`` at the nodes.
+    Only unit vectors are interpolated, so a rigid rotation ``R`` of every nodal
+    director turns this field by ``R`` too: with the reference director ``D``
+    interpolated alike, no strain measure below sees a rigid motion.
     """
-    dn = unit(dn)
-    rot = rotation_vector(theta, a1, a2)
-    c, sc, _ = rotation_coefficients(ufl.dot(rot, rot))
-    return c * dn + sc * ufl.cross(rot, dn)
+    return unit(d_nodal)
 
 
 # --- strain measures -------------------------------------------------------

@@ -196,7 +196,12 @@ def scatter_add(f) -> None:
 
 
 def create_vector(L, V) -> PETSc.Vec:
-    """A ghosted PETSc vector for the linear form ``L`` on space ``V``."""
+    """A ghosted PETSc vector for the linear form ``L`` on space ``V``.
+
+    Here and in the assembly calls below, a form that maps its own unknowns
+    (rftfem/model/directors.py, ``MappedForm``) is handed its own method."""
+    if hasattr(L, "create_vector"):
+        return L.create_vector()
     try:
         return dolfinx.fem.petsc.create_vector(V)
     except (TypeError, AttributeError, RuntimeError):
@@ -206,6 +211,8 @@ def create_vector(L, V) -> PETSc.Vec:
 def create_matrix(a, kind: str | None = None) -> PETSc.Mat:
     """A PETSc matrix for the bilinear form ``a``; ``kind`` a PETSc matrix type
     (``"baij"``, ...; None: dolfinx's default), named ``mat_type`` in dolfinx 0.5."""
+    if hasattr(a, "create_matrix"):
+        return a.create_matrix(kind)
     if kind is None:
         return dolfinx.fem.petsc.create_matrix(a)
     create = dolfinx.fem.petsc.create_matrix
@@ -213,15 +220,21 @@ def create_matrix(a, kind: str | None = None) -> PETSc.Mat:
 
 
 def assemble_vector(b, L):
+    if hasattr(L, "assemble_vector"):
+        return L.assemble_vector(b)
     dolfinx.fem.petsc.assemble_vector(b, L)
 
 
 def assemble_matrix(A, a, bcs):
+    if hasattr(a, "assemble_matrix"):
+        return a.assemble_matrix(A, bcs)
     dolfinx.fem.petsc.assemble_matrix(A, a, bcs=bcs)
 
 
 def apply_lifting(b, a, bcs, x0, scale):
     """``b -= scale * A (g - x0)`` on the rows coupled to Dirichlet dofs."""
+    if hasattr(a, "apply_lifting"):
+        return a.apply_lifting(b, bcs, x0, scale)
     dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{_LIFTING_KEY: scale})
 
 

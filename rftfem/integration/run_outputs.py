@@ -50,8 +50,9 @@ class RunOutputs:
             extra = {name: f for comp in self.model.components
                      for name, f in comp.fields().items()}
             main = out / "fields.xdmf"
-            logs["fields"] = (FieldWriter(self.model, segment, extra, main=main) if again
-                              else FieldWriter(self.model, main, extra))
+            warn = getattr(self, "progress_warn", None)
+            logs["fields"] = (FieldWriter(self.model, segment, extra, main=main, warn=warn)
+                              if again else FieldWriter(self.model, main, extra, warn=warn))
         return logs
 
     def _continue_outputs(self, fields: bool) -> Path | None:

@@ -220,6 +220,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         path = self.scheme.name == "arc-length"
         progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t",
                             warn=self.warn)
+        self.progress_warn = progress.warn
         progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"

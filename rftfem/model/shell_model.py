@@ -1,16 +1,19 @@
 """A scene turned into unknowns, state and the sum of its effects' forms.
 
-The unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³ and
-the rotation increment ``θ = (θ¹, θ²)`` in [P2]² about the nodal triad
-``(a₁, a₂, dₙ)`` of the last converged step (docs/model.md §4).  All of them are
-second-order Lagrange fields on the same nodes, so they are held as one blocked
-field ``w`` in [P2]^(3+2c) (c the number of panel colours, below): every node
-carries its ``(u, θ¹, θ², ...)`` block, and the tangent is a block matrix whose
-cell matrices PETSc inserts a node pair at a time.  The triad is kept as
-three [P2]³ functions, rotated node by node after each converged step, and its
-in-plane pair turned about dₙ onto the convected material axis (``update_triad``).
-Hinge lines cut the body into panels of several colours, each with its own θ
-and triad (rftfem/model/hinges.py).
+Newton's unknowns of a step are ``w = (u, θ)``: total displacement ``u`` in [P2]³
+and, at every node, the two components ``(θ¹, θ²)`` of its director's rotation
+increment in the node's tangent basis ``(a₁, a₂)`` of the last converged step
+(docs/model.md §4).  All of them are second-order Lagrange fields on the same
+nodes, held as one blocked field ``w`` in [P2]^(3+2c) (c the number of panel
+colours, below).  The forms see ``z = (u, d)`` in [P2]^(3+3c) instead: the nodal
+directors ``d_I``, each its node's last director turned exactly by its θ, and
+interpolated between the nodes (rftfem/model/directors.py), so that what the forms
+integrate does not depend on the nodal bases and a rigid motion strains nothing.
+The triads ``(a₁, a₂, dₙ)`` are kept as three [P2]³ functions, rotated node by
+node after each converged step, and ``a₁`` turned about dₙ onto the convected
+material axis where it has a tangent part (``update_triad``).  Hinge lines cut
+the body into panels of several colours, each with its own θ, director and triad
+(rftfem/model/hinges.py).
 
 Everything else is an effect component (rftfem/model/effects): the Model builds the
 ones the scene asks for, in the registry's order, and adds up their terms
@@ -36,6 +39,7 @@ from rftfem.model.measures import BodyMeasures
 from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
 from rftfem.scene.schema import unit_vector
+from rftfem.model.directors import DirectorMap, MappedForm
 from rftfem.model.triad import Triads
 
 
@@ -92,10 +96,20 @@ class Model(StepStart, BodyMeasures):
         self.prediction = None
         self.keep_predictions = False
 
-        #: the previous and the current Newton iterate and their difference: the data of
-        #: the mixed-integration-point tangent (docs/model.md §7.4), set by the solver
+        # the nodal triads (a1, a2, dn) of each colour and the reference director D
+        self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
+        self.triads, self.D = self.triad.frames, self.triad.D
+        self.dn, self.material_axis = self.triads[0][2], self.triad.material_axis
+        #: the unknowns as the forms see them, ``z = (u, d, ...)`` (directors.py)
+        self.directors = DirectorMap(self)
+        self.Z, self.z = self.directors.Z, self.directors.z
+
+        #: the previous and the current Newton iterate and their difference, as z: the
+        #: data of the mixed-integration-point tangent (docs/model.md §7.4), set by the solver
         self.newton_previous, self.newton_current, self.newton_update = (
-            fem.Function(self.W, name=n) for n in ("w_previous", "w_current", "w_update"))
+            fem.Function(self.Z, name=n) for n in ("z_previous", "z_current", "z_update"))
+        for f in (self.newton_previous, self.newton_current):  # unit directors: no 0/0
+            self.directors.map(self.w.x.array, out=f.x.array)
         self.mixed_point = tangent == "mixed-point"
         self._newton_last = None  # the iterate of the last tangent (tangent_at_iterate)
         #: whether a solve's first mixed-point tangent carries the stress resultants of
@@ -103,10 +117,6 @@ class Model(StepStart, BodyMeasures):
         #: load steps); set by the Simulation from its scheme (docs/model.md §7.4)
         self.first_tangent_converged = False
 
-        # the nodal triads (a1, a2, dn) of each colour and the reference director D
-        self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
-        self.triads, self.D = self.triad.frames, self.triad.D
-        self.dn, self.material_axis = self.triads[0][2], self.triad.material_axis
         self._init_materials()
         #: the time scheme's coefficients of velocity and acceleration (rftfem/integration/schemes.py)
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
@@ -153,11 +163,12 @@ class Model(StepStart, BodyMeasures):
         """The sub-space of ``w`` holding ``θ^(i+1)`` of the colour ``colour``."""
         return self.W.sub(3 + 2 * colour + i)
 
-    def split(self, w):
-        """``(u, [θ of each colour])`` of a field or test function of ``W``."""
-        u = ufl.as_vector([w[i] for i in range(3)])
-        thetas = [ufl.as_vector([w[3 + 2 * c], w[4 + 2 * c]]) for c in range(self.n_colours)]
-        return u, thetas
+    def split(self, z):
+        """``(u, [d of each colour])`` of a field or test function of ``Z``."""
+        u = ufl.as_vector([z[i] for i in range(3)])
+        directors = [ufl.as_vector([z[3 + 3 * c + i] for i in range(3)])
+                     for c in range(self.n_colours)]
+        return u, directors
 
     def get(self, name: str):
         """The active component called ``name`` (``"drag"``, ``"magnetic"``, ...) or None."""
@@ -228,30 +239,31 @@ class Model(StepStart, BodyMeasures):
         return form
 
     def assemble_scalar(self, form) -> float:
-        """A compiled scalar form, summed over all processes."""
+        """A compiled scalar form at the current iterate, summed over all processes."""
+        self.directors.sync()
         return self.comm.allreduce(fem.assemble_scalar(form))
 
     def kinematics(self) -> SimpleNamespace:
-        """UFL kinematics of the current iterate (built once): ``u``, the rotations
-        ``thetas``, the director ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and
-        the test functions ``w_test`` (all unknowns) and ``du`` (its displacement part)."""
+        """UFL kinematics of the current iterate (built once): ``u``, the director
+        ``d``, ``g₁, g₂``, ``F_s``, the reference ``G₁, G₂``, and the test functions
+        ``w_test`` (of all of ``z``) and ``du`` (its displacement part).  Forms take
+        derivatives with respect to ``model.z``."""
         if self._kinematics is None:
-            w_test = ufl.TestFunction(self.W)
-            self._kinematics = self.kinematics_of(self.w)
+            w_test = ufl.TestFunction(self.Z)
+            self._kinematics = self.kinematics_of(self.z)
             self._kinematics.w_test, self._kinematics.du = w_test, self.split(w_test)[0]
         return self._kinematics
 
-    def kinematics_of(self, w) -> SimpleNamespace:
-        """The kinematics of ``kinematics()`` for any function ``w`` of ``W`` (its
-        rotations measured in the step's triads), without test functions."""
-        u, thetas = self.split(w)
+    def kinematics_of(self, z) -> SimpleNamespace:
+        """The kinematics of ``kinematics()`` for any function ``z`` of ``Z``, without
+        test functions."""
+        u, nodal = self.split(z)
         G1, G2 = kinematics.covariant_basis(self.mesh)
-        directors = [kinematics.director(theta, *triad)
-                     for theta, triad in zip(thetas, self.triads)]
+        directors = [kinematics.interpolated_director(d) for d in nodal]
         d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
              else directors[0])
         g1, g2 = kinematics.surface_basis(u, G1, G2)
-        return SimpleNamespace(u=u, thetas=thetas, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
+        return SimpleNamespace(u=u, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
                                F_s=kinematics.surface_deformation_gradient(u))
 
     def velocity(self, u):
@@ -275,7 +287,7 @@ class Model(StepStart, BodyMeasures):
         #: virtual work of every non-inertial effect, by component name
         self.effects = {}
         for c, energy in zip(self.components, energies):
-            terms = [ufl.derivative(energy, self.w, w_test)] if energy is not None else []
+            terms = [ufl.derivative(energy, self.z, w_test)] if energy is not None else []
             terms += [work for work in [c.forces()] if work is not None]
             if terms:
                 self.effects[c.name] = sum(terms[1:], terms[0])
@@ -289,21 +301,52 @@ class Model(StepStart, BodyMeasures):
         residual = (1 - self.coef["alpha_f"]) * self.forces_ufl + (self.inertia or 0)
         if self.end_forces is not None:
             residual += self.coef["end_weight"] * self.end_forces
-        trial = ufl.TrialFunction(self.W)
-        self.jacobian_ufl = ufl.derivative(residual, self.w, trial)
+        trial = ufl.TrialFunction(self.Z)
+        self.jacobian_ufl = ufl.derivative(residual, self.z, trial)
         corrections = [c.tangent_correction() for c in self.components] if self.mixed_point \
             else []
         for corr in (c for c in corrections if c is not None):
             self.jacobian_ufl += (1 - self.coef["alpha_f"]) * ufl.derivative(
-                ufl.derivative(corr, self.w, w_test), self.w, trial)
+                ufl.derivative(corr, self.z, w_test), self.z, trial)
         self.forces_form = self.inertia_form = self.jacobian_form = self.end_form = None
         if self.compile_forms:
-            self.forces_form = self.compile(self.forces_ufl)
+            # compiled on z, assembled into w's vectors and matrices (directors.py)
+            self.forces_form = self.mapped(self.forces_ufl)
             if self.inertia is not None:
-                self.inertia_form = self.compile(self.inertia)
+                self.inertia_form = self.mapped(self.inertia)
             if self.end_forces is not None:
-                self.end_form = self.compile(self.end_forces)
-            self.jacobian_form = self.compile(self.jacobian_ufl)
+                self.end_form = self.mapped(self.end_forces)
+            self.jacobian_form = MappedForm(self.compile(self.jacobian_ufl), self.directors,
+                                            residual=self._residual_z)
+            self._rz = None
+
+    def mapped(self, ufl_form) -> MappedForm:
+        """A rank-1 form on ``z`` compiled and assembled as one on ``w``."""
+        return MappedForm(self.compile(ufl_form), self.directors)
+
+    def _residual_z(self) -> np.ndarray:
+        """The step residual's z rows, ``(1 − α_f) F + inertia + end forces`` summed over
+        processes (local array; owned rows valid): what the tangent in ``w`` contracts
+        with the directors' second derivatives."""
+        if self._rz is None:
+            self._rz = (compat.petsc_vec(self.z).duplicate(),
+                        compat.petsc_vec(self.z).duplicate())
+        total, part = self._rz
+        with total.localForm() as local:
+            local.set(0.0)
+        weights = [(self.forces_form, 1.0 - float(self.coef["alpha_f"].value)),
+                   (self.inertia_form, 1.0),
+                   (self.end_form, float(self.coef["end_weight"].value))]
+        for form, weight in weights:
+            if form is None or weight == 0.0:
+                continue
+            with part.localForm() as local:
+                local.set(0.0)
+            compat.assemble_vector(part, form.form)
+            with total.localForm() as t_local, part.localForm() as p_local:
+                t_local.axpy(weight, p_local)
+        total.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        return total.array_r
 
     def add_nodal_forces(self, F: np.ndarray):
         """Add the components' nodal forces to the local array of an assembled ``F``."""
@@ -365,3 +408,6 @@ class Model(StepStart, BodyMeasures):
         """Free the nodal projection's PETSc objects.  Forms and functions stay usable;
         a triad update after this rotates the triads but no longer realigns them."""
         self.triad.destroy()
+        for form in (self.forces_form, self.inertia_form, self.end_form, self.jacobian_form):
+            if form is not None:
+                form.destroy()

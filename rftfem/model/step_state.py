@@ -131,20 +131,24 @@ class StepStart:
             return
         current = self.w.x.array
         if self._newton_last is None and self.first_tangent_converged:
-            converged = self.newton_previous.x.array
-            converged[:] = current
+            converged = current.copy()
             converged[self.u_dofs] = self.u_n.x.array
             converged[self.theta_dofs] = 0.0
-            self.newton_current.x.array[:] = current
+            self._set_newton_data(converged, current)
             self.newton_update.x.array[:] = 0.0
             self._newton_last = current.copy()
             return
         if self._newton_last is None:
             self._newton_last = current.copy()
-        self.newton_previous.x.array[:] = self._newton_last
-        self.newton_current.x.array[:] = current
-        self.newton_update.x.array[:] = current - self._newton_last
+        self._set_newton_data(self._newton_last, current)
         self._newton_last = current.copy()
+
+    def _set_newton_data(self, previous, current):
+        """The mixed-point tangent's data from two iterates of ``w``, as ``z``."""
+        z_prev, z_cur = self.newton_previous.x.array, self.newton_current.x.array
+        self.directors.map(previous, out=z_prev)
+        self.directors.map(current, out=z_cur)
+        self.newton_update.x.array[:] = z_cur - z_prev
 
     def state(self) -> tuple[dict, list]:
         """What a checkpoint keeps of the model (checkpoint.py): this process's arrays

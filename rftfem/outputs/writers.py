@@ -113,7 +113,8 @@ class FieldWriter:
     down) is unreadable as a whole, closed after every write it keeps every
     time step written before."""
 
-    def __init__(self, model, path: Path, extra: dict | None = None, main: Path | None = None):
+    def __init__(self, model, path: Path, extra: dict | None = None, main: Path | None = None,
+                 warn=None):
         from mpi4py import MPI
 
         from rftfem.outputs.field_mesh import FieldMesh
@@ -127,6 +128,8 @@ class FieldWriter:
         for name, f in (extra or {}).items():  # Functions, or UFL expressions of the state
             self.fields[name] = f if isinstance(f, fem.Function) else compat.expression(f, V)
         self._at_nodes = fem.Function(V)
+        #: how a failure to write is told (a warning of the run); then the fields stop
+        self.warn, self.failed = warn or (lambda text: None), False
         self.out = {}
         self.path = Path(path)
         if self.nodes.mesh is not None:
@@ -145,10 +148,17 @@ class FieldWriter:
                 self._at_nodes.interpolate(source)
                 values = self._at_nodes
             self.nodes.gather(values, self.out.get(name))
-        if self.nodes.mesh is not None:
-            with io.XDMFFile(MPI.COMM_SELF, str(self.path), "a") as file:
-                for target in self.out.values():
-                    file.write_function(target, t)
+        if self.nodes.mesh is not None and not self.failed:
+            try:
+                with io.XDMFFile(MPI.COMM_SELF, str(self.path), "a") as file:
+                    for target in self.out.values():
+                        file.write_function(target, t)
+            except RuntimeError as error:  # dolfinx 0.5 on strongly curved coarse cells
+                self.failed = True
+                self.warn(f"warning: {self.path.name}: no fields written from t = {t:.6g} on "
+                          f"(dolfinx {compat.versions()['dolfinx']} could not write them on "
+                          f"this mesh: {error}); the tables go on. Refine the mesh or run "
+                          "on the current stack for fields")
 
     def close(self):
         if self.model.comm.rank == 0:

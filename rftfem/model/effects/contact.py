@@ -172,7 +172,7 @@ class Contact(UpdateLimits, Effect):
             d0 = d_start[0]
         face = forms.lower_face(X + k.u, k.d, t)
         face_start = forms.lower_face(X + self.u_start, d0, t)
-        face_virtual = ufl.derivative(face, m.w, k.w_test)
+        face_virtual = ufl.derivative(face, m.z, k.w_test)
         self.dx = m.dx(metadata={"quadrature_degree": 4})
 
         #: the body's diagonal (reference)

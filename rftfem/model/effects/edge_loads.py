@@ -79,7 +79,7 @@ class EdgeLoads(Load):
         ft = compat.create_meshtags(mesh, mesh.topology.dim - 1, all_facets, tags)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=ft, metadata={"quadrature_degree": 4})
         k = model.kinematics()
-        dd = ufl.derivative(k.d, model.w, k.w_test)
+        dd = ufl.derivative(k.d, model.z, k.w_test)
         one = fem.Constant(mesh, PETSc.ScalarType(1.0))
         #: (scene entry, its Constant, its edge's reference length); the value per unit
         #: length is read from the entry at each set_time, as the other loads do (so

@@ -271,10 +271,10 @@ class Magnetic(Effect):
     def forces(self):
         k, t = self.model.kinematics(), self.model.material["t"]
         if self.uniform:
-            dq = ufl.derivative(self.q, self.model.w, k.w_test)
+            dq = ufl.derivative(self.q, self.model.z, k.w_test)
             return -magnetic.magnetic_work(t, self.m, self.field, dq, self.J, self.dx)
         energy = magnetic.magnetic_energy(t, self.F, self.M, self.field, self.dx)
-        return ufl.derivative(energy, self.model.w, k.w_test)
+        return ufl.derivative(energy, self.model.z, k.w_test)
 
     is_load = True
 

@@ -18,10 +18,12 @@ stores the right-sided ones after it.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Where, table_iff
+from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
 from rftfem.scene.selectors import check_where, entities_of
 
 from rftfem.model.effects.base import Effect
@@ -38,12 +40,16 @@ class Motions(Effect):
         "name": NAME,
         "component": Leaf(Str(("ux", "uy", "uz")), required=True,
                            doc="The displacement component prescribed (global axes)."),
-        "kind": Leaf(Str(("travelling-wave", "table")), "travelling-wave",
+        "kind": Leaf(Str(("travelling-wave", "table", "rotation")), "travelling-wave",
                       doc='"travelling-wave": u = amplitude sin(wavenumber (X − origin) + '
                           "angular_frequency t + phase), with X each node's reference X "
                           "coordinate; "
                           '"table": one value on the whole selection, interpolated in '
-                          "`values`."),
+                          "`values`; "
+                          '"rotation": the component of a rigid turn, u = (R(φ) − I)(X − '
+                          "centre) with R(φ) the turn by φ = angular_frequency t + phase "
+                          "about rotation_axis (one entry per component: three turn the "
+                          "selection rigidly)."),
         "amplitude": Leaf(Num(), 0.0, unit="length",
                            doc="The wave's amplitude (travelling-wave)."),
         "wavenumber": Leaf(Num(), 0.0, unit="rad/length",
@@ -58,6 +64,10 @@ class Motions(Effect):
                            doc="A smooth start (travelling-wave): the amplitude grows as "
                                "(1 − cos(π t / ramp_time)) / 2 up to ramp_time, so the body "
                                "starts at rest from its reference shape; 0: no ramp."),
+        "rotation_axis": Leaf(Vec(nonzero=True), [0.0, 0.0, 1.0],
+                               doc="The axis of the turn (rotation), right-handed."),
+        "centre": Leaf(Vec(), [0.0, 0.0, 0.0], unit="length",
+                        doc="A point of the axis of the turn (rotation)."),
         "phase": Leaf(Num(), 0.0, unit="rad",
                        doc="The phase added to the wave's (travelling-wave): with "
                            "wavenumber = 0, a sinusoidal motion of the whole selection "
@@ -103,7 +113,8 @@ class Motions(Effect):
                                      f"{holder} at {clash} dofs; a dof takes one condition")
             model.dirichlet.hold(component, key, dofs[0])
             value = fem.Function(V, name=f"motion_{k}")
-            X = V.tabulate_dof_coordinates()[np.asarray(dofs[1]), 0]
+            X = V.tabulate_dof_coordinates()[np.asarray(dofs[1])]
+            X = X if spec["kind"] == "rotation" else X[:, 0]
             motion = Motion(spec, value, np.asarray(dofs[1]), X, fem.dirichletbc(value, dofs, sub))
             motion.u_index = self._displacement_index(np.asarray(dofs[0]))
             motion.dofs = np.asarray(dofs[0])
@@ -171,6 +182,8 @@ def reach(scene: dict, direction) -> float:
     for spec in scene.get("motion") or []:
         if spec["kind"] == "table":
             size = max((abs(float(v)) for _, v in spec["values"]), default=0.0)
+        elif spec["kind"] == "rotation":
+            continue  # a turn's reach is the body's own size: the run's gap check watches it
         else:
             size = abs(float(spec.get("amplitude", 0.0)))
         total += size * abs(float(direction[DISPLACEMENT_COMPONENTS[spec["component"]]]))
@@ -183,17 +196,33 @@ class Motion:
     ``travelling-wave``: ``u = s(t) amplitude sin(wavenumber (X − origin) + angular_frequency t
     + phase)``, ``s = (1 − cos(π t / ramp_time)) / 2`` up to ``ramp_time``, 1 after
     with ``X`` the reference X coordinate of each dof; ``table``: piecewise linear
-    in time, the same value at every selected dof.
+    in time, the same value at every selected dof; ``rotation``: the component of
+    ``(R(φ) − I)(X − centre)``, ``φ = angular_frequency t + phase``.
     """
 
     def __init__(self, spec, value, value_dofs, X, bc):
-        """``value_dofs``: the selected dofs of ``value``; ``X``: their reference X."""
+        """``value_dofs``: the selected dofs of ``value``; ``X``: their reference X (a
+        rotation: their reference positions, (n, 3))."""
         self.spec, self.value, self.value_dofs, self.X, self.bc = spec, value, value_dofs, X, bc
         if spec["kind"] == "table":
             self.table = np.asarray(spec["values"], dtype=float)
+        if spec["kind"] == "rotation":
+            axis = np.asarray(spec["rotation_axis"], dtype=float)
+            self.axis = axis / np.linalg.norm(axis)
+            self.arm = X - np.asarray(spec["centre"], dtype=float)[None, :]
+            self.index = DISPLACEMENT_COMPONENTS[spec["component"]]
+
+    def _turned(self, t: float) -> np.ndarray:
+        """The turned arms ``R(φ(t)) (X − centre)`` (rotation), by Rodrigues."""
+        phi = self.spec["angular_frequency"] * t + self.spec["phase"]
+        k, r = self.axis, self.arm
+        return (r * math.cos(phi) + np.cross(k, r) * math.sin(phi)
+                + np.outer(r @ k, k) * (1 - math.cos(phi)))
 
     def at(self, t: float, X):
         s = self.spec
+        if s["kind"] == "rotation":
+            return (self._turned(t) - self.arm)[:, self.index]
         if s["kind"] == "table":
             return np.full_like(X, np.interp(t, self.table[:, 0], self.table[:, 1]))
         ramp = self.ramp(t)[0]
@@ -220,6 +249,10 @@ class Motion:
         table's acceleration is zero between corners (its impulse at a corner is
         the jump between the two sides' velocities)."""
         s = self.spec
+        if s["kind"] == "rotation":  # v = ω k × r, a = ω² k × (k × r), r the turned arm
+            w, r = s["angular_frequency"], self._turned(t)
+            kr = np.cross(self.axis, r)
+            return w * kr[:, self.index], w**2 * np.cross(self.axis, kr)[:, self.index]
         if s["kind"] == "table":
             times, values = self.table[:, 0], self.table[:, 1]
             slope = 0.0
@@ -242,6 +275,9 @@ class Motion:
     def speed_scale(self) -> float:
         """The largest speed this motion prescribes."""
         s = self.spec
+        if s["kind"] == "rotation":
+            return abs(s["angular_frequency"]) * float(np.linalg.norm(self.arm, axis=1).max(
+                initial=0.0))
         if s["kind"] == "table":
             table = self.table
             if len(table) < 2:
