@@ -180,6 +180,15 @@ class DirectorMap:
             self._B = B
         return z
 
+    def direction(self, w: np.ndarray, dw: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """``P(w) dw`` into the local z array ``out``: the change of ``z`` to first order
+        when ``w`` moves by ``dw`` (the map's own ``B`` is left as it was)."""
+        out[self.u_z] = dw[self.model.u_dofs]
+        for k, (d_dofs, q_dofs) in enumerate(zip(self.d_z, self.q_w)):
+            _, B = nodal_directors(w[q_dofs], *self.frames(k), derivatives=True)
+            out[d_dofs] = np.einsum("nka,na->nk", B, dw[q_dofs])
+        return out
+
     def sync(self, derivatives: bool = False):
         """The model's ``z`` from its iterate ``w``."""
         self.map(self.model.w.x.array, derivatives=derivatives)

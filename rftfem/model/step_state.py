@@ -144,11 +144,14 @@ class StepStart:
         self._newton_last = current.copy()
 
     def _set_newton_data(self, previous, current):
-        """The mixed-point tangent's data from two iterates of ``w``, as ``z``."""
-        z_prev, z_cur = self.newton_previous.x.array, self.newton_current.x.array
-        self.directors.map(previous, out=z_prev)
-        self.directors.map(current, out=z_cur)
-        self.newton_update.x.array[:] = z_cur - z_prev
+        """The mixed-point tangent's data from two iterates of ``w``, as ``z``: the
+        iterates mapped, and the update as its first-order change of ``z`` at the
+        previous one, ``P(w_prev) Δw`` (the strains' linearization along the Newton
+        update itself; the chord of the nodal directors made Newton diverge on a
+        link turning 0.06 rad a step)."""
+        self.directors.map(previous, out=self.newton_previous.x.array)
+        self.directors.map(current, out=self.newton_current.x.array)
+        self.directors.direction(previous, current - previous, self.newton_update.x.array)
 
     def state(self) -> tuple[dict, list]:
         """What a checkpoint keeps of the model (checkpoint.py): this process's arrays

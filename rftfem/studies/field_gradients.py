@@ -90,9 +90,11 @@ def field_gradients(adj, lam, J_form, keys: list[str]) -> list[FieldGradient]:
     from dolfinx import fem
 
     m = adj.model
-    lam_fn = fem.Function(m.W, name="adjoint")
+    # λ·R_w = (P λ)·R_z: the multiplier as a direction of the forms' unknowns z
+    m.directors.sync(derivatives=True)
+    lam_fn = fem.Function(m.Z, name="adjoint")
     with lam.localForm() as local:
-        lam_fn.x.array[:] = local.array_r
+        lam_fn.x.array[:] = m.directors.apply(local.array_r)
     work = ufl.action(m.forces_ufl, lam_fn)  # λ·R as a 0-form
     out = []
     for key in keys:

@@ -243,13 +243,14 @@ class _Adjoint:
     # assembly --------------------------------------------------------------------------
 
     def assemble(self, form):
-        """A 1-form of ``W`` assembled into a new (ghost-summed) vector."""
+        """A 1-form on the forms' unknowns ``z`` assembled as one of ``W`` (``Pᵀ b_z``,
+        rftfem/model/directors.py) into a new (ghost-summed) vector."""
         from rftfem import compat
 
         b = self.vec()
         with b.localForm() as local:
             local.set(0.0)
-        compat.assemble_vector(b, self.model.compile(form))
+        compat.assemble_vector(b, self.model.mapped(form))
         b.ghostUpdate(addv=self.PETSc.InsertMode.ADD, mode=self.PETSc.ScatterMode.REVERSE)
         return b
 
@@ -277,7 +278,7 @@ class _Adjoint:
                 i = "xyz".index(objective.column[-1])
                 form = (ufl.SpatialCoordinate(m.mesh)[i] + k.u[i]) / m.area() * m.dx
             J = m.assemble_scalar(m.compile(form))
-            return J, self.assemble(ufl.derivative(form, m.w, k.w_test)), form
+            return J, self.assemble(ufl.derivative(form, m.z, k.w_test)), form
         J, weights = self._probe(objective)
         g = self.vec()
         with g.localForm() as local:
