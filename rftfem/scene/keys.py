@@ -34,9 +34,12 @@ SCHEMA = Table({
     "shell": Table({
         **{k: v for k, v in SHELL_MATERIAL.items() if k != "fibre"},
         "axis": Leaf(Vec(nonzero=True), [1.0, 0.0, 0.0],
-                      doc="The material axis E1* in reference coordinates (normalised, not "
-                          "along the normal). The drag frame follows it: C1 acts along the "
-                          "axis as the body carries it, C2 across it in the surface."),
+                      doc="The material axis E1* in reference coordinates (normalised). A "
+                          "material direction only: the anisotropic drag frame (C1 along the "
+                          "axis as the body carries it, C2 across it in the surface), "
+                          "anisotropic friction, the fibre's default. The shell's rotations "
+                          "do not need it, so it may be along the normal somewhere (a closed "
+                          "body), unless an effect that needs it is on there (then named)."),
         "fibre": SHELL_MATERIAL["fibre"],
         "parts": Array(Table({
             "region": Leaf(Str(name=True), required=True,
