@@ -39,7 +39,8 @@ from rftfem.model.measures import BodyMeasures
 from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
 from rftfem.scene.schema import unit_vector
-from rftfem.model.directors import DirectorMap, MappedForm
+from rftfem.model.directors import DirectorMap
+from rftfem.model.mapped_forms import MappedForm, step_residual_z
 from rftfem.model.triad import Triads
 
 
@@ -323,41 +324,13 @@ class Model(StepStart, BodyMeasures):
             if self.end_forces is not None:
                 self.end_form = self.mapped(self.end_forces)
             self.jacobian_form = MappedForm(self.compile(self.jacobian_ufl), self.directors,
-                                            residual=self._residual_z)
+                                            residual=lambda: step_residual_z(self))
             if self.correction_ufl is not None:
                 self.correction_form = self.compile(self.correction_ufl)
-            self._rz = None
 
     def mapped(self, ufl_form) -> MappedForm:
         """A rank-1 form on ``z`` compiled and assembled as one on ``w``."""
         return MappedForm(self.compile(ufl_form), self.directors)
-
-    def _residual_z(self) -> np.ndarray:
-        """The z rows of what the tangent differentiates, ``(1 − α_f) (F + mixed-point
-        corrections' gradient) + inertia + end forces``, summed over processes (local
-        array; owned rows valid): the tangent in ``w`` contracts it with the directors'
-        second derivatives.  (Without the corrections' part the thin roll-up took 77
-        load steps instead of 39: the stress predictor lost its director terms.)"""
-        if self._rz is None:
-            self._rz = (compat.petsc_vec(self.z).duplicate(),
-                        compat.petsc_vec(self.z).duplicate())
-        total, part = self._rz
-        with total.localForm() as local:
-            local.set(0.0)
-        af = 1.0 - float(self.coef["alpha_f"].value)
-        weights = [(self.forces_form, af), (self.inertia_form, 1.0),
-                   (self.end_form, float(self.coef["end_weight"].value)),
-                   (self.correction_form, af)]
-        for form, weight in weights:
-            if form is None or weight == 0.0:
-                continue
-            with part.localForm() as local:
-                local.set(0.0)
-            compat.assemble_vector(part, getattr(form, "form", form))
-            with total.localForm() as t_local, part.localForm() as p_local:
-                t_local.axpy(weight, p_local)
-        total.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return total.array_r
 
     def add_nodal_forces(self, F: np.ndarray):
         """Add the components' nodal forces to the local array of an assembled ``F``."""

@@ -243,8 +243,7 @@ class _Adjoint:
     # assembly --------------------------------------------------------------------------
 
     def assemble(self, form):
-        """A 1-form on the forms' unknowns ``z`` assembled as one of ``W`` (``Pᵀ b_z``,
-        rftfem/model/directors.py) into a new (ghost-summed) vector."""
+        """A 1-form on ``z`` assembled as one of ``W`` into a new (ghost-summed) vector."""
         from rftfem import compat
 
         b = self.vec()
