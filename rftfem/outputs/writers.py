@@ -141,6 +141,7 @@ class FieldWriter:
         from mpi4py import MPI
 
         self.model.nodal_director()  # refreshed from the triads (hinged bodies)
+        self.model.directors.sync()  # the extra fields may be expressions of the state
         for name, source in self.fields.items():
             if isinstance(source, fem.Function) and source.function_space == self.model.Vu:
                 values = source

@@ -139,7 +139,9 @@ SCHEMA = Table({
                               "NAME_uz; unique."),
             "at": Leaf(Vec(), required=True, unit="length",
                         doc="The material point, in reference coordinates; on a strip or "
-                            "three-link body it must lie on the body (z = 0)."),
+                            "three-link body it must lie on the body (z = 0); on a gmsh "
+                            "body within 5 % of a cell's size of its surface (the nearest "
+                            "point is taken)."),
         }), doc="Material points whose displacement goes to probes.csv."),
         "fields": Leaf(Bool(), True,
                         doc="Write fields.xdmf and fields.h5 (displacement, director, "

@@ -198,10 +198,18 @@ def entities_of(body, where: str, key: str):
     return tdim - 1, facets_of(body, where, key)
 
 
+#: a point of a curved body may lie this share of a cell's size off the discrete
+#: surface and still be on the body (an analytic point of a sphere lies off the
+#: surface of a coarse mesh of it by about 1 % of a cell)
+OFF_SURFACE = 0.05
+
+
 def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
     """For each reference point (rows of ``points``): the one process that owns a
     cell containing it gets that local cell, the others None; and whether the point
-    lies on the body at all (the same on every process)."""
+    lies on the body at all (the same on every process).  A point within
+    ``OFF_SURFACE`` of a cell's size of the discrete surface is on it: the cell
+    nearest to it holds it (evaluation there takes the nearest point of the cell)."""
     from mpi4py import MPI
 
     from rftfem import compat
@@ -210,9 +218,15 @@ def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
     n_owned = mesh.topology.index_map(mesh.topology.dim).size_local
     found = compat.colliding_cells(mesh, points) if len(points) else []
     cells, on_body = [], []
-    for candidates in found:
+    for i, candidates in enumerate(found):
         local = [c for c in candidates if c < n_owned]
         owner = comm.allreduce(comm.rank if local else comm.size, op=MPI.MIN)
+        if owner == comm.size:  # off the discrete surface: the nearest cell, if near
+            near, dist, size = compat.nearest_cells(mesh, points[i:i + 1])
+            ok = near[0] >= 0 and near[0] < n_owned and dist[0] <= OFF_SURFACE * size[0]
+            best = comm.allreduce((dist[0] if ok else np.inf, comm.rank), op=MPI.MIN)
+            if np.isfinite(best[0]):
+                owner, local = best[1], [int(near[0])] if best[1] == comm.rank else []
         cells.append(int(local[0]) if owner == comm.rank else None)
         on_body.append(owner < comm.size)
     return cells, on_body

@@ -27,7 +27,9 @@ class PointForce(Load):
     load_kinds = {KIND: {
         "at": Leaf(Vec(), required=True, unit="length",
                    doc="The material point, in reference coordinates (like a probe); on a "
-                       "strip or three-link body it must lie on the body (z = 0)."),
+                       "strip or three-link body it must lie on the body (z = 0); on a gmsh "
+                       "body within 5 % of a cell's size of its surface (the nearest point "
+                       "is taken)."),
         "value": Leaf(Vec(), required=True, unit="force",
                       doc="The force in global axes, multiplied by the ramp's scale; it keeps "
                           "its direction as the body moves (dead load)."),
