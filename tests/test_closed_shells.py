@@ -73,6 +73,13 @@ def test_a_rigid_turn_strains_nothing(closed_meshes, mesh, area):
     ratio = np.abs(body["elastic_energy"]).max() / stretch
     print(f"{mesh}: largest elastic energy / 1 % stretch = {ratio:.3e}")
     assert ratio < 1e-10
+    # fields: written, or (dolfinx 0.5 on these strongly curved cells: its writer's
+    # pull-back fails) a warning, and the run goes on to the end all the same
+    import json
+
+    summary = json.loads((out / "summary.json").read_text())
+    warned = [w for w in summary["warnings"] if "fields.xdmf: no fields written" in w]
+    assert summary["status"] == "ok" and (warned or (out / "fields.h5").exists())
 
 
 INFLATE = """
