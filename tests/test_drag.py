@@ -170,7 +170,7 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
 
     model = build_model(STRIP.replace("E = 1.0e6", "E = 1.0e6\ndensity = 1.0e-6"), tmp_path)
     model.set_coefficients(make_scheme(model.scene["time"]).coefficients(0.1))
-    drag = compat.form(model.effects["drag"])
+    drag = model.mapped(model.effects["drag"])  # on z, assembled into w (directors.py)
     rng = np.random.default_rng(3)
     for _ in range(2):  # rotate the triad far from the reference
         model.w.x.array[:] = rng.uniform(-1, 1, len(model.w.x.array))

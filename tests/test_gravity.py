@@ -95,7 +95,7 @@ thickness = 0.2
     model = build_model(scene, tmp_path, ["load.0.ramp=constant",
                                           "load.0.fluid_density=0.5e-9"])
     model.set_time(0.0)
-    form = compat.form(model.effects["gravity"])
+    form = model.mapped(model.effects["gravity"])
     b = compat.create_vector(form, model.W)
     compat.assemble_vector(b, form)
     total = -b.getArray()[model.u_dofs].reshape(-1, 3).sum(axis=0)

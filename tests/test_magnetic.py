@@ -457,7 +457,7 @@ def turned_plate_works(model, stretch, tilt):
     X = model.Vu.tabulate_dof_coordinates()[:, :3]
     x = X @ (R @ np.diag([stretch, 1.0, 1.0])).T
     model.w.x.array[model.u_dofs] = (x - X).ravel()
-    F = compat.form(model.effects["magnetic"])
+    F = model.mapped(model.effects["magnetic"])
     vec = compat.create_vector(F, model.W)
     compat.assemble_vector(vec, F)
     residual = vec.getArray().copy()

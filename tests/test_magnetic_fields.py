@@ -201,10 +201,9 @@ def plate_model(tmp_path_factory):
 
 
 def magnetic_residual(model) -> np.ndarray:
-    from rftfem import compat
     from test_consistency import vector_of
 
-    return vector_of(model, compat.form(model.effects["magnetic"]))()
+    return vector_of(model, model.mapped(model.effects["magnetic"]))()
 
 
 @pytest.mark.parametrize("source", [(1.0, 0.0, 0.0), (0.6, 0.0, 0.8), (-0.3, 0.5, 0.2)])

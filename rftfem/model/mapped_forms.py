@@ -104,10 +104,14 @@ class MappedForm:
     def create_matrix(self, kind: str | None = None):
         from petsc4py import PETSc
 
+        """A zero matrix of ``w`` with the tangent's pattern (as dolfinx's own)."""
         C = self.tangent()  # blocked as P's columns: a node's unknowns of w
         if kind is None or "aij" in kind and "baij" not in kind:
-            return C.duplicate()
-        return C.convert(kind, out=PETSc.Mat())  # (without ``out``: C itself, converted)
+            A = C.duplicate()  # (duplicate copies no values)
+        else:
+            A = C.convert(kind, out=PETSc.Mat())  # (without ``out``: C itself, converted)
+        A.zeroEntries()
+        return A
 
     def assemble_matrix(self, A, bcs):
         """``A += Pᵀ A_z P + G``, then the rows and columns of ``bcs``' dofs zero with
