@@ -123,7 +123,8 @@ def test_thin_rollup_needs_no_halving(tmp_path):
 
 
 def test_newton_stops_when_its_contraction_shows_the_solution_near(tmp_path):
-    """The roll-up at L/t = 10⁵ (40 load steps, EI kept): a solve ends once the last two
+    """The roll-up at L/t = 10⁵ (40 load steps, EI kept; since the nodal directors the first
+    one is cut, 45 steps in all): a solve ends once the last two
     updates shrink by θ < 1/2 and θ/(1 − θ) times the last one, the estimated
     distance left to the solution, is below ``snes_stol`` of the state (docs/model.md
     §7.3).  That saves the update PETSc's own step test waits for, in most steps: the
@@ -151,8 +152,9 @@ def test_newton_stops_when_its_contraction_shows_the_solution_near(tmp_path):
     print(f"L/t = 1e5: {counts['newton_iterations'] / steps:.3f} Newton updates a step; "
           f"PETSc's step test alone {counts_petsc['newton_iterations'] / steps:.3f}: "
           f"{saved:.3f} saved a step; snes_stol = 1e-13: {counts_tight}")
-    assert counts["dt_cuts"] == counts_petsc["dt_cuts"] == 0
-    assert steps == counts_petsc["steps"] == 40
+    # both runs take the same steps (the same cuts), so their counts compare
+    assert counts["dt_cuts"] == counts_petsc["dt_cuts"] <= 1
+    assert steps == counts_petsc["steps"] <= 45
     assert saved >= 0.4
     for load in (1.0, 2.0):
         at, tight = (r[np.argmin(np.abs(r[:, 0] - load))] for r in (rows, rows_tight))
