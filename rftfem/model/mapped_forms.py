@@ -132,10 +132,16 @@ class MappedForm:
         self._Az.zeroEntries()
         compat.assemble_matrix(self._Az, self.form, [])
         self._Az.assemble()
-        _, _, values = self._Az.getValuesCSR()
         if self._blocks is None:
             self._blocks = _BlockPattern(self._Az, dm)
         bp = self._blocks
+        if not bp.complete:  # a node's B is on another process: PETSc's product
+            A.assemble()
+            A.axpy(1.0, self.tangent(), structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            A.assemble()
+            A.zeroRowsColumns(self._owned_rows(bcs), diag=1.0)
+            return
+        _, _, values = self._Az.getValuesCSR()
         P = dm.node_matrices()
         blocks = values[bp.positions]  # (blocks, bz, bz)
         out = np.matmul(np.transpose(P[bp.row_nodes], (0, 2, 1)),
@@ -185,6 +191,12 @@ class MappedForm:
                 obj.destroy()
 
 
+def _mpi_and():
+    from mpi4py import MPI
+
+    return MPI.LAND
+
+
 class _BlockPattern:
     """Where each node pair's block of a blocked matrix on ``z`` sits in its point
     CSR values (owned rows; each row holds whole node blocks, sorted by node), and
@@ -213,9 +225,16 @@ class _BlockPattern:
         local = np.where((col_global >= first) & (col_global < first + owned),
                          col_global - first, -1)
         off = local < 0
+        #: whether every column node is on this process (owned or ghost); a node of a
+        #: cell of another process only, coupled to an owned one, is not, and its ``B``
+        #: is not here: then PETSc's product serves (``complete`` is global)
+        found = True
         if off.any():
             order = np.argsort(ghosts)
-            local[off] = owned + order[np.searchsorted(ghosts[order], col_global[off])]
+            at = np.minimum(np.searchsorted(ghosts[order], col_global[off]), len(order) - 1)
+            found = bool(len(order)) and bool(np.all(ghosts[order][at] == col_global[off]))
+            local[off] = owned + order[at] if len(order) else 0
+        self.complete = dm.model.comm.allreduce(found, op=_mpi_and())
         self.col_nodes = local
         self.col_global = col_global.astype(PETSc.IntType)
         self.diagonal = np.flatnonzero(self.row_nodes == local)
