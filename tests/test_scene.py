@@ -135,7 +135,8 @@ direction = [1, 0, 0]
 """))
     assert s["motion"][0] == {"where": "all", "name": None, "component": "uz", "kind": "travelling-wave",
                               "amplitude": 0.15, "wavenumber": 0.0, "angular_frequency": 0.0,
-                              "origin": 0.0, "ramp_time": 0.0, "phase": 0.0, "values": None}
+                              "origin": 0.0, "ramp_time": 0.0, "rotation_axis": [0.0, 0.0, 1.0],
+                              "centre": [0.0, 0.0, 0.0], "phase": 0.0, "values": None}
     assert s["magnetic"]["field"] == {"kind": "rotating", "strength": 0.0, "ramp_time": 0.0,
                                       "direction": [1.0, 0.0, 0.0], "frequency": 0.0,
                                       "rotation_axis": [0.0, 0.0, 1.0], "B": None,
