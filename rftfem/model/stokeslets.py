@@ -260,6 +260,31 @@ class Wall:
                 G[chunk, :, :, l] += vs.transpose(0, 2, 1)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
+    def image_blocks(self, targets, sources) -> np.ndarray:
+        """Per pair the image's 3 × 3 block (N_t, N_s, 3, 3), without 1/8πμ: the wall's
+        part of the integrated layer (``rftfem.model.stokes_layer``)."""
+        out = np.empty((len(targets), len(sources), 3, 3))
+        for k in range(3):
+            unit = np.zeros((len(sources), 3))
+            unit[:, k] = 1.0
+            out[:, :, :, k] = self._all_pairs(targets, sources, unit)
+        return out
+
+    def image_derivative(self, G, rows, targets, target_nodes, sources, forces, basis):
+        """Add the images' position derivative (complex steps, without 1/8πμ) to ``G``
+        (rows, 3, N, 3): the targets' own motion on their nodes, the sources' (points
+        ``y = Σ ψ x``) through ``basis`` (N × points, the ψ's)."""
+        step = 1e-30
+        k, q = len(targets), len(sources)
+        for l in range(3):
+            dx = np.zeros(3, dtype=complex)
+            dx[l] = 1j * step
+            vt = self._all_pairs(targets + dx, sources, forces).imag / step
+            G[rows, :, target_nodes, l] += vt.sum(axis=1)
+            vs = self._all_pairs(targets, sources + dx, forces).imag / step  # (k, q, 3)
+            moved = basis @ vs.transpose(1, 0, 2).reshape(q, 3 * k)  # (N, 3k)
+            G[rows, :, :, l] += moved.reshape(-1, k, 3).transpose(1, 2, 0)
+
     def _all_pairs(self, targets, sources, forces):
         """Per pair (N_t, N_s, 3): each source's image velocity at each target
         (complex-safe, for the complex steps)."""

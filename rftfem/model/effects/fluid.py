@@ -14,10 +14,11 @@ import math
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Leaf, Str, Table, Vec
+from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Int, Leaf, Str, Table, Vec
 
 MODELS = ("rft", "stokes")
 OPERATORS = ("auto", "dense", "fmm")
+METHODS = ("layer", "blobs")
 
 SCHEMA = Table({
     "model": Leaf(Str(MODELS), "rft",
@@ -39,11 +40,24 @@ SCHEMA = Table({
                           "`drag`) the three coefficients come from slender-body theory for "
                           "the body's length and width (docs/stokes.md §RFT from the "
                           "viscosity)."),
+    "method": Leaf(Str(METHODS), "layer",
+                   doc='How the Stokes single layer is discretised (model = "stokes"): '
+                       '"layer" a force density on the shell\'s own elements, the kernel '
+                       "integrated over each element (singular and near-singular rules), "
+                       'no slip at the nodes; "blobs" point forces at the nodes with blobs '
+                       "of the node spacing (first order; the fast multipole operator "
+                       "needs it). docs/stokes.md §Two discretisations."),
     "regularization": Leaf(POSITIVE, unit="length",
-                           default_doc="from the mesh: the local node spacing, half of it "
-                                       "on the body's free edges",
-                           doc='The blob size δ of the regularized Stokeslets (model = '
-                               '"stokes"), the same at every node.'),
+                           default_doc='method "layer": a tenth of the mean element size '
+                                       '(docs/stokes.md §The blob size); method "blobs": '
+                                       "the local node spacing, half of it on free edges",
+                           doc='The blob size ε of the regularized Stokeslets (model = '
+                               '"stokes"), the same everywhere.'),
+    "refine": Leaf(Int(0), 0,
+                   doc='The liquid\'s own resolution (method "layer"): each element\'s '
+                       "quadrature is cut into 2^refine × 2^refine pieces, the singular "
+                       "rules take more points; the shell mesh is untouched. `rftfem study "
+                       "--refine fluid` makes the liquid's convergence table."),
     "operator": Leaf(Str(OPERATORS), "auto",
                      doc='How the Stokes operator is applied (model = "stokes"): "dense" '
                          "assembles and factorises the mobility (exact, memory 144 N² bytes "
@@ -81,6 +95,13 @@ def check(scene: dict) -> None:
                              "scene[\"fluid.drag\"])")
         if fluid.get("viscosity") is None:
             raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
+        if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
+            raise SceneError('fluid.operator: "fmm" needs fluid.method = "blobs" in this '
+                             'version (the integrated layer is dense); use operator = '
+                             '"dense" (or "auto"), or method = "blobs"')
+        if fluid.get("refine") and fluid.get("method", "layer") != "layer":
+            raise SceneError('fluid.refine: only with fluid.method = "layer" (the blobs sit '
+                             "at the nodes: refine the mesh)")
         if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
             raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
                              '"dense" (or "auto") with fluid.wall')
@@ -88,7 +109,8 @@ def check(scene: dict) -> None:
         if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
             raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
                              '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
-        for key, what in (("regularization", "blob"), ("wall", "wall"),
+        for key, what in (("regularization", "blob"), ("wall", "wall"), ("method", "layer"),
+                          ("refine", "layer"),
                           ("operator", "nonlocal operator")):
             if fluid.get(key) not in (None, "auto"):
                 raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rftfem.model import stokes_fmm, stokeslets
+from rftfem.model import stokes_fmm, stokes_layer, stokeslets
 from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
@@ -38,6 +38,9 @@ from rftfem.model.effects.base import Effect
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
 DENSE_NODES = 5000
 
+
+#: the integrated layer's default ε over the mean element size (docs/stokes.md)
+DEFAULT_EPSILON = 1e-4
 
 #: the closest gap between body and wall, in blobs, under which a run is refused, and
 #: under which it is warned of (the wall's images are singular, the body's own
@@ -81,8 +84,14 @@ class Stokes(Effect):
         self.owned_u = model.u_dofs.reshape(-1, 3)[: self.n_owned]
         #: the reference positions of every node of the body, in rank order (N, 3)
         self.X = self._gather(model.Vu.tabulate_dof_coordinates()[: self.n_owned])
-        #: each node's blob size δ (N,)
-        self.delta = self._gather(self._node_blobs(given.get("regularization")))
+        #: "layer" (the density on the elements) or "blobs" (point forces at the nodes)
+        self.method = given.get("method", "layer")
+        if self.method == "layer":
+            self._set_up_layer(given)
+        else:
+            #: each node's blob size δ (N,); for the layer the liquid's resolution there
+            #: (the wall's gap is measured in it)
+            self.delta = self._gather(self._node_blobs(given.get("regularization")))
         self._check_size()
         wall = given.get("wall")
         #: the no-slip plane (``[fluid.wall]``), or None
@@ -137,6 +146,35 @@ class Stokes(Effect):
         edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
         spacing[edge] *= 0.5
         return spacing[: self.n_owned]
+
+    def _set_up_layer(self, given):
+        """The integrated layer's rules (``rftfem.model.stokes_layer``): the elements
+        of every process in the global node numbering, ε and the refinement."""
+        from dolfinx import mesh as dmesh
+
+        from rftfem import compat
+
+        m = self.model
+        msh = m.mesh
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        local = compat.cell_dofs(m.Vu)[:n_cells]
+        im = m.Vu.dofmap.index_map
+        owned_global = compat.local_to_global(im, local.ravel()).reshape(local.shape)
+        cells = np.concatenate(m.comm.allgather(np.ascontiguousarray(owned_global)))
+        quad = msh.topology.cell_type == dmesh.CellType.quadrilateral
+        self.refine = int(given.get("refine", 0))
+        eps = given.get("regularization")
+        spacing = self._gather(self._node_blobs(None))
+        rows = slice(self.offset, self.offset + self.n_owned)
+        if eps is None:
+            probe = stokes_layer.Layer(self.X, cells, "quadrilateral" if quad else "triangle",
+                                       1.0, self.refine, rows=slice(0, 0))
+            eps = DEFAULT_EPSILON * float(np.mean(probe.size))
+        #: ε, the blob size (a length of its own)
+        self.epsilon = float(eps)
+        self.layer = stokes_layer.Layer(self.X, cells, "quadrilateral" if quad else "triangle",
+                                        self.epsilon, self.refine, rows=rows)
+        self.delta = np.maximum(self.epsilon, spacing / 2 ** self.refine)
 
     def _check_size(self):
         extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
@@ -220,6 +258,9 @@ class Stokes(Effect):
                 # the body has reached the wall: no flow state exists; a residual of
                 # NaN makes the step fail and be cut (the solver says it is not finite)
                 self._resistance = _Crossed(x)
+            elif self.method == "layer":
+                self._resistance = stokes_layer.LayerResistance(
+                    self.layer, x, self.viscosity, self.wall, comm=self.model.comm)
             elif self.operator == "fmm":
                 self._resistance = _OnFirst(
                     self.model.comm, x,

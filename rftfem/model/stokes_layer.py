@@ -1,0 +1,570 @@
+"""The regularized single layer integrated over the shell's elements
+(``[fluid] method = "layer"``, the default; docs/stokes.md).
+
+The force per reference area the body exerts on the liquid is a field on the
+shell's own second-order elements, ``f(ξ) = Σ_k ψ_k(ξ) f_k`` (the displacement's
+basis, one value per node), and the liquid's velocity at the node ``x_i`` is the
+layer
+
+    u(x_i) = Σ_k [∫ S_ε(x_i − y(ξ)) ψ_k(ξ) dA₀] f_k / (8πμ) = (A f)_i,
+    y(ξ) = Σ_k ψ_k(ξ) x_k,
+
+with the Gaussian blob ``S_ε`` of ``rftfem.model.stokeslets`` and ε a length of its
+own (not the spacing).  No slip holds at the nodes (collocation), ``A f = v``, and
+the shell gets the consistent nodal loads ``F = B f``, ``B_kl = ∫ ψ_k ψ_l dA₀``.
+
+The integral over each element is taken by one of three rules, fixed when the
+body is set up (they hold reference coordinates and weights; only the positions
+move):
+
+- far: Gauss points on the element cut into ``m × m`` pieces (``m = 2^refine``);
+- near, for a node within one element size of the element: the same on pieces
+  four times smaller;
+- singular, for a node of the element itself: the element cut into triangles
+  with their apex at the node, each mapped from the unit square by a Duffy
+  transform (which cancels the 1/r of the kernel), Gauss–Legendre across and
+  along the rays, the rays cut geometrically near the apex so that the blob's
+  core, of size ε, is resolved for any ε.
+
+The near and singular rules replace the far rule for their pairs (its points
+are subtracted).  Every rule is a list of points ``(element, ξ, weight)``, so
+``A``, its exact position derivative ``∂(A f)/∂x`` at fixed ``f`` and the wall's
+images are sums over points of the same shape (``_Points``).
+"""
+
+from __future__ import annotations
+
+from math import pi
+
+import numpy as np
+import scipy.sparse as sp
+
+from rftfem.model import stokeslets
+
+#: Gauss–Legendre points across (t) and along (s, per piece) a Duffy triangle
+SINGULAR_ANGULAR, SINGULAR_RADIAL = 8, 6
+#: the rays of a Duffy triangle are cut at ε, 4ε, 16ε, … (in the ray's length) when ε
+#: is at least this fraction of the ray; below, the ray is one piece: the blob's
+#: functions differ from the Stokeslet's by zero in the mean over the ray
+#: (∫ (s_k − 1) dρ = 0), so an unresolved core costs O(ε³), not O(ε)
+SMALLEST_PIECE = 1e-3
+#: a node within this many element sizes of an element takes the near rule
+NEAR = 1.0
+#: the near rule's pieces are this many times smaller than the far rule's
+NEAR_FACTOR = 4
+
+
+class ReferenceElement:
+    """The second-order Lagrange element (Q2 or P2) on basix's reference cell."""
+
+    def __init__(self, cell: str):
+        import basix
+
+        quad = cell == "quadrilateral"
+        kind = basix.CellType.quadrilateral if quad else basix.CellType.triangle
+        self._element = basix.create_element(basix.ElementFamily.P, kind, 2,
+                                             basix.LagrangeVariant.equispaced)
+        self.cell = cell
+        #: the nodes' reference coordinates (nd, 2), in the dofmap's order
+        self.nodes = np.asarray(self._element.points, dtype=float)
+        #: the reference cell's corners, counter-clockwise
+        self.corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]] if quad
+                                else [[0, 0], [1, 0], [0, 1]], dtype=float)
+        points, weights = basix.make_quadrature(kind, 5 if quad else 4)
+        self._rule = (np.asarray(points, dtype=float), np.asarray(weights, dtype=float))
+
+    def basis(self, xi: np.ndarray) -> np.ndarray:
+        """``ψ_a(ξ)`` (npts, nd)."""
+        if len(xi) == 0:  # basix asserts on no points
+            return np.zeros((0, len(self.nodes)))
+        return self._element.tabulate(0, np.asarray(xi, dtype=float))[0, :, :, 0]
+
+    def gradients(self, xi: np.ndarray) -> np.ndarray:
+        """``∂ψ_a/∂ξ_j`` (npts, nd, 2)."""
+        if len(xi) == 0:
+            return np.zeros((0, len(self.nodes), 2))
+        t = self._element.tabulate(1, np.asarray(xi, dtype=float))
+        return np.stack([t[1, :, :, 0], t[2, :, :, 0]], axis=-1)
+
+    def pieces(self, m: int) -> list[np.ndarray]:
+        """The reference cell cut into ``m × m`` squares or ``m²`` triangles, each as
+        its corners (k, 2)."""
+        out = []
+        if len(self.corners) == 4:
+            for i in range(m):
+                for j in range(m):
+                    out.append(np.array([[i, j], [i + 1, j], [i + 1, j + 1], [i, j + 1]]) / m)
+            return out
+        for i in range(m):
+            for j in range(m - i):
+                out.append(np.array([[i, j], [i + 1, j], [i, j + 1]]) / m)
+                if i + j < m - 1:
+                    out.append(np.array([[i + 1, j], [i + 1, j + 1], [i, j + 1]]) / m)
+        return out
+
+    def rule(self, m: int, cluster=None) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss points and weights (on the reference cell) of ``m × m`` pieces; with
+        ``cluster`` (an edge weight's ``(low, high)`` ends per direction) mapped by
+        :func:`_cluster` so that the weight's inverse square roots are integrated
+        as smooth functions."""
+        xi, w = self._plain_rule(m)
+        if cluster is None:
+            return xi, w
+        out = np.empty_like(xi)
+        for j, (low, high) in enumerate(cluster):
+            out[:, j], dj = _cluster(xi[:, j], low, high)
+            w = w * dj
+        return out, w
+
+    def _plain_rule(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        p, w = self._rule
+        xs, ws = [], []
+        for c in self.pieces(m):
+            if len(c) == 4:
+                lo, size = c[0], c[2] - c[0]
+                xs.append(lo + p * size)
+                ws.append(w * size[0] * size[1])
+            else:
+                e1, e2 = c[1] - c[0], c[2] - c[0]
+                xs.append(c[0] + p[:, :1] * e1 + p[:, 1:] * e2)
+                ws.append(w * abs(e1[0] * e2[1] - e1[1] * e2[0]))
+        return np.concatenate(xs), np.concatenate(ws)
+
+    def singular_rule(self, apex: np.ndarray, scale: float, refine: int = 0,
+                      weighted: bool = False):
+        """Points and weights of Duffy triangles with their apex at ``apex`` (a node's
+        reference coordinates); ``scale`` is ε over the element's size (rays cut
+        geometrically from about ``scale`` of their length).  ``weighted``: the
+        element carries an edge weight, singular on sides and corners only, which
+        the Duffy map puts at the ends of the pieces (s) and of the angle (t): both
+        are then mapped by :func:`_cluster`."""
+        gs, gws = np.polynomial.legendre.leggauss(SINGULAR_RADIAL + 2 * refine)
+        gt, gwt = np.polynomial.legendre.leggauss(SINGULAR_ANGULAR + 2 * refine)
+        gs, gws, gt, gwt = (gs + 1) / 2, gws / 2, (gt + 1) / 2, gwt / 2
+        xs, ws = [], []
+        c = self.corners
+        for k in range(len(c)):
+            a, b = c[k], c[(k + 1) % len(c)]
+            det = (a[0] - apex[0]) * (b[1] - a[1]) - (a[1] - apex[1]) * (b[0] - a[0])
+            if abs(det) < 1e-12:  # the apex lies on this side
+                continue
+            ray = np.linalg.norm(0.5 * (a + b) - apex)
+            cuts = [1.0]
+            while scale / ray >= SMALLEST_PIECE and cuts[-1] / 4 > scale / ray:
+                cuts.append(cuts[-1] / 4)
+            cuts = np.array([0.0] + cuts[::-1])
+            for lo, hi in zip(cuts[:-1], cuts[1:]):
+                s, ds = (_cluster(gs, True, True) if weighted else (gs, 1.0))
+                t, dt = (_cluster(gt, True, True) if weighted else (gt, 1.0))
+                s = lo + (hi - lo) * s
+                S, T = np.meshgrid(s, t, indexing="ij")
+                W = np.outer(gws * ds * (hi - lo), gwt * dt)
+                point = apex + S[..., None] * ((a - apex) + T[..., None] * (b - a))
+                xs.append(point.reshape(-1, 2))
+                ws.append((W * S * abs(det)).ravel())
+        return np.concatenate(xs), np.concatenate(ws)
+
+
+def _cluster(eta: np.ndarray, low: bool, high: bool):
+    """``ξ(η)`` on [0, 1] with ``ξ′`` vanishing linearly at the clustered ends, and
+    ``ξ′``: an inverse square root of the distance to such an end times ``ξ′`` is
+    smooth in η (η², 1 − (1 − η)², or 3η² − 2η³ for both ends)."""
+    if low and high:
+        return 3 * eta ** 2 - 2 * eta ** 3, 6 * eta * (1 - eta)
+    if low:
+        return eta ** 2, 2 * eta
+    if high:
+        return 1 - (1 - eta) ** 2, 2 * (1 - eta)
+    return eta, np.ones_like(eta)
+
+
+class EdgeWeight:
+    """The edge weight of the density on quadrilaterals (docs/stokes.md §Free edges).
+
+    Near a free edge the density of a thin body grows as the inverse square root of
+    the distance.  Each element touching the edge carries
+
+        ω(ξ) = Π_sides μ_k(ξ)^(−1/2) · Π_corners (1 − φ_c(ξ))^(−1/2),
+
+    μ_k the reference distance to a side of the element on the free edge, φ_c the
+    bilinear hat of a corner on the free edge (whose sides are not), and the density
+    is ``ω Σ ψ_k f_k``: the nodal values stay finite and smooth.  ω is 1 on the
+    element's other sides, so it is continuous from element to element.  Triangles
+    and closed bodies get ω = 1."""
+
+    #: the sides (bottom, right, top, left) of the reference square: (direction, end)
+    SIDES = ((1, 0.0), (0, 1.0), (1, 1.0), (0, 0.0))
+
+    def __init__(self, element: ReferenceElement, cells: np.ndarray):
+        self.element = element
+        n_el = len(cells)
+        #: per element: its free sides (indices into SIDES) and free corners (ξ)
+        self.sides = [() for _ in range(n_el)]
+        self.corners = [() for _ in range(n_el)]
+        if element.cell != "quadrilateral":
+            return
+        nodes = element.nodes
+        on_side = [np.flatnonzero(np.isclose(nodes[:, d], end)) for d, end in self.SIDES]
+        ends = [[a for a in idx if np.isclose(nodes[a], nodes[a].round()).all()]
+                for idx in on_side]
+        keys = {}
+        for e in range(n_el):
+            for k in range(4):
+                key = tuple(sorted(cells[e, ends[k]]))
+                keys[key] = keys.get(key, 0) + 1
+        free_nodes = set()
+        for e in range(n_el):
+            free = tuple(k for k in range(4) if keys[tuple(sorted(cells[e, ends[k]]))] == 1)
+            self.sides[e] = free
+            for k in free:
+                free_nodes.update(cells[e, on_side[k]].tolist())
+        corner_nodes = [a for a in range(len(nodes))
+                        if np.isclose(nodes[a], nodes[a].round()).all()]
+        for e in range(n_el):
+            on_free_side = {a for k in self.sides[e] for a in ends[k]}
+            self.corners[e] = tuple(tuple(nodes[a]) for a in corner_nodes
+                                    if cells[e, a] in free_nodes and a not in on_free_side)
+
+    def weighted(self, e: int) -> bool:
+        return bool(self.sides[e] or self.corners[e])
+
+    def cluster(self, e: int):
+        """Per direction, whether the rule's points gather at its low and high end."""
+        out = []
+        for d in range(2):
+            low = any(self.SIDES[k] == (d, 0.0) for k in self.sides[e]) or \
+                any(c[d] == 0.0 for c in self.corners[e])
+            high = any(self.SIDES[k] == (d, 1.0) for k in self.sides[e]) or \
+                any(c[d] == 1.0 for c in self.corners[e])
+            out.append((low, high))
+        return tuple(out)
+
+    def __call__(self, e: int, xi: np.ndarray) -> np.ndarray:
+        """``ω`` at the reference points ``xi`` of element ``e``."""
+        w = np.ones(len(xi))
+        for k in self.sides[e]:
+            d, end = self.SIDES[k]
+            w /= np.sqrt(np.abs(xi[:, d] - end))
+        for c in self.corners[e]:
+            hat = (1 - np.abs(xi[:, 0] - c[0])) * (1 - np.abs(xi[:, 1] - c[1]))
+            w /= np.sqrt(1 - hat)
+        return w
+
+
+class _Points:
+    """Quadrature points of the layer: each an element, reference coordinates, a
+    weight (reference area included) and the basis there, and optionally the
+    target node it serves (the near and singular rules)."""
+
+    def __init__(self, cells, element, elem, xi, weight, target=None):
+        self.elem = np.asarray(elem, dtype=np.int64)
+        self.nodes = cells[self.elem]  # (P, nd)
+        self.psi = element.basis(xi)  # (P, nd)
+        self.weight = np.asarray(weight, dtype=float)
+        self.target = None if target is None else np.asarray(target, dtype=np.int64)
+
+    def positions(self, x: np.ndarray) -> np.ndarray:
+        """The points' current positions ``y = Σ_a ψ_a x_a`` (P, 3)."""
+        return np.einsum("pa,pak->pk", self.psi, x[self.nodes])
+
+    def density(self, f: np.ndarray) -> np.ndarray:
+        """The force density at the points, times the weights (P, 3)."""
+        return np.einsum("pa,pak->pk", self.psi, f[self.nodes]) * self.weight[:, None]
+
+    def scatter(self, n: int) -> sp.csr_matrix:
+        """``P`` (points × nodes): weight × basis, so that ``Σ_q K_q (P f)_q`` is the rule."""
+        rows = np.repeat(np.arange(len(self.weight)), self.nodes.shape[1])
+        vals = (self.psi * self.weight[:, None]).ravel()
+        return sp.csr_matrix((vals, (rows, self.nodes.ravel())), shape=(len(self.weight), n))
+
+
+def _kernel(r: np.ndarray, eps: float):
+    """``(a, b)`` with ``S_ε(r) F = a F + b (r·F) r`` for separations ``r`` (..., 3)."""
+    dist = np.sqrt(np.einsum("...k,...k->...", r, r))
+    f0, f1, _, _ = stokeslets.radial(dist / eps)
+    return f0 / eps, f1 / eps ** 3
+
+
+def _kernel_blocks(r, eps):
+    a, b = _kernel(r, eps)
+    out = b[..., None, None] * r[..., :, None] * r[..., None, :]
+    out += a[..., None, None] * np.eye(3)
+    return out
+
+
+def _kernel_gradient(r, F, eps):
+    """``T = ∂(S_ε(r) F)/∂r`` (..., 3, 3) for separations ``r`` and forces ``F`` (..., 3)."""
+    dist = np.sqrt(np.einsum("...k,...k->...", r, r))
+    _, f1, f2, f3 = stokeslets.radial(dist / eps)
+    b, da, db = f1 / eps ** 3, f2 / eps ** 3, f3 / eps ** 5
+    rF = np.einsum("...k,...k->...", r, F)
+    T = da[..., None, None] * F[..., :, None] * r[..., None, :]
+    T += (db * rF)[..., None, None] * r[..., :, None] * r[..., None, :]
+    T += b[..., None, None] * r[..., :, None] * F[..., None, :]
+    T += (b * rF)[..., None, None] * np.eye(3)
+    return T
+
+
+class Layer:
+    """The layer's rules for one body (set up once, from the reference positions ``X``).
+
+    ``cells`` (C, nd) are the elements' node indices into ``X`` in the reference
+    element's order; ``rows`` the target nodes this process evaluates (a slice,
+    default all)."""
+
+    def __init__(self, X, cells, cell: str, epsilon: float, refine: int = 0,
+                 rows: slice | None = None, edge_weight: bool = True):
+        self.X = np.asarray(X, dtype=float)
+        self.cells = np.asarray(cells, dtype=np.int64)
+        self.element = ReferenceElement(cell)
+        self.epsilon, self.refine = float(epsilon), int(refine)
+        n = len(self.X)
+        self.rows = slice(0, n) if rows is None else rows
+        #: the density's edge weight (``ω = 1`` everywhere without ``edge_weight``)
+        self.weight = EdgeWeight(self.element, self.cells if edge_weight else self.cells[:0])
+        if not edge_weight:
+            self.weight.sides = self.weight.corners = [()] * len(self.cells)
+        self._m = 2 ** self.refine
+        C = len(self.cells)
+        rules = [self.rule(e, self._m) for e in range(C)]
+        q = len(rules[0][1])
+        elem = np.repeat(np.arange(C), q)
+        #: the far rule: every element's Gauss points
+        self._far_xi = np.concatenate([r[0] for r in rules])
+        self.far = _Points(self.cells, self.element, elem, self._far_xi,
+                           np.concatenate([r[1] for r in rules]))
+        self._P = self.far.scatter(n)
+        #: each element's size: √ of its reference area
+        plain_xi, plain_w = self.element.rule(1)
+        area = [np.sum(plain_w * self._reference_jacobian(e, plain_xi)) for e in range(C)]
+        self.size = np.sqrt(np.array(area))
+        self.special = self._special_points()
+
+    def _reference_jacobian(self, e: int, xi) -> np.ndarray:
+        dpsi = self.element.gradients(xi)  # (P, nd, 2)
+        J = np.einsum("paj,ak->pkj", dpsi, self.X[self.cells[e]])  # (P, 3, 2)
+        return np.linalg.norm(np.cross(J[:, :, 0], J[:, :, 1]), axis=1)
+
+    def rule(self, e: int, m: int, apex=None, scale: float = 1.0):
+        """Element ``e``'s points and weights (reference area and edge weight in):
+        ``m × m`` Gauss pieces, or the singular rule about the node at ``apex``."""
+        weighted = self.weight.weighted(e)
+        if apex is None:
+            xi, w = self.element.rule(m, self.weight.cluster(e) if weighted else None)
+        else:
+            xi, w = self.element.singular_rule(apex, scale, self.refine, weighted)
+        return xi, w * self._reference_jacobian(e, xi) * self.weight(e, xi)
+
+    def _special_points(self) -> _Points:
+        """The near and singular rules of this process's targets, with the far
+        rule's points of the same pairs at negative weight."""
+        cells, el, far = self.cells, self.element, self.far
+        q = len(far.weight) // len(cells)
+        # distances from every target to every element's far points (reference state)
+        y = far.positions(self.X).reshape(len(cells), q, 3)
+        targets = np.arange(self.rows.start, self.rows.stop)
+        elem_l, xi_l, w_l, t_l = [], [], [], []
+
+        def add(e, xi, w, t):
+            elem_l.append(np.full(len(w), e))
+            xi_l.append(xi)
+            w_l.append(w)
+            t_l.append(np.full(len(w), t))
+
+        far_xi = far_w = None
+        for e in range(len(cells)):
+            d = np.linalg.norm(self.X[targets, None, :] - y[e][None], axis=-1).min(axis=1)
+            near = targets[d < NEAR * self.size[e]]
+            if not len(near):
+                continue
+            members = list(cells[e])
+            near_rule = self.rule(e, self._m * NEAR_FACTOR)
+            far_xi, far_w = self._far_of(e)
+            for t in near:
+                if t in members:
+                    a = members.index(t)
+                    xi, w = self.rule(e, 0, apex=el.nodes[a], scale=self.epsilon / self.size[e])
+                else:
+                    xi, w = near_rule
+                add(e, xi, w, t)
+                add(e, far_xi, -far_w, t)
+        if not elem_l:
+            return _Points(cells, el, np.zeros(0, int), np.zeros((0, 2)), np.zeros(0),
+                           np.zeros(0, int))
+        return _Points(cells, el, np.concatenate(elem_l), np.concatenate(xi_l),
+                       np.concatenate(w_l), np.concatenate(t_l))
+
+    def _far_of(self, e: int):
+        """Element ``e``'s far points (reference coordinates) and weights."""
+        q = len(self.far.weight) // len(self.cells)
+        return self._far_xi[e * q:(e + 1) * q], self.far.weight[e * q:(e + 1) * q]
+
+    # --- the operator ---------------------------------------------------------
+
+    def matrix(self, x: np.ndarray, viscosity: float, wall=None) -> np.ndarray:
+        """The rows of ``A`` (3 n_rows × 3N) at the positions ``x``: ``u = A f``."""
+        x = np.asarray(x, dtype=float)
+        n = len(x)
+        lo, hi = self.rows.start, self.rows.stop
+        A = np.zeros((hi - lo, 3, n, 3))
+        y = self.far.positions(x)
+        PT = self._P.T.tocsr()
+        for chunk in _chunks(hi - lo, len(y)):
+            K = _kernel_blocks(x[lo + chunk.start:lo + chunk.stop, None, :] - y[None], self.epsilon)
+            if wall is not None:
+                K += wall.image_blocks(x[lo + chunk.start:lo + chunk.stop], y)
+            k = chunk.stop - chunk.start
+            K2 = K.transpose(0, 2, 3, 1).reshape(k * 9, len(y))  # (t a b, q)
+            A[chunk] = (PT @ K2.T).T.reshape(k, 3, 3, n).transpose(0, 1, 3, 2)
+        self._add_special(A, x, lambda r, p: _kernel_blocks(r, self.epsilon), None)
+        return A.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
+
+    def position_derivative(self, x, f, viscosity: float, wall=None) -> np.ndarray:
+        """The rows of ``G = ∂(A f)/∂x`` at fixed ``f`` (3 n_rows × 3N)."""
+        x = np.asarray(x, dtype=float)
+        f = np.asarray(f, dtype=float).reshape(-1, 3)
+        n = len(x)
+        lo, hi = self.rows.start, self.rows.stop
+        G = np.zeros((hi - lo, 3, n, 3))
+        y = self.far.positions(x)
+        fq = self.far.density(f)  # weighted
+        unweighted = sp.csr_matrix((self.far.psi.ravel(), (
+            np.repeat(np.arange(len(y)), self.far.nodes.shape[1]), self.far.nodes.ravel())),
+            shape=(len(y), n)).T.tocsr()
+        for chunk in _chunks(hi - lo, len(y)):
+            t = np.arange(lo + chunk.start, lo + chunk.stop)
+            T = _kernel_gradient(x[t, None, :] - y[None], fq[None], self.epsilon)
+            k = len(t)
+            rows = np.arange(chunk.start, chunk.stop)
+            G[rows, :, t, :] += T.sum(axis=1)
+            T2 = T.transpose(0, 2, 3, 1).reshape(k * 9, len(y))
+            G[chunk] -= (unweighted @ T2.T).T.reshape(k, 3, 3, n).transpose(0, 1, 3, 2)
+            if wall is not None:
+                wall.image_derivative(G, rows, x[t], t, y, fq, unweighted)
+        self._add_special(G, x, lambda r, p: _kernel_gradient(r, p, self.epsilon), f,
+                          derivative=True)
+        return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
+
+    def _special_sums(self):
+        """Sparse sums over the special points, made once: ``(entries, S_w, S_ψ, S_1)``
+        with ``entries`` the distinct (target row, node) pairs they touch, ``S_w`` and
+        ``S_ψ`` (entries × points) weight × basis and basis, ``S_1`` (rows × points)
+        the target's own sum."""
+        if getattr(self, "_sums", None) is None:
+            s, n = self.special, len(self.X)
+            nd = s.nodes.shape[1]
+            t = s.target - self.rows.start
+            keys = (np.repeat(t, nd) * n + s.nodes.ravel())
+            entries, inverse = np.unique(keys, return_inverse=True)
+            cols = np.repeat(np.arange(len(t)), nd)
+            shape = (len(entries), len(t))
+            S_w = sp.csr_matrix(((s.psi * s.weight[:, None]).ravel(), (inverse, cols)), shape)
+            S_psi = sp.csr_matrix((s.psi.ravel(), (inverse, cols)), shape)
+            S_1 = sp.csr_matrix((np.ones(len(t)), (t, np.arange(len(t)))),
+                                (self.rows.stop - self.rows.start, len(t)))
+            self._sums = (np.divmod(entries, n), S_w, S_psi, S_1)
+        return self._sums
+
+    def _add_special(self, out, x, blocks, f, derivative=False, chunk=200_000):
+        """Add the near and singular rules (minus the far rule's) of this process's
+        pairs to ``out`` (n_rows, 3, N, 3)."""
+        s = self.special
+        if not len(s.weight):
+            return
+        (rows, nodes), S_w, S_psi, S_1 = self._special_sums()
+        lo = self.rows.start
+        values = np.empty((len(s.weight), 9))
+        for start in range(0, len(s.weight), chunk):
+            sl = slice(start, start + chunk)
+            y = np.einsum("pa,pak->pk", s.psi[sl], x[s.nodes[sl]])
+            r = x[s.target[sl]] - y
+            if derivative:
+                fp = np.einsum("pa,pak->pk", s.psi[sl], f[s.nodes[sl]]) * s.weight[sl, None]
+                values[sl] = blocks(r, fp).reshape(-1, 9)
+            else:
+                values[sl] = blocks(r, None).reshape(-1, 9)
+        if derivative:
+            own = (S_1 @ values).reshape(-1, 3, 3)
+            idx = np.arange(len(own))
+            out[idx, :, idx + lo, :] += own
+            out[rows, :, nodes, :] -= (S_psi @ values).reshape(-1, 3, 3)
+        else:
+            out[rows, :, nodes, :] += (S_w @ values).reshape(-1, 3, 3)
+
+    # --- the nodal loads --------------------------------------------------------
+
+    def mass(self) -> sp.csr_matrix:
+        """``B_kl = ∫ ψ_k ψ_l dA₀`` (N × N): nodal loads from the density."""
+        return (self._basis_matrix().T @ self._P).tocsr()
+
+    def _basis_matrix(self) -> sp.csr_matrix:
+        n = len(self.X)
+        rows = np.repeat(np.arange(len(self.far.weight)), self.far.nodes.shape[1])
+        return sp.csr_matrix((self.far.psi.ravel(), (rows, self.far.nodes.ravel())),
+                             shape=(len(self.far.weight), n))
+
+    def mass_factors(self):
+        """``B`` and its sparse LU (kept: ``B`` does not move)."""
+        if not hasattr(self, "_mass"):
+            from scipy.sparse.linalg import splu
+
+            self._mass = self.mass()
+            self._mass_lu = splu(self._mass.tocsc())
+        return self._mass, self._mass_lu
+
+    @property
+    def quadrature_points(self) -> int:
+        """Far points plus this process's near and singular points."""
+        return len(self.far.weight) + int(np.sum(self.special.weight > 0))
+
+
+class LayerResistance:
+    """The factorised layer of one configuration: nodal loads from velocities,
+    ``F = B A⁻¹ v`` (the same contract as ``stokeslets.Resistance``).
+
+    ``A`` is not symmetric (collocation), so it is LU-factorised.  Under MPI each
+    process evaluates its ``layer.rows``; the rows are gathered and every process
+    factorises the same matrix; the position derivative stays distributed."""
+
+    def __init__(self, layer: Layer, x, viscosity: float, wall=None, comm=None):
+        import scipy.linalg as sl
+
+        self.layer, self.x = layer, np.array(x, dtype=float)
+        self.viscosity, self.wall = viscosity, wall
+        self.comm = comm if comm is not None and comm.size > 1 else None
+        A = stokeslets.gather_rows(layer.matrix(self.x, viscosity, wall), self.comm)
+        self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
+        self._mass, self._mass_lu = layer.mass_factors()
+
+    def densities(self, rhs: np.ndarray) -> np.ndarray:
+        """``A⁻¹ rhs``: the force density's nodal values (3N, or 3N × k)."""
+        import scipy.linalg as sl
+
+        return sl.lu_solve(self._lu, rhs, check_finite=False)
+
+    def _loads(self, f: np.ndarray) -> np.ndarray:
+        shape = f.shape
+        n = len(self.x)
+        return (self._mass @ f.reshape(n, -1)).reshape(shape)
+
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """``B A⁻¹ rhs``: nodal loads (3N, or 3N × k)."""
+        return self._loads(self.densities(rhs))
+
+    def lumped(self) -> np.ndarray:
+        """The nodal blocks ``Σ_j (B A⁻¹)_ij`` (N × 3 × 3, symmetrised, clipped at 0)."""
+        n = len(self.x)
+        ones = np.tile(np.eye(3), (n, 1))
+        return stokeslets.lumped_blocks(self.solve(ones).reshape(n, 3, 3))
+
+    def position_operator(self, forces):
+        """``G = ∂(A f)/∂x`` at the density ``f = B⁻¹ F`` of the nodal loads ``forces``."""
+        n = len(self.x)
+        f = self._mass_lu.solve(np.asarray(forces, dtype=float).reshape(n, 3))
+        G = self.layer.position_derivative(self.x, f, self.viscosity, self.wall)
+        return G if self.comm is None else stokeslets.RowBlocks(G, self.comm)
+
+
+def _chunks(n: int, total: int, pairs: int = 200_000):
+    step = max(1, pairs // max(total, 1))
+    return [slice(i, min(i + step, n)) for i in range(0, n, step)]
