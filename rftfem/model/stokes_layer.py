@@ -462,7 +462,14 @@ class Layer:
             S_psi = sp.csr_matrix((s.psi.ravel(), (inverse, cols)), shape)
             S_1 = sp.csr_matrix((np.ones(len(t)), (t, np.arange(len(t)))),
                                 (self.rows.stop - self.rows.start, len(t)))
-            self._sums = (np.divmod(entries, n), S_w, S_psi, S_1)
+            # separations r = x_target − Σ ψ x and weighted densities, as sparse products
+            p = np.arange(len(t))
+            D = sp.csr_matrix((np.concatenate([np.ones(len(t)), -s.psi.ravel()]),
+                               (np.concatenate([p, cols]),
+                                np.concatenate([s.target, s.nodes.ravel()]))), (len(t), n))
+            Pw = sp.csr_matrix(((s.psi * s.weight[:, None]).ravel(), (cols, s.nodes.ravel())),
+                               (len(t), n))
+            self._sums = (np.divmod(entries, n), S_w, S_psi, S_1, D, Pw)
         return self._sums
 
     def _add_special(self, out, x, blocks, f, derivative=False, chunk=200_000):
@@ -471,16 +478,16 @@ class Layer:
         s = self.special
         if not len(s.weight):
             return
-        (rows, nodes), S_w, S_psi, S_1 = self._special_sums()
+        (rows, nodes), S_w, S_psi, S_1, D, Pw = self._special_sums()
         lo = self.rows.start
         values = np.empty((len(s.weight), 9))
+        r_all = D @ x
+        fp_all = Pw @ f if derivative else None
         for start in range(0, len(s.weight), chunk):
             sl = slice(start, start + chunk)
-            y = np.einsum("pa,pak->pk", s.psi[sl], x[s.nodes[sl]])
-            r = x[s.target[sl]] - y
+            r = r_all[sl]
             if derivative:
-                fp = np.einsum("pa,pak->pk", s.psi[sl], f[s.nodes[sl]]) * s.weight[sl, None]
-                values[sl] = blocks(r, fp).reshape(-1, 9)
+                values[sl] = blocks(r, fp_all[sl]).reshape(-1, 9)
             else:
                 values[sl] = blocks(r, None).reshape(-1, 9)
         if derivative:

@@ -36,6 +36,8 @@ _C = 2.0 / sqrt(pi)
 #: below this ρ the radial functions are summed as series (no cancellation)
 _SERIES_BELOW = 0.3
 _DEGREE = 40
+#: beyond this ρ, erfc ρ and the Gaussian terms (≤ 4e-19 of the Stokeslet's) are dropped
+_STOKESLET_BEYOND = 7.0
 
 
 def _series():
@@ -80,7 +82,16 @@ def radial(rho: np.ndarray):
         r = rho[small]
         for f, c in zip(out, _COEFFS):
             f[small] = P.polyval(r, c)
-    big = ~small
+    far = rho > _STOKESLET_BEYOND  # the blob's terms below round-off: the Stokeslet's
+    if far.any():
+        r = rho[far]
+        inv = 1.0 / r
+        inv3 = inv * inv * inv
+        out[0][far] = inv
+        out[1][far] = inv3
+        out[2][far] = -inv3
+        out[3][far] = -3.0 * inv3 * inv * inv
+    big = ~small & ~far
     if big.any():
         r = rho[big]
         E = np.exp(-r * r)

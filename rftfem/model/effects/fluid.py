@@ -109,10 +109,11 @@ def check(scene: dict) -> None:
         if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
             raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
                              '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
-        for key, what in (("regularization", "blob"), ("wall", "wall"), ("method", "layer"),
-                          ("refine", "layer"),
-                          ("operator", "nonlocal operator")):
-            if fluid.get(key) not in (None, "auto"):
+        for key, what, default in (("regularization", "blob", None), ("wall", "wall", None),
+                                   ("method", "discretised layer", "layer"),
+                                   ("refine", "discretised layer", 0),
+                                   ("operator", "nonlocal operator", "auto")):
+            if fluid.get(key) not in (None, default):
                 raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '
                                  f"has no {what})")
 

@@ -209,9 +209,9 @@ class Stokes(Effect):
 
     def _choose_operator(self, asked: str) -> str:
         """"dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
-        nodes without a wall, when fmm3dpy is installed)."""
+        nodes of blobs without a wall, when fmm3dpy is installed; the layer is dense)."""
         if asked == "auto":
-            big = len(self.X) > DENSE_NODES and self.wall is None
+            big = len(self.X) > DENSE_NODES and self.wall is None and self.method == "blobs"
             return "fmm" if big and stokes_fmm.available() else "dense"
         if asked == "fmm" and not stokes_fmm.available():
             raise SceneError('fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
