@@ -525,51 +525,126 @@ class Layer:
         return len(self.far.weight) + int(np.sum(self.special.weight > 0))
 
 
+def refined(X, cells, cell: str, level: int):
+    """The force grid of ``fluid.refine = level``: every element of the shell cut into
+    ``2^level × 2^level`` second-order elements (``4^level`` triangles) on the shell's
+    own curved surface.  Returns the grid's nodes (reference positions), its
+    elements, and the interpolation ``I`` (grid nodes × shell nodes, the shell's
+    basis at each grid node): the grid moves as ``I x`` and its loads reach the shell
+    as ``Iᵀ F``."""
+    X, cells = np.asarray(X, dtype=float), np.asarray(cells, dtype=np.int64)
+    el = ReferenceElement(cell)
+    if level == 0:
+        return X, cells, sp.identity(len(X), format="csr")
+    m = 2 ** level
+    quad = cell == "quadrilateral"
+    # the sub-elements' nodes on a grid of step 1/(2m) in the reference cell
+    sub_cells, grid = [], {}
+
+    def node(i, j):
+        return grid.setdefault((i, j), len(grid))
+
+    for piece in el.pieces(m):
+        origin = np.rint(piece[0] * 2 * m).astype(int)
+        e1 = np.rint((piece[1] - piece[0]) * 2 * m).astype(int)
+        e2 = np.rint((piece[-1] - piece[0]) * 2 * m).astype(int)
+        if quad:  # corners (0,0), (1,0), (1,1), (0,1): local axes e1 (x) and e2 (y)
+            e1, e2 = np.rint((piece[1] - piece[0]) * 2 * m).astype(int), \
+                np.rint((piece[3] - piece[0]) * 2 * m).astype(int)
+        local = np.rint(el.nodes * 2).astype(int)  # (nd, 2) in half-steps
+        sub_cells.append([node(*(origin + (a * e1 + b * e2) // 2)) for a, b in local])
+    ref = np.array(sorted(grid, key=grid.get), dtype=float) / (2 * m)
+    psi = el.basis(ref)  # (G, nd)
+    sub_cells = np.array(sub_cells)
+    pos = np.einsum("ga,cak->cgk", psi, X[cells])  # (C, G, 3)
+    scale = float(np.ptp(X, axis=0).max()) or 1.0
+    keys = np.round(pos.reshape(-1, 3) / scale * 1e9).astype(np.int64)
+    unique, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    G = len(ref)
+    fine_cells = inverse.reshape(len(cells), G)[:, sub_cells].reshape(-1, len(el.nodes))
+    c, g = np.divmod(first, G)
+    rows = np.repeat(np.arange(len(first)), len(el.nodes))
+    I = sp.csr_matrix((psi[g].ravel(), (rows, cells[c].ravel())), shape=(len(first), len(X)))
+    return pos.reshape(-1, 3)[first], fine_cells, I
+
+
 class LayerResistance:
     """The factorised layer of one configuration: nodal loads from velocities,
-    ``F = B A⁻¹ v`` (the same contract as ``stokeslets.Resistance``).
+    ``F = Iᵀ B A⁻¹ I v`` (the same contract as ``stokeslets.Resistance``, plus
+    :meth:`tangent`), ``I`` the force grid's interpolation (:func:`refined`).
 
     ``A`` is not symmetric (collocation), so it is LU-factorised.  Under MPI each
     process evaluates its ``layer.rows``; the rows are gathered and every process
     factorises the same matrix; the position derivative stays distributed."""
 
-    def __init__(self, layer: Layer, x, viscosity: float, wall=None, comm=None):
+    def __init__(self, layer: Layer, x, viscosity: float, wall=None, comm=None,
+                 interpolation=None):
         import scipy.linalg as sl
 
-        self.layer, self.x = layer, np.array(x, dtype=float)
-        self.viscosity, self.wall = viscosity, wall
+        self.x = np.array(x, dtype=float)
+        self.layer, self.viscosity, self.wall = layer, viscosity, wall
+        self.I = interpolation if interpolation is not None else \
+            sp.identity(len(self.x), format="csr")
+        #: the force grid's positions
+        self.grid = self.I @ self.x
         self.comm = comm if comm is not None and comm.size > 1 else None
-        A = stokeslets.gather_rows(layer.matrix(self.x, viscosity, wall), self.comm)
+        A = stokeslets.gather_rows(layer.matrix(self.grid, viscosity, wall), self.comm)
         self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
-        self._mass, self._mass_lu = layer.mass_factors()
+        self._mass = layer.mass_factors()[0]
+        self._solved = []  # (loads, densities) of the last solves, for the derivative
+
+    def _to_grid(self, v: np.ndarray) -> np.ndarray:
+        n = len(self.x)
+        return (self.I @ v.reshape(n, -1)).reshape((-1,) + v.shape[1:])
+
+    def _to_shell(self, F: np.ndarray) -> np.ndarray:
+        g = len(self.grid)
+        return (self.I.T @ F.reshape(g, -1)).reshape((-1,) + F.shape[1:])
 
     def densities(self, rhs: np.ndarray) -> np.ndarray:
-        """``A⁻¹ rhs``: the force density's nodal values (3N, or 3N × k)."""
+        """``A⁻¹ rhs`` for grid velocities: the density's values at the grid nodes."""
         import scipy.linalg as sl
 
         return sl.lu_solve(self._lu, rhs, check_finite=False)
 
     def _loads(self, f: np.ndarray) -> np.ndarray:
-        shape = f.shape
-        n = len(self.x)
-        return (self._mass @ f.reshape(n, -1)).reshape(shape)
+        g = len(self.grid)
+        return (self._mass @ f.reshape(g, -1)).reshape(f.shape)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """``B A⁻¹ rhs``: nodal loads (3N, or 3N × k)."""
-        return self._loads(self.densities(rhs))
+        """``Iᵀ B A⁻¹ I rhs``: the shell's nodal loads for nodal velocities (3N, or 3N × k)."""
+        f = self.densities(self._to_grid(np.asarray(rhs, dtype=float)))
+        F = self._to_shell(self._loads(f))
+        if F.ndim == 1:
+            self._solved = [(F, f)] + self._solved[:3]
+        return F
 
     def lumped(self) -> np.ndarray:
-        """The nodal blocks ``Σ_j (B A⁻¹)_ij`` (N × 3 × 3, symmetrised, clipped at 0)."""
+        """The nodal blocks ``Σ_j R_ij`` of the resistance (N × 3 × 3, symmetrised,
+        clipped at 0)."""
         n = len(self.x)
         ones = np.tile(np.eye(3), (n, 1))
         return stokeslets.lumped_blocks(self.solve(ones).reshape(n, 3, 3))
 
     def position_operator(self, forces):
-        """``G = ∂(A f)/∂x`` at the density ``f = B⁻¹ F`` of the nodal loads ``forces``."""
-        n = len(self.x)
-        f = self._mass_lu.solve(np.asarray(forces, dtype=float).reshape(n, 3))
-        G = self.layer.position_derivative(self.x, f, self.viscosity, self.wall)
+        """``G = ∂(A f)/∂x_grid`` at the density ``f`` whose loads are ``forces`` (the
+        result of a :meth:`solve`)."""
+        forces = np.asarray(forces, dtype=float).ravel()
+        for F, f in self._solved:
+            if F.shape == forces.shape and np.array_equal(F, forces):
+                break
+        else:
+            raise RuntimeError("the layer's derivative is taken at loads it did not solve for")
+        G = self.layer.position_derivative(self.grid, f.reshape(-1, 3), self.viscosity,
+                                           self.wall)
         return G if self.comm is None else stokeslets.RowBlocks(G, self.comm)
+
+    def tangent(self, du: np.ndarray, cv: float, G) -> np.ndarray:
+        """``dF = Iᵀ B A⁻¹ (c_v I du − G I du)``: the loads' change for a displacement
+        change ``du`` (velocities ``c_v du``), ``G`` from :meth:`position_operator`."""
+        dg = self._to_grid(np.asarray(du, dtype=float))
+        return self._to_shell(self._loads(self.densities(cv * dg - G @ dg)))
 
 
 def _chunks(n: int, total: int, pairs: int = 200_000):

@@ -163,17 +163,22 @@ class Stokes(Effect):
         cells = np.concatenate(m.comm.allgather(np.ascontiguousarray(owned_global)))
         quad = msh.topology.cell_type == dmesh.CellType.quadrilateral
         self.refine = int(given.get("refine", 0))
+        cell = "quadrilateral" if quad else "triangle"
         eps = given.get("regularization")
         spacing = self._gather(self._node_blobs(None))
-        rows = slice(self.offset, self.offset + self.n_owned)
-        if eps is None:
-            probe = stokes_layer.Layer(self.X, cells, "quadrilateral" if quad else "triangle",
-                                       1.0, self.refine, rows=slice(0, 0))
+        if eps is None:  # a fraction of the shell's mean element size, whatever the refinement
+            probe = stokes_layer.Layer(self.X, cells, cell, 1.0, rows=slice(0, 0))
             eps = DEFAULT_EPSILON * float(np.mean(probe.size))
         #: ε, the blob size (a length of its own)
         self.epsilon = float(eps)
-        self.layer = stokes_layer.Layer(self.X, cells, "quadrilateral" if quad else "triangle",
-                                        self.epsilon, self.refine, rows=rows)
+        grid, grid_cells, self.interpolation = stokes_layer.refined(self.X, cells, cell,
+                                                                    self.refine)
+        counts = [len(grid) // comm_size + (r < len(grid) % comm_size)
+                  for r in range(comm_size)] if (comm_size := m.comm.size) > 1 else [len(grid)]
+        start = int(sum(counts[: m.comm.rank]))
+        #: the integrated layer on the force grid (its rows: this process's share)
+        self.layer = stokes_layer.Layer(grid, grid_cells, cell, self.epsilon,
+                                        rows=slice(start, start + counts[m.comm.rank]))
         self.delta = np.maximum(self.epsilon, spacing / 2 ** self.refine)
 
     def _check_size(self):
@@ -260,7 +265,8 @@ class Stokes(Effect):
                 self._resistance = _Crossed(x)
             elif self.method == "layer":
                 self._resistance = stokes_layer.LayerResistance(
-                    self.layer, x, self.viscosity, self.wall, comm=self.model.comm)
+                    self.layer, x, self.viscosity, self.wall, comm=self.model.comm,
+                    interpolation=self.interpolation)
             elif self.operator == "fmm":
                 self._resistance = _OnFirst(
                     self.model.comm, x,
@@ -306,6 +312,8 @@ class Stokes(Effect):
     def tangent_product(self, du: np.ndarray) -> np.ndarray:
         """``scale · M⁻¹ (c_v du − G du)`` for a global displacement direction (3N,)."""
         res, cv, G, scale, _ = self._tangent
+        if hasattr(res, "tangent"):  # the layer: through its force grid
+            return scale * res.tangent(du, cv, G)
         return scale * res.solve(cv * du - G @ du)
 
     # --- outputs ----------------------------------------------------------
