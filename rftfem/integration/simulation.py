@@ -75,10 +75,15 @@ def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
     Probes(model, scene.get("output", {}).get("probes", []))
     report = model.body.report
     lines = report.lines() if report is not None else []
-    if hasattr(model.fluid, "describe"):  # RFT drag: its coefficients and their source
+    if hasattr(model.fluid, "describe"):
         d = model.fluid.describe()
-        lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
-                     f" from {d['from']}")
+        if d["model"] == "rft":  # its coefficients and their source
+            lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
+                         f" from {d['from']}")
+        else:  # Stokes: sizes, cost and the estimated error
+            from rftfem.model import stokes_report
+
+            lines += stokes_report.check_lines(d)
     # what the run would warn of at its start (a wall too close, a body too large)
     lines += [f"warning: {line}" for comp in model.components
               for line in getattr(comp, "warnings", lambda: [])()]

@@ -238,3 +238,35 @@ class PositionDerivative:
         target = np.einsum("nka,nk->na", self.gradient, d)
         doublet = res._fmm(doublet=self.F, doubvec=d).pot.reshape(3, res.n).T
         return (target + 0.5 * doublet / res.viscosity).ravel() + self.near @ np.ravel(dx)
+
+
+class OnFirst:
+    """A resistance made and applied on the first process only, its results
+    broadcast: the matrix-free operator is threaded, and every process must see
+    the same forces to round-off."""
+
+    def __init__(self, comm, x, make):
+        self.comm, self.x = comm, np.array(x)
+        self.res = make() if comm.rank == 0 else None
+
+    def _first(self, compute):
+        value = compute() if self.comm.rank == 0 else None
+        return self.comm.bcast(value, root=0) if self.comm.size > 1 else value
+
+    def solve(self, rhs):
+        return self._first(lambda: self.res.solve(rhs))
+
+    def lumped(self):
+        return self._first(self.res.lumped if self.res is not None else None)
+
+    def position_operator(self, forces):
+        return _FirstProduct(self, None if self.res is None
+                             else self.res.position_operator(forces))
+
+
+class _FirstProduct:
+    def __init__(self, owner: OnFirst, operator):
+        self.owner, self.operator = owner, operator
+
+    def __matmul__(self, dx):
+        return self.owner._first(lambda: self.operator @ dx)

@@ -1,26 +1,28 @@
 """Stokes flow around the body, ``[fluid] model = "stokes"`` (docs/stokes.md).
 
-The mid-surface is a single layer of regularized Stokeslets at the displacement
-nodes (``rftfem.model.stokeslets``).  No slip: the liquid's velocity at each node is the
-node's velocity ``v(u)`` of the time scheme, so the nodal forces of a step are
+The mid-surface is a single layer of regularized Stokeslets.  Two discretisations
+(``fluid.method``) share everything here:
 
-    F = M(x)⁻¹ v(u),    x = X + u,
+- ``"layer"`` (default): a force density on the shell's own elements, or on each
+  element cut ``2^refine`` times (``rftfem.model.stokes_layer``), the kernel
+  integrated over each element, no slip at the grid's nodes, consistent nodal loads;
+- ``"blobs"``: point forces at the displacement nodes with blobs of the spacing
+  (``rftfem.model.stokeslets``; the matrix-free ``operator = "fmm"`` needs them).
 
-the force the body exerts on the liquid; it enters the residual like drag (with
-+, resisting).  The operator is nonlocal, so it is not a UFL form: the residual
-takes it through ``add_nodal_forces`` and the Newton tangent through
-:meth:`Stokes.tangent_product`, exact in the positions too,
-
-    dF = M⁻¹ (c_v du − G du),    G = ∂(M F)/∂x at fixed F,
-
-applied matrix-free by the solver (``rftfem.integration.coupled``) around a preconditioner made
-of the sparse tangent plus the lumped blocks of ``M⁻¹`` (a local drag).
+Either way a step's nodal loads are a resistance applied to the nodes' velocities
+``v(u)`` of the time scheme, ``F = R(x) v(u)``, ``x = X + u``: the force the body
+exerts on the liquid, which enters the residual like drag (with +, resisting).  The
+operator is nonlocal, so it is not a UFL form: the residual takes it through
+``add_nodal_forces`` and the Newton tangent through :meth:`Stokes.tangent_product`,
+exact in the positions too (``dF = M⁻¹ (c_v du − G du)``, ``G`` the derivative of the
+velocities at fixed forces), applied matrix-free by the solver
+(``rftfem.integration.coupled``) around a preconditioner made of the sparse tangent
+plus the lumped blocks of the resistance (a local drag).
 
 Every process holds the whole body's nodes (gathered in rank order); each
-evaluates the kernel for the nodes it owns (the mobility's rows, gathered, and the
+evaluates the kernel for its share of the rows (the matrix's rows, gathered, and the
 position derivative's, kept) and makes the same dense factorisation; each adds
-the forces of the nodes it owns.  The matrix-free
-operator (``fluid.operator = "fmm"``, ``rftfem.model.stokes_fmm``) runs on the first
+the forces of the nodes it owns.  The matrix-free operator runs on the first
 process only, threaded, and its results are broadcast.
 """
 
@@ -28,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rftfem.model import stokes_fmm, stokes_layer, stokeslets
+from rftfem.model import stokes_body, stokes_fmm, stokes_layer, stokes_report, stokeslets
 from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
@@ -115,55 +117,19 @@ class Stokes(Effect):
         return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
 
     def _node_blobs(self, uniform) -> np.ndarray:
-        """δ of the owned nodes: ``uniform`` everywhere if given, else the node
-        spacing (the mean over the cells around a node of the cell's size over 2,
-        the size √area on quadrilaterals, the equilateral side on triangles), halved
-        on the body's free edges (docs/stokes.md)."""
+        """δ of the owned nodes: ``uniform`` if given, else the node spacing."""
         if uniform is not None:
             return np.full(self.n_owned, float(uniform))
-        from dolfinx import fem, mesh as dmesh
-        import ufl
-
-        from rftfem import compat
-
-        m = self.model
-        msh = m.mesh
-        V0 = compat.function_space(msh, "DG", 0)
-        area = fem.assemble_vector(m.compile(ufl.TestFunction(V0) * m.dx)).array
-        triangle = msh.topology.cell_type == dmesh.CellType.triangle
-        size = np.sqrt(area * (4.0 / np.sqrt(3.0) if triangle else 1.0)) / 2.0
-        V = compat.function_space(msh, "Lagrange", 2)
-        total, count = (fem.Function(V) for _ in range(2))
-        cells = compat.cell_dofs(V)
-        n_cells = msh.topology.index_map(msh.topology.dim).size_local
-        np.add.at(total.x.array, cells[:n_cells], size[:n_cells, None])
-        np.add.at(count.x.array, cells[:n_cells], 1.0)
-        for f in (total, count):
-            compat.scatter_add(f)
-        spacing = total.x.array / np.maximum(count.x.array, 1.0)
-        fdim = msh.topology.dim - 1
-        msh.topology.create_connectivity(fdim, msh.topology.dim)
-        edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
-        spacing[edge] *= 0.5
-        return spacing[: self.n_owned]
+        return stokes_body.node_spacing(self.model)[: self.n_owned]
 
     def _set_up_layer(self, given):
         """The integrated layer's rules (``rftfem.model.stokes_layer``): the elements
         of every process in the global node numbering, ε and the refinement."""
-        from dolfinx import mesh as dmesh
-
-        from rftfem import compat
-
         m = self.model
-        msh = m.mesh
-        n_cells = msh.topology.index_map(msh.topology.dim).size_local
-        local = compat.cell_dofs(m.Vu)[:n_cells]
-        im = m.Vu.dofmap.index_map
-        owned_global = compat.local_to_global(im, local.ravel()).reshape(local.shape)
-        cells = np.concatenate(m.comm.allgather(np.ascontiguousarray(owned_global)))
-        quad = msh.topology.cell_type == dmesh.CellType.quadrilateral
+        cells, cell = stokes_body.global_cells(m)
         self.refine = int(given.get("refine", 0))
-        cell = "quadrilateral" if quad else "triangle"
+        #: the shell's elements in the global node numbering, and their kind
+        self.shell_cells, self.cell = cells, cell
         eps = given.get("regularization")
         spacing = self._gather(self._node_blobs(None))
         if eps is None:  # a fraction of the shell's mean element size, whatever the refinement
@@ -173,13 +139,25 @@ class Stokes(Effect):
         self.epsilon = float(eps)
         grid, grid_cells, self.interpolation = stokes_layer.refined(self.X, cells, cell,
                                                                     self.refine)
-        counts = [len(grid) // comm_size + (r < len(grid) % comm_size)
-                  for r in range(comm_size)] if (comm_size := m.comm.size) > 1 else [len(grid)]
-        start = int(sum(counts[: m.comm.rank]))
+        size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
+        counts = [len(grid) // size + (r < len(grid) % size) for r in range(size)]
+        start = int(sum(counts[:rank]))
         #: the integrated layer on the force grid (its rows: this process's share)
         self.layer = stokes_layer.Layer(grid, grid_cells, cell, self.epsilon,
-                                        rows=slice(start, start + counts[m.comm.rank]))
+                                        rows=slice(start, start + counts[rank]))
         self.delta = np.maximum(self.epsilon, spacing / 2 ** self.refine)
+
+    def _serial_layer(self, level: int) -> stokes_layer.Layer:
+        """The layer of ``fluid.refine = level`` with every row (one process's estimate)."""
+        if level == self.refine and self.model.comm.size == 1:
+            return self.layer
+        grid, cells, _ = stokes_layer.refined(self.X, self.shell_cells, self.cell, level)
+        return stokes_layer.Layer(grid, cells, self.cell, self.epsilon)
+
+    def describe(self) -> dict:
+        """The discretisation, its cost and its estimated error (``rftfem check``,
+        summary.json's ``fluid``; ``rftfem.model.stokes_report``)."""
+        return stokes_report.describe(self)
 
     def _check_size(self):
         extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
@@ -233,7 +211,9 @@ class Stokes(Effect):
                        f"wall (with the motions' reach); under {WALL_GAP_WARNED} the "
                        f"images leak and the speeds near the wall are off: move the wall "
                        f"away or refine the mesh")
-        n = len(self.X)
+        if self.method == "layer":
+            out += stokes_report.warnings(self.describe())
+        n = len(self.X) if self.method == "blobs" else len(self.layer.X)
         if n <= DENSE_NODES or self.operator == "fmm":
             return out
         gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
@@ -268,7 +248,7 @@ class Stokes(Effect):
                     self.layer, x, self.viscosity, self.wall, comm=self.model.comm,
                     interpolation=self.interpolation)
             elif self.operator == "fmm":
-                self._resistance = _OnFirst(
+                self._resistance = stokes_fmm.OnFirst(
                     self.model.comm, x,
                     lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity))
             else:
@@ -379,35 +359,3 @@ class _Crossed:
 
     def lumped(self):
         return np.zeros((len(self.x), 3, 3))
-
-
-class _OnFirst:
-    """A resistance made and applied on the first process only, its results
-    broadcast: the matrix-free operator is threaded, and every process must see
-    the same forces to round-off."""
-
-    def __init__(self, comm, x, make):
-        self.comm, self.x = comm, np.array(x)
-        self.res = make() if comm.rank == 0 else None
-
-    def _first(self, compute):
-        value = compute() if self.comm.rank == 0 else None
-        return self.comm.bcast(value, root=0) if self.comm.size > 1 else value
-
-    def solve(self, rhs):
-        return self._first(lambda: self.res.solve(rhs))
-
-    def lumped(self):
-        return self._first(self.res.lumped if self.res is not None else None)
-
-    def position_operator(self, forces):
-        return _FirstProduct(self, None if self.res is None
-                             else self.res.position_operator(forces))
-
-
-class _FirstProduct:
-    def __init__(self, owner: _OnFirst, operator):
-        self.owner, self.operator = owner, operator
-
-    def __matmul__(self, dx):
-        return self.owner._first(lambda: self.operator @ dx)

@@ -1,0 +1,56 @@
+"""The body as the Stokes operators see it: its elements in the global node numbering
+(every process holds them all, in rank order) and each node's spacing (docs/stokes.md).
+
+This is the dolfinx side of the Stokes flow; ``stokeslets``, ``stokes_layer`` and
+``stokes_fmm`` work on plain arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rftfem import compat
+
+
+def global_cells(model) -> tuple[np.ndarray, str]:
+    """Every element's displacement nodes in the global (rank-ordered) numbering, the
+    reference element's order, gathered on every process; and the cell kind
+    ("quadrilateral" or "triangle")."""
+    from dolfinx import mesh as dmesh
+
+    msh = model.mesh
+    n_cells = msh.topology.index_map(msh.topology.dim).size_local
+    local = compat.cell_dofs(model.Vu)[:n_cells]
+    im = model.Vu.dofmap.index_map
+    owned = compat.local_to_global(im, local.ravel()).reshape(local.shape)
+    cells = np.concatenate(model.comm.allgather(np.ascontiguousarray(owned)))
+    quad = msh.topology.cell_type == dmesh.CellType.quadrilateral
+    return cells, "quadrilateral" if quad else "triangle"
+
+
+def node_spacing(model) -> np.ndarray:
+    """Each local node's spacing: the mean over the cells around it of the cell's size
+    over 2 (√area on quadrilaterals, the equilateral side on triangles), halved on
+    the body's free edges."""
+    from dolfinx import fem, mesh as dmesh
+    import ufl
+
+    msh = model.mesh
+    V0 = compat.function_space(msh, "DG", 0)
+    area = fem.assemble_vector(model.compile(ufl.TestFunction(V0) * model.dx)).array
+    triangle = msh.topology.cell_type == dmesh.CellType.triangle
+    size = np.sqrt(area * (4.0 / np.sqrt(3.0) if triangle else 1.0)) / 2.0
+    V = compat.function_space(msh, "Lagrange", 2)
+    total, count = (fem.Function(V) for _ in range(2))
+    cells = compat.cell_dofs(V)
+    n_cells = msh.topology.index_map(msh.topology.dim).size_local
+    np.add.at(total.x.array, cells[:n_cells], size[:n_cells, None])
+    np.add.at(count.x.array, cells[:n_cells], 1.0)
+    for f in (total, count):
+        compat.scatter_add(f)
+    spacing = total.x.array / np.maximum(count.x.array, 1.0)
+    fdim = msh.topology.dim - 1
+    msh.topology.create_connectivity(fdim, msh.topology.dim)
+    edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
+    spacing[edge] *= 0.5
+    return spacing

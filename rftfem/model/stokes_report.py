@@ -1,0 +1,147 @@
+"""What the Stokes flow's discretisation costs and how wrong it is (``rftfem check``,
+summary.json's ``fluid``; docs/stokes.md §The error shown).
+
+The estimate is the body's rigid resistance at the scene's ``fluid.refine`` against
+the next level, at the reference positions: six unit rigid motions about the
+centroid (rotations scaled by the body's size, so that all six move it at unit
+speed) give the 6 × 6 matrix ``R`` of the power they dissipate, and the estimate is
+the largest relative change of that power over all rigid motions,
+
+    e = max |λ|,   (R_r − R_{r+1}) q = λ R_{r+1} q,
+
+unit-free and blind to no direction (a small edgewise drag counts as much as the
+broadside one).  It measures the force grid's and the quadrature's error, not the
+shell mesh's geometry.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from rftfem.model import stokes_layer
+
+#: a run whose estimate exceeds this warns
+WARN_ABOVE = 0.05
+#: the next level is not built beyond this many grid nodes (its dense matrix)
+ESTIMATE_NODES = 5000
+
+
+def rigid_motions(X: np.ndarray) -> np.ndarray:
+    """The six unit rigid velocity fields (6, N, 3) about the centroid of ``X``."""
+    c = X.mean(axis=0)
+    size = float(np.linalg.norm(np.ptp(X, axis=0))) / 2 or 1.0
+    out = np.zeros((6, len(X), 3))
+    for k in range(3):
+        out[k, :, k] = 1.0
+        out[3 + k] = np.cross(np.eye(3)[k], X - c) / size
+    return out
+
+
+def rigid_resistance(resistance, X: np.ndarray) -> np.ndarray:
+    """``R_jk = Σ v_j · F(v_k)`` (6 × 6, symmetrised) of a factorised resistance."""
+    V = rigid_motions(X)
+    F = resistance.solve(V.reshape(6, -1).T).T  # (6, 3N)
+    R = V.reshape(6, -1) @ F.T
+    return 0.5 * (R + R.T)
+
+
+def relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
+    """``max |λ|`` of ``(coarse − fine) q = λ fine q``."""
+    import scipy.linalg as sl
+
+    return float(np.abs(sl.eigh(coarse - fine, fine, eigvals_only=True)).max())
+
+
+def describe(stokes) -> dict:
+    """The discretisation of a Stokes component: sizes, cost and estimated error."""
+    if getattr(stokes, "_description", None) is not None:
+        return stokes._description
+    out = {"model": "stokes", "method": stokes.method, "operator": stokes.operator,
+           "nodes": int(len(stokes.X))}
+    if stokes.method == "blobs":
+        out.update({"regularization": "node spacing" if stokes.scene["fluid"].get(
+            "regularization") is None else float(stokes.delta[0]),
+            "estimated_error": None,
+            "estimate_from": 'not estimated for method = "blobs" (first order in the '
+                             "spacing: refine the mesh; docs/stokes.md)"})
+        stokes._description = out
+        return out
+    comm = stokes.model.comm
+    grid = len(stokes.layer.X)
+    points = comm.allreduce(stokes.layer.quadrature_points) - \
+        (comm.size - 1) * len(stokes.layer.far.weight)
+    out.update({"refine": stokes.refine, "grid_nodes": grid, "quadrature_points": int(points),
+                "epsilon": stokes.epsilon, "memory_bytes": int(144 * grid ** 2)})
+    value = None
+    if comm.rank == 0:
+        value = _estimate(stokes)
+    out.update(comm.bcast(value, root=0) if comm.size > 1 else value)
+    stokes._description = out
+    return out
+
+
+def _estimate(stokes) -> dict:
+    """The timing of one Newton update's liquid and the estimate against the next
+    level (on this process alone)."""
+    X = stokes.X
+    t0 = time.perf_counter()
+    res = stokes_layer.LayerResistance(stokes._serial_layer(stokes.refine), X, stokes.viscosity,
+                                       stokes.wall, interpolation=stokes.interpolation)
+    t1 = time.perf_counter()
+    R = rigid_resistance(res, X)
+    F = res.solve(rigid_motions(X)[0].ravel())
+    t2 = time.perf_counter()
+    G = res.position_operator(F)
+    du = np.ones(F.size)
+    t3 = time.perf_counter()
+    res.tangent(du, 1.0, G)
+    t4 = time.perf_counter()
+    # a Newton update: a residual and a tangent (matrix and factors, the derivative),
+    # and some ten products in the Krylov solver (docs/stokes.md)
+    update = (t1 - t0) + (t3 - t2) + 10 * (t4 - t3)
+    out = {"seconds_per_update": update}
+    level = stokes.refine + 1
+    nodes = len(stokes_layer.refined(X, stokes.shell_cells, stokes.cell, level)[0])
+    if nodes > ESTIMATE_NODES:
+        out.update({"estimated_error": None,
+                    "estimate_from": f"not estimated: fluid.refine = {level} would have "
+                                     f"{nodes} grid nodes (over {ESTIMATE_NODES})"})
+        return out
+    fine_layer = stokes._serial_layer(level)
+    _, _, I = stokes_layer.refined(X, stokes.shell_cells, stokes.cell, level)
+    fine = stokes_layer.LayerResistance(fine_layer, X, stokes.viscosity, stokes.wall,
+                                        interpolation=I)
+    out.update({"estimated_error": relative_change(R, rigid_resistance(fine, X)),
+                "estimate_from": f"the rigid resistance at fluid.refine = {stokes.refine} "
+                                 f"against {level} ({nodes} grid nodes)"})
+    return out
+
+
+def check_lines(d: dict) -> list[str]:
+    """``rftfem check``'s lines for a Stokes description."""
+    if d["method"] == "blobs":
+        return [f"fluid: blobs at {d['nodes']} nodes, {d['operator']} operator; "
+                f"{d['estimate_from']}"]
+    lines = [f"fluid: integrated layer, {d['nodes']} shell nodes, force grid of "
+             f"{d['grid_nodes']} nodes (fluid.refine = {d['refine']}), "
+             f"{d['quadrature_points']} quadrature points, ε = {d['epsilon']:.3g}",
+             f"fluid: {d['operator']} operator, {d['memory_bytes'] / 1e6:.3g} MB; about "
+             f"{d['seconds_per_update']:.2g} s of liquid a Newton update (a step takes 1–3)"]
+    if d["estimated_error"] is None:
+        lines.append(f"fluid: {d['estimate_from']}")
+    else:
+        lines.append(f"fluid: estimated discretisation error {100 * d['estimated_error']:.2g} % "
+                     f"({d['estimate_from']})")
+    return lines
+
+
+def warnings(d: dict) -> list[str]:
+    """A warning when the estimate exceeds WARN_ABOVE."""
+    e = d.get("estimated_error")
+    if e is None or e <= WARN_ABOVE:
+        return []
+    return [f"fluid: the liquid's estimated discretisation error is {100 * e:.3g} % (over "
+            f"{100 * WARN_ABOVE:g} %, {d['estimate_from']}): raise fluid.refine or refine "
+            "the mesh"]
