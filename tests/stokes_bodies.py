@@ -66,6 +66,45 @@ def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | 
         gmsh.finalize()
 
 
+def write_disk_ogrid(path, radius: float = 1.0, around: int = 6, radial: int = 4,
+                     inner: float = 0.45):
+    """A flat disk meshed as an O-grid (a structured square of side ``inner``·√2·radius
+    inside four structured blocks out to the rim): ``around`` cells along each quarter
+    of the rim and across the square, ``radial`` cells from the square to the rim;
+    surface group "disk", rim "rim"."""
+    gmsh = _session()
+    try:
+        gmsh.model.add("ogrid")
+        g = gmsh.model.geo
+        c = g.addPoint(0, 0, 0)
+        angles = np.pi / 4 + np.arange(4) * np.pi / 2
+        sq = [g.addPoint(inner * radius * math.cos(a), inner * radius * math.sin(a), 0)
+              for a in angles]
+        rim = [g.addPoint(radius * math.cos(a), radius * math.sin(a), 0) for a in angles]
+        inside = [g.addLine(sq[i], sq[(i + 1) % 4]) for i in range(4)]
+        arcs = [g.addCircleArc(rim[i], c, rim[(i + 1) % 4]) for i in range(4)]
+        spokes = [g.addLine(sq[i], rim[i]) for i in range(4)]
+        surfaces = [g.addPlaneSurface([g.addCurveLoop(inside)])]
+        for i in range(4):
+            loop = g.addCurveLoop([spokes[i], arcs[i], -spokes[(i + 1) % 4], -inside[i]])
+            surfaces.append(g.addPlaneSurface([loop]))
+        for line in inside + arcs:
+            g.mesh.setTransfiniteCurve(line, around + 1)
+        for line in spokes:
+            g.mesh.setTransfiniteCurve(line, radial + 1)
+        for s_ in surfaces:
+            g.mesh.setTransfiniteSurface(s_)
+            g.mesh.setRecombine(2, s_)
+        g.synchronize()
+        _group(gmsh, 2, surfaces, "disk")
+        _group(gmsh, 1, arcs, "rim")
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
 def write_ellipsoid(path, semi_axes=(1.0, 1.0, 1.0), size: float = 0.3):
     """A closed ellipsoid surface centred at the origin (group "body")."""
     gmsh = _session()

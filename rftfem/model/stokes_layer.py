@@ -43,15 +43,17 @@ from rftfem.model import stokeslets
 
 #: Gauss–Legendre points across (t) and along (s, per piece) a Duffy triangle
 SINGULAR_ANGULAR, SINGULAR_RADIAL = 8, 6
-#: the rays of a Duffy triangle are cut at ε, 4ε, 16ε, … (in the ray's length) when ε
-#: is at least this fraction of the ray; below, the ray is one piece: the blob's
-#: functions differ from the Stokeslet's by zero in the mean over the ray
-#: (∫ (s_k − 1) dρ = 0), so an unresolved core costs O(ε³), not O(ε)
-SMALLEST_PIECE = 1e-3
+#: the rays of a Duffy triangle are cut at ε, 4ε, 16ε, … (in the ray's length) so that
+#: a blob's core is resolved; never below this fraction of the ray
+SMALLEST_PIECE = 1e-9
 #: a node within this many element sizes of an element takes the near rule
 NEAR = 1.0
 #: the near rule's pieces are this many times smaller than the far rule's
-NEAR_FACTOR = 4
+NEAR_FACTOR = 2
+#: the degree of the Gauss rule on each piece: 4 × 4 points on quadrilaterals, an even
+#: number so that no point falls on a node (the centre of a Q2 element), where the
+#: Stokeslet is singular
+FAR_DEGREE = 7
 
 
 class ReferenceElement:
@@ -70,7 +72,7 @@ class ReferenceElement:
         #: the reference cell's corners, counter-clockwise
         self.corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]] if quad
                                 else [[0, 0], [1, 0], [0, 1]], dtype=float)
-        points, weights = basix.make_quadrature(kind, 5 if quad else 4)
+        points, weights = basix.make_quadrature(kind, FAR_DEGREE)
         self._rule = (np.asarray(points, dtype=float), np.asarray(weights, dtype=float))
 
     def basis(self, xi: np.ndarray) -> np.ndarray:
@@ -150,7 +152,7 @@ class ReferenceElement:
                 continue
             ray = np.linalg.norm(0.5 * (a + b) - apex)
             cuts = [1.0]
-            while scale / ray >= SMALLEST_PIECE and cuts[-1] / 4 > scale / ray:
+            while cuts[-1] / 4 > max(scale / ray, SMALLEST_PIECE) and scale > 0:
                 cuts.append(cuts[-1] / 4)
             cuts = np.array([0.0] + cuts[::-1])
             for lo, hi in zip(cuts[:-1], cuts[1:]):
@@ -178,30 +180,56 @@ def _cluster(eta: np.ndarray, low: bool, high: bool):
     return eta, np.ones_like(eta)
 
 
+def _quadratic(P, t):
+    """A quadratic curve through ``P[..., 0:3, :]`` (start, middle, end) at ``t`` ∈ [0, 1]:
+    the point, its first and its second derivative in t."""
+    t = np.asarray(t, dtype=float)
+    if P.ndim == 2:  # one curve, many t
+        P = P[None]
+        t = t[:, None]
+        squeeze = True
+    else:
+        squeeze = False
+    N = [(1 - t) * (1 - 2 * t), 4 * t * (1 - t), t * (2 * t - 1)]
+    dN = [4 * t - 3, 4 - 8 * t, 4 * t - 1]
+    ddN = [4.0, -8.0, 4.0]
+    c = sum(n[..., None] * P[..., i, :] for i, n in enumerate(N))
+    dc = sum(n[..., None] * P[..., i, :] for i, n in enumerate(dN))
+    ddc = sum(n * P[..., i, :] for i, n in enumerate(ddN)) + 0 * c
+    if squeeze:
+        return c[:, 0] if c.ndim == 3 else c, dc, ddc
+    return c, dc, ddc
+
+
 class EdgeWeight:
     """The edge weight of the density on quadrilaterals (docs/stokes.md §Free edges).
 
     Near a free edge the density of a thin body grows as the inverse square root of
-    the distance.  Each element touching the edge carries
+    the distance to it, d.  The density is ``ω Σ ψ_k f_k`` with
 
-        ω(ξ) = Π_sides μ_k(ξ)^(−1/2) · Π_corners (1 − φ_c(ξ))^(−1/2),
+        ω(y) = √(1 + ℓ/d(y)),
 
-    μ_k the reference distance to a side of the element on the free edge, φ_c the
-    bilinear hat of a corner on the free edge (whose sides are not), and the density
-    is ``ω Σ ψ_k f_k``: the nodal values stay finite and smooth.  ω is 1 on the
-    element's other sides, so it is continuous from element to element.  Triangles
-    and closed bodies get ω = 1."""
+    d the distance of the reference point y to the nearest free edge and ℓ the
+    largest such distance on the body (its half-width): ω carries the singularity
+    and the nodal values stay finite and smooth (for a disk or a strip the flat
+    plate's density over ω is smooth to the edge).  Elements touching a free edge
+    (by a side or a corner) gather their quadrature points there (:func:`_cluster`)
+    so that ω is integrated as a smooth function.  Triangles and closed bodies get
+    ω = 1."""
 
     #: the sides (bottom, right, top, left) of the reference square: (direction, end)
     SIDES = ((1, 0.0), (0, 1.0), (1, 1.0), (0, 0.0))
+    #: points along each free side on which its curve is sampled (its distance)
+    SAMPLES = 24
 
-    def __init__(self, element: ReferenceElement, cells: np.ndarray):
-        self.element = element
+    def __init__(self, element: ReferenceElement, cells: np.ndarray, X: np.ndarray):
+        self.element, self.cells, self.X = element, cells, X
         n_el = len(cells)
         #: per element: its free sides (indices into SIDES) and free corners (ξ)
         self.sides = [() for _ in range(n_el)]
         self.corners = [() for _ in range(n_el)]
-        if element.cell != "quadrilateral":
+        self._tree = None
+        if element.cell != "quadrilateral" or n_el == 0:
             return
         nodes = element.nodes
         on_side = [np.flatnonzero(np.isclose(nodes[:, d], end)) for d, end in self.SIDES]
@@ -224,6 +252,63 @@ class EdgeWeight:
             on_free_side = {a for k in self.sides[e] for a in ends[k]}
             self.corners[e] = tuple(tuple(nodes[a]) for a in corner_nodes
                                     if cells[e, a] in free_nodes and a not in on_free_side)
+        self._edge_segments()
+
+    def _edge_segments(self):
+        """The free edges: each side's three nodes (a quadratic curve), and short chords
+        of it to find the nearest sides quickly."""
+        t = np.linspace(0.0, 1.0, self.SAMPLES + 1)
+        nodes = self.element.nodes
+        curves, starts, stops, owner = [], [], [], []
+        for e, sides in enumerate(self.sides):
+            for k in sides:
+                d, end = self.SIDES[k]
+                on = [a for a in range(len(nodes)) if np.isclose(nodes[a, d], end)]
+                on.sort(key=lambda a: nodes[a, 1 - d])  # start, middle, end along the side
+                P = self.X[self.cells[e, on]]
+                y = _quadratic(P, t)[0]
+                curves.append(P)
+                starts.append(y[:-1])
+                stops.append(y[1:])
+                owner.append(np.full(len(t) - 1, len(curves) - 1))
+        if not curves:
+            return
+        from scipy.spatial import cKDTree
+
+        self._curves = np.array(curves)  # (sides, 3, 3)
+        a, b = np.concatenate(starts), np.concatenate(stops)
+        self._owner = np.concatenate(owner)
+        self._chord_t = np.tile(t[:-1], len(curves)), 1.0 / self.SAMPLES
+        self._a, self._b = a, b
+        self._tree = cKDTree(0.5 * (a + b))
+
+    def distance(self, y: np.ndarray) -> np.ndarray:
+        """The distance of the points ``y`` to the nearest free edge: the nearest chords
+        found, then the point projected on their sides' curves by Newton's method."""
+        k = min(6, len(self._a))
+        _, near = self._tree.query(y, k=k)
+        near = near.reshape(len(y), k)
+        a, b = self._a[near], self._b[near]  # (P, k, 3)
+        ab = b - a
+        s = np.clip(np.einsum("pkj,pkj->pk", y[:, None] - a, ab)
+                    / np.maximum(np.einsum("pkj,pkj->pk", ab, ab), 1e-300), 0.0, 1.0)
+        t0, step = self._chord_t
+        t = t0[near] + s * step
+        P = self._curves[self._owner[near]]  # (P, k, 3 nodes, 3)
+        for _ in range(6):
+            c, dc, ddc = _quadratic(P, t)
+            r = c - y[:, None]
+            g = np.einsum("pkj,pkj->pk", r, dc)
+            h = np.einsum("pkj,pkj->pk", dc, dc) + np.einsum("pkj,pkj->pk", r, ddc)
+            t = np.clip(t - g / np.where(h > 0, h, 1.0), 0.0, 1.0)
+        r = _quadratic(P, t)[0] - y[:, None]
+        return np.sqrt(np.einsum("pkj,pkj->pk", r, r)).min(axis=1)
+
+    def set_reach(self, y: np.ndarray):
+        """ℓ: the largest distance to a free edge among the points ``y`` (the far rule)."""
+        if self._tree is not None:
+            #: ℓ, the body's half-width
+            self.width = float(self.distance(y).max())
 
     def weighted(self, e: int) -> bool:
         return bool(self.sides[e] or self.corners[e])
@@ -241,14 +326,13 @@ class EdgeWeight:
 
     def __call__(self, e: int, xi: np.ndarray) -> np.ndarray:
         """``ω`` at the reference points ``xi`` of element ``e``."""
-        w = np.ones(len(xi))
-        for k in self.sides[e]:
-            d, end = self.SIDES[k]
-            w /= np.sqrt(np.abs(xi[:, d] - end))
-        for c in self.corners[e]:
-            hat = (1 - np.abs(xi[:, 0] - c[0])) * (1 - np.abs(xi[:, 1] - c[1]))
-            w /= np.sqrt(1 - hat)
-        return w
+        if self._tree is None:
+            return np.ones(len(xi))
+        y = self.element.basis(xi) @ self.X[self.cells[e]]
+        d = self.distance(y)
+        if self.weighted(e):  # at the edge itself: the side's own distance, to round-off
+            d = np.maximum(d, 1e-300)
+        return np.sqrt(1.0 + self.width / d)
 
 
 class _Points:
@@ -278,15 +362,21 @@ class _Points:
         return sp.csr_matrix((vals, (rows, self.nodes.ravel())), shape=(len(self.weight), n))
 
 
-def _kernel(r: np.ndarray, eps: float):
-    """``(a, b)`` with ``S_ε(r) F = a F + b (r·F) r`` for separations ``r`` (..., 3)."""
+def _radial(r: np.ndarray, eps: float):
+    """``(a, b, a′/r, b′/r)`` of ``S_ε(r) F = a F + b (r·F) r`` at separations ``r``
+    (..., 3); ``eps = 0`` is the Stokeslet itself."""
     dist = np.sqrt(np.einsum("...k,...k->...", r, r))
-    f0, f1, _, _ = stokeslets.radial(dist / eps)
-    return f0 / eps, f1 / eps ** 3
+    if eps == 0.0:
+        inv = 1.0 / dist
+        inv3 = inv ** 3
+        return inv, inv3, -inv3, -3.0 * inv3 * inv * inv
+    f0, f1, f2, f3 = stokeslets.radial(dist / eps)
+    return f0 / eps, f1 / eps ** 3, f2 / eps ** 3, f3 / eps ** 5
 
 
 def _kernel_blocks(r, eps):
-    a, b = _kernel(r, eps)
+    """The 3 × 3 blocks ``S_ε(r)`` (..., 3, 3)."""
+    a, b, _, _ = _radial(r, eps)
     out = b[..., None, None] * r[..., :, None] * r[..., None, :]
     out += a[..., None, None] * np.eye(3)
     return out
@@ -294,9 +384,7 @@ def _kernel_blocks(r, eps):
 
 def _kernel_gradient(r, F, eps):
     """``T = ∂(S_ε(r) F)/∂r`` (..., 3, 3) for separations ``r`` and forces ``F`` (..., 3)."""
-    dist = np.sqrt(np.einsum("...k,...k->...", r, r))
-    _, f1, f2, f3 = stokeslets.radial(dist / eps)
-    b, da, db = f1 / eps ** 3, f2 / eps ** 3, f3 / eps ** 5
+    _, b, da, db = _radial(r, eps)
     rF = np.einsum("...k,...k->...", r, F)
     T = da[..., None, None] * F[..., :, None] * r[..., None, :]
     T += (db * rF)[..., None, None] * r[..., :, None] * r[..., None, :]
@@ -321,9 +409,14 @@ class Layer:
         n = len(self.X)
         self.rows = slice(0, n) if rows is None else rows
         #: the density's edge weight (``ω = 1`` everywhere without ``edge_weight``)
-        self.weight = EdgeWeight(self.element, self.cells if edge_weight else self.cells[:0])
+        self.weight = EdgeWeight(self.element, self.cells if edge_weight else self.cells[:0],
+                                 self.X)
         if not edge_weight:
             self.weight.sides = self.weight.corners = [()] * len(self.cells)
+        else:  # ℓ from the plain far rule's points
+            xi1, _ = self.element.rule(1)
+            self.weight.set_reach(np.concatenate(
+                [self.element.basis(xi1) @ self.X[c] for c in self.cells]))
         self._m = 2 ** self.refine
         C = len(self.cells)
         rules = [self.rule(e, self._m) for e in range(C)]

@@ -41,9 +41,6 @@ from rftfem.model.effects.base import Effect
 DENSE_NODES = 5000
 
 
-#: the integrated layer's default ε over the mean element size (docs/stokes.md)
-DEFAULT_EPSILON = 1e-4
-
 #: the closest gap between body and wall, in blobs, under which a run is refused, and
 #: under which it is warned of (the wall's images are singular, the body's own
 #: Stokeslets regularized: the no-slip error on the wall is e^(−(gap/δ)²))
@@ -132,11 +129,8 @@ class Stokes(Effect):
         self.shell_cells, self.cell = cells, cell
         eps = given.get("regularization")
         spacing = self._gather(self._node_blobs(None))
-        if eps is None:  # a fraction of the shell's mean element size, whatever the refinement
-            probe = stokes_layer.Layer(self.X, cells, cell, 1.0, rows=slice(0, 0))
-            eps = DEFAULT_EPSILON * float(np.mean(probe.size))
-        #: ε, the blob size (a length of its own)
-        self.epsilon = float(eps)
+        #: ε, the blob size (a length of its own); 0, the default: the Stokeslet itself
+        self.epsilon = 0.0 if eps is None else float(eps)
         grid, grid_cells, self.interpolation = stokes_layer.refined(self.X, cells, cell,
                                                                     self.refine)
         size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
