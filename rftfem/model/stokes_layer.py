@@ -285,7 +285,7 @@ class EdgeWeight:
     def distance(self, y: np.ndarray) -> np.ndarray:
         """The distance of the points ``y`` to the nearest free edge: the nearest chords
         found, then the point projected on their sides' curves by Newton's method."""
-        k = min(6, len(self._a))
+        k = min(4, len(self._a))
         _, near = self._tree.query(y, k=k)
         near = near.reshape(len(y), k)
         a, b = self._a[near], self._b[near]  # (P, k, 3)
@@ -295,7 +295,7 @@ class EdgeWeight:
         t0, step = self._chord_t
         t = t0[near] + s * step
         P = self._curves[self._owner[near]]  # (P, k, 3 nodes, 3)
-        for _ in range(6):
+        for _ in range(4):  # from a chord's projection: converged to round-off
             c, dc, ddc = _quadratic(P, t)
             r = c - y[:, None]
             g = np.einsum("pkj,pkj->pk", r, dc)
@@ -324,14 +324,12 @@ class EdgeWeight:
             out.append((low, high))
         return tuple(out)
 
-    def __call__(self, e: int, xi: np.ndarray) -> np.ndarray:
-        """``ω`` at the reference points ``xi`` of element ``e``."""
+    def __call__(self, elem: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """``ω`` at the reference points ``xi`` of the elements ``elem``."""
         if self._tree is None:
             return np.ones(len(xi))
-        y = self.element.basis(xi) @ self.X[self.cells[e]]
-        d = self.distance(y)
-        if self.weighted(e):  # at the edge itself: the side's own distance, to round-off
-            d = np.maximum(d, 1e-300)
+        y = np.einsum("pa,pak->pk", self.element.basis(xi), self.X[self.cells[elem]])
+        d = np.maximum(self.distance(y), 1e-300)
         return np.sqrt(1.0 + self.width / d)
 
 
@@ -425,28 +423,33 @@ class Layer:
         #: the far rule: every element's Gauss points
         self._far_xi = np.concatenate([r[0] for r in rules])
         self.far = _Points(self.cells, self.element, elem, self._far_xi,
-                           np.concatenate([r[1] for r in rules]))
+                           self._weights(elem, self._far_xi, np.concatenate([r[1] for r in rules])))
         self._P = self.far.scatter(n)
         #: each element's size: √ of its reference area
         plain_xi, plain_w = self.element.rule(1)
-        area = [np.sum(plain_w * self._reference_jacobian(e, plain_xi)) for e in range(C)]
-        self.size = np.sqrt(np.array(area))
+        elem1 = np.repeat(np.arange(C), len(plain_w))
+        area = np.bincount(elem1, weights=np.tile(plain_w, C) * self._reference_jacobian(
+            elem1, np.tile(plain_xi, (C, 1))), minlength=C)
+        self.size = np.sqrt(area)
         self.special = self._special_points()
 
-    def _reference_jacobian(self, e: int, xi) -> np.ndarray:
+    def _reference_jacobian(self, elem, xi) -> np.ndarray:
+        """``|∂X/∂ξ₁ × ∂X/∂ξ₂|`` at the points ``xi`` of the elements ``elem``."""
         dpsi = self.element.gradients(xi)  # (P, nd, 2)
-        J = np.einsum("paj,ak->pkj", dpsi, self.X[self.cells[e]])  # (P, 3, 2)
+        J = np.einsum("paj,pak->pkj", dpsi, self.X[self.cells[elem]])  # (P, 3, 2)
         return np.linalg.norm(np.cross(J[:, :, 0], J[:, :, 1]), axis=1)
 
+    def _weights(self, elem, xi, w) -> np.ndarray:
+        """A reference rule's weights times the reference area and the edge weight."""
+        return w * self._reference_jacobian(elem, xi) * self.weight(elem, xi)
+
     def rule(self, e: int, m: int, apex=None, scale: float = 1.0):
-        """Element ``e``'s points and weights (reference area and edge weight in):
+        """Element ``e``'s reference points and weights (on the reference cell):
         ``m × m`` Gauss pieces, or the singular rule about the node at ``apex``."""
         weighted = self.weight.weighted(e)
         if apex is None:
-            xi, w = self.element.rule(m, self.weight.cluster(e) if weighted else None)
-        else:
-            xi, w = self.element.singular_rule(apex, scale, self.refine, weighted)
-        return xi, w * self._reference_jacobian(e, xi) * self.weight(e, xi)
+            return self.element.rule(m, self.weight.cluster(e) if weighted else None)
+        return self.element.singular_rule(apex, scale, self.refine, weighted)
 
     def _special_points(self) -> _Points:
         """The near and singular rules of this process's targets, with the far
@@ -456,15 +459,13 @@ class Layer:
         # distances from every target to every element's far points (reference state)
         y = far.positions(self.X).reshape(len(cells), q, 3)
         targets = np.arange(self.rows.start, self.rows.stop)
-        elem_l, xi_l, w_l, t_l = [], [], [], []
+        new, old = ([], [], [], []), ([], [], [], [])  # (elem, ξ, weight, target) lists
 
-        def add(e, xi, w, t):
-            elem_l.append(np.full(len(w), e))
-            xi_l.append(xi)
-            w_l.append(w)
-            t_l.append(np.full(len(w), t))
+        def add(group, e, xi, w, t):
+            for lst, v in zip(group, (np.full(len(w), e), xi, w, np.full(len(w), t))):
+                lst.append(v)
 
-        far_xi = far_w = None
+        singular = {}  # the Duffy rules by node, edge weight and ε (in element sizes)
         for e in range(len(cells)):
             d = np.linalg.norm(self.X[targets, None, :] - y[e][None], axis=-1).min(axis=1)
             near = targets[d < NEAR * self.size[e]]
@@ -476,16 +477,23 @@ class Layer:
             for t in near:
                 if t in members:
                     a = members.index(t)
-                    xi, w = self.rule(e, 0, apex=el.nodes[a], scale=self.epsilon / self.size[e])
+                    scale = self.epsilon / self.size[e]
+                    key = (a, self.weight.weighted(e), round(np.log(scale) * 16) if scale else 0)
+                    if key not in singular:
+                        singular[key] = self.rule(e, 0, apex=el.nodes[a], scale=scale)
+                    xi, w = singular[key]
                 else:
                     xi, w = near_rule
-                add(e, xi, w, t)
-                add(e, far_xi, -far_w, t)
-        if not elem_l:
+                add(new, e, xi, w, t)
+                add(old, e, far_xi, -far_w, t)
+        if not new[0]:
             return _Points(cells, el, np.zeros(0, int), np.zeros((0, 2)), np.zeros(0),
                            np.zeros(0, int))
-        return _Points(cells, el, np.concatenate(elem_l), np.concatenate(xi_l),
-                       np.concatenate(w_l), np.concatenate(t_l))
+        elem, xi, w, t = (np.concatenate(v) for v in new)
+        w = self._weights(elem, xi, w)
+        elem, xi, w, t = (np.concatenate([a, np.concatenate(b)])
+                          for a, b in zip((elem, xi, w, t), old))
+        return _Points(cells, el, elem, xi, w, t)
 
     def _far_of(self, e: int):
         """Element ``e``'s far points (reference coordinates) and weights."""
