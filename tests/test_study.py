@@ -355,7 +355,8 @@ def test_one_direction_and_other_factors(tmp_path):
     """--refine mesh.x refines the strip's divisions along X only (a Stokes sheet's
     dense operator grows with the nodes: doubling both ways quadruples them),
     --factor 1.5 rounds divisions to whole cells; dt takes whole factors only; a
-    Stokes scene's mesh levels assume order 1 until one is observed."""
+    Stokes scene's mesh levels assume order 1 (blobs) or 1.5 (the layer) until one is
+    observed."""
     from rftfem.scene.reading import load_scene
     from rftfem.studies.study import plan
     from rftfem.studies.study_report import nominal_order
@@ -370,8 +371,20 @@ def test_one_direction_and_other_factors(tmp_path):
         plan(scene, ["dt"], 3, tmp_path, factor=1.5)
     assert [lv.dt for lv in plan(scene, ["dt"], 3, tmp_path, factor=3.0)["dt"]] == \
         pytest.approx([scene["time"]["dt"] / 3**k for k in range(3)])
-    assert nominal_order("mesh.x", "generalized-alpha", stokes=True) == 1
+    assert nominal_order("mesh.x", "generalized-alpha", stokes="blobs") == 1
+    assert nominal_order("fluid", "generalized-alpha", stokes="layer") == 1.5
     assert nominal_order("mesh", "generalized-alpha") == 2
+    # --refine fluid: fluid.refine 0, 1, 2 at the same shell mesh; only for the layer
+    stokes = load_scene(ROOT / "demos" / "swimming_sheet.toml",
+                        ["mesh.divisions=[10, 2]", "--unset fluid.drag", 'fluid.model="stokes"',
+                         "fluid.viscosity=1e-9"])
+    fluid = plan(stokes, ["fluid"], 3, tmp_path)["fluid"]
+    assert [lv.overrides for lv in fluid] == [[], ["fluid.refine=1"], ["fluid.refine=2"]]
+    assert [lv.divisions for lv in fluid] == [[10, 2]] * 3
+    with pytest.raises(SceneError, match=r"^--refine fluid: the scene's liquid is not the "):
+        plan(scene, ["fluid"], 3, tmp_path)
+    with pytest.raises(SceneError, match=r"^--factor 3 with --refine fluid"):
+        plan(stokes, ["fluid"], 3, tmp_path, factor=3.0)
     done = study(tmp_path, ROOT / "demos" / "rollup.toml", "--refine", "mesh",
                  "--factor", "1", "--quantity", "t=tip_uz@end", timeout=120)
     assert done.returncode == 2 and "--factor: expected a number > 1" in done.stderr

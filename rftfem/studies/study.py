@@ -66,7 +66,7 @@ from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.errors import SceneError
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
-KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both")
+KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both", "fluid")
 #: which of mesh.divisions each kind refines
 _DIVIDED = {"mesh": (0, 1), "both": (0, 1), "mesh.x": (0,), "mesh.y": (1,)}
 
@@ -102,6 +102,7 @@ class Level:
     folder: Path
     dt: float = math.nan
     divisions: list[int] | None = None
+    fluid_refine: int | None = None  # the Stokes layer's fluid.refine, when it is refined
     status: str = "not run"
     failure: str = ""
     dofs: int | None = None
@@ -141,7 +142,18 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path,
         raise SceneError(f"--factor {factor:g} with --refine dt: the levels would write "
                          "their rows at different times (time.output_every is scaled by "
                          "the factor); use a whole factor for dt")
-    base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None)
+    fluid = scene.get("fluid") or {}
+    refine0 = int(fluid.get("refine") or 0)
+    if "fluid" in kinds:
+        if fluid.get("model") != "stokes" or fluid.get("method", "layer") != "layer":
+            raise SceneError('--refine fluid: the scene\'s liquid is not the Stokes layer '
+                             '(fluid.model = "stokes", fluid.method = "layer"): nothing of '
+                             "its own to refine")
+        if factor != 2.0:
+            raise SceneError(f"--factor {factor:g} with --refine fluid: each fluid.refine "
+                             "level halves the force grid; use the factor 2")
+    base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None,
+                 fluid_refine=refine0 if "fluid" in kinds else None)
     plans = {}
     for kind in kinds:
         series = [base]
@@ -155,7 +167,12 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path,
                 div = [max(1, round(n * f)) if i in _DIVIDED[kind] else n
                        for i, n in enumerate(div0)]
                 sets.append(f"mesh.divisions={_toml(div)}")
-            series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div))
+            refine = None
+            if kind == "fluid":  # the liquid's own grid, the shell untouched
+                refine = refine0 + k
+                sets.append(f"fluid.refine={refine}")
+            series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div,
+                                fluid_refine=refine if kind == "fluid" else base.fluid_refine))
         plans[kind] = series
     return plans
 
@@ -228,8 +245,9 @@ def add_arguments(parser):
                         dest="quantities", help="what to converge (grammar below); repeatable")
     parser.add_argument("--refine", metavar="KIND", action="append", default=[],
                         help="dt, mesh, mesh.x or mesh.y (the strip's divisions along X "
-                             "or Y only) or both (repeatable, or comma-separated: "
-                             "--refine dt,mesh); default dt")
+                             "or Y only), both, or fluid (the Stokes layer's own force grid, "
+                             "fluid.refine + 1 a level; the shell untouched) (repeatable, or "
+                             "comma-separated: --refine dt,mesh); default dt")
     parser.add_argument("--factor", metavar="F", type=float, default=2.0,
                         help="refinement from one level to the next (default 2; a mesh "
                              "takes any F > 1, its divisions rounded; dt a whole F)")
@@ -326,7 +344,8 @@ def main(args, petsc_args: list[str], console) -> int:
                 list(pool.map(one, levels))
     finally:
         executor.close()
-    stokes = (scene.get("fluid") or {}).get("model") == "stokes"
+    fluid = scene.get("fluid") or {}
+    stokes = fluid.get("method", "layer") if fluid.get("model") == "stokes" else None
     rows = table_rows(plans, quantities, scene["time"]["scheme"], args.factor, stokes)
     command = " ".join(["rftfem study", _quote(args.scene),
                         *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",
