@@ -8,9 +8,9 @@ three liquids, everything else unchanged:
   (``[fluid] drag``), the paper's model;
 * ``rft-mu``: resistive-force theory with the slender-body coefficients of a
   viscosity μ (``[fluid] viscosity``, docs/stokes.md §RFT from the viscosity);
-* ``stokes``: the Stokes flow of the same μ, regularized Stokeslets on the
-  mid-surface (``[fluid] model = "stokes"``), its blob the mesh's (the default),
-  on two or three meshes to show its convergence.
+* ``stokes``: the Stokes flow of the same μ, the single layer integrated over
+  the shell's elements (``[fluid] model = "stokes"``, its default method), on
+  three meshes to show its convergence.
 
 μ is water's, 1.0e-9 N·s/mm², for the sheet and the three-link swimmer (their
 drag coefficients are the paper's and name no liquid; the swimming speed of a
@@ -138,14 +138,12 @@ SHEET_CASES = {"I": (20, 0.15, 200.0), "II": (50, 0.15, 200.0), "III": (100, 0.1
 SHEET_K = 0.5
 #: Stokes meshes of the sheet per physical case (I stands for II and III), and whether
 #: each is in the --quick set
-SHEET_STOKES = {"I": [([20, 4], True), ([30, 6], False), ([40, 8], False),
-                      # refined along X only or across only, and square cells
-                      ([40, 4], False), ([20, 8], False), ([20, 2], False), ([30, 3], False)],
-                "IV": [([20, 4], True), ([30, 6], False)],
-                "V": [([20, 4], True), ([30, 6], False)]}
+SHEET_STOKES = {"I": [([5, 1], True), ([10, 2], True), ([20, 4], False)],
+                "IV": [([10, 2], True), ([20, 4], False)],
+                "V": [([10, 2], True), ([20, 4], False)]}
 SHEET_STEPS = 32              # steps a wave period (the scene's)
-SHEET_DT_CHECK = [16, 64]     # case I, Stokes on 20×4: the time step's share
-#: case I, Stokes on 20×4, again with a tighter steady tolerance (the scene's is 1e-3): the
+SHEET_DT_CHECK = [16, 64]     # case I, Stokes on 10×2: the time step's share
+#: case I, Stokes on 10×2, again with a tighter steady tolerance (the scene's is 1e-3): the
 #: extrapolated speed's share
 SHEET_TIGHT = 1e-4
 SHEET_END = 4.0               # s: the latest a sheet run may stop (the Stokes start-up is ~2 s)
@@ -182,14 +180,14 @@ def sheet_runs() -> list[Run]:
         for mesh, quick in meshes:
             add(case, "stokes", mesh, SHEET_STEPS, quick)
     for steps in SHEET_DT_CHECK:
-        add("I", "stokes", [20, 4], steps, False)
-    add("I", "stokes", [20, 4], SHEET_STEPS, False, tolerance=SHEET_TIGHT)
+        add("I", "stokes", [10, 2], steps, False)
+    add("I", "stokes", [10, 2], SHEET_STEPS, False, tolerance=SHEET_TIGHT)
     return runs
 
 
 #: the three-link swimmer: meshes (along X, across each link) per model
 THREE_LINK = [("rft-paper", [10, 2], True), ("rft-mu", [10, 2], True),
-              ("stokes", [10, 2], True), ("stokes", [15, 3], False)]
+              ("stokes", [5, 1], True), ("stokes", [10, 2], True), ("stokes", [15, 3], False)]
 CYCLE = 0.4                   # s, the stroke's cycle
 CYCLES = 9
 
@@ -205,8 +203,8 @@ def three_link_runs() -> list[Run]:
 #: the strip: the shipped frequency on these meshes per model, then the step-out scan
 STRIP_SHIPPED = 4.0
 STRIP_AT_SHIPPED = [("rft-paper", [20, 4], True), ("rft-paper", [10, 2], True),
-                    ("rft-mu", [20, 4], True), ("rft-mu", [10, 2], True), ("stokes", [10, 2], True),
-                    ("stokes", [20, 4], False), ("stokes", [30, 6], False)]
+                    ("rft-mu", [20, 4], True), ("rft-mu", [10, 2], True), ("stokes", [5, 1], True),
+                    ("stokes", [10, 2], True), ("stokes", [20, 4], False)]
 STRIP_SCAN = [32.0, 64.0, 80.0, 96.0, 112.0, 128.0]
 STRIP_SCAN_MODELS = [("rft-mu", [10, 2], True), ("stokes", [10, 2], True)]
 STRIP_STEPS = 100             # steps a field period, the ramp included (demos/strip_sweep.sh)
@@ -421,10 +419,9 @@ def observed_order(n: list[int], u: list[float]) -> tuple[float, float] | None:
     return p, u[2] - c * h[2] ** p
 
 
-SHEET_MESHES = ("20x4", "30x6", "40x8")
-#: case I's refinement families: cells of 2:1 (the demo's 20×4 and its refinements) and
-#: square cells (a blob equal to the node spacing both ways)
-SHEET_FAMILIES = (SHEET_MESHES, ("20x2", "30x3", "40x4"))
+SHEET_MESHES = ("5x1", "10x2", "20x4")
+#: case I's refinement family: cells of 2:1 (the demo's 20×4 and its coarsenings)
+SHEET_FAMILIES = (SHEET_MESHES,)
 
 
 def family_limit(rows, family) -> tuple[float, float] | None:
@@ -438,9 +435,9 @@ def sheet_stokes(rows, case, mesh):
 
 
 def sheet_limit(rows) -> tuple[float, float] | None:
-    """Case I's Stokes speed extrapolated to zero cell size from 20×4, 30×6, 40×8."""
+    """Case I's Stokes speed extrapolated to zero cell size from 5×1, 10×2, 20×4."""
     u = [sheet_stokes(rows, "I", m) for m in SHEET_MESHES]
-    return None if None in u else observed_order([20, 30, 40], u)
+    return None if None in u else observed_order([5, 10, 20], u)
 
 
 def sheet_table(rows: list[dict]) -> list[str]:
@@ -448,7 +445,7 @@ def sheet_table(rows: list[dict]) -> list[str]:
     limit = sheet_limit(rows)
     lines = ["### Swimming sheet (mm/s; steady speed of the front corner)", "",
              "| case | b | V_w | exact RFT, paper's C | RFT FEM, paper's C | exact RFT, C(μ) "
-             "| RFT FEM, C(μ) | Stokes 20×4 | Stokes 30×6 | Stokes 40×8 | Stokes, h → 0 "
+             "| RFT FEM, C(μ) | Stokes 5×1 | Stokes 10×2 | Stokes 20×4 | Stokes, h → 0 "
              "| RFT paper's C / Stokes h → 0 | RFT C(μ) / Stokes h → 0 |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for case, (nx, b, vw) in SHEET_CASES.items():
@@ -478,7 +475,7 @@ def sheet_table(rows: list[dict]) -> list[str]:
               "² the case's 20×4 speed times case I's factor from 20×4 to h → 0.", ""]
 
     # case I: the mesh, the blob (the mesh's), the time step and the steady watch
-    lines += ["Case I, Stokes: mesh convergence (the blob follows the mesh)", "",
+    lines += ["Case I, Stokes: mesh convergence (shell and liquid together)", "",
               "| mesh | cells (mm) | nodes | U | change from the coarser of its family "
               "| wall (s) |", "|---|---|---|---|---|---|"]
     for family in SHEET_FAMILIES:
@@ -506,30 +503,31 @@ def sheet_table(rows: list[dict]) -> list[str]:
                      f"{pct(u, sheet_stokes(rows, 'I', '20x4'))} from 20x4 (across only) | "
                      f"{across[0].get('wall_s', '—')} |")
     lines.append("")
-    q = dict(system="sheet", case="I", model="stokes", mesh="20x4", quantity="U (mm/s)")
+    q = dict(system="sheet", case="I", model="stokes", mesh="10x2", quantity="U (mm/s)")
     dts = [(s, value(rows, steps_per_period=s, steady_tolerance="", **q))
            for s in sorted({SHEET_STEPS, *SHEET_DT_CHECK})]
     dts = [(s, v) for s, v in dts if v is not None]
     if len(dts) > 1:
-        lines.append("Case I, Stokes on 20×4, steps a period: " + ", ".join(
+        lines.append("Case I, Stokes on 10×2, steps a period: " + ", ".join(
             f"{s}: {v:.5f}" for s, v in dts) + ".")
     tight = value(rows, steps_per_period=SHEET_STEPS, steady_tolerance=SHEET_TIGHT, **q)
     if tight is not None:
-        lines.append(f"Case I, Stokes on 20×4, steady tolerance {SHEET_TIGHT:g}: {tight:.5f}.")
+        lines.append(f"Case I, Stokes on 10×2, steady tolerance {SHEET_TIGHT:g}: {tight:.5f}.")
     for case in ("IV", "V"):
-        u = [sheet_stokes(rows, case, m) for m in ("20x4", "30x6")]
-        ref = [sheet_stokes(rows, "I", m) for m in ("20x4", "30x6")]
+        u = [sheet_stokes(rows, case, m) for m in ("10x2", "20x4")]
+        ref = [sheet_stokes(rows, "I", m) for m in ("10x2", "20x4")]
         if None not in u and None not in ref:
-            lines.append(f"Case {case}, Stokes, 30×6 against 20×4: {pct(u[1], u[0])} "
+            lines.append(f"Case {case}, Stokes, 20×4 against 10×2: {pct(u[1], u[0])} "
                          f"(case I: {pct(ref[1], ref[0])}).")
     lines.append("")
     return lines
 
 
 def three_link_table(rows: list[dict]) -> list[str]:
-    runs = [("rft-paper", "10x2"), ("rft-mu", "10x2"), ("stokes", "10x2"), ("stokes", "15x3")]
-    head = ["RFT, paper's C (10×2)", f"RFT, C(μ = {WATER:g}) (10×2)", "Stokes 10×2",
-            "Stokes 15×3"]
+    runs = [("rft-paper", "10x2"), ("rft-mu", "10x2"), ("stokes", "5x1"), ("stokes", "10x2"),
+            ("stokes", "15x3")]
+    head = ["RFT, paper's C (10×2)", f"RFT, C(μ = {WATER:g}) (10×2)", "Stokes 5×1",
+            "Stokes 10×2", "Stokes 15×3"]
     lines = ["### Three-link swimmer, case I (nine cycles of the shipped stroke)", "",
              "| quantity | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
     quantities = [r["quantity"] for r in pick(rows, system="three-link", model="rft-paper")]

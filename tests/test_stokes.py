@@ -773,7 +773,7 @@ def test_a_body_pushed_onto_the_wall_is_warned_of_then_stopped(tmp_path):
     done = subprocess.run([sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out),
                            "--quiet"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 3, done.stderr[-2000:]
-    assert "run failed at t = 0.2 (step 4): the body came within 0.968" in done.stderr
+    assert "run failed at t = 0.2 (step 4): the body came within 0.96" in done.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed"
     warned = [w for w in summary["warnings"] if "blobs of the wall" in w]
