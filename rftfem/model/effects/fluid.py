@@ -46,18 +46,19 @@ SCHEMA = Table({
                        "integrated over each element (singular and near-singular rules), "
                        'no slip at the nodes; "blobs" point forces at the nodes with blobs '
                        "of the node spacing (first order; the fast multipole operator "
-                       "needs it). docs/stokes.md §Two discretisations."),
+                       "needs it); docs/stokes.md §Two discretisations."),
     "regularization": Leaf(POSITIVE, unit="length",
-                           default_doc='method "layer": a tenth of the mean element size '
-                                       '(docs/stokes.md §The blob size); method "blobs": '
-                                       "the local node spacing, half of it on free edges",
+                           default_doc='method "layer": 0, the Stokeslet itself (integrated '
+                                       'exactly); method "blobs": the local node spacing, '
+                                       "half of it on free edges",
                            doc='The blob size ε of the regularized Stokeslets (model = '
                                '"stokes"), the same everywhere.'),
     "refine": Leaf(Int(0), 0,
-                   doc='The liquid\'s own resolution (method "layer"): each element\'s '
-                       "quadrature is cut into 2^refine × 2^refine pieces, the singular "
-                       "rules take more points; the shell mesh is untouched. `rftfem study "
-                       "--refine fluid` makes the liquid's convergence table."),
+                   doc='The liquid\'s own resolution (method "layer"): the force density '
+                       "lives on the shell's elements each cut into 2^refine × 2^refine on "
+                       "the shell's own surface (the shell mesh untouched; the dense "
+                       "operator grows 16× a level). `rftfem study --refine fluid` makes the "
+                       "liquid's convergence table; `rftfem check` estimates its error."),
     "operator": Leaf(Str(OPERATORS), "auto",
                      doc='How the Stokes operator is applied (model = "stokes"): "dense" '
                          "assembles and factorises the mobility (exact, memory 144 N² bytes "

@@ -139,6 +139,14 @@ class Stokes(Effect):
         #: the integrated layer on the force grid (its rows: this process's share)
         self.layer = stokes_layer.Layer(grid, grid_cells, cell, self.epsilon,
                                         rows=slice(start, start + counts[rank]))
+        smallest = float(self.layer.size.min())
+        if self.epsilon > 0.5 * smallest:
+            raise SceneError(
+                f"fluid.regularization: ε = {self.epsilon:.4g} is over half the force grid's "
+                f"smallest element ({smallest:.4g}); collocation then blurs the layer and its "
+                "matrix is ill-conditioned: leave the key out (ε = 0, the most accurate) or "
+                f"give at most {0.5 * smallest:.3g}" + (" (fluid.refine shrinks the grid)"
+                                                        if self.refine else ""))
         self.delta = np.maximum(self.epsilon, spacing / 2 ** self.refine)
 
     def _serial_layer(self, level: int) -> stokes_layer.Layer:
