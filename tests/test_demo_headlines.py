@@ -155,17 +155,19 @@ def test_magnetic_snap_as_shipped_brackets_its_limit(tmp_path):
         assert failed == fails
 
 
-#: demos/sheet_near_wall.toml refined to 30 × 6 cells (docs/stokes.md, "A sheet near a
-#: wall"): the steady speed at h = 1.5 and without the wall
-WALL_30X6, FREE_30X6 = 0.810811, 0.370020
+#: demos/sheet_near_wall.toml's steady speeds at h = 1.5 and without the wall, extrapolated
+#: to zero cell size from 10 × 2 (0.85531, 0.39084) and the shipped 20 × 4 at the layer's
+#: order 1.5 (docs/stokes.md, "A sheet near a wall")
+WALL_LIMIT, FREE_LIMIT = 0.85982, 0.39279
 
 
 @pytest.mark.slow
 def test_sheet_near_wall_as_shipped_has_the_refined_ratio(tmp_path):
     """demos/sheet_near_wall.toml as shipped (20 × 4) and the same without its wall:
-    the speeds are those docs/stokes.md states (0.7832 and 0.3582, to 1e-3), and
-    their ratio, the demo's headline, is the 30 × 6 mesh's (2.1913) within 1 %
-    (reached: 2.1865, −0.22 %; the speeds alone are 3.4 % under 30 × 6's)."""
+    the speeds are those docs/stokes.md states (0.8582 and 0.3921, to 1e-3), each
+    within 1 % of its extrapolated limit (reached −0.19 %, −0.18 %), and their ratio,
+    the demo's headline, within 0.5 % of the limits' (reached 2.1888 against 2.1890;
+    10 × 2 gives 2.1884)."""
     text = (DEMOS / "sheet_near_wall.toml").read_text()
     free = tmp_path / "free.toml"
     free.write_text(text[:text.index("[fluid.wall]")] + text[text.index("[time]"):])
@@ -176,10 +178,12 @@ def test_sheet_near_wall_as_shipped_has_the_refined_ratio(tmp_path):
         assert steady["reached"], name
         speeds[name] = steady["values"]["front_ux_rate"]
     ratio = speeds["wall"] / speeds["free"]
-    print(f"near a wall: {speeds}, ratio {ratio:.4f} (30x6: {WALL_30X6 / FREE_30X6:.4f})")
-    assert speeds["wall"] == pytest.approx(0.7832, rel=1e-3)
-    assert speeds["free"] == pytest.approx(0.3582, rel=1e-3)
-    assert ratio == pytest.approx(WALL_30X6 / FREE_30X6, rel=0.01)
+    print(f"near a wall: {speeds}, ratio {ratio:.4f} (limits: {WALL_LIMIT / FREE_LIMIT:.4f})")
+    assert speeds["wall"] == pytest.approx(0.8582, rel=1e-3)
+    assert speeds["free"] == pytest.approx(0.3921, rel=1e-3)
+    assert speeds["wall"] == pytest.approx(WALL_LIMIT, rel=0.01)
+    assert speeds["free"] == pytest.approx(FREE_LIMIT, rel=0.01)
+    assert ratio == pytest.approx(WALL_LIMIT / FREE_LIMIT, rel=0.005)
 
 
 #: demos/python_study.py: the difference from exact RFT at each amplitude, in percent
