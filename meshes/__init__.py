@@ -123,16 +123,20 @@ def build_body(comm, mesh_section: dict, scene_dir=None, hinges=()) -> Body:
     if kind in ("strip", "three-link"):
         get = lambda key: mesh_section.get(key, _DEFAULTS[kind][key])  # noqa: E731
         regions = _regions(mesh_section.get("regions", []))
+        grading = float(mesh_section.get("grading") or 1.0)
         if kind == "strip":
             return build_strip(comm, get("length"), get("width"), get("divisions"),
-                               get("cell"), regions, hinges)
+                               get("cell"), regions, hinges, grading=grading)
         return build_three_link(comm, get("length"), get("link_width"), get("divisions"),
-                                get("cell"), regions, hinges)
+                                get("cell"), regions, hinges, grading=grading)
     if kind == "gmsh":
         path = mesh_section.get("file")
         if not isinstance(path, str) or not path:
             raise SceneError(f"mesh.file: required for kind = \"gmsh\" (a .msh path), "
                              f"found {path!r}")
+        if float(mesh_section.get("grading") or 1.0) != 1.0:
+            raise SceneError("mesh.grading: for kind = \"strip\" or \"three-link\"; a gmsh "
+                             "file brings its own cell sizes (grade them in gmsh)")
         if mesh_section.get("regions"):
             raise SceneError("mesh.regions: x/y bands are for kind = \"strip\" or "
                              "\"three-link\"; with kind = \"gmsh\" the named physical "

@@ -216,7 +216,31 @@ def _share(cuts, groups) -> list[int]:
     return out
 
 
-def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines):
+def graded(v: float, cuts, grading: float) -> float:
+    """A coordinate ``v`` moved so that cells are graded towards both ends of its
+    segment between ``cuts``: sizes ∝ 1 − g cos 2πs over the segment (s ∈ [0, 1]),
+    g = (grading − 1)/(grading + 1), the ratio of the largest to the smallest;
+    the cuts stay."""
+    if grading == 1.0:
+        return v
+    g = (grading - 1.0) / (grading + 1.0)
+    k = min(max(bisect.bisect_right(cuts, v) - 1, 0), len(cuts) - 2)
+    a, b = cuts[k], cuts[k + 1]
+    s = min(max((v - a) / (b - a), 0.0), 1.0)
+    return a + (b - a) * (s - g * math.sin(2 * math.pi * s) / (2 * math.pi))
+
+
+def _grade_nodes(gmsh, xs, ys, grading: float) -> None:
+    """Move the generated mesh's nodes by :func:`graded` along X and Y."""
+    if grading == 1.0:
+        return
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    for tag, (x, y, z) in zip(tags, xyz.reshape(-1, 3)):
+        gmsh.model.mesh.setNode(int(tag), [graded(x, xs, grading), graded(y, ys, grading), z],
+                                [])
+
+
+def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
     """Rank 0: the grid of rectangles, its tags and names in the current model."""
     geo = gmsh.model.geo
     mx, my = len(nxs), len(nys)
@@ -254,6 +278,7 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines):
         model.setPhysicalName(1, tag, name)
         edges[name] = [tag]
     mesh.generate(2)
+    _grade_nodes(gmsh, xs, ys, grading)
 
     def inside(band, a, b):
         return band is None or band[0] <= 0.5 * (a + b) <= band[1]
@@ -264,7 +289,7 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines):
     return names, edges
 
 
-def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges,
+def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges, grading=1.0,
               builtin_lines=(), builtin_regions=()):
     """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles.
 
@@ -292,7 +317,7 @@ def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges,
     mesh, cell_tags, facet_tags, names, edges = _model_to_body(
         comm,
         lambda gmsh: _prepare_grid(gmsh, xs, nxs, ys, nys, cell == "quadrilateral",
-                                   all_regions, lines),
+                                   all_regions, lines, grading),
         options=_OPTIONS)
     from . import Body
 
@@ -301,7 +326,8 @@ def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges,
                 hinges=[name for _, _, name in builtin_lines])
 
 
-def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=(), hinges=()):
+def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=(), hinges=(),
+                grading: float = 1.0):
     """A structured strip ``x in [0, L], y in [0, W]`` at Z = 0 as a Body.
 
     ``divisions = [nx, ny]``: elements along X and Y; ``cell`` is
@@ -339,4 +365,5 @@ def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=()
     length, width = check_size("length", length), check_size("width", width)
     nx, ny = check_divisions(divisions, "[nx, ny]")
     check_cell(cell)
-    return grid_body(comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges)
+    return grid_body(comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges,
+                     grading=grading)

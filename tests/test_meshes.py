@@ -239,6 +239,26 @@ def test_strip_overlapping_regions_and_segment_tags():
     assert counts == [8, 4, 7, 1]
 
 
+def test_strip_graded_towards_its_edges():
+    """``mesh.grading = 4``: along each segment between cuts the cells shrink towards
+    both ends (sizes ∝ 1 − g cos 2πs, g = 0.6: 10 cells from 0.439 to 1.561, a discrete
+    ratio 3.56), symmetric, the cuts and the regions' areas exact; 1 is uniform; a
+    gmsh mesh refuses it.  Broke: g with the other sign (cells largest at the edges)."""
+    body = build_strip(COMM, 10.0, 1.0, [10, 4], "quadrilateral", grading=4.0)
+    x = np.unique(np.round(np.concatenate(COMM.allgather(body.mesh.geometry.x[:, 0])), 9))
+    sizes = np.diff(x)  # the vertices' columns (geometry of degree 1)
+    assert len(sizes) == 10
+    assert sizes[0] == pytest.approx(10 * (0.1 - 0.6 * math.sin(0.2 * math.pi) / (2 * math.pi)))
+    assert sizes == pytest.approx(sizes[::-1]) and sizes.max() / sizes.min() > 3.5
+    assert np.all(np.diff(sizes[:5]) > 0)
+    regions = [("a", (0.0, 6.0))]
+    graded = build_strip(COMM, 10.0, 1.0, [20, 2], "quadrilateral", regions, grading=3.0)
+    total, region_areas = areas(graded)
+    assert total == pytest.approx(10.0) and region_areas == pytest.approx({"a": 6.0})
+    with pytest.raises(SceneError, match=r'^mesh.grading: for kind = "strip" or "three-link"'):
+        build_body(COMM, {"kind": "gmsh", "file": "x.msh", "grading": 2.0}, None)
+
+
 def test_strip_without_regions_and_coarse_division():
     body = build_strip(COMM, 3.0, 0.5, [1, 1], "triangle",
                        regions=[("r", (1.0, 2.0))])  # nx < segments: one each

@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 
 from rftfem.errors import SceneError
-from rftfem.scene.schema import (NONNEGATIVE, POSITIVE, Array, Divisions, Leaf, Str, Table, Vec,
-                           check_unique, err, fmt)
+from rftfem.scene.schema import (NONNEGATIVE, POSITIVE, Array, Divisions, Leaf, Num, Str, Table,
+                           Vec, check_unique, err, fmt)
 from rftfem.scene.selectors import (BODY_NAME, LINED_KINDS, SPECIAL_SELECTORS, THREE_LINK_HINGES,
                               THREE_LINK_REGIONS)
 
@@ -45,6 +45,15 @@ MESH = Table({
                        doc="Number of cells along X and across Y (three-link: across "
                            "each link), at most 1e7 cells in all. Region limits and hinge "
                            "lines add cuts. Not used with a gmsh mesh."),
+    "grading": Leaf(Num(1.0), 1.0,
+                     doc="Cells graded towards both ends of the strip along X and across "
+                         "Y (its free edges), and of every segment between cuts (region "
+                         "limits, hinge lines): the ratio of the largest cell to the "
+                         "smallest in each segment, ≥ 1 (1: uniform). Sizes follow "
+                         "1 − g cos 2πs, g = (grading − 1)/(grading + 1). The Stokes layer "
+                         "needs none (its density carries the edge's singularity, "
+                         "docs/stokes.md); RFT and the shell may use it for edge "
+                         "effects. Not used with a gmsh mesh."),
     "cell": Leaf(Str(("quadrilateral", "triangle")), "quadrilateral",
                   doc="Cell shape of a strip or three-link mesh; the unknowns are "
                       "second order either way (Q2 or P2). A gmsh file brings its own "
