@@ -1,15 +1,14 @@
 """The body as the Stokes operators see it: its elements in the global node numbering
 (every process holds them all, in rank order) and each node's spacing (docs/stokes.md).
 
-This is the dolfinx side of the Stokes flow; ``stokeslets``, ``stokes_layer`` and
-``stokes_fmm`` work on plain arrays.
+This is the dolfinx side of the Stokes flow (imported inside the functions: the
+scene's keys, and `rftfem render`, import the effects without dolfinx);
+``stokeslets``, ``stokes_layer`` and ``stokes_fmm`` work on plain arrays.
 """
 
 from __future__ import annotations
 
 import numpy as np
-
-from rftfem import compat
 
 
 def global_cells(model) -> tuple[np.ndarray, str]:
@@ -17,6 +16,8 @@ def global_cells(model) -> tuple[np.ndarray, str]:
     reference element's order, gathered on every process; and the cell kind
     ("quadrilateral" or "triangle")."""
     from dolfinx import mesh as dmesh
+
+    from rftfem import compat
 
     msh = model.mesh
     n_cells = msh.topology.index_map(msh.topology.dim).size_local
@@ -34,6 +35,8 @@ def node_spacing(model) -> np.ndarray:
     the body's free edges."""
     from dolfinx import fem, mesh as dmesh
     import ufl
+
+    from rftfem import compat
 
     msh = model.mesh
     V0 = compat.function_space(msh, "DG", 0)
