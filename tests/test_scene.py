@@ -90,7 +90,7 @@ def test_minimal_scene_gets_every_default(write):
     s = load_scene(p)
     assert s["_path"] == str(p.resolve())
     assert s["mesh"] == {"kind": "strip", "length": 10.0, "width": 1.0, "link_width": None,
-                         "hinge_stiffness": None, "divisions": [16, 1],
+                         "hinge_stiffness": None, "divisions": [16, 1], "grading": 1.0,
                          "cell": "quadrilateral", "file": None, "regions": []}
     assert s["shell"] == {"material": "isotropic", "thickness": 0.1, "E": 1.2e6, "nu": 0.0,
                           "density": 0.0, "E1": None, "E2": None, "G12": None, "nu12": None,
@@ -426,7 +426,7 @@ divisions = [10, 2]
 def test_three_link_defaults_and_width(write):
     s = load_scene(write(THREE_LINK))
     assert s["mesh"] == {"kind": "three-link", "length": 5.0, "width": 1.5, "link_width": 0.5,
-                         "hinge_stiffness": 0.0, "divisions": [10, 2],
+                         "hinge_stiffness": 0.0, "divisions": [10, 2], "grading": 1.0,
                          "cell": "quadrilateral", "file": None, "regions": []}
     assert s["hinge"] == []
     s = load_scene(write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2"])

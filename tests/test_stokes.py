@@ -698,7 +698,7 @@ def test_the_estimate_follows_the_error(tmp_path):
     cells: 11.6 %)."""
     import json
 
-    from rftfem.model import stokes_layer, stokes_report
+    from rftfem.model import layer_rules, stokes_layer, stokes_report
 
     text = STRIP.format(fluid='model = "stokes"\nviscosity = 1.0')
     sim = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True)
@@ -706,7 +706,7 @@ def test_the_estimate_follows_the_error(tmp_path):
     estimate = stokes.describe()["estimated_error"]
     R = []
     for level in (0, 2):
-        grid, cells, I = stokes_layer.refined(stokes.X, stokes.shell_cells, stokes.cell, level)
+        grid, cells, I = layer_rules.refined(stokes.X, stokes.shell_cells, stokes.cell, level)
         res = stokes_layer.LayerResistance(stokes_layer.Layer(grid, cells, stokes.cell, 0.0),
                                            stokes.X, 1.0, interpolation=I)
         R.append(stokes_report.rigid_resistance(res, stokes.X))

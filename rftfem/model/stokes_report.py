@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from rftfem.model import stokes_layer
+from rftfem.model import layer_rules, stokes_layer
 
 #: a run whose estimate exceeds this warns
 WARN_ABOVE = 0.05
@@ -103,14 +103,14 @@ def _estimate(stokes) -> dict:
     update = (t1 - t0) + (t3 - t2) + 10 * (t4 - t3)
     out = {"seconds_per_update": update}
     level = stokes.refine + 1
-    nodes = len(stokes_layer.refined(X, stokes.shell_cells, stokes.cell, level)[0])
+    nodes = len(layer_rules.refined(X, stokes.shell_cells, stokes.cell, level)[0])
     if nodes > ESTIMATE_NODES:
         out.update({"estimated_error": None,
                     "estimate_from": f"not estimated: fluid.refine = {level} would have "
                                      f"{nodes} grid nodes (over {ESTIMATE_NODES})"})
         return out
     fine_layer = stokes._serial_layer(level)
-    _, _, I = stokes_layer.refined(X, stokes.shell_cells, stokes.cell, level)
+    _, _, I = layer_rules.refined(X, stokes.shell_cells, stokes.cell, level)
     fine = stokes_layer.LayerResistance(fine_layer, X, stokes.viscosity, stokes.wall,
                                         interpolation=I)
     out.update({"estimated_error": relative_change(R, rigid_resistance(fine, X)),

@@ -1,8 +1,6 @@
-"""Regularized Stokeslets: the nonlocal Stokes operator of ``[fluid] model = "stokes"``
-(docs/stokes.md).
-
-The body's mid-surface carries point forces ``F_j`` at its nodes ``x_j``; the liquid's
-velocity at ``x_i`` is
+"""Regularized Stokeslets (docs/stokes.md): the kernel of both Stokes methods, the
+blobs' operator (``fluid.method = "blobs"``: point forces ``F_j`` at the nodes
+``x_j``) and a plane wall's images.  The liquid's velocity at ``x_i`` is
 
     u_i = Σ_j S_δ(x_i − x_j) F_j / (8πμ),
     S_δ(r) F = a(r) F + b(r) (r·F) r,  a = s₁(ρ)/r,  b = s₂(ρ)/r³,  ρ = r/δ,
@@ -19,9 +17,8 @@ the O(δ) of the algebraic blob of Cortez, Fauci & Medovikov (2005).  The matrix
 is symmetric positive definite (the blob's Fourier transform is positive).
 
 Each pair's blob is ``δ_ij = √((δ_i² + δ_j²)/2)`` (symmetric for nodal sizes δ_i).
-
-Everything here is numpy on global arrays of nodes; the effect
-(``rftfem.model.effects.stokes``) gathers them and scatters the forces.
+Everything here is numpy on global arrays of nodes (``rftfem.model.effects.stokes``
+gathers them and scatters the forces).
 """
 
 from __future__ import annotations
@@ -33,11 +30,9 @@ from numpy.polynomial import polynomial as P
 from scipy.special import erf
 
 _C = 2.0 / sqrt(pi)
-#: below this ρ the radial functions are summed as series (no cancellation)
-_SERIES_BELOW = 0.3
-_DEGREE = 40
-#: beyond this ρ, erfc ρ and the Gaussian terms (≤ 4e-19 of the Stokeslet's) are dropped
-_STOKESLET_BEYOND = 7.0
+#: below this ρ the radial functions are summed as series (no cancellation); beyond
+#: the last, erfc ρ and the Gaussian terms (≤ 4e-19 of the Stokeslet's) are dropped
+_SERIES_BELOW, _DEGREE, _STOKESLET_BEYOND = 0.3, 40, 7.0
 
 
 def _series():
@@ -272,8 +267,7 @@ class Wall:
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def image_blocks(self, targets, sources) -> np.ndarray:
-        """Per pair the image's 3 × 3 block (N_t, N_s, 3, 3), without 1/8πμ: the wall's
-        part of the integrated layer (``rftfem.model.stokes_layer``)."""
+        """Per pair the image's 3 × 3 block (N_t, N_s, 3, 3), without 1/8πμ (the layer's)."""
         out = np.empty((len(targets), len(sources), 3, 3))
         for k in range(3):
             unit = np.zeros((len(sources), 3))
@@ -283,8 +277,7 @@ class Wall:
 
     def image_derivative(self, G, rows, targets, target_nodes, sources, forces, basis):
         """Add the images' position derivative (complex steps, without 1/8πμ) to ``G``
-        (rows, 3, N, 3): the targets' own motion on their nodes, the sources' (points
-        ``y = Σ ψ x``) through ``basis`` (N × points, the ψ's)."""
+        (rows, 3, N, 3); the sources ``y = Σ ψ x`` move through ``basis`` (N × points)."""
         step = 1e-30
         k, q = len(targets), len(sources)
         for l in range(3):

@@ -96,6 +96,9 @@ def check(scene: dict) -> None:
                              "scene[\"fluid.drag\"])")
         if fluid.get("viscosity") is None:
             raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
+        if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
+            raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
+                             '"dense" (or "auto") with fluid.wall')
         if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
             raise SceneError('fluid.operator: "fmm" needs fluid.method = "blobs" in this '
                              'version (the integrated layer is dense); use operator = '
@@ -103,9 +106,6 @@ def check(scene: dict) -> None:
         if fluid.get("refine") and fluid.get("method", "layer") != "layer":
             raise SceneError('fluid.refine: only with fluid.method = "layer" (the blobs sit '
                              "at the nodes: refine the mesh)")
-        if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
-            raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
-                             '"dense" (or "auto") with fluid.wall')
     else:
         if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
             raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '

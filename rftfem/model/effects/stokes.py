@@ -30,7 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rftfem.model import stokes_body, stokes_fmm, stokes_layer, stokes_report, stokeslets
+from rftfem.model import (layer_rules, stokes_body, stokes_fmm, stokes_layer, stokes_report,
+                          stokeslets)
 from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
@@ -131,7 +132,7 @@ class Stokes(Effect):
         spacing = self._gather(self._node_blobs(None))
         #: ε, the blob size (a length of its own); 0, the default: the Stokeslet itself
         self.epsilon = 0.0 if eps is None else float(eps)
-        grid, grid_cells, self.interpolation = stokes_layer.refined(self.X, cells, cell,
+        grid, grid_cells, self.interpolation = layer_rules.refined(self.X, cells, cell,
                                                                     self.refine)
         size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
         counts = [len(grid) // size + (r < len(grid) % size) for r in range(size)]
@@ -153,7 +154,7 @@ class Stokes(Effect):
         """The layer of ``fluid.refine = level`` with every row (one process's estimate)."""
         if level == self.refine and self.model.comm.size == 1:
             return self.layer
-        grid, cells, _ = stokes_layer.refined(self.X, self.shell_cells, self.cell, level)
+        grid, cells, _ = layer_rules.refined(self.X, self.shell_cells, self.cell, level)
         return stokes_layer.Layer(grid, cells, self.cell, self.epsilon)
 
     def describe(self) -> dict:
