@@ -82,7 +82,7 @@ class Layer:
     default all)."""
 
     def __init__(self, X, cells, cell: str, epsilon: float, refine: int = 0,
-                 rows: slice | None = None, edge_weight: bool = False):
+                 rows: slice | None = None, edge_weight: bool = True):
         self.X = np.asarray(X, dtype=float)
         self.cells = np.asarray(cells, dtype=np.int64)
         self.element = ReferenceElement(cell)
