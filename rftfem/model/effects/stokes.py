@@ -216,6 +216,11 @@ class Stokes(Effect):
                        f"away or refine the mesh")
         if self.method == "layer":
             out += stokes_report.warnings(self.describe())
+            if self.cell == "triangle" and _has_free_edges(self.shell_cells[:, :3]):
+                out.append("fluid: the body is meshed with triangles and has free edges, where "
+                           "the layer carries no edge weight in this version: expect first "
+                           "order there (docs/stokes.md §Free edges); mesh it with "
+                           "quadrilaterals, or refine towards the edges")
         n = len(self.X) if self.method == "blobs" else len(self.layer.X)
         if n <= DENSE_NODES or self.operator == "fmm":
             return out
@@ -362,3 +367,11 @@ class _Crossed:
 
     def lumped(self):
         return np.zeros((len(self.x), 3, 3))
+
+
+def _has_free_edges(corners: np.ndarray) -> bool:
+    """Whether the triangles ``corners`` (C, 3) have a side that only one of them holds."""
+    sides = np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]],
+                                    corners[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(sides, axis=0, return_counts=True)
+    return bool((counts == 1).any())
