@@ -108,6 +108,9 @@ class Layer:
         self.far = RulePoints(self.cells, self.element, elem, self._far_xi,
                            self._weights(elem, self._far_xi, np.concatenate([r[1] for r in rules])))
         self._P = self.far.scatter(n)
+        #: made once: the far rule's weighted and plain basis, nodes × points
+        self._PT = self._P.T.tocsr()
+        self._basis_T = self._basis_matrix().T.tocsr()
         #: each element's size: √ of its reference area
         plain_xi, plain_w = self.element.rule(1)
         elem1 = np.repeat(np.arange(C), len(plain_w))
@@ -192,7 +195,7 @@ class Layer:
         lo, hi = self.rows.start, self.rows.stop
         A = np.zeros((hi - lo, 3, n, 3))
         y = self.far.positions(x)
-        PT = self._P.T.tocsr()
+        PT = self._PT
         for chunk in _chunks(hi - lo, len(y)):
             K = _kernel_blocks(x[lo + chunk.start:lo + chunk.stop, None, :] - y[None], self.epsilon)
             if wall is not None:
@@ -212,9 +215,7 @@ class Layer:
         G = np.zeros((hi - lo, 3, n, 3))
         y = self.far.positions(x)
         fq = self.far.density(f)  # weighted
-        unweighted = sp.csr_matrix((self.far.psi.ravel(), (
-            np.repeat(np.arange(len(y)), self.far.nodes.shape[1]), self.far.nodes.ravel())),
-            shape=(len(y), n)).T.tocsr()
+        unweighted = self._basis_T
         for chunk in _chunks(hi - lo, len(y)):
             t = np.arange(lo + chunk.start, lo + chunk.stop)
             T = _kernel_gradient(x[t, None, :] - y[None], fq[None], self.epsilon)
