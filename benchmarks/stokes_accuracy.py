@@ -18,11 +18,16 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+# the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
+sys.path.insert(0, str(ROOT / "scripts"))
+import repository_python  # noqa: E402
 
+repository_python.ensure()
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "tests"))
 from stokes_bodies import write_disk  # noqa: E402
 
 SCENE = """title = "a rigid disk"
