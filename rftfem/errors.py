@@ -27,11 +27,14 @@ class RunFailed(RuntimeError):
 class RunInterrupted(RuntimeError):
     """The run was stopped by a signal (SIGINT, SIGTERM): exit status 128 + its
     number (130, 143); outputs written so far are kept and closed.  ``immediate``:
-    a second signal stopped it inside a step, without a last output row."""
+    a second signal stopped it inside a step, without a last output row.
+    ``dropped``: the first signal came in a slow step (rftfem.integration.step_watch),
+    which was dropped: the last row is the last completed step's."""
 
     def __init__(self, signum: int, time: float | None = None, step: int | None = None,
-                 immediate: bool = False):
+                 immediate: bool = False, dropped: bool = False):
         self.signum, self.time, self.step, self.immediate = signum, time, step, immediate
+        self.dropped = dropped
         super().__init__(signum)
 
     @property
@@ -49,7 +52,8 @@ class RunInterrupted(RuntimeError):
 
     def __str__(self) -> str:
         where = "" if self.time is None else f" at t = {self.time:.6g} (step {self.step})"
-        how = " at once (a second signal)" if self.immediate else " after its step"
+        how = (" at once (a second signal)" if self.immediate else
+               " inside a slow step, which was dropped" if self.dropped else " after its step")
         return f"run interrupted by {self.signal_name}{where}{how}"
 
 

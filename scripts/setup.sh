@@ -38,7 +38,7 @@ RENDER_APT=(libegl1 libgl1-mesa-dri)
 REF_APT=(
     python3-dolfinx-real python3-gmsh openmpi-bin
     python3-venv python3-pip python3-setuptools
-    python3-matplotlib python3-scipy python3-pandas python3-pytest python3-h5py-mpi python3-hypothesis
+    python3-matplotlib python3-scipy python3-pandas python3-numba python3-pytest python3-h5py-mpi python3-hypothesis
     libopenblas0-pthread
     "${RENDER_APT[@]}"
 )
@@ -163,13 +163,13 @@ setup_reference() {
     fi
     rm -f "$REF_VENV/$STAMP_NAME"
 
-    # Debian's numpy (and scipy, matplotlib, pillow, pandas) must stay: dolfinx and petsc4py are
+    # Debian's numpy (and scipy, matplotlib, pillow, pandas, numba) must stay: dolfinx and petsc4py are
     # built against them. pip gets them as constraints, so the pure-Python
     # extras (pyvista, imageio) are chosen to fit instead of replacing them.
     local constraints="$REF_VENV/debian-constraints.txt"
     "$REF_PYTHON" - >"$constraints" <<'PY'
 import importlib.metadata as md
-for name in ("numpy", "scipy", "matplotlib", "pillow", "pandas"):
+for name in ("numpy", "scipy", "matplotlib", "pillow", "pandas", "numba", "llvmlite"):
     try:
         print(f"{name}=={md.version(name)}")
     except md.PackageNotFoundError:

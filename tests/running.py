@@ -59,11 +59,12 @@ def rank_pids(proc, np_: int) -> list[int]:
     pytest.fail(f"the {np_} ranks of mpirun were not found")
 
 
-def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restart=False):
-    """``rftfem run SCENE --out OUT --quiet --set ...`` (``--restart OUT`` instead of
-    ``--out`` with ``restart``) as a child process, under ``mpirun -n np_`` if > 1."""
+def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restart=False,
+              extra=()):
+    """``rftfem run SCENE --out OUT --quiet EXTRA --set ...`` (``--restart OUT`` instead
+    of ``--out`` with ``restart``) as a child process, under ``mpirun -n np_`` if > 1."""
     where = ["--restart", str(out)] if restart else ["--out", str(out)]
-    cmd = [sys.executable, "-m", "rftfem", "run", str(scene), *where, "--quiet"]
+    cmd = [sys.executable, "-m", "rftfem", "run", str(scene), *where, "--quiet", *extra]
     cmd += [a for s in sets for a in ("--set", s)]
     env = dict(os.environ)
     if np_ > 1:

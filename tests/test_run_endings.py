@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -181,3 +182,68 @@ def test_the_python_api_stops_on_sigterm_and_result_reads_a_running_folder(tmp_p
     assert proc.stdout is not None
     _check_outputs(out, immediate=False)
     assert Result(out).status == "interrupted"
+
+
+# ------------------------------------------------------------- a slow step
+
+STOKES_SHEET = ["fluid.model=\"stokes\"", "fluid.viscosity=1e-9", "mesh.divisions=[10,2]"]
+
+
+def _signal_inside_a_step(out: Path, sets) -> tuple[int, str]:
+    """Start the Stokes sheet (not quiet, every step slow, a line at every check) and
+    SIGTERM it once it prints a Krylov iteration of step 5: inside the step, with at
+    least its Newton test still to come.  Returns (exit status, stderr)."""
+    env = dict(os.environ, RFTFEM_SLOW_STEP="0", RFTFEM_LOG_INTERVAL="0")
+    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--unset",
+           "fluid.drag", *[a for s in sets for a in ("--set", s)]]
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    for line in proc.stdout:
+        if line.startswith("  step 5 towards") and "Krylov iteration" in line:
+            proc.send_signal(signal.SIGTERM)
+            break
+    proc.stdout.read()
+    return proc.wait(timeout=600), proc.stderr.read()
+
+
+def test_signal_in_a_slow_step_drops_it(tmp_path):
+    """The sheet in Stokes flow with every step counted as slow (RFTFEM_SLOW_STEP=0):
+    SIGTERM in step 5's Krylov iterations drops the step (exit 143, one line saying
+    so), the last row is step 4's (as a run to step 4 has it), the summary says
+    ``dropped_step``, and the run restarts from its checkpoint to its end.  Broke:
+    the model's restore after a dropped step left out (the last row is the dropped
+    iterate's)."""
+    sets = [*SETS, *STOKES_SHEET, "output.checkpoint_every=2", "time.end=0.05"]
+    out = tmp_path / "run"
+    status, stderr = _signal_inside_a_step(out, sets)
+    assert status == 143, stderr[-2000:]
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and "inside a slow step, which was dropped" in lines[0], stderr
+    summary = _check_outputs(out, immediate=False)
+    assert summary["interrupt"]["dropped_step"] is True and summary["interrupt"]["step"] == 4
+    # the last row is step 4's state, as a run that ends there has it
+    dt = summary["scene"]["time"]["dt"]
+    ref = tmp_path / "step4"
+    status, stderr = finish(start_run(SHEET, ref, [*sets, f"time.end={4 * dt!r}"],
+                                      extra=["--unset", "fluid.drag"]))
+    assert status == 0, stderr[-2000:]
+    last, expected = (np.loadtxt(d / "body.csv", delimiter=",", skiprows=1)[-1] for d in (out, ref))
+    np.testing.assert_allclose(last, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+    proc = start_run(SHEET, out, sets, restart=True, extra=["--unset", "fluid.drag"])
+    status, stderr = finish(proc)
+    assert status == 0, stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["time_reached"] == pytest.approx(0.05)
+
+
+def test_a_slow_step_reports_its_iterations(tmp_path):
+    """A step slower than RFTFEM_SLOW_STEP prints where it is: its Newton update and
+    Krylov iteration with their residuals."""
+    env = dict(os.environ, RFTFEM_SLOW_STEP="0", RFTFEM_LOG_INTERVAL="0")
+    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(tmp_path / "run"),
+           "--unset", "fluid.drag", "--set", "time.end=0.002"]
+    cmd += [a for s in STOKES_SHEET for a in ("--set", s)]
+    done = run_command(cmd, cwd=ROOT, timeout=600, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "step 1 towards t = 0.0019635" in done.stdout, done.stdout[-2000:]
+    assert "Krylov iteration 1 (residual" in done.stdout, done.stdout[-2000:]

@@ -55,6 +55,8 @@ class NewtonTest:
         3.18 cannot."""
         xnorm, snorm, fnorm = norms
         R = PETSc.SNES.ConvergedReason
+        if self.watch is not None:
+            self.watch.newton(it, fnorm)
         rtol, atol, stol, _ = snes.getTolerances()
         if it == 0:
             self._fnorms, self._snorms = [fnorm], []

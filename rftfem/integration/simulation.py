@@ -33,6 +33,7 @@ from rftfem.integration.arclength import PathFollowing
 from rftfem.integration.error_control import ErrorControl
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.interrupts import NoStops, StopRequests
+from rftfem.integration.step_watch import StepWatch
 from rftfem.model.shell_model import Model
 from rftfem.outputs.progress import Progress, render_in_child
 from rftfem.outputs.writers import BodyLog, Probes, write_json
@@ -226,6 +227,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t",
                             warn=self.warn)
         self.progress_warn = progress.warn
+        StepWatch(self.stops, comm, progress).attach(self.solver)
         progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
                      f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
                      f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
@@ -292,9 +294,11 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                 self.stops.signum, immediate=True)
             if err.time is None:  # stopped inside a step: where the last one ended
                 err.time, err.step = self.t, self.completed
+            if err.dropped:  # a slow step dropped: the last completed step's row
+                self._last_row(logs)
             summary = self._summary("interrupted", wall_start)
-            summary["interrupt"] = {"signal": err.signal_name, "time": err.time,
-                                    "step": err.step, "immediate": err.immediate}
+            summary["interrupt"] = {"signal": err.signal_name, "time": err.time, "step": err.step,
+                                    "immediate": err.immediate, "dropped_step": err.dropped}
             raise err from None
         finally:
             self.stops.closing()

@@ -94,6 +94,7 @@ class StepSolver(NewtonTest):
                              f"line: {petsc_message(exc)}") from None
         if self._step_limits:  # after setFromOptions, which makes the line search anew
             self.snes.setLineSearchPreCheck(self._limit_update)
+        self.watch = None  # a slow step's reports and stops (step_watch.StepWatch.attach)
         self.force_iteration()
 
     def destroy(self):

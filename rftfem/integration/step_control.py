@@ -48,7 +48,17 @@ class StepControl:
         # residuals grow 5000-fold, so there the step starts from the last state
         m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
         self.wall["loads"] += _time.perf_counter() - t0
-        ok, its, res, reason = self.solver.solve()
+        watch = self.solver.watch
+        if watch is not None:
+            watch.start(t_new, self.completed + 1)
+        try:
+            ok, its, res, reason = self.solver.solve()
+        finally:  # a signal in a slow step (step_watch.py): back to the last completed one
+            dropped = watch is not None and watch.dropped is not None
+            if dropped:
+                m.restore()
+        if dropped:  # (PETSc gave its callback's exception back, or its own error)
+            raise watch.dropped
         if self.stops.immediate:
             # a second signal inside a residual or Jacobian: PETSc turned it into a failed
             # solve (and may have left a vector locked); stop, do not cut

@@ -39,40 +39,10 @@ from math import pi
 import numpy as np
 import scipy.sparse as sp
 
+from rftfem.model import stokes_kernels as kernels
 from rftfem.model import stokeslets
 from rftfem.model.layer_rules import (NEAR, NEAR_FACTOR, EdgeWeight, ReferenceElement,
                                       RulePoints)
-
-def _radial(r: np.ndarray, eps: float):
-    """``(a, b, a′/r, b′/r)`` of ``S_ε(r) F = a F + b (r·F) r`` at separations ``r``
-    (..., 3); ``eps = 0`` is the Stokeslet itself."""
-    dist = np.sqrt(np.einsum("...k,...k->...", r, r))
-    if eps == 0.0:
-        inv = 1.0 / dist
-        inv3 = inv ** 3
-        return inv, inv3, -inv3, -3.0 * inv3 * inv * inv
-    f0, f1, f2, f3 = stokeslets.radial(dist / eps)
-    return f0 / eps, f1 / eps ** 3, f2 / eps ** 3, f3 / eps ** 5
-
-
-def _kernel_blocks(r, eps):
-    """The 3 × 3 blocks ``S_ε(r)`` (..., 3, 3)."""
-    a, b, _, _ = _radial(r, eps)
-    out = b[..., None, None] * r[..., :, None] * r[..., None, :]
-    out += a[..., None, None] * np.eye(3)
-    return out
-
-
-def _kernel_gradient(r, F, eps):
-    """``T = ∂(S_ε(r) F)/∂r`` (..., 3, 3) for separations ``r`` and forces ``F`` (..., 3)."""
-    _, b, da, db = _radial(r, eps)
-    rF = np.einsum("...k,...k->...", r, F)
-    T = da[..., None, None] * F[..., :, None] * r[..., None, :]
-    T += (db * rF)[..., None, None] * r[..., :, None] * r[..., None, :]
-    T += b[..., None, None] * r[..., :, None] * F[..., None, :]
-    T += (b * rF)[..., None, None] * np.eye(3)
-    return T
-
 
 class Layer:
     """The layer's rules for one body (set up once, from the reference positions ``X``).
@@ -108,9 +78,8 @@ class Layer:
         self.far = RulePoints(self.cells, self.element, elem, self._far_xi,
                            self._weights(elem, self._far_xi, np.concatenate([r[1] for r in rules])))
         self._P = self.far.scatter(n)
-        #: made once: the far rule's weighted and plain basis, nodes × points
-        self._PT = self._P.T.tocsr()
-        self._basis_T = self._basis_matrix().T.tocsr()
+        #: the far rule's weight × basis (points × nodes of an element)
+        self._far_wpsi = self.far.psi * self.far.weight[:, None]
         #: each element's size: √ of its reference area
         plain_xi, plain_w = self.element.rule(1)
         elem1 = np.repeat(np.arange(C), len(plain_w))
@@ -118,6 +87,12 @@ class Layer:
             elem1, np.tile(plain_xi, (C, 1))), minlength=C)
         self.size = np.sqrt(area)
         self.special = self._special_points()
+        #: the special points ordered by target: row t's are ``_starts[t]:_starts[t + 1]``
+        order = np.argsort(self.special.target, kind="stable")
+        for name in ("elem", "nodes", "psi", "weight", "target"):
+            setattr(self.special, name, np.ascontiguousarray(getattr(self.special, name)[order]))
+        self._starts = np.searchsorted(self.special.target,
+                                       np.arange(self.rows.start, self.rows.stop + 1))
 
     def _reference_jacobian(self, elem, xi) -> np.ndarray:
         """``|∂X/∂ξ₁ × ∂X/∂ξ₂|`` at the points ``xi`` of the elements ``elem``."""
@@ -188,100 +163,36 @@ class Layer:
 
     # --- the operator ---------------------------------------------------------
 
+    def _wall_args(self, wall):
+        if wall is None:
+            return False, np.eye(3), np.zeros(3)
+        return True, wall.Q, wall.point
+
     def matrix(self, x: np.ndarray, viscosity: float, wall=None) -> np.ndarray:
         """The rows of ``A`` (3 n_rows × 3N) at the positions ``x``: ``u = A f``."""
-        x = np.asarray(x, dtype=float)
+        x = np.ascontiguousarray(x, dtype=float)
         n = len(x)
         lo, hi = self.rows.start, self.rows.stop
         A = np.zeros((hi - lo, 3, n, 3))
-        y = self.far.positions(x)
-        PT = self._PT
-        for chunk in _chunks(hi - lo, len(y)):
-            K = _kernel_blocks(x[lo + chunk.start:lo + chunk.stop, None, :] - y[None], self.epsilon)
-            if wall is not None:
-                K += wall.image_blocks(x[lo + chunk.start:lo + chunk.stop], y)
-            k = chunk.stop - chunk.start
-            K2 = K.transpose(0, 2, 3, 1).reshape(k * 9, len(y))  # (t a b, q)
-            A[chunk] = (PT @ K2.T).T.reshape(k, 3, 3, n).transpose(0, 1, 3, 2)
-        self._add_special(A, x, lambda r, p: _kernel_blocks(r, self.epsilon), None)
+        far, s = self.far, self.special
+        kernels.far_matrix(x[lo:hi], far.positions(x), self._far_wpsi, far.nodes, self.epsilon,
+                           True, *self._wall_args(wall), A)
+        kernels.pairs_matrix(x, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, A)
         return A.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def position_derivative(self, x, f, viscosity: float, wall=None) -> np.ndarray:
         """The rows of ``G = ∂(A f)/∂x`` at fixed ``f`` (3 n_rows × 3N)."""
-        x = np.asarray(x, dtype=float)
-        f = np.asarray(f, dtype=float).reshape(-1, 3)
+        x = np.ascontiguousarray(x, dtype=float)
+        f = np.ascontiguousarray(f, dtype=float).reshape(-1, 3)
         n = len(x)
         lo, hi = self.rows.start, self.rows.stop
         G = np.zeros((hi - lo, 3, n, 3))
-        y = self.far.positions(x)
-        fq = self.far.density(f)  # weighted
-        unweighted = self._basis_T
-        for chunk in _chunks(hi - lo, len(y)):
-            t = np.arange(lo + chunk.start, lo + chunk.stop)
-            T = _kernel_gradient(x[t, None, :] - y[None], fq[None], self.epsilon)
-            k = len(t)
-            rows = np.arange(chunk.start, chunk.stop)
-            G[rows, :, t, :] += T.sum(axis=1)
-            T2 = T.transpose(0, 2, 3, 1).reshape(k * 9, len(y))
-            G[chunk] -= (unweighted @ T2.T).T.reshape(k, 3, 3, n).transpose(0, 1, 3, 2)
-            if wall is not None:
-                wall.image_derivative(G, rows, x[t], t, y, fq, unweighted)
-        self._add_special(G, x, lambda r, p: _kernel_gradient(r, p, self.epsilon), f,
-                          derivative=True)
+        far, s = self.far, self.special
+        kernels.far_derivative(x[lo:hi], np.arange(lo, hi), far.positions(x), far.psi,
+                               far.nodes, far.density(f), self.epsilon, True,
+                               *self._wall_args(wall), G)
+        kernels.pairs_derivative(x, f, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, G)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
-
-    def _special_sums(self):
-        """Sparse sums over the special points, made once: ``(entries, S_w, S_ψ, S_1)``
-        with ``entries`` the distinct (target row, node) pairs they touch, ``S_w`` and
-        ``S_ψ`` (entries × points) weight × basis and basis, ``S_1`` (rows × points)
-        the target's own sum."""
-        if getattr(self, "_sums", None) is None:
-            s, n = self.special, len(self.X)
-            nd = s.nodes.shape[1]
-            t = s.target - self.rows.start
-            keys = (np.repeat(t, nd) * n + s.nodes.ravel())
-            entries, inverse = np.unique(keys, return_inverse=True)
-            cols = np.repeat(np.arange(len(t)), nd)
-            shape = (len(entries), len(t))
-            S_w = sp.csr_matrix(((s.psi * s.weight[:, None]).ravel(), (inverse, cols)), shape)
-            S_psi = sp.csr_matrix((s.psi.ravel(), (inverse, cols)), shape)
-            S_1 = sp.csr_matrix((np.ones(len(t)), (t, np.arange(len(t)))),
-                                (self.rows.stop - self.rows.start, len(t)))
-            # separations r = x_target − Σ ψ x and weighted densities, as sparse products
-            p = np.arange(len(t))
-            D = sp.csr_matrix((np.concatenate([np.ones(len(t)), -s.psi.ravel()]),
-                               (np.concatenate([p, cols]),
-                                np.concatenate([s.target, s.nodes.ravel()]))), (len(t), n))
-            Pw = sp.csr_matrix(((s.psi * s.weight[:, None]).ravel(), (cols, s.nodes.ravel())),
-                               (len(t), n))
-            self._sums = (np.divmod(entries, n), S_w, S_psi, S_1, D, Pw)
-        return self._sums
-
-    def _add_special(self, out, x, blocks, f, derivative=False, chunk=200_000):
-        """Add the near and singular rules (minus the far rule's) of this process's
-        pairs to ``out`` (n_rows, 3, N, 3)."""
-        s = self.special
-        if not len(s.weight):
-            return
-        (rows, nodes), S_w, S_psi, S_1, D, Pw = self._special_sums()
-        lo = self.rows.start
-        values = np.empty((len(s.weight), 9))
-        r_all = D @ x
-        fp_all = Pw @ f if derivative else None
-        for start in range(0, len(s.weight), chunk):
-            sl = slice(start, start + chunk)
-            r = r_all[sl]
-            if derivative:
-                values[sl] = blocks(r, fp_all[sl]).reshape(-1, 9)
-            else:
-                values[sl] = blocks(r, None).reshape(-1, 9)
-        if derivative:
-            own = (S_1 @ values).reshape(-1, 3, 3)
-            idx = np.arange(len(own))
-            out[idx, :, idx + lo, :] += own
-            out[rows, :, nodes, :] -= (S_psi @ values).reshape(-1, 3, 3)
-        else:
-            out[rows, :, nodes, :] += (S_w @ values).reshape(-1, 3, 3)
 
     # --- the nodal loads --------------------------------------------------------
 
@@ -387,7 +298,3 @@ class LayerResistance:
         dg = self._to_grid(np.asarray(du, dtype=float))
         return self._to_shell(self._loads(self.densities(cv * dg - G @ dg)))
 
-
-def _chunks(n: int, total: int, pairs: int = 200_000):
-    step = max(1, pairs // max(total, 1))
-    return [slice(i, min(i + step, n)) for i in range(0, n, step)]

@@ -224,95 +224,48 @@ class Wall:
     def _local(self, x):
         return (x - self.point) @ self.Q.T
 
+    def _args(self):
+        return self.Q, self.point
+
     def image_velocity(self, targets, sources, forces):
         """``Σ_j W(x_i, y_j) F_j`` (without 1/8πμ) at every target, (N_t, 3)."""
-        return self._all_pairs(targets, sources, forces).sum(axis=1)
+        targets = np.ascontiguousarray(targets, dtype=float)
+        sources = np.ascontiguousarray(sources, dtype=float)
+        W = np.zeros((len(targets), 3, len(sources), 3))
+        _kernels().far_matrix(targets, sources, np.ones((len(sources), 1)),
+                              np.arange(len(sources))[:, None], 0.0, False, True,
+                              *self._args(), W)
+        return (W.reshape(3 * len(targets), -1) @ np.ravel(forces)).reshape(-1, 3)
 
     def mobility(self, x, viscosity, rows: slice | None = None) -> np.ndarray:
         """The images' part of the dense mobility (3N × 3N, or the rows of ``rows``)."""
-        x = np.asarray(x, dtype=float)
+        x = np.ascontiguousarray(x, dtype=float)
         n = len(x)
         lo, hi = _bounds(rows, n)
-        M = np.empty((hi - lo, 3, n, 3))
-        for chunk in _chunks(hi - lo, total=n):
-            targets = x[_shift(chunk, lo)]
-            for k in range(3):  # unit forces along k at every source
-                unit = np.zeros((n, 3))
-                unit[:, k] = 1.0
-                M[chunk, :, :, k] = self._all_pairs(targets, x, unit).transpose(0, 2, 1)
+        M = np.zeros((hi - lo, 3, n, 3))
+        _kernels().far_matrix(x[lo:hi], x, np.ones((n, 1)), np.arange(n)[:, None], 0.0,
+                              False, True, *self._args(), M)
         return M.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def position_derivative(self, x, viscosity, forces, rows: slice | None = None) -> np.ndarray:
         """The images' part of ``G = ∂u/∂x`` at fixed forces (or its rows of ``rows``),
-        by complex steps (exact to round-off): each pair's velocity differentiated in
-        its target's and in its source's position."""
-        x = np.asarray(x, dtype=float)
-        F = np.asarray(forces, dtype=float).reshape(-1, 3)
+        in closed form (``rftfem.model.stokes_kernels.image_gradient``)."""
+        x = np.ascontiguousarray(x, dtype=float)
+        F = np.ascontiguousarray(forces, dtype=float).reshape(-1, 3)
         n = len(x)
         lo, hi = _bounds(rows, n)
         G = np.zeros((hi - lo, 3, n, 3))
-        step = 1e-30
-        for chunk in _chunks(hi - lo, 60_000, total=n):
-            local = np.arange(chunk.start, chunk.stop)
-            targets = x[_shift(chunk, lo)]
-            for l in range(3):
-                dx = np.zeros(3, dtype=complex)
-                dx[l] = 1j * step
-                # the target moves: every source's image velocity at node i changes
-                vt = self._all_pairs(targets + dx, x, F).imag / step
-                G[local, :, local + lo, l] += vt.sum(axis=1)
-                # the source j moves: node i's velocity from j's image changes
-                vs = self._all_pairs(targets, x + dx, F).imag / step
-                G[chunk, :, :, l] += vs.transpose(0, 2, 1)
+        _kernels().far_derivative(x[lo:hi], np.arange(lo, hi), x, np.ones((n, 1)),
+                                  np.arange(n)[:, None], F, 0.0, False, True,
+                                  *self._args(), G)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
-    def image_blocks(self, targets, sources) -> np.ndarray:
-        """Per pair the image's 3 × 3 block (N_t, N_s, 3, 3), without 1/8πμ (the layer's)."""
-        out = np.empty((len(targets), len(sources), 3, 3))
-        for k in range(3):
-            unit = np.zeros((len(sources), 3))
-            unit[:, k] = 1.0
-            out[:, :, :, k] = self._all_pairs(targets, sources, unit)
-        return out
 
-    def image_derivative(self, G, rows, targets, target_nodes, sources, forces, basis):
-        """Add the images' position derivative (complex steps, without 1/8πμ) to ``G``
-        (rows, 3, N, 3); the sources ``y = Σ ψ x`` move through ``basis`` (N × points)."""
-        step = 1e-30
-        k, q = len(targets), len(sources)
-        for l in range(3):
-            dx = np.zeros(3, dtype=complex)
-            dx[l] = 1j * step
-            vt = self._all_pairs(targets + dx, sources, forces).imag / step
-            G[rows, :, target_nodes, l] += vt.sum(axis=1)
-            vs = self._all_pairs(targets, sources + dx, forces).imag / step  # (k, q, 3)
-            moved = basis @ vs.transpose(1, 0, 2).reshape(q, 3 * k)  # (N, 3k)
-            G[rows, :, :, l] += moved.reshape(-1, k, 3).transpose(1, 2, 0)
+def _kernels():
+    """The compiled kernels (imported when first used: numba compiles or loads them)."""
+    from rftfem.model import stokes_kernels
 
-    def _all_pairs(self, targets, sources, forces):
-        """Per pair (N_t, N_s, 3): each source's image velocity at each target
-        (complex-safe, for the complex steps)."""
-        xi = self._local(targets)[:, None, :]
-        eta = self._local(sources)[None, :, :]
-        f = (np.asarray(forces) @ self.Q.T)[None, :, :]
-        h = eta[..., 2]
-        R = xi - eta * np.array([1.0, 1.0, -1.0])
-        Rn = np.sqrt(np.sum(R * R, axis=-1))
-        R3 = R[..., 2]
-        inv1, inv3 = 1.0 / Rn, 1.0 / Rn ** 3
-        inv5 = inv3 / Rn ** 2
-        RF = np.sum(R * f, axis=-1)
-        g = f * np.array([1.0, 1.0, -1.0])  # D F
-        Rg = np.sum(R * g, axis=-1)
-        g3 = g[..., 2]
-        e3 = np.array([0.0, 0.0, 1.0])
-        # Σ_j g_j ∂Φ/∂R_j
-        dphi = (h[..., None] * (g * inv3[..., None] - 3 * R * (Rg * inv5)[..., None])
-                + e3 * (Rg * inv3)[..., None]
-                - (g * R3[..., None] + R * g3[..., None]) * inv3[..., None]
-                + 3 * R * (R3 * Rg * inv5)[..., None])
-        u = -(f * inv1[..., None] + R * (RF * inv3)[..., None]) + 2 * h[..., None] * dphi
-        return u @ self.Q
+    return stokes_kernels
 
 
 def _chunks(n: int, pairs: int = 250_000, total: int | None = None):

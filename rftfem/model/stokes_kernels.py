@@ -1,0 +1,329 @@
+"""Compiled kernels of the Stokes layer (numba): the regularized Stokeslet, a plane
+wall's images and their exact position derivatives, summed over quadrature points
+straight into the dense rows of the operator (docs/stokes.md §Cost).
+
+Every sum has the same shape.  A quadrature point ``p`` lies at ``y_p = Σ_a ψ_pa x_a``
+on its element (nodes ``nodes[p]``, basis ``psi[p]``, weight ``w_p``), and the
+velocity it makes at a target ``x_t`` is ``K(x_t, y_p) w_p Σ_a ψ_pa f_a``, so
+
+    A[t, :, nodes[p, a], :] += w_p ψ_pa K(x_t, y_p),                        (matrix)
+
+and at a fixed density, with ``F_p = w_p Σ_a ψ_pa f_a`` and ``T = ∂(K F_p)``,
+
+    G[t, :, t, :] += ∂(K F_p)/∂x_t,   G[t, :, nodes[p, a], :] += ψ_pa ∂(K F_p)/∂y_p.
+
+The free kernel is ``S_ε(r) F = a F + b (r·F) r`` with ``r = x_t − y_p`` (ε = 0:
+the Stokeslet, ``a = 1/r``, ``b = 1/r³``; ε > 0: the Gaussian blob of
+``rftfem.model.stokeslets``); the wall's is Blake's image system written out in
+closed form in the wall's frame (``image_block``, ``image_gradient``).  Nothing here
+divides by 8πμ; the callers do.
+
+The far rule pairs every target with every point (``far_*``, threaded over the
+targets: each thread writes its own rows); the near and singular rules are lists
+of (target, point) pairs ordered by target (``pairs_*``, threaded the same way).
+"""
+
+from __future__ import annotations
+
+from math import erf, exp, sqrt
+
+import numba as nb
+import numpy as np
+
+from rftfem.model import stokeslets
+
+# the blob's radial functions below ρ = 0.3 as series (stokeslets.radial's own)
+_S0, _S1, _S2, _S3 = (np.array(c) for c in stokeslets._COEFFS)
+_SERIES_BELOW, _STOKESLET_BEYOND = stokeslets._SERIES_BELOW, stokeslets._STOKESLET_BEYOND
+_C = 2.0 / sqrt(np.pi)
+_JIT = dict(cache=True)
+
+
+@nb.njit(**_JIT)
+def _horner(c, x):
+    s = 0.0
+    for k in range(len(c) - 1, -1, -1):
+        s = s * x + c[k]
+    return s
+
+
+@nb.njit(**_JIT)
+def radial(d, eps):
+    """``(a, b, a′/r, b′/r)`` of the free kernel at the distance ``d``."""
+    if eps == 0.0 or d > _STOKESLET_BEYOND * eps:
+        inv = 1.0 / d
+        inv3 = inv * inv * inv
+        return inv, inv3, -inv3, -3.0 * inv3 * inv * inv
+    r = d / eps
+    if r < _SERIES_BELOW:
+        f0, f1 = _horner(_S0, r), _horner(_S1, r)
+        f2, f3 = _horner(_S2, r), _horner(_S3, r)
+    else:
+        E = exp(-r * r)
+        e = erf(r)
+        s1 = e + _C * r * (3 - 2 * r * r) * E
+        s2 = e - _C * r * (1 - 2 * r * r) * E
+        ds1 = _C * E * (4 - 12 * r * r + 4 * r ** 4)
+        ds2 = _C * E * (8 * r * r - 4 * r ** 4)
+        f0, f1 = s1 / r, s2 / r ** 3
+        f2, f3 = (r * ds1 - s1) / r ** 3, (r * ds2 - 3 * s2) / r ** 5
+    e3 = eps * eps * eps
+    return f0 / eps, f1 / e3, f2 / e3, f3 / (e3 * eps * eps)
+
+
+@nb.njit(**_JIT)
+def free_block(r, eps, out):
+    """``out = S_ε(r)`` (3 × 3), set (not added)."""
+    d = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    a, b, _, _ = radial(d, eps)
+    for i in range(3):
+        for k in range(3):
+            out[i, k] = b * r[i] * r[k]
+        out[i, i] += a
+
+
+@nb.njit(**_JIT)
+def free_gradient(r, F, eps, out):
+    """``out = ∂(S_ε(r) F)/∂r`` (3 × 3), set."""
+    d = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    _, b, da, db = radial(d, eps)
+    rF = r[0] * F[0] + r[1] * F[1] + r[2] * F[2]
+    for i in range(3):
+        for m in range(3):
+            out[i, m] = da * F[i] * r[m] + db * rF * r[i] * r[m] + b * r[i] * F[m]
+        out[i, i] += b * rF
+
+
+_D = np.array([1.0, 1.0, -1.0])
+
+
+@nb.njit(**_JIT)
+def image_block(xi, eta, out):
+    """Blake's image block ``W`` (3 × 3, set) in the wall's frame: ``u = W f`` at
+    ``xi`` for a force ``f`` at ``eta`` (heights ``xi[2]``, ``eta[2]`` > 0),
+
+        W_ik = −δ_ik/R − R_i R_k/R³ + 2h [h (δ_ik/R³ − 3 R_i R_k/R⁵) D_k + δ_i3 R_k D_k/R³
+               − (δ_ik R₃ D_k + R_i δ_k3 D_3)/R³ + 3 R_i R₃ R_k D_k/R⁵],
+
+    ``R = xi − D eta``, ``h = eta[2]``, ``D = diag(1, 1, −1)`` (stokeslets.Wall)."""
+    R = np.empty(3)
+    for k in range(3):
+        R[k] = xi[k] - _D[k] * eta[k]
+    h = eta[2]
+    n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
+    n = sqrt(n2)
+    i1 = 1.0 / n
+    i3 = i1 / n2
+    i5 = i3 / n2
+    R3 = R[2]
+    for i in range(3):
+        for k in range(3):
+            Dk = _D[k]
+            v = -R[i] * R[k] * i3
+            v += 2 * h * (-3 * h * R[i] * R[k] * i5 * Dk + 3 * R[i] * R3 * R[k] * i5 * Dk)
+            if i == k:
+                v += -i1 + 2 * h * (h * i3 * Dk - R3 * Dk * i3)
+            if i == 2:
+                v += 2 * h * R[k] * Dk * i3
+            if k == 2:
+                v += 2 * h * R[i] * i3  # − R_i D_3/R³ with D_3 = −1
+            out[i, k] = v
+
+
+@nb.njit(**_JIT)
+def image_gradient(xi, eta, f, d_xi, d_eta):
+    """The images' velocity ``W f`` (``f`` fixed, the wall's frame) differentiated:
+    ``d_xi = ∂(W f)/∂xi``, ``d_eta = ∂(W f)/∂eta`` (3 × 3 each, set), in closed form
+    (``∂R/∂xi = I``, ``∂R/∂eta = −D``, ``∂h/∂eta = e₃``)."""
+    R = np.empty(3)
+    g = np.empty(3)
+    for k in range(3):
+        R[k] = xi[k] - _D[k] * eta[k]
+        g[k] = _D[k] * f[k]
+    h = eta[2]
+    n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
+    n = sqrt(n2)
+    i1 = 1.0 / n
+    i3 = i1 / n2
+    i5 = i3 / n2
+    i7 = i5 / n2
+    R3, g3 = R[2], g[2]
+    s = R[0] * f[0] + R[1] * f[1] + R[2] * f[2]
+    q = R[0] * g[0] + R[1] * g[1] + R[2] * g[2]
+    for i in range(3):
+        dh = 2 * (h * g[i] * i3 - 3 * h * R[i] * q * i5 - g[i] * R3 * i3 - R[i] * g3 * i3
+                  + 3 * R[i] * R3 * q * i5) + 2 * h * (g[i] * i3 - 3 * R[i] * q * i5)
+        if i == 2:
+            dh += 2 * q * i3
+        for m in range(3):
+            dim = 1.0 if i == m else 0.0
+            dm3 = 1.0 if m == 2 else 0.0
+            di3 = 1.0 if i == 2 else 0.0
+            v = f[i] * R[m] * i3 - dim * s * i3 - R[i] * f[m] * i3 + 3 * R[i] * s * R[m] * i5
+            w = (-3 * h * g[i] * R[m] * i5
+                 - 3 * h * (dim * q * i5 + R[i] * g[m] * i5 - 5 * R[i] * q * R[m] * i7)
+                 + di3 * (g[m] * i3 - 3 * q * R[m] * i5)
+                 - g[i] * (dm3 * i3 - 3 * R3 * R[m] * i5)
+                 - g3 * (dim * i3 - 3 * R[i] * R[m] * i5)
+                 + 3 * (dim * R3 * q * i5 + R[i] * dm3 * q * i5 + R[i] * R3 * g[m] * i5
+                        - 5 * R[i] * R3 * q * R[m] * i7))
+            d_xi[i, m] = v + 2 * h * w
+        for m in range(3):
+            d_eta[i, m] = -d_xi[i, m] * _D[m]
+        d_eta[i, 2] += dh
+
+
+@nb.njit(**_JIT)
+def _to_wall(Q, point, x, out):
+    for i in range(3):
+        out[i] = Q[i, 0] * (x[0] - point[0]) + Q[i, 1] * (x[1] - point[1]) \
+            + Q[i, 2] * (x[2] - point[2])
+
+
+@nb.njit(**_JIT)
+def _rotate_back(Q, M, out):
+    """``out = Qᵀ M Q`` (the wall frame's block in global coordinates)."""
+    for i in range(3):
+        for k in range(3):
+            s = 0.0
+            for a in range(3):
+                for b in range(3):
+                    s += Q[a, i] * M[a, b] * Q[b, k]
+            out[i, k] = s
+
+
+@nb.njit(parallel=True, **_JIT)
+def far_matrix(targets, y, wpsi, nodes, eps, free, wall, Q, point, out):
+    """``out[t, :, nodes[p, a], :] += wpsi[p, a] K(targets[t], y[p])`` over every
+    target and point (``out``: (k, 3, N, 3)); ``K`` is the free kernel if ``free``,
+    plus the images of the wall (frame ``Q``, ``point``) if ``wall``."""
+    k, q, nd = len(targets), len(y), nodes.shape[1]
+    for t in nb.prange(k):
+        K = np.empty((3, 3))
+        W = np.empty((3, 3))
+        Wg = np.empty((3, 3))
+        r = np.empty(3)
+        xi = np.empty(3)
+        eta = np.empty(3)
+        if wall:
+            _to_wall(Q, point, targets[t], xi)
+        for p in range(q):
+            if free:
+                for c in range(3):
+                    r[c] = targets[t, c] - y[p, c]
+                free_block(r, eps, K)
+            else:
+                K[:] = 0.0
+            if wall:
+                _to_wall(Q, point, y[p], eta)
+                image_block(xi, eta, W)
+                _rotate_back(Q, W, Wg)
+                K += Wg
+            for a in range(nd):
+                j, c = nodes[p, a], wpsi[p, a]
+                for i in range(3):
+                    for m in range(3):
+                        out[t, i, j, m] += c * K[i, m]
+
+
+@nb.njit(parallel=True, **_JIT)
+def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, Q, point, out):
+    """The far rule's ``G`` at the weighted point densities ``F`` (q, 3), added to
+    ``out`` (k, 3, N, 3); ``target_nodes[t]`` is the node whose position ``targets[t]``
+    is."""
+    k, q, nd = len(targets), len(y), nodes.shape[1]
+    for t in nb.prange(k):
+        T = np.empty((3, 3))
+        own = np.zeros((3, 3))
+        src = np.empty((3, 3))
+        dxi = np.empty((3, 3))
+        deta = np.empty((3, 3))
+        tmp = np.empty((3, 3))
+        r = np.empty(3)
+        xi = np.empty(3)
+        eta = np.empty(3)
+        fl = np.empty(3)
+        if wall:
+            _to_wall(Q, point, targets[t], xi)
+        for p in range(q):
+            src[:] = 0.0
+            if free:
+                for c in range(3):
+                    r[c] = targets[t, c] - y[p, c]
+                free_gradient(r, F[p], eps, T)
+                own += T
+                src -= T
+            if wall:
+                _to_wall(Q, point, y[p], eta)
+                for c in range(3):
+                    fl[c] = Q[c, 0] * F[p, 0] + Q[c, 1] * F[p, 1] + Q[c, 2] * F[p, 2]
+                image_gradient(xi, eta, fl, dxi, deta)
+                _rotate_back(Q, dxi, tmp)
+                own += tmp
+                _rotate_back(Q, deta, tmp)
+                src += tmp
+            for a in range(nd):
+                j, c = nodes[p, a], psi[p, a]
+                for i in range(3):
+                    for m in range(3):
+                        out[t, i, j, m] += c * src[i, m]
+        j = target_nodes[t]
+        for i in range(3):
+            for m in range(3):
+                out[t, i, j, m] += own[i, m]
+
+
+@nb.njit(parallel=True, **_JIT)
+def pairs_matrix(x, lo, starts, psi, weight, nodes, eps, out):
+    """The near and singular rules: ``out[t − lo, :, nodes[p, a], :] += weight[p] ψ_pa
+    S_ε(x_t − y_p)`` (free kernel only) for the points ``p`` of ``starts[t − lo] :
+    starts[t − lo + 1]`` (the pairs ordered by target, threaded over the targets)."""
+    nd = nodes.shape[1]
+    for row in nb.prange(len(starts) - 1):
+        t = lo + row
+        K = np.empty((3, 3))
+        r = np.empty(3)
+        for p in range(starts[row], starts[row + 1]):
+            for c in range(3):
+                s = x[t, c]
+                for a in range(nd):
+                    s -= psi[p, a] * x[nodes[p, a], c]
+                r[c] = s
+            free_block(r, eps, K)
+            for a in range(nd):
+                j, cw = nodes[p, a], weight[p] * psi[p, a]
+                for i in range(3):
+                    for m in range(3):
+                        out[row, i, j, m] += cw * K[i, m]
+
+
+@nb.njit(parallel=True, **_JIT)
+def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
+    """The near and singular rules' part of ``G`` at the nodal density ``f`` (N, 3),
+    the pairs ordered by target as for :func:`pairs_matrix`."""
+    nd = nodes.shape[1]
+    for row in nb.prange(len(starts) - 1):
+        t = lo + row
+        T = np.empty((3, 3))
+        own = np.zeros((3, 3))
+        r = np.empty(3)
+        F = np.empty(3)
+        for p in range(starts[row], starts[row + 1]):
+            for c in range(3):
+                s = x[t, c]
+                v = 0.0
+                for a in range(nd):
+                    s -= psi[p, a] * x[nodes[p, a], c]
+                    v += psi[p, a] * f[nodes[p, a], c]
+                r[c] = s
+                F[c] = weight[p] * v
+            free_gradient(r, F, eps, T)
+            own += T
+            for a in range(nd):
+                j, c = nodes[p, a], psi[p, a]
+                for i in range(3):
+                    for m in range(3):
+                        out[row, i, j, m] -= c * T[i, m]
+        for i in range(3):
+            for m in range(3):
+                out[row, i, t, m] += own[i, m]
