@@ -238,12 +238,16 @@ def test_signal_in_a_slow_step_drops_it(tmp_path):
 
 def test_a_slow_step_reports_its_iterations(tmp_path):
     """A step slower than RFTFEM_SLOW_STEP prints where it is: its Newton update and
-    Krylov iteration with their residuals."""
+    Krylov iteration with their residuals; the run opens with the liquid's lines of
+    ``rftfem check`` (nodes, operator, memory, time an update, estimated error)."""
     env = dict(os.environ, RFTFEM_SLOW_STEP="0", RFTFEM_LOG_INTERVAL="0")
     cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(tmp_path / "run"),
            "--unset", "fluid.drag", "--set", "time.end=0.002"]
     cmd += [a for s in STOKES_SHEET for a in ("--set", s)]
     done = run_command(cmd, cwd=ROOT, timeout=600, env=env)
     assert done.returncode == 0, done.stderr[-2000:]
+    # the run's first lines say the liquid's discretisation and its cost
+    assert "fluid: integrated layer, 105 shell nodes" in done.stdout, done.stdout[:2000]
+    assert "s of liquid a Newton update" in done.stdout, done.stdout[:2000]
     assert "step 1 towards t = 0.0019635" in done.stdout, done.stdout[-2000:]
     assert "Krylov iteration 1 (residual" in done.stdout, done.stdout[-2000:]

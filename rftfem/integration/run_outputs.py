@@ -27,6 +27,25 @@ class RunOutputs:
         if self.history and self.history[-1][0] != self.t:
             self._write_output(logs, self.t)
 
+    def _opening_lines(self) -> list[str]:
+        """What a run says first: itself, a mesh's turned cells, a Stokes liquid's
+        discretisation and cost (as ``rftfem check`` says them)."""
+        scene, m = self.scene, self.model
+        im = m.W.dofmap.index_map
+        lines = [f"rftfem {__version__}: {scene['title']} — effects: "
+                 f"{', '.join(m.active_effects())}; scheme {self.scheme.name}; "
+                 f"{im.size_global * m.W.dofmap.index_map_bs} dofs on {self.comm.size} "
+                 "process(es)"]
+        report = m.body.report
+        if report is not None and report.turned:
+            lines.append(f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
+                         f"to face as their neighbours")
+        if getattr(m.fluid, "name", None) == "stokes":
+            from rftfem.model import stokes_report
+
+            lines += stokes_report.check_lines(m.fluid.describe())
+        return lines
+
     def _open_outputs(self) -> dict:
         logs = {}
         if self.out_dir is None:

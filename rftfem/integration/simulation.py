@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from rftfem import __version__, petsc_options
+from rftfem import petsc_options
 from rftfem.scene import scales
 from rftfem.integration.arclength import PathFollowing
 from rftfem.integration.error_control import ErrorControl
@@ -228,14 +228,8 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
                             warn=self.warn)
         self.progress_warn = progress.warn
         StepWatch(self.stops, comm, progress).attach(self.solver)
-        progress.log(f"rftfem {__version__}: {scene['title']} — effects: "
-                     f"{', '.join(self.model.active_effects())}; scheme {self.scheme.name}; "
-                     f"{self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs}"
-                     f" dofs on {comm.size} process(es)")
-        report = self.model.body.report
-        if report is not None and report.turned:
-            progress.log(f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
-                         f"to face as their neighbours")
+        for line in self._opening_lines():
+            progress.log(line)
         for line in scales.aliasing_warnings(scene) + [
                 line for comp in self.model.components
                 for line in getattr(comp, "warnings", lambda: [])()]:

@@ -16,16 +16,83 @@ shell mesh's geometry.
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
 
+from rftfem.errors import SceneError
 from rftfem.model import layer_rules, stokes_layer
 
 #: a run whose estimate exceeds this warns
 WARN_ABOVE = 0.05
 #: the next level is not built beyond this many grid nodes (its dense matrix)
 ESTIMATE_NODES = 5000
+#: a scene whose step is estimated to take longer than this is refused (seconds)
+LONGEST_STEP = 3600.0
+#: Newton updates a step takes, for that estimate (1 to 3 on the shipped scenes)
+UPDATES_A_STEP = 2
+#: near and singular quadrature points a grid node adds to its row (the rules'
+#: count on the shipped meshes: 580 to 640)
+SPECIAL_POINTS = 640
+
+
+def machine_memory() -> int:
+    """The machine's memory in bytes (0 if unknown)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 0
+
+
+def _rates() -> tuple[float, float]:
+    """This machine's dense LU rate (flop/s, a 1000 × 1000 factorisation) and seconds
+    per (target, quadrature point) pair of the compiled kernel, measured once."""
+    global _MEASURED
+    if _MEASURED is None:
+        import scipy.linalg as sl
+
+        from rftfem.model import stokes_kernels
+
+        a = np.random.default_rng(0).random((1000, 1000)) + 1000 * np.eye(1000)
+        t0 = time.perf_counter()
+        sl.lu_factor(a, overwrite_a=True, check_finite=False)
+        lu = (2 / 3) * 1000 ** 3 / max(time.perf_counter() - t0, 1e-6)
+        pair = stokes_kernels.pair_seconds()
+        _MEASURED = (lu, pair)
+    return _MEASURED
+
+
+_MEASURED = None
+
+
+def admit(rows: int, points_a_row: float, processes: int, method: str = "layer"):
+    """Refuse a dense Stokes operator that would not fit in the machine's memory or whose
+    step would take over LONGEST_STEP, with the numbers and what to change.  ``rows``:
+    the grid's nodes (the blobs': the shell's); ``points_a_row``: quadrature points each
+    row sums over (the layer)."""
+    n3 = 3 * rows
+    # the matrix on every process and the derivative's share of rows (the blobs: two)
+    memory = 8 * n3 * n3 * (1 + 1 / processes)
+    have = machine_memory()
+    change = ("a coarser mesh" + (" or a lower fluid.refine" if method == "layer" else "")
+              + ', or fluid.method = "blobs" with operator = "fmm" (matrix-free, no wall)')
+    if have and memory > have:
+        raise SceneError(f"fluid: the dense Stokes operator of {rows} nodes needs "
+                         f"{memory / 1e9:.3g} GB on each process, over this machine's "
+                         f"{have / 1e9:.3g} GB: use {change}")
+    if n3 < 6000:  # (at most seconds a step on any machine: not measured)
+        return memory, None
+    lu, pair = _rates()
+    factor = (2 / 3 if method == "layer" else 1 / 3) * n3 ** 3 / lu
+    kernel = 2.5 * rows * points_a_row * pair / processes  # the matrix and its derivative
+    step = UPDATES_A_STEP * (factor + kernel)
+    if step > LONGEST_STEP:
+        raise SceneError(f"fluid: a step of the dense Stokes operator of {rows} nodes would "
+                         f"take about {step / 3600:.3g} h on this machine (a factorisation of "
+                         f"{factor:.3g} s and kernels of {kernel:.3g} s a Newton update, "
+                         f"{UPDATES_A_STEP} updates a step): use {change}")
+    return memory, step
 
 
 def rigid_motions(X: np.ndarray) -> np.ndarray:
@@ -85,6 +152,9 @@ def describe(stokes) -> dict:
 def _estimate(stokes) -> dict:
     """The timing of one Newton update's liquid and the estimate against the next
     level (on this process alone)."""
+    from rftfem.model import stokes_kernels
+
+    stokes_kernels.warm()  # (not timed: compiled or loaded once a process)
     X = stokes.X
     t0 = time.perf_counter()
     res = stokes_layer.LayerResistance(stokes._serial_layer(stokes.refine), X, stokes.viscosity,

@@ -102,6 +102,8 @@ class Stokes(Effect):
             self.columns = [*type(self).columns, "wall_gap_blobs"]
         #: "dense" or "fmm": how the operator is applied
         self.operator = self._choose_operator(given.get("operator", "auto"))
+        if self.method == "blobs" and self.operator == "dense":  # refused if too large
+            stokes_report.admit(len(self.X), len(self.X), comm.size, "blobs")
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
         #: slender-body drag coefficients of the same viscosity (time scales only)
         self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
@@ -134,6 +136,9 @@ class Stokes(Effect):
         self.epsilon = 0.0 if eps is None else float(eps)
         grid, grid_cells, self.interpolation = layer_rules.refined(self.X, cells, cell,
                                                                     self.refine)
+        # refused before its rules are made if too large (16 far points an element)
+        stokes_report.admit(len(grid), 16 * len(grid_cells) + stokes_report.SPECIAL_POINTS,
+                            m.comm.size)
         size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
         counts = [len(grid) // size + (r < len(grid) % size) for r in range(size)]
         start = int(sum(counts[:rank]))
