@@ -137,3 +137,18 @@ def layer_derivative(layer, x, f, wall=None) -> np.ndarray:
     for a in range(s.nodes.shape[1]):
         np.add.at(G, (s.target, slice(None), s.nodes[:, a]), -s.psi[:, a, None, None] * Ts)
     return G.reshape(3 * n, 3 * n)
+
+
+def edge_distance(P, t, y):
+    """The free edges' Newton projection as numpy made it (layer_rules.EdgeWeight):
+    curves ``P`` (n, k, 3, 3), starting parameters ``t`` (n, k), points ``y`` (n, 3)."""
+    from rftfem.model.layer_rules import _quadratic
+
+    for _ in range(4):
+        c, dc, ddc = _quadratic(P, t)
+        r = c - y[:, None]
+        g = np.einsum("pkj,pkj->pk", r, dc)
+        h = np.einsum("pkj,pkj->pk", dc, dc) + np.einsum("pkj,pkj->pk", r, ddc)
+        t = np.clip(t - g / np.where(h > 0, h, 1.0), 0.0, 1.0)
+    r = _quadratic(P, t)[0] - y[:, None]
+    return np.sqrt(np.einsum("pkj,pkj->pk", r, r)).min(axis=1)

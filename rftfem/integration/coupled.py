@@ -40,14 +40,16 @@ class CoupledTangent:
         self.J = PETSc.Mat().createPython(sizes, self, comm=A.getComm())
         self.J.setUp()
 
-    def update(self):
+    def update(self, exact: bool = False):
         """After ``A`` is assembled: each effect's tangent at the current iterate, and
-        its lumped blocks added into ``A`` (the preconditioner's matrix)."""
+        its lumped blocks added into ``A`` (the preconditioner's matrix).  Without
+        ``exact`` an effect may give an older tangent (a Newton update's: the Stokes
+        layer's kept factors)."""
         scale = 1.0 - float(self.model.coef["alpha_f"].value)
         f = self.free.astype(float)
         mask = f[:, :, None] * f[:, None, :]
         for k, comp in enumerate(self.components):
-            self.lumped[k] = comp.prepare_tangent(scale) * mask
+            self.lumped[k] = comp.prepare_tangent(scale, exact) * mask
         total = sum(self.lumped)
         base = (self.first + np.arange(self.n_owned)) * self.block
         for i in range(self.n_owned):

@@ -229,7 +229,7 @@ class StepSolver(NewtonTest):
         compat.assemble_matrix(self.A, self.model.jacobian_form, self.model.bcs)
         self.A.assemble()
         if self.coupled is not None:
-            self.coupled.update()
+            self.coupled.update(exact=True)
         if diagnostic:
             self.timings["jacobian"] += _time.perf_counter() - t0
         else:

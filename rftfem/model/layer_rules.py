@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from rftfem.model import stokes_kernels
+
 #: Gauss–Legendre points across (t) and along (s, per piece) a Duffy triangle
 SINGULAR_ANGULAR, SINGULAR_RADIAL = 8, 6
 #: the rays of a Duffy triangle are cut at ε, 4ε, 16ε, … (in the ray's length) so that
@@ -264,15 +266,8 @@ class EdgeWeight:
                     / np.maximum(np.einsum("pkj,pkj->pk", ab, ab), 1e-300), 0.0, 1.0)
         t0, step = self._chord_t
         t = t0[near] + s * step
-        P = self._curves[self._owner[near]]  # (P, k, 3 nodes, 3)
-        for _ in range(4):  # from a chord's projection: converged to round-off
-            c, dc, ddc = _quadratic(P, t)
-            r = c - y[:, None]
-            g = np.einsum("pkj,pkj->pk", r, dc)
-            h = np.einsum("pkj,pkj->pk", dc, dc) + np.einsum("pkj,pkj->pk", r, ddc)
-            t = np.clip(t - g / np.where(h > 0, h, 1.0), 0.0, 1.0)
-        r = _quadratic(P, t)[0] - y[:, None]
-        return np.sqrt(np.einsum("pkj,pkj->pk", r, r)).min(axis=1)
+        return stokes_kernels.edge_distance(np.ascontiguousarray(y, dtype=float),
+                                            self._curves[self._owner[near]], t)
 
     def set_reach(self, y: np.ndarray):
         """ℓ: the largest distance to a free edge among the points ``y`` (the far rule)."""

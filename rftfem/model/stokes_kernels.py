@@ -358,3 +358,37 @@ def pair_seconds() -> float:
     t0 = time.perf_counter()
     far_matrix(targets, y, wpsi, nodes, 0.0, True, False, Q, point, out)
     return (time.perf_counter() - t0) / (96 * 768)
+
+
+@nb.njit(parallel=True, **_JIT)
+def edge_distance(y, P, t):
+    """The distance of each point ``y[p]`` to the nearest of its candidate free edges,
+    quadratic curves through ``P[p, c]`` (start, middle, end), by Newton's method on
+    ``|c(t) − y|²`` from the parameters ``t[p, c]`` (a chord's projection; four
+    updates reach round-off), ``t`` kept in [0, 1]."""
+    n, k = t.shape
+    out = np.empty(n)
+    for p in nb.prange(n):
+        best = np.inf
+        for c in range(k):
+            s = t[p, c]
+            for it in range(5):
+                N0, N1, N2 = (1 - s) * (1 - 2 * s), 4 * s * (1 - s), s * (2 * s - 1)
+                g = 0.0
+                h = 0.0
+                d2 = 0.0
+                for j in range(3):
+                    r = N0 * P[p, c, 0, j] + N1 * P[p, c, 1, j] + N2 * P[p, c, 2, j] - y[p, j]
+                    d2 += r * r
+                    if it == 4:
+                        continue
+                    dc = ((4 * s - 3) * P[p, c, 0, j] + (4 - 8 * s) * P[p, c, 1, j]
+                          + (4 * s - 1) * P[p, c, 2, j])
+                    ddc = 4 * P[p, c, 0, j] - 8 * P[p, c, 1, j] + 4 * P[p, c, 2, j]
+                    g += r * dc
+                    h += dc * dc + r * ddc
+                if it < 4:
+                    s = min(max(s - g / (h if h > 0 else 1.0), 0.0), 1.0)
+            best = min(best, d2)
+        out[p] = sqrt(best)
+    return out

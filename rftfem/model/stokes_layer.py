@@ -221,19 +221,29 @@ class Layer:
         return len(self.far.weight) + int(np.sum(self.special.weight > 0))
 
 
+#: GMRES on kept factors (docs/stokes.md §Cost): the relative residual a solve reaches,
+#: and the most iterations before the configuration is factorised itself
+KEPT_RTOL, KEPT_MOST = 1e-13, 20
+
+
 class LayerResistance:
-    """The factorised layer of one configuration: nodal loads from velocities,
+    """The layer of one configuration: nodal loads from velocities,
     ``F = Iᵀ B A⁻¹ I v`` (the same contract as ``stokeslets.Resistance``, plus
     :meth:`tangent`), ``I`` the force grid's interpolation (``layer_rules.refined``).
 
     ``A`` is not symmetric (collocation), so it is LU-factorised.  Under MPI each
     process evaluates its ``layer.rows``; the rows are gathered and every process
-    factorises the same matrix; the position derivative stays distributed."""
+    factorises the same matrix; the position derivative stays distributed.
+
+    ``kept``, an earlier configuration's resistance: its factors are kept instead of
+    new ones.  ``A f = v`` is then solved by GMRES on this ``A``, preconditioned by
+    them, to ``KEPT_RTOL`` (the loads are this configuration's to that tolerance),
+    and :meth:`tangent` applies the kept factors and the kept derivative (a
+    tangent of the earlier configuration, which the Stokes effect refreshes when
+    GMRES slows: ``iterations``)."""
 
     def __init__(self, layer: Layer, x, viscosity: float, wall=None, comm=None,
-                 interpolation=None):
-        import scipy.linalg as sl
-
+                 interpolation=None, kept: "LayerResistance | None" = None):
         self.x = np.array(x, dtype=float)
         self.layer, self.viscosity, self.wall = layer, viscosity, wall
         self.I = interpolation if interpolation is not None else \
@@ -241,10 +251,29 @@ class LayerResistance:
         #: the force grid's positions
         self.grid = self.I @ self.x
         self.comm = comm if comm is not None and comm.size > 1 else None
-        A = stokeslets.gather_rows(layer.matrix(self.grid, viscosity, wall), self.comm)
-        self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
+        self.A = stokeslets.gather_rows(layer.matrix(self.grid, viscosity, wall), self.comm)
+        #: the resistance whose factors this one solves with (itself once factorised)
+        self.factored = None
+        #: GMRES iterations of the last solve on kept factors (0: solved directly)
+        self.iterations = 0
+        if kept is None:
+            self.factorise()
+        else:
+            self._lu, self.factored = kept._lu, kept.factored
         self._mass = layer.mass_factors()[0]
         self._solved = []  # (loads, densities) of the last solves, for the derivative
+
+    @property
+    def fresh(self) -> bool:
+        """Whether this configuration has its own factors."""
+        return self.factored is self
+
+    def factorise(self):
+        """Factorise this configuration's ``A`` (then dropped: the factors replace it)."""
+        import scipy.linalg as sl
+
+        self._lu = sl.lu_factor(self.A, overwrite_a=True, check_finite=False)
+        self.A, self.factored, self.iterations = None, self, 0
 
     def _to_grid(self, v: np.ndarray) -> np.ndarray:
         n = len(self.x)
@@ -254,11 +283,23 @@ class LayerResistance:
         g = len(self.grid)
         return (self.I.T @ F.reshape(g, -1)).reshape((-1,) + F.shape[1:])
 
-    def densities(self, rhs: np.ndarray) -> np.ndarray:
-        """``A⁻¹ rhs`` for grid velocities: the density's values at the grid nodes."""
+    def densities(self, rhs: np.ndarray, exact: bool = True) -> np.ndarray:
+        """``A⁻¹ rhs`` for grid velocities: the density's values at the grid nodes (with
+        ``exact`` False and kept factors: theirs, an approximation)."""
         import scipy.linalg as sl
 
-        return sl.lu_solve(self._lu, rhs, check_finite=False)
+        if self.fresh or not exact:
+            return sl.lu_solve(self._lu, rhs, check_finite=False)
+        columns = rhs.reshape(len(rhs), -1)
+        out = np.empty_like(columns)
+        for k in range(columns.shape[1]):
+            out[:, k], its = _gmres(self.A, columns[:, k], lambda r: sl.lu_solve(
+                self._lu, r, check_finite=False), KEPT_RTOL, KEPT_MOST)
+            if out[:, k][0] != out[:, k][0]:  # (NaN: not converged) factorise, solve
+                self.factorise()
+                return self.densities(rhs)
+            self.iterations = max(self.iterations if k else 0, its)
+        return out.reshape(rhs.shape)
 
     def _loads(self, f: np.ndarray) -> np.ndarray:
         g = len(self.grid)
@@ -276,8 +317,9 @@ class LayerResistance:
         """The nodal blocks ``Σ_j R_ij`` of the resistance (N × 3 × 3, symmetrised,
         clipped at 0)."""
         n = len(self.x)
-        ones = np.tile(np.eye(3), (n, 1))
-        return stokeslets.lumped_blocks(self.solve(ones).reshape(n, 3, 3))
+        ones = self._to_grid(np.tile(np.eye(3), (n, 1)))
+        F = self._to_shell(self._loads(self.densities(ones, exact=False)))
+        return stokeslets.lumped_blocks(F.reshape(n, 3, 3))
 
     def position_operator(self, forces):
         """``G = ∂(A f)/∂x_grid`` at the density ``f`` whose loads are ``forces`` (the
@@ -296,5 +338,30 @@ class LayerResistance:
         """``dF = Iᵀ B A⁻¹ (c_v I du − G I du)``: the loads' change for a displacement
         change ``du`` (velocities ``c_v du``), ``G`` from :meth:`position_operator`."""
         dg = self._to_grid(np.asarray(du, dtype=float))
-        return self._to_shell(self._loads(self.densities(cv * dg - G @ dg)))
+        return self._to_shell(self._loads(self.densities(cv * dg - G @ dg, exact=False)))
 
+
+
+def _gmres(A, b, precondition, rtol: float, most: int):
+    """``A x = b`` by GMRES, right-preconditioned (``A M y = b``, ``x = M y``), from 0:
+    ``(x, iterations)``, x NaN if ``rtol`` is not reached in ``most`` iterations."""
+    beta = float(np.linalg.norm(b))
+    if beta == 0.0:
+        return np.zeros_like(b), 0
+    V = np.empty((most + 1, len(b)))
+    H = np.zeros((most + 1, most))
+    V[0] = b / beta
+    for j in range(most):
+        w = A @ precondition(V[j])
+        for i in range(j + 1):  # modified Gram-Schmidt
+            H[i, j] = V[i] @ w
+            w -= H[i, j] * V[i]
+        H[j + 1, j] = np.linalg.norm(w)
+        e1 = np.zeros(j + 2)
+        e1[0] = beta
+        y = np.linalg.lstsq(H[:j + 2, :j + 1], e1, rcond=None)[0]
+        left = np.linalg.norm(e1 - H[:j + 2, :j + 1] @ y)
+        if left <= rtol * beta or H[j + 1, j] == 0.0:
+            return precondition(V[:j + 1].T @ y), j + 1
+        V[j + 1] = w / H[j + 1, j]
+    return np.full_like(b, np.nan), most

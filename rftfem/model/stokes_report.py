@@ -72,8 +72,9 @@ def admit(rows: int, points_a_row: float, processes: int, method: str = "layer")
     the grid's nodes (the blobs': the shell's); ``points_a_row``: quadrature points each
     row sums over (the layer)."""
     n3 = 3 * rows
-    # the matrix on every process and the derivative's share of rows (the blobs: two)
-    memory = 8 * n3 * n3 * (1 + 1 / processes)
+    # on every process the matrix (and the layer's kept factors), the derivative's
+    # share of rows
+    memory = 8 * n3 * n3 * ((2 if method == "layer" else 1) + 1 / processes)
     have = machine_memory()
     change = ("a coarser mesh" + (" or a lower fluid.refine" if method == "layer" else "")
               + ', or fluid.method = "blobs" with operator = "fmm" (matrix-free, no wall)')
@@ -140,7 +141,9 @@ def describe(stokes) -> dict:
     points = comm.allreduce(stokes.layer.quadrature_points) - \
         (comm.size - 1) * len(stokes.layer.far.weight)
     out.update({"refine": stokes.refine, "grid_nodes": grid, "quadrature_points": int(points),
-                "epsilon": stokes.epsilon, "memory_bytes": int(144 * grid ** 2)})
+                "epsilon": stokes.epsilon,
+                # the operator, its factors (kept: beside the next operator), derivative
+                "memory_bytes": int(72 * grid ** 2 * (3 if stokes.keep_factors else 2))})
     value = None
     if comm.rank == 0:
         value = _estimate(stokes)

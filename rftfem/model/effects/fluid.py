@@ -19,6 +19,7 @@ from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Int, Leaf, Str, Table, Ve
 MODELS = ("rft", "stokes")
 OPERATORS = ("auto", "dense", "fmm")
 METHODS = ("layer", "blobs")
+FACTORS = ("kept", "every-update")
 
 SCHEMA = Table({
     "model": Leaf(Str(MODELS), "rft",
@@ -66,6 +67,14 @@ SCHEMA = Table({
                          "a local blob correction and preconditioned conjugate gradients (no "
                          'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
                          "(docs/stokes.md §Cost and scale)."),
+    "factors": Leaf(Str(FACTORS), "kept",
+                    doc='When the layer\'s dense operator is factorised (method "layer"): '
+                        '"kept" (default) keeps a configuration\'s LU factors across residuals '
+                        "and steps, solving each residual's no slip by GMRES on the current "
+                        "operator preconditioned by them (to 1e-13) and taking them and their "
+                        "derivative as the Newton tangent, refreshed when GMRES needs more "
+                        'than 3 iterations; "every-update" factorises at every residual (the '
+                        "exact tangent; the same converged answer; docs/stokes.md §Cost)."),
     "wall": Table({
         "point": Leaf(Vec(), required=True, unit="length",
                       doc="A point of the no-slip plane."),
@@ -113,6 +122,7 @@ def check(scene: dict) -> None:
         for key, what, default in (("regularization", "blob", None), ("wall", "wall", None),
                                    ("method", "discretised layer", "layer"),
                                    ("refine", "discretised layer", 0),
+                                   ("factors", "discretised layer", "kept"),
                                    ("operator", "nonlocal operator", "auto")):
             if fluid.get(key) not in (None, default):
                 raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '

@@ -42,6 +42,10 @@ from rftfem.model.effects.base import Effect
 DENSE_NODES = 5000
 
 
+#: the layer's Newton tangents keep the liquid's factors and derivative while GMRES
+#: on them solves a residual in at most this many iterations (docs/stokes.md §Cost)
+REUSE_ITERATIONS = 3
+
 #: the closest gap between body and wall, in blobs, under which a run is refused, and
 #: under which it is warned of (the wall's images are singular, the body's own
 #: Stokeslets regularized: the no-slip error on the wall is e^(−(gap/δ)²))
@@ -108,6 +112,9 @@ class Stokes(Effect):
         #: slender-body drag coefficients of the same viscosity (time scales only)
         self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
         self._resistance = None  # the factorised mobility of the last positions
+        #: the layer's factors are kept across residuals and steps (``fluid.factors``)
+        self.keep_factors = given.get("factors", "kept") == "kept"
+        self._factored = None  # the resistance whose factors are kept
         self._last = None  # (positions, velocities, forces) of the last residual
         self._tangent = None
 
@@ -259,7 +266,9 @@ class Stokes(Effect):
             elif self.method == "layer":
                 self._resistance = stokes_layer.LayerResistance(
                     self.layer, x, self.viscosity, self.wall, comm=self.model.comm,
-                    interpolation=self.interpolation)
+                    interpolation=self.interpolation,
+                    kept=self._factored if self.keep_factors else None)
+                self._factored = self._resistance.factored
             elif self.operator == "fmm":
                 self._resistance = stokes_fmm.OnFirst(
                     self.model.comm, x,
@@ -286,16 +295,24 @@ class Stokes(Effect):
 
     # --- the tangent ------------------------------------------------------
 
-    def prepare_tangent(self, scale: float) -> np.ndarray:
+    def prepare_tangent(self, scale: float, exact: bool = False) -> np.ndarray:
         """Make the tangent of ``scale · F`` at the current iterate; returns the
-        lumped blocks of its velocity part for the owned nodes (n_owned, 3, 3)."""
+        lumped blocks of its velocity part for the owned nodes (n_owned, 3, 3).
+        Without ``exact`` (a Newton update) the layer may give the kept factors'
+        tangent (``fluid.factors = "kept"``)."""
         F = self.nodal_forces()
         x = self._last[0]
         res = self.resistance(x)
         cv = float(self.model.coef["cv"].value)
         kept = self._tangent
-        if kept is not None and kept[0] is res and kept[4] is F:
-            G = kept[2]  # the same iterate (a lifting made it): G depends on x and F only
+        layer_kept = self.method == "layer" and not res.fresh
+        if layer_kept and (exact or res.iterations > REUSE_ITERATIONS):
+            res.factorise()  # GMRES slowed on the kept factors: this iterate's own
+            self._factored, layer_kept = res, False
+        if kept is not None and (kept[0] is res and kept[4] is F or layer_kept):
+            # the same iterate (a lifting made it: G depends on x and F only), or the
+            # kept factors' tangent
+            G = kept[2]
         else:
             G = res.position_operator(F)
         self._tangent = (res, cv, G, scale, F)
