@@ -23,6 +23,10 @@ steps, outputs; forms already compiled) and its ratio to the RFT run's.
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/stokes_runs.py --steps 40
     .venv/bin/python benchmarks/stokes_runs.py --cases rft stokes-10x2 stokes-20x4
     .venv/bin/python benchmarks/stokes_runs.py --steps 40 --before 8c1acd3
+    .venv/bin/python benchmarks/stokes_runs.py --cases stokes-60x12 --steps 4 --np 2
+
+``stokes-60x12`` (3025 nodes, not in the default list) is the size at which to
+compare one process with two; the JSON lines give each step's seconds.
 """
 
 from __future__ import annotations
@@ -56,16 +60,19 @@ CASES = {
     "stokes-20x4": [*STOKES],
     "stokes-20x4-every": [*STOKES, "--set", 'fluid.factors="every-update"'],
     "stokes-20x4-wall": [*STOKES, *WALL],
+    # 3025 nodes: what two processes share (with --np 2 against 1)
+    "stokes-60x12": [*STOKES, "--set", "mesh.divisions=[60,12]"],
 }
 
 
-def run(case: str, out: Path, steps: int | None, source: Path | None = None) -> dict:
-    """One run of ``case`` into ``out`` (by the checkout at ``source`` if given)."""
+def run(case: str, out: Path, steps: int | None, source: Path | None = None,
+        processes: int = 1) -> dict:
+    """One run of ``case`` into ``out`` (by the checkout at ``source`` if given, under
+    ``mpirun -n processes`` if more than one)."""
     args = list(CASES[case])
-    if source is not None:  # an earlier rftfem knows no fluid.factors
-        args = [a for a in args if "fluid.factors" not in a]
-        args = [a for i, a in enumerate(args) if not (a == "--set" and i + 1 < len(args)
-                                                       and "fluid.factors" in args[i + 1])]
+    if source is not None:  # an earlier rftfem knows no fluid.factors (it made them all)
+        pairs = [args[i:i + 2] for i in range(0, len(args), 2)]
+        args = [a for pair in pairs if "fluid.factors" not in pair[1] for a in pair]
     if steps:
         dt = 2 * 3.141592653589793 / 100.0 / 32  # the demo's T/32 (ω = 100)
         args += ["--set", 'time.until="end"', "--set", f"time.end={steps * dt!r}"]
@@ -74,6 +81,10 @@ def run(case: str, out: Path, steps: int | None, source: Path | None = None) -> 
         env["PYTHONPATH"] = str(source) + os.pathsep + env.get("PYTHONPATH", "")
     cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--quiet",
            *args]
+    if processes > 1:
+        cmd = ["mpirun", "-n", str(processes), *cmd]
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+                   OMPI_MCA_rmaps_base_oversubscribe="1")
     t0 = time.perf_counter()
     done = subprocess.run(cmd, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
@@ -84,14 +95,25 @@ def run(case: str, out: Path, steps: int | None, source: Path | None = None) -> 
     return {"case": case, "steps": summary["counts"]["steps"],
             "newton": summary["counts"]["newton_iterations"], "process": wall,
             "setup": seconds["setup"], "run": seconds["total"] - seconds["setup"],
-            "speed": (summary.get("steady") or {}).get("values", {}).get("front_ux_rate")}
+            "speed": (summary.get("steady") or {}).get("values", {}).get("front_ux_rate"),
+            "steps_s": _step_seconds(out)}
+
+
+def _step_seconds(out: Path) -> list[float]:
+    """Each step's wall seconds (steps.csv)."""
+    import csv
+
+    with open(out / "steps.csv", encoding="utf-8") as f:
+        return [round(float(r["wall_s"]), 3) for r in csv.DictReader(f)]
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
+    parser.add_argument("--cases", nargs="+", choices=list(CASES),
+                        default=[c for c in CASES if c != "stokes-60x12"])
     parser.add_argument("--steps", type=int, help="every run takes this many steps")
     parser.add_argument("--before", help="also run the Stokes cases by this commit")
+    parser.add_argument("--np", type=int, default=1, help="run under mpirun -n NP")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -103,9 +125,10 @@ def main(argv=None) -> int:
         try:
             rows = []
             for case in args.cases:
-                rows.append(run(case, tmp / case, args.steps))
+                rows.append(run(case, tmp / case, args.steps, processes=args.np))
                 if source is not None and case != "rft":
-                    rows[-1]["before"] = run(case, tmp / f"{case}-before", args.steps, source)
+                    rows[-1]["before"] = run(case, tmp / f"{case}-before", args.steps, source,
+                                             args.np)
                 print(json.dumps(rows[-1]), flush=True)
         finally:
             if source is not None:

@@ -120,20 +120,27 @@ class Layer:
         # distances from every target to every element's far points (reference state)
         y = far.positions(self.X).reshape(len(cells), q, 3)
         targets = np.arange(self.rows.start, self.rows.stop)
-        new, old = ([], [], [], []), ([], [], [], [])  # (elem, ξ, weight, target) lists
+        # (elem, ξ, weight, target) lists: reference weights (the singular rules, each
+        # its own points) and weights made already (the near rule an element shares
+        # between its targets, the far points taken off)
+        raw, ready = ([], [], [], []), ([], [], [], [])
 
         def add(group, e, xi, w, t):
             for lst, v in zip(group, (np.full(len(w), e), xi, w, np.full(len(w), t))):
                 lst.append(v)
 
         singular = {}  # the Duffy rules by node, edge weight and ε (in element sizes)
+        # every element's near rule, weighted in one call
+        rules = [self.rule(e, self._m * NEAR_FACTOR) for e in range(len(cells))]
+        counts = [len(w) for _, w in rules]
+        weights = np.split(self._weights(np.repeat(np.arange(len(cells)), counts),
+                                         np.concatenate([xi for xi, _ in rules]),
+                                         np.concatenate([w for _, w in rules])),
+                           np.cumsum(counts)[:-1])
         for e in range(len(cells)):
             d = np.linalg.norm(self.X[targets, None, :] - y[e][None], axis=-1).min(axis=1)
             near = targets[d < NEAR * self.size[e]]
-            if not len(near):
-                continue
             members = list(cells[e])
-            near_rule = self.rule(e, self._m * NEAR_FACTOR)
             far_xi, far_w = self._far_of(e)
             for t in near:
                 if t in members:
@@ -142,19 +149,18 @@ class Layer:
                     key = (a, self.weight.weighted(e), round(np.log(scale) * 16) if scale else 0)
                     if key not in singular:
                         singular[key] = self.rule(e, 0, apex=el.nodes[a], scale=scale)
-                    xi, w = singular[key]
+                    add(raw, e, *singular[key], t)
                 else:
-                    xi, w = near_rule
-                add(new, e, xi, w, t)
-                add(old, e, far_xi, -far_w, t)
-        if not new[0]:
+                    add(ready, e, rules[e][0], weights[e], t)
+                add(ready, e, far_xi, -far_w, t)
+        if not ready[0]:
             return RulePoints(cells, el, np.zeros(0, int), np.zeros((0, 2)), np.zeros(0),
                            np.zeros(0, int))
-        elem, xi, w, t = (np.concatenate(v) for v in new)
-        w = self._weights(elem, xi, w)
-        elem, xi, w, t = (np.concatenate([a, np.concatenate(b)])
-                          for a, b in zip((elem, xi, w, t), old))
-        return RulePoints(cells, el, elem, xi, w, t)
+        if raw[0]:
+            elem, xi, w, t = (np.concatenate(v) for v in raw)
+            ready[0].append(elem), ready[1].append(xi), ready[3].append(t)
+            ready[2].append(self._weights(elem, xi, w))
+        return RulePoints(cells, el, *(np.concatenate(v) for v in ready))
 
     def _far_of(self, e: int):
         """Element ``e``'s far points (reference coordinates) and weights."""
@@ -232,8 +238,10 @@ class LayerResistance:
     :meth:`tangent`), ``I`` the force grid's interpolation (``layer_rules.refined``).
 
     ``A`` is not symmetric (collocation), so it is LU-factorised.  Under MPI each
-    process evaluates its ``layer.rows``; the rows are gathered and every process
-    factorises the same matrix; the position derivative stays distributed.
+    process evaluates its ``layer.rows``; to factorise, the rows are gathered and
+    every process factorises the same matrix; GMRES on kept factors multiplies by
+    the rows where they are (only vectors are gathered); the position derivative
+    stays distributed.
 
     ``kept``, an earlier configuration's resistance: its factors are kept instead of
     new ones.  ``A f = v`` is then solved by GMRES on this ``A``, preconditioned by
@@ -251,7 +259,8 @@ class LayerResistance:
         #: the force grid's positions
         self.grid = self.I @ self.x
         self.comm = comm if comm is not None and comm.size > 1 else None
-        self.A = stokeslets.gather_rows(layer.matrix(self.grid, viscosity, wall), self.comm)
+        #: this process's rows of ``A`` (all of them on one process), until factorised
+        self.A = layer.matrix(self.grid, viscosity, wall)
         #: the resistance whose factors this one solves with (itself once factorised)
         self.factored = None
         #: GMRES iterations of the last solve on kept factors (0: solved directly)
@@ -269,10 +278,12 @@ class LayerResistance:
         return self.factored is self
 
     def factorise(self):
-        """Factorise this configuration's ``A`` (then dropped: the factors replace it)."""
+        """Factorise this configuration's ``A``, its rows gathered on every process (then
+        dropped: the factors replace it)."""
         import scipy.linalg as sl
 
-        self._lu = sl.lu_factor(self.A, overwrite_a=True, check_finite=False)
+        A = stokeslets.gather_rows(self.A, self.comm)
+        self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
         self.A, self.factored, self.iterations = None, self, 0
 
     def _to_grid(self, v: np.ndarray) -> np.ndarray:
@@ -293,13 +304,17 @@ class LayerResistance:
         columns = rhs.reshape(len(rhs), -1)
         out = np.empty_like(columns)
         for k in range(columns.shape[1]):
-            out[:, k], its = _gmres(self.A, columns[:, k], lambda r: sl.lu_solve(
+            out[:, k], its = _gmres(self._product, columns[:, k], lambda r: sl.lu_solve(
                 self._lu, r, check_finite=False), KEPT_RTOL, KEPT_MOST)
             if out[:, k][0] != out[:, k][0]:  # (NaN: not converged) factorise, solve
                 self.factorise()
                 return self.densities(rhs)
             self.iterations = max(self.iterations if k else 0, its)
         return out.reshape(rhs.shape)
+
+    def _product(self, z: np.ndarray) -> np.ndarray:
+        """``A z``: each process its rows, gathered (every process the same vector)."""
+        return stokeslets.gather_rows(self.A @ z, self.comm)
 
     def _loads(self, f: np.ndarray) -> np.ndarray:
         g = len(self.grid)
@@ -342,8 +357,9 @@ class LayerResistance:
 
 
 
-def _gmres(A, b, precondition, rtol: float, most: int):
-    """``A x = b`` by GMRES, right-preconditioned (``A M y = b``, ``x = M y``), from 0:
+def _gmres(product, b, precondition, rtol: float, most: int):
+    """``A x = b`` by GMRES (``product(z) = A z``), right-preconditioned (``A M y = b``,
+    ``x = M y``), from 0:
     ``(x, iterations)``, x NaN if ``rtol`` is not reached in ``most`` iterations."""
     beta = float(np.linalg.norm(b))
     if beta == 0.0:
@@ -352,7 +368,7 @@ def _gmres(A, b, precondition, rtol: float, most: int):
     H = np.zeros((most + 1, most))
     V[0] = b / beta
     for j in range(most):
-        w = A @ precondition(V[j])
+        w = product(precondition(V[j]))
         for i in range(j + 1):  # modified Gram-Schmidt
             H[i, j] = V[i] @ w
             w -= H[i, j] * V[i]

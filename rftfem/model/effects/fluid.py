@@ -73,7 +73,7 @@ SCHEMA = Table({
                         "and steps, solving each residual's no slip by GMRES on the current "
                         "operator preconditioned by them (to 1e-13) and taking them and their "
                         "derivative as the Newton tangent, refreshed when GMRES needs more "
-                        'than 3 iterations; "every-update" factorises at every residual (the '
+                        'than 10 iterations; "every-update" factorises at every residual (the '
                         "exact tangent; the same converged answer; docs/stokes.md §Cost)."),
     "wall": Table({
         "point": Leaf(Vec(), required=True, unit="length",

@@ -44,7 +44,7 @@ DENSE_NODES = 5000
 
 #: the layer's Newton tangents keep the liquid's factors and derivative while GMRES
 #: on them solves a residual in at most this many iterations (docs/stokes.md §Cost)
-REUSE_ITERATIONS = 3
+REUSE_ITERATIONS = 10
 
 #: the closest gap between body and wall, in blobs, under which a run is refused, and
 #: under which it is warned of (the wall's images are singular, the body's own
