@@ -86,7 +86,8 @@ def run(case: str, out: Path, steps: int | None, source: Path | None = None,
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                    OMPI_MCA_rmaps_base_oversubscribe="1")
     t0 = time.perf_counter()
-    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    # (``-m`` puts the working folder first on the path: the checkout that runs)
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=source or ROOT)
     wall = time.perf_counter() - t0
     if done.returncode != 0:
         raise SystemExit(f"{case}: exit {done.returncode}: {done.stderr[-1500:]}")

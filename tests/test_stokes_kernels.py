@@ -66,14 +66,17 @@ def test_wall_images_and_closed_form_derivative_match_numpy():
     F = rng.standard_normal((7, 3))
     W0 = ref.image_blocks(WALL, targets, sources)
     d_t, d_s = ref.image_derivatives(WALL, targets, sources, F)
-    W = np.zeros((7, 3, 7, 3))
-    stokes_kernels.far_matrix(targets, sources, np.ones((7, 1)), np.arange(7)[:, None], 0.0,
-                              False, True, WALL.Q, WALL.point, W)
+    k, Q, p = stokes_kernels, WALL.Q, WALL.point
+    W = np.zeros((7, 3, 7, 3))  # in the wall's frame, turned back
+    k.far_matrix(k.to_frame(Q, p, targets), k.to_frame(Q, p, sources), np.ones((7, 1)),
+                 np.arange(7)[:, None], 0.0, False, True, W)
+    W = k.from_frame(Q, W)
     block = np.abs(W.transpose(0, 2, 1, 3) - W0).max() / np.abs(W0).max()
     G = np.zeros((7, 3, 14, 3))  # sources are nodes 0..6, targets 7..13
-    stokes_kernels.far_derivative(targets, np.arange(7, 14), sources, np.ones((7, 1)),
-                                  np.arange(7)[:, None], F, 0.0, False, True, WALL.Q,
-                                  WALL.point, G)
+    k.far_derivative(k.to_frame(Q, p, targets), np.arange(7, 14), k.to_frame(Q, p, sources),
+                     np.ones((7, 1)), np.arange(7)[:, None], k.to_frame(Q, None, F), 0.0,
+                     False, True, G)
+    G = k.from_frame(Q, G)
     scale = max(np.abs(d_t).max(), np.abs(d_s).max())
     target = np.abs(G[np.arange(7), :, np.arange(7, 14), :] - d_t.sum(axis=1)).max() / scale
     source = np.abs(G[:, :, :7].transpose(0, 2, 1, 3) - d_s).max() / scale

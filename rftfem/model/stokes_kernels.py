@@ -15,7 +15,10 @@ and at a fixed density, with ``F_p = w_p Σ_a ψ_pa f_a`` and ``T = ∂(K F_p)``
 The free kernel is ``S_ε(r) F = a F + b (r·F) r`` with ``r = x_t − y_p`` (ε = 0:
 the Stokeslet, ``a = 1/r``, ``b = 1/r³``; ε > 0: the Gaussian blob of
 ``rftfem.model.stokeslets``); the wall's is Blake's image system written out in
-closed form in the wall's frame (``image_block``, ``image_gradient``).  Nothing here
+closed form in the wall's frame (``image_block``, ``image_gradient``).  With a
+wall everything is summed in its frame (the free kernel is the same in any) and
+each 3 × 3 block of the rows is turned back once at the end (``from_frame``), not
+once per point.  Nothing here
 divides by 8πμ; the callers do.
 
 The far rule pairs every target with every point (``far_*``, threaded over the
@@ -106,28 +109,24 @@ def image_block(xi, eta, out):
                − (δ_ik R₃ D_k + R_i δ_k3 D_3)/R³ + 3 R_i R₃ R_k D_k/R⁵],
 
     ``R = xi − D eta``, ``h = eta[2]``, ``D = diag(1, 1, −1)`` (stokeslets.Wall)."""
-    R = np.empty(3)
-    for k in range(3):
-        R[k] = xi[k] - _D[k] * eta[k]
+    R = (xi[0] - eta[0], xi[1] - eta[1], xi[2] + eta[2])  # (no array: none allocated)
     h = eta[2]
     n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
-    n = sqrt(n2)
-    i1 = 1.0 / n
+    i1 = 1.0 / sqrt(n2)
     i3 = i1 / n2
     i5 = i3 / n2
-    R3 = R[2]
+    # W_ik = R_i R_k (a + b D_k) + δ_ik (c + d D_k) + δ_i3 e R_k D_k + δ_k3 e R_i
+    a, b = -i3, 6 * h * (R[2] - h) * i5
+    c, d, e = -i1, 2 * h * (h - R[2]) * i3, 2 * h * i3
+    for k in range(3):
+        Dk = 1.0 if k < 2 else -1.0
+        ab = a + b * Dk
+        for i in range(3):
+            out[i, k] = R[i] * R[k] * ab
+        out[k, k] += c + d * Dk
+        out[2, k] += e * R[k] * Dk
     for i in range(3):
-        for k in range(3):
-            Dk = _D[k]
-            v = -R[i] * R[k] * i3
-            v += 2 * h * (-3 * h * R[i] * R[k] * i5 * Dk + 3 * R[i] * R3 * R[k] * i5 * Dk)
-            if i == k:
-                v += -i1 + 2 * h * (h * i3 * Dk - R3 * Dk * i3)
-            if i == 2:
-                v += 2 * h * R[k] * Dk * i3
-            if k == 2:
-                v += 2 * h * R[i] * i3  # − R_i D_3/R³ with D_3 = −1
-            out[i, k] = v
+        out[i, 2] += e * R[i]
 
 
 @nb.njit(**_JIT)
@@ -135,11 +134,8 @@ def image_gradient(xi, eta, f, d_xi, d_eta):
     """The images' velocity ``W f`` (``f`` fixed, the wall's frame) differentiated:
     ``d_xi = ∂(W f)/∂xi``, ``d_eta = ∂(W f)/∂eta`` (3 × 3 each, set), in closed form
     (``∂R/∂xi = I``, ``∂R/∂eta = −D``, ``∂h/∂eta = e₃``)."""
-    R = np.empty(3)
-    g = np.empty(3)
-    for k in range(3):
-        R[k] = xi[k] - _D[k] * eta[k]
-        g[k] = _D[k] * f[k]
+    R = (xi[0] - eta[0], xi[1] - eta[1], xi[2] + eta[2])
+    g = (f[0], f[1], -f[2])
     h = eta[2]
     n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
     n = sqrt(n2)
@@ -168,45 +164,21 @@ def image_gradient(xi, eta, f, d_xi, d_eta):
                  + 3 * (dim * R3 * q * i5 + R[i] * dm3 * q * i5 + R[i] * R3 * g[m] * i5
                         - 5 * R[i] * R3 * q * R[m] * i7))
             d_xi[i, m] = v + 2 * h * w
-        for m in range(3):
-            d_eta[i, m] = -d_xi[i, m] * _D[m]
-        d_eta[i, 2] += dh
-
-
-@nb.njit(**_JIT)
-def _to_wall(Q, point, x, out):
-    for i in range(3):
-        out[i] = Q[i, 0] * (x[0] - point[0]) + Q[i, 1] * (x[1] - point[1]) \
-            + Q[i, 2] * (x[2] - point[2])
-
-
-@nb.njit(**_JIT)
-def _rotate_back(Q, M, out):
-    """``out = Qᵀ M Q`` (the wall frame's block in global coordinates)."""
-    for i in range(3):
-        for k in range(3):
-            s = 0.0
-            for a in range(3):
-                for b in range(3):
-                    s += Q[a, i] * M[a, b] * Q[b, k]
-            out[i, k] = s
+        d_eta[i, 0], d_eta[i, 1] = -d_xi[i, 0], -d_xi[i, 1]
+        d_eta[i, 2] = d_xi[i, 2] + dh
 
 
 @nb.njit(parallel=True, **_JIT)
-def far_matrix(targets, y, wpsi, nodes, eps, free, wall, Q, point, out):
+def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
     """``out[t, :, nodes[p, a], :] += wpsi[p, a] K(targets[t], y[p])`` over every
     target and point (``out``: (k, 3, N, 3)); ``K`` is the free kernel if ``free``,
-    plus the images of the wall (frame ``Q``, ``point``) if ``wall``."""
+    plus the images of the wall if ``wall``, the wall the plane z = 0 (the callers
+    work in its frame: :func:`to_frame`, :func:`from_frame`)."""
     k, q, nd = len(targets), len(y), nodes.shape[1]
     for t in nb.prange(k):
         K = np.empty((3, 3))
         W = np.empty((3, 3))
-        Wg = np.empty((3, 3))
         r = np.empty(3)
-        xi = np.empty(3)
-        eta = np.empty(3)
-        if wall:
-            _to_wall(Q, point, targets[t], xi)
         for p in range(q):
             if free:
                 for c in range(3):
@@ -215,10 +187,8 @@ def far_matrix(targets, y, wpsi, nodes, eps, free, wall, Q, point, out):
             else:
                 K[:] = 0.0
             if wall:
-                _to_wall(Q, point, y[p], eta)
-                image_block(xi, eta, W)
-                _rotate_back(Q, W, Wg)
-                K += Wg
+                image_block(targets[t], y[p], W)
+                K += W
             for a in range(nd):
                 j, c = nodes[p, a], wpsi[p, a]
                 for i in range(3):
@@ -227,10 +197,10 @@ def far_matrix(targets, y, wpsi, nodes, eps, free, wall, Q, point, out):
 
 
 @nb.njit(parallel=True, **_JIT)
-def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, Q, point, out):
+def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out):
     """The far rule's ``G`` at the weighted point densities ``F`` (q, 3), added to
     ``out`` (k, 3, N, 3); ``target_nodes[t]`` is the node whose position ``targets[t]``
-    is."""
+    is; the wall as for :func:`far_matrix`."""
     k, q, nd = len(targets), len(y), nodes.shape[1]
     for t in nb.prange(k):
         T = np.empty((3, 3))
@@ -238,13 +208,7 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, Q, 
         src = np.empty((3, 3))
         dxi = np.empty((3, 3))
         deta = np.empty((3, 3))
-        tmp = np.empty((3, 3))
         r = np.empty(3)
-        xi = np.empty(3)
-        eta = np.empty(3)
-        fl = np.empty(3)
-        if wall:
-            _to_wall(Q, point, targets[t], xi)
         for p in range(q):
             src[:] = 0.0
             if free:
@@ -254,14 +218,9 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, Q, 
                 own += T
                 src -= T
             if wall:
-                _to_wall(Q, point, y[p], eta)
-                for c in range(3):
-                    fl[c] = Q[c, 0] * F[p, 0] + Q[c, 1] * F[p, 1] + Q[c, 2] * F[p, 2]
-                image_gradient(xi, eta, fl, dxi, deta)
-                _rotate_back(Q, dxi, tmp)
-                own += tmp
-                _rotate_back(Q, deta, tmp)
-                src += tmp
+                image_gradient(targets[t], y[p], F[p], dxi, deta)
+                own += dxi
+                src += deta
             for a in range(nd):
                 j, c = nodes[p, a], psi[p, a]
                 for i in range(3):
@@ -271,6 +230,19 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, Q, 
         for i in range(3):
             for m in range(3):
                 out[t, i, j, m] += own[i, m]
+
+
+def to_frame(Q, point, x):
+    """Points or forces (…, 3) in the wall's frame: ``Q (x − point)`` (``point`` None:
+    vectors, rotated only)."""
+    x = np.asarray(x, dtype=float)
+    return np.ascontiguousarray((x if point is None else x - point) @ Q.T)
+
+
+def from_frame(Q, M):
+    """Rows (k, 3, N, 3) of a matrix or derivative made in the wall's frame, in global
+    coordinates: each 3 × 3 block ``Qᵀ M Q`` (velocities and positions both turn)."""
+    return np.einsum("ai,tajb,bm->tijm", Q, M, Q, optimize=True)
 
 
 @nb.njit(parallel=True, **_JIT)
@@ -335,9 +307,8 @@ def warm():
     y = np.array([[0.5, 0.5, 1.5], [1.5, 0.5, 1.5]])
     psi, nodes, w = np.ones((2, 1)), np.array([[1], [0]], dtype=np.int64), np.ones(2)
     out = np.zeros((2, 3, 2, 3))
-    Q, point = np.eye(3), np.zeros(3)
-    far_matrix(x, y, psi, nodes, 0.0, True, True, Q, point, out)
-    far_derivative(x, np.arange(2), y, psi, nodes, x, 0.0, True, True, Q, point, out)
+    far_matrix(x, y, psi, nodes, 0.0, True, True, out)
+    far_derivative(x, np.arange(2), y, psi, nodes, x, 0.0, True, True, out)
     starts = np.array([0, 1, 2], dtype=np.int64)
     pairs_matrix(x, 0, starts, psi, w, nodes, 0.0, out)
     pairs_derivative(x, x, 0, starts, psi, w, nodes, 0.0, out)
@@ -353,10 +324,9 @@ def pair_seconds() -> float:
     nodes = rng.integers(0, 96, (768, 9))
     wpsi = rng.random((768, 9))
     out = np.zeros((96, 3, 96, 3))
-    Q, point = np.eye(3), np.zeros(3)
     warm()
     t0 = time.perf_counter()
-    far_matrix(targets, y, wpsi, nodes, 0.0, True, False, Q, point, out)
+    far_matrix(targets, y, wpsi, nodes, 0.0, True, False, out)
     return (time.perf_counter() - t0) / (96 * 768)
 
 

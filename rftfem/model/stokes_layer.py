@@ -169,35 +169,39 @@ class Layer:
 
     # --- the operator ---------------------------------------------------------
 
-    def _wall_args(self, wall):
-        if wall is None:
-            return False, np.eye(3), np.zeros(3)
-        return True, wall.Q, wall.point
-
     def matrix(self, x: np.ndarray, viscosity: float, wall=None) -> np.ndarray:
-        """The rows of ``A`` (3 n_rows × 3N) at the positions ``x``: ``u = A f``."""
+        """The rows of ``A`` (3 n_rows × 3N) at the positions ``x``: ``u = A f`` (with a
+        wall, summed in its frame and turned back: ``stokes_kernels.from_frame``)."""
         x = np.ascontiguousarray(x, dtype=float)
+        if wall is not None:
+            x = kernels.to_frame(wall.Q, wall.point, x)
         n = len(x)
         lo, hi = self.rows.start, self.rows.stop
         A = np.zeros((hi - lo, 3, n, 3))
         far, s = self.far, self.special
         kernels.far_matrix(x[lo:hi], far.positions(x), self._far_wpsi, far.nodes, self.epsilon,
-                           True, *self._wall_args(wall), A)
+                           True, wall is not None, A)
         kernels.pairs_matrix(x, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, A)
+        if wall is not None:
+            A = kernels.from_frame(wall.Q, A)
         return A.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def position_derivative(self, x, f, viscosity: float, wall=None) -> np.ndarray:
         """The rows of ``G = ∂(A f)/∂x`` at fixed ``f`` (3 n_rows × 3N)."""
         x = np.ascontiguousarray(x, dtype=float)
         f = np.ascontiguousarray(f, dtype=float).reshape(-1, 3)
+        if wall is not None:
+            x, f = kernels.to_frame(wall.Q, wall.point, x), kernels.to_frame(wall.Q, None, f)
         n = len(x)
         lo, hi = self.rows.start, self.rows.stop
         G = np.zeros((hi - lo, 3, n, 3))
         far, s = self.far, self.special
         kernels.far_derivative(x[lo:hi], np.arange(lo, hi), far.positions(x), far.psi,
-                               far.nodes, far.density(f), self.epsilon, True,
-                               *self._wall_args(wall), G)
+                               far.nodes, far.density(f), self.epsilon, True, wall is not None,
+                               G)
         kernels.pairs_derivative(x, f, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, G)
+        if wall is not None:
+            G = kernels.from_frame(wall.Q, G)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     # --- the nodal loads --------------------------------------------------------

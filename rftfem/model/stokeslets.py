@@ -224,40 +224,41 @@ class Wall:
     def _local(self, x):
         return (x - self.point) @ self.Q.T
 
-    def _args(self):
-        return self.Q, self.point
+    def _images(self, targets, sources) -> np.ndarray:
+        """Per target the images' blocks of every source (N_t, 3, N_s, 3), global axes,
+        without 1/8πμ."""
+        k = _kernels()
+        n = len(sources)
+        W = np.zeros((len(targets), 3, n, 3))
+        k.far_matrix(k.to_frame(self.Q, self.point, targets),
+                     k.to_frame(self.Q, self.point, sources), np.ones((n, 1)),
+                     np.arange(n)[:, None], 0.0, False, True, W)
+        return k.from_frame(self.Q, W)
 
     def image_velocity(self, targets, sources, forces):
         """``Σ_j W(x_i, y_j) F_j`` (without 1/8πμ) at every target, (N_t, 3)."""
-        targets = np.ascontiguousarray(targets, dtype=float)
-        sources = np.ascontiguousarray(sources, dtype=float)
-        W = np.zeros((len(targets), 3, len(sources), 3))
-        _kernels().far_matrix(targets, sources, np.ones((len(sources), 1)),
-                              np.arange(len(sources))[:, None], 0.0, False, True,
-                              *self._args(), W)
-        return (W.reshape(3 * len(targets), -1) @ np.ravel(forces)).reshape(-1, 3)
+        W = self._images(targets, sources)
+        return (W.reshape(3 * len(W), -1) @ np.ravel(forces)).reshape(-1, 3)
 
     def mobility(self, x, viscosity, rows: slice | None = None) -> np.ndarray:
         """The images' part of the dense mobility (3N × 3N, or the rows of ``rows``)."""
-        x = np.ascontiguousarray(x, dtype=float)
+        x = np.asarray(x, dtype=float)
         n = len(x)
         lo, hi = _bounds(rows, n)
-        M = np.zeros((hi - lo, 3, n, 3))
-        _kernels().far_matrix(x[lo:hi], x, np.ones((n, 1)), np.arange(n)[:, None], 0.0,
-                              False, True, *self._args(), M)
-        return M.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
+        return self._images(x[lo:hi], x).reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
     def position_derivative(self, x, viscosity, forces, rows: slice | None = None) -> np.ndarray:
         """The images' part of ``G = ∂u/∂x`` at fixed forces (or its rows of ``rows``),
         in closed form (``rftfem.model.stokes_kernels.image_gradient``)."""
-        x = np.ascontiguousarray(x, dtype=float)
-        F = np.ascontiguousarray(forces, dtype=float).reshape(-1, 3)
+        k = _kernels()
+        x = k.to_frame(self.Q, self.point, x)
+        F = k.to_frame(self.Q, None, np.reshape(forces, (-1, 3)))
         n = len(x)
         lo, hi = _bounds(rows, n)
         G = np.zeros((hi - lo, 3, n, 3))
-        _kernels().far_derivative(x[lo:hi], np.arange(lo, hi), x, np.ones((n, 1)),
-                                  np.arange(n)[:, None], F, 0.0, False, True,
-                                  *self._args(), G)
+        k.far_derivative(x[lo:hi], np.arange(lo, hi), x, np.ones((n, 1)),
+                         np.arange(n)[:, None], F, 0.0, False, True, G)
+        G = k.from_frame(self.Q, G)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
 
