@@ -138,3 +138,16 @@ def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
     size = np.abs(table).max(axis=0)
     size = np.where(np.isin(header, power), size * table[-1, 0], size)
     return np.array([max(size[j] for j, g2 in enumerate(groups) if g2 == g) for g in groups])
+
+
+def assert_tables_agree(reference: Path, other: Path, tolerance: float, what: str,
+                        names=("body.csv", "probes.csv")):
+    """Every column of each table of run ``other`` within ``tolerance`` of its vector's
+    scale (:func:`vector_scales`) of run ``reference``'s; prints the worst."""
+    for name in names:
+        a = np.loadtxt(reference / name, delimiter=",", skiprows=1)
+        b = np.loadtxt(other / name, delimiter=",", skiprows=1)
+        scale = np.maximum(vector_scales(reference / name, a), 1e-300)
+        worst = (np.abs(a - b) / scale).max()
+        print(f"{name}: {what}, {worst:.2e} of the scale")
+        assert worst < tolerance, (name, np.abs(a - b).max(axis=0) / scale)

@@ -542,7 +542,7 @@ def test_two_processes_match_one(tmp_path, cli_run, operator, method):
     motion) on two processes against one: every body.csv and probes.csv column to
     1e-10 of its vector's scale (reached 7e-14 dense, kernel rows shared out; 6e-14
     matrix-free, on the first process)."""
-    from running import vector_scales
+    from running import assert_tables_agree
     from stokes_bodies import swimming_sheet_scene
 
     scene = swimming_sheet_scene(tmp_path)
@@ -552,13 +552,7 @@ def test_two_processes_match_one(tmp_path, cli_run, operator, method):
                                   f'method = "{method}"'), encoding="utf-8")
     one = cli_run(scene, tmp_path / "one")
     two = cli_run(scene, tmp_path / "two", np=2)
-    for name in ("body.csv", "probes.csv"):
-        a = np.loadtxt(one / name, delimiter=",", skiprows=1)
-        b = np.loadtxt(two / name, delimiter=",", skiprows=1)
-        scale = np.maximum(vector_scales(one / name, a), 1e-300)
-        worst = (np.abs(a - b) / scale).max()
-        print(f"{name}: two processes against one, {worst:.2e} of the scale")
-        assert worst < 1e-10, (name, np.abs(a - b).max(axis=0) / scale)
+    assert_tables_agree(one, two, 1e-10, "two processes against one")
     header = (one / "body.csv").read_text().splitlines()[0].split(",")
     assert "fluid_Fx" in header and "fluid_power" in header
 

@@ -97,7 +97,8 @@ def free_gradient(r, F, eps, out):
         out[i, i] += b * rF
 
 
-_D = np.array([1.0, 1.0, -1.0])
+#: a single node's coefficient (:func:`_scatter` of a target's own block)
+_ONE = np.ones(1)
 
 
 @nb.njit(**_JIT)
@@ -168,6 +169,17 @@ def image_gradient(xi, eta, f, d_xi, d_eta):
         d_eta[i, 2] = d_xi[i, 2] + dh
 
 
+@nb.njit(**_JIT)
+def _scatter(row, nodes, coeffs, scale, block):
+    """``row[:, nodes[a], :] += scale · coeffs[a] · block`` for an element's nodes
+    (``row``: one target's (3, N, 3) of the operator or its derivative)."""
+    for a in range(len(nodes)):
+        j, c = nodes[a], scale * coeffs[a]
+        for i in range(3):
+            for m in range(3):
+                row[i, j, m] += c * block[i, m]
+
+
 @nb.njit(parallel=True, **_JIT)
 def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
     """``out[t, :, nodes[p, a], :] += wpsi[p, a] K(targets[t], y[p])`` over every
@@ -189,11 +201,7 @@ def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
             if wall:
                 image_block(targets[t], y[p], W)
                 K += W
-            for a in range(nd):
-                j, c = nodes[p, a], wpsi[p, a]
-                for i in range(3):
-                    for m in range(3):
-                        out[t, i, j, m] += c * K[i, m]
+            _scatter(out[t], nodes[p], wpsi[p], 1.0, K)
 
 
 @nb.njit(parallel=True, **_JIT)
@@ -221,15 +229,8 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out
                 image_gradient(targets[t], y[p], F[p], dxi, deta)
                 own += dxi
                 src += deta
-            for a in range(nd):
-                j, c = nodes[p, a], psi[p, a]
-                for i in range(3):
-                    for m in range(3):
-                        out[t, i, j, m] += c * src[i, m]
-        j = target_nodes[t]
-        for i in range(3):
-            for m in range(3):
-                out[t, i, j, m] += own[i, m]
+            _scatter(out[t], nodes[p], psi[p], 1.0, src)
+        _scatter(out[t], target_nodes[t:t + 1], _ONE, 1.0, own)
 
 
 def to_frame(Q, point, x):
@@ -262,11 +263,7 @@ def pairs_matrix(x, lo, starts, psi, weight, nodes, eps, out):
                     s -= psi[p, a] * x[nodes[p, a], c]
                 r[c] = s
             free_block(r, eps, K)
-            for a in range(nd):
-                j, cw = nodes[p, a], weight[p] * psi[p, a]
-                for i in range(3):
-                    for m in range(3):
-                        out[row, i, j, m] += cw * K[i, m]
+            _scatter(out[row], nodes[p], psi[p], weight[p], K)
 
 
 @nb.njit(parallel=True, **_JIT)
@@ -274,6 +271,7 @@ def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
     """The near and singular rules' part of ``G`` at the nodal density ``f`` (N, 3),
     the pairs ordered by target as for :func:`pairs_matrix`."""
     nd = nodes.shape[1]
+    x_index = np.arange(len(x))
     for row in nb.prange(len(starts) - 1):
         t = lo + row
         T = np.empty((3, 3))
@@ -291,14 +289,8 @@ def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
                 F[c] = weight[p] * v
             free_gradient(r, F, eps, T)
             own += T
-            for a in range(nd):
-                j, c = nodes[p, a], psi[p, a]
-                for i in range(3):
-                    for m in range(3):
-                        out[row, i, j, m] -= c * T[i, m]
-        for i in range(3):
-            for m in range(3):
-                out[row, i, t, m] += own[i, m]
+            _scatter(out[row], nodes[p], psi[p], -1.0, T)
+        _scatter(out[row], x_index[t:t + 1], _ONE, 1.0, own)
 
 
 def warm():
