@@ -37,9 +37,12 @@ def _override_text(key: str, value: Any) -> str:
         return f"{key}={value!r}"
 
 
-def _change(raw: dict, changes: Mapping[str, Any]) -> list[str]:
+def _change(raw: dict, changes: Mapping[str, Any], what: str = "Scene.update") -> list[str]:
     """Make ``changes`` (dotted keys to values) in the raw table; their override texts.
     A value None removes the key, as ``--unset`` does (TOML has no null)."""
+    if not isinstance(changes, Mapping):
+        raise SceneError(f"{what}: expected a dict of dotted keys to values "
+                         f"({{'time.dt': 0.01}}), found {type(changes).__name__}")
     texts = []
     for key, value in changes.items():
         _split(key)
@@ -211,7 +214,7 @@ class Scene:
             raise TypeError("Scene.update takes a dict of dotted keys: "
                             "scene.update({'time.dt': 0.01})")
         raw = copy.deepcopy(self._raw)
-        texts = _change(raw, changes or {})
+        texts = _change(raw, {} if changes is None else changes)
         overrides = [*self._overrides, *texts]
         scene = complete_scene(raw, self._folder, self._path, overrides)
         self._raw, self._scene, self._overrides = raw, scene, overrides
@@ -261,7 +264,7 @@ def load_scene(path: str | os.PathLike, set: Mapping[str, Any] | None = None) ->
     """Read the scene file ``path``, with the changes ``set`` (dotted keys to
     values, as ``--set``), and validate it as ``rftfem run`` does."""
     raw = read_scene_file(path)
-    texts = _change(raw, set or {})
+    texts = _change(raw, {} if set is None else set, "load_scene(set=...)")
     path = Path(path).expanduser().resolve()
     return Scene(raw, path.parent, path, texts)
 
@@ -323,7 +326,12 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
             import rftfem.outputs.render  # noqa: F401  (pyvista with its plotting, VTK's rendering)
         except (ImportError, RuntimeError):
             pass
+    shown = warnings.showwarning
     from rftfem.integration.simulation import run as run_simulation
+
+    # the reference stack's ffcx, when first imported, sends every warning to logging,
+    # past the caller's warnings.catch_warnings (pytest.warns): undo that
+    warnings.showwarning = shown
 
     if out is None:
         out = restart if restart is not None else default_out(scene)
@@ -333,7 +341,11 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
             args += [f"-{str(k).lstrip('-')}"] + ([] if v is None or v == "" else [str(v)])
         petsc = args
     def warn(text: str):
-        warnings.warn(text, RunWarning, stacklevel=3)
+        # issued at the line that called rftfem.run (the first frame outside rftfem)
+        frame, level = sys._getframe(1), 2
+        while frame is not None and frame.f_globals.get("__name__", "").startswith("rftfem."):
+            frame, level = frame.f_back, level + 1
+        warnings.warn(text, RunWarning, stacklevel=level)
 
     try:
         run_simulation(scene.completed(), out_dir=Path(out), quiet=bool(quiet),

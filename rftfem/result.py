@@ -156,19 +156,24 @@ class Result:
         from rftfem.outputs import render_cli
         from rftfem.outputs.compat_render import import_pyvista
 
+        class Parser(argparse.ArgumentParser):
+            def error(self, message):  # one line, not argparse's usage and exit
+                raise SceneError(f"render: {message}")
+
         out = Path(out) if out is not None else self.folder / "render.png"
+        parser = Parser(prog="rftfem render", add_help=False, allow_abbrev=False)
+        render_cli.add_arguments(parser)
+        # by their exact names (argparse would take "col" for color)
+        names = [a.dest for a in parser._actions if a.option_strings and a.dest != "out"]
+        unknown = [name for name in options if name not in names]
+        if unknown:
+            raise SceneError(f"render: unknown option{'s' * (len(unknown) > 1)} "
+                             f"{', '.join(unknown)} (render takes {', '.join(names)})")
         argv = [str(self.folder), "--out", str(out)]
         for name, value in options.items():
             if value is not None:
                 argv += [f"--{name.replace('_', '-')}", str(value)]
-        parser = argparse.ArgumentParser(prog="rftfem render", add_help=False)
-        render_cli.add_arguments(parser)
-        try:
-            args, unknown = parser.parse_known_args(argv)
-        except SystemExit:
-            raise SceneError(f"render: options not understood: {options}") from None
-        if unknown:
-            raise SceneError(f"render: unknown option(s) {', '.join(unknown)}")
+        args = parser.parse_args(argv)
         try:
             import_pyvista()
         except RuntimeError:

@@ -62,7 +62,10 @@ ramp = "constant"
 
 def test_static_run_with_a_load_on_at_t0_says_to_ramp_it(tmp_path):
     """Nothing holds the strip: the static start fails (exit 3) and says the load
-    load.0 is already on at t = 0; the same load ramped from 0 is named nowhere."""
+    load.0 is already on at t = 0; the same load ramped from 0 is named nowhere: its
+    run fails too (a singular tangent, exit 3), in one line that names no load.
+    Broke: loads_at_start without its ramp condition → the ramped run's line said
+    "load.0 is already on at t = 0"."""
     scene = write_scene(tmp_path, FREE_STRIP)
     done = rftfem("run", scene, "--out", tmp_path / "out", "--quiet")
     print(done.stderr)
@@ -75,7 +78,10 @@ def test_static_run_with_a_load_on_at_t0_says_to_ramp_it(tmp_path):
     assert done.returncode == 3 and "load.0 is already on at t = 0" in done.stderr
     ramped = stiff.replace('ramp = "constant"', 'ramp = "linear"')
     done = rftfem("run", write_scene(tmp_path, ramped), "--out", tmp_path / "out3", "--quiet")
-    assert "already on at t = 0" not in done.stderr
+    print(done.stderr)
+    assert done.returncode == 3 and len(done.stderr.strip().splitlines()) == 1
+    assert done.stderr.startswith("rftfem: run failed at t = ")
+    assert "already on at t = 0" not in done.stderr and "load.0" not in done.stderr
 
 
 ALIAS = """
