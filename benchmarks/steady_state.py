@@ -49,7 +49,8 @@ def main(argv=None):
     from rftfem.outputs.quantities import read_csv
     from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import run
-    from rftfem.integration.steady import SteadyWatch, scene_period
+    from rftfem.integration.steady import SteadyWatch
+    from rftfem.scene.time_rules import scene_period
 
     scene = load_scene(ROOT / "demos" / "swimming_sheet.toml", ["output.fields=false",
                                                                  "time.output_every=1",

@@ -1,7 +1,7 @@
 """The generated parts of docs/scenes.md: the scene keys and the command line.
 
-    python -m rftfem.scene.reference           # rewrite the generated parts
-    python -m rftfem.scene.reference --check   # exit 1 if they are out of date
+    python -m rftfem.reference           # rewrite the generated parts
+    python -m rftfem.reference --check   # exit 1 if they are out of date
 
 docs/scenes.md is hand-written except between marker comments::
 
@@ -35,13 +35,13 @@ from rftfem.scene import reading as _scene
 from rftfem.scene import toml_writer
 
 #: docs/scenes.md of the source tree this module belongs to
-DOC_PATH = Path(__file__).resolve().parents[2] / "docs" / "scenes.md"
+DOC_PATH = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
 #: the generated parts, by name; each sits between ``<!-- generated: NAME -->`` and END
 PARTS = ("scene keys", "command line")
 END = "<!-- end generated -->"
 #: the width the help texts are formatted at (the COLUMNS argparse sees)
 HELP_COLUMNS = 80
-REGENERATE = "python -m rftfem.scene.reference"
+REGENERATE = "python -m rftfem.reference"
 
 
 class UndocumentedKey(ValueError):
@@ -303,7 +303,7 @@ def diff(text: str, parts: dict[str, str] | None = None, limit: int = 40) -> str
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
-        prog="python -m rftfem.scene.reference",
+        prog="python -m rftfem.reference",
         description="Rewrite the generated parts of docs/scenes.md (scene keys from "
                     "the schema, command line from rftfem/cli.py).")
     ap.add_argument("--check", action="store_true",

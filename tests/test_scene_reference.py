@@ -2,7 +2,7 @@
 refuses an undocumented key, and every key the shipped demos use is listed.
 
 When a test here fails because the schema (rftfem/scene/reading.py) or a command's options
-changed, regenerate the reference with ``python -m rftfem.scene.reference``.
+changed, regenerate the reference with ``python -m rftfem.reference``.
 """
 
 from __future__ import annotations
@@ -12,9 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from rftfem.scene import reading as scene, reference as scene_reference
+from rftfem import reference as scene_reference
+from rftfem.scene import reading as scene
 from rftfem.scene.schema import Array, Free, Leaf, Num, Str, Table
-from rftfem.scene.reference import UndocumentedKey
+from rftfem.reference import UndocumentedKey
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "scenes.md"
@@ -34,7 +35,7 @@ def test_generated_part_is_current(part):
     assert not stale, (
         f"docs/scenes.md: the generated part '{part}' is out of date (rftfem/scene/reading.py or "
         f"the command-line options changed); regenerate it with\n"
-        f"    python -m rftfem.scene.reference\n"
+        f"    python -m rftfem.reference\n"
         f"{scene_reference.diff(text, parts)}")
 
 
@@ -166,7 +167,7 @@ def test_check_and_rewrite(tmp_path, capsys):
     copy.write_text(text.replace(body, body.replace("| `mesh.length` |", "| `mesh.len` |")),
                     encoding="utf-8")
     assert scene_reference.main(["--check", "--file", str(copy)]) == 1
-    assert "python -m rftfem.scene.reference" in capsys.readouterr().err
+    assert "python -m rftfem.reference" in capsys.readouterr().err
     assert scene_reference.main(["--file", str(copy)]) == 0
     assert scene_reference.main(["--check", "--file", str(copy)]) == 0
     fresh = copy.read_text(encoding="utf-8")

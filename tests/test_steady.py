@@ -179,7 +179,7 @@ def test_period_is_read_from_the_drivers(parts, period):
     """time.until = "periodic" finds its period: a travelling wave's 2π/|ω| (a table
     motion has none), a rotating field's 1/f, both when they agree, time.period over
     both."""
-    from rftfem.integration.steady import scene_period
+    from rftfem.scene.time_rules import scene_period
 
     assert scene_period(_period_scene(**parts)) == pytest.approx(period, rel=1e-15)
 
@@ -188,7 +188,7 @@ def test_two_different_periods_are_refused():
     """A wave of period 0.5 and a field of 4 Hz: no single period; the message names
     both and asks for time.period."""
     from rftfem.errors import SceneError
-    from rftfem.integration.steady import scene_period
+    from rftfem.scene.time_rules import scene_period
 
     scene = _period_scene(motion=[{"kind": "travelling-wave", "angular_frequency": 4 * np.pi}],
                           magnetic={"field": {"kind": "rotating", "frequency": 4.0}})

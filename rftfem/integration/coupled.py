@@ -1,12 +1,14 @@
-"""The Newton operator of a step with a nonlocal effect (the Stokes flow).
+"""The Newton operator of a step with nonlocal effects (the Stokes flow).
 
-The assembled tangent ``A`` holds every UFL term.  A nonlocal effect adds a dense
-block on the displacement dofs that is never assembled: the operator the Krylov
-solver sees is the PETSc shell matrix
+The assembled tangent ``A`` holds every UFL term.  A nonlocal effect
+(:class:`~rftfem.model.effects.base.NonlocalEffect`) adds a dense block on the
+unknowns it acts on (its ``unknowns``: the displacement's three components for the
+Stokes flow) that is never assembled: the operator the Krylov solver sees is the
+PETSc shell matrix
 
-    J x = A x + Σ_effects (T x_u − D x_u)          (free rows and columns only)
+    J x = A x + Σ_effects (T x − D x)          (free rows and columns only)
 
-where ``T x_u`` is the effect's ``tangent_product`` and ``D`` its lumped nodal
+where ``T x`` is the effect's ``tangent_product`` and ``D`` its lumped nodal
 blocks, which are added into ``A`` itself.  ``A + D`` is then the preconditioner's
 matrix (factorised like any tangent), a local drag standing in for the nonlocal
 one, and ``J`` is the exact tangent.  Rows and columns of Dirichlet dofs are left
@@ -28,14 +30,15 @@ class CoupledTangent:
         im = model.W.dofmap.index_map
         self.n_owned = im.size_local
         self.first = im.local_range[0]
-        self.free = np.ones((self.n_owned, 3), dtype=bool)
+        #: the owned nodes' unknowns that no Dirichlet condition holds (n_owned, block)
+        self.free = np.ones((self.n_owned, self.block), dtype=bool)
         for bc in model.bcs:
             dofs = np.asarray(bc.dof_indices()[0])
             dofs = dofs[dofs < self.n_owned * self.block]
             node, comp = np.divmod(dofs, self.block)
-            keep = comp < 3
-            self.free[node[keep], comp[keep]] = False
-        self.lumped = [np.zeros((self.n_owned, 3, 3)) for _ in components]
+            self.free[node, comp] = False
+        self.unknowns = [np.asarray(c.unknowns) for c in components]
+        self.lumped = [np.zeros((self.n_owned, len(k), len(k))) for k in self.unknowns]
         sizes = A.getSizes()
         self.J = PETSc.Mat().createPython(sizes, self, comm=A.getComm())
         self.J.setUp()
@@ -46,16 +49,13 @@ class CoupledTangent:
         ``exact`` an effect may give an older tangent (a Newton update's: the Stokes
         layer's kept factors)."""
         scale = 1.0 - float(self.model.coef["alpha_f"].value)
-        f = self.free.astype(float)
-        mask = f[:, :, None] * f[:, None, :]
-        for k, comp in enumerate(self.components):
-            self.lumped[k] = comp.prepare_tangent(scale, exact) * mask
-        total = sum(self.lumped)
         base = (self.first + np.arange(self.n_owned)) * self.block
-        for i in range(self.n_owned):
-            if total[i].any():
-                rows = (base[i] + np.arange(3)).astype(PETSc.IntType)
-                self.A.setValues(rows, rows, total[i], addv=PETSc.InsertMode.ADD)
+        for k, (comp, cols) in enumerate(zip(self.components, self.unknowns)):
+            f = self.free[:, cols].astype(float)
+            self.lumped[k] = comp.prepare_tangent(scale, exact) * f[:, :, None] * f[:, None, :]
+            for i in np.flatnonzero(self.lumped[k].any(axis=(1, 2))):
+                rows = (base[i] + cols).astype(PETSc.IntType)
+                self.A.setValues(rows, rows, self.lumped[k][i], addv=PETSc.InsertMode.ADD)
         self.A.assemble()
 
     def lift(self, b, x0, scale: float):
@@ -70,37 +70,34 @@ class CoupledTangent:
         with d.localForm() as local:
             local.set(0.0)
         compat.set_bc(d, self.model.bcs, x0, 1.0)  # g − x0 on the Dirichlet rows
-        held = d.getArray(readonly=True).reshape(-1, self.block)[:, :3] * ~self.free
+        held = d.getArray(readonly=True).reshape(-1, self.block) * ~self.free
         d.destroy()
         if not self.model.comm.allreduce(bool(np.any(held))):
             return
         scale_f = 1.0 - float(self.model.coef["alpha_f"].value)
-        xg = self._gather(held).ravel()
-        extra = np.zeros((self.n_owned, 3))
-        for comp in self.components:
-            comp.prepare_tangent(scale_f, exact=True)
-            extra += comp.tangent_product(xg).reshape(-1, 3)[comp.offset:comp.offset
-                                                             + self.n_owned]
         y = b.getArray().reshape(-1, self.block)
-        y[:, :3] -= scale * extra * self.free
+        for comp, cols in zip(self.components, self.unknowns):
+            comp.prepare_tangent(scale_f, exact=True)
+            extra = comp.tangent_product(self._gather(held[:, cols]))
+            y[:, cols] -= scale * extra * self.free[:, cols]
 
     def _gather(self, owned):
+        """Every process's rows of ``owned`` (n_owned, k), in rank order."""
         return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
 
     def mult(self, mat, X, Y):
         self.A.mult(X, Y)
-        x = X.getArray(readonly=True).reshape(-1, self.block)[:, :3] * self.free
-        xg = self._gather(x).ravel()
-        extra = np.zeros((self.n_owned, 3))
-        for comp, lumped in zip(self.components, self.lumped):
-            z = comp.tangent_product(xg).reshape(-1, 3)[comp.offset:comp.offset + self.n_owned]
-            extra += z - np.einsum("nij,nj->ni", lumped, x)
+        x = X.getArray(readonly=True).reshape(-1, self.block) * self.free
         y = Y.getArray().reshape(-1, self.block)
-        y[:, :3] += extra * self.free
-
+        for comp, cols, lumped in zip(self.components, self.unknowns, self.lumped):
+            xk = x[:, cols]
+            z = comp.tangent_product(self._gather(xk))
+            y[:, cols] += (z - np.einsum("nij,nj->ni", lumped, xk)) * self.free[:, cols]
 
 
 def tangent_for(model, A):
     """The coupled operator of ``model``'s nonlocal effects, or None if it has none."""
-    comps = [c for c in model.components if getattr(c, "nonlocal_tangent", False)]
+    from rftfem.model.effects.base import NonlocalEffect
+
+    comps = [c for c in model.components if isinstance(c, NonlocalEffect)]
     return CoupledTangent(model, A, comps) if comps else None

@@ -138,9 +138,10 @@ def frictional_acceleration(model, solver, dt: float) -> None:
     from rftfem.integration.schemes import Coefficients
 
     saved = model.coefficients
+    holding = [c for c in model.components if c.holds_at_rest()]  # friction (contact)
     model.set_coefficients(Coefficients(cv=1.0 / dt, ca=2.0 / dt**2, dt=dt))
-    contact = model.get("contact")
-    contact.set_time(0.0)
+    for c in holding:  # its step of slip now has this dt
+        c.set_time(0.0)
     try:
         ok, its, res, reason = solver.solve()
         if not ok:
@@ -150,5 +151,6 @@ def frictional_acceleration(model, solver, dt: float) -> None:
     finally:
         model.restore()
         model.set_coefficients(saved)
-        contact.set_time(0.0)
+        for c in holding:
+            c.set_time(0.0)
         solver.forget_forces()

@@ -15,7 +15,7 @@ from rftfem import __version__, compat
 from rftfem.errors import SceneError
 from rftfem.outputs.writers import (CsvLog, FieldWriter, field_segments, keep_fields_until,
                      keep_rows_until, merge_field_segment)
-from rftfem.integration.schemes import STATIC_SCHEMES
+from rftfem.scene.time_rules import STATIC_SCHEMES
 
 
 class RunOutputs:
@@ -40,10 +40,8 @@ class RunOutputs:
         if report is not None and report.turned:
             lines.append(f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
                          f"to face as their neighbours")
-        if getattr(m.fluid, "name", None) == "stokes":
-            from rftfem.model import stokes_report
-
-            lines += stokes_report.check_lines(m.fluid.describe())
+        if m.fluid is not None:
+            lines += m.fluid.opening_lines()
         return lines
 
     def _open_outputs(self) -> dict:
@@ -151,8 +149,7 @@ class RunOutputs:
                else {}),
             "factorization": {"policy": self.solver.factors.policy,
                               "made": self.solver.factors.made, "lu": self.solver.lu},
-            **({"fluid": self.model.fluid.describe()}
-               if hasattr(self.model.fluid, "describe") else {}),
+            **({"fluid": self.model.fluid.describe()} if self.model.fluid is not None else {}),
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
             "wall_s": {"setup": self.setup_time, "compile": self.model.timings["compile"],

@@ -17,15 +17,13 @@ the residual
 
 Averaging *forces* rather than states is what lets the director be updated
 multiplicatively (there is no meaningful "average director").  Which scheme a scene
-runs (``time.scheme = "auto"`` resolved) is :func:`resolved_scheme`'s.
+runs (``time.scheme = "auto"`` resolved) is a scene rule: rftfem.scene.time_rules.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rftfem.errors import SceneError
-from rftfem.scene.validators import fmt
 
 
 @dataclass(frozen=True)
@@ -207,43 +205,3 @@ def make_scheme(time_section: dict) -> Scheme:
     if name == "arc-length":
         return ArcLength()
     raise ValueError(f"unknown time scheme {name!r}")
-
-
-#: the schemes of static runs, whose outputs carry the load factor
-STATIC_SCHEMES = ("static", "arc-length")
-
-
-def has_density(scene: dict) -> bool:
-    """Whether ``shell.density`` or some ``shell.parts`` density is above 0."""
-    shell = scene.get("shell") or {}
-
-    def positive(value) -> bool:  # a formula or profile (>= 0, checked): somewhere > 0
-        return isinstance(value, (str, dict)) or (value or 0.0) > 0.0
-
-    return positive(shell.get("density")) or any(positive(part.get("density"))
-                                                 for part in shell.get("parts") or [])
-
-
-def resolved_scheme(scene: dict) -> str:
-    """``time.scheme`` with "auto" resolved: second order with inertia, first
-    order with drag only, load stepping otherwise."""
-    scheme = (scene.get("time") or {}).get("scheme", "auto")
-    inertia = has_density(scene)
-    if scheme == "auto":
-        if inertia:
-            return "generalized-alpha"
-        return "backward-euler" if scene.get("fluid") else "static"
-    if scheme == "static" and scene.get("fluid"):
-        raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
-                         "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
-                         "density) or \"auto\", or remove [fluid]")
-    if scheme == "arc-length" and scene.get("fluid"):
-        raise SceneError('time.scheme: "arc-length" follows a static equilibrium path, '
-                         "and the [fluid] drag is a force of motion; remove [fluid] or use "
-                         "a scheme in time")
-    if scheme in ("generalized-alpha", "hht") and not inertia:
-        raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
-                         "shell.parts density > 0), found shell.density = "
-                         f"{fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
-                         "\"backward-euler\", \"static\" or \"auto\"")
-    return scheme

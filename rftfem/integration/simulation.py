@@ -34,6 +34,7 @@ from rftfem.integration.error_control import ErrorControl
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.interrupts import NoStops, StopRequests
 from rftfem.integration.step_watch import StepWatch
+from rftfem.model.effects.base import NonlocalEffect
 from rftfem.model.shell_model import Model
 from rftfem.outputs.progress import Progress, render_in_child
 from rftfem.outputs.writers import BodyLog, Probes, write_json
@@ -42,7 +43,7 @@ from rftfem.integration.restart import Restarts
 from rftfem.integration.run_outputs import RunOutputs
 from rftfem.integration.solver import StepSolver
 from rftfem.integration.steady import SteadyWatch
-from rftfem.integration.steady import scene_period as steady_period
+from rftfem.scene.time_rules import scene_period as steady_period
 from rftfem.integration.step_control import StepControl
 from rftfem.integration.schemes import make_scheme
 
@@ -76,18 +77,10 @@ def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
     Probes(model, scene.get("output", {}).get("probes", []))
     report = model.body.report
     lines = report.lines() if report is not None else []
-    if hasattr(model.fluid, "describe"):
-        d = model.fluid.describe()
-        if d["model"] == "rft":  # its coefficients and their source
-            lines.append(f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}]"
-                         f" from {d['from']}")
-        else:  # Stokes: sizes, cost and the estimated error
-            from rftfem.model import stokes_report
-
-            lines += stokes_report.check_lines(d)
+    if model.fluid is not None:  # RFT: its coefficients; Stokes: sizes, cost, error
+        lines += model.fluid.check_lines()
     # what the run would warn of at its start (a wall too close, a body too large)
-    lines += [f"warning: {line}" for comp in model.components
-              for line in getattr(comp, "warnings", lambda: [])()]
+    lines += [f"warning: {line}" for comp in model.components for line in comp.warnings()]
     return model.active_effects(), scales.groups(scene, model), lines
 
 
@@ -115,7 +108,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
     with ``restart`` (a results folder), the run goes on from its last checkpoint
     and appends to its outputs (checkpoint.py).
 
-    The class is the run's state and its time loop; its rooms are mixins, one
+    The class is the run's state and its time loop; its parts are mixins, one
     module each: one step and its control (step_control.py), error-controlled steps and
     the time-error indicator (error_control.py), static path-following by arc
     length (arclength.py), outputs and the summary
@@ -153,8 +146,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         solver = scene.get("solver")
         factorization = petsc_options.factorization(solver, petsc_args, unknowns)
         lu = petsc_options.lu_package(unknowns, self.comm.size)
-        nonlocal_tangent = any(getattr(c, "nonlocal_tangent", False)
-                               for c in self.model.components)
+        nonlocal_tangent = any(isinstance(c, NonlocalEffect) for c in self.model.components)
         self.options = petsc_options.merged(self.model.reference_force(), solver, petsc_args,
                                             factorization, lu, nonlocal_tangent)
         # rftfem's choice of PETSc's LU falls back on MUMPS; a user's is kept
@@ -231,8 +223,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         for line in self._opening_lines():
             progress.log(line)
         for line in scales.aliasing_warnings(scene) + [
-                line for comp in self.model.components
-                for line in getattr(comp, "warnings", lambda: [])()]:
+                line for comp in self.model.components for line in comp.warnings()]:
             progress.warn("warning: " + line)
         logs = self._open_outputs()
         try:

@@ -24,6 +24,7 @@ from rftfem.integration import coupled
 from rftfem.errors import SceneError
 from rftfem.integration.convergence import NewtonTest
 from rftfem.integration.factorization import Factorization
+from rftfem.model.effects.base import LimitsNewtonStep
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 #: a prediction that meets the prescribed values to this share of its own largest
@@ -72,7 +73,7 @@ class StepSolver(NewtonTest):
         self.snes.setConvergenceTest(self._converged)
         #: effects that shorten a Newton update (contact: keeps the lower face off the
         #: far side of its barrier, docs/contact.md §3)
-        self._step_limits = [c for c in model.components if hasattr(c, "newton_step_fraction")]
+        self._step_limits = [c for c in model.components if isinstance(c, LimitsNewtonStep)]
         #: a residual this small that Newton no longer reduces is round-off: the
         #: elastic forces' own floor (petsc_options.ROUNDOFF_FACTOR of their scale)
         self.roundoff = petsc_options.ROUNDOFF_FACTOR * model.elastic_force()

@@ -34,63 +34,9 @@ import math
 
 import numpy as np
 
-from rftfem.errors import SceneError
-from rftfem.integration.schemes import resolved_scheme
-from rftfem.scene.validators import fmt
-
 #: the fewest periods watched before a run may be found steady (the first holds the
 #: start-up: four give three drifts and two extrapolations to compare)
 MIN_PERIODS = 4
-
-
-def scene_period(scene: dict) -> float:
-    """The period of ``time.until = "periodic"``: ``time.period``, else the one the
-    travelling-wave motions share, else the rotating field's 1/frequency."""
-    time_ = scene["time"]
-    if time_.get("period") is not None:
-        return float(time_["period"])
-    found = {}
-    for i, motion in enumerate(scene.get("motion") or []):
-        w = motion.get("angular_frequency") or 0.0
-        if motion.get("kind", "travelling-wave") == "travelling-wave" and w != 0.0:
-            found[f"motion.{i}"] = 2 * math.pi / abs(w)
-    field = (scene.get("magnetic") or {}).get("field") or {}
-    if field.get("kind", "rotating") == "rotating" and (field.get("frequency") or 0.0) != 0.0:
-        found["magnetic.field"] = 1.0 / abs(field["frequency"])
-    if not found:
-        raise SceneError('time.until = "periodic": no period in the scene (a travelling-wave '
-                         "motion or a rotating field); give time.period")
-    periods = list(found.values())
-    if max(periods) > min(periods) * (1 + 1e-9):
-        raise SceneError('time.until = "periodic": the drivers have different periods ('
-                         + ", ".join(f"{k}: {fmt(v)}" for k, v in found.items())
-                         + "); give time.period")
-    return periods[0]
-
-
-def check(scene: dict) -> None:
-    """The period is found and is a whole number of steps and of output rows."""
-    time_ = scene["time"]
-    if time_.get("until", "end") != "periodic":
-        for key in ("period",):
-            if time_.get(key) is not None:
-                raise SceneError(f'time.{key}: only used with time.until = "periodic"')
-        return
-    if time_.get("tolerance") is not None:
-        raise SceneError('time.until = "periodic" takes fixed steps; remove time.tolerance')
-    scheme = resolved_scheme(scene)
-    if scheme in ("static", "arc-length"):
-        raise SceneError(f'time.until = "periodic" needs a run in time, found time.scheme = '
-                         f'"{scheme}"')
-    period = scene_period(scene)
-    steps = period / time_["dt"]
-    if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
-        raise SceneError(f"time.dt: expected a whole fraction of the period {fmt(period)} "
-                         f'(time.until = "periodic"), found {fmt(time_["dt"])} '
-                         f"({steps:.6g} steps a period)")
-    if round(steps) % time_["output_every"]:
-        raise SceneError(f"time.output_every: expected a divisor of the {round(steps)} steps "
-                         f'of a period (time.until = "periodic"), found {time_["output_every"]}')
 
 
 #: a column below this share of the largest in its group is round-off about zero

@@ -181,8 +181,7 @@ class StepControl:
         if self.scheme.has_inertia:
             try:
                 impulses.initial_acceleration(m, self.solver)
-                contact = m.get("contact")
-                if contact is not None and contact.holds_at_rest():
+                if any(c.holds_at_rest() for c in m.components):
                     impulses.frictional_acceleration(m, self.solver, dt)
             except RuntimeError as exc:
                 raise RunFailed(f"no initial acceleration: {exc}", 0.0, 0) from None

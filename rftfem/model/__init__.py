@@ -6,7 +6,7 @@
   magnetic couples, loads, boundaries, motions, hinges), each with its scene keys
   and its UFL terms (the forms themselves are in ``rftfem.forms``);
 - ``triad``, ``hinges``, ``dirichlet``, ``measures``, ``step_state``,
-  ``reactions``: the rooms of the model (director triads, hinge lines, fixed
+  ``reactions``: the parts of the model (director triads, hinge lines, fixed
   dofs, whole-body measures, a step's prediction, reactions);
 - ``magnetic_sources``: fields, waveforms and dipoles;
 - ``stokeslets``, ``stokes_fmm``: the nonlocal Stokes operator, dense and

@@ -291,5 +291,5 @@ def _max_op():
 
 
 # ------------------------------------------------------------------ profiles
-# (rftfem/model/profiles.py; imported here for the magnetic component)
-from rftfem.model.profiles import profile_values, read_profile  # noqa: E402,F401
+# (rftfem/scene/profiles.py; imported here for the magnetic component)
+from rftfem.scene.profiles import profile_values, read_profile  # noqa: E402,F401

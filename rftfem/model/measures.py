@@ -1,4 +1,4 @@
-"""Whole-body measures of a :class:`~rftfem.model.shell_model.Model` (one of its rooms): the
+"""Whole-body measures of a :class:`~rftfem.model.shell_model.Model` (one of its parts): the
 scene's force scales (docs/model.md §7.3), the reference size and area, the
 centroid, the stored energy, the largest rotation increment of the iterate, and the
 director's unit error, each taken over all processes.

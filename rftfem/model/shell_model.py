@@ -35,6 +35,7 @@ from rftfem.forms import hinge, kinematics
 from rftfem import compat
 from rftfem.model import effects, hinges
 from rftfem.model.dirichlet import DirichletSpaces
+from rftfem.model.effects.base import FluidModel
 from rftfem.model.measures import BodyMeasures
 from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
@@ -178,7 +179,7 @@ class Model(StepStart, BodyMeasures):
     @property
     def fluid(self):
         """The liquid's component (RFT drag or Stokes flow), or None."""
-        return next((c for c in self.components if getattr(c, "is_fluid", False)), None)
+        return next((c for c in self.components if isinstance(c, FluidModel)), None)
 
     def __getitem__(self, name: str):
         comp = self.get(name)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
+from rftfem.model.effects.base import LimitsNewtonStep
 from rftfem.model.triad import rotate as triad_rotate
 
 
@@ -51,7 +52,7 @@ class StepStart:
         """The part of a predicted increment ``du`` the effects allow (contact: the
         prediction may not carry the lower face through its barrier, as a Newton update
         may not; solver.py), 1 without such effects."""
-        limits = [c for c in self.components if hasattr(c, "newton_step_fraction")]
+        limits = [c for c in self.components if isinstance(c, LimitsNewtonStep)]
         if not limits:
             return 1.0
         start = np.zeros_like(self.w.x.array)

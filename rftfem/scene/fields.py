@@ -82,7 +82,7 @@ def profile_file(scene: dict, name: str) -> Path:
 def field_values(scene: dict, value, at: np.ndarray, key: str) -> np.ndarray:
     """A validated material value at the points ``at`` (n, 3): (n,) floats.  A formula
     or profile that is not finite somewhere is a one-line SceneError naming the point."""
-    from rftfem.model.profiles import profile_values, read_profile
+    from rftfem.scene.profiles import profile_values, read_profile
     from rftfem.scene.expressions import parse
 
     at = np.asarray(at, dtype=float).reshape(-1, 3)

@@ -6,14 +6,13 @@ defined here, ``[mesh]`` in :mod:`rftfem.scene.mesh_keys`, and every effect
 brings its own keys (:mod:`rftfem.model.effects`). :func:`cross_check` makes the
 checks that involve more than one key once the tables are validated; reading
 a scene (:mod:`rftfem.scene.reading`) calls it. The reference in docs/scenes.md
-is generated from :data:`SCHEMA` (``python -m rftfem.scene.reference``).
+is generated from :data:`SCHEMA` (``python -m rftfem.reference``).
 """
 
 from __future__ import annotations
 
 from rftfem.errors import SceneError
-from rftfem.integration import steady
-from rftfem.integration.schemes import resolved_scheme
+from rftfem.scene.time_rules import check_periodic, resolved_scheme
 from rftfem.model import effects
 from rftfem.scene.material_keys import PART_MATERIAL, SHELL_MATERIAL, check_material
 from rftfem.scene.mesh_keys import MESH, check_mesh
@@ -245,7 +244,7 @@ def cross_check(scene: dict) -> None:
                              f"found {fmt(time['dt'])}")
 
     effects.check(scene)  # each effect's own keys
-    steady.check(scene)
+    check_periodic(scene)
 
     # probes
     probes = scene["output"]["probes"]

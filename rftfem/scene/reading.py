@@ -1,7 +1,7 @@
 """Scenes: read a TOML scene, apply ``--set`` overrides, validate, fill defaults.
 
 The keys are the user-facing contract documented in docs/scenes.md, whose "Scene
-keys" part is generated from :data:`SCHEMA` (``python -m rftfem.scene.reference``).
+keys" part is generated from :data:`SCHEMA` (``python -m rftfem.reference``).
 This module reads the file (or text, or a dict) and applies ``--set``; the
 tables ``title``, ``[shell]``, ``[time]``, ``[output]`` and ``[solver]`` and the
 checks across them are in :mod:`rftfem.scene.keys` (``[mesh]`` in
@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from rftfem.errors import SceneError
-from rftfem.integration.schemes import resolved_scheme
+from rftfem.scene.time_rules import resolved_scheme
 from rftfem.model import effects
 from rftfem.scene.keys import SCHEMA, cross_check
 from rftfem.scene.schema import Array, Free, Leaf, Table, err, join, section, suggest, validate_table

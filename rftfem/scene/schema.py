@@ -5,7 +5,7 @@ A schema is a tree of :class:`Table` (a TOML table with known keys),
 keys depend on their ``kind``), :class:`Free` (PETSc options) and
 :class:`Leaf` (one value, checked by a :class:`Validator`).  Every node carries
 ``doc`` and leaves a ``unit``; docs/scenes.md is generated from them
-(:mod:`rftfem.scene.reference`).  :func:`validate_table` walks raw TOML data
+(:mod:`rftfem.reference`).  :func:`validate_table` walks raw TOML data
 against a node, fills defaults and raises :class:`~rftfem.errors.SceneError`
 with a one-line message naming the key path, what was expected and what was
 found.  The scene's own tables live in :mod:`rftfem.scene.reading` and, for each
@@ -33,7 +33,7 @@ _PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 
 # Every node of the schema carries ``doc`` (what the key means, one or two
 # sentences) and leaves a ``unit`` where they have one: the scene reference in
-# docs/scenes.md is generated from them (rftfem/scene/reference.py), which
+# docs/scenes.md is generated from them (rftfem/reference.py), which
 # refuses a key without ``doc``. Units are dimensions ("length", "force/length²"),
 # since a scene uses consistent units of the user's choice. ``default_doc`` says
 # in words what a leaf whose default is not a plain value gets (filled in by the

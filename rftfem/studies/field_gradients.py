@@ -14,7 +14,7 @@ test function.  Its parts:
 - per cell: the derivative by a change δ of the field uniform on the cell, the sum
   of the cell's dofs' entries (the dofs of a DG field belong to one cell);
 - per profile point: the field's values at its nodes are ``Wp`` (multilinear
-  weights of the grid values ``p``, rftfem/model/profiles.py), so ``dJ/dp = Wᵀ dJ/df``
+  weights of the grid values ``p``, rftfem/scene/profiles.py), so ``dJ/dp = Wᵀ dJ/df``
   over the nodes the profile sets (not those a later part overrides);
 - the magnetization of a part magnetized by a number (cellwise ``M = m q₀``): per
   cell ``dJ/dm = q₀ · dJ/dM``.
@@ -155,7 +155,7 @@ def _material_gradient(m, key, f, nodal) -> FieldGradient:
     from mpi4py import MPI
 
     from rftfem import compat
-    from rftfem.model.profiles import profile_weights, read_profile
+    from rftfem.scene.profiles import profile_weights, read_profile
     from rftfem.scene.fields import is_field, profile_file
 
     V = f.function_space
@@ -216,7 +216,7 @@ def _magnetization_profile_gradient(m, key, index, Mp, nodal) -> FieldGradient:
     from mpi4py import MPI
 
     from rftfem import compat
-    from rftfem.model.profiles import profile_weights
+    from rftfem.scene.profiles import profile_weights
 
     _, points = m["magnetic"].profile_fields[index]
     V = Mp.function_space

@@ -2,7 +2,7 @@
 values, with exact gradients (rftfem/studies/field_gradients.py).
 
 The variables are the values of the field's profile grid (rows X,Y,Z,value,
-rftfem/model/profiles.py), each bounded by [LO, HI]: the scene's own profile if
+rftfem/scene/profiles.py), each bounded by [LO, HI]: the scene's own profile if
 the key is one; else, on a strip mesh, a grid on the strip's node lines (its
 divisions + 1 values of X, and of Y), started from the scene's number or formula
 there.  Every evaluation is an ordinary static run in ``DIR/eval-NNNN`` whose key
@@ -68,7 +68,7 @@ class FieldConstraint:
 
 
 def parse_vary_field(text: str, scene: dict) -> FieldDesign:
-    from rftfem.model.profiles import read_profile
+    from rftfem.scene.profiles import read_profile
     from rftfem.scene.fields import field_values, profile_file
     from rftfem.studies.field_gradients import FIELD_KEYS
 

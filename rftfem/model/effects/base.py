@@ -99,6 +99,17 @@ class Effect:
         """Force scales it adds to the Newton tolerances (docs/model.md §7.3)."""
         return []
 
+    def warnings(self) -> list[str]:
+        """What a run warns of at its start and ``rftfem check`` lists (a wall too
+        close, a body too large for its operator), one sentence each."""
+        return []
+
+    def holds_at_rest(self) -> bool:
+        """Whether it may hold the body at rest at the current state (friction on a
+        plane): the start of a run then finds the acceleration of a first step from
+        rest with it (integration/impulses.py), not the frictionless one."""
+        return False
+
     def after_step(self, t: float) -> list[str]:
         """A look at the converged state of an accepted step (time ``t``): raise
         :class:`~rftfem.errors.RunFailed` for a state it refuses (the run fails
@@ -117,6 +128,64 @@ class Effect:
     def fields(self) -> dict:
         """Extra fields.xdmf fields: ``{name: Function or UFL vector expression}``."""
         return {}
+
+
+# ----------------------------------------------------------------- capabilities
+# What some effects add to the local UFL effect above; the solver and the time loop
+# ask for these classes (isinstance), never for an effect by name.
+
+
+class FluidModel(Effect):
+    """The liquid the body moves in (``[fluid]``; at most one per scene, the model's
+    ``fluid``): its drag or flow is one of its terms, and it describes itself."""
+
+    def describe(self) -> dict:
+        """Its discretisation and where its values come from (summary.json's ``fluid``)."""
+        raise NotImplementedError
+
+    def check_lines(self) -> list[str]:
+        """``rftfem check``'s lines about it."""
+        return []
+
+    def opening_lines(self) -> list[str]:
+        """The lines a run prints about it when it starts."""
+        return []
+
+
+class NonlocalEffect(Effect):
+    """An effect that couples every node to every other (the Stokes flow).
+
+    Its forces are nodal, added by :meth:`add_nodal_forces`, and its tangent ``T`` is
+    a dense operator the Newton solver never assembles but applies by products
+    (integration/coupled.py): the Krylov solver's operator is ``A + Σ (T − D)``,
+    preconditioned by ``A + Σ D`` with ``D`` the effect's lumped nodal blocks, where
+    ``A`` is the assembled tangent of every UFL term."""
+
+    #: the components of each node's block of unknowns it acts on (0, 1, 2: the
+    #: displacement; the director's two rotations follow them)
+    unknowns: tuple[int, ...] = (0, 1, 2)
+
+    def prepare_tangent(self, scale: float, exact: bool = False) -> np.ndarray:
+        """Make the tangent of ``scale`` times its forces at the current iterate (with
+        ``exact`` False an earlier one may stand for it, as in a Newton update; True
+        where the exact one is needed), and return its lumped blocks for the owned
+        nodes, (n_owned, k, k) with k = ``len(unknowns)``."""
+        raise NotImplementedError
+
+    def tangent_product(self, dx: np.ndarray) -> np.ndarray:
+        """``T dx`` for a direction ``dx`` (N, k) of its unknowns at every node of every
+        process (in rank order), as the owned nodes' rows (n_owned, k)."""
+        raise NotImplementedError
+
+
+class LimitsNewtonStep:
+    """An effect that shortens a Newton update (or a step's prediction) that would
+    carry the state where its forces are not defined (contact: through a barrier)."""
+
+    def newton_step_fraction(self, x: np.ndarray, y: np.ndarray, keep: float = 0.2) -> float:
+        """The part of the update ``x → x − y`` (owned arrays of ``w``) it allows, in
+        (0, 1]; ``keep``: the part of each gap the update must leave open."""
+        raise NotImplementedError
 
 
 # --------------------------------------------------------------------- loads

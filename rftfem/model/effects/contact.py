@@ -125,7 +125,7 @@ class Contact(UpdateLimits, Effect):
 
     @classmethod
     def check(cls, scene):
-        from rftfem.integration.schemes import resolved_scheme
+        from rftfem.scene.time_rules import resolved_scheme
 
         for i, plane in enumerate(scene.get("contact") or []):
             if plane["static_friction"] is None:

@@ -14,9 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from rftfem.forms import contact as forms
+from rftfem.model.effects.base import LimitsNewtonStep
 
 
-class UpdateLimits:
+class UpdateLimits(LimitsNewtonStep):
     """The update limits of a contact component (it has ``planes``, ``u_start``,
     ``dn_start``, ``inv_dt`` and ``model``)."""
 

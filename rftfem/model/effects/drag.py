@@ -15,14 +15,13 @@ from rftfem.forms import drag
 from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
-from rftfem.model.effects.base import Effect
+from rftfem.model.effects.base import FluidModel
 
 
-class Drag(Effect):
+class Drag(FluidModel):
     name = "drag"
     keys = {"fluid": fluid.SCHEMA}
     columns = ["drag_power"] + fluid.RESULTANT_COLUMNS
-    is_fluid = True
 
     @classmethod
     def active(cls, scene):
@@ -60,6 +59,11 @@ class Drag(Effect):
                   f"body's length and width along shell.axis)")
         return {"model": "rft", "drag": [float(c) for c in self.C], "from": source,
                 "axis_free": bool(self.axis_free)}
+
+    def check_lines(self) -> list[str]:
+        d = self.describe()
+        return [f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}] "
+                f"from {d['from']}"]
 
     def _coefficients(self) -> list[float]:
         given = self.scene["fluid"]

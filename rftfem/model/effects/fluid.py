@@ -10,19 +10,86 @@ resultant force and moment on the body (``fluid_Fx`` … ``fluid_Mz``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Int, Leaf, Str, Table, Vec
 
-MODELS = ("rft", "stokes")
 OPERATORS = ("auto", "dense", "fmm")
 METHODS = ("layer", "blobs")
 FACTORS = ("kept", "every-update")
 
+def _check_rft(fluid: dict) -> None:
+    if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
+        raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
+                         '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
+
+
+def _check_stokes(fluid: dict) -> None:
+    if fluid.get("drag") is not None:
+        raise SceneError('fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
+                         "has no drag coefficients); give fluid.viscosity only: drop "
+                         "the drag with --unset fluid.drag (Python: del "
+                         "scene[\"fluid.drag\"])")
+    if fluid.get("viscosity") is None:
+        raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
+    if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
+        raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
+                         '"dense" (or "auto") with fluid.wall')
+    if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
+        raise SceneError('fluid.operator: "fmm" needs fluid.method = "blobs" in this '
+                         'version (the integrated layer is dense); use operator = '
+                         '"dense" (or "auto"), or method = "blobs"')
+    if fluid.get("refine") and fluid.get("method", "layer") != "layer":
+        raise SceneError('fluid.refine: only with fluid.method = "layer" (the blobs sit '
+                         "at the nodes: refine the mesh)")
+
+
+@dataclass(frozen=True)
+class FluidModelEntry:
+    """A liquid model a scene can name in ``fluid.model``: the keys of ``[fluid]`` that
+    only it takes (``{key: (what it is, its default)}``, refused with the other models),
+    the name the refusal gives the model, and its own check of the table."""
+
+    keys: dict
+    called: str
+    check: Callable[[dict], None]
+
+
+#: the liquid models, in the order the docs list them (one entry each; the effect
+#: component that a model builds says ``fluid.model_of(scene) == name`` in ``active``)
+MODELS = {
+    "rft": FluidModelEntry({"drag": ("drag coefficients", None)}, "local drag", _check_rft),
+    "stokes": FluidModelEntry({"regularization": ("blob", None), "wall": ("wall", None),
+                               "method": ("discretised layer", "layer"),
+                               "refine": ("discretised layer", 0),
+                               "factors": ("discretised layer", "kept"),
+                               "operator": ("nonlocal operator", "auto")},
+                              "the Stokes flow", _check_stokes),
+}
+
+
+def check(scene: dict) -> None:
+    """The model's own check, then the keys that only another model takes (one line
+    each, exit 2)."""
+    fluid = scene.get("fluid")
+    if not fluid:
+        return
+    name = fluid.get("model", "rft")
+    entry = MODELS[name]
+    entry.check(fluid)
+    for other, owner in MODELS.items():
+        for key, (what, default) in owner.keys.items():
+            if other != name and key not in entry.keys and fluid.get(key) not in (None, default):
+                raise SceneError(f'fluid.{key}: only with fluid.model = "{other}" '
+                                 f"({entry.called} has no {what})")
+
+
 SCHEMA = Table({
-    "model": Leaf(Str(MODELS), "rft",
+    "model": Leaf(Str(tuple(MODELS)), "rft",
                   doc='The liquid: "rft" local resistive-force drag, "stokes" the nonlocal '
                       "Stokes flow of regularized Stokeslets on the mid-surface (sees every "
                       "part of the body and a wall; docs/stokes.md)."),
@@ -89,44 +156,6 @@ def model_of(scene: dict) -> str | None:
     """``"rft"``, ``"stokes"`` or None (no ``[fluid]``)."""
     fluid = scene.get("fluid")
     return fluid.get("model", "rft") if fluid else None
-
-
-def check(scene: dict) -> None:
-    """The keys each model needs and refuses (one line each, exit 2)."""
-    fluid = scene.get("fluid")
-    if not fluid:
-        return
-    model = fluid.get("model", "rft")
-    if model == "stokes":
-        if fluid.get("drag") is not None:
-            raise SceneError('fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
-                             "has no drag coefficients); give fluid.viscosity only: drop "
-                             "the drag with --unset fluid.drag (Python: del "
-                             "scene[\"fluid.drag\"])")
-        if fluid.get("viscosity") is None:
-            raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
-        if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
-            raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
-                             '"dense" (or "auto") with fluid.wall')
-        if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
-            raise SceneError('fluid.operator: "fmm" needs fluid.method = "blobs" in this '
-                             'version (the integrated layer is dense); use operator = '
-                             '"dense" (or "auto"), or method = "blobs"')
-        if fluid.get("refine") and fluid.get("method", "layer") != "layer":
-            raise SceneError('fluid.refine: only with fluid.method = "layer" (the blobs sit '
-                             "at the nodes: refine the mesh)")
-    else:
-        if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
-            raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
-                             '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
-        for key, what, default in (("regularization", "blob", None), ("wall", "wall", None),
-                                   ("method", "discretised layer", "layer"),
-                                   ("refine", "discretised layer", 0),
-                                   ("factors", "discretised layer", "kept"),
-                                   ("operator", "nonlocal operator", "auto")):
-            if fluid.get(key) not in (None, default):
-                raise SceneError(f'fluid.{key}: only with fluid.model = "stokes" (local drag '
-                                 f"has no {what})")
 
 
 def slender_body_drag(viscosity: float, length: float, width: float) -> list[float]:

@@ -7,7 +7,7 @@ order (generalized-alpha or HHT); it adds the kinetic energy to body.csv.
 from __future__ import annotations
 
 from rftfem.forms import inertia
-from rftfem.integration.schemes import has_density, resolved_scheme
+from rftfem.scene.time_rules import has_density, resolved_scheme
 
 from rftfem.model.effects.base import Effect
 

@@ -35,7 +35,7 @@ from rftfem.model import (layer_rules, stokes_body, stokes_fmm, stokes_layer, st
 from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
-from rftfem.model.effects.base import Effect
+from rftfem.model.effects.base import FluidModel, NonlocalEffect
 
 #: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
@@ -56,11 +56,8 @@ def _point(x) -> str:
     return "(" + ", ".join(f"{v:.4g}" for v in x) + ")"
 
 
-class Stokes(Effect):
+class Stokes(FluidModel, NonlocalEffect):
     name = "stokes"
-    is_fluid = True
-    #: the solver applies :meth:`tangent_product` besides the assembled tangent
-    nonlocal_tangent = True
     columns = ["fluid_power"] + fluid.RESULTANT_COLUMNS
 
     @classmethod
@@ -173,6 +170,12 @@ class Stokes(Effect):
         """The discretisation, its cost and its estimated error (``rftfem check``,
         summary.json's ``fluid``; ``rftfem.model.stokes_report``)."""
         return stokes_report.describe(self)
+
+    def check_lines(self) -> list[str]:
+        return stokes_report.check_lines(self.describe())
+
+    def opening_lines(self) -> list[str]:
+        return self.check_lines()
 
     def _check_size(self):
         extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
@@ -319,12 +322,16 @@ class Stokes(Effect):
         lumped = res.lumped()[self.offset:self.offset + self.n_owned]
         return scale * cv * lumped
 
-    def tangent_product(self, du: np.ndarray) -> np.ndarray:
-        """``scale · M⁻¹ (c_v du − G du)`` for a global displacement direction (3N,)."""
+    def tangent_product(self, dx: np.ndarray) -> np.ndarray:
+        """``scale · M⁻¹ (c_v dx − G dx)`` for a displacement direction at every node
+        (N, 3): the owned nodes' rows (n_owned, 3)."""
         res, cv, G, scale, _ = self._tangent
+        du = np.ravel(dx)
         if hasattr(res, "tangent"):  # the layer: through its force grid
-            return scale * res.tangent(du, cv, G)
-        return scale * res.solve(cv * du - G @ du)
+            out = scale * res.tangent(du, cv, G)
+        else:
+            out = scale * res.solve(cv * du - G @ du)
+        return out.reshape(-1, 3)[self.offset:self.offset + self.n_owned]
 
     # --- outputs ----------------------------------------------------------
 
