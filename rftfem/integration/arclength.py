@@ -1,4 +1,4 @@
-"""Static path-following by arc length (the room of
+"""Static path-following by arc length (the part of
 :class:`~rftfem.integration.simulation.Simulation` that owns ``time.scheme = "arc-length"``,
 docs/model.md §6.11).
 

@@ -1,7 +1,7 @@
 """When a Newton solve of a step has converged, and when it has diverged
 (docs/model.md §6.8, §7.2): the convergence test rftfem gives PETSc SNES.
 
-:class:`NewtonTest` is a room of :class:`~rftfem.integration.solver.StepSolver`;
+:class:`NewtonTest` is a part of :class:`~rftfem.integration.solver.StepSolver`;
 it reads the solver's SNES, options, model and round-off floors.
 """
 

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from rftfem.model.ranks import gather_rows
+
 
 class CoupledTangent:
     """PETSc python-matrix context: ``J = A + Σ (T − D)`` (see the module)."""
@@ -83,7 +85,7 @@ class CoupledTangent:
 
     def _gather(self, owned):
         """Every process's rows of ``owned`` (n_owned, k), in rank order."""
-        return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
+        return gather_rows(owned, self.model.comm)
 
     def mult(self, mat, X, Y):
         self.A.mult(X, Y)

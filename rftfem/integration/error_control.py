@@ -1,4 +1,4 @@
-"""Error-controlled steps and the time-error indicator (the room of
+"""Error-controlled steps and the time-error indicator (the part of
 :class:`~rftfem.integration.simulation.Simulation` that owns them, docs/model.md §6.9, §6.11):
 each converged step's local error estimated from its distance to a prediction,
 steps chosen by it under ``time.tolerance``, and with fixed steps the same estimate

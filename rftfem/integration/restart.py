@@ -1,4 +1,4 @@
-"""Checkpoints and restart of a run (the room of :class:`~rftfem.integration.simulation.Simulation`
+"""Checkpoints and restart of a run (the part of :class:`~rftfem.integration.simulation.Simulation`
 that owns them): whether a results folder's last checkpoint may be continued with
 this scene, loading it into the model and the solver, and writing one every
 ``output.checkpoint_every`` steps.  The file format is checkpoint.py's; the outputs'

@@ -1,4 +1,4 @@
-"""A run's outputs and its summary (the room of :class:`~rftfem.integration.simulation.Simulation`
+"""A run's outputs and its summary (the part of :class:`~rftfem.integration.simulation.Simulation`
 that owns them, docs/model.md §9): the tables and fields opened (or continued after a
 restart), a row written per output time, and summary.json's content.  The writers
 themselves are output.py's.

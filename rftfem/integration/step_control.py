@@ -1,4 +1,4 @@
-"""One step and its control (the room of :class:`~rftfem.integration.simulation.Simulation` that
+"""One step and its control (the part of :class:`~rftfem.integration.simulation.Simulation` that
 owns them, docs/model.md §6.7-6.8): a Newton solve of a step from its prediction,
 the turn limit that rejects a step whose directors turned too far, the halvings
 after a failed attempt and the doubling back, the start of a run in equilibrium,

@@ -37,6 +37,7 @@ from rftfem.model import effects, hinges
 from rftfem.model.dirichlet import DirichletSpaces
 from rftfem.model.effects.base import FluidModel
 from rftfem.model.measures import BodyMeasures
+from rftfem.model.rates import scheme_velocity
 from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
 from rftfem.scene.schema import unit_vector
@@ -271,7 +272,7 @@ class Model(StepStart, BodyMeasures):
     def velocity(self, u):
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
         c = self.coef
-        v = c["cv"] * (u - self.u_n) + c["cv_v"] * self.v_n + c["cv_a"] * self.a_n
+        v = scheme_velocity(u - self.u_n, self.v_n, self.a_n, c["cv"], c["cv_v"], c["cv_a"])
         return v + self.drive[0] if self.drive else v
 
     def acceleration(self, u):

@@ -1,4 +1,4 @@
-"""What a step starts from (a room of :class:`~rftfem.model.shell_model.Model`, docs/model.md
+"""What a step starts from (a part of :class:`~rftfem.model.shell_model.Model`, docs/model.md
 §6.9, §7.1, §7.4): the prediction carried on from the last steps' increments, how
 far a converged step lies from it (the error estimate's data), the data of Newton's
 mixed-point tangent from the first iterate on, and the state a checkpoint keeps.

@@ -57,3 +57,24 @@ def node_spacing(model) -> np.ndarray:
     edge = fem.locate_dofs_topological(V, fdim, dmesh.exterior_facet_indices(msh.topology))
     spacing[edge] *= 0.5
     return spacing
+
+
+def has_free_edges(corners: np.ndarray) -> bool:
+    """Whether the triangles ``corners`` (C, 3) have a side that only one of them holds."""
+    sides = np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]],
+                                    corners[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(sides, axis=0, return_counts=True)
+    return bool((counts == 1).any())
+
+
+class Crossed:
+    """The resistance of a body that has crossed the wall: NaN forces."""
+
+    def __init__(self, x):
+        self.x = np.array(x)
+
+    def solve(self, rhs):
+        return np.full(np.shape(rhs), np.nan)
+
+    def lumped(self):
+        return np.zeros((len(self.x), 3, 3))

@@ -41,6 +41,7 @@ import scipy.sparse as sp
 
 from rftfem.model import stokes_kernels as kernels
 from rftfem.model import stokeslets
+from rftfem.model.ranks import gather_rows
 from rftfem.model.layer_rules import (NEAR, NEAR_FACTOR, EdgeWeight, ReferenceElement,
                                       RulePoints)
 
@@ -286,7 +287,7 @@ class LayerResistance:
         dropped: the factors replace it)."""
         import scipy.linalg as sl
 
-        A = stokeslets.gather_rows(self.A, self.comm)
+        A = gather_rows(self.A, self.comm)
         self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
         self.A, self.factored, self.iterations = None, self, 0
 
@@ -318,7 +319,7 @@ class LayerResistance:
 
     def _product(self, z: np.ndarray) -> np.ndarray:
         """``A z``: each process its rows, gathered (every process the same vector)."""
-        return stokeslets.gather_rows(self.A @ z, self.comm)
+        return gather_rows(self.A @ z, self.comm)
 
     def _loads(self, f: np.ndarray) -> np.ndarray:
         g = len(self.grid)

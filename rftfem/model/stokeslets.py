@@ -26,8 +26,11 @@ from __future__ import annotations
 from math import factorial, pi, sqrt
 
 import numpy as np
+
 from numpy.polynomial import polynomial as P
 from scipy.special import erf
+
+from rftfem.model.ranks import gather_rows
 
 _C = 2.0 / sqrt(pi)
 #: below this ρ the radial functions are summed as series (no cancellation); beyond
@@ -342,18 +345,6 @@ class RowBlocks:
 
     def __matmul__(self, v):
         return gather_rows(self.local @ v, self.comm)
-
-
-def gather_rows(local: np.ndarray, comm) -> np.ndarray:
-    """Every process's rows of an array stacked in rank order, on every process."""
-    if comm is None or comm.size == 1:
-        return local
-    counts = comm.allgather(local.shape[0])
-    width = int(np.prod(local.shape[1:], dtype=int))
-    out = np.empty((sum(counts),) + local.shape[1:])
-    comm.Allgatherv(np.ascontiguousarray(local, dtype=float),
-                    [out, [c * width for c in counts]])
-    return out
 
 
 def lumped_blocks(blocks: np.ndarray) -> np.ndarray:

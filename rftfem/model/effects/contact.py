@@ -337,6 +337,10 @@ class Contact(UpdateLimits, Effect):
                                  for name in ("area", "energy", "power")])
         return [m.assemble_scalar(f) for f in self._compiled]
 
+    def _contact_area(self) -> float:
+        """The reference area within a barrier's reach (body.csv's ``contact_area``)."""
+        return dict(zip(COLUMNS, self.values(0.0)))["contact_area"]
+
     def warnings(self) -> list[str]:
         """A slip velocity so large that a sticking body creeps more than 5 % of its size
         in a drive period (or the run) does not model sticking: a warning."""
@@ -352,7 +356,7 @@ class Contact(UpdateLimits, Effect):
         """Whether friction may hold the body at the current state: a plane with friction
         presses on it (then its acceleration at rest is not the frictionless one)."""
         rubbing = [max(_triple(p["static_friction"])) > 0.0 for p in self.entries]
-        return any(rubbing) and self.values(0.0)[3] > 0.0
+        return any(rubbing) and self._contact_area() > 0.0
 
     def plane_settings(self) -> list[dict]:
         """Each plane's resolved settings (normal, point, reach, stiffness, slip velocity)."""

@@ -16,6 +16,7 @@ from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel
+from rftfem.model.ranks import gather_rows
 
 
 class Drag(FluidModel):
@@ -71,7 +72,7 @@ class Drag(FluidModel):
             return [float(c) for c in given["drag"]]
         m = self.model
         owned = m.Vu.dofmap.index_map.size_local
-        x = np.concatenate(m.comm.allgather(m.Vu.tabulate_dof_coordinates()[:owned]))
+        x = gather_rows(m.Vu.tabulate_dof_coordinates()[:owned], m.comm)
         length, width = fluid.body_extents(x, self.scene["shell"]["axis"])
         if width <= 0.0:
             raise SceneError("fluid.viscosity: the body has no width across shell.axis, so "

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from rftfem.model.rates import scheme_velocity
 from rftfem.errors import SceneError
 from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
 from rftfem.scene.selectors import check_where, entities_of
@@ -160,7 +161,7 @@ class Motions(Effect):
             du = motion.at(t, motion.X) - m.u_n.x.array[i]
             v_n, a_n = m.v_n.x.array[i], m.a_n.x.array[i]
             v, a = motion.rates(t, side=-1)
-            v_fix[i] = v - (c.cv * du + c.cv_v * v_n + c.cv_a * a_n)
+            v_fix[i] = v - scheme_velocity(du, v_n, a_n, c.cv, c.cv_v, c.cv_a)
             a_fix[i] = ((1 - c.alpha_m) * a + c.alpha_m * a_n
                         - (c.ca * du + c.ca_v * v_n + c.ca_a * a_n))
 

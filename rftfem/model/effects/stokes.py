@@ -28,6 +28,8 @@ process only, threaded, and its results are broadcast.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from rftfem.model import (layer_rules, stokes_body, stokes_fmm, stokes_layer, stokes_report,
@@ -36,6 +38,8 @@ from rftfem.errors import SceneError
 
 from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel, NonlocalEffect
+from rftfem.model.ranks import gather_rows
+from rftfem.model.rates import scheme_velocity
 
 #: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
@@ -118,7 +122,7 @@ class Stokes(FluidModel, NonlocalEffect):
     # --- set-up -----------------------------------------------------------
 
     def _gather(self, owned: np.ndarray) -> np.ndarray:
-        return np.concatenate(self.model.comm.allgather(np.ascontiguousarray(owned)))
+        return gather_rows(owned, self.model.comm)
 
     def _node_blobs(self, uniform) -> np.ndarray:
         """δ of the owned nodes: ``uniform`` if given, else the node spacing."""
@@ -231,7 +235,7 @@ class Stokes(FluidModel, NonlocalEffect):
                        f"away or refine the mesh")
         if self.method == "layer":
             out += stokes_report.warnings(self.describe())
-            if self.cell == "triangle" and _has_free_edges(self.shell_cells[:, :3]):
+            if self.cell == "triangle" and stokes_body.has_free_edges(self.shell_cells[:, :3]):
                 out.append("fluid: the body is meshed with triangles and has free edges, where "
                            "the layer carries no edge weight in this version: expect first "
                            "order there (docs/stokes.md §Free edges); mesh it with "
@@ -251,9 +255,9 @@ class Stokes(FluidModel, NonlocalEffect):
         m, c = self.model, self.model.coef
         n = self.n_owned
         u = m.w.x.array[self.owned_u]
-        v = (float(c["cv"].value) * (u - m.u_n.x.array.reshape(-1, 3)[:n])
-             + float(c["cv_v"].value) * m.v_n.x.array.reshape(-1, 3)[:n]
-             + float(c["cv_a"].value) * m.a_n.x.array.reshape(-1, 3)[:n])
+        v = scheme_velocity(u - m.u_n.x.array.reshape(-1, 3)[:n],
+                            m.v_n.x.array.reshape(-1, 3)[:n], m.a_n.x.array.reshape(-1, 3)[:n],
+                            *(float(c[k].value) for k in ("cv", "cv_v", "cv_a")))
         if m.drive:
             v = v + m.drive[0].x.array.reshape(-1, 3)[:n]
         both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
@@ -265,7 +269,7 @@ class Stokes(FluidModel, NonlocalEffect):
             if self.wall is not None and self.wall.heights(x).min() <= 0.0:
                 # the body has reached the wall: no flow state exists; a residual of
                 # NaN makes the step fail and be cut (the solver says it is not finite)
-                self._resistance = _Crossed(x)
+                self._resistance = stokes_body.Crossed(x)
             elif self.method == "layer":
                 self._resistance = stokes_layer.LayerResistance(
                     self.layer, x, self.viscosity, self.wall, comm=self.model.comm,
@@ -312,20 +316,21 @@ class Stokes(FluidModel, NonlocalEffect):
         if layer_kept and (exact or res.iterations > REUSE_ITERATIONS):
             res.factorise()  # GMRES slowed on the kept factors: this iterate's own
             self._factored, layer_kept = res, False
-        if kept is not None and (kept[0] is res and kept[4] is F or layer_kept):
+        if kept is not None and (kept.resistance is res and kept.forces is F or layer_kept):
             # the same iterate (a lifting made it: G depends on x and F only), or the
             # kept factors' tangent
-            G = kept[2]
+            G = kept.G
         else:
             G = res.position_operator(F)
-        self._tangent = (res, cv, G, scale, F)
+        self._tangent = _Tangent(res, cv, G, scale, F)
         lumped = res.lumped()[self.offset:self.offset + self.n_owned]
         return scale * cv * lumped
 
     def tangent_product(self, dx: np.ndarray) -> np.ndarray:
         """``scale · M⁻¹ (c_v dx − G dx)`` for a displacement direction at every node
         (N, 3): the owned nodes' rows (n_owned, 3)."""
-        res, cv, G, scale, _ = self._tangent
+        res, cv, G, scale = (self._tangent.resistance, self._tangent.cv, self._tangent.G,
+                              self._tangent.scale)
         du = np.ravel(dx)
         if hasattr(res, "tangent"):  # the layer: through its force grid
             out = scale * res.tangent(du, cv, G)
@@ -385,22 +390,12 @@ class Stokes(FluidModel, NonlocalEffect):
         return out
 
 
-class _Crossed:
-    """The resistance of a body that has crossed the wall: NaN forces."""
+class _Tangent(NamedTuple):
+    """The tangent :meth:`Stokes.prepare_tangent` made: at the forces ``forces`` of the
+    resistance ``resistance``, ``scale · M⁻¹ (c_v − G)``."""
 
-    def __init__(self, x):
-        self.x = np.array(x)
-
-    def solve(self, rhs):
-        return np.full(np.shape(rhs), np.nan)
-
-    def lumped(self):
-        return np.zeros((len(self.x), 3, 3))
-
-
-def _has_free_edges(corners: np.ndarray) -> bool:
-    """Whether the triangles ``corners`` (C, 3) have a side that only one of them holds."""
-    sides = np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]],
-                                    corners[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(sides, axis=0, return_counts=True)
-    return bool((counts == 1).any())
+    resistance: object
+    cv: float
+    G: object
+    scale: float
+    forces: np.ndarray
