@@ -176,7 +176,7 @@ class Contact(UpdateLimits, Effect):
         self.dx = m.dx(metadata={"quadrature_degree": 4})
 
         #: the body's diagonal (reference)
-        self.size = size = self._body_size()
+        self.size = size = m.size()
         thinnest = m.material_value("thickness", "min")
         span = self._time_scale()
         self.planes = []
@@ -243,18 +243,6 @@ class Contact(UpdateLimits, Effect):
         return forms.friction_traction(pressure, v_slip, v_scale, mu[0], mu[1])
 
     # --- scales and the start ---------------------------------------------------
-
-    def _owned_coordinates(self) -> np.ndarray:
-        m = self.model
-        owned = m.Vu.dofmap.index_map.size_local
-        return m.Vu.tabulate_dof_coordinates()[:owned]
-
-    def _body_size(self) -> float:
-        m = self.model
-        x = self._owned_coordinates()
-        lo = np.min(m.comm.allgather(x.min(axis=0) if len(x) else np.full(3, np.inf)), axis=0)
-        hi = np.max(m.comm.allgather(x.max(axis=0) if len(x) else np.full(3, -np.inf)), axis=0)
-        return float(np.linalg.norm(hi - lo))
 
     def _time_scale(self) -> float:
         """The scene's shortest periodic drive (a travelling wave, a rotating field, a

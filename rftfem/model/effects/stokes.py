@@ -182,7 +182,7 @@ class Stokes(FluidModel, NonlocalEffect):
         return self.check_lines()
 
     def _check_size(self):
-        extent = float(np.linalg.norm(np.ptp(self.X, axis=0)))
+        extent = self.model.size()
         largest = float(self.delta.max())
         if largest >= 0.5 * extent:
             raise SceneError(f"fluid.regularization: the blob ({largest:.4g}) is larger than "
