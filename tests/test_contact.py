@@ -115,7 +115,7 @@ at = [2.0, 0.25, 0.0]
           f"{max(abs(last['contact_Fx']), abs(last['contact_Fy'])) / weight:.1e}")
     assert abs(last["contact_Fz"] - weight) < 2e-15 * weight, last["contact_Fz"] / weight - 1
     assert abs(last["contact_Fx"]) < 3e-13 * weight and abs(last["contact_Fy"]) < 3e-13 * weight
-    reach = sim.model.get("contact").planes[0]["reach"]
+    reach = sim.model.get("contact").planes[0].reach
     assert reach == pytest.approx(0.1 * T)
     probes = np.genfromtxt(tmp_path / "rest" / "probes.csv", delimiter=",", names=True)
     heavy, light = probes["heavy_end_uz"][-1], probes["light_end_uz"][-1]
@@ -157,7 +157,7 @@ def test_incline_with_anisotropic_friction(tmp_path, direction, mu, slides, sche
         assert abs(a / exact - 1) < within
     else:
         creep = abs(body[f"centroid_{axis}"][-1] - body[f"centroid_{axis}"][0])
-        v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+        v_scale = sim.model.get("contact").planes[0].slip_velocity
         friction = -sign * body[f"contact_F{axis}"][-1]
         print(f"sticks: crept {creep:.3g} (ε_v t = {v_scale * 0.05:.3g}), friction / "
               f"m g sin α - 1 = {friction / (MASS * G * math.sin(alpha)) - 1:.1e}")
@@ -171,7 +171,7 @@ def test_sticks_below_the_static_coefficient(tmp_path):
     comes from the first step with friction, not from the frictionless forces)."""
     alpha = math.atan(0.35)
     sim, body, _ = strip(tmp_path, "stick", gravity=tilted(alpha))
-    v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+    v_scale = sim.model.get("contact").planes[0].slip_velocity
     creep = body["centroid_x"][-1] - body["centroid_x"][0]
     print(f"crept {creep:.3g} in 0.05 (ε_v t = {v_scale * 0.05:.3g})")
     assert 0.0 <= creep < v_scale * 0.05
@@ -192,7 +192,7 @@ ramp = "constant"
 """
     sim, body, _ = strip(tmp_path, "push", extra=extra)
     t, x = body["time"], body["centroid_x"] - 1.0
-    v_scale = sim.model.get("contact").planes[0]["slip_velocity"]
+    v_scale = sim.model.get("contact").planes[0].slip_velocity
     if push < 1.0:
         print(f"F < μ_s m g: moved {x[-1]:.3g} (ε_v t = {v_scale * t[-1]:.3g})")
         assert 0.0 <= x[-1] < v_scale * t[-1]

@@ -171,11 +171,11 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
                         f"over the body: {lo:.4g} … {hi:.4g}, mean over its nodes {mean:.4g}"))
     contact = model.get("contact")
     for i, plane in enumerate(contact.planes if contact is not None else []):
-        out.append((f"contact.{i} reach / t", plane["reach"] / t,
+        out.append((f"contact.{i} reach / t", plane.reach / t,
                     "the barrier's reach δ over the thickness: no point of the lower face "
                     "goes deeper than δ below the plane"))
         out.append((f"contact.{i} slip velocity × end / L",
-                    plane["slip_velocity"] * time_["end"] / L,
+                    plane.slip_velocity * time_["end"] / L,
                     "ε_v time.end / L: how far a sticking body may creep in the run, over "
                     "its length"))
     return out

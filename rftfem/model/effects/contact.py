@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import math
 
+from dataclasses import dataclass
+
 import numpy as np
 import ufl
 
@@ -41,6 +43,22 @@ CREEP_WARNING = 0.05
 START_DEPTH = 1.0e-3
 COLUMNS = ["contact_Fx", "contact_Fy", "contact_Fz", "contact_area", "contact_energy",
            "friction_power"]
+
+
+@dataclass
+class Plane:
+    """A contact plane as the run uses it: the scene's values with the defaults made
+    from the body (the reach from the thickness, the slip velocity from the size and
+    the drive's period, the stiffness from the body's weight or load, set after the
+    forms are made)."""
+
+    normal: np.ndarray
+    point: np.ndarray
+    reach: float
+    stiffness: float | None
+    slip_velocity: float
+    #: whether it has static friction
+    rubs: bool
 
 
 class Coefficient(Validator):
@@ -187,10 +205,9 @@ class Contact(UpdateLimits, Effect):
             normal /= np.linalg.norm(normal)
             reach = plane["distance"] or REACH_OF_THICKNESS * thinnest
             v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / span
-            self.planes.append({"normal": normal, "point": np.asarray(plane["point"], float),
-                                "reach": reach, "stiffness": plane["stiffness"],
-                                "slip_velocity": v_scale,
-                                "rubs": max(_triple(plane["static_friction"])) > 0.0})
+            self.planes.append(Plane(normal, np.asarray(plane["point"], float), reach,
+                                     plane["stiffness"], v_scale,
+                                     max(_triple(plane["static_friction"])) > 0.0))
             const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
                      (("reach", reach), ("stiffness", 0.0), ("v_scale", v_scale))}
             self.stiffnesses.append(const["stiffness"])
@@ -212,11 +229,11 @@ class Contact(UpdateLimits, Effect):
         self._work = sum(work[1:], work[0])
         self._outputs = {name: sum(terms[1:], terms[0]) for name, terms in outputs.items()}
         for plane, area in zip(self.planes, start_areas):
-            if plane["stiffness"] is None:
-                plane["stiffness"] = (self._reference_pressure(size, plane["normal"], area)
-                                      / (forms.SLOPE_ON_PLANE * plane["reach"]))
+            if plane.stiffness is None:
+                plane.stiffness = (self._reference_pressure(size, plane.normal, area)
+                                      / (forms.SLOPE_ON_PLANE * plane.reach))
         for kappa, plane in zip(self.stiffnesses, self.planes):
-            kappa.value = plane["stiffness"]
+            kappa.value = plane.stiffness
         self._compiled = None
         self._nodes = None
         self._check_start()
@@ -285,12 +302,12 @@ class Contact(UpdateLimits, Effect):
         cells, t_cell = cell_thickness(m)
         faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
         for i, plane in enumerate(self.planes):
-            g = (faces.reshape(-1, 3) - plane["point"]) @ plane["normal"]
+            g = (faces.reshape(-1, 3) - plane.point) @ plane.normal
             low = float(g.min()) if len(g) else np.inf
             low, where = min(m.comm.allgather(
                 (low, faces.reshape(-1, 3)[int(np.argmin(g))].tolist() if len(g) else None)),
                 key=lambda pair: pair[0])
-            if low < -START_DEPTH * plane["reach"]:
+            if low < -START_DEPTH * plane.reach:
                 at = ", ".join(f"{c:.4g}" for c in where)
                 raise SceneError(f"contact.{i}: the body starts through the plane: its lower "
                                  f"face is {-low:.4g} below it at ({at}) (the normal points to "
@@ -314,7 +331,7 @@ class Contact(UpdateLimits, Effect):
         inertia = m.coefficients is not None and m.coefficients.ca != 0.0
         self.in_time.value = 1.0 if inertia else 0.0
         for kappa, plane in zip(self.stiffnesses, self.planes):
-            kappa.value = plane["stiffness"] if m.loads_on else 0.0
+            kappa.value = plane.stiffness if m.loads_on else 0.0
 
     def values(self, t):
         m = self.model
@@ -333,19 +350,15 @@ class Contact(UpdateLimits, Effect):
         """A slip velocity so large that a sticking body creeps more than 5 % of its size
         in a drive period (or the run) does not model sticking: a warning."""
         size, span = self.size, self._time_scale()
-        return [f"contact.{i}.slip_velocity = {plane['slip_velocity']:.3g}: a body that "
-                f"sticks may creep {plane['slip_velocity'] * span / size:.2g} of its size "
+        return [f"contact.{i}.slip_velocity = {plane.slip_velocity:.3g}: a body that "
+                f"sticks may creep {plane.slip_velocity * span / size:.2g} of its size "
                 f"in {span:.3g} (a drive period, or time.end), so friction acts as a drag, "
                 f"not as static friction; give a smaller slip_velocity (docs/contact.md §2)"
                 for i, plane in enumerate(self.planes)
-                if plane["slip_velocity"] * span > CREEP_WARNING * size]
+                if plane.slip_velocity * span > CREEP_WARNING * size]
 
     def holds_at_rest(self) -> bool:
         """Whether friction may hold the body at the current state: a plane with friction
         presses on it (then its acceleration at rest is not the frictionless one)."""
         rubbing = [max(_triple(p["static_friction"])) > 0.0 for p in self.entries]
         return any(rubbing) and self._contact_area() > 0.0
-
-    def plane_settings(self) -> list[dict]:
-        """Each plane's resolved settings (normal, point, reach, stiffness, slip velocity)."""
-        return self.planes

@@ -58,8 +58,8 @@ class UpdateLimits(LimitsNewtonStep):
         u, du = x[rows], -y[rows]
         fraction = 1.0
         for plane in self.planes:
-            n, reach = plane["normal"], plane["reach"]
-            s = (X + u - 0.5 * t[:, None] * d - plane["point"]) @ n + reach
+            n, reach = plane.normal, plane.reach
+            s = (X + u - 0.5 * t[:, None] * d - plane.point) @ n + reach
             ds = du @ n
             # closing in, ending within the barrier's reach, and not already past its
             # logarithmic part (there the Taylor polynomial holds it, and Newton walks out)
@@ -76,15 +76,15 @@ class UpdateLimits(LimitsNewtonStep):
         inv_dt = float(self.inv_dt.value)
         # (not in a run's first step: a body starting to slide from rest overshoots,
         # and the band's stiffness at zero slip holds it back by itself)
-        if inv_dt == 0.0 or not plane["rubs"] or not self.model.increments:
+        if inv_dt == 0.0 or not plane.rubs or not self.model.increments:
             return 1.0
-        n, eps2 = plane["normal"], plane["slip_velocity"] ** 2
+        n, eps2 = plane.normal, plane.slip_velocity ** 2
         tangential = lambda a: a - np.outer(a @ n, n)  # noqa: E731
         v = tangential((u - self.u_start.x.array.reshape(-1, 3)[owned]) * inv_dt)
         dv = tangential(du * inv_dt)
         along = np.einsum("ij,ij->i", v, dv)
         speed2 = np.einsum("ij,ij->i", v, v)
-        turning = (s < 2.0 * plane["reach"]) & (speed2 > eps2) & (speed2 + along < 0.0)
+        turning = (s < 2.0 * plane.reach) & (speed2 > eps2) & (speed2 + along < 0.0)
         if not np.any(turning):
             return 1.0
         # halve the slip along its direction: a stick is then reached in a few
