@@ -1,6 +1,8 @@
 """``rftfem sweep`` and the executors (rftfem/studies/sweep.py, executors.py): a grid
 of runs equal to separate ``rftfem run`` calls to the bit, on this process, on a
-local Dask cluster, and after a worker dies; the SLURM job script; bad options."""
+local Dask cluster, and after a worker dies; --reuse keyed on content (an interrupted
+sweep resumed, edits that change runs and edits that do not); the SLURM job script;
+bad options."""
 
 from __future__ import annotations
 
@@ -115,6 +117,195 @@ def test_reuse_runs_only_what_is_missing_and_a_failed_run_is_a_row(scene, tmp_pa
     rows = read_rows(out / "sweep.csv")
     assert [r["status"] for r in rows] == ["failed", "reused"]
     assert (out / rows[1]["folder"] / "summary.json").stat().st_mtime_ns == stamp
+
+
+def sweep_here(*args, capsys=None) -> tuple[int, str]:
+    """`rftfem sweep ARGS` in this process (in-process runs, about 0.2 s each once
+    the first has loaded the forms): its exit status and what it said on stderr."""
+    from rftfem import cli
+
+    if capsys is not None:
+        capsys.readouterr()
+    status = cli.main(["sweep", *map(str, args)])
+    return status, capsys.readouterr().err if capsys is not None else ""
+
+
+def stamps(out: Path) -> list:
+    return [(f / "summary.json").stat().st_mtime_ns for f in sorted(out.glob("0*"))]
+
+
+def without(rows: list[dict], *columns) -> list[dict]:
+    return [{k: v for k, v in r.items() if k not in columns} for r in rows]
+
+
+#: three runs of the cantilever, the tip deflection of each; two
+GRID = ["--vary", "shell.E=1e4,2e4,3e4", "--quantity", "w=max(tip_uz)"]
+PAIR = ["--vary", "shell.E=1e4,2e4", "--quantity", "w=max(tip_uz)"]
+
+
+def test_an_interrupted_sweep_resumed_with_reuse_equals_an_uninterrupted_one(
+        scene, tmp_path, monkeypatch, capsys):
+    """Ctrl-C as the second of three runs ends (its outputs complete, its reuse key
+    not yet written; the third never started): --reuse keeps the first, runs the
+    second again (a folder without reuse.json is not reused, and stderr says so) and
+    the third, and sweep.csv and every run's tables are the uninterrupted sweep's to
+    the bit. Broke: the key written as a run starts, not once it ended well
+    (write_key before executor.run in run_point) → 0002 held a reuse.json after the
+    cut ([True, True]); past that check, the resume ran only ['0003_E=30000']."""
+    from rftfem.studies import executors
+
+    assert sweep_here(scene, *GRID, "--out", tmp_path / "whole")[0] == 0
+    real, calls, stop = executors.LocalExecutor.run, [], [2]
+
+    def cut(self, scene_file, overrides, folder, petsc_args=None):
+        calls.append(Path(folder).name)
+        status = real(self, scene_file, overrides, folder, petsc_args)
+        if len(calls) in stop:
+            raise KeyboardInterrupt
+        return status
+
+    monkeypatch.setattr(executors.LocalExecutor, "run", cut)
+    out = tmp_path / "cut"
+    assert sweep_here(scene, *GRID, "--out", out)[0] == 130  # interrupted
+    assert [r["status"] for r in read_rows(out / "sweep.csv")] == ["ok", "pending", "pending"]
+    assert [(f / "reuse.json").exists() for f in sorted(out.glob("0*"))] == [True, False]
+    first = (out / calls[0] / "summary.json").stat().st_mtime_ns
+    calls.clear()
+    stop.clear()
+    status, err = sweep_here(scene, *GRID, "--out", out, "--reuse", capsys=capsys)
+    assert status == 0, err
+    assert calls == ["0002_E=20000", "0003_E=30000"]  # only what is missing
+    assert (out / "0001_E=10000" / "summary.json").stat().st_mtime_ns == first
+    assert "1 finished run(s) run again, not reused (no reuse.json" in err, err
+    resumed, whole = (read_rows(p / "sweep.csv") for p in (out, tmp_path / "whole"))
+    assert [r["status"] for r in resumed] == ["reused", "ok", "ok"]
+    assert without(resumed, "status", "wall_s") == without(whole, "status", "wall_s")
+    for r in whole:
+        assert tables(out / r["folder"]) == tables(tmp_path / "whole" / r["folder"])
+
+
+def test_reuse_runs_again_what_an_edited_scene_or_profile_changes(tmp_path, capsys):
+    """The base scene's load doubled, then its thickness profile (a CSV the scene
+    names) changed: --reuse runs both runs again each time (stderr names what
+    changed), and their rows are a fresh sweep's of the edited files to the bit, not
+    the stale ones; unedited once more, both are reused. Broke: the file digests left
+    out of the key (files = {} in reuse.key_of) → after the profile edit
+    ('reused', w 0.79397) where the fresh sweep has ('ok', 0.099909); the completed
+    scene's digest left out ("scene": "") → after the load edit ('reused', 0.39894),
+    fresh ('ok', 0.79397)."""
+    scene = tmp_path / "cantilever.toml"
+    scene.write_text(CANTILEVER.replace("thickness = 0.1", 'thickness = "t.csv"'))
+    profile = tmp_path / "t.csv"
+    profile.write_text("X,Y,Z,t\n0,0,0,0.1\n10,0,0,0.1\n")
+    grid, out = PAIR, tmp_path / "sweep"
+    assert sweep_here(scene, *grid, "--out", out)[0] == 0
+    before = read_rows(out / "sweep.csv")
+    edits = [(scene, "value = [0.0, 0.0, 1.0e-3]", "value = [0.0, 0.0, 2.0e-3]",
+              "the completed scene changed since"),
+             (profile, ",0.1\n", ",0.2\n", "the content of shell.thickness.profile changed")]
+    for k, (path, old, new, said) in enumerate(edits):
+        path.write_text(path.read_text().replace(old, new))
+        status, err = sweep_here(scene, *grid, "--out", out, "--reuse", capsys=capsys)
+        assert status == 0, err
+        rows = read_rows(out / "sweep.csv")
+        assert sweep_here(scene, *grid, "--out", tmp_path / f"fresh{k}")[0] == 0
+        fresh = read_rows(tmp_path / f"fresh{k}" / "sweep.csv")
+        assert [(r["status"], r["w"]) for r in rows] == [("ok", r["w"]) for r in fresh]
+        assert f"2 finished run(s) run again, not reused ({said}" in err, err
+        assert all(abs(float(a["w"]) - float(b["w"])) > 1e-3 * abs(float(b["w"]))
+                   for a, b in zip(rows, before))  # the edit changed w (×2, then ×1/8)
+        before = rows
+    kept = stamps(out)
+    assert sweep_here(scene, *grid, "--out", out, "--reuse")[0] == 0
+    assert [r["status"] for r in read_rows(out / "sweep.csv")] == ["reused", "reused"]
+    assert stamps(out) == kept
+
+
+def test_reuse_keeps_runs_through_edits_the_completed_scene_does_not_show(
+        scene, tmp_path, capsys):
+    """A comment, a value spelled otherwise (0.25 as 2.5e-1), a default written out
+    (nu = 0.0), the file's shell.E (every run's --vary replaces it) and the scene
+    file moved and renamed: no completed scene changes, so --reuse keeps every run
+    untouched. Broke: the scene file's path kept in the key (_path not in
+    reuse._BOOKKEEPING) → the moved file's runs ['ok', 'ok'], run again; the scene as
+    written kept (_raw) → the edited file's ['ok', 'ok']."""
+    grid, out = PAIR, tmp_path / "sweep"
+    assert sweep_here(scene, *grid, "--out", out)[0] == 0
+    kept = stamps(out)
+    edited = ("# edited: nothing a run sees\n" + CANTILEVER).replace(
+        "dt = 0.25", "dt = 2.5e-1  # the same").replace(
+        "E = 1.0e4", "E = 7.0e4\nnu = 0.0")
+    assert edited.count("2.5e-1") == edited.count("7.0e4") == edited.count("nu = 0.0") == 1
+    moved = tmp_path / "elsewhere" / "renamed.toml"
+    moved.parent.mkdir()
+    for path in (scene, moved):
+        path.write_text(edited)
+        status, err = sweep_here(path, *grid, "--out", out, "--reuse", capsys=capsys)
+        assert status == 0, err
+        assert [r["status"] for r in read_rows(out / "sweep.csv")] == ["reused", "reused"]
+        assert "run again" not in err and stamps(out) == kept
+
+
+MAGNETIC_GMSH = """
+title = "a gmsh mesh and a magnetization profile"
+[mesh]
+kind = "gmsh"
+file = "m.msh"
+[shell]
+E = 50.0
+[time]
+end = 0.1
+dt = 0.05
+[[magnetic.parts]]
+region = "all"
+profile = "m.csv"
+[magnetic.field]
+kind = "expression"
+B = ["0", "0.3*t", "0.6*t"]
+"""
+
+
+def test_the_reuse_key_covers_the_mesh_file_a_profile_and_the_petsc_options(tmp_path):
+    """The key of a scene on a gmsh mesh with a magnetization profile (no run: the
+    keys only): a finished run is reused with the same key; a node of the mesh file
+    moved, a profile value changed, or a PETSc option added, and the reason names
+    that (the content, not the file's time: restored, the key is the first one); a
+    folder without reuse.json is not reused and says why; a failed run says nothing.
+    Broke: mesh.file left out of reuse.files_read → the moved node kept the key
+    (why_not_reused None)."""
+    import json
+    import shutil
+
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies import reuse
+
+    shutil.copy(Path(__file__).parent / "data" / "two_quads_v22.msh", tmp_path / "m.msh")
+    (tmp_path / "m.csv").write_text("X,Y,Z,mx,my,mz\n0,0,0,1,0,0\n2,0,0,1,0,0\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text(MAGNETIC_GMSH)
+    key = reuse.key_of(load_scene(scene))
+    assert sorted(key["files"]) == ["magnetic.parts.0.profile", "mesh.file"]
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "summary.json").write_text(json.dumps({"status": "ok"}))
+    assert reuse.why_not_reused(run, key) == f"no {reuse.KEY_FILE}: a run from before " \
+        "--reuse compared content, or one cut short before its key was written"
+    reuse.write_key(run, key)
+    assert reuse.why_not_reused(run, key) is None
+    for name, old, new, said in (
+            ("m.msh", "\n2 1 0 0\n", "\n2 1.5 0 0\n", "the content of mesh.file"),
+            ("m.csv", "\n2,0,0,1,", "\n2,0,0,2,", "the content of magnetic.parts.0.profile")):
+        text = (tmp_path / name).read_text()
+        assert text.count(old) == 1
+        (tmp_path / name).write_text(text.replace(old, new))
+        assert reuse.why_not_reused(run, reuse.key_of(load_scene(scene))) == \
+            f"{said} changed since"
+        (tmp_path / name).write_text(text)
+        assert reuse.key_of(load_scene(scene)) == key
+    petsc = reuse.key_of(load_scene(scene), ["-snes_rtol", "1e-12"])
+    assert reuse.why_not_reused(run, petsc) == "the PETSc options changed since"
+    (run / "summary.json").write_text(json.dumps({"status": "failed"}))
+    assert reuse.why_not_reused(run, key) == ""
 
 
 def _children_running(pid: int, folder_part: str) -> list:

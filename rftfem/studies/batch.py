@@ -125,7 +125,9 @@ def child_environment(mpirun: bool) -> dict:
 
 
 def finished(folder: Path, scene_file: str | Path, overrides: list[str]) -> bool:
-    """``folder`` holds a finished run (status ok) of the same scene file and overrides."""
+    """``folder`` holds a finished run (status ok) of the same scene file and overrides
+    (by path: ``rftfem study --reuse``; ``rftfem sweep --reuse`` compares content,
+    rftfem/studies/reuse.py)."""
     try:
         summary = json.loads((Path(folder) / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):

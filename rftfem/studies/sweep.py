@@ -13,9 +13,10 @@ draws the quantities: a line against the key for one varied key, a heat map
 for two numeric ones, small multiples beyond (rftfem/studies/sweep_report.py).
 
 Every combination's scene is checked before anything runs. ``--reuse`` keeps
-the runs a folder already holds finished (same scene file and overrides), so a
-sweep cut short runs only what is missing. The executors are those of
-:mod:`rftfem.studies.executors`.
+the runs a folder already holds finished from the same content (the completed
+scene, the files it names, the PETSc options: :mod:`rftfem.studies.reuse`), so a
+sweep cut short runs only what is missing, and an edited scene or profile runs
+again what it changes. The executors are those of :mod:`rftfem.studies.executors`.
 """
 
 from __future__ import annotations
@@ -73,6 +74,8 @@ class Point:
     wall: float | None = None
     reason: str = ""
     quantities: dict = field(default_factory=dict)
+    key: dict | None = None  # what --reuse compares (rftfem/studies/reuse.py)
+    note: str = ""  # why a finished run was not reused, or not keyed
 
 
 def add_arguments(parser) -> None:
@@ -97,8 +100,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--np", metavar="P", type=int, default=1,
                         help="each run under mpirun -n P")
     parser.add_argument("--reuse", action="store_true",
-                        help="keep the runs --out already holds finished with the same scene "
-                             "and overrides; run only the others")
+                        help="keep the runs --out already holds finished from the same "
+                             "content (the completed scene, the files it names, the PETSc "
+                             "options); run only the others")
     executors.add_arguments(parser)
 
 
@@ -242,12 +246,15 @@ class _Progress:
 
 def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
               quantities) -> None:
-    from rftfem.studies.batch import failure_reason, finished
+    from rftfem.studies.batch import failure_reason
+    from rftfem.studies.reuse import unchanged, why_not_reused, write_key
 
     t0 = time.perf_counter()
-    if reuse and finished(point.folder, scene_file, point.overrides):
+    why = why_not_reused(point.folder, point.key) if reuse else ""
+    if why is None:
         point.status = "reused"
     else:
+        point.note = f"finished run(s) run again, not reused ({why})" if why else ""
         if point.folder.exists():
             shutil.rmtree(point.folder)
         point.folder.mkdir(parents=True)
@@ -255,6 +262,11 @@ def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
         point.status = "ok" if point.exit_status == 0 else "failed"
         if point.exit_status != 0:
             point.reason = failure_reason(point.folder / "run.log", point.exit_status)
+        elif unchanged(point.key, scene_file, point.overrides, petsc_args):
+            write_key(point.folder, point.key)
+        else:
+            point.note = ("run(s) not keyed for --reuse, the scene or a file it names "
+                          "changed while the sweep ran")
     point.wall = time.perf_counter() - t0
     if point.status != "failed":
         _read_quantities(point, quantities)
@@ -298,6 +310,7 @@ def main(args, petsc_args: list[str], console) -> int:
     from rftfem.outputs.collect import parse_option
     from rftfem.scene.reading import load_scene
     from rftfem.studies import sweep_report
+    from rftfem.studies.reuse import key_of
 
     if not args.vary:
         raise SceneError("--vary: give at least one key to vary (e.g. --vary shell.E=1e5,2e5)")
@@ -318,7 +331,7 @@ def main(args, petsc_args: list[str], console) -> int:
     points = grid(varies, out, args.overrides)
     for p in points:  # every combination is a valid scene before anything runs
         try:
-            load_scene(args.scene, p.overrides)
+            p.key = key_of(load_scene(args.scene, p.overrides), petsc_args)
         except SceneError as exc:
             raise SceneError(f"run {p.folder.name}: {exc}") from None
     executor = executors.make_executor(
@@ -364,6 +377,9 @@ def main(args, petsc_args: list[str], console) -> int:
                         *map(shlex.quote, as_arguments(args.overrides))])
     (out / "command.txt").write_text(command + "\n", encoding="utf-8")
     failed = sum(p.status == "failed" for p in points)
+    for note in dict.fromkeys(p.note for p in points if p.note):
+        which = [p.folder.name for p in points if p.note == note]
+        console.err(f"rftfem sweep: {len(which)} {note}; the first: {which[0]}")
     missing = [p for p in points if p.status.endswith("quantity missing")]
     if missing:
         console.err(f"rftfem sweep: {len(missing)} run(s) ok without every quantity "
