@@ -256,3 +256,16 @@ def grow_factor_workspace(ksp: PETSc.KSP, opts: dict, prefix: str = PREFIX) -> b
     apply({"mat_mumps_icntl_14": opts["mat_mumps_icntl_14"]}, prefix)
     pc.reset()
     return True
+
+
+def reason_name(reason: int) -> str:
+    """The name of a SNES converged (or diverged) reason."""
+    names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
+    return names.get(reason, str(reason))
+
+
+def petsc_message(exc) -> str:
+    """The last line of PETSc's own error text (what went wrong), else the error code."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    text = lines[-1] if lines else ""
+    return text[4:] if text.startswith("[0] ") else (text or repr(exc))

@@ -92,7 +92,7 @@ class StepSolver(NewtonTest):
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
             raise SceneError(f"solver: PETSc rejected an option of [solver] or the command "
-                             f"line: {petsc_message(exc)}") from None
+                             f"line: {petsc_options.petsc_message(exc)}") from None
         if self._step_limits:  # after setFromOptions, which makes the line search anew
             self.snes.setLineSearchPreCheck(self._limit_update)
         self.watch = None  # a slow step's reports and stops (step_watch.StepWatch.attach)
@@ -280,7 +280,7 @@ class StepSolver(NewtonTest):
                 self.snes.solve(None, self.x)
             except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
                 self._sync(self.x)
-                return False, self.snes.getIterationNumber(), math.nan, petsc_message(exc)
+                return False, self.snes.getIterationNumber(), math.nan, petsc_options.petsc_message(exc)
             reason = self.snes.getConvergedReason()
             self.factors.end_solve(reason > 0)
             retry = self._again(reason)
@@ -293,7 +293,7 @@ class StepSolver(NewtonTest):
         its = self.snes.getIterationNumber()
         norm = self.snes.getFunctionNorm()
         self.timings["solve"] += (_time.perf_counter() - t0) - (self.assembly_time - a0)
-        name = _reason_name(reason)
+        name = petsc_options.reason_name(reason)
         if self.divergence is not None:
             return False, its, norm, self.divergence
         if name in compat.SNES_NOT_FINITE:
@@ -309,7 +309,7 @@ class StepSolver(NewtonTest):
         with more MUMPS workspace (it ran out) or with MUMPS instead of PETSc's own LU
         (any failure of a solve with rftfem's choice of PETSc's LU, which does not
         pivot); None if not."""
-        name = _reason_name(reason)
+        name = petsc_options.reason_name(reason)
         ksp = self.snes.getKSP()
         if name == "DIVERGED_LINEAR_SOLVE":
             if self.factors.stale:
@@ -397,14 +397,3 @@ class StepSolver(NewtonTest):
                 return
         self.assemble_forces(self.F_n)
 
-
-def _reason_name(reason: int) -> str:
-    names = {v: k for k, v in vars(PETSc.SNES.ConvergedReason).items() if isinstance(v, int)}
-    return names.get(reason, str(reason))
-
-
-def petsc_message(exc) -> str:
-    """The last line of PETSc's own error text (what went wrong), else the error code."""
-    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-    text = lines[-1] if lines else ""
-    return text[4:] if text.startswith("[0] ") else (text or repr(exc))

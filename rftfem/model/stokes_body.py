@@ -59,6 +59,17 @@ def node_spacing(model) -> np.ndarray:
     return spacing
 
 
+def free_edge_warnings(cell: str, cells: np.ndarray) -> list[str]:
+    """The layer's warning for a body of triangles with free edges (``cells``: the
+    elements' nodes, corners first)."""
+    if cell != "triangle" or not has_free_edges(cells[:, :3]):
+        return []
+    return ["fluid: the body is meshed with triangles and has free edges, where the layer "
+            "carries no edge weight in this version: expect first order there "
+            "(docs/stokes.md §Free edges); mesh it with quadrilaterals, or refine towards "
+            "the edges"]
+
+
 def has_free_edges(corners: np.ndarray) -> bool:
     """Whether the triangles ``corners`` (C, 3) have a side that only one of them holds."""
     sides = np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]],

@@ -52,13 +52,8 @@ the triad update (§4.3), so the term left out, ``∂J/∂T · dT/dp``, is of th
 of the path dependence, second order in the cell size.  A run of one load step
 (``time.dt = time.end``) starts from the reference triads and has no such term.
 
-Overdamped runs (backward Euler) would need more: there every step's state
-depends on the previous one through the drag ``C (u_{n+1} − u_n)/Δt``, so the
-adjoint runs backwards over all the stored states, ``K_nᵀ λ_n = ∂J/∂w_n −
-(∂R_{n+1}/∂w_n)ᵀ λ_{n+1}``, and the stored triads of step n are a function of
-``w_n`` and ``T_{n−1}`` through the nodal Rodrigues update and the realignment of
-(a₁, a₂) (triad.py, docs/model.md §4.3–4.4): that update's linearisation enters
-every backward step, and ``∂R_{n+1}/∂T_n`` with it.  None of it is here.
+Overdamped runs (backward Euler) would need an adjoint backwards over every stored
+state and the triad updates' linearisation: not here (docs/model.md).
 
 API: ``gradient(sim, last, keys, objective)`` on a Simulation that has run
 with ``last = keep_last_step(sim.model)``; ``check_request(scene, keys, objective)``;
@@ -75,7 +70,8 @@ from rftfem.errors import RunFailed, SceneError
 # the request (keys and objective) is checked there; re-exported for callers
 from rftfem.studies.sensitivity_request import (KEYS_SUPPORTED, MATERIAL_FIELDS,  # noqa: F401
                                         OBJECTIVES_SUPPORTED, PROBE_VALUES, Key, Objective,
-                                        check_request, parse_key, supports)
+                                        check_request, combined_objective, parse_key,
+                                        supports)
 
 # --- the state the last step converged to -------------------------------------------
 
@@ -359,7 +355,7 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     m.set_time(sim.scene["time"]["end"])
     adj = _Adjoint(sim)
     if isinstance(objective, tuple):
-        J, dJdw, J_form = _combined(adj, *objective)
+        J, dJdw, J_form = combined_objective(adj, *objective)
     else:
         J, dJdw, J_form = adj.objective(objective)
     if not keys and not fields:
@@ -391,19 +387,6 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     for v in (dJdw, lam):
         v.destroy()
     return (float(J), out, by_field) if fields else (float(J), out)
-
-
-def _combined(adj, objectives, combine):
-    """``(J, ∂J/∂w, J's form or None)`` of ``J = f(J₁, J₂, ...)`` at the iterate."""
-    parts = [adj.objective(o) for o in objectives]
-    J, weights = combine([p[0] for p in parts])
-    dJdw = parts[0][1]
-    dJdw.scale(weights[0])
-    for (_, g, _), w in zip(parts[1:], weights[1:]):
-        dJdw.axpy(w, g)
-        g.destroy()
-    forms = [w * form for (_, _, form), w in zip(parts, weights) if form is not None]
-    return J, dJdw, (sum(forms[1:], forms[0]) if forms else None)
 
 
 __all__ = ["gradient", "keep_last_step", "check_request", "supports",

@@ -166,3 +166,18 @@ def supports(keys: list[str], objective: str, scene: dict | None = None) -> bool
         return False
     return q.func == "at" and q.a == "end" and (
         q.column in BODY_OBJECTIVES or re.fullmatch(r".+_u[xyz]", q.column) is not None)
+
+
+def combined_objective(adj, objectives, combine):
+    """``(J, ∂J/∂w, J's form or None)`` of ``J = f(J₁, J₂, ...)`` at the iterate, each
+    ``J_i`` by the adjoint ``adj`` (rftfem.studies.sensitivity)."""
+    parts = [adj.objective(o) for o in objectives]
+    J, weights = combine([p[0] for p in parts])
+    dJdw = parts[0][1]
+    dJdw.scale(weights[0])
+    for (_, g, _), w in zip(parts[1:], weights[1:]):
+        dJdw.axpy(w, g)
+        g.destroy()
+    forms = [w * form for (_, _, form), w in zip(parts, weights) if form is not None]
+    return J, dJdw, (sum(forms[1:], forms[0]) if forms else None)
+

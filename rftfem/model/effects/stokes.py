@@ -235,11 +235,7 @@ class Stokes(FluidModel, NonlocalEffect):
                        f"away or refine the mesh")
         if self.method == "layer":
             out += stokes_report.warnings(self.describe())
-            if self.cell == "triangle" and stokes_body.has_free_edges(self.shell_cells[:, :3]):
-                out.append("fluid: the body is meshed with triangles and has free edges, where "
-                           "the layer carries no edge weight in this version: expect first "
-                           "order there (docs/stokes.md §Free edges); mesh it with "
-                           "quadrilaterals, or refine towards the edges")
+            out += stokes_body.free_edge_warnings(self.cell, self.shell_cells)
         n = len(self.X) if self.method == "blobs" else len(self.layer.X)
         if n <= DENSE_NODES or self.operator == "fmm":
             return out
