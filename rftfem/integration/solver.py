@@ -280,7 +280,8 @@ class StepSolver(NewtonTest):
                 self.snes.solve(None, self.x)
             except PETSc.Error as exc:  # e.g. an option PETSc reads only when solving
                 self._sync(self.x)
-                return False, self.snes.getIterationNumber(), math.nan, petsc_options.petsc_message(exc)
+                message = petsc_options.petsc_message(exc)
+                return False, self.snes.getIterationNumber(), math.nan, message
             reason = self.snes.getConvergedReason()
             self.factors.end_solve(reason > 0)
             retry = self._again(reason)
