@@ -169,12 +169,9 @@ class Contact(UpdateLimits, Effect):
         super().__init__(model)
         m = self.model
         self.entries = list(self.scene["contact"])
-        k = m.kinematics()
-        t = m.material["t"]
-        Vu = m.Vu
         #: the state the step starts from: the displacement and each colour's director
-        self.u_start = fem.Function(Vu, name="u_start")
-        self.dn_start = [fem.Function(Vu, name=f"dn_start_{c}") for c in range(m.n_colours)]
+        self.u_start = fem.Function(m.Vu, name="u_start")
+        self.dn_start = [fem.Function(m.Vu, name=f"dn_start_{c}") for c in range(m.n_colours)]
         self.inv_dt = fem.Constant(m.mesh, PETSc.ScalarType(0.0))
         #: 1 in a step of a scheme with inertia (the barrier's pressure over the step,
         #: forms.step_pressure), 0 in static and first-order steps (its end value)
@@ -182,61 +179,73 @@ class Contact(UpdateLimits, Effect):
         #: per plane, κ as a Constant: 0 while the model's loads are off (the initial
         #: state of a run in time is found without them, docs/contact.md §1)
         self.stiffnesses = []
-        X = ufl.SpatialCoordinate(m.mesh)
-        d_start = [unit(dn) for dn in self.dn_start]
-        if m.n_colours > 1:
-            d0 = panel_director(m.colour_indicators, d_start)
-        else:
-            d0 = d_start[0]
-        face = forms.lower_face(X + k.u, k.d, t)
-        face_start = forms.lower_face(X + self.u_start, d0, t)
-        face_virtual = ufl.derivative(face, m.z, k.w_test)
         self.dx = m.dx(metadata={"quadrature_degree": 4})
-
         #: the body's diagonal (reference)
-        self.size = size = m.size()
-        thinnest = m.material_value("thickness", "min")
-        span = self._time_scale()
-        self.planes = []
-        work, outputs = [], {name: [] for name in ("force", "area", "energy", "power")}
-        start_areas = []
-        for i, plane in enumerate(self.entries):
-            normal = np.asarray(plane["normal"], dtype=float)
-            normal /= np.linalg.norm(normal)
-            reach = plane["distance"] or REACH_OF_THICKNESS * thinnest
-            v_scale = plane["slip_velocity"] or SLIP_OF_SPEED * size / span
-            self.planes.append(Plane(normal, np.asarray(plane["point"], float), reach,
-                                     plane["stiffness"], v_scale,
-                                     max(_triple(plane["static_friction"])) > 0.0))
-            const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
-                     (("reach", reach), ("stiffness", 0.0), ("v_scale", v_scale))}
-            self.stiffnesses.append(const["stiffness"])
-            n = fem.Constant(m.mesh, normal.astype(PETSc.ScalarType))
-            p = fem.Constant(m.mesh, np.asarray(plane["point"], dtype=PETSc.ScalarType))
-            g, g_start = forms.gap(face, p, n), forms.gap(face_start, p, n)
-            pressure = forms.step_pressure(const["stiffness"], g, g_start, const["reach"],
-                                           m.coef["alpha_f"], self.in_time)
-            v_slip = forms.slip_velocity(face, face_start, n, self.inv_dt)
-            traction = self._friction(plane, pressure, v_slip, const["v_scale"], n)
-            work.append(forms.contact_work(pressure, traction, n, face_virtual, self.dx))
-            J = area_ratio(k.g1, k.g2, k.G1, k.G2)
-            within = ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J)
-            start_areas.append(within)
-            outputs["force"].append(pressure * n + traction)
-            outputs["area"].append(within)
-            outputs["energy"].append(const["stiffness"] * forms.barrier(g, const["reach"]))
-            outputs["power"].append(-ufl.dot(traction, v_slip))
-        self._work = sum(work[1:], work[0])
-        self._outputs = {name: sum(terms[1:], terms[0]) for name, terms in outputs.items()}
-        for plane, area in zip(self.planes, start_areas):
+        self.size = m.size()
+        thinnest, span = m.material_value("thickness", "min"), self._time_scale()
+        self.planes = [self._resolved(entry, thinnest, span) for entry in self.entries]
+        faces = self._faces()
+        terms = [self._plane_terms(entry, plane, faces)
+                 for entry, plane in zip(self.entries, self.planes)]
+        self._work = sum((t["work"] for t in terms[1:]), terms[0]["work"])
+        self._outputs = {name: sum((t[name] for t in terms[1:]), terms[0][name])
+                         for name in ("force", "area", "energy", "power")}
+        for plane, t in zip(self.planes, terms):
             if plane.stiffness is None:
-                plane.stiffness = (self._reference_pressure(size, plane.normal, area)
-                                      / (forms.SLOPE_ON_PLANE * plane.reach))
+                plane.stiffness = (self._reference_pressure(self.size, plane.normal, t["area"])
+                                   / (forms.SLOPE_ON_PLANE * plane.reach))
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane.stiffness
         self._compiled = None
         self._nodes = None
         self._check_start()
+
+    def _resolved(self, entry: dict, thinnest: float, span: float) -> Plane:
+        """A ``[[contact]]`` entry with the defaults made from the body: the reach from
+        the thinnest thickness, the slip velocity from the size and the drive's time."""
+        normal = np.asarray(entry["normal"], dtype=float)
+        normal /= np.linalg.norm(normal)
+        return Plane(normal, np.asarray(entry["point"], float),
+                     entry["distance"] or REACH_OF_THICKNESS * thinnest, entry["stiffness"],
+                     entry["slip_velocity"] or SLIP_OF_SPEED * self.size / span,
+                     max(_triple(entry["static_friction"])) > 0.0)
+
+    def _faces(self):
+        """The lower face now and at the step's start (its director held), and its
+        variation: ``(face, face_start, face_virtual)``."""
+        m = self.model
+        k = m.kinematics()
+        X = ufl.SpatialCoordinate(m.mesh)
+        d_start = [unit(dn) for dn in self.dn_start]
+        d0 = panel_director(m.colour_indicators, d_start) if m.n_colours > 1 else d_start[0]
+        face = forms.lower_face(X + k.u, k.d, m.material["t"])
+        face_start = forms.lower_face(X + self.u_start, d0, m.material["t"])
+        return face, face_start, ufl.derivative(face, m.z, k.w_test)
+
+    def _plane_terms(self, entry: dict, plane: Plane, faces) -> dict:
+        """One plane's virtual work and its output integrands (force, area within
+        reach, barrier energy, friction power); its κ joins ``self.stiffnesses``."""
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        m, k = self.model, self.model.kinematics()
+        face, face_start, face_virtual = faces
+        const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
+                 (("reach", plane.reach), ("stiffness", 0.0), ("v_scale", plane.slip_velocity))}
+        self.stiffnesses.append(const["stiffness"])
+        n = fem.Constant(m.mesh, plane.normal.astype(PETSc.ScalarType))
+        p = fem.Constant(m.mesh, np.asarray(entry["point"], dtype=PETSc.ScalarType))
+        g, g_start = forms.gap(face, p, n), forms.gap(face_start, p, n)
+        pressure = forms.step_pressure(const["stiffness"], g, g_start, const["reach"],
+                                       m.coef["alpha_f"], self.in_time)
+        v_slip = forms.slip_velocity(face, face_start, n, self.inv_dt)
+        traction = self._friction(entry, pressure, v_slip, const["v_scale"], n)
+        J = area_ratio(k.g1, k.g2, k.G1, k.G2)
+        within = ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J)
+        return {"work": forms.contact_work(pressure, traction, n, face_virtual, self.dx),
+                "force": pressure * n + traction, "area": within,
+                "energy": const["stiffness"] * forms.barrier(g, const["reach"]),
+                "power": -ufl.dot(traction, v_slip)}
 
     def _friction(self, plane, pressure, v_slip, v_scale, n):
         """The friction traction of one plane's entry (forms.friction_traction), its
