@@ -141,6 +141,49 @@ def render(results, out, color: str | None = None, time: float | None = None,
 
 def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, path,
           size) -> Rendered:
+    stamp = _add_setting(plotter, run, survey)
+    first = run.frame(idx[0])
+    picture = _Picture(plotter, run, color, clim, survey, path, first)
+    follow = view == "follow"
+
+    def aim(points):
+        if follow:
+            place_camera(plotter, view, None, None, _centroid(points), 1.15 * survey.body_size)
+        else:
+            place_camera(plotter, view, survey.lo, survey.hi)
+
+    aim(picture.body.points)
+    if film:
+        if out.suffix.lower() == ".gif":
+            plotter.open_gif(str(out), fps=fps)
+        else:
+            # even sizes suffice for H.264; the default (16) would resize the frames
+            plotter.open_movie(str(out), framerate=fps, quality=6, macro_block_size=2)
+    times = []
+    for n, i in enumerate(idx):
+        t = float(run.times[i])
+        picture.show(first if n == 0 else run.frame(i), t)
+        if follow:
+            aim(picture.body.points)
+        stamp.SetText(1, f"t = {t:.4g}")
+        times.append(t)
+        if film:
+            plotter.write_frame()
+    if not film:
+        plotter.render()
+        plotter.screenshot(str(out))
+    probe_pixels = {name: pixel_of(plotter, x)
+                    for name, x in run.probe_positions(times[-1]).items()}
+    reference_pixels = {p["name"]: pixel_of(plotter, p["at"])
+                        for p in (run.scene.get("output") or {}).get("probes", [])}
+    return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
+                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
+                    scale=run.scale, magnified=_magnified(run))
+
+
+def _add_setting(plotter, run, survey: Survey):
+    """What does not move: the background, the title, the magnification's note, the
+    reference body's outline and the planes; returns the time stamp's text."""
     plotter.set_background(BACKGROUND)
     title = run.scene.get("title", run.folder.name)
     plotter.add_text(title, position="upper_edge", font_size=9, color="black")
@@ -154,109 +197,90 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     for plane, arrow in _planes(run, survey):
         plotter.add_mesh(plane, color=WALL_COLOR, opacity=0.35, show_edges=False)
         plotter.add_mesh(arrow, color=WALL_COLOR)
+    return stamp
 
-    drawing = BodyDrawing(run.reference)
-    first = run.frame(idx[0])
-    s = color_values(color, first, run)
-    body = drawing.surface(run.shown(first), None if s is None else {color: s})
-    if s is None:
-        surface = plotter.add_mesh(body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
-        edge_color = "#2a4f75"
-    else:
-        cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
-        surface = plotter.add_mesh(body, scalars=color, clim=clim, cmap=cmap,
-                                   smooth_shading=True, **_LIGHTING,
-                                   scalar_bar_args={"title": _LABELS.get(color, color),
-                                                    "color": "black", "fmt": _tick_format(clim),
-                                                    "vertical": True, "position_x": 0.86,
-                                                    "position_y": 0.25, "height": 0.5,
-                                                    "width": 0.06})
-        edge_color = "#303030"
-    # the cells' edges, curved as the cells are (the surface pushed back a little in
-    # depth so that the lines on it are not hidden), and the body's outline as lines:
-    # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
-    surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
-    surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
-    plotter.add_mesh(drawing.edges(run.shown(first)), color=edge_color, line_width=1)
-    outline = drawing.outline(run.shown(first))
-    plotter.add_mesh(outline, color="#202020", line_width=2)
-    arrows = None
-    if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
-        strength = np.linalg.norm(first["magnetization"], axis=1)
-        magnetized = strength > 0.0
-        # the strongest magnetization's arrow is 5 % of the body's size
-        arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
-        arrows = plotter.add_mesh(_arrows(run.points(first), first["magnetization"],
-                                          magnetized, arrow_length), color="black")
-    trail_mesh = here = None
-    if path is not None:
-        trail_mesh = pv.PolyData(path[1][:1].copy())
-        here = pv.PolyData(path[1][:1].copy())
+
+class _Picture:
+    """What moves: the body (coloured or plain, its cells' edges and outline), the
+    magnetization's arrows and the trail, drawn at the ``first`` frame and moved to
+    each next by :meth:`show`."""
+
+    def __init__(self, plotter, run, color, clim, survey: Survey, path, first):
+        self.plotter, self.run, self.color, self.path = plotter, run, color, path
+        self.drawing = drawing = BodyDrawing(run.reference)
+        s = color_values(color, first, run)
+        self.body = drawing.surface(run.shown(first), None if s is None else {color: s})
+        if s is None:
+            surface = plotter.add_mesh(self.body, color="#4a7fb5", smooth_shading=True,
+                                       **_LIGHTING)
+            edge_color = "#2a4f75"
+        else:
+            cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
+            surface = plotter.add_mesh(self.body, scalars=color, clim=clim, cmap=cmap,
+                                       smooth_shading=True, **_LIGHTING,
+                                       scalar_bar_args={"title": _LABELS.get(color, color),
+                                                        "color": "black",
+                                                        "fmt": _tick_format(clim),
+                                                        "vertical": True, "position_x": 0.86,
+                                                        "position_y": 0.25, "height": 0.5,
+                                                        "width": 0.06})
+            edge_color = "#303030"
+        # the cells' edges, curved as the cells are (the surface pushed back a little in
+        # depth so that the lines on it are not hidden), and the body's outline as lines:
+        # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
+        surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
+        surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
+        plotter.add_mesh(drawing.edges(run.shown(first)), color=edge_color, line_width=1)
+        plotter.add_mesh(drawing.outline(run.shown(first)), color="#202020", line_width=2)
+        self.arrows = None
+        if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
+            strength = np.linalg.norm(first["magnetization"], axis=1)
+            self.magnetized = strength > 0.0
+            # the strongest magnetization's arrow is 5 % of the body's size
+            self.arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
+            self.arrows = plotter.add_mesh(_arrows(run.points(first), first["magnetization"],
+                                                   self.magnetized, self.arrow_length),
+                                           color="black")
+        self.trail = self.here = None
+        if path is not None:
+            self._add_trail(path[1][:1])
+        plotter.show_axes()
+
+    def _add_trail(self, start):
+        plotter = self.plotter
+        self.trail, self.here = pv.PolyData(start.copy()), pv.PolyData(start.copy())
         _on_top(plotter, [
-            plotter.add_mesh(trail_mesh, color=TRAIL_COLOR, line_width=4),
-            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color="white", point_size=11,
+            plotter.add_mesh(self.trail, color=TRAIL_COLOR, line_width=4),
+            plotter.add_mesh(pv.PolyData(start.copy()), color="white", point_size=11,
                              render_points_as_spheres=True),
-            plotter.add_mesh(pv.PolyData(path[1][:1].copy()), color=TRAIL_COLOR,
+            plotter.add_mesh(pv.PolyData(start.copy()), color=TRAIL_COLOR,
                              point_size=7, render_points_as_spheres=True),
-            plotter.add_mesh(here, color=TRAIL_COLOR, point_size=11,
+            plotter.add_mesh(self.here, color=TRAIL_COLOR, point_size=11,
                              render_points_as_spheres=True)])
-    plotter.show_axes()
-    follow = view == "follow"
 
-    def aim(points):
-        if follow:
-            place_camera(plotter, view, None, None, _centroid(points), 1.15 * survey.body_size)
-        else:
-            place_camera(plotter, view, survey.lo, survey.hi)
-
-    aim(body.points)
-
-    if film:
-        if out.suffix.lower() == ".gif":
-            plotter.open_gif(str(out), fps=fps)
-        else:
-            # even sizes suffice for H.264; the default (16) would resize the frames
-            plotter.open_movie(str(out), framerate=fps, quality=6, macro_block_size=2)
-    times = []
-    for n, i in enumerate(idx):
-        t = float(run.times[i])
-        frame = first if n == 0 else run.frame(i)
+    def show(self, frame, t: float):
+        """Move everything to ``frame`` (at time ``t``)."""
+        run, color = self.run, self.color
         s = color_values(color, frame, run)
         u = run.shown(frame)
-        moved = drawing.surface(u, None if s is None else {color: s})
-        body.points = moved.points
+        moved = self.drawing.surface(u, None if s is None else {color: s})
+        self.body.points = moved.points
         if s is not None:
-            body.point_data[color] = moved.point_data[color]
-        drawing.edges(u)
-        drawing.outline(u)
-        nodes = run.points(frame)
-        if arrows is not None:
-            plotter.remove_actor(arrows, render=False)
-            arrows = plotter.add_mesh(_arrows(nodes, frame["magnetization"], magnetized,
-                                              arrow_length), color="black", render=False)
-        if trail_mesh is not None:
+            self.body.point_data[color] = moved.point_data[color]
+        self.drawing.edges(u)
+        self.drawing.outline(u)
+        if self.arrows is not None:
+            self.plotter.remove_actor(self.arrows, render=False)
+            self.arrows = self.plotter.add_mesh(
+                _arrows(run.points(frame), frame["magnetization"], self.magnetized,
+                        self.arrow_length), color="black", render=False)
+        if self.trail is not None:
+            path = self.path
             keep = path[0] <= t + 1e-12 * max(1.0, abs(t))
             pts = path[1][keep] if keep.any() else path[1][:1]
             line = pv.lines_from_points(pts) if len(pts) > 1 else pv.PolyData(pts)
-            trail_mesh.copy_from(line)
-            here.points = pts[-1:]
-        if follow:
-            aim(body.points)
-        stamp.SetText(1, f"t = {t:.4g}")
-        times.append(t)
-        if film:
-            plotter.write_frame()
-    probe_pixels = {}
-    if not film:
-        plotter.render()
-        plotter.screenshot(str(out))
-    for name, x in run.probe_positions(times[-1]).items():
-        probe_pixels[name] = pixel_of(plotter, x)
-    reference_pixels = {p["name"]: pixel_of(plotter, p["at"])
-                        for p in (run.scene.get("output") or {}).get("probes", [])}
-    return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
-                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
-                    scale=run.scale, magnified=_magnified(run))
+            self.trail.copy_from(line)
+            self.here.points = pts[-1:]
 
 
 def _magnified(run) -> str:
