@@ -254,3 +254,15 @@ def inactive_rotation_bcs(model) -> list:
             dofs = [np.asarray(other[0])[keep], np.asarray(other[1])[keep]]
             bcs.append(fem.dirichletbc(zero, dofs, sub))
     return bcs
+
+
+def colouring(mesh, lines) -> tuple:
+    """The hinge ``lines`` cut the body into panels; panels that touch get different
+    colours, each with its own rotation field and triad (forms/hinge.py).  Returns
+    ``(colours, n_colours, indicators)``: the cells' colours (None without hinges), their
+    number, and χ_c, 1 on the cells of colour c (DG0; None for one colour)."""
+    if not lines:
+        return None, 1, None
+    cut = np.unique(np.concatenate([h.facets for h in lines]))
+    colours, n = colour_panels(mesh, panel_labels(mesh, cut), cut, lines)
+    return colours, n, indicators(mesh, colours, n) if n > 1 else None

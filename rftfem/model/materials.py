@@ -198,3 +198,21 @@ def _check_poisson_field(model):
     E1, E2, nu12 = (nodal_values(model, k, V) for k in keys)
     _check_admissible(model.comm, "ν12² < E1/E2", "shell.nu12", None,
                       E1 - nu12 ** 2 * E2, V.tabulate_dof_coordinates(), what="E1 − ν12² E2")
+
+
+def material_value(model, key: str, how: str = "max", value=None) -> float:
+    """A material key's largest (``how = "max"``), smallest (``"min"``) or mean value
+    over the body, or ``"shell"``: [shell]'s own number (its mean if a field), for
+    scales and tolerances.  ``value``: a part's value, itself if a number.  ``E`` and
+    ``nu`` of an orthotropic shell: the larger in-plane modulus, ``nu12``."""
+    if value is not None and not is_field(value):
+        return float(value)
+    ranges = model.material_ranges
+    if key not in ranges:
+        key = {"E": "E1", "nu": "nu12"}[key]
+        if key == "E1":
+            return max(material_value(model, "E1", how), material_value(model, "E2", how))
+    if how == "shell":
+        own = model.scene["shell"][key]
+        return float(own) if not is_field(own) else ranges[key][2]
+    return ranges[key][("min", "max", "mean").index(how)]

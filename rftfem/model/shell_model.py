@@ -42,7 +42,8 @@ from rftfem.model.step_state import StepStart
 from rftfem.errors import SceneError
 from rftfem.scene.schema import unit_vector
 from rftfem.model.directors import DirectorMap
-from rftfem.model.mapped_forms import MappedForm, step_residual_z
+from rftfem.model import terms
+from rftfem.model.mapped_forms import MappedForm
 from rftfem.model.triad import Triads
 
 
@@ -68,14 +69,8 @@ class Model(StepStart, BodyMeasures):
         # hinges cut the body into panels; panels that touch get different colours,
         # and each colour has its own rotation field and triad (forms/hinge.py)
         self.hinges = hinges.resolve(self, scene)
-        self.n_colours, self.colours, self.colour_indicators = 1, None, None
-        if self.hinges:
-            cut = np.unique(np.concatenate([h.facets for h in self.hinges]))
-            labels = hinges.panel_labels(self.mesh, cut)
-            self.colours, self.n_colours = hinges.colour_panels(self.mesh, labels, cut,
-                                                                self.hinges)
-        if self.n_colours > 1:  # χ_c, 1 on the cells of colour c (DG0)
-            self.colour_indicators = hinges.indicators(self.mesh, self.colours, self.n_colours)
+        self.colours, self.n_colours, self.colour_indicators = hinges.colouring(self.mesh,
+                                                                                self.hinges)
 
         # unknowns: u, then one θ per colour, node by node; the state of the last step
         self.block = 3 + 2 * self.n_colours
@@ -121,7 +116,7 @@ class Model(StepStart, BodyMeasures):
         self.first_tangent_converged = False
 
         self._init_materials()
-        #: the time scheme's coefficients of velocity and acceleration (rftfem/integration/schemes.py)
+        #: the time scheme's coefficients of velocity and acceleration (integration/schemes.py)
         self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
                      for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f",
                                "end_weight")}
@@ -214,23 +209,10 @@ class Model(StepStart, BodyMeasures):
         self.material, self.material_ranges = materials.build(self)
 
     def material_value(self, key: str, how: str = "max", value=None) -> float:
-        """A material key's largest (``how = "max"``), smallest (``"min"``) or mean value
-        over the body, or ``"shell"``: [shell]'s own number (its mean if a field), for
-        scales and tolerances.  ``value``: a part's value, itself if a number.  ``E`` and
-        ``nu`` of an orthotropic shell: the larger in-plane modulus, ``nu12``."""
-        from rftfem.scene.fields import is_field
+        """A material key's largest, smallest or mean value (materials.material_value)."""
+        from rftfem.model import materials
 
-        if value is not None and not is_field(value):
-            return float(value)
-        ranges = self.material_ranges
-        if key not in ranges:
-            key = {"E": "E1", "nu": "nu12"}[key]
-            if key == "E1":
-                return max(self.material_value("E1", how), self.material_value("E2", how))
-        if how == "shell":
-            own = self.scene["shell"][key]
-            return float(own) if not is_field(own) else ranges[key][2]
-        return ranges[key][("min", "max", "mean").index(how)]
+        return materials.material_value(self, key, how, value)
 
     # --- forms --------------------------------------------------------------
 
@@ -282,53 +264,8 @@ class Model(StepStart, BodyMeasures):
         return a + self.drive[1] if self.drive else a
 
     def _sum_terms(self):
-        """Stored energy, forces ``F(w)`` (every non-inertial effect), inertia, and the
-        step's Jacobian ``∂/∂w [(1 − α_f) F + inertia]`` (docs/model.md §5, §6)."""
-        w_test = self.kinematics().w_test
-        energies = [c.energy() for c in self.components]
-        self.energy = sum((e for e in energies if e is not None), 0)
-        #: virtual work of every non-inertial effect, by component name
-        self.effects = {}
-        for c, energy in zip(self.components, energies):
-            terms = [ufl.derivative(energy, self.z, w_test)] if energy is not None else []
-            terms += [work for work in [c.forces()] if work is not None]
-            if terms:
-                self.effects[c.name] = sum(terms[1:], terms[0])
-        inertia = [c.inertia() for c in self.components if c.inertia() is not None]
-        self.inertia = sum(inertia[1:], inertia[0]) if inertia else None
-        ends = [c.end_forces() for c in self.components if c.end_forces() is not None]
-        #: forces taken in full at the step's end (contact), or None
-        self.end_forces = sum(ends[1:], ends[0]) if ends else None
-        terms = list(self.effects.values())
-        self.forces_ufl = sum(terms[1:], terms[0])
-        residual = (1 - self.coef["alpha_f"]) * self.forces_ufl + (self.inertia or 0)
-        if self.end_forces is not None:
-            residual += self.coef["end_weight"] * self.end_forces
-        trial = ufl.TrialFunction(self.Z)
-        self.jacobian_ufl = ufl.derivative(residual, self.z, trial)
-        corrections = [c.tangent_correction() for c in self.components] if self.mixed_point \
-            else []
-        #: the corrections' gradient: the mixed-point tangent in w is its Hessian in z
-        #: mapped by P plus this gradient on the directors' curvature (directors.py G)
-        gradients = [ufl.derivative(corr, self.z, w_test) for corr in corrections
-                     if corr is not None]
-        for gradient in gradients:
-            self.jacobian_ufl += (1 - self.coef["alpha_f"]) * ufl.derivative(
-                gradient, self.z, trial)
-        self.correction_ufl = sum(gradients[1:], gradients[0]) if gradients else None
-        self.correction_form = None
-        self.forces_form = self.inertia_form = self.jacobian_form = self.end_form = None
-        if self.compile_forms:
-            # compiled on z, assembled into w's vectors and matrices (directors.py)
-            self.forces_form = self.mapped(self.forces_ufl)
-            if self.inertia is not None:
-                self.inertia_form = self.mapped(self.inertia)
-            if self.end_forces is not None:
-                self.end_form = self.mapped(self.end_forces)
-            self.jacobian_form = MappedForm(self.compile(self.jacobian_ufl), self.directors,
-                                            residual=lambda: step_residual_z(self))
-            if self.correction_ufl is not None:
-                self.correction_form = self.compile(self.correction_ufl)
+        """Stored energy, forces, inertia and the step's Jacobian (model/terms.py)."""
+        terms.sum_terms(self)
 
     def mapped(self, ufl_form) -> MappedForm:
         """A rank-1 form on ``z`` compiled and assembled as one on ``w``."""
