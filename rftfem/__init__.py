@@ -32,7 +32,7 @@ _PUBLIC = {
 __all__ = ["__version__", *_PUBLIC]
 
 
-def __getattr__(name):
+def __getattr__(name: str):
     if name in _PUBLIC:
         import importlib
 

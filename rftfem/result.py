@@ -13,8 +13,13 @@ import json
 import os
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:  # (pandas and pyvista are imported when first used)
+    import pandas as pd
+    import pyvista
 
 __all__ = ["Result"]
 
@@ -54,17 +59,17 @@ class Result:
         return self._cache[name].copy()
 
     @property
-    def probes(self):
+    def probes(self) -> pd.DataFrame:
         """probes.csv: the probes' displacements at each output time."""
         return self._table("probes")
 
     @property
-    def body(self):
+    def body(self) -> pd.DataFrame:
         """body.csv: the body's resultants (centroid, energies, fluid and reactions)."""
         return self._table("body")
 
     @property
-    def steps(self):
+    def steps(self) -> pd.DataFrame:
         """steps.csv: every time step's size, Newton iterations, residual and wall time."""
         return self._table("steps")
 
@@ -121,13 +126,13 @@ class Result:
                 raise RuntimeError(
                     "Result.fields needs pyvista, which cannot join a process that imported "
                     "dolfinx before it on this stack: call rftfem.run (or import "
-                    "rftfem.outputs.render) before importing dolfinx, or open the Result in another "
-                    f"process ({exc})") from None
+                    "rftfem.outputs.render) before importing dolfinx, or open the Result in "
+                    f"another process ({exc})") from None
 
             self._cache["fields"] = RunFields(self.folder)
         return self._cache["fields"]
 
-    def fields(self, t: float | None = None, warp: bool = False):
+    def fields(self, t: float | None = None, warp: bool = False) -> pyvista.DataSet:
         """A pyvista mesh of the fields written at the output time nearest ``t``
         (default: the last), in reference coordinates with the point arrays
         ``displacement``, ``director`` (and ``magnetization``); ``warp=True`` moves
@@ -157,7 +162,7 @@ class Result:
         from rftfem.outputs.compat_render import import_pyvista
 
         class Parser(argparse.ArgumentParser):
-            def error(self, message):  # one line, not argparse's usage and exit
+            def error(self, message: str):  # one line, not argparse's usage and exit
                 raise SceneError(f"render: {message}")
 
         out = Path(out) if out is not None else self.folder / "render.png"

@@ -11,9 +11,16 @@ does nothing, so a component writes only what its effect has.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.scene.schema import Leaf, Pairs, Str, table_iff
+
+if TYPE_CHECKING:  # (annotations only: the effects import no dolfinx at the top)
+    import ufl
+
+    from rftfem.model.shell_model import Model
 
 
 class Effect:
@@ -45,26 +52,26 @@ class Effect:
 
     # --- the model ------------------------------------------------------------
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         self.model = model
         self.scene = model.scene
 
-    def energy(self):
+    def energy(self) -> ufl.Form | None:
         """A stored energy (UFL scalar form) whose derivative is a force, or None."""
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         """Virtual work of its other non-inertial forces, internal minus external, or None."""
 
-    def tangent_correction(self):
+    def tangent_correction(self) -> ufl.Form | None:
         """A 0-form whose second derivative is added to the Newton tangent, not to the
         residual (the converged state is the same), or None."""
 
-    def end_forces(self):
+    def end_forces(self) -> ufl.Form | None:
         """Virtual work of forces taken in full at the step's end, not averaged with the
         last step's by ``α_f`` (contact: an averaged barrier force gains energy in an
         impact a step resolves badly), or None.  Not part of ``F`` or ``F_n``."""
 
-    def inertia(self):
+    def inertia(self) -> ufl.Form | None:
         """Virtual work of inertial forces (not weighted by the scheme's 1 − α_f), or None."""
 
     def add_nodal_forces(self, F: np.ndarray) -> None:
@@ -207,11 +214,11 @@ class Load(Effect):
     :attr:`entries` (``(index, entry)``, the index as in the scene)."""
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return bool(loads_of(scene, cls.load_kinds))
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         for i, load in loads_of(scene, cls.load_kinds):
             check_ramp(load, f"load.{i}")
             cls.check_entry(load, f"load.{i}", scene)
@@ -220,7 +227,7 @@ class Load(Effect):
     def check_entry(cls, load: dict, path: str, scene: dict) -> None:
         """Checks of one entry (at ``path``) against the rest of the scene."""
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         super().__init__(model)
         self.entries = loads_of(self.scene, self.load_kinds)
 
@@ -232,13 +239,13 @@ class Load(Effect):
             return 0.0
         return ramp_scale(load, t, self.scene["time"]["end"])
 
-    def loads_at_start(self):
+    def loads_at_start(self) -> list[str]:
         end = self.scene["time"]["end"]
         return [f"load.{i}" for i, ld in self.entries
                 if ramp_scale(ld, 0.0, end) != 0.0 and np.any(np.asarray(ld["value"]) != 0.0)]
 
 
-def loads_of(scene: dict, kinds) -> list[tuple[int, dict]]:
+def loads_of(scene: dict, kinds: dict) -> list[tuple[int, dict]]:
     """``(index, entry)`` of the scene's ``[[load]]`` entries of the given kinds."""
     return [(i, ld) for i, ld in enumerate(scene.get("load") or []) if ld.get("kind") in kinds]
 
