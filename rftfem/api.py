@@ -23,10 +23,13 @@ from typing import Any, Iterable, Mapping
 
 from rftfem.scene import toml_writer
 from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
+from rftfem.scene.overrides import lookup
 from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key,
                                   unset_key, unset_text)
 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
+
+_ABSENT = object()  # what lookup gives for a key the scene has no place for
 
 
 def _override_text(key: str, value: Any) -> str:
@@ -105,23 +108,17 @@ class Scene:
     # --- reading ---------------------------------------------------------------
 
     def __getitem__(self, key: str) -> Any:
-        node: Any = self._scene
-        for part in _split(key):
-            if isinstance(node, dict) and part in node and not part.startswith("_"):
-                node = node[part]
-            elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-                node = node[int(part)]
-            elif node is None:  # inside an optional table the scene does not have
-                return None
-            else:
-                # let the schema name what is wrong (unknown key, index out of range)
-                try:
-                    set_key(copy.deepcopy(self._raw), key, None)
-                except SceneError as exc:
-                    text = str(exc)
-                    raise SceneError(text[len("--set: "):] if text.startswith("--set: ")
-                                     else text) from None
-                return None
+        _split(key)
+        node = lookup(self._scene, key, absent=_ABSENT)  # None in a table it does not have
+        if node is _ABSENT:
+            # let the schema name what is wrong (unknown key, index out of range)
+            try:
+                set_key(copy.deepcopy(self._raw), key, None)
+            except SceneError as exc:
+                text = str(exc)
+                raise SceneError(text[len("--set: "):] if text.startswith("--set: ")
+                                 else text) from None
+            return None
         return copy.deepcopy(node)
 
     def get(self, key: str, default: Any = None) -> Any:
@@ -234,7 +231,7 @@ class Scene:
         """What ``rftfem check`` checks beyond the keys: build the body and the
         model (no forms compiled) so that selectors, regions and probes meet the
         mesh; return the active effects. Raises :class:`SceneError` as check does."""
-        from rftfem.integration.simulation import check
+        from rftfem.integration.model_setup import check
 
         return check(self.completed())
 

@@ -241,7 +241,7 @@ def _cmd_check(args, console: _Console) -> int:
     try:
         scene = load_scene(args.scene, args.overrides)
         try:
-            from rftfem.integration.simulation import check_report
+            from rftfem.integration.model_setup import check_report
         except ImportError:  # the simulation module is not there: a scene-only check
             def check_report(scene):
                 return active_effects(scene), [], []

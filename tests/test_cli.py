@@ -133,7 +133,8 @@ def test_split_petsc_options():
 
 @pytest.fixture
 def fake_simulation(monkeypatch):
-    """A stand-in rftfem.integration.simulation that records its calls."""
+    """Stand-ins for rftfem.integration.simulation (run) and model_setup (check) that
+    record their calls."""
     module = types.ModuleType("rftfem.integration.simulation")
     module.calls = []
     module.options = []
@@ -157,6 +158,7 @@ def fake_simulation(monkeypatch):
 
     module.run, module.check, module.check_report = run, check, check_report
     monkeypatch.setitem(sys.modules, "rftfem.integration.simulation", module)
+    monkeypatch.setitem(sys.modules, "rftfem.integration.model_setup", module)
     return module
 
 
@@ -206,7 +208,7 @@ def test_check_uses_simulation_check(good, fake_simulation, capsys):
 
 
 def test_check_falls_back_without_simulation_module(good, monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, "rftfem.integration.simulation", None)  # import -> ImportError
+    monkeypatch.setitem(sys.modules, "rftfem.integration.model_setup", None)  # -> ImportError
     assert cli.main(["check", str(good), "--set", "shell.density=1"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out == ["scene OK: cli cantilever", "active effects: elasticity, inertia, edge-moment",

@@ -466,7 +466,7 @@ from mpi4py import MPI
 import rftfem
 from rftfem.scene.reading import load_scene
 from rftfem.scene.selectors import cells_of
-from rftfem.integration.simulation import build_model
+from rftfem.integration.model_setup import build_model
 model = build_model(load_scene(sys.argv[1], sys.argv[2:]), MPI.COMM_WORLD)
 n = model.mesh.topology.index_map(1).size_local
 owners = [MPI.COMM_WORLD.allgather(int((h.facets < n).sum()) > 0) for h in model.hinges]

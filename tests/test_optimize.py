@@ -139,6 +139,36 @@ def test_an_interrupted_optimisation_resumes(tmp_path):
     assert [r["shell.thickness"] for r in fresh] == [r["shell.thickness"] for r in resumed]
 
 
+def test_reuse_runs_again_the_evaluations_an_edited_scene_changes(tmp_path):
+    """--reuse keys the evaluations on content as sweep does (rftfem/studies/reuse.py):
+    the scene unchanged, both runs are read (reused 1, reuse.json in each); the scene
+    file edited (shell.E, which no override replaces), both run again and stderr
+    says why in sweep's words. Broke: Evaluator._run back on the path-and-overrides
+    match (the old _done) → the edited scene's runs read again, stderr only
+    'rftfem optimize: optimize.csv, best.toml, optimize.png in ...'."""
+    scene = tmp_path / "cantilever.toml"
+    scene.write_text(SCENE.read_text(encoding="utf-8"), encoding="utf-8")
+    out = tmp_path / "opt"
+
+    def optimize_here(*args):
+        return run_command([sys.executable, "-m", "rftfem", "optimize", str(scene), "--out",
+                            str(out), *TRADE_OFF, *CANTILEVER, "--budget", "2", *args],
+                           cwd=ROOT, timeout=600)
+
+    assert optimize_here().returncode == 0
+    assert all((out / f"eval-000{k}" / "reuse.json").is_file() for k in (1, 2))
+    same = optimize_here("--reuse")
+    assert same.returncode == 0 and "not reused" not in same.stderr, same.stderr
+    assert [r["reused"] for r in rows(out)] == ["1", "1"]
+    scene.write_text(scene.read_text(encoding="utf-8").replace("E = 1.2e6", "E = 1.3e6"),
+                     encoding="utf-8")
+    edited = optimize_here("--reuse")
+    assert edited.returncode == 0, edited.stderr
+    assert ("rftfem optimize: 2 finished run(s) run again, not reused (the completed scene "
+            "changed since); the first: eval-0001") in edited.stderr, edited.stderr
+    assert [r["reused"] for r in rows(out)] == ["0", "0"]
+
+
 @pytest.mark.parametrize("args, message", [
     ([], "--vary: give at least one"),
     (["--vary", "shell.thickness=0.2:0.1"], "expected finite LO < HI"),

@@ -276,9 +276,8 @@ def test_bad_study_options_are_one_line_errors(tmp_path, args, words):
 
 
 def test_reuse_keeps_finished_levels(tmp_path):
-    """--reuse reads the levels a study already ran (same scene file and overrides)
-    and computes the tables again, with a quantity added; a level whose overrides
-    changed runs again."""
+    """--reuse reads the levels a study already ran (same content) and computes the
+    tables again, with a quantity added; a level whose overrides changed runs again."""
     scene = write_scene(tmp_path, PLATE + PROBES)
     sets = ["--set", "magnetic.field.frequency=1.0", "--set", "time.end=0.1",
             "--set", "time.dt=0.05", "--set", "output.fields=false"]
@@ -298,6 +297,36 @@ def test_reuse_keeps_finished_levels(tmp_path):
     assert changed.returncode == 0, changed.stderr
     assert (tmp_path / "study" / "level-0" / "summary.json").stat().st_mtime_ns \
         != stamps["level-0"]
+
+
+def test_reuse_runs_again_the_levels_an_edited_scene_changes(tmp_path):
+    """--reuse keys the levels on content as sweep does (rftfem/studies/reuse.py): the
+    scene unchanged, both levels are kept; the base scene file edited (shell.E, which
+    no override replaces), both run again and stderr says why in sweep's words.
+    Broke: run_level back on the path-and-overrides match (the old batch.finished)
+    → the edited scene's levels kept, stderr only 'rftfem study: 2 of 2 runs ok in
+    1 s; study.csv, ...'."""
+    scene = write_scene(tmp_path, PLATE + PROBES)
+    args = ["--levels", 2, "--set", "magnetic.field.frequency=1.0", "--set", "time.end=0.1",
+            "--set", "time.dt=0.05", "--set", "output.fields=false", "--quantity", "x=b_ux@end"]
+    assert study(tmp_path, scene, *args).returncode == 0
+    folders = [tmp_path / "study" / name for name in ("level-0", "dt-1")]
+    assert all((f / "reuse.json").is_file() for f in folders)
+
+    def stamps():
+        return [(f / "summary.json").stat().st_mtime_ns for f in folders]
+
+    first = stamps()
+    same = study(tmp_path, scene, *args, "--reuse")
+    assert same.returncode == 0 and "not reused" not in same.stderr, same.stderr
+    assert stamps() == first
+    scene.write_text(scene.read_text().replace("E = 1.0e7", "E = 2.0e7"))
+    edited = study(tmp_path, scene, *args, "--reuse")
+    assert edited.returncode == 0, edited.stderr
+    assert ("rftfem study: 2 finished run(s) run again, not reused (the completed scene "
+            "changed since); the first: level-0") in edited.stderr, edited.stderr
+    assert all(a != b for a, b in zip(stamps(), first))
+    assert [r["status"] for r in rows_of(tmp_path)] == ["ok", "ok"]
 
 
 def test_levels_under_mpirun(tmp_path, mpirun):

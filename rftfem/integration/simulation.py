@@ -18,7 +18,6 @@ logged and counted.  Outputs are rows per nominal step (every
 from __future__ import annotations
 
 import contextlib
-import logging
 import math
 import threading
 import time as _time
@@ -35,7 +34,6 @@ from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.interrupts import NoStops, StopRequests
 from rftfem.integration.step_watch import StepWatch
 from rftfem.model.effects.base import NonlocalEffect
-from rftfem.model.shell_model import Model
 from rftfem.outputs.progress import Progress, render_in_child
 from rftfem.outputs.writers import BodyLog, Probes, write_json
 from rftfem.model.reactions import Reactions
@@ -46,42 +44,9 @@ from rftfem.integration.steady import SteadyWatch
 from rftfem.scene.time_rules import scene_period as steady_period
 from rftfem.integration.step_control import StepControl
 from rftfem.integration.schemes import make_scheme
+from rftfem.integration.model_setup import build_model, quiet_compilers
 
 
-
-
-def build_model(scene: dict, comm, compile_forms: bool = True,
-                tangent: str | None = None) -> Model:
-    """The scene's body (its hinge lines cut into strip meshes) and its Model, with
-    the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
-    from rftfem.meshes import build_body
-
-    scene_dir = Path(scene.get("_folder") or Path(scene.get("_path") or "scene.toml").parent)
-    lines = [h["where"] for h in scene.get("hinge") or []]
-    body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
-    if tangent is None:
-        tangent = petsc_options.tangent(scene.get("solver"))
-    return Model(scene, body, compile_forms=compile_forms, tangent=tangent)
-
-
-def check(scene: dict, comm=None) -> list[str]:
-    """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
-    return check_report(scene, comm)[0]
-
-
-def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
-    """``check``, the scene's groups (scales.py) and lines on its mesh and liquid."""
-    comm = comm or MPI.COMM_WORLD
-    _quiet_compilers()
-    model = build_model(scene, comm, compile_forms=False)
-    Probes(model, scene.get("output", {}).get("probes", []))
-    report = model.body.report
-    lines = report.lines() if report is not None else []
-    if model.fluid is not None:  # RFT: its coefficients; Stokes: sizes, cost, error
-        lines += model.fluid.check_lines()
-    # what the run would warn of at its start (a wall too close, a body too large)
-    lines += [f"warning: {line}" for comp in model.components for line in comp.warnings()]
-    return model.active_effects(), scales.groups(scene, model), lines
 
 
 def _make_out_dir(out: Path | None, comm):
@@ -132,7 +97,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
-        _quiet_compilers()
+        quiet_compilers()
         t0 = _time.perf_counter()
         with _compile_notice(quiet or self.comm.rank != 0):
             self.model = build_model(scene, self.comm,
@@ -210,55 +175,20 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             raise RunInterrupted(signum, self.t, self.step)
 
     def _run(self) -> dict:
-        scene, comm = self.scene, self.comm
-        time_ = scene["time"]
-        out = self.out_dir
+        time_, out = self.scene["time"], self.out_dir
         summary = self._summary("running")
         wall_start = self._wall_start = _time.perf_counter()
         path = self.scheme.name == "arc-length"
-        progress = Progress(time_["end"], comm, self.quiet, label="load factor" if path else "t",
-                            warn=self.warn)
-        self.progress_warn = progress.warn
-        StepWatch(self.stops, comm, progress).attach(self.solver)
-        for line in self._opening_lines():
-            progress.log(line)
-        for line in scales.aliasing_warnings(scene) + [
-                line for comp in self.model.components for line in comp.warnings()]:
-            progress.warn("warning: " + line)
+        progress = self._open_progress(path)
         logs = self._open_outputs()
         try:
-            if self.resume is None:
-                self._initial_equilibrium()
-                compiled = self.model.timings["compile"]
-                self._write_output(logs, 0.0)
-                # the first row compiles the outputs' forms: that belongs to the set-up
-                later = self.model.timings["compile"] - compiled
-                self.setup_time += later
-                self.wall["output"] -= later
-            else:
-                progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
-                             f"{self.resume[0]}")
-            n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
+            self._start(logs, progress)
             if path:
                 self._run_arc_length(logs, progress)
-                n_steps = 0
             elif time_.get("tolerance") is not None:
                 self._run_adaptive(logs, progress)
-                n_steps = 0
-            for self.step in range(self.completed + 1, n_steps + 1):
-                self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
-                              progress)
-                if self.step % time_["output_every"] == 0 or self.step == n_steps:
-                    self._write_output(logs, self.t)
-                progress.update(self.t, self.step, self.counts["newton_iterations"],
-                                self.solver.snes.getFunctionNorm())
-                self.completed = self.step
-                steady = self._steady_after_step(progress)
-                last = steady or self.step == n_steps
-                self._checkpoint_if_due(last=last)
-                if last:
-                    break
-                self._stop_if_asked(logs)
+            else:
+                self._run_fixed_steps(logs, progress)
             if self.steady is not None and not self.steady.result:
                 self.steady.result = {"reached": False}
             if self.steady is not None and not self.steady.result["reached"]:
@@ -274,37 +204,93 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         except BaseException as exc:
             if not (isinstance(exc, RunInterrupted) or self.stops.immediate):
                 raise
-            # a second signal may surface inside a PETSc callback as another error
-            err = exc if isinstance(exc, RunInterrupted) else RunInterrupted(
-                self.stops.signum, immediate=True)
-            if err.time is None:  # stopped inside a step: where the last one ended
-                err.time, err.step = self.t, self.completed
-            if err.dropped:  # a slow step dropped: the last completed step's row
-                self._last_row(logs)
-            summary = self._summary("interrupted", wall_start)
-            summary["interrupt"] = {"signal": err.signal_name, "time": err.time, "step": err.step,
-                                    "immediate": err.immediate, "dropped_step": err.dropped}
+            err, summary = self._interrupted(exc, logs, wall_start)
             raise err from None
         finally:
-            self.stops.closing()
-            progress.close()
-            for log in logs.values():
-                log.close()
-            summary["warnings"] = list(progress.warnings)  # every warning the run said
-            if out is not None:
-                write_json(out / "summary.json", summary, comm)
-                render = scene.get("output", {}).get("render", "none")
-                if render != "none" and "fields" in logs:
-                    render_in_child(out, render, comm, progress)
+            self._close_run(logs, progress, summary)
         c = self.counts
         progress.final(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
-                     f"{c['dt_cuts']} dt cuts"
-                     + (f", {c['rejected_steps']} steps rejected "
-                        + ("for turning the path too far" if path else "by the error control")
-                        if c["rejected_steps"] else "")
-                     + f", {summary['wall_s']['total']:.1f} s"
-                     + (f"; outputs in {out}" if out is not None else ""))
+                       f"{c['dt_cuts']} dt cuts"
+                       + (f", {c['rejected_steps']} steps rejected "
+                          + ("for turning the path too far" if path else "by the error control")
+                          if c["rejected_steps"] else "")
+                       + f", {summary['wall_s']['total']:.1f} s"
+                       + (f"; outputs in {out}" if out is not None else ""))
         return summary
+
+    def _open_progress(self, path: bool) -> Progress:
+        """The progress line, the watch of slow steps, the opening lines and warnings."""
+        progress = Progress(self.scene["time"]["end"], self.comm, self.quiet,
+                            label="load factor" if path else "t", warn=self.warn)
+        self.progress_warn = progress.warn
+        StepWatch(self.stops, self.comm, progress).attach(self.solver)
+        for line in self._opening_lines():
+            progress.log(line)
+        for line in scales.aliasing_warnings(self.scene) + [
+                line for comp in self.model.components for line in comp.warnings()]:
+            progress.warn("warning: " + line)
+        return progress
+
+    def _start(self, logs: dict, progress: Progress):
+        """The state at t = 0 and its output row, or the checkpoint a restart goes on from."""
+        if self.resume is not None:
+            progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
+                         f"{self.resume[0]}")
+            return
+        self._initial_equilibrium()
+        compiled = self.model.timings["compile"]
+        self._write_output(logs, 0.0)
+        # the first row compiles the outputs' forms: that belongs to the set-up
+        later = self.model.timings["compile"] - compiled
+        self.setup_time += later
+        self.wall["output"] -= later
+
+    def _run_fixed_steps(self, logs: dict, progress: Progress):
+        """Steps of time.dt to time.end (or to a steady period), a row every
+        ``output_every`` steps, checkpoints, and a stop between steps if asked."""
+        time_ = self.scene["time"]
+        n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
+        for self.step in range(self.completed + 1, n_steps + 1):
+            self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
+                          progress)
+            if self.step % time_["output_every"] == 0 or self.step == n_steps:
+                self._write_output(logs, self.t)
+            progress.update(self.t, self.step, self.counts["newton_iterations"],
+                            self.solver.snes.getFunctionNorm())
+            self.completed = self.step
+            steady = self._steady_after_step(progress)
+            last = steady or self.step == n_steps
+            self._checkpoint_if_due(last=last)
+            if last:
+                break
+            self._stop_if_asked(logs)
+
+    def _interrupted(self, exc: BaseException, logs: dict, wall_start: float):
+        """The interrupt (a signal; a second one may surface inside a PETSc callback as
+        another error) and the summary of a run it stopped."""
+        err = exc if isinstance(exc, RunInterrupted) else RunInterrupted(
+            self.stops.signum, immediate=True)
+        if err.time is None:  # stopped inside a step: where the last one ended
+            err.time, err.step = self.t, self.completed
+        if err.dropped:  # a slow step dropped: the last completed step's row
+            self._last_row(logs)
+        summary = self._summary("interrupted", wall_start)
+        summary["interrupt"] = {"signal": err.signal_name, "time": err.time, "step": err.step,
+                                "immediate": err.immediate, "dropped_step": err.dropped}
+        return err, summary
+
+    def _close_run(self, logs: dict, progress: Progress, summary: dict):
+        """Close the outputs and write summary.json, whatever ended the run; render."""
+        self.stops.closing()
+        progress.close()
+        for log in logs.values():
+            log.close()
+        summary["warnings"] = list(progress.warnings)  # every warning the run said
+        if self.out_dir is not None:
+            write_json(self.out_dir / "summary.json", summary, self.comm)
+            render = self.scene.get("output", {}).get("render", "none")
+            if render != "none" and "fields" in logs:
+                render_in_child(self.out_dir, render, self.comm, progress)
 
     def _steady_after_step(self, progress) -> bool:
         """At the end of a period (time.until = "periodic"): whether the run is steady."""
@@ -371,25 +357,3 @@ def _compile_notice(quiet: bool):
         yield
     finally:
         timer.cancel()
-
-
-class _CompilerChatter(logging.Filter):
-    """Drops the INFO lines (gcc command lines) that distutils/setuptools log on the
-    root logger while cffi builds a JIT module; their build also resets the root
-    level, so a level alone does not keep them quiet."""
-
-    def filter(self, record):
-        where = record.pathname.replace("\\", "/")
-        return record.levelno >= logging.WARNING or not any(
-            part in where for part in ("/distutils/", "/setuptools/", "/cffi/"))
-
-
-def _quiet_compilers():
-    """FFCx/cffi log every compilation at INFO on some stacks: keep the terminal readable."""
-    for name in ("", "ffcx", "UFL", "cffi", "dolfinx"):
-        logger = logging.getLogger(name)
-        if logger.level == logging.NOTSET or logger.level < logging.WARNING:
-            logger.setLevel(logging.WARNING)
-    root = logging.getLogger()
-    if not any(isinstance(f, _CompilerChatter) for f in root.filters):
-        root.addFilter(_CompilerChatter())

@@ -32,3 +32,21 @@ def as_arguments(texts: list[str]) -> list[str]:
     for text in texts:
         out += ["--unset", text[len(UNSET):]] if text.startswith(UNSET) else ["--set", text]
     return out
+
+
+def lookup(scene: dict, key: str, absent=None):
+    """The value at the dotted ``key`` (``shell.parts.0.E``: tables by name, arrays by
+    index) of a scene's nested dicts and lists, a completed scene's or a raw one's;
+    ``absent`` where it has none (an unknown key, an index out of range, a private
+    ``_`` entry), None inside a table the scene does not have (a None on the way)."""
+    node = scene
+    for part in key.split("."):
+        if node is None:
+            return None
+        if isinstance(node, dict) and part in node and not part.startswith("_"):
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            return absent
+    return node

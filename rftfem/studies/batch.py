@@ -20,7 +20,6 @@ next run starts clean.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import subprocess
 import sys
@@ -124,18 +123,6 @@ def child_environment(mpirun: bool) -> dict:
     return env
 
 
-def finished(folder: Path, scene_file: str | Path, overrides: list[str]) -> bool:
-    """``folder`` holds a finished run (status ok) of the same scene file and overrides
-    (by path: ``rftfem study --reuse``; ``rftfem sweep --reuse`` compares content,
-    rftfem/studies/reuse.py)."""
-    try:
-        summary = json.loads((Path(folder) / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return (summary.get("status") == "ok" and summary.get("overrides") == list(overrides)
-            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
-
-
 def failure_reason(log: Path, status: int) -> str:
     """The line of a run's log that says why it ended without a summary: rftfem's own
     one-line error, else a traceback's last line, else the launcher's first words."""
@@ -180,4 +167,4 @@ def launcher(np: int) -> list[str]:
     return [exe, "-n", str(np)]
 
 
-__all__ = ["run_here", "run_child", "child_environment", "finished", "failure_reason", "check_jobs", "launcher"]
+__all__ = ["run_here", "run_child", "child_environment", "failure_reason", "check_jobs", "launcher"]

@@ -46,8 +46,29 @@ SLURM_DEFAULTS = {"memory": "4GB", "walltime": "01:00:00"}
 WORKER_DIED = 137
 
 
-def add_arguments(parser) -> None:
-    """``--executor`` and its options, for sweep, study and optimize."""
+def add_arguments(parser, command: str, runs: str = "runs", jobs_note: str = "",
+                  reuse_note: str = "") -> None:
+    """The options that sweep, study and optimize share: ``--set`` and ``--unset`` (for
+    every run), ``--out``, ``--jobs``, ``--np``, ``--reuse``, ``--executor`` and its
+    options. ``command`` names the default folder (results/<command>-<scene file
+    stem>), ``runs`` what its runs are called (levels, evaluations); the notes end
+    the help of --jobs and --reuse."""
+    from rftfem.scene.overrides import add_override_arguments
+
+    add_override_arguments(parser)
+    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
+                        help=f"the folder of the {runs} and tables (default "
+                             f"results/{command}-<scene file stem>)")
+    parser.add_argument("--jobs", metavar="J", type=int, default=1,
+                        help=f"{runs} side by side (local processes, or Dask workers; "
+                             f"default 1){jobs_note}")
+    parser.add_argument("--np", metavar="P", type=int, default=1,
+                        help=f"each {runs[:-1]} under mpirun -n P (with the local executor, one "
+                             "at a time)")
+    parser.add_argument("--reuse", action="store_true",
+                        help=f"keep the {runs} --out already holds finished from the same "
+                             "content (the completed scene, the files it names, the PETSc "
+                             f"options); run only the others{reuse_note}")
     parser.add_argument("--executor", metavar="E", default="local",
                         help="where the runs happen: local (this machine's processes, the "
                              "default), dask (a local Dask cluster of --jobs workers), "

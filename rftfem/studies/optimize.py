@@ -20,9 +20,10 @@ Every evaluation is an ordinary run in ``DIR/eval-NNNN`` (``rftfem render``,
 ``rftfem collect`` work on it).  A failed run (a bad scene at those values, a
 numerical failure, a quantity it has no data for) is recorded and given a value
 worse than any seen, so the method turns away from it; it never ends the loop.
-With ``--reuse`` an evaluation whose folder already holds a finished run of the
-same overrides is read, not run again: the methods are deterministic, so an
-interrupted optimisation goes on where it stopped.
+With ``--reuse`` an evaluation whose folder already holds a finished run (ok or
+failed) of the same content (rftfem/studies/reuse.py: the completed scene, the
+files it names, the PETSc options) is read, not run again: the methods are
+deterministic, so an interrupted optimisation goes on where it stopped.
 
 The methods are scipy.optimize's, on the parameters mapped to the unit box:
 ``cobyla`` (the default: the fewest runs to 1 % of the optimum on the demos,
@@ -54,6 +55,7 @@ from pathlib import Path
 from rftfem.studies import objective as objectives
 from rftfem.studies import executors
 from rftfem.studies.executors import check_executor_options, make_executor
+from rftfem.studies.reuse import report
 from rftfem.errors import SceneError
 from rftfem.studies.optimize_evaluations import BudgetSpent, Evaluator, parse_vary
 from rftfem.studies.optimize_report import plot, write_best
@@ -216,20 +218,12 @@ def add_arguments(parser):
                              "--vary-field l-bfgs-b, or slsqp with constraints)")
     parser.add_argument("--budget", metavar="N", type=int, default=DEFAULT_BUDGET,
                         help=f"at most N runs (default {DEFAULT_BUDGET})")
-    from rftfem.scene.overrides import add_override_arguments
-
-    add_override_arguments(parser)  # --set and --unset, for every run
-    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
-                        help="folder (default: results/optimize-<scene file stem>)")
-    parser.add_argument("--jobs", metavar="J", type=int, default=1,
-                        help="runs at the same time, each one process, where the method "
-                             "has several to make (grid; l-bfgs-b's differences)")
-    parser.add_argument("--np", metavar="P", type=int, default=1,
-                        help="run each evaluation under mpirun -n P")
-    executors.add_arguments(parser)
-    parser.add_argument("--reuse", action="store_true",
-                        help="read evaluations whose folder holds a finished run of the same "
-                             "overrides instead of running them (resumes an optimisation)")
+    # --set, --out, --jobs, --np, --reuse, --executor...
+    executors.add_arguments(parser, "optimize", "evaluations",
+                            jobs_note=", where the method has several to make (grid; "
+                                      "l-bfgs-b's differences)",
+                            reuse_note="; failed runs count as finished (resumes an "
+                                       "optimisation)")
 
 
 def _method(name: str) -> str:
@@ -317,6 +311,7 @@ def main(args, petsc_args: list[str], console) -> int:
             write_best(ev, best, out / "best.toml", command)
         drawn = plot(ev, out / "optimize.png", command if len(command) < 110
                      else command[:107] + "...")
+    report([(e.note, e.folder.name) for e in ev.evaluations], console, "optimize")
     n_failed = sum(e.status == "failed" for e in ev.evaluations)
     n_reused = sum(e.reused for e in ev.evaluations)
     console.out(f"rftfem optimize: {why}; {len(ev.evaluations)} runs"

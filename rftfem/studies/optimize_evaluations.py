@@ -23,7 +23,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rftfem.scene import toml_writer
+from rftfem.scene.overrides import lookup
 from rftfem.studies.batch import failure_reason
+from rftfem.studies.reuse import keep_key, key_of, reused, status_of
 from rftfem.errors import SceneError
 
 #: forward-difference step of l-bfgs-b without an adjoint, a fraction of each interval
@@ -75,18 +77,6 @@ class Parameter:
         return f"{self.set_key}={toml_writer.value(vec)}"
 
 
-def _lookup(scene: dict, key: str):
-    node = scene
-    for part in key.split("."):
-        if isinstance(node, list) and re.fullmatch(r"\d+", part) and int(part) < len(node):
-            node = node[int(part)]
-        elif isinstance(node, dict) and part in node:
-            node = node[part]
-        else:
-            return None
-    return node
-
-
 def parse_vary(text: str, scene: dict) -> Parameter:
     """``KEY=LO:HI[:log]`` against the loaded scene (its value is the start)."""
     key, sep, rng = text.partition("=")
@@ -106,10 +96,10 @@ def parse_vary(text: str, scene: dict) -> Parameter:
     if log and lo <= 0:
         raise SceneError(f"--vary '{text}': a log scale needs LO > 0, found {lo:g}")
     head, _, last = key.rpartition(".")
-    value, set_key, index, vector = _lookup(scene, key), key, None, None
-    if isinstance(_lookup(scene, head), list) and re.fullmatch(r"\d+", last) \
+    value, set_key, index, vector = lookup(scene, key), key, None, None
+    if isinstance(lookup(scene, head), list) and re.fullmatch(r"\d+", last) \
             and not isinstance(value, dict):
-        vector, set_key, index = list(_lookup(scene, head)), head, int(last)
+        vector, set_key, index = list(lookup(scene, head)), head, int(last)
     if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
         raise SceneError(f"--vary {key}: expected a key with a number value, found "
                          f"{toml_writer.value(value) if not isinstance(value, dict) else 'a table'}")
@@ -134,6 +124,7 @@ class Evaluation:
     failure: str = ""
     wall: float | None = None
     reused: bool = False
+    note: str = ""  # why a finished run was not reused, or not keyed (reuse.report)
     gradient: list | None = None   # d objective / d x (the adjoint's), if computed
 
 
@@ -209,7 +200,11 @@ class Evaluator:
     def _run(self, ev: Evaluation) -> None:
         overrides = self.overrides_of(ev.x)
         t0 = time.perf_counter()
-        if self.reuse and _done(ev.folder, self.scene_file, overrides, self.gradients):
+        key = self._key_of(overrides)
+        kept, ev.note = reused(ev.folder, key, self.reuse, FINISHED)
+        if kept and self.gradients and _without_gradient(ev.folder):
+            kept, ev.note = False, ""
+        if kept:
             ev.reused, status = True, 0
         else:
             if ev.folder.exists():
@@ -224,8 +219,21 @@ class Evaluator:
             else:
                 status = self.executor.run(self.scene_file, overrides, ev.folder,
                                            self.petsc_args)
+            if status_of(ev.folder) in FINISHED:  # a run to read again: key it
+                ev.note = keep_key(ev.folder, key, self.scene_file, overrides,
+                                   self.petsc_args, "optimisation") or ev.note
         ev.wall = time.perf_counter() - t0
         self._read(ev, status)
+
+    def _key_of(self, overrides: list[str]) -> dict | None:
+        """The --reuse key of a run with ``overrides`` (rftfem/studies/reuse.py); None
+        for a scene that does not load (its run fails and says why)."""
+        from rftfem.scene.reading import load_scene
+
+        try:
+            return key_of(load_scene(str(self.scene_file), overrides), self.petsc_args)
+        except SceneError:
+            return None
 
     def _read(self, ev: Evaluation, status: int) -> None:
         from rftfem.outputs.quantities import RunFolder, Unavailable
@@ -327,17 +335,14 @@ class Evaluator:
         return ev.merit, np.array([(m - ev.merit) / h for m, h in zip(merits, steps)])
 
 
-def _done(folder: Path, scene_file, overrides: list[str], gradients: bool) -> bool:
-    """A finished run (ok or failed) of the same scene and overrides is in ``folder``."""
-    try:
-        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    if gradients and summary.get("status") == "ok" and not (folder / "gradient.json").is_file():
-        return False
-    return (summary.get("status") in ("ok", "failed")
-            and summary.get("overrides") == list(overrides)
-            and Path(str(summary.get("scene_file", ""))).resolve() == Path(scene_file).resolve())
+#: the statuses of a run that --reuse reads again: a failed run too (the methods are
+#: deterministic, so an interrupted optimisation goes on where it stopped)
+FINISHED = ("ok", "failed")
+
+
+def _without_gradient(folder: Path) -> bool:
+    """A finished run without the gradient.json that an adjoint search needs."""
+    return status_of(folder) == "ok" and not (folder / "gradient.json").is_file()
 
 
 def adjoint_quantity(objective):

@@ -1,6 +1,7 @@
-"""What ``rftfem sweep --reuse`` compares: a run folder is kept only when it holds a
-finished run (summary.json status ``ok``) made from the same content as the run
-the sweep would start now, whatever the scene file is called or where it is.
+"""What ``--reuse`` compares (``rftfem sweep``, ``study`` and ``optimize``): a run
+folder is kept only when it holds a finished run (summary.json status ``ok``;
+for ``optimize`` ``failed`` too) made from the same content as the run the
+command would start now, whatever the scene file is called or where it is.
 
 The key (:func:`key_of`) is a SHA-256 over:
 
@@ -22,12 +23,13 @@ The key (:func:`key_of`) is a SHA-256 over:
 Not covered: rftfem's own code and the stack it runs on, the number of processes
 (``--np``), the executor. A run folder whose ``reuse.json`` is missing (a folder
 from before keys were compared, or a run cut short before its key was written)
-is not reused: its run is made again, and the sweep says so.
+is not reused: its run is made again, and the command says so (:func:`report`).
 
-The sweep keys each combination before anything runs and writes ``reuse.json``
-into a folder once its run has ended well, and only when the key is still the
-same then: a scene or file edited while the sweep ran leaves the runs it may
-have reached unkeyed, so a later ``--reuse`` runs them again.
+A command keys each run (a sweep's combination, a study's level, an optimisation's
+evaluation) before it starts it and writes ``reuse.json`` into its folder once the
+run has ended well (for ``optimize``, or failed with a summary), and only when the
+key is still the same then: a scene or file edited while the command ran leaves
+the runs it may have reached unkeyed, so a later ``--reuse`` runs them again.
 """
 
 from __future__ import annotations
@@ -125,15 +127,21 @@ def write_key(folder: Path, key: dict) -> None:
     (Path(folder) / KEY_FILE).write_text(json.dumps(key, indent=1) + "\n", encoding="utf-8")
 
 
-def why_not_reused(folder: Path, key: dict) -> str | None:
-    """None when ``folder`` holds a finished run with ``key``; else why not: ``""``
-    when it holds no finished run (nothing to say), else what differs."""
-    folder = Path(folder)
+def status_of(folder: Path) -> str | None:
+    """The status of the run in ``folder`` (summary.json's), or None without one."""
     try:
-        summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+        summary = json.loads((Path(folder) / "summary.json").read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return ""
-    if summary.get("status") != "ok":
+        return None
+    return summary.get("status") if isinstance(summary, dict) else None
+
+
+def why_not_reused(folder: Path, key: dict, finished=("ok",)) -> str | None:
+    """None when ``folder`` holds a finished run (its status one of ``finished``) with
+    ``key``; else why not: ``""`` when it holds no finished run (nothing to say), else
+    what differs."""
+    folder = Path(folder)
+    if status_of(folder) not in finished:
         return ""
     try:
         kept = json.loads((folder / KEY_FILE).read_text(encoding="utf-8"))
@@ -151,4 +159,34 @@ def why_not_reused(folder: Path, key: dict) -> str | None:
     return (", ".join(what) + " changed since") if what else "its key differs"
 
 
-__all__ = ["KEY_FILE", "files_read", "key_of", "unchanged", "write_key", "why_not_reused"]
+def reused(folder: Path, key: dict | None, reuse: bool, finished=("ok",)) -> tuple[bool, str]:
+    """Whether ``--reuse`` keeps the run in ``folder`` (a finished run with ``key``), and
+    else the note to report (:func:`report`; "" when there is nothing to say)."""
+    why = why_not_reused(folder, key, finished) if reuse and key is not None else ""
+    if why is None:
+        return True, ""
+    return False, f"finished run(s) run again, not reused ({why})" if why else ""
+
+
+def keep_key(folder: Path, key: dict | None, scene_file, overrides, petsc_args,
+             command: str) -> str:
+    """After a run in ``folder`` ended well: write ``key`` there if the scene (and the
+    files it names) still has it; else the note to report."""
+    if key is not None and unchanged(key, scene_file, overrides, petsc_args):
+        write_key(folder, key)
+        return ""
+    return ("run(s) not keyed for --reuse, the scene or a file it names changed while "
+            f"the {command} ran")
+
+
+def report(notes, console, command: str) -> None:
+    """One line on stderr per note of :func:`reused` and :func:`keep_key`, with how many
+    runs it is and the first one's folder; ``notes`` are (note, folder name) pairs."""
+    notes = list(notes)
+    for note in dict.fromkeys(n for n, _ in notes if n):
+        which = [name for n, name in notes if n == note]
+        console.err(f"rftfem {command}: {len(which)} {note}; the first: {which[0]}")
+
+
+__all__ = ["KEY_FILE", "files_read", "key_of", "unchanged", "write_key", "why_not_reused",
+           "status_of", "reused", "keep_key", "report"]

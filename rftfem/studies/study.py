@@ -61,7 +61,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rftfem.studies import executors
-from rftfem.studies.batch import failure_reason, finished
+from rftfem.studies.batch import failure_reason
+from rftfem.studies.reuse import keep_key, key_of, report, reused
 from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.errors import SceneError
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
@@ -113,6 +114,8 @@ class Level:
     compile: float | None = None
     values: dict = field(default_factory=dict)  # quantity name -> float or None
     exit_status: int = 0
+    key: dict | None = None  # what --reuse compares (rftfem/studies/reuse.py)
+    note: str = ""  # why a finished run was not reused, or not keyed
 
 
 # --- the levels ---------------------------------------------------------------------
@@ -180,17 +183,22 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path,
 def run_level(level: Level, scene_file: str, overrides: list[str], executor,
               petsc_args: list[str], reuse: bool = False) -> None:
     """Run one level (a fresh folder) and read its summary into ``level``; with
-    ``reuse``, a finished run of the same level is read instead.  The run is the
-    ``executor``'s (rftfem/studies/executors.py: in this process, a child ``rftfem
-    run``, or a Dask worker's)."""
-    if reuse and finished(level.folder, scene_file, [*overrides, *level.overrides]):
+    ``reuse``, a finished run of the same content (``level.key``,
+    rftfem/studies/reuse.py) is read instead.  The run is the ``executor``'s
+    (rftfem/studies/executors.py: in this process, a child ``rftfem run``, or a Dask
+    worker's)."""
+    overrides = [*overrides, *level.overrides]
+    kept, level.note = reused(level.folder, level.key, reuse)
+    if kept:
         level.status = "reused"
-    elif level.folder.exists():
-        shutil.rmtree(level.folder)
-    if level.status != "reused":
+    else:
+        if level.folder.exists():
+            shutil.rmtree(level.folder)
         level.folder.mkdir(parents=True)
-        level.exit_status = executor.run(scene_file, [*overrides, *level.overrides],
-                                         level.folder, petsc_args)
+        level.exit_status = executor.run(scene_file, overrides, level.folder, petsc_args)
+        if level.exit_status == 0:
+            level.note = keep_key(level.folder, level.key, scene_file, overrides,
+                                  petsc_args, "study") or level.note
     _read_summary(level)
 
 
@@ -254,23 +262,13 @@ def add_arguments(parser):
     parser.add_argument("--levels", metavar="N", type=int, default=3,
                         help="levels per kind, the scene itself included (default 3; "
                              "3 give one observed order)")
-    from rftfem.scene.overrides import add_override_arguments
-
-    add_override_arguments(parser)  # --set and --unset, for every run
-    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
-                        help="study folder (default: results/study-<scene file stem>)")
-    parser.add_argument("--jobs", metavar="J", type=int, default=1,
-                        help="levels run at the same time, each one process (default 1)")
-    parser.add_argument("--np", metavar="P", type=int, default=1,
-                        help="run each level under mpirun -n P (one level at a time)")
+    # --set, --out, --jobs, --np, --reuse, --executor...
+    executors.add_arguments(parser, "study", "levels",
+                            reuse_note=" (a study extended or re-analysed)")
     parser.add_argument("--processes", action="store_true",
                         help="run each level as its own `rftfem run` process, also with "
                              "--jobs 1 (by default one-at-a-time levels run in the study's "
                              "own process, which pays the imports and form loading once)")
-    executors.add_arguments(parser)
-    parser.add_argument("--reuse", action="store_true",
-                        help="keep the levels whose folder holds a finished run of the same "
-                             "scene file and overrides (a study extended or re-analysed)")
 
 
 def _kinds(options: list[str]) -> list[str]:
@@ -303,13 +301,14 @@ def main(args, petsc_args: list[str], console) -> int:
     scene["time"]["scheme"] = resolved_scheme(scene)
     out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
     plans = plan(scene, kinds, args.levels, out, args.factor)
-    # every level's scene must be valid before anything runs
-    for series in plans.values():
-        for lv in series[1:]:
-            try:
-                load_scene(args.scene, [*args.overrides, *lv.overrides])
-            except SceneError as exc:
-                raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
+    levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
+    # every level's scene must be valid before anything runs; its key for --reuse
+    for lv in levels:
+        try:
+            lv.key = key_of(load_scene(args.scene, [*args.overrides, *lv.overrides]),
+                            petsc_args)
+        except SceneError as exc:
+            raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -322,7 +321,6 @@ def main(args, petsc_args: list[str], console) -> int:
                              args.executor_config, args.print_job_script, in_process)
     if executor is None:  # --print-job-script
         return 0
-    levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
     console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
                 f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
     t0 = time.perf_counter()
@@ -358,6 +356,7 @@ def main(args, petsc_args: list[str], console) -> int:
     (out / "study.md").write_text(md + "\n", encoding="utf-8")
     drawn = plot(rows, out / "study.png")
     console.out(md)
+    report([(lv.note, lv.folder.name) for lv in levels], console, "study")
     failed = sum(lv.status != "ok" for lv in levels)
     console.err(f"rftfem study: {len(levels) - failed} of {len(levels)} runs ok in "
                 f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rftfem.errors import SceneError
+from rftfem.scene.overrides import lookup
 from rftfem.studies import executors
 
 DESCRIPTION = ("Run a scene over a grid of values of any keys (every combination of the "
@@ -90,35 +91,10 @@ def add_arguments(parser) -> None:
                         dest="quantities",
                         help="a column of sweep.csv from each run (collect's quantity "
                              "language, e.g. 'U=steady(front_ux_rate)'); repeatable")
-    from rftfem.scene.overrides import add_override_arguments
-
-    add_override_arguments(parser)  # --set and --unset, for every run
-    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
-                        help="the sweep's folder (default results/sweep-<scene stem>)")
-    parser.add_argument("--jobs", metavar="J", type=int, default=1,
-                        help="runs side by side (local processes, or Dask workers)")
-    parser.add_argument("--np", metavar="P", type=int, default=1,
-                        help="each run under mpirun -n P")
-    parser.add_argument("--reuse", action="store_true",
-                        help="keep the runs --out already holds finished from the same "
-                             "content (the completed scene, the files it names, the PETSc "
-                             "options); run only the others")
-    executors.add_arguments(parser)
+    executors.add_arguments(parser, "sweep")  # --set, --out, --jobs, --reuse, ...
 
 
 # ------------------------------------------------------------------ the grid
-
-
-def _lookup(scene: dict, key: str):
-    node = scene
-    for part in key.split("."):
-        if isinstance(node, dict) and part in node:
-            node = node[part]
-        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
-            node = node[int(part)]
-        else:
-            return None
-    return node
 
 
 def _toml_value(text: str, what: str):
@@ -142,7 +118,7 @@ def parse_vary(text: str, scene: dict) -> Vary:
     match = _RANGE.match(spec)
     if match and "[" not in spec:
         lo_text, hi_text, n_text, scale = match.groups()
-        current = _lookup(scene, key)
+        current = lookup(scene, key)
         if isinstance(current, bool) or not isinstance(current, (int, float)):
             found = "absent" if current is None else repr(current)
             raise SceneError(f"{what}: a range LO:HI:N needs a numeric key; {key} is "
@@ -247,14 +223,13 @@ class _Progress:
 def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
               quantities) -> None:
     from rftfem.studies.batch import failure_reason
-    from rftfem.studies.reuse import unchanged, why_not_reused, write_key
+    from rftfem.studies.reuse import keep_key, reused
 
     t0 = time.perf_counter()
-    why = why_not_reused(point.folder, point.key) if reuse else ""
-    if why is None:
+    kept, point.note = reused(point.folder, point.key, reuse)
+    if kept:
         point.status = "reused"
     else:
-        point.note = f"finished run(s) run again, not reused ({why})" if why else ""
         if point.folder.exists():
             shutil.rmtree(point.folder)
         point.folder.mkdir(parents=True)
@@ -262,11 +237,9 @@ def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
         point.status = "ok" if point.exit_status == 0 else "failed"
         if point.exit_status != 0:
             point.reason = failure_reason(point.folder / "run.log", point.exit_status)
-        elif unchanged(point.key, scene_file, point.overrides, petsc_args):
-            write_key(point.folder, point.key)
         else:
-            point.note = ("run(s) not keyed for --reuse, the scene or a file it names "
-                          "changed while the sweep ran")
+            point.note = keep_key(point.folder, point.key, scene_file, point.overrides,
+                                  petsc_args, "sweep") or point.note
     point.wall = time.perf_counter() - t0
     if point.status != "failed":
         _read_quantities(point, quantities)
@@ -310,7 +283,7 @@ def main(args, petsc_args: list[str], console) -> int:
     from rftfem.outputs.collect import parse_option
     from rftfem.scene.reading import load_scene
     from rftfem.studies import sweep_report
-    from rftfem.studies.reuse import key_of
+    from rftfem.studies.reuse import key_of, report
 
     if not args.vary:
         raise SceneError("--vary: give at least one key to vary (e.g. --vary shell.E=1e5,2e5)")
@@ -377,9 +350,7 @@ def main(args, petsc_args: list[str], console) -> int:
                         *map(shlex.quote, as_arguments(args.overrides))])
     (out / "command.txt").write_text(command + "\n", encoding="utf-8")
     failed = sum(p.status == "failed" for p in points)
-    for note in dict.fromkeys(p.note for p in points if p.note):
-        which = [p.folder.name for p in points if p.note == note]
-        console.err(f"rftfem sweep: {len(which)} {note}; the first: {which[0]}")
+    report([(p.note, p.folder.name) for p in points], console, "sweep")
     missing = [p for p in points if p.status.endswith("quantity missing")]
     if missing:
         console.err(f"rftfem sweep: {len(missing)} run(s) ok without every quantity "

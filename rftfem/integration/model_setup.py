@@ -1,0 +1,71 @@
+"""A scene's model and what `rftfem check` reports on it: the body built from its mesh
+and hinge lines, the Model with its effects, and the lines on the mesh and the liquid
+(the compilers kept quiet while forms are made)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from mpi4py import MPI
+
+from rftfem import petsc_options
+from rftfem.model.shell_model import Model
+from rftfem.outputs.writers import Probes
+from rftfem.scene import scales
+
+
+def build_model(scene: dict, comm, compile_forms: bool = True,
+                tangent: str | None = None) -> Model:
+    """The scene's body (its hinge lines cut into strip meshes) and its Model, with
+    the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
+    from rftfem.meshes import build_body
+
+    scene_dir = Path(scene.get("_folder") or Path(scene.get("_path") or "scene.toml").parent)
+    lines = [h["where"] for h in scene.get("hinge") or []]
+    body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
+    if tangent is None:
+        tangent = petsc_options.tangent(scene.get("solver"))
+    return Model(scene, body, compile_forms=compile_forms, tangent=tangent)
+
+
+def check(scene: dict, comm=None) -> list[str]:
+    """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
+    return check_report(scene, comm)[0]
+
+
+def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
+    """``check``, the scene's groups (scales.py) and lines on its mesh and liquid."""
+    comm = comm or MPI.COMM_WORLD
+    quiet_compilers()
+    model = build_model(scene, comm, compile_forms=False)
+    Probes(model, scene.get("output", {}).get("probes", []))
+    report = model.body.report
+    lines = report.lines() if report is not None else []
+    if model.fluid is not None:  # RFT: its coefficients; Stokes: sizes, cost, error
+        lines += model.fluid.check_lines()
+    # what the run would warn of at its start (a wall too close, a body too large)
+    lines += [f"warning: {line}" for comp in model.components for line in comp.warnings()]
+    return model.active_effects(), scales.groups(scene, model), lines
+
+
+class _CompilerChatter(logging.Filter):
+    """Drops the INFO lines (gcc command lines) that distutils/setuptools log on the
+    root logger while cffi builds a JIT module; their build also resets the root
+    level, so a level alone does not keep them quiet."""
+
+    def filter(self, record):
+        where = record.pathname.replace("\\", "/")
+        return record.levelno >= logging.WARNING or not any(
+            part in where for part in ("/distutils/", "/setuptools/", "/cffi/"))
+
+
+def quiet_compilers():
+    """FFCx/cffi log every compilation at INFO on some stacks: keep the terminal readable."""
+    for name in ("", "ffcx", "UFL", "cffi", "dolfinx"):
+        logger = logging.getLogger(name)
+        if logger.level == logging.NOTSET or logger.level < logging.WARNING:
+            logger.setLevel(logging.WARNING)
+    root = logging.getLogger()
+    if not any(isinstance(f, _CompilerChatter) for f in root.filters):
+        root.addFilter(_CompilerChatter())
