@@ -8,7 +8,8 @@ and the strip swims the other way.  ``demos/bidirectional_strip.toml`` explains
 the parameters; this script runs both protocols and shows the three behaviours:
 
 * ``shape_phase1.png``: the strip at the end of phase 1, both protocols;
-* ``trajectory.png`` and ``trajectory.csv``: the centroid along the rotation axis;
+* ``trajectory.png`` and ``trajectory.csv``: the centroid along the rotation axis
+  at each output time (body.csv);
 * ``groups.md``: the magneto-elastic number, the sperm number, and the
   rigid-rotor step-out estimate of the phase-1 shape, ``f_c = |Q⊥| B / (2π ζ)``,
   with Q the total magnetic moment and ζ the RFT drag of a rigid rotation about
@@ -33,6 +34,7 @@ import csv
 import json
 import math
 import sys
+import tomllib
 from pathlib import Path
 
 # the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
@@ -72,62 +74,99 @@ def groups(scene: dict) -> dict:
             "end_couple_Nmm": couple}
 
 
-class Phase1:
-    """Observer: at the end of phase 1, the shape (gathered on rank 0) and the
-    rigid-rotor step-out estimate ``f_c = |Q⊥| B / (2π ζ)`` of that shape."""
-
-    def __init__(self, scene: dict):
-        self.field = scene["magnetic"]["field"]
-        self.axis = np.asarray(self.field["rotation_axis"], dtype=float)
-        self.axis /= np.linalg.norm(self.axis)
-        self.shape, self.f_c = None, None
-
-    def __call__(self, sim):
-        if self.f_c is not None or sim.t < self.field["ramp_time"] - 1e-12:
-            return
-        m = sim.model
-        Q = m["magnetic"].moment()
-        q_perp = np.linalg.norm(Q - (Q @ self.axis) * self.axis)
-        self.f_c = q_perp * self.field["strength"] / m["drag"].rotational(self.axis) / (2 * math.pi)
-        X = m.Vu.tabulate_dof_coordinates()
-        x = X + m.displacement.x.array.reshape(-1, 3)[: len(X)]
-        parts = m.comm.gather(x, root=0)
-        self.shape = np.concatenate(parts) if parts is not None else None
-
-
-class Centroid:
-    """Observer: the centroid after every step."""
-
-    def __init__(self):
-        self.rows = [(0.0, None)]
-
-    def __call__(self, sim):
-        self.rows.append((sim.t, sim.model.centroid()))
+def parse_set(text: str) -> tuple[str, object]:
+    """``KEY=VALUE`` of ``--set`` as ``rftfem run`` reads it: VALUE is TOML, else a bare word."""
+    key, _, value = text.partition("=")
+    try:
+        return key.strip(), tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key.strip(), value.strip()
 
 
 def run_protocol(name: str, overrides: list[str], out: Path, comm):
-    """One protocol in-process; returns (Phase1, Centroid, scene)."""
-    from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import Simulation
+    """One protocol in-process (on every rank of ``comm``); returns its rftfem.Result
+    and scene."""
+    import rftfem
 
-    direction = PROTOCOLS[name]
-    title = f'title="Bidirectional magnetic strip (paper section 4.3), field along {name}"'
-    scene = load_scene(SCENE, [title, *overrides, f"magnetic.field.direction={direction}"])
-    phase1, centroid = Phase1(scene), Centroid()
-    sim = Simulation(scene, out_dir=out / f"protocol{name}", quiet=True, comm=comm,
-                     observers=[phase1, centroid])
-    centroid.rows[0] = (0.0, sim.model.centroid())
-    try:
-        sim.run()
-    finally:
-        sim.close()
-    return phase1, centroid, scene
+    changes = {"title": f"Bidirectional magnetic strip (paper section 4.3), field along {name}"}
+    changes.update(parse_set(text) for text in overrides)
+    changes["magnetic.field.direction"] = PROTOCOLS[name]
+    scene = rftfem.load_scene(SCENE, set=changes)
+    return rftfem.run(scene, out=out / f"protocol{name}", comm=comm), scene
 
 
-def net_displacement(rows, axis, t0: float, t1: float) -> float:
+def unit(v) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def rotational_drag(mesh, C, material_axis, axis, centre) -> float:
+    """The RFT drag coefficient ζ of a rigid rotation of a written shape about
+    ``axis`` through ``centre``: ``ζ = ∫ (C̃ v)·v dA`` over the deformed mid-surface
+    with ``v = a × (x − centre)`` and ``C̃ = Σ Cᵢ eᵢ⊗eᵢ`` in the drag's frame (e₁ the
+    material axis carried by the deformation, e₃ the normal; docs/model.md §5.4).
+    ``mesh`` is ``Result.fields``' (nine-node quadrilaterals: the solution's degree),
+    integrated with the run's own rule (3 × 3 Gauss points a cell), so ζ is what the
+    run's drag gives, to round-off; NaN for a mesh of other cells."""
+    if set(mesh.celltypes.tolist()) != {28}:  # VTK_BIQUADRATIC_QUAD
+        return math.nan
+    cells = mesh.cells.reshape(-1, 10)[:, 1:]
+    X = np.asarray(mesh.points)[cells]
+    x = X + np.asarray(mesh.point_data["displacement"])[cells]
+    # VTK's node order (corners, edge midpoints, centre) on the grid (0, 1/2, 1)²
+    ij = np.array([(0, 0), (2, 0), (2, 2), (0, 2), (1, 0), (2, 1), (1, 2), (0, 1), (1, 1)])
+
+    def lagrange(s):  # the quadratic shape functions at 0, 1/2, 1 and their derivatives
+        return (np.array([2 * (s - 0.5) * (s - 1), -4 * s * (s - 1), 2 * s * (s - 0.5)]),
+                np.array([4 * s - 3, 4 - 8 * s, 4 * s - 1]))
+
+    points, weights = np.polynomial.legendre.leggauss(3)
+    a, zeta = unit(axis), 0.0
+    for p, wp in zip((points + 1) / 2, weights / 2):
+        for q, wq in zip((points + 1) / 2, weights / 2):
+            (lp, dp), (lq, dq) = lagrange(p), lagrange(q)
+            N, Np, Nq = (f[ij[:, 0]] * g[ij[:, 1]] for f, g in ((lp, lq), (dp, lq), (lp, dq)))
+            G = np.stack([Np @ X, Nq @ X], axis=-1)  # reference tangents, (cells, 3, 2)
+            g = np.stack([Np @ x, Nq @ x], axis=-1)  # current tangents
+            normal = np.cross(g[..., 0], g[..., 1])
+            area = np.linalg.norm(normal, axis=-1)
+            along = np.linalg.pinv(G) @ np.asarray(material_axis, dtype=float)
+            e1 = unit(np.einsum("cij,cj->ci", g, along))  # F E₁ (E₁ made tangent)
+            e3 = normal / area[:, None]
+            v = np.cross(a, N @ x - centre)
+            power = sum(c * np.einsum("ck,ck->c", v, e) ** 2
+                        for c, e in zip(C, (e1, np.cross(e3, e1), e3)))
+            zeta += wp * wq * float(power @ area)
+    return zeta
+
+
+def phase1(result, scene) -> tuple[np.ndarray, float]:
+    """At the end of phase 1 (the written time nearest the ramp's end): the shape (the
+    points of the deformed mid-surface) and the rigid-rotor step-out estimate
+    ``f_c = |Q⊥| B / (2π ζ)`` of that shape, Q from body.csv."""
+    field = scene["magnetic.field"]
+    axis = unit(field["rotation_axis"])
+    mesh = result.fields(field["ramp_time"])
+    body = result.body
+    row = body.iloc[int(np.argmin(abs(body["time"].to_numpy() - mesh.field_data["time"][0])))]
+    Q = row[["moment_x", "moment_y", "moment_z"]].to_numpy(dtype=float)
+    centre = row[["centroid_x", "centroid_y", "centroid_z"]].to_numpy(dtype=float)
+    zeta = rotational_drag(mesh, result.summary["fluid"]["drag"], scene["shell.axis"], axis,
+                           centre)
+    q_perp = np.linalg.norm(Q - (Q @ axis) * axis)
+    shape = np.asarray(mesh.points) + np.asarray(mesh.point_data["displacement"])
+    return shape, q_perp * field["strength"] / zeta / (2 * math.pi)
+
+
+def centroid_path(result) -> tuple[np.ndarray, np.ndarray]:
+    """The centroid at each output time (body.csv): times (n,) and positions (n, 3)."""
+    body = result.body
+    return (body["time"].to_numpy(),
+            body[["centroid_x", "centroid_y", "centroid_z"]].to_numpy())
+
+
+def net_displacement(t, c, axis, t0: float, t1: float) -> float:
     """Centroid displacement along ``axis`` between the rows nearest t0 and t1."""
-    t = np.array([r[0] for r in rows])
-    c = np.array([r[1] for r in rows])
     i0, i1 = int(np.argmin(abs(t - t0))), int(np.argmin(abs(t - t1)))
     return float((c[i1] - c[i0]) @ axis)
 
@@ -171,6 +210,21 @@ def plot_trajectories(curves: dict, ramp: float, path: Path):
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
+
+
+def draw_picture_and_film(folder: Path, stem: str, **options) -> None:
+    """``STEM.png`` (the last frame) and ``STEM.mp4`` (the whole run) in ``folder``, by
+    ``rftfem.Result.render`` (``options``: render's, e.g. ``view="follow"``). A failure
+    is reported, not raised: the numbers of a demo matter more than its pictures."""
+    import rftfem
+
+    for suffix in (".png", ".mp4"):
+        out = folder / f"{stem}{suffix}"
+        try:
+            rftfem.Result(folder).render(out, **options)
+            print(f"drew {out}")
+        except Exception as exc:  # noqa: BLE001 (whatever stopped the drawing, say it)
+            print(f"could not draw {out}: {exc}")
 
 
 # --- the frequency sweep -----------------------------------------------------------
@@ -297,22 +351,23 @@ def main(argv=None) -> int:
     if args.sweep:
         return sweep(args.sweep, args.estimate, args.settle)
 
-    import rftfem  # noqa: F401  (sets up the FEniCSx stack)
+    import rftfem  # noqa: F401  (before mpi4py: sets up the FEniCSx stack)
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
-    results = {name: run_protocol(name, args.overrides, args.out, comm) for name in PROTOCOLS}
-    scene = results["+X"][2]
-    field = scene["magnetic"]["field"]
-    axis = np.asarray(field["rotation_axis"], dtype=float)
-    axis /= np.linalg.norm(axis)
-    end, period = scene["time"]["end"], 1.0 / field["frequency"]
-    net = {name: net_displacement(r[1].rows, axis, end - 2 * period, end)
-           for name, r in results.items()}
-    g = groups(scene)
-    f_c = results["+X"][0].f_c
-    if comm.rank != 0:
+    runs = {name: run_protocol(name, args.overrides, args.out, comm) for name in PROTOCOLS}
+    if comm.rank != 0:  # rank 0 wrote the outputs; it reads them
         return 0
+    scene = runs["+X"][1]
+    field = scene["magnetic.field"]
+    axis = unit(field["rotation_axis"])
+    end, period = scene["time.end"], 1.0 / field["frequency"]
+    paths = {name: centroid_path(result) for name, (result, _) in runs.items()}
+    net = {name: net_displacement(*path, axis, end - 2 * period, end)
+           for name, path in paths.items()}
+    g = groups(scene.to_dict())
+    phases = {name: phase1(result, protocol) for name, (result, protocol) in runs.items()}
+    f_c = phases["+X"][1]
     args.out.mkdir(parents=True, exist_ok=True)
     lines = [
         f"| quantity | value |", "|---|---|",
@@ -325,18 +380,18 @@ def main(argv=None) -> int:
     print("\n".join(lines))
     with open(args.out / "trajectory.csv", "w", encoding="utf-8") as f:
         f.write("time," + ",".join(f"centroid_along_axis_{n}" for n in PROTOCOLS) + "\n")
-        for rows in zip(*(r[1].rows for r in results.values())):
-            f.write(f"{rows[0][0]!r}," + ",".join(f"{float(r[1] @ axis)!r}" for r in rows) + "\n")
-    plot_shapes({n: r[0].shape for n, r in results.items()}, args.out / "shape_phase1.png")
-    curves = {n: (np.array([row[0] for row in r[1].rows]),
-                  np.array([row[1] @ axis for row in r[1].rows])) for n, r in results.items()}
+        t = paths["+X"][0]
+        along = [c @ axis for _, c in paths.values()]
+        for i, ti in enumerate(t):
+            f.write(f"{float(ti)!r}," + ",".join(f"{float(z[i])!r}" for z in along) + "\n")
+    plot_shapes({n: shape for n, (shape, _) in phases.items()},
+                args.out / "shape_phase1.png")
+    curves = {n: (t, c @ axis) for n, (t, c) in paths.items()}
     plot_trajectories(curves, field["ramp_time"], args.out / "trajectory.png")
     print(f"wrote groups.md, trajectory.csv, shape_phase1.png, trajectory.png in {args.out}")
-    # a picture and a film of each protocol, drawn by `rftfem render`
-    from rftfem.outputs.render_cli import draw_picture_and_film
-
-    for name in PROTOCOLS:
-        draw_picture_and_film(args.out / f"protocol{name}", "strip", "--view", "follow")
+    # a picture and a film of each protocol, drawn as `rftfem render` draws them
+    for name, (result, _) in runs.items():
+        draw_picture_and_film(result.folder, "strip", view="follow")
     a, b = net["+X"], net["-X"]
     if not (a * b < 0 and abs(abs(a) / abs(b) - 1) <= 0.05):
         print(f"bidirectional_strip: FAILED: the protocols should swim in opposite senses "

@@ -111,12 +111,10 @@ def optimize(out: Path, names: list[str], method: str, budget: int, sets: dict,
 
 def measure(row: dict) -> dict:
     """The run's speed along X, along Z, its size and direction, and its rest moment."""
-    from rftfem.studies import objective
+    import rftfem
 
-    folder = row["folder"]
-    ux = objective.parse(OBJECTIVE).evaluate(folder)
-    uz = objective.parse(SIDEWAYS).evaluate(folder)
-    q = objective.parse(REST_MOMENT).evaluate(folder)
+    result = rftfem.Result(row["folder"])  # its formulas are rftfem optimize's
+    ux, uz, q = (result.quantity(f) for f in (OBJECTIVE, SIDEWAYS, REST_MOMENT))
     return {**row, "U": ux, "Uz": uz, "size": math.hypot(ux, uz),
             "direction": math.degrees(math.atan2(uz, ux)), "Q": q}
 

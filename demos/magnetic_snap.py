@@ -76,19 +76,20 @@ def arch_mesh(path: Path, cells: int = 16) -> Path:
     return path
 
 
-def field_formula(b_mT: float) -> str:
-    """The dynamic scene's B: ramped to ``b_mT`` over RAMP from RAMP_START, then held."""
-    return (f'["0", "0", "{b_mT * 1e-6!r}*min(max((t - {RAMP_START!r})/{RAMP!r}, 0), 1)"]')
+def field_formula(b_mT: float) -> list[str]:
+    """The dynamic scene's B: ramped to ``b_mT`` over RAMP from RAMP_START, then held
+    (``float``: numpy 2 writes a numpy number as ``np.float64(...)``)."""
+    b = float(b_mT) * 1e-6
+    return ["0", "0", f"{b!r}*min(max((t - {RAMP_START!r})/{RAMP!r}, 0), 1)"]
 
 
-def run(scene_file: Path, out: Path, sets=()):
-    from rftfem.outputs.quantities import read_csv
-    from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import run as run_scene
+def run(scene_file: Path, out: Path, changes=None) -> dict:
+    """Run ``scene_file`` with ``changes`` (dotted keys to values) into ``out``; its
+    probes.csv as arrays by column."""
+    import rftfem
 
-    run_scene(load_scene(scene_file, list(sets)), out_dir=out, quiet=True)
-    header, rows = read_csv(out / "probes.csv")
-    return {name: rows[:, i] for i, name in enumerate(header)}
+    result = rftfem.run(rftfem.load_scene(scene_file, set=changes), out=out)
+    return {name: column.to_numpy() for name, column in result.probes.items()}
 
 
 def limits(path: dict) -> tuple[int, int]:
@@ -123,10 +124,10 @@ def main(argv=None) -> int:
     runs = {}
     for factor in (0.95, 1.05):
         name = f"x{factor:g}"
-        sets = [f"magnetic.field.B={field_formula(factor * b_up)}"]
+        changes = {"magnetic.field.B": field_formula(factor * b_up)}
         if args.film and factor > 1:
-            sets.append("output.render=mp4")
-        probes = run(SNAP_SCENE, args.out / name, sets)
+            changes["output.render"] = "mp4"
+        probes = run(SNAP_SCENE, args.out / name, changes)
         t, w = probes["time"], probes["crown_uz"]
         snapped = bool(w[-1] < -RISE)
         speed = np.gradient(w, t)

@@ -81,33 +81,34 @@ def sperm_number(E: float, period: float) -> float:
 
 def swim(kind: str, arm_E: float, cycles: int, amplitude: float = 0.1, period: float = 1.0,
          steps_per_leg: int = 40, divisions=(1, 4), out=None):
-    """Run the scene with the given loop and arm modulus; return the centre's Y
-    displacement at the end of every cycle (mm) and the run's summary."""
-    import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-    from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import Simulation
+    """Run the scene with the given loop and arm modulus (into ``out``, or a
+    temporary folder without fields); return the centre's Y displacement at the end
+    of every cycle (mm) and the run's summary."""
+    import tempfile
+
+    import rftfem
 
     wl, wr = loop_tables(kind, amplitude, period, cycles)
-    sets = [f"time.end={float(cycles * period)!r}",
-            f"time.dt={period / (4 * steps_per_leg)!r}",
-            f"motion.0.values={wl}", f"motion.1.values={wr}",
-            f"mesh.divisions={list(divisions)}"]
-    scene = load_scene(SCENE, sets)
-    if arm_E != scene["shell"]["E"]:
-        scene["shell"]["parts"] = [{"region": r, "E": float(arm_E), "nu": NU,
-                                    "thickness": THICKNESS, "density": 0.0}
-                                   for r in ("left", "right")]
-    from rftfem.errors import RunFailed
-
-    sim = Simulation(scene, out_dir=out, quiet=True)
-    try:
-        summary = sim.run()
-    except RunFailed as err:  # a study goes on; the row says why this run stopped
-        summary = {"status": "failed", "failure": str(err), "counts": dict(sim.counts)}
-    finally:
-        sim.close()
-    t = np.array([row[0] for row in sim.history])
-    y = np.array([row[1][0][1] for row in sim.history])
+    scene = rftfem.load_scene(SCENE, set={
+        "time.end": float(cycles * period), "time.dt": period / (4 * steps_per_leg),
+        "motion.0.values": wl, "motion.1.values": wr, "mesh.divisions": list(divisions)})
+    if arm_E != scene["shell.E"]:
+        scene["shell.parts"] = [{"region": r, "E": float(arm_E), "nu": NU,
+                                 "thickness": THICKNESS, "density": 0.0}
+                                for r in ("left", "right")]
+    with tempfile.TemporaryDirectory() as scratch:
+        if out is None:
+            out = Path(scratch) / "run"
+            scene["output.fields"] = False
+        try:
+            result = rftfem.run(scene, out=out)
+            summary = result.summary
+        except rftfem.RunFailed as err:  # a study goes on; the row says why this run stopped
+            result = rftfem.Result(err.folder)
+            summary = {"status": "failed", "failure": str(err),
+                       "counts": result.summary["counts"]}
+        probes = result.probes
+    t, y = probes["time"].to_numpy(), probes["centre_uy"].to_numpy()
     ends = [y[int(np.argmin(abs(t - n * period)))] if t[-1] >= n * period - 1e-9 else np.nan
             for n in range(1, cycles + 1)]
     return np.array(ends), summary

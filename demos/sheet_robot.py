@@ -57,45 +57,38 @@ def field(b_mT: float, f: float) -> list[str]:
 
 def swim(b_mT: float, f: float, periods: int, out: Path, settle: float = 1.0,
          window: float = 0.5) -> dict:
-    import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-    from rftfem.errors import RunFailed
-    from rftfem.outputs.quantities import read_csv
-    from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import Simulation
+    import rftfem
 
     span = max(periods / f, window)
     end = 2 / f + settle + span
     row = {"field_mT": b_mT, "frequency_Hz": f, "status": "ok"}
     if not _finished(out):
-        B = "[" + ", ".join(f'"{c}"' for c in field(b_mT, f)) + "]"
-        scene = load_scene(SCENE, [f"magnetic.field.B={B}", f"time.end={end!r}",
-                                   f"time.dt={1 / (STEPS_PER_PERIOD * f)!r}",
-                                   "output.fields=false"])
-        sim = Simulation(scene, out_dir=out, quiet=True)
+        scene = rftfem.load_scene(SCENE, set={
+            "magnetic.field.B": field(b_mT, f), "time.end": end,
+            "time.dt": 1 / (STEPS_PER_PERIOD * f), "output.fields": False})
         try:
-            sim.run()
-        except RunFailed as exc:
+            rftfem.run(scene, out=out)
+        except rftfem.RunFailed as exc:
             row["status"] = f"failed: {exc}"
             return row
-        finally:
-            sim.close()
-    header, rows = read_csv(out / "body.csv")
-    t = rows[:, 0]
-    x = rows[:, header.index("centroid_x")]
+    body = rftfem.Result(out).body
+    t = body["time"].to_numpy()
+    x = body["centroid_x"].to_numpy()
     inside = t >= end - span - 1e-12
     speed = (x[inside][-1] - x[inside][0]) / (t[inside][-1] - t[inside][0])
-    moment = rows[inside][:, [header.index(f"moment_{c}") for c in "xyz"]]
+    moment = body[["moment_x", "moment_y", "moment_z"]].to_numpy()[inside]
     row.update(speed_mm_s=speed, body_lengths_s=speed / LENGTH,
                moment=float(np.linalg.norm(moment, axis=1).mean()))
     return row
 
 
 def _finished(out: Path) -> bool:
-    import json
+    """Whether ``out`` holds a finished run (its summary says "ok")."""
+    import rftfem
 
     try:
-        return json.loads((out / "summary.json").read_text())["status"] == "ok"
-    except (OSError, ValueError, KeyError):
+        return rftfem.Result(out).ok
+    except rftfem.SceneError:  # no run folder there yet
         return False
 
 

@@ -124,9 +124,9 @@ def measure(folder: Path) -> dict:
     """A run's objective, the rotation of its director at the tip, its thickness and
     its centre line (X and the displacement along the strip's middle)."""
     import rftfem as api
-    from rftfem.studies.objective import parse  # rftfem optimize's formulas
 
-    fields = api.Result(folder).fields()
+    result = api.Result(folder)
+    fields = result.fields()
     X = np.asarray(fields.points)
     d, u = fields.point_data["director"], fields.point_data["displacement"]
     middle = (X[:, 1].min() + X[:, 1].max()) / 2
@@ -135,7 +135,7 @@ def measure(folder: Path) -> dict:
     line = line[np.argsort(X[line, 0])]
     with open(folder / "thickness.csv", newline="") as f:
         t = np.array([float(r["thickness"]) for r in csv.DictReader(f)])
-    return {"folder": folder, "chord": parse(OBJECTIVE).evaluate(folder),
+    return {"folder": folder, "chord": result.quantity(OBJECTIVE),  # rftfem optimize's formula
             "tip": float(np.arctan2(-d[tip, 0], d[tip, 2])), "t": t,
             "X": X[line, 0], "u": np.asarray(u[line])}
 

@@ -144,7 +144,7 @@ def test_magnetic_snap_as_shipped_brackets_its_limit(tmp_path):
     print(f"snap-through limit {20 * limit:.4f} mT, snap-back {20 * path['load_factor'][bottom]:+.4f} mT")
     assert path["load_factor"][bottom] < 0  # bistable: the inverted arch needs a reversed field
     for factor, fails in ((0.99, False), (1.01, True)):
-        sets = ["time.scheme=static", f"time.end={factor * limit!r}", "time.dt=1e-4",
+        sets = ["time.scheme=static", f"time.end={float(factor * limit)!r}", "time.dt=1e-4",
                 "output.fields=false"]
         try:
             run_scene(DEMOS / "magnetic_snap_path.toml", *sets, out_dir=tmp_path / f"lc{factor}")
