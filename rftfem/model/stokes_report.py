@@ -135,8 +135,8 @@ def describe(stokes) -> dict:
     out = {"model": "stokes", "method": stokes.method, "operator": stokes.operator,
            "nodes": int(len(stokes.X))}
     if stokes.method == "blobs":
-        out.update({"regularization": "node spacing" if stokes.scene["fluid"].get(
-            "regularization") is None else float(stokes.delta[0]),
+        uniform = stokes.settings.regularization is not None
+        out.update({"regularization": float(stokes.delta[0]) if uniform else "node spacing",
             "estimated_error": None,
             "estimate_from": 'not estimated for method = "blobs" (first order in the '
                              "spacing: refine the mesh; docs/stokes.md)"})

@@ -54,9 +54,9 @@ class Drag(FluidModel):
     def describe(self) -> dict:
         """The coefficients the run uses and where they came from (``rftfem check``,
         summary.json's ``fluid``)."""
-        given = self.scene["fluid"]
-        source = ("fluid.drag" if given.get("drag") is not None else
-                  f"fluid.viscosity = {given['viscosity']:g} (slender-body drag of the "
+        given = fluid.settings(self.scene)
+        source = ("fluid.drag" if given.drag is not None else
+                  f"fluid.viscosity = {given.viscosity:g} (slender-body drag of the "
                   f"body's length and width along shell.axis)")
         return {"model": "rft", "drag": [float(c) for c in self.C], "from": source,
                 "axis_free": bool(self.axis_free)}
@@ -67,9 +67,9 @@ class Drag(FluidModel):
                 f"from {d['from']}"]
 
     def _coefficients(self) -> list[float]:
-        given = self.scene["fluid"]
-        if given.get("drag") is not None:
-            return [float(c) for c in given["drag"]]
+        given = fluid.settings(self.scene)
+        if given.drag is not None:
+            return list(given.drag)
         m = self.model
         owned = m.Vu.dofmap.index_map.size_local
         x = gather_rows(m.Vu.tabulate_dof_coordinates()[:owned], m.comm)
@@ -77,7 +77,7 @@ class Drag(FluidModel):
         if width <= 0.0:
             raise SceneError("fluid.viscosity: the body has no width across shell.axis, so "
                              "the slender-body drag is undefined; give fluid.drag")
-        return fluid.slender_body_drag(float(given["viscosity"]), length, width)
+        return fluid.slender_body_drag(given.viscosity, length, width)
 
     def _term(self, term, *args):
         """A ``forms.drag`` term of the current iterate with the scene's coefficients."""

@@ -72,6 +72,42 @@ MODELS = {
 }
 
 
+@dataclass(frozen=True)
+class FluidSettings:
+    """``[fluid]`` parsed once, its defaults filled in (the effects read this, not the
+    table): the model, the liquid's viscosity (None for RFT with drag coefficients),
+    the drag coefficients (RFT, None from the viscosity), the Stokes discretisation
+    and operator, and the wall ``(point, normal)`` or None."""
+
+    model: str
+    viscosity: float | None
+    drag: tuple[float, float, float] | None
+    method: str = "layer"
+    regularization: float | None = None
+    refine: int = 0
+    operator: str = "auto"
+    factors: str = "kept"
+    wall: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+
+
+def settings(scene: dict) -> FluidSettings | None:
+    """The scene's ``[fluid]`` as :class:`FluidSettings` (None without one)."""
+    given = scene.get("fluid")
+    if not given:
+        return None
+    wall = given.get("wall")
+    return FluidSettings(
+        model=given.get("model", "rft"),
+        viscosity=None if given.get("viscosity") is None else float(given["viscosity"]),
+        drag=None if given.get("drag") is None else tuple(float(c) for c in given["drag"]),
+        method=given.get("method") or "layer",
+        regularization=given.get("regularization"),
+        refine=int(given.get("refine") or 0),
+        operator=given.get("operator") or "auto",
+        factors=given.get("factors") or "kept",
+        wall=(tuple(wall["point"]), tuple(wall["normal"])) if wall else None)
+
+
 def check(scene: dict) -> None:
     """The model's own check, then the keys that only another model takes (one line
     each, exit 2)."""

@@ -78,8 +78,9 @@ class Stokes(FluidModel, NonlocalEffect):
 
     def __init__(self, model):
         super().__init__(model)
-        given = self.scene["fluid"]
-        self.viscosity = float(given["viscosity"])
+        #: ``[fluid]`` parsed (fluid.FluidSettings)
+        self.settings = given = fluid.settings(self.scene)
+        self.viscosity = given.viscosity
         comm = model.comm
         im = model.Vu.dofmap.index_map
         self.n_owned = im.size_local
@@ -90,23 +91,23 @@ class Stokes(FluidModel, NonlocalEffect):
         #: the reference positions of every node of the body, in rank order (N, 3)
         self.X = self._gather(model.Vu.tabulate_dof_coordinates()[: self.n_owned])
         #: "layer" (the density on the elements) or "blobs" (point forces at the nodes)
-        self.method = given.get("method", "layer")
+        self.method = given.method
         if self.method == "layer":
             self._set_up_layer(given)
         else:
             #: each node's blob size δ (N,); for the layer the liquid's resolution there
             #: (the wall's gap is measured in it)
-            self.delta = self._gather(self._node_blobs(given.get("regularization")))
+            self.delta = self._gather(self._node_blobs(given.regularization))
         self._check_size()
-        wall = given.get("wall")
+        wall = given.wall
         #: the no-slip plane (``[fluid.wall]``), or None
-        self.wall = stokeslets.Wall(wall["point"], wall["normal"]) if wall else None
+        self.wall = stokeslets.Wall(*wall) if wall else None
         if self.wall is not None:
             self._check_wall()
             #: body.csv's closest gap to the wall in blobs, row by row
             self.columns = [*type(self).columns, "wall_gap_blobs"]
         #: "dense" or "fmm": how the operator is applied
-        self.operator = self._choose_operator(given.get("operator", "auto"))
+        self.operator = self._choose_operator(given.operator)
         if self.method == "blobs" and self.operator == "dense":  # refused if too large
             stokes_report.admit(len(self.X), len(self.X), comm.size, "blobs")
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
@@ -114,7 +115,7 @@ class Stokes(FluidModel, NonlocalEffect):
         self.C = fluid.slender_body_drag(self.viscosity, length, max(width, 1e-300))
         self._resistance = None  # the factorised mobility of the last positions
         #: the layer's factors are kept across residuals and steps (``fluid.factors``)
-        self.keep_factors = given.get("factors", "kept") == "kept"
+        self.keep_factors = given.factors == "kept"
         self._factored = None  # the resistance whose factors are kept
         self._last = None  # (positions, velocities, forces) of the last residual
         self._tangent = None
@@ -135,10 +136,10 @@ class Stokes(FluidModel, NonlocalEffect):
         of every process in the global node numbering, ε and the refinement."""
         m = self.model
         cells, cell = stokes_body.global_cells(m)
-        self.refine = int(given.get("refine", 0))
+        self.refine = given.refine
         #: the shell's elements in the global node numbering, and their kind
         self.shell_cells, self.cell = cells, cell
-        eps = given.get("regularization")
+        eps = given.regularization
         spacing = self._gather(self._node_blobs(None))
         #: ε, the blob size (a length of its own); 0, the default: the Stokeslet itself
         self.epsilon = 0.0 if eps is None else float(eps)
