@@ -3,7 +3,8 @@
 Beam-type references: tapered cantilevers, the large-deflection elastica with
 variable stiffness, bending stiffness of a rotated orthotropic layer, and the
 optimal thickness profile of a clamped magnetic strip.  Plate references
-(clamped orthotropic rectangle) live in ``plate_references.py``.
+(clamped orthotropic rectangle) live in ``plate_references.py``; both are checked
+against literature values and closed forms in ``test_material_references.py``.
 
 Conventions: x runs along the beam from the clamp (x = 0) to the free end
 (x = L); ``width`` is w; "thickness" is t; callables are functions of x.

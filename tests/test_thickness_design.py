@@ -3,12 +3,16 @@ thickness of a clamped magnetic strip (21 values, linear between, 0.05-0.2 mm, t
 uniform strip's mass) for the largest angle of its last 0.5 mm in the field, and
 reaches beam theory's optimum of the same design space
 (tests/material_references.py, magnetic_strip_piecewise_linear_optimum with the
-same chord): the same profile node by node, the designed angle and its ratio to
-the uniform strip's within 1 % (reached −0.088 % and −0.091 %, both stacks).  The
-difference is the large deflection (the couple on a piece turned by θ is cos θ of
-the small-deflection one: −0.076 %) and the 40 cells (−0.012 %); against the beam
-with cos θ the designed angle is within 0.15 % (reached −0.012 %).
-docs/thickness_design.md has the numbers."""
+same chord): the same profile node by node, within 4e-7 mm (reached 4.8e-9 and
+3.9e-8 mm on the two stacks: the value at X = 6.5, which the mass fixes, twice the
+mass's relative departure, −1.9e-8 on the current stack), the designed angle and
+its ratio to the uniform strip's within 1 % (reached −0.088 % and −0.091 %, both
+stacks).  The difference is the large deflection (the couple on a piece turned by θ
+is cos θ of the small-deflection one: −0.076 %) and the 40 cells (−0.012 %); against
+the beam with cos θ the designed angle is within 0.15 % (reached −0.012 %).
+docs/thickness_design.md has the numbers.  Broke: the mass constraint's slope
+(optimize_fields._linear_slope) tilted by up to 2e-6 along the strip → 6.7e-7 mm,
+the angles unchanged (the earlier bound, 1.5e-4 mm, let it pass)."""
 
 from __future__ import annotations
 
@@ -86,7 +90,7 @@ def test_thickness_design_reaches_the_beam_optimum_of_its_design_space(tmp_path)
     mean = np.sum((designed[1:] + designed[:-1]) / 2 * np.diff(strip.X)) / L
     assert mean == pytest.approx(strip.mean, rel=1e-6)
     # the same profile: thin to X = 6, 0.075 at 6.5, thick from 7 on
-    assert np.abs(designed - t_beam).max() < 1e-3 * (hi - lo)
+    assert np.abs(designed - t_beam).max() < 4e-7
     # the uniform start: the beam's chord (+3e-5: the shear strain of the couple)
     assert theta0 == pytest.approx(K * J_uniform, rel=3e-4)
     # the headline
