@@ -175,6 +175,8 @@ for name in ("numpy", "scipy", "matplotlib", "pillow", "pandas", "numba", "llvml
     except md.PackageNotFoundError:
         pass
 PY
+    # (the test extra brings magpylib, the tests' reference for permanent magnets; the
+    # constraints pick a release that runs on Debian's numpy)
     step "reference: pip install -e '.[test,cluster]' into .venv (constraints: $(tr '\n' ' ' <"$constraints"))"
     "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-build-isolation \
         -c "$constraints" -e '.[test,cluster]'
@@ -182,7 +184,7 @@ PY
     "$REF_VENV/bin/python" -m pip install "${pip_flags[@]}" --no-deps "$FMM_PIP"
 
     step "reference: checking that dolfinx, gmsh, pyvista and rftfem import"
-    "$REF_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy, distributed, dask_jobqueue; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
+    "$REF_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy, distributed, dask_jobqueue, magpylib; print("setup: reference: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$REF_VENV/$STAMP_NAME"
     say "reference: ready ($((SECONDS - t)) s)"
@@ -264,7 +266,7 @@ setup_current() {
     "$CUR_VENV/bin/python" -m pip install "${pip_flags[@]}" -e '.[test,fast,cluster]' "${CUR_PIP[@]}"
 
     step "current: checking that dolfinx_solver, dolfinx, gmsh, pyvista and rftfem import"
-    "$CUR_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy, distributed, dask_jobqueue; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
+    "$CUR_VENV/bin/python" -c 'import rftfem.outputs.render, dolfinx_solver, dolfinx, gmsh, petsc4py, mpi4py, fmm3dpy, distributed, dask_jobqueue, magpylib; print("setup: current: dolfinx", dolfinx.__version__, "gmsh", gmsh.__version__, "pyvista", rftfem.outputs.render.pv.__version__)'
 
     printf '%s\n' "$want" >"$CUR_VENV/$STAMP_NAME"
     say "current: ready ($((SECONDS - t)) s)"

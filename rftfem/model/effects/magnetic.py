@@ -11,6 +11,8 @@ numbers, formulas of the reference coordinates or a profile file.
   as the potential energy ``−∫ t (F M)·B(x, t) dA₀`` at the current position
   ``x = X + u``; its derivative gives the couple and the gradient force together
   (``forms.magnetic.magnetic_energy``).
+- Permanent magnets, ``[[magnetic.source]]`` (:mod:`rftfem.model.magnets`), add
+  their fields to ``[magnetic.field]``: the sum is a nonuniform field.
 
 The component writes the field and the body's total magnetic moment to
 body.csv and the magnetization to fields.xdmf.
@@ -24,100 +26,29 @@ import numpy as np
 import ufl
 
 from rftfem.errors import SceneError
-from rftfem.scene.expressions import parse
 from rftfem.forms import kinematics, magnetic
-from rftfem.model.magnetic_sources import (FIELD_KINDS, NonuniformField, UniformField, check_field,
-                                     constant_maker, is_uniform, profile_values, read_profile)
-from rftfem.scene.schema import (NONNEGATIVE, Array, Formula, Formulas, Leaf, Num, Rows, Str, Table,
-                           Vec, check_unique)
+from rftfem.model.effects.base import Effect
+from rftfem.model.effects.magnetic_keys import REFERENCE, SCHEMA
+from rftfem.model.magnetic_sources import (
+    NonuniformField,
+    UniformField,
+    check_field,
+    constant_maker,
+    is_uniform,
+    profile_values,
+    read_profile,
+)
+from rftfem.model.magnets import SourcedField, check_sources
+from rftfem.scene.expressions import parse
+from rftfem.scene.schema import (
+    check_unique,
+)
 from rftfem.scene.selectors import cells_of, check_region_ref
 
-from rftfem.model.effects.base import Effect
 
-REFERENCE = ("X", "Y", "Z")
 class Magnetic(Effect):
     name = "magnetic"
-    keys = {
-    "magnetic": Table({
-        "parts": Array(Table({
-            "region": Leaf(Str(name=True), required=True,
-                            doc="The magnetized region, or \"all\" (the whole body); a cell takes "
-                                "one magnetization."),
-            "magnetization": Leaf(Formula(REFERENCE, NONNEGATIVE), None, unit="current/length",
-                                   default_doc="required unless `profile` is given",
-                                   doc="The size of the remanent magnetization: a number "
-                                       "(0 switches the part off) or a formula of the "
-                                       "reference coordinates X, Y, Z (a negative value "
-                                       "reverses the direction there)."),
-            "direction": Leaf(Formulas(REFERENCE, nonzero=True), None,
-                               default_doc="required unless `profile` is given",
-                               doc="The magnetization's direction in the reference state "
-                                   "(normalised), each entry a number or a formula of X, Y, "
-                                   "Z; it turns with the material fibre."),
-            "profile": Leaf(Str(), None, default_doc="none",
-                             doc="Instead of `magnetization` and `direction`: a CSV file "
-                                 "(path relative to the scene file) of rows X,Y,Z,mx,my,mz, "
-                                 "the remanent magnetization vector at points of a grid "
-                                 "covering the part, interpolated (multilinear) to the "
-                                 "part's nodes."),
-        }), min_items=1, doc="The magnetized regions of the body."),
-        "field": Table({
-            "kind": Leaf(Str(choices=tuple(FIELD_KINDS)), "rotating",
-                          doc="Uniform fields: \"rotating\" (ramps up along `direction`, "
-                              "then turns about `rotation_axis`), \"expression\" "
-                              "(`B`, formulas of t), \"table\" (`values`). Nonuniform "
-                              "fields, whose gradient also pulls the body: \"expression\" "
-                              "with formulas of x, y, z (the current position) and t, "
-                              "\"dipole\" (a point dipole `moment` at `position` or "
-                              "moving along `path`)."),
-            "strength": Leaf(NONNEGATIVE, None, unit="force/(current·length)",
-                              default_doc="0 (kind \"rotating\")",
-                              doc="The size of the applied flux density once ramped up "
-                                  "(tesla in SI units; 1 mT is 1e-6 N/(A·mm))."),
-            "ramp_time": Leaf(NONNEGATIVE, None, unit="time", default_doc="0",
-                               doc="The time the field takes to grow linearly from 0 to "
-                                   "`strength` along `direction`; 0 starts at full "
-                                   "strength."),
-            "direction": Leaf(Vec(nonzero=True), None, default_doc="[1, 0, 0]",
-                               doc="The field's direction during the ramp and when it starts "
-                                   "to turn (normalised)."),
-            "frequency": Leaf(Num(), None, unit="1/time", default_doc="0",
-                               doc="Turns per unit time after `ramp_time` (Hz with "
-                                   "seconds), right-handed about `rotation_axis`; negative "
-                                   "turns the other way, 0 keeps the field still."),
-            "rotation_axis": Leaf(Vec(nonzero=True), None, default_doc="[0, 0, 1]",
-                                   doc="The axis the field turns about (normalised); not "
-                                       "parallel to `direction` when the frequency is not "
-                                       "0."),
-            "B": Leaf(Formulas(("x", "y", "z", "t")), None, unit="force/(current·length)",
-                       default_doc="required with kind \"expression\"",
-                       doc="The field's three components: numbers or formulas of t "
-                           "(uniform), or of x, y, z and t (nonuniform: x is the current "
-                           "position of the mid-surface)."),
-            "values": Leaf(Rows(("t", "Bx", "By", "Bz")), None,
-                            default_doc="required with kind \"table\"",
-                            doc="Rows [t, Bx, By, Bz] with increasing t; the field is held at "
-                                "the first and last rows outside them."),
-            "interpolation": Leaf(Str(choices=("linear", "cubic")), None,
-                                   default_doc="\"linear\" (kind \"table\")",
-                                   doc="Between rows: \"linear\", or \"cubic\" (a not-a-knot "
-                                       "spline, four rows at least)."),
-            "moment": Leaf(Vec(nonzero=True), None, unit="current·length²",
-                            default_doc="required with kind \"dipole\"",
-                            doc="The source dipole's moment (A·mm² with mm); its flux density "
-                                "is μ₀/(4π) (3 r (m·r)/|r|⁵ − m/|r|³), μ₀/(4π) = 1e-7 N/A²."),
-            "position": Leaf(Vec(), None, unit="length",
-                              default_doc="one of `position`, `path` with kind \"dipole\"",
-                              doc="Where the dipole stays."),
-            "path": Leaf(Rows(("t", "x", "y", "z")), None, unit="time, length",
-                          default_doc="one of `position`, `path` with kind \"dipole\"",
-                          doc="Rows [t, x, y, z]: the dipole moves along them (linear in "
-                              "between, held at the ends)."),
-        }, doc="The applied field: uniform (it turns the magnetized parts) or nonuniform (it "
-               "also pulls them along its gradient)."),
-    }, optional=True,
-        doc="Couples of an applied magnetic field on magnetized (hard-magnetic) regions."),
-    }
+    keys = {"magnetic": SCHEMA}
     columns = ["field_x", "field_y", "field_z", "moment_x", "moment_y", "moment_z"]
 
     @classmethod
@@ -126,7 +57,7 @@ class Magnetic(Effect):
 
     @classmethod
     def names(cls, scene):
-        """"magnetic", then what the scene adds to today's uniform couple: the field's
+        """ "magnetic", then what the scene adds to today's uniform couple: the field's
         kind, its gradient force, magnetization profiles."""
         if not cls.active(scene):
             return []
@@ -135,7 +66,8 @@ class Magnetic(Effect):
         out = ["magnetic"]
         if kind != "rotating":
             out.append(f"magnetic field: {kind}")
-        if not is_uniform(mag["field"]):
+        out += [f"magnetic source: {s['kind']}" for s in mag.get("source") or []]
+        if not is_uniform(mag["field"]) or mag.get("source"):
             out.append("magnetic gradient force")
         if any(_varies(part) for part in mag["parts"]):
             out.append("magnetization profile")
@@ -146,19 +78,23 @@ class Magnetic(Effect):
         if not scene["magnetic"]:
             return
         check_field(scene["magnetic"]["field"])
+        check_sources(scene["magnetic"].get("source") or [])
         for i, part in enumerate(scene["magnetic"]["parts"]):
             where = f"magnetic.parts.{i}"
             check_region_ref(part["region"], f"{where}.region", scene)
             if part["profile"] is not None:
                 for key in ("magnetization", "direction"):
                     if part[key] is not None:
-                        raise SceneError(f"{where}.{key}: not used with {where}.profile (the "
-                                         "profile file gives the magnetization vector)")
+                        raise SceneError(
+                            f"{where}.{key}: not used with {where}.profile (the "
+                            "profile file gives the magnetization vector)"
+                        )
             else:
                 for key in ("magnetization", "direction"):
                     if part[key] is None:
-                        raise SceneError(f"missing required key '{where}.{key}' (or give "
-                                         f"{where}.profile)")
+                        raise SceneError(
+                            f"missing required key '{where}.{key}' (or give {where}.profile)"
+                        )
         check_unique(scene["magnetic"]["parts"], "region", "magnetic.parts", "region")
 
     def __init__(self, model):
@@ -178,8 +114,10 @@ class Magnetic(Effect):
             cells = cells_of(model.body, [part["region"]], f"magnetic.parts.{i}.region")
             for j, other in owner.items():
                 if model.comm.allreduce(int(np.isin(cells, other).sum())):
-                    raise SceneError(f"magnetic.parts.{i}.region: '{part['region']}' overlaps "
-                                     f"magnetic.parts.{j}.region; a cell has one magnetization")
+                    raise SceneError(
+                        f"magnetic.parts.{i}.region: '{part['region']}' overlaps "
+                        f"magnetic.parts.{j}.region; a cell has one magnetization"
+                    )
             owner[i] = cells
         self.part_cells = owner
         plain = not any(_varies(part) for part in self.parts)
@@ -192,7 +130,8 @@ class Magnetic(Effect):
             for i, part in enumerate(self.parts):
                 q0 = np.asarray(part["direction"], dtype=float)
                 self.remanence.x.array.reshape(-1, 3)[dofs[owner[i]]] = (
-                    part["magnetization"] * q0 / np.linalg.norm(q0))
+                    part["magnetization"] * q0 / np.linalg.norm(q0)
+                )
             self.remanence.x.scatter_forward()
             on = [owner[i] for i, part in enumerate(self.parts) if part["magnetization"] > 0]
             M = self.remanence
@@ -200,27 +139,35 @@ class Magnetic(Effect):
             M = self._remanence_expression(mesh)
             on = list(owner.values())
         cells = np.unique(np.concatenate(on or [np.empty(0, np.int32)])).astype(np.int32)
-        tags = compat.create_meshtags(mesh, mesh.topology.dim, cells,
-                                      np.ones(len(cells), dtype=np.int32))
-        self.dx = ufl.Measure("dx", domain=mesh, subdomain_data=tags,
-                              metadata={"quadrature_degree": 4})(1)
+        tags = compat.create_meshtags(
+            mesh, mesh.topology.dim, cells, np.ones(len(cells), dtype=np.int32)
+        )
+        self.dx = ufl.Measure(
+            "dx", domain=mesh, subdomain_data=tags, metadata={"quadrature_degree": 4}
+        )(1)
         k = model.kinematics()
         self.M = M
         self.m = ufl.sqrt(ufl.dot(M, M))
-        self.F = kinematics.deformation_gradient(k.g1, k.g2, k.d, k.G1, k.G2,
-                                                 kinematics.unit_normal(k.G1, k.G2))
-        self.q = (magnetic.magnetization_direction(self.F, M / self.m) if plain
-                  else magnetic.safe_direction(self.F * M))
+        self.F = kinematics.deformation_gradient(
+            k.g1, k.g2, k.d, k.G1, k.G2, kinematics.unit_normal(k.G1, k.G2)
+        )
+        self.q = (
+            magnetic.magnetization_direction(self.F, M / self.m)
+            if plain
+            else magnetic.safe_direction(self.F * M)
+        )
         self.magnetization = magnetic.magnetization(self.F, M)
         self.J = kinematics.area_ratio(k.g1, k.g2, k.G1, k.G2)
         self._moment_forms = None
-        field = mag["field"]
-        self.uniform = is_uniform(field)
+        field, sources = mag["field"], mag.get("source") or []
+        # magnets make the field nonuniform: B_field (uniform or not) + Σ B_magnet
+        self.uniform = is_uniform(field) and not sources
         if self.uniform:
             self.source = UniformField(field)
             self.field = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
         else:
-            self.source = NonuniformField(field)
+            base = UniformField(field) if is_uniform(field) else NonuniformField(field)
+            self.source = SourcedField(base, sources) if sources else base
             x = ufl.SpatialCoordinate(mesh) + k.u  # the current mid-surface position
             #: 1, or 0 while the model's loads are off (a uniform field is set to 0)
             self.switch = fem.Constant(mesh, PETSc.ScalarType(1.0))
@@ -248,21 +195,27 @@ class Magnetic(Effect):
             chi.x.array[chi_dofs[self.part_cells[i]]] = 1.0
             chi.x.scatter_forward()
             if part["profile"] is not None:
-                path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
+                path = (
+                    Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent)
+                    / Path(part["profile"]).expanduser()
+                )
                 points, values = read_profile(path, f"{where}.profile")
                 V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
                 Mp = fem.Function(V1, name=f"profile_{i}")
                 nodes = np.unique(compat.cell_dofs(V1)[self.part_cells[i]])
                 at = V1.tabulate_dof_coordinates()[nodes]
-                Mp.x.array.reshape(-1, 3)[nodes] = profile_values(points, values, at,
-                                                                  f"{where}.profile")
+                Mp.x.array.reshape(-1, 3)[nodes] = profile_values(
+                    points, values, at, f"{where}.profile"
+                )
                 Mp.x.scatter_forward()
                 #: a profile's P1 field and grid points, for gradients by its values
                 self.profile_fields[i] = (Mp, points)
             else:
                 m = _ufl_of(part["magnetization"], f"{where}.magnetization", env, number)
-                d = [_ufl_of(v, f"{where}.direction.{c}", env, number)
-                     for c, v in enumerate(part["direction"])]
+                d = [
+                    _ufl_of(v, f"{where}.direction.{c}", env, number)
+                    for c, v in enumerate(part["direction"])
+                ]
                 d = ufl.as_vector(d)
                 Mp = m * d / ufl.sqrt(ufl.dot(d, d))
             total = chi * Mp if total is None else total + chi * Mp
@@ -304,8 +257,10 @@ class Magnetic(Effect):
         """
         m = self.model
         if self._moment_forms is None:
-            self._moment_forms = [m.compile(c) for c in magnetic.magnetic_moment(
-                m.material["t"], self.m, self.q, self.J, self.dx)]
+            self._moment_forms = [
+                m.compile(c)
+                for c in magnetic.magnetic_moment(m.material["t"], self.m, self.q, self.J, self.dx)
+            ]
         return np.array([m.assemble_scalar(f) for f in self._moment_forms])
 
     def force_scales(self):
@@ -316,9 +271,14 @@ class Magnetic(Effect):
             strength = self.source.scale(end)
         else:
             strength = self.source.scale(m.Vu.tabulate_dof_coordinates(), end, m.comm)
-        return [m.material_value("thickness", "shell") * self._largest_magnetization(i) * strength
-                * m.area(self.part_cells[i]) / m.body.length
-                for i in range(len(self.parts))]
+        return [
+            m.material_value("thickness", "shell")
+            * self._largest_magnetization(i)
+            * strength
+            * m.area(self.part_cells[i])
+            / m.body.length
+            for i in range(len(self.parts))
+        ]
 
     def _largest_magnetization(self, i: int) -> float:
         part = self.parts[i]
@@ -331,7 +291,10 @@ class Magnetic(Effect):
         V = compat.function_space(mesh, "DG", 0)  # cell midpoints suffice for a scale
         at = V.tabulate_dof_coordinates()[self.part_cells[i]]
         if part["profile"] is not None:
-            path = Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent) / Path(part["profile"]).expanduser()
+            path = (
+                Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent)
+                / Path(part["profile"]).expanduser()
+            )
             values = read_profile(path, f"magnetic.parts.{i}.profile")[1]
             local = float(np.linalg.norm(values, axis=1).max())
         else:
@@ -349,8 +312,11 @@ class Magnetic(Effect):
 
 def _varies(part: dict) -> bool:
     """Whether a part's magnetization varies over it (formulas or a profile file)."""
-    return part["profile"] is not None or isinstance(part["magnetization"], str) \
+    return (
+        part["profile"] is not None
+        or isinstance(part["magnetization"], str)
         or any(isinstance(v, str) for v in part["direction"])
+    )
 
 
 def _ufl_of(value, key: str, env: dict, number):
@@ -366,8 +332,11 @@ def _largest_cell(mesh, comm) -> float:
 
     cells = compat.geometry_cells(mesh)[0]
     x = mesh.geometry.x[cells]
-    local = float(np.linalg.norm(x[:, :, None, :] - x[:, None, :, :], axis=-1).max()) \
-        if len(cells) else 0.0
+    local = (
+        float(np.linalg.norm(x[:, :, None, :] - x[:, None, :, :], axis=-1).max())
+        if len(cells)
+        else 0.0
+    )
     return comm.allreduce(local, op=_max())
 
 
