@@ -43,6 +43,8 @@ usage: ./dev.sh TARGET [ARGS...]
                         forms-O2: the forms compiled without the CPU's vector flags);
                         RFTFEM_KERNEL_JOBS=2 runs two variants side by side. Logs in
                         results/kernels/ (RFTFEM_KERNEL_LOGS). About 25 min a variant.
+  lint [PATHS]          ruff: the linter's rules and the formatter's check (pyproject.toml
+                        [tool.ruff]); ./dev.sh lint --fix applies both
   bench                 run benchmarks/*.py on the reference stack
   race [ARGS]           the peer race against PyElastica (benchmarks/peer_race.py; about
                         20 minutes, --quick for a few); creates .venv-elastica if missing
@@ -199,6 +201,17 @@ case $target in
             "$ELASTICA_VENV/bin/pip" install --quiet "pyelastica==1.0.0"
         fi
         PATH="$REF_VENV/bin:$PATH" "$REF_VENV/bin/python" benchmarks/peer_race.py "$@"
+        ;;
+    lint)
+        setup reference
+        if [[ ${1:-} == --fix ]]; then
+            shift
+            "$REF_VENV/bin/ruff" check --fix "${@:-.}"
+            "$REF_VENV/bin/ruff" format "${@:-.}"
+        else
+            "$REF_VENV/bin/ruff" check "${@:-.}"
+            "$REF_VENV/bin/ruff" format --check "${@:-.}"
+        fi
         ;;
     setup)
         setup "${1:-reference}"

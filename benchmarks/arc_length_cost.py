@@ -62,18 +62,25 @@ fields = false
 def run(scene_file: Path, sets: list[str]):
     import time
 
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import Simulation
+    from rftfem.scene.reading import load_scene
 
     sim = Simulation(load_scene(scene_file, sets), out_dir=None, quiet=True)
     t0 = time.perf_counter()
     sim.run()
     wall = time.perf_counter() - t0
     s = sim.solver
-    row = {"steps": sim.counts["steps"], "updates": sim.counts["newton_iterations"],
-           "wall": wall, "residuals": s.calls["residual"], "jacobians": s.calls["jacobian"],
-           "residual_s": s.timings["residual"], "jacobian_s": s.timings["jacobian"],
-           "solve_s": s.timings["solve"], "load_factor": sim.load_factor}
+    row = {
+        "steps": sim.counts["steps"],
+        "updates": sim.counts["newton_iterations"],
+        "wall": wall,
+        "residuals": s.calls["residual"],
+        "jacobians": s.calls["jacobian"],
+        "residual_s": s.timings["residual"],
+        "jacobian_s": s.timings["jacobian"],
+        "solve_s": s.timings["solve"],
+        "load_factor": sim.load_factor,
+    }
     sim.close()
     return row
 
@@ -90,20 +97,27 @@ def main():
         octant_cylinder(tmp / "pullout.msh", 12, 8)
         (tmp / "pullout.toml").write_text(scene_text(dt=0.05, end=0.45))
         (tmp / "strip.toml").write_text(STRIP.format(nx=args.cells[0], ny=args.cells[1]))
-        problems = {"pull-out to 0.45": tmp / "pullout.toml",
-                    f"strip {args.cells[0]}x{args.cells[1]}": tmp / "strip.toml"}
-        print(f"{'problem':<18} {'way':<11} {'steps':>5} {'updates':>7} {'wall s':>7} "
-              f"{'ms/update':>9} {'ms/step':>8}  residuals  jacobians  "
-              "residual/jacobian/solve s")
+        problems = {
+            "pull-out to 0.45": tmp / "pullout.toml",
+            f"strip {args.cells[0]}x{args.cells[1]}": tmp / "strip.toml",
+        }
+        print(
+            f"{'problem':<18} {'way':<11} {'steps':>5} {'updates':>7} {'wall s':>7} "
+            f"{'ms/update':>9} {'ms/step':>8}  residuals  jacobians  "
+            "residual/jacobian/solve s"
+        )
         for name, scene in problems.items():
             run(scene, ["time.end=0.1", "time.dt=0.1"])  # compile the forms first
             for way in ("static", "arc-length"):
                 r = run(scene, [f"time.scheme={way}"])
-                print(f"{name:<18} {way:<11} {r['steps']:>5} {r['updates']:>7} "
-                      f"{r['wall']:>7.2f} {1e3 * r['wall'] / r['updates']:>9.1f} "
-                      f"{1e3 * r['wall'] / r['steps']:>8.1f}  {r['residuals']:>9} "
-                      f"{r['jacobians']:>10}  {r['residual_s']:.2f}/{r['jacobian_s']:.2f}/"
-                      f"{r['solve_s']:.2f}", flush=True)
+                print(
+                    f"{name:<18} {way:<11} {r['steps']:>5} {r['updates']:>7} "
+                    f"{r['wall']:>7.2f} {1e3 * r['wall'] / r['updates']:>9.1f} "
+                    f"{1e3 * r['wall'] / r['steps']:>8.1f}  {r['residuals']:>9} "
+                    f"{r['jacobians']:>10}  {r['residual_s']:.2f}/{r['jacobian_s']:.2f}/"
+                    f"{r['solve_s']:.2f}",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

@@ -42,21 +42,27 @@ def main():
     args = parser.parse_args()
 
     import numpy as np
+    from dolfinx import fem, io
+    from dolfinx import mesh as dmesh
     from mpi4py import MPI
 
     import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-    from dolfinx import fem, io, mesh as dmesh
-
     from rftfem import compat
     from rftfem.outputs.field_mesh import FieldMesh
 
     nx, ny = args.cells
-    msh = dmesh.create_rectangle(MPI.COMM_WORLD, [np.array([0.0, 0.0]), np.array([12.0, 1.0])],
-                                 [nx, ny], dmesh.CellType.quadrilateral)
+    msh = dmesh.create_rectangle(
+        MPI.COMM_WORLD,
+        [np.array([0.0, 0.0]), np.array([12.0, 1.0])],
+        [nx, ny],
+        dmesh.CellType.quadrilateral,
+    )
     msh = compat.serial_lagrange_mesh(  # the same mesh with 3D coordinates, as rftfem's
-        "quadrilateral", 1,
+        "quadrilateral",
+        1,
         compat.geometry_cells(msh)[0][:, [0, 1, 2, 3]].astype(np.int64),
-        np.c_[msh.geometry.x[:, :2], np.zeros(len(msh.geometry.x))])
+        np.c_[msh.geometry.x[:, :2], np.zeros(len(msh.geometry.x))],
+    )
     V2 = compat.function_space(msh, "Lagrange", 2, (3,))
     u = fem.Function(V2, name="displacement")
     d = fem.Function(V2, name="director")
@@ -76,6 +82,7 @@ def main():
             with io.XDMFFile(msh.comm, path, "a") as file:
                 for g in fs:
                     file.write_function(g, t)
+
         return write
 
     def on_nodes(folder, subdivide: bool):
@@ -83,16 +90,24 @@ def main():
         out_mesh = nodes.mesh
         if subdivide:  # each 9-node cell as four 4-node cells (dolfinx's node order)
             cells9 = compat.local_to_global(
-                V2.dofmap.index_map, compat.cell_dofs(V2).ravel()).reshape(-1, 9)
-            quads = np.concatenate([cells9[:, [0, 4, 5, 8]], cells9[:, [4, 1, 8, 6]],
-                                    cells9[:, [5, 8, 2, 7]], cells9[:, [8, 6, 7, 3]]])
+                V2.dofmap.index_map, compat.cell_dofs(V2).ravel()
+            ).reshape(-1, 9)
+            quads = np.concatenate(
+                [
+                    cells9[:, [0, 4, 5, 8]],
+                    cells9[:, [4, 1, 8, 6]],
+                    cells9[:, [5, 8, 2, 7]],
+                    cells9[:, [8, 6, 7, 3]],
+                ]
+            )
             x = V2.tabulate_dof_coordinates()
             out_mesh = compat.serial_lagrange_mesh("quadrilateral", 1, quads, x)
             space = compat.function_space(out_mesh, "Lagrange", 1, (3,))
             source = np.asarray(out_mesh.geometry.input_global_indices)
             order = np.empty(space.dofmap.index_map.size_local, dtype=np.int64)
-            order[compat.cell_dofs(space).ravel()] = \
-                source[compat.geometry_cells(out_mesh)[0].ravel()]
+            order[compat.cell_dofs(space).ravel()] = source[
+                compat.geometry_cells(out_mesh)[0].ravel()
+            ]
             nodes.space, nodes._order = space, order
         fs = [fem.Function(nodes.space, name=f.name) for f in (u, d)]
         path = str(folder / "fields.xdmf")
@@ -105,6 +120,7 @@ def main():
             with io.XDMFFile(MPI.COMM_SELF, path, "a") as file:
                 for g in fs:
                     file.write_function(g, t)
+
         return write
 
     def vtk(folder):
@@ -112,6 +128,7 @@ def main():
 
         def write(t):
             file.write_function([u, d], t)
+
         write.close = file.close
         return write
 
@@ -120,17 +137,23 @@ def main():
 
         def write(t):
             writer.write(t)
+
         write.close = writer.close
         return write
 
-    ways = {"vertices": vertices, "cells9": lambda f: on_nodes(f, False),
-            "subdivided": lambda f: on_nodes(f, True), "vtk": vtk}
+    ways = {
+        "vertices": vertices,
+        "cells9": lambda f: on_nodes(f, False),
+        "subdivided": lambda f: on_nodes(f, True),
+        "vtk": vtk,
+    }
     if hasattr(io, "VTXWriter"):
         ways["vtx"] = vtx
-    print(f"strip of {nx}x{ny} quadrilaterals, {V2.dofmap.index_map.size_global} P2 nodes, "
-          f"{args.steps} output steps; dolfinx {compat.versions()['dolfinx']}")
-    print(f"{'way':>11} {'best ms/step':>13} {'median ms/step':>15} {'kB/step':>9} "
-          f"{'kB mesh':>8}")
+    print(
+        f"strip of {nx}x{ny} quadrilaterals, {V2.dofmap.index_map.size_global} P2 nodes, "
+        f"{args.steps} output steps; dolfinx {compat.versions()['dolfinx']}"
+    )
+    print(f"{'way':>11} {'best ms/step':>13} {'median ms/step':>15} {'kB/step':>9} {'kB mesh':>8}")
     for name, make in ways.items():
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp)
@@ -145,8 +168,10 @@ def main():
             getattr(write, "close", lambda: None)()
             total = folder_bytes(folder)
         per_step = (total - first) / args.steps
-        print(f"{name:>11} {1e3 * min(times):13.2f} {1e3 * np.median(times):15.2f} "
-              f"{per_step / 1e3:9.1f} {(first - per_step) / 1e3:8.1f}")
+        print(
+            f"{name:>11} {1e3 * min(times):13.2f} {1e3 * np.median(times):15.2f} "
+            f"{per_step / 1e3:9.1f} {(first - per_step) / 1e3:8.1f}"
+        )
 
 
 if __name__ == "__main__":

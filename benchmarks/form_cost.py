@@ -22,10 +22,10 @@ Figures go to stdout and results/benchmarks/form_cost.csv.
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 import time
 from pathlib import Path
-import sys
 
 # the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
@@ -35,21 +35,27 @@ repository_python.ensure()
 
 import numpy as np
 import ufl
+from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
 from rftfem import compat, petsc_options
-from rftfem.scene.reading import load_scene
 from rftfem.integration.simulation import Simulation
-
-from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
+from rftfem.scene.reading import load_scene
 
 #: flag sets compared: the JIT's own default first, then rftfem's earlier default,
 #: then the vectorised ones; the one in use (rftfem/compat.py) is marked
 FLAG_SETS = [
     ["-O2", "-g0"],
     ["-O2", "-g0", "-fno-math-errno"],
-    ["-O3", "-g0", "-fno-math-errno", "-fno-trapping-math", "-fno-signed-zeros",
-     "-fassociative-math", "-freciprocal-math"],
+    [
+        "-O3",
+        "-g0",
+        "-fno-math-errno",
+        "-fno-trapping-math",
+        "-fno-signed-zeros",
+        "-fassociative-math",
+        "-freciprocal-math",
+    ],
 ]
 if compat.COMPILE_FLAGS not in map(tuple, FLAG_SETS):
     FLAG_SETS.append(list(compat.COMPILE_FLAGS))
@@ -72,8 +78,12 @@ def measure(name: str, rounds: int) -> list[dict]:
             for flags in FLAG_SETS:
                 with tempfile.TemporaryDirectory() as cache:
                     t0 = time.perf_counter()
-                    forms.append(compat.form(model.jacobian_ufl, {
-                        "cffi_extra_compile_args": flags, "cache_dir": cache, "timeout": 900}))
+                    forms.append(
+                        compat.form(
+                            model.jacobian_ufl,
+                            {"cffi_extra_compile_args": flags, "cache_dir": cache, "timeout": 900},
+                        )
+                    )
                     compile_s.append(time.perf_counter() - t0)
             # a kernel that does next to nothing on the same spaces: what is left is
             # packing and inserting 45 x 45 cell matrices into PETSc's
@@ -92,18 +102,28 @@ def measure(name: str, rounds: int) -> list[dict]:
             values = [A.convert("aij").getValuesCSR()[2] for A in matrices]
             labels = [" ".join(f) for f in FLAG_SETS] + [
                 f"(trivial kernel: insertion only, {petsc_options.MATRIX_TYPE})",
-                "(trivial kernel: insertion only, aij)"]
+                "(trivial kernel: insertion only, aij)",
+            ]
             for label, tc, t, v in zip(labels, compile_s + [0.0, 0.0], times, values):
                 same = tc > 0.0  # the trivial kernel's matrix is another one
-                rows.append({
-                    "case": name, "cells": cells, "flags": label,
-                    "in_use": label == " ".join(compat.COMPILE_FLAGS),
-                    "compile_s": tc, "best_ms": 1e3 * min(t), "median_ms": 1e3 * np.median(t),
-                    "best_us_per_cell": 1e6 * min(t) / cells,
-                    "median_us_per_cell": 1e6 * np.median(t) / cells,
-                    "max_difference": float(np.max(np.abs(v - values[0]))
-                                            / np.max(np.abs(values[0]))) if same else None,
-                })
+                rows.append(
+                    {
+                        "case": name,
+                        "cells": cells,
+                        "flags": label,
+                        "in_use": label == " ".join(compat.COMPILE_FLAGS),
+                        "compile_s": tc,
+                        "best_ms": 1e3 * min(t),
+                        "median_ms": 1e3 * np.median(t),
+                        "best_us_per_cell": 1e6 * min(t) / cells,
+                        "median_us_per_cell": 1e6 * np.median(t) / cells,
+                        "max_difference": float(
+                            np.max(np.abs(v - values[0])) / np.max(np.abs(values[0]))
+                        )
+                        if same
+                        else None,
+                    }
+                )
             for A in matrices:
                 A.destroy()
         finally:
@@ -113,8 +133,9 @@ def measure(name: str, rounds: int) -> list[dict]:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("cases", nargs="*", help="sheet, strip, rollup, three-link "
-                        "(default: sheet and strip)")
+    parser.add_argument(
+        "cases", nargs="*", help="sheet, strip, rollup, three-link (default: sheet and strip)"
+    )
     parser.add_argument("--rounds", type=int, default=40, help="timed assemblies per flag set")
     args = parser.parse_args(argv)
     rows = []
@@ -124,10 +145,13 @@ def main(argv=None) -> None:
             rows.append(row)
             mark = "  <- in use" if row["in_use"] else ""
             diff = row["max_difference"]
-            print(f"  {row['flags']}{mark}\n      compile {row['compile_s']:5.1f} s   "
-                  f"{row['best_ms']:6.2f} / {row['median_ms']:6.2f} ms   "
-                  f"{row['best_us_per_cell']:5.0f} / {row['median_us_per_cell']:5.0f} µs per cell"
-                  + (f"   matrix vs first: {diff:.1e}" if diff is not None else ""), flush=True)
+            print(
+                f"  {row['flags']}{mark}\n      compile {row['compile_s']:5.1f} s   "
+                f"{row['best_ms']:6.2f} / {row['median_ms']:6.2f} ms   "
+                f"{row['best_us_per_cell']:5.0f} / {row['median_us_per_cell']:5.0f} µs per cell"
+                + (f"   matrix vs first: {diff:.1e}" if diff is not None else ""),
+                flush=True,
+            )
     write_csv(Path("results/benchmarks/form_cost.csv"), rows)
 
 

@@ -37,22 +37,58 @@ import repository_python  # noqa: E402
 repository_python.ensure()
 
 ROOT = Path(__file__).resolve().parents[1]
-CANTILEVER = ["--set", "load.0.value=[0,0,0.004]", "--set", "time.dt=1",
-              "--set", "mesh.divisions=[8,1]", "--set", "shell.thickness=0.16"]
+CANTILEVER = [
+    "--set",
+    "load.0.value=[0,0,0.004]",
+    "--set",
+    "time.dt=1",
+    "--set",
+    "mesh.divisions=[8,1]",
+    "--set",
+    "shell.thickness=0.16",
+]
 PROBLEMS = {
     "trade-off": dict(
-        scene="demos/end_shear.toml", optimum=0.4 / 3 * 0.1 + 0.04, sense="--minimize",
-        args=["--vary", "shell.thickness=0.05:0.2",
-              "--objective", "tip_uz@end + 0.4*scene(shell.thickness)", *CANTILEVER]),
+        scene="demos/end_shear.toml",
+        optimum=0.4 / 3 * 0.1 + 0.04,
+        sense="--minimize",
+        args=[
+            "--vary",
+            "shell.thickness=0.05:0.2",
+            "--objective",
+            "tip_uz@end + 0.4*scene(shell.thickness)",
+            *CANTILEVER,
+        ],
+    ),
     "trade-off-2": dict(
-        scene="demos/end_shear.toml", optimum=0.4 / 3 * 0.1 * 2 + 0.04, sense="--minimize",
-        args=["--vary", "shell.thickness=0.05:0.2", "--vary", "shell.E=3e5:1e7:log",
-              "--objective", f"tip_uz@end + 0.4*scene(shell.thickness) + {0.04 / 3 / 1.2e6!r}"
-              "*scene(shell.E)", *CANTILEVER, "--set", "shell.E=3e6"]),
+        scene="demos/end_shear.toml",
+        optimum=0.4 / 3 * 0.1 * 2 + 0.04,
+        sense="--minimize",
+        args=[
+            "--vary",
+            "shell.thickness=0.05:0.2",
+            "--vary",
+            "shell.E=3e5:1e7:log",
+            "--objective",
+            f"tip_uz@end + 0.4*scene(shell.thickness) + {0.04 / 3 / 1.2e6!r}*scene(shell.E)",
+            *CANTILEVER,
+            "--set",
+            "shell.E=3e6",
+        ],
+    ),
     "stroke": dict(
-        scene="demos/three_link_stroke.toml", optimum=2.0791e6, sense="--maximize",
-        args=["--vary", "motion.1.amplitude=0.03:0.3:log", "--vary", "motion.1.phase=-3:-0.15",
-              "--objective", "-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)"]),
+        scene="demos/three_link_stroke.toml",
+        optimum=2.0791e6,
+        sense="--maximize",
+        args=[
+            "--vary",
+            "motion.1.amplitude=0.03:0.3:log",
+            "--vary",
+            "motion.1.phase=-3:-0.15",
+            "--objective",
+            "-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)",
+        ],
+    ),
 }
 
 
@@ -71,22 +107,38 @@ def runs_to(rows, optimum: float, tolerance: float, maximize: bool):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--problems", default="trade-off,trade-off-2",
-                        help=f"comma-separated, of {', '.join(PROBLEMS)} (default: the two "
-                             "fast ones)")
+    parser.add_argument(
+        "--problems",
+        default="trade-off,trade-off-2",
+        help=f"comma-separated, of {', '.join(PROBLEMS)} (default: the two fast ones)",
+    )
     parser.add_argument("--methods", default="nelder-mead,powell,cobyla,l-bfgs-b")
     parser.add_argument("--budget", type=int, default=40)
     parser.add_argument("--out", type=Path, default=Path("results/optimize_methods"))
     args = parser.parse_args(argv)
-    print(f"{'problem':<12} {'method':<12} {'to 1 %':>7} {'to 0.1 %':>9} {'runs':>5} "
-          f"{'best':>12} {'wall s':>7}")
+    print(
+        f"{'problem':<12} {'method':<12} {'to 1 %':>7} {'to 0.1 %':>9} {'runs':>5} "
+        f"{'best':>12} {'wall s':>7}"
+    )
     for name in args.problems.split(","):
         problem = PROBLEMS[name]
         for method in args.methods.split(","):
             out = args.out / name / method
-            cmd = [sys.executable, "-m", "rftfem", "optimize", str(ROOT / problem["scene"]),
-                   *problem["args"], problem["sense"], "--method", method,
-                   "--budget", str(args.budget), "--out", str(out)]
+            cmd = [
+                sys.executable,
+                "-m",
+                "rftfem",
+                "optimize",
+                str(ROOT / problem["scene"]),
+                *problem["args"],
+                problem["sense"],
+                "--method",
+                method,
+                "--budget",
+                str(args.budget),
+                "--out",
+                str(out),
+            ]
             t0 = time.perf_counter()
             done = subprocess.run(cmd, capture_output=True, text=True)
             wall = time.perf_counter() - t0
@@ -99,8 +151,11 @@ def main(argv=None) -> int:
             ok = [float(r["objective"]) for r in rows if r["status"] == "ok"]
             best = (max if maximize else min)(ok) if ok else float("nan")
             one, tenth = (runs_to(rows, problem["optimum"], tol, maximize) for tol in (1e-2, 1e-3))
-            print(f"{name:<12} {method:<12} {one if one else '-':>7} {tenth if tenth else '-':>9} "
-                  f"{len(rows):>5} {best:>12.6g} {wall:>7.1f}", flush=True)
+            print(
+                f"{name:<12} {method:<12} {one if one else '-':>7} {tenth if tenth else '-':>9} "
+                f"{len(rows):>5} {best:>12.6g} {wall:>7.1f}",
+                flush=True,
+            )
     return 0
 
 

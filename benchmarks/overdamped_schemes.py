@@ -33,13 +33,13 @@ import repository_python  # noqa: E402
 
 repository_python.ensure()
 
-from rftfem.outputs.quantities import evaluate
-
 from step_cost import write_csv
 
-DRAG = 1.0e-3                       # C₃; C₁ = C₂ = 2 C₃ (N·s/mm³)
+from rftfem.outputs.quantities import evaluate
+
+DRAG = 1.0e-3  # C₃; C₁ = C₂ = 2 C₃ (N·s/mm³)
 L, W, T = 2.0, 1.0, 0.1
-MB = 2 * math.pi * DRAG / 0.24      # m B giving ω_c = π rad/s about the normal
+MB = 2 * math.pi * DRAG / 0.24  # m B giving ω_c = π rad/s about the normal
 ZETA = 2 * DRAG * L * W * (L**2 + W**2) / 12
 OMEGA_C = MB * T * L * W / ZETA
 OMEGA = 2 * OMEGA_C
@@ -100,17 +100,35 @@ def run(folder: Path, scheme: str, dt: float) -> dict:
     scene = folder / "plate.toml"
     scene.write_text(SCENE, encoding="utf-8")
     out = folder / f"{scheme}-{dt:g}"
-    cmd = [sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out), "--quiet",
-           "--set", f'time.scheme="{scheme}"', "--set", f"time.dt={dt!r}"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(scene),
+        "--out",
+        str(out),
+        "--quiet",
+        "--set",
+        f'time.scheme="{scheme}"',
+        "--set",
+        f"time.dt={dt!r}",
+    ]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{scheme} at dt = {dt:g} failed: {done.stderr.strip()[-500:]}")
     summary = json.loads((out / "summary.json").read_text())
     c, wall = summary["counts"], summary["wall_s"]
     rate = evaluate(RATE, out)
-    return {"scheme": scheme, "dt": dt, "steps": c["steps"], "newton": c["newton_iterations"],
-            "wall_s": wall["total"] - wall["compile"], "rate": rate,
-            "error": abs(rate / exact_rate() - 1)}
+    return {
+        "scheme": scheme,
+        "dt": dt,
+        "steps": c["steps"],
+        "newton": c["newton_iterations"],
+        "wall_s": wall["total"] - wall["compile"],
+        "rate": rate,
+        "error": abs(rate / exact_rate() - 1),
+    }
 
 
 def main(argv=None) -> None:
@@ -124,11 +142,13 @@ def main(argv=None) -> None:
             for k in range(args.max_halvings + 1):
                 r = run(Path(tmp), scheme, 0.05 / 2**k)
                 rows.append(r)
-                print(f"{scheme:15s} dt {r['dt']:.3e}: {r['steps']:5d} steps, {r['newton']:6d} "
-                      f"Newton its, {r['wall_s']:7.2f} s, error {100 * r['error']:.4f} %",
-                      flush=True)
+                print(
+                    f"{scheme:15s} dt {r['dt']:.3e}: {r['steps']:5d} steps, {r['newton']:6d} "
+                    f"Newton its, {r['wall_s']:7.2f} s, error {100 * r['error']:.4f} %",
+                    flush=True,
+                )
                 if r["error"] > args.target:
-                    cheapest.pop(scheme, None)   # the cheapest after which all stay within
+                    cheapest.pop(scheme, None)  # the cheapest after which all stay within
                 elif scheme not in cheapest:
                     cheapest[scheme] = r
                 if scheme in cheapest and k >= 2:
@@ -140,8 +160,10 @@ def main(argv=None) -> None:
         print(f"{scheme}: observed orders " + ", ".join(f"{p:.2f}" for p in orders))
     for scheme in ("backward-euler", "bdf2"):
         r = cheapest.get(scheme)
-        print(f"{scheme}: " + (f"dt {r['dt']:.3e}, {r['steps']} steps, {r['wall_s']:.2f} s"
-                               if r else "not reached"))
+        print(
+            f"{scheme}: "
+            + (f"dt {r['dt']:.3e}, {r['steps']} steps, {r['wall_s']:.2f} s" if r else "not reached")
+        )
     if len(cheapest) == 2:
         ratio = cheapest["backward-euler"]["wall_s"] / cheapest["bdf2"]["wall_s"]
         print(f"BDF2 is {ratio:.1f}x cheaper than backward Euler for {100 * args.target:g} %")

@@ -1,4 +1,5 @@
-"""The peer race (issue 34): rftfem against PyElastica, each at its cheapest setting for a given accuracy.
+"""The peer race (issue 34): rftfem against PyElastica, each at its cheapest setting for a given
+accuracy.
 
 The race: a slender magnetic swimmer in resistive-force drag, ten periods of a
 field that drives it at one end (the "filament driven at one end" of the issue,
@@ -139,19 +140,30 @@ FREQ_EXACT = 1.87510407**2 * math.sqrt(EI / (1e-9 * 1.0 * 0.1 * 10.0**4)) / (2 *
 
 def parse(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--quick", action="store_true",
-                   help="a reduced race: 2 periods (window 1-2), short ladders, no cantilevers, "
-                        "no cold start")
-    p.add_argument("--only", choices=["swim", "cantilever"], default=None,
-                   help="run one part only")
-    p.add_argument("--rftfem-venv", default=str(ROOT / ".venv"),
-                   help="the venv whose python runs rftfem (default .venv; try .venv-current)")
-    p.add_argument("--elastica-venv", default=str(ROOT / ".venv-elastica"),
-                   help="the venv with pyelastica (./dev.sh race creates it)")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a reduced race: 2 periods (window 1-2), short ladders, no cantilevers, no cold start",
+    )
+    p.add_argument("--only", choices=["swim", "cantilever"], default=None, help="run one part only")
+    p.add_argument(
+        "--rftfem-venv",
+        default=str(ROOT / ".venv"),
+        help="the venv whose python runs rftfem (default .venv; try .venv-current)",
+    )
+    p.add_argument(
+        "--elastica-venv",
+        default=str(ROOT / ".venv-elastica"),
+        help="the venv with pyelastica (./dev.sh race creates it)",
+    )
     p.add_argument("--no-cold", action="store_true", help="skip the cold-start timings")
-    p.add_argument("--lu", choices=list(LU), default="petsc",
-                   help="rftfem's LU: PETSc's own (default, the cheaper at these sizes) or "
-                        "MUMPS (rftfem's default)")
+    p.add_argument(
+        "--lu",
+        choices=list(LU),
+        default="petsc",
+        help="rftfem's LU: PETSc's own (default, the cheaper at these sizes) or "
+        "MUMPS (rftfem's default)",
+    )
     p.add_argument("--csv", default=str(ROOT / "results" / "benchmarks" / "peer_race.csv"))
     return p.parse_args(argv)
 
@@ -187,8 +199,20 @@ class Rftfem:
         d = self.tmp / f"r{self.k}"
         d.mkdir()
         (d / "scene.toml").write_text(scene_text)
-        r, wall = timed([self.python, "-m", "rftfem", "run", str(d / "scene.toml"), "--out",
-                         str(d / "out"), "--quiet", *self.solver_args], env=env)
+        r, wall = timed(
+            [
+                self.python,
+                "-m",
+                "rftfem",
+                "run",
+                str(d / "scene.toml"),
+                "--out",
+                str(d / "out"),
+                "--quiet",
+                *self.solver_args,
+            ],
+            env=env,
+        )
         if r.returncode != 0:
             return None, wall, {"error": (r.stderr or r.stdout)[-300:]}
         summary = json.loads((d / "out" / "summary.json").read_text())
@@ -196,8 +220,9 @@ class Rftfem:
 
     def swim(self, nx, steps, periods, window, env=None):
         dt = PERIOD / steps
-        out, wall, summary = self.run(SWIM_SCENE.format(nx=nx, end=periods * PERIOD, dt=dt,
-                                                        freq=FREQ, every=steps), env)
+        out, wall, summary = self.run(
+            SWIM_SCENE.format(nx=nx, end=periods * PERIOD, dt=dt, freq=FREQ, every=steps), env
+        )
         if out is None:
             return None, wall, summary
         head, rows = read_csv(out / "body.csv")
@@ -210,8 +235,14 @@ class Rftfem:
         return speed, wall, summary
 
     def elastica(self, nx, dt):
-        text = CANTILEVER.format(nx=nx, scheme="static", time=f"end = 1.0\ndt = {dt}",
-                                 force=2.0 * EI / 100.0, ramp="linear", table="")
+        text = CANTILEVER.format(
+            nx=nx,
+            scheme="static",
+            time=f"end = 1.0\ndt = {dt}",
+            force=2.0 * EI / 100.0,
+            ramp="linear",
+            table="",
+        )
         out, wall, summary = self.run(text)
         if out is None:
             return None, wall, summary
@@ -221,9 +252,13 @@ class Rftfem:
     def frequency(self, nx, steps):
         T = 1.0 / FREQ_EXACT
         text = CANTILEVER.format(
-            nx=nx, scheme="generalized-alpha",
+            nx=nx,
+            scheme="generalized-alpha",
             time=f"rho_inf = 1.0\nend = {3.2 * T}\ndt = {T / steps}",
-            force=1e-3 * 3 * EI / 100.0, ramp="table", table="table = [[0.0, 1.0], [1e-12, 0.0]]")
+            force=1e-3 * 3 * EI / 100.0,
+            ramp="table",
+            table="table = [[0.0, 1.0], [1e-12, 0.0]]",
+        )
         out, wall, summary = self.run(text)
         if out is None:
             return None, wall, summary
@@ -275,12 +310,16 @@ def main(argv=None):
         return 2
     if not Path(args.elastica_venv, "bin", "python").exists():
         # skipped, not failed: ./dev.sh bench runs every benchmark and goes on
-        print(f"peer_race.py: skipped: no {args.elastica_venv} (./dev.sh race creates it "
-              "and runs the race)")
+        print(
+            f"peer_race.py: skipped: no {args.elastica_venv} (./dev.sh race creates it "
+            "and runs the race)"
+        )
         return 0
     load = os.getloadavg()
-    print(f"peer race; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} "
-          f"({os.cpu_count()} cores); rftfem from {args.rftfem_venv}")
+    print(
+        f"peer race; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} "
+        f"({os.cpu_count()} cores); rftfem from {args.rftfem_venv}"
+    )
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         rf, el = Rftfem(args.rftfem_venv, tmp, args.lu), Elastica(args.elastica_venv)
@@ -293,9 +332,22 @@ def main(argv=None):
     path = Path(args.csv)
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["problem", "code", "kind", "tolerance", "setting",
-                                          "wall_s", "value", "reference", "error",
-                                          "ratio_elastica_over_rftfem", "detail"])
+        w = csv.DictWriter(
+            f,
+            fieldnames=[
+                "problem",
+                "code",
+                "kind",
+                "tolerance",
+                "setting",
+                "wall_s",
+                "value",
+                "reference",
+                "error",
+                "ratio_elastica_over_rftfem",
+                "detail",
+            ],
+        )
         w.writeheader()
         for r in rows:
             w.writerow(r)
@@ -313,21 +365,29 @@ def ladder_run(label, runs):
         detail = ""
         if code == "rftfem" and "wall_s" in info:
             ws = info["wall_s"]
-            detail = (f"compile {ws['compile']:.2f} assembly {ws['assembly']:.2f} "
-                      f"solve {ws['solve']:.2f} total {ws['total']:.2f}; "
-                      f"steps {info.get('counts', {}).get('steps', '')} "
-                      f"newton {info.get('counts', {}).get('newton_iterations', '')}")
+            detail = (
+                f"compile {ws['compile']:.2f} assembly {ws['assembly']:.2f} "
+                f"solve {ws['solve']:.2f} total {ws['total']:.2f}; "
+                f"steps {info.get('counts', {}).get('steps', '')} "
+                f"newton {info.get('counts', {}).get('newton_iterations', '')}"
+            )
         elif code.startswith("pyelastica") and "wall_loop" in info:
-            detail = (f"import+setup {info['wall_import_setup']:.2f} first step (JIT) "
-                      f"{info['wall_first_step']:.2f} loop {info['wall_loop']:.2f}; "
-                      f"{info['steps']} steps")
+            detail = (
+                f"import+setup {info['wall_import_setup']:.2f} first step (JIT) "
+                f"{info['wall_first_step']:.2f} loop {info['wall_loop']:.2f}; "
+                f"{info['steps']} steps"
+            )
         elif "error" in info:
             detail = "FAILED: " + info["error"].replace("\n", " ")[-200:]
         v = "failed" if value is None else f"{value:.7g}"
-        print(f"  {label:<9} {code:<10} {fmt_setting(code, label, setting):<28} "
-              f"wall {wall:7.2f} s  value {v}   [{detail}]", flush=True)
-        out.append({"code": code, "setting": setting, "value": value, "wall": wall,
-                    "detail": detail})
+        print(
+            f"  {label:<9} {code:<10} {fmt_setting(code, label, setting):<28} "
+            f"wall {wall:7.2f} s  value {v}   [{detail}]",
+            flush=True,
+        )
+        out.append(
+            {"code": code, "setting": setting, "value": value, "wall": wall, "detail": detail}
+        )
     return out
 
 
@@ -337,29 +397,49 @@ def report(problem, results, refs, tols, kind):
     rows = []
     codes = [c for c in refs if c != "rftfem"] + ["rftfem"]
     print(f"\n{problem}: cheapest setting per tolerance (error against {kind})")
-    print(f"{'code':<16} {'tol':>6} {'setting':<28} {'wall s':>8} {'error':>9} "
-          f"{'PyElastica/rftfem':>18}")
+    print(
+        f"{'code':<16} {'tol':>6} {'setting':<28} {'wall s':>8} {'error':>9} "
+        f"{'PyElastica/rftfem':>18}"
+    )
     for tol in tols:
         best = {c: cheapest([r for r in results if r["code"] == c], refs[c], tol) for c in codes}
         for c in codes:
             b = best[c]
             if b is None:
                 print(f"{c:<16} {tol:>6.1%} {'none in the ladder':<28}")
-                rows.append({"problem": problem, "code": c, "kind": kind, "tolerance": tol,
-                             "setting": "none", "reference": refs[c]})
+                rows.append(
+                    {
+                        "problem": problem,
+                        "code": c,
+                        "kind": kind,
+                        "tolerance": tol,
+                        "setting": "none",
+                        "reference": refs[c],
+                    }
+                )
                 continue
-            ratio = (b["wall"] / best["rftfem"]["wall"]
-                     if c != "rftfem" and best["rftfem"] else None)
+            ratio = b["wall"] / best["rftfem"]["wall"] if c != "rftfem" and best["rftfem"] else None
             err = b["value"] / refs[c] - 1
             r = f"{ratio:.2f}x" if ratio else ""
-            print(f"{c:<16} {tol:>6.1%} {fmt_setting(c, problem, b['setting']):<28} "
-                  f"{b['wall']:>8.2f} {err:>+9.4%} {r:>18}")
-            rows.append({"problem": problem, "code": c, "kind": kind, "tolerance": tol,
-                         "setting": fmt_setting(c, problem, b["setting"]),
-                         "wall_s": f"{b['wall']:.3f}", "value": f"{b['value']:.8g}",
-                         "reference": f"{refs[c]:.8g}", "error": f"{err:.3e}",
-                         "ratio_elastica_over_rftfem": f"{ratio:.3f}" if ratio else "",
-                         "detail": b["detail"]})
+            print(
+                f"{c:<16} {tol:>6.1%} {fmt_setting(c, problem, b['setting']):<28} "
+                f"{b['wall']:>8.2f} {err:>+9.4%} {r:>18}"
+            )
+            rows.append(
+                {
+                    "problem": problem,
+                    "code": c,
+                    "kind": kind,
+                    "tolerance": tol,
+                    "setting": fmt_setting(c, problem, b["setting"]),
+                    "wall_s": f"{b['wall']:.3f}",
+                    "value": f"{b['value']:.8g}",
+                    "reference": f"{refs[c]:.8g}",
+                    "error": f"{err:.3e}",
+                    "ratio_elastica_over_rftfem": f"{ratio:.3f}" if ratio else "",
+                    "detail": b["detail"],
+                }
+            )
     print("ratio: that code's wall / rftfem's wall at the same tolerance (> 1: rftfem faster)")
     return rows
 
@@ -373,8 +453,18 @@ def race_swim(args, rf, el, tmp):
         el_ref = 40
         ri_ladder = [10, 20, 40]
     else:
-        rf_ladder = [(10, 16), (10, 32), (10, 48), (10, 64), (10, 80), (10, 96), (10, 128),
-                     (20, 64), (20, 128), (40, 128)]
+        rf_ladder = [
+            (10, 16),
+            (10, 32),
+            (10, 48),
+            (10, 64),
+            (10, 80),
+            (10, 96),
+            (10, 128),
+            (20, 64),
+            (20, 128),
+            (40, 128),
+        ]
         rf_ref = (40, 256)
         el_ladder = [10, 20, 40]
         el_ref = 80
@@ -391,74 +481,160 @@ def race_swim(args, rf, el, tmp):
             _, wall_cold, s_cold = rf.swim(10, 16, 1, 0, env=env)
             _, wall_warm, s_warm = rf.swim(10, 16, 1, 0)
             env = {**os.environ, "NUMBA_CACHE_DIR": cold + "/numba"}
-            _, ewall_cold, e_cold = el.run("swim", "--elements", 10, "--periods", 1,
-                                           "--window", 0, "--cfl", cfl, env=env)
-            _, ewall_warm, e_warm = el.run("swim", "--elements", 10, "--periods", 1,
-                                           "--window", 0, "--cfl", cfl)
+            _, ewall_cold, e_cold = el.run(
+                "swim", "--elements", 10, "--periods", 1, "--window", 0, "--cfl", cfl, env=env
+            )
+            _, ewall_warm, e_warm = el.run(
+                "swim", "--elements", 10, "--periods", 1, "--window", 0, "--cfl", cfl
+            )
         cc = s_cold.get("wall_s", {}).get("compile", float("nan"))
         cw = s_warm.get("wall_s", {}).get("compile", float("nan"))
-        print(f"cold start (one period, coarsest): rftfem {wall_cold:.2f} s cold / "
-              f"{wall_warm:.2f} s warm (form compile {cc:.2f} / {cw:.2f} s); PyElastica "
-              f"{ewall_cold:.2f} s cold / {ewall_warm:.2f} s warm (first step, numba JIT: "
-              f"{e_cold.get('wall_first_step', float('nan')):.2f} / "
-              f"{e_warm.get('wall_first_step', float('nan')):.2f} s)")
-        for code, c, w in (("rftfem", wall_cold, wall_warm), ("pyelastica", ewall_cold, ewall_warm)):
-            extra.append({"problem": "swim", "code": code, "kind": "cold start, 1 period",
-                          "setting": "coarsest", "wall_s": f"{c:.3f}",
-                          "detail": f"warm {w:.3f}"})
-    runs = [("rftfem", s, (lambda s=s: rf.swim(s[0], s[1], periods, window)))
-            for s in rf_ladder + [rf_ref]]
-    runs += [("pyelastica", (n, None),
-              (lambda n=n: el.run("swim", "--elements", n, "--periods", periods,
-                                  "--window", window, "--cfl", cfl)))
-             for n in el_ladder + [el_ref]]
+        print(
+            f"cold start (one period, coarsest): rftfem {wall_cold:.2f} s cold / "
+            f"{wall_warm:.2f} s warm (form compile {cc:.2f} / {cw:.2f} s); PyElastica "
+            f"{ewall_cold:.2f} s cold / {ewall_warm:.2f} s warm (first step, numba JIT: "
+            f"{e_cold.get('wall_first_step', float('nan')):.2f} / "
+            f"{e_warm.get('wall_first_step', float('nan')):.2f} s)"
+        )
+        for code, c, w in (
+            ("rftfem", wall_cold, wall_warm),
+            ("pyelastica", ewall_cold, ewall_warm),
+        ):
+            extra.append(
+                {
+                    "problem": "swim",
+                    "code": code,
+                    "kind": "cold start, 1 period",
+                    "setting": "coarsest",
+                    "wall_s": f"{c:.3f}",
+                    "detail": f"warm {w:.3f}",
+                }
+            )
+    runs = [
+        ("rftfem", s, (lambda s=s: rf.swim(s[0], s[1], periods, window)))
+        for s in rf_ladder + [rf_ref]
+    ]
+    runs += [
+        (
+            "pyelastica",
+            (n, None),
+            (
+                lambda n=n: el.run(
+                    "swim", "--elements", n, "--periods", periods, "--window", window, "--cfl", cfl
+                )
+            ),
+        )
+        for n in el_ladder + [el_ref]
+    ]
     # PyElastica with the rotary inertia scaled up to the axial step (not the physics,
     # a trick an expert user may take): against PyElastica's converged value
-    runs += [("pyelastica-ri", (n, None),
-              (lambda n=n: el.run("swim", "--elements", n, "--periods", periods,
-                                  "--window", window, "--cfl", cfl,
-                                  "--rotary-inertia", "match-axial")))
-             for n in ri_ladder]
+    runs += [
+        (
+            "pyelastica-ri",
+            (n, None),
+            (
+                lambda n=n: el.run(
+                    "swim",
+                    "--elements",
+                    n,
+                    "--periods",
+                    periods,
+                    "--window",
+                    window,
+                    "--cfl",
+                    cfl,
+                    "--rotary-inertia",
+                    "match-axial",
+                )
+            ),
+        )
+        for n in ri_ladder
+    ]
     results = ladder_run("swim", runs)
     el_ref_value = [r for r in results if r["code"] == "pyelastica"][-1]["value"]
-    refs = {"pyelastica": el_ref_value, "pyelastica-ri": el_ref_value,
-            "rftfem": results[len(rf_ladder)]["value"]}
-    print(f"\nconverged swim speed: rftfem {refs['rftfem']:.6g} mm/s, PyElastica "
-          f"{refs['pyelastica']:.6g} mm/s (differ by {refs['rftfem'] / refs['pyelastica'] - 1:+.2%})")
-    ladder = [r for r in results if not (r["code"] == "rftfem" and r["setting"] == rf_ref)
-              and not (r["code"] == "pyelastica" and r["setting"][0] == el_ref)]
+    refs = {
+        "pyelastica": el_ref_value,
+        "pyelastica-ri": el_ref_value,
+        "rftfem": results[len(rf_ladder)]["value"],
+    }
+    print(
+        f"\nconverged swim speed: rftfem {refs['rftfem']:.6g} mm/s, PyElastica "
+        f"{refs['pyelastica']:.6g} mm/s (differ by {refs['rftfem'] / refs['pyelastica'] - 1:+.2%})"
+    )
+    ladder = [
+        r
+        for r in results
+        if not (r["code"] == "rftfem" and r["setting"] == rf_ref)
+        and not (r["code"] == "pyelastica" and r["setting"][0] == el_ref)
+    ]
     rows = report("swim", ladder, refs, [1e-2, 1e-3], "each code's finest run")
-    return extra + rows + [{"problem": "swim", "code": r["code"], "kind": "run",
-                            "setting": fmt_setting(r["code"], "swim", r["setting"]),
-                            "wall_s": f"{r['wall']:.3f}", "value": r["value"],
-                            "detail": r["detail"]} for r in results]
+    return (
+        extra
+        + rows
+        + [
+            {
+                "problem": "swim",
+                "code": r["code"],
+                "kind": "run",
+                "setting": fmt_setting(r["code"], "swim", r["setting"]),
+                "wall_s": f"{r['wall']:.3f}",
+                "value": r["value"],
+                "detail": r["detail"],
+            }
+            for r in results
+        ]
+    )
 
 
 def race_cantilever(args, rf, el):
     rows = []
     print("\ncantilever, static elastica P L^2/EI = 2 (exact w/L = 0.49346)")
     runs = [("rftfem", (nx, 1.0), (lambda nx=nx: rf.elastica(nx, 1.0))) for nx in (4, 8, 16, 32)]
-    runs += [("pyelastica", (n, float("nan")), (lambda n=n: el.run("elastica", "--elements", n)))
-             for n in (4, 8, 16, 32)]
-    runs += [("pyelastica-ri", (n, float("nan")),
-              (lambda n=n: el.run("elastica", "--elements", n, "--rotary-inertia", "match-axial")))
-             for n in (8, 16, 32)]
+    runs += [
+        ("pyelastica", (n, float("nan")), (lambda n=n: el.run("elastica", "--elements", n)))
+        for n in (4, 8, 16, 32)
+    ]
+    runs += [
+        (
+            "pyelastica-ri",
+            (n, float("nan")),
+            (lambda n=n: el.run("elastica", "--elements", n, "--rotary-inertia", "match-axial")),
+        )
+        for n in (8, 16, 32)
+    ]
     res = ladder_run("elastica", runs)
-    rows += report("elastica", res, {"pyelastica": ELASTICA_EXACT, "pyelastica-ri": ELASTICA_EXACT,
-                                      "rftfem": ELASTICA_EXACT},
-                   [5e-3, 1e-3], "the exact elastica")
+    rows += report(
+        "elastica",
+        res,
+        {"pyelastica": ELASTICA_EXACT, "pyelastica-ri": ELASTICA_EXACT, "rftfem": ELASTICA_EXACT},
+        [5e-3, 1e-3],
+        "the exact elastica",
+    )
     print(f"\ncantilever, first bending frequency (exact Euler-Bernoulli {FREQ_EXACT:.6g} Hz)")
-    runs = [("rftfem", (nx, k), (lambda nx=nx, k=k: rf.frequency(nx, k)))
-            for nx, k in ((4, 20), (4, 40), (4, 80), (8, 40), (8, 80), (16, 80))]
-    runs += [("pyelastica", (n, float("nan")), (lambda n=n: el.run("frequency", "--elements", n)))
-             for n in (4, 8, 16, 32)]
-    runs += [("pyelastica-ri", (n, float("nan")),
-              (lambda n=n: el.run("frequency", "--elements", n, "--rotary-inertia", "match-axial")))
-             for n in (8, 16, 32)]
+    runs = [
+        ("rftfem", (nx, k), (lambda nx=nx, k=k: rf.frequency(nx, k)))
+        for nx, k in ((4, 20), (4, 40), (4, 80), (8, 40), (8, 80), (16, 80))
+    ]
+    runs += [
+        ("pyelastica", (n, float("nan")), (lambda n=n: el.run("frequency", "--elements", n)))
+        for n in (4, 8, 16, 32)
+    ]
+    runs += [
+        (
+            "pyelastica-ri",
+            (n, float("nan")),
+            (lambda n=n: el.run("frequency", "--elements", n, "--rotary-inertia", "match-axial")),
+        )
+        for n in (8, 16, 32)
+    ]
     res = ladder_run("frequency", runs)
-    rows += report("frequency", res, {"pyelastica": FREQ_EXACT, "pyelastica-ri": FREQ_EXACT,
-                                       "rftfem": FREQ_EXACT},
-                   [5e-3, 1e-3], "exact Euler-Bernoulli")
+    rows += report(
+        "frequency",
+        res,
+        {"pyelastica": FREQ_EXACT, "pyelastica-ri": FREQ_EXACT, "rftfem": FREQ_EXACT},
+        [5e-3, 1e-3],
+        "exact Euler-Bernoulli",
+    )
     return rows
 
 

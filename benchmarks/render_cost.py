@@ -40,8 +40,12 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--results", type=Path, default=None,
-                        help="a run folder with fields (default: run the sheet robot)")
+    parser.add_argument(
+        "--results",
+        type=Path,
+        default=None,
+        help="a run folder with fields (default: run the sheet robot)",
+    )
     parser.add_argument("--size", default="1024x768")
     args = parser.parse_args(argv)
 
@@ -50,9 +54,19 @@ def main(argv=None) -> int:
         if results is None:
             results = Path(tmp) / "sheet_robot"
             t0 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "rftfem", "run",
-                            str(ROOT / "demos" / "sheet_robot.toml"), "--out", str(results),
-                            "--quiet"], check=True)
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-m",
+                    "rftfem",
+                    "run",
+                    str(ROOT / "demos" / "sheet_robot.toml"),
+                    "--out",
+                    str(results),
+                    "--quiet",
+                ],
+                check=True,
+            )
             print(f"run: {time.perf_counter() - t0:.1f} s")
 
         # rendering in this process: pyvista before anything imports dolfinx
@@ -93,8 +107,10 @@ def main(argv=None) -> int:
         dofs = json.loads((results / "summary.json").read_text())["dofs"]
     except (OSError, KeyError, ValueError):
         pass
-    print(f"\nfilm of {n} frames, {size[0]}x{size[1]}, {dofs} unknowns: {total:.1f} s, "
-          f"{total / n:.3f} s a frame (the survey pass and set-up included)")
+    print(
+        f"\nfilm of {n} frames, {size[0]}x{size[1]}, {dofs} unknowns: {total:.1f} s, "
+        f"{total / n:.3f} s a frame (the survey pass and set-up included)"
+    )
     print("| part | s a frame |\n| --- | ---: |")
     print(f"| read the fields | {read / n:.4f} |")
     print(f"| surface, edges, arrows | {geometry / n:.4f} |")

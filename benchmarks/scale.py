@@ -62,11 +62,11 @@ SOLVERS = {
 
 def one(size: str, steps: int, solver: str) -> None:
     """In a child (under mpirun or not): run, print one JSON line on rank 0."""
-    import rftfem  # noqa: F401
     from mpi4py import MPI
 
-    from rftfem.scene.reading import load_scene
+    import rftfem  # noqa: F401
     from rftfem.integration.simulation import Simulation
+    from rftfem.scene.reading import load_scene
 
     nx, ny = (int(v) for v in size.split("x"))
     scene = load_scene(SCENE, [f"mesh.divisions=[{nx}, {ny}]", "output.fields=false"])
@@ -94,22 +94,38 @@ def one(size: str, steps: int, solver: str) -> None:
         jac = sim.solver.timings["jacobian"] - sim._mark["jacobian"]
         sol = sim.solver.timings["solve"] - sim._mark["solve"]
         made = sim.solver.factors.made - sim._mark["made"]
-        rss = MPI.COMM_WORLD.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
-                                       op=MPI.MAX)
+        rss = MPI.COMM_WORLD.allreduce(
+            resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.MAX
+        )
         dofs = sim.model.W.dofmap.index_map.size_global * sim.model.W.dofmap.index_map_bs
         if MPI.COMM_WORLD.rank == 0:
-            print(json.dumps({"dofs": dofs, "steps": n, "step_s": wall / n, "its": its / n,
-                              "jacobian_s": jac / max(its, 1), "solve_s": sol / max(its, 1),
-                              "peak_mb": rss / 1024, "cuts": sim.counts["dt_cuts"],
-                              "factorizations": made / n}))
+            print(
+                json.dumps(
+                    {
+                        "dofs": dofs,
+                        "steps": n,
+                        "step_s": wall / n,
+                        "its": its / n,
+                        "jacobian_s": jac / max(its, 1),
+                        "solve_s": sol / max(its, 1),
+                        "peak_mb": rss / 1024,
+                        "cuts": sim.counts["dt_cuts"],
+                        "factorizations": made / n,
+                    }
+                )
+            )
     finally:
         sim.close()
 
 
 def _mark(sim):
-    sim._mark = {"wall": time.perf_counter(), "its": sim.counts["newton_iterations"],
-                 "jacobian": sim.solver.timings["jacobian"], "solve": sim.solver.timings["solve"],
-                 "made": sim.solver.factors.made}
+    sim._mark = {
+        "wall": time.perf_counter(),
+        "its": sim.counts["newton_iterations"],
+        "jacobian": sim.solver.timings["jacobian"],
+        "solve": sim.solver.timings["solve"],
+        "made": sim.solver.factors.made,
+    }
 
 
 def launch(size: str, steps: int, np_: int, solver: str) -> dict | None:
@@ -117,23 +133,23 @@ def launch(size: str, steps: int, np_: int, solver: str) -> dict | None:
 
 
 def start(size: str, steps: int, np_: int, solver: str) -> subprocess.Popen:
-    cmd = [sys.executable, __file__, "--one", size, "--steps", str(steps + 1),
-           "--solvers", solver]
+    cmd = [sys.executable, __file__, "--one", size, "--steps", str(steps + 1), "--solvers", solver]
     if np_ > 1:
         here = Path(sys.executable).parent / "mpirun"
         mpirun = str(here) if here.exists() else shutil.which("mpirun")
         cmd = [mpirun, "-n", str(np_), *cmd]
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env)
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
 
 
 def finish(child: subprocess.Popen, size: str, np_: int, solver: str) -> dict | None:
     stdout, stderr = child.communicate(timeout=3600)
     lines = [ln for ln in stdout.splitlines() if ln.startswith("{")]
     if child.returncode != 0 or not lines:
-        print(f"  {size} np={np_} {solver}: failed (exit {child.returncode}) "
-              f"{(stderr or stdout).strip().splitlines()[-1:]}")
+        print(
+            f"  {size} np={np_} {solver}: failed (exit {child.returncode}) "
+            f"{(stderr or stdout).strip().splitlines()[-1:]}"
+        )
         return None
     return json.loads(lines[-1])
 
@@ -179,8 +195,7 @@ def plot(series: dict, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4.2))
     for label, rows in series.items():
         if rows:
-            ax.loglog([r["dofs"] for r in rows], [r["step_s"] for r in rows], "o-",
-                      label=label)
+            ax.loglog([r["dofs"] for r in rows], [r["step_s"] for r in rows], "o-", label=label)
     ax.set_xlabel("unknowns")
     ax.set_ylabel("wall time per step (s)")
     ax.set_title("Swimming sheet: cost of a step against mesh size")
@@ -196,32 +211,54 @@ def main(argv=None) -> None:
     parser.add_argument("--np", nargs="+", type=int, default=[1, 2], dest="nps")
     parser.add_argument("--solvers", nargs="+", default=list(SOLVERS), choices=list(SOLVERS))
     parser.add_argument("--steps", type=int, default=3)
-    parser.add_argument("--repeat", type=int, default=1,
-                        help="runs of each setting, taken in turn (serial, mpirun, serial, ...) "
-                        "so that the machine's drift falls on all alike; the fastest is kept")
-    parser.add_argument("--ceiling", action="store_true",
-                        help="also run two serial runs at once (one per core) and print the "
-                        "speed-up they bound: the machine's, not the code's, limit")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="runs of each setting, taken in turn (serial, mpirun, serial, ...) "
+        "so that the machine's drift falls on all alike; the fastest is kept",
+    )
+    parser.add_argument(
+        "--ceiling",
+        action="store_true",
+        help="also run two serial runs at once (one per core) and print the "
+        "speed-up they bound: the machine's, not the code's, limit",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/benchmarks"))
     parser.add_argument("--one", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.one:
         one(args.one, args.steps, args.solvers[0])
         return
-    settings = [(solver, size, np_) for solver in args.solvers for size in args.sizes
-                for np_ in args.nps if not skipped(solver, size, np_)]
+    settings = [
+        (solver, size, np_)
+        for solver in args.solvers
+        for size in args.sizes
+        for np_ in args.nps
+        if not skipped(solver, size, np_)
+    ]
     if args.ceiling:
-        settings += [(solver, size, "pair") for solver in args.solvers for size in args.sizes
-                     if 1 in args.nps and 2 in args.nps and not skipped(solver, size, 2)]
+        settings += [
+            (solver, size, "pair")
+            for solver in args.solvers
+            for size in args.sizes
+            if 1 in args.nps and 2 in args.nps and not skipped(solver, size, 2)
+        ]
     best = {}
     for round_ in range(args.repeat):
         for key in settings:
-            r = (pair(key[1], args.steps, key[0]) if key[2] == "pair"
-                 else launch(key[1], args.steps, key[2], key[0]))
+            r = (
+                pair(key[1], args.steps, key[0])
+                if key[2] == "pair"
+                else launch(key[1], args.steps, key[2], key[0])
+            )
             if r is None:
                 continue
-            print(f"  run {round_ + 1}/{args.repeat}: {key[0]}, {key[1]}, np={key[2]}: "
-                  f"{r['step_s']:.3f} s/step", flush=True)
+            print(
+                f"  run {round_ + 1}/{args.repeat}: {key[0]}, {key[1]}, np={key[2]}: "
+                f"{r['step_s']:.3f} s/step",
+                flush=True,
+            )
             if key not in best or r["step_s"] < best[key]["step_s"]:
                 best[key] = r
     series, rows = {}, []
@@ -232,11 +269,15 @@ def main(argv=None) -> None:
             label = f"{solver}, {np_} process{'es' if np_ > 1 else ''}"
             series[label] = []
             print(f"\n{label}")
-            print(f"  {'mesh':>8s} {'unknowns':>9s} {'s/step':>8s} {'its/step':>8s} "
-                  f"{'Jacobian s':>10s} {'solve s':>8s} {'peak MB':>8s} {'LU/step':>8s}")
+            print(
+                f"  {'mesh':>8s} {'unknowns':>9s} {'s/step':>8s} {'its/step':>8s} "
+                f"{'Jacobian s':>10s} {'solve s':>8s} {'peak MB':>8s} {'LU/step':>8s}"
+            )
             for size in args.sizes:
                 if solver == "petsc" and _cells(size) > 120 * 24:
-                    print(f"  {size:>8s} skipped: PETSc's LU is already slower than MUMPS at 120x24")
+                    print(
+                        f"  {size:>8s} skipped: PETSc's LU is already slower than MUMPS at 120x24"
+                    )
                     continue
                 r = best.get((solver, size, np_))
                 if r is None:
@@ -244,9 +285,12 @@ def main(argv=None) -> None:
                 r.update(mesh=size, np=np_, solver=solver)
                 series[label].append(r)
                 rows.append(r)
-                print(f"  {size:>8s} {r['dofs']:9d} {r['step_s']:8.3f} {r['its']:8.2f} "
-                      f"{r['jacobian_s']:10.3f} {r['solve_s']:8.3f} {r['peak_mb']:8.0f} "
-                      f"{r['factorizations']:8.2f}", flush=True)
+                print(
+                    f"  {size:>8s} {r['dofs']:9d} {r['step_s']:8.3f} {r['its']:8.2f} "
+                    f"{r['jacobian_s']:10.3f} {r['solve_s']:8.3f} {r['peak_mb']:8.0f} "
+                    f"{r['factorizations']:8.2f}",
+                    flush=True,
+                )
             p = fit(series[label])
             if p is not None:
                 print(f"  time per step ~ unknowns^{p:.2f} from 20k unknowns up")
@@ -254,18 +298,26 @@ def main(argv=None) -> None:
         one_, two = series.get(f"{solver}, 1 process"), series.get(f"{solver}, 2 processes")
         if one_ and two:
             by = {r["mesh"]: r for r in one_}
-            ups = [f"{r['mesh']} {by[r['mesh']]['step_s'] / r['step_s']:.2f}x"
-                   for r in two if r["mesh"] in by]
+            ups = [
+                f"{r['mesh']} {by[r['mesh']]['step_s'] / r['step_s']:.2f}x"
+                for r in two
+                if r["mesh"] in by
+            ]
             print(f"\n{solver}: speed-up of 2 processes: {', '.join(ups)}")
-            bound = [(size, by[size]["step_s"], best[(solver, size, "pair")]["step_s"])
-                     for size in by if (solver, size, "pair") in best]
+            bound = [
+                (size, by[size]["step_s"], best[(solver, size, "pair")]["step_s"])
+                for size in by
+                if (solver, size, "pair") in best
+            ]
             for size, alone, slower in bound:
                 ceiling = 2 * alone / slower
                 two_s = next((r["step_s"] for r in two if r["mesh"] == size), None)
                 share = f"; mpirun reaches {alone / two_s / ceiling:.0%} of it" if two_s else ""
-                print(f"  {size}: two serial runs at once, the slower {slower:.3f} s/step "
-                      f"against {alone:.3f} alone: this machine's ceiling for two processes "
-                      f"is {ceiling:.2f}x{share}")
+                print(
+                    f"  {size}: two serial runs at once, the slower {slower:.3f} s/step "
+                    f"against {alone:.3f} alone: this machine's ceiling for two processes "
+                    f"is {ceiling:.2f}x{share}"
+                )
     args.out.mkdir(parents=True, exist_ok=True)
     if rows:
         with open(args.out / "scale.csv", "w", newline="", encoding="utf-8") as f:

@@ -18,9 +18,9 @@ of this machine at the moment of the run: run it alone.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
-import sys
 
 # the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
@@ -29,12 +29,11 @@ import repository_python  # noqa: E402
 repository_python.ensure()
 
 import numpy as np
+from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem.scene.reading import load_scene
 from rftfem.integration.simulation import Simulation
-
-from step_cost import CASES, DEMOS, _Enough, cases_asked, stopper, write_csv
+from rftfem.scene.reading import load_scene
 
 #: name -> PETSc options as on the command line, from the scene's driving force f
 #: (the default snes_atol is 1e-7 f, rftfem/petsc_options.py)
@@ -44,7 +43,11 @@ OPTIONS = {
     "MUMPS, METIS ordering": lambda f: ["-mat_mumps_icntl_7", "5"],
     "Jacobian every 2nd iteration": lambda f: ["-snes_lag_jacobian", "2"],
     "Jacobian every 3rd iteration, kept across steps": lambda f: [
-        "-snes_lag_jacobian", "3", "-snes_lag_jacobian_persists", "true"],
+        "-snes_lag_jacobian",
+        "3",
+        "-snes_lag_jacobian_persists",
+        "true",
+    ],
     "atol 1e-5 f": lambda f: ["-snes_atol", repr(1e-5 * f)],
     "atol 1e-9 f": lambda f: ["-snes_atol", repr(1e-9 * f)],
     "rtol 1e-8 of the first residual (the old default)": lambda f: ["-snes_rtol", "1e-8"],
@@ -82,18 +85,23 @@ def run(name: str, steps: int, petsc_args: list[str]) -> dict:
         n = max(sim.counts["steps"], 1)
         if status == "ok" and sim.t < steps * scene["time"]["dt"] * (1 - 1e-12):
             status = f"stopped at t = {sim.t:g}"
-        return {"wall_per_step_ms": 1e3 * wall / n, "steps": sim.counts["steps"],
-                "its_per_step": sim.counts["newton_iterations"] / n,
-                "cuts": sim.counts["dt_cuts"], "status": status,
-                "probes": sim.probes.values().ravel().copy()}
+        return {
+            "wall_per_step_ms": 1e3 * wall / n,
+            "steps": sim.counts["steps"],
+            "its_per_step": sim.counts["newton_iterations"] / n,
+            "cuts": sim.counts["dt_cuts"],
+            "status": status,
+            "probes": sim.probes.values().ravel().copy(),
+        }
     finally:
         sim.close()
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("cases", nargs="*", metavar="CASE",
-                        help=f"which: {', '.join(CASES)} (default: all)")
+    parser.add_argument(
+        "cases", nargs="*", metavar="CASE", help=f"which: {', '.join(CASES)} (default: all)"
+    )
     parser.add_argument("--steps", type=int, default=100, help="steps per run (default 100)")
     parser.add_argument("--csv", type=Path, default=Path("results/benchmarks/solver_options.csv"))
     args = parser.parse_args(argv)
@@ -112,12 +120,22 @@ def main(argv=None) -> None:
         for label, opts in OPTIONS.items():
             r = run(case, steps, opts(force))
             diff = np.abs(r["probes"] - tight).max() / scale if r["status"] == "ok" else np.nan
-            print(f"  {label:52s} {r['wall_per_step_ms']:9.2f} {r['its_per_step']:9.2f} "
-                  f"{r['cuts']:5d} {diff:9.1e}" + ("" if r["status"] == "ok" else f"  {r['status']}"))
-            rows.append({"case": case, "options": label, "steps": r["steps"],
-                         "wall_per_step_ms": r["wall_per_step_ms"],
-                         "its_per_step": r["its_per_step"], "cuts": r["cuts"],
-                         "answer_difference": diff, "status": r["status"]})
+            print(
+                f"  {label:52s} {r['wall_per_step_ms']:9.2f} {r['its_per_step']:9.2f} "
+                f"{r['cuts']:5d} {diff:9.1e}" + ("" if r["status"] == "ok" else f"  {r['status']}")
+            )
+            rows.append(
+                {
+                    "case": case,
+                    "options": label,
+                    "steps": r["steps"],
+                    "wall_per_step_ms": r["wall_per_step_ms"],
+                    "its_per_step": r["its_per_step"],
+                    "cuts": r["cuts"],
+                    "answer_difference": diff,
+                    "status": r["status"],
+                }
+            )
     write_csv(args.csv, rows)
 
 

@@ -46,15 +46,16 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tolerances", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4])
     args = parser.parse_args(argv)
-    from rftfem.outputs.quantities import read_csv
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import run
     from rftfem.integration.steady import SteadyWatch
+    from rftfem.outputs.quantities import read_csv
+    from rftfem.scene.reading import load_scene
     from rftfem.scene.time_rules import scene_period
 
-    scene = load_scene(ROOT / "demos" / "swimming_sheet.toml", ["output.fields=false",
-                                                                 "time.output_every=1",
-                                                                 "time.until=end"])
+    scene = load_scene(
+        ROOT / "demos" / "swimming_sheet.toml",
+        ["output.fields=false", "time.output_every=1", "time.until=end"],
+    )
     period = scene_period({**scene, "time": {**scene["time"], "until": "periodic"}})
     with tempfile.TemporaryDirectory() as tmp:
         summary = run(scene, out_dir=Path(tmp), quiet=True)
@@ -66,8 +67,10 @@ def main(argv=None):
     t = rows[:, 0]
     n = round(t[-1] / period)
     print(f"case I: {n} periods, {wall_per_period:.2f} s a period on this machine")
-    print(f"{'way':<7} {'tolerance':>9} {'stops after':>11} {'speed mm/s':>11} "
-          f"{'vs exact':>9} {'wall s':>7}")
+    print(
+        f"{'way':<7} {'tolerance':>9} {'stops after':>11} {'speed mm/s':>11} "
+        f"{'vs exact':>9} {'wall s':>7}"
+    )
     for tol in args.tolerances:
         for way in ("none", "aitken", "shanks"):
             watch = SteadyWatch(period, tol, columns, method=way)
@@ -81,8 +84,10 @@ def main(argv=None):
                 print(f"{way:<7} {tol:>9.0e} {'not steady':>11}")
                 continue
             speed = watch.result["values"]["centroid_x_rate"]
-            print(f"{way:<7} {tol:>9.0e} {stop:>8} per {speed:>11.5f} "
-                  f"{100 * (speed / EXACT - 1):>+8.3f}% {stop * wall_per_period:>7.1f}")
+            print(
+                f"{way:<7} {tol:>9.0e} {stop:>8} per {speed:>11.5f} "
+                f"{100 * (speed / EXACT - 1):>+8.3f}% {stop * wall_per_period:>7.1f}"
+            )
     as_shipped()
 
 
@@ -95,17 +100,30 @@ def as_shipped():
 
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "rftfem", "run",
-                        str(ROOT / "demos" / "swimming_sheet.toml"), "--out", tmp, "--quiet"],
-                       check=True, stdout=subprocess.DEVNULL)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rftfem",
+                "run",
+                str(ROOT / "demos" / "swimming_sheet.toml"),
+                "--out",
+                tmp,
+                "--quiet",
+            ],
+            check=True,
+            stdout=subprocess.DEVNULL,
+        )
         wall = time.perf_counter() - t0
         summary = json.loads((Path(tmp) / "summary.json").read_text())
     steady = summary["steady"]
     speed = steady["values"]["front_ux_rate"]
-    print(f"as shipped (rftfem run demos/swimming_sheet.toml, fresh process, warm cache): "
-          f"{wall:.1f} s, steady after {steady['periods']} periods, front corner "
-          f"{speed:.5f} mm/s ({100 * (speed / EXACT - 1):+.3f} % of exact; goal: 0.5 % in "
-          f"<= 20 s)")
+    print(
+        f"as shipped (rftfem run demos/swimming_sheet.toml, fresh process, warm cache): "
+        f"{wall:.1f} s, steady after {steady['periods']} periods, front corner "
+        f"{speed:.5f} mm/s ({100 * (speed / EXACT - 1):+.3f} % of exact; goal: 0.5 % in "
+        f"<= 20 s)"
+    )
 
 
 if __name__ == "__main__":

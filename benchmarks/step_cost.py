@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 import tempfile
 import time
 from pathlib import Path
-import sys
 
 # the repository's .venv when this python3 lacks rftfem (scripts/repository_python.py)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
@@ -36,8 +36,8 @@ import repository_python  # noqa: E402
 repository_python.ensure()
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem.scene.reading import load_scene
 from rftfem.integration.simulation import Simulation
+from rftfem.scene.reading import load_scene
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
 
@@ -81,8 +81,11 @@ def floor_parts(sim) -> dict:
 
     jacobian()
     residual()
-    parts = {"jacobian": _best(jacobian), "factor_solve": _best(factor_and_solve),
-             "residual": _best(residual)}
+    parts = {
+        "jacobian": _best(jacobian),
+        "factor_solve": _best(factor_and_solve),
+        "residual": _best(residual),
+    }
     y.destroy()
     return parts
 
@@ -99,6 +102,7 @@ def stopper(scene: dict, steps: int):
     def stop(sim):
         if sim.t >= t_stop * (1 - 1e-12):
             raise _Enough
+
     return stop
 
 
@@ -125,48 +129,65 @@ def measure(name: str, steps: int) -> dict:
         finally:
             sim.close()
     per = {k: v / n for k, v in timings.items()}
-    floor = (its / n) * (parts["jacobian"] + parts["factor_solve"] + parts["residual"]) \
-        + parts["residual"]
+    floor = (its / n) * (parts["jacobian"] + parts["factor_solve"] + parts["residual"]) + parts[
+        "residual"
+    ]
     step = wall / n
     rest = step - sum(per.values()) - sum(v / n for v in extra.values())
     return {
-        "case": name, "dofs": dofs, "steps": n, "cuts": sim.counts["dt_cuts"],
-        "its_per_step": its / n, "wall_per_step_ms": 1e3 * step, "floor_ms": 1e3 * floor,
+        "case": name,
+        "dofs": dofs,
+        "steps": n,
+        "cuts": sim.counts["dt_cuts"],
+        "its_per_step": its / n,
+        "wall_per_step_ms": 1e3 * step,
+        "floor_ms": 1e3 * floor,
         "ratio": step / floor,
-        "jacobian_ms": 1e3 * parts["jacobian"], "factor_solve_ms": 1e3 * parts["factor_solve"],
+        "jacobian_ms": 1e3 * parts["jacobian"],
+        "factor_solve_ms": 1e3 * parts["factor_solve"],
         "residual_ms": 1e3 * parts["residual"],
-        "residuals_per_step": calls["residual"] / n, "jacobians_per_step": calls["jacobian"] / n,
+        "residuals_per_step": calls["residual"] / n,
+        "jacobians_per_step": calls["jacobian"] / n,
         "liftings_per_step": calls["lifting"] / n,
-        "in_residuals_ms": 1e3 * per["residual"], "in_jacobians_ms": 1e3 * per["jacobian"],
+        "in_residuals_ms": 1e3 * per["residual"],
+        "in_jacobians_ms": 1e3 * per["jacobian"],
         "in_liftings_ms": 1e3 * per["lifting"],
-"in_solves_ms": 1e3 * per["solve"],
-        "in_loads_ms": 1e3 * extra["loads"] / n, "in_update_ms": 1e3 * extra["update"] / n,
-        "in_output_ms": 1e3 * extra["output"] / n, "in_rest_ms": 1e3 * rest,
+        "in_solves_ms": 1e3 * per["solve"],
+        "in_loads_ms": 1e3 * extra["loads"] / n,
+        "in_update_ms": 1e3 * extra["update"] / n,
+        "in_output_ms": 1e3 * extra["output"] / n,
+        "in_rest_ms": 1e3 * rest,
     }
 
 
 def report(row: dict) -> None:
-    print(f"\n{row['case']}: {row['dofs']} unknowns, {row['steps']} steps "
-          f"({row['cuts']} cuts), {row['its_per_step']:.2f} Newton iterations per step")
-    print(f"  wall per step {row['wall_per_step_ms']:.2f} ms; floor {row['floor_ms']:.2f} ms "
-          f"(Jacobian {row['jacobian_ms']:.2f} + factorisation and solve "
-          f"{row['factor_solve_ms']:.2f} + residual {row['residual_ms']:.2f} ms per iteration); "
-          f"wall / floor = {row['ratio']:.2f}")
-    print(f"  per step: {row['residuals_per_step']:.2f} residuals {row['in_residuals_ms']:.2f} ms, "
-          f"{row['jacobians_per_step']:.2f} Jacobians {row['in_jacobians_ms']:.2f} ms, "
-          f"{row['liftings_per_step']:.2f} liftings {row['in_liftings_ms']:.2f} ms, "
-          f"solves {row['in_solves_ms']:.2f} ms, loads {row['in_loads_ms']:.2f} ms, "
-          f"update {row['in_update_ms']:.2f} ms, output {row['in_output_ms']:.2f} ms, "
-          f"rest {row['in_rest_ms']:.2f} ms")
+    print(
+        f"\n{row['case']}: {row['dofs']} unknowns, {row['steps']} steps "
+        f"({row['cuts']} cuts), {row['its_per_step']:.2f} Newton iterations per step"
+    )
+    print(
+        f"  wall per step {row['wall_per_step_ms']:.2f} ms; floor {row['floor_ms']:.2f} ms "
+        f"(Jacobian {row['jacobian_ms']:.2f} + factorisation and solve "
+        f"{row['factor_solve_ms']:.2f} + residual {row['residual_ms']:.2f} ms per iteration); "
+        f"wall / floor = {row['ratio']:.2f}"
+    )
+    print(
+        f"  per step: {row['residuals_per_step']:.2f} residuals {row['in_residuals_ms']:.2f} ms, "
+        f"{row['jacobians_per_step']:.2f} Jacobians {row['in_jacobians_ms']:.2f} ms, "
+        f"{row['liftings_per_step']:.2f} liftings {row['in_liftings_ms']:.2f} ms, "
+        f"solves {row['in_solves_ms']:.2f} ms, loads {row['in_loads_ms']:.2f} ms, "
+        f"update {row['in_update_ms']:.2f} ms, output {row['in_output_ms']:.2f} ms, "
+        f"rest {row['in_rest_ms']:.2f} ms"
+    )
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("cases", nargs="*", metavar="CASE",
-                        help=f"which: {', '.join(CASES)} (default: all)")
+    parser.add_argument(
+        "cases", nargs="*", metavar="CASE", help=f"which: {', '.join(CASES)} (default: all)"
+    )
     parser.add_argument("--steps", type=int, help="steps per case (default: per case)")
-    parser.add_argument("--csv", type=Path,
-                        default=Path("results/benchmarks/step_cost.csv"))
+    parser.add_argument("--csv", type=Path, default=Path("results/benchmarks/step_cost.csv"))
     args = parser.parse_args(argv)
     rows = []
     for name in cases_asked(parser, args.cases):

@@ -47,8 +47,12 @@ viscosity = 1.0
 method = "{method}"
 """
 
-MOTIONS = [((0, 0, 1), (0, 0, 0), 16.0), ((1, 0, 0), (0, 0, 0), 32 / 3),
-           ((0, 0, 0), (0, 0, 1), 32 / 3), ((0, 0, 0), (1, 0, 0), 32 / 3)]
+MOTIONS = [
+    ((0, 0, 1), (0, 0, 0), 16.0),
+    ((1, 0, 0), (0, 0, 0), 32 / 3),
+    ((0, 0, 0), (0, 0, 1), 32 / 3),
+    ((0, 0, 0), (1, 0, 0), 32 / 3),
+]
 
 
 def measure(mesh: Path, method: str, folder: Path) -> dict:
@@ -69,8 +73,7 @@ def measure(mesh: Path, method: str, folder: Path) -> dict:
         force, moment = -F.sum(axis=0), -np.cross(X, F).sum(axis=0)
         errors.append(-(force @ v + moment @ w) / exact - 1)  # the liquid resists
     t2 = time.perf_counter()
-    return {"nodes": len(X), "set-up s": t1 - t0, "resistance s": t2 - t1,
-            "errors": errors}
+    return {"nodes": len(X), "set-up s": t1 - t0, "resistance s": t2 - t1, "errors": errors}
 
 
 def main(argv=None) -> int:
@@ -78,8 +81,10 @@ def main(argv=None) -> int:
     parser.add_argument("--sizes", type=float, nargs="+", default=[0.6, 0.3, 0.2, 0.1])
     parser.add_argument("--methods", nargs="+", default=["layer", "blobs"])
     args = parser.parse_args(argv)
-    print("| method | cells | nodes | largest error of the four | broadside, edgewise, spin, "
-          "diameter | set-up (s) | resistance and four solves (s) |")
+    print(
+        "| method | cells | nodes | largest error of the four | broadside, edgewise, spin, "
+        "diameter | set-up (s) | resistance and four solves (s) |"
+    )
     print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -89,9 +94,12 @@ def main(argv=None) -> int:
             for method in args.methods:
                 r = measure(mesh, method, folder)
                 e = np.array(r["errors"])
-                print(f"| {method} | {size} a | {r['nodes']} | {100 * np.abs(e).max():.3g} % | "
-                      + ", ".join(f"{100 * x:+.3g} %" for x in e)
-                      + f" | {r['set-up s']:.2f} | {r['resistance s']:.2f} |", flush=True)
+                print(
+                    f"| {method} | {size} a | {r['nodes']} | {100 * np.abs(e).max():.3g} % | "
+                    + ", ".join(f"{100 * x:+.3g} %" for x in e)
+                    + f" | {r['set-up s']:.2f} | {r['resistance s']:.2f} |",
+                    flush=True,
+                )
     return 0
 
 

@@ -65,8 +65,11 @@ def best(f, repeat: int = 2, comm=None) -> float:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, nargs="+")
-    parser.add_argument("--fast", action="store_true",
-                        help="the matrix-free operator (fast multipoles) instead of the dense one")
+    parser.add_argument(
+        "--fast",
+        action="store_true",
+        help="the matrix-free operator (fast multipoles) instead of the dense one",
+    )
     args = parser.parse_args(argv)
     if args.fast:
         return fast(args.nodes or [500, 1000, 2000, 5000, 10000, 20000])
@@ -123,8 +126,10 @@ def fast(sizes) -> int:
 
     rng = np.random.default_rng(0)
     rows = []
-    print(f"{'nodes':>6} {'set-up s':>9} {'M F s':>7} {'solve s':>8} {'CG its':>6} "
-          f"{'G set-up s':>10} {'G dx s':>7} {'vs dense':>9}")
+    print(
+        f"{'nodes':>6} {'set-up s':>9} {'M F s':>7} {'solve s':>8} {'CG its':>6} "
+        f"{'G set-up s':>10} {'G dx s':>7} {'vs dense':>9}"
+    )
     for n in sizes:
         x, h = plate(n)
         x[:, 2] = 0.02 * np.sin(3.0 * x[:, 0])  # not exactly flat
@@ -148,8 +153,11 @@ def fast(sizes) -> int:
             dense = stokeslets.Resistance(x, delta, 1.0).solve(v)
             check = f"{np.linalg.norm(F - dense) / np.linalg.norm(dense):9.1e}"
         rows.append((len(x), t_setup, t_apply, t_solve, t_gset, t_g))
-        print(f"{len(x):6d} {t_setup:9.2f} {t_apply:7.3f} {t_solve:8.2f} "
-              f"{res.iterations[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}", flush=True)
+        print(
+            f"{len(x):6d} {t_setup:9.2f} {t_apply:7.3f} {t_solve:8.2f} "
+            f"{res.iterations[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}",
+            flush=True,
+        )
     exponents(rows, ["set-up", "M F", "solve", "G set-up", "G dx"])
     return 0
 

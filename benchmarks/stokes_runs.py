@@ -48,14 +48,25 @@ import repository_python  # noqa: E402
 repository_python.ensure()
 
 SHEET = ROOT / "demos" / "swimming_sheet.toml"
-STOKES = ["--unset", "fluid.drag", "--set", 'fluid.model="stokes"', "--set",
-          "fluid.viscosity=1.0e-9"]
+STOKES = [
+    "--unset",
+    "fluid.drag",
+    "--set",
+    'fluid.model="stokes"',
+    "--set",
+    "fluid.viscosity=1.0e-9",
+]
 WALL = ["--set", "fluid.wall.point=[0.0,0.0,-2.0]", "--set", "fluid.wall.normal=[0.0,0.0,1.0]"]
 CASES = {
     "rft": [],
     "stokes-10x2": [*STOKES, "--set", "mesh.divisions=[10,2]"],
-    "stokes-10x2-every": [*STOKES, "--set", "mesh.divisions=[10,2]", "--set",
-                          'fluid.factors="every-update"'],
+    "stokes-10x2-every": [
+        *STOKES,
+        "--set",
+        "mesh.divisions=[10,2]",
+        "--set",
+        'fluid.factors="every-update"',
+    ],
     "stokes-10x2-wall": [*STOKES, "--set", "mesh.divisions=[10,2]", *WALL],
     "stokes-20x4": [*STOKES],
     "stokes-20x4-every": [*STOKES, "--set", 'fluid.factors="every-update"'],
@@ -65,13 +76,14 @@ CASES = {
 }
 
 
-def run(case: str, out: Path, steps: int | None, source: Path | None = None,
-        processes: int = 1) -> dict:
+def run(
+    case: str, out: Path, steps: int | None, source: Path | None = None, processes: int = 1
+) -> dict:
     """One run of ``case`` into ``out`` (by the checkout at ``source`` if given, under
     ``mpirun -n processes`` if more than one)."""
     args = list(CASES[case])
     if source is not None:  # an earlier rftfem knows no fluid.factors (it made them all)
-        pairs = [args[i:i + 2] for i in range(0, len(args), 2)]
+        pairs = [args[i : i + 2] for i in range(0, len(args), 2)]
         args = [a for pair in pairs if "fluid.factors" not in pair[1] for a in pair]
     if steps:
         dt = 2 * 3.141592653589793 / 100.0 / 32  # the demo's T/32 (ω = 100)
@@ -79,12 +91,14 @@ def run(case: str, out: Path, steps: int | None, source: Path | None = None,
     env = dict(os.environ)
     if source is not None:
         env["PYTHONPATH"] = str(source) + os.pathsep + env.get("PYTHONPATH", "")
-    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--quiet",
-           *args]
+    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--quiet", *args]
     if processes > 1:
         cmd = ["mpirun", "-n", str(processes), *cmd]
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OMPI_MCA_rmaps_base_oversubscribe="1")
+        env.update(
+            OMPI_ALLOW_RUN_AS_ROOT="1",
+            OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+            OMPI_MCA_rmaps_base_oversubscribe="1",
+        )
     t0 = time.perf_counter()
     # (``-m`` puts the working folder first on the path: the checkout that runs)
     done = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=source or ROOT)
@@ -93,11 +107,16 @@ def run(case: str, out: Path, steps: int | None, source: Path | None = None,
         raise SystemExit(f"{case}: exit {done.returncode}: {done.stderr[-1500:]}")
     summary = json.loads((out / "summary.json").read_text())
     seconds = summary["wall_s"]
-    return {"case": case, "steps": summary["counts"]["steps"],
-            "newton": summary["counts"]["newton_iterations"], "process": wall,
-            "setup": seconds["setup"], "run": seconds["total"] - seconds["setup"],
-            "speed": (summary.get("steady") or {}).get("values", {}).get("front_ux_rate"),
-            "steps_s": _step_seconds(out)}
+    return {
+        "case": case,
+        "steps": summary["counts"]["steps"],
+        "newton": summary["counts"]["newton_iterations"],
+        "process": wall,
+        "setup": seconds["setup"],
+        "run": seconds["total"] - seconds["setup"],
+        "speed": (summary.get("steady") or {}).get("values", {}).get("front_ux_rate"),
+        "steps_s": _step_seconds(out),
+    }
 
 
 def _step_seconds(out: Path) -> list[float]:
@@ -110,8 +129,9 @@ def _step_seconds(out: Path) -> list[float]:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="+", choices=list(CASES),
-                        default=[c for c in CASES if c != "stokes-60x12"])
+    parser.add_argument(
+        "--cases", nargs="+", choices=list(CASES), default=[c for c in CASES if c != "stokes-60x12"]
+    )
     parser.add_argument("--steps", type=int, help="every run takes this many steps")
     parser.add_argument("--before", help="also run the Stokes cases by this commit")
     parser.add_argument("--np", type=int, default=1, help="run under mpirun -n NP")
@@ -121,31 +141,44 @@ def main(argv=None) -> int:
         source = None
         if args.before:
             source = tmp / "before"
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(source),
-                            args.before], check=True, capture_output=True)
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "add", "--detach", str(source), args.before],
+                check=True,
+                capture_output=True,
+            )
         try:
             rows = []
             for case in args.cases:
                 rows.append(run(case, tmp / case, args.steps, processes=args.np))
                 if source is not None and case != "rft":
-                    rows[-1]["before"] = run(case, tmp / f"{case}-before", args.steps, source,
-                                             args.np)
+                    rows[-1]["before"] = run(
+                        case, tmp / f"{case}-before", args.steps, source, args.np
+                    )
                 print(json.dumps(rows[-1]), flush=True)
         finally:
             if source is not None:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
-                                str(source)], capture_output=True)
+                subprocess.run(
+                    ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(source)],
+                    capture_output=True,
+                )
     rft = next((r for r in rows if r["case"] == "rft"), None)
-    print("\n| run | steps | Newton updates | steps (s) | s a step | whole process (s) | "
-          "× RFT | before (s) | after / before |")
+    print(
+        "\n| run | steps | Newton updates | steps (s) | s a step | whole process (s) | "
+        "× RFT | before (s) | after / before |"
+    )
     print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in rows:
         ratio = f"{r['process'] / rft['process']:.2g}" if rft else "—"
         before = r.get("before")
-        print(f"| {r['case']} | {r['steps']} | {r['newton']} | {r['run']:.1f} | "
-              f"{r['run'] / max(r['steps'], 1):.3f} | {r['process']:.1f} | {ratio} | "
-              + (f"{before['process']:.1f} | {r['process'] / before['process']:.2f} |"
-                 if before else "— | — |"))
+        print(
+            f"| {r['case']} | {r['steps']} | {r['newton']} | {r['run']:.1f} | "
+            f"{r['run'] / max(r['steps'], 1):.3f} | {r['process']:.1f} | {ratio} | "
+            + (
+                f"{before['process']:.1f} | {r['process'] / before['process']:.2f} |"
+                if before
+                else "— | — |"
+            )
+        )
     return 0
 
 

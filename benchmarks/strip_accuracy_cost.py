@@ -31,8 +31,8 @@ repository_python.ensure()
 import numpy as np
 
 import rftfem  # noqa: F401  (sets up the FEniCSx stack)
-from rftfem.scene.reading import load_scene
 from rftfem.integration.simulation import Simulation
+from rftfem.scene.reading import load_scene
 
 SCENE = Path(__file__).resolve().parents[1] / "demos" / "bidirectional_strip.toml"
 RAMP, SETTLE, PERIODS = 0.1, 0.1, 2
@@ -56,9 +56,16 @@ class Centroid:
 
 def run(frequency: float, divisions: tuple[int, int], steps: int) -> dict:
     end = RAMP + SETTLE + PERIODS / frequency
-    scene = load_scene(SCENE, [f"magnetic.field.frequency={frequency!r}", f"time.end={end!r}",
-                               f"time.dt={1 / (frequency * steps)!r}",
-                               f"mesh.divisions={list(divisions)}", "output.fields=false"])
+    scene = load_scene(
+        SCENE,
+        [
+            f"magnetic.field.frequency={frequency!r}",
+            f"time.end={end!r}",
+            f"time.dt={1 / (frequency * steps)!r}",
+            f"mesh.divisions={list(divisions)}",
+            "output.fields=false",
+        ],
+    )
     track = Centroid()
     sim = Simulation(scene, quiet=True, observers=[track])
     wall = time.perf_counter()
@@ -67,10 +74,17 @@ def run(frequency: float, divisions: tuple[int, int], steps: int) -> dict:
     finally:
         sim.close()
     c = summary["counts"]
-    return {"mesh": f"{divisions[0]}x{divisions[1]}", "steps_per_period": steps,
-            "dofs": summary["dofs"], "steps": c["steps"], "cuts": c["dt_cuts"],
-            "newton": c["newton_iterations"], "wall_s": time.perf_counter() - wall,
-            "status": summary["status"], "speed": track.speed_z(RAMP + SETTLE, end)}
+    return {
+        "mesh": f"{divisions[0]}x{divisions[1]}",
+        "steps_per_period": steps,
+        "dofs": summary["dofs"],
+        "steps": c["steps"],
+        "cuts": c["dt_cuts"],
+        "newton": c["newton_iterations"],
+        "wall_s": time.perf_counter() - wall,
+        "status": summary["status"],
+        "speed": track.speed_z(RAMP + SETTLE, end),
+    }
 
 
 def _positive(kind):
@@ -82,6 +96,7 @@ def _positive(kind):
         if not 0 < value < float("inf"):
             raise argparse.ArgumentTypeError(f"expected a finite number > 0, found '{text}'")
         return value
+
     return parse
 
 
@@ -98,11 +113,23 @@ def _divisions(text: str) -> tuple[int, int]:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--frequency", type=_positive(float), default=4.0, help="field frequency (Hz)")
-    parser.add_argument("--steps", type=_positive(int), nargs="+", default=[25, 50, 100],
-                        help="steps per field period on the demo mesh")
-    parser.add_argument("--meshes", nargs="+", type=_divisions, default=["20x4", "40x8"],
-                        help="meshes (divisions along x y); the finer ones at 50 steps per period")
+    parser.add_argument(
+        "--frequency", type=_positive(float), default=4.0, help="field frequency (Hz)"
+    )
+    parser.add_argument(
+        "--steps",
+        type=_positive(int),
+        nargs="+",
+        default=[25, 50, 100],
+        help="steps per field period on the demo mesh",
+    )
+    parser.add_argument(
+        "--meshes",
+        nargs="+",
+        type=_divisions,
+        default=["20x4", "40x8"],
+        help="meshes (divisions along x y); the finer ones at 50 steps per period",
+    )
     parser.add_argument("--out", type=Path, default=Path("results/benchmarks"))
     args = parser.parse_args(argv)
     meshes = [m if isinstance(m, tuple) else _divisions(m) for m in args.meshes]
@@ -113,15 +140,21 @@ def main(argv=None) -> int:
         rows.append(run(args.frequency, divisions, steps))
 
     # the runs log their steps; the table comes after them
-    print(f"\nstrip, +X protocol, {args.frequency:g} Hz: mean speed along Z over {PERIODS} "
-          f"periods from {RAMP + SETTLE:g} s")
-    print(f"{'mesh':>6} {'steps/T':>7} {'dofs':>6} {'steps':>6} {'cuts':>5} {'newton':>7} "
-          f"{'wall s':>7} {'s/step':>7} {'speed mm/s':>11}")
+    print(
+        f"\nstrip, +X protocol, {args.frequency:g} Hz: mean speed along Z over {PERIODS} "
+        f"periods from {RAMP + SETTLE:g} s"
+    )
+    print(
+        f"{'mesh':>6} {'steps/T':>7} {'dofs':>6} {'steps':>6} {'cuts':>5} {'newton':>7} "
+        f"{'wall s':>7} {'s/step':>7} {'speed mm/s':>11}"
+    )
     for r in rows:
-        print(f"{r['mesh']:>6} {r['steps_per_period']:>7} {r['dofs']:>6} {r['steps']:>6} "
-              f"{r['cuts']:>5} {r['newton']:>7} {r['wall_s']:>7.1f} "
-              f"{r['wall_s'] / max(r['steps'], 1):>7.3f} {r['speed']:>+11.4f}"
-              + ("" if r["status"] == "ok" else "  FAILED"))
+        print(
+            f"{r['mesh']:>6} {r['steps_per_period']:>7} {r['dofs']:>6} {r['steps']:>6} "
+            f"{r['cuts']:>5} {r['newton']:>7} {r['wall_s']:>7.1f} "
+            f"{r['wall_s'] / max(r['steps'], 1):>7.3f} {r['speed']:>+11.4f}"
+            + ("" if r["status"] == "ok" else "  FAILED")
+        )
 
     # time step on the first mesh against its finest step; meshes at 50 steps per
     # period against the finest mesh
@@ -133,10 +166,13 @@ def main(argv=None) -> int:
             continue
         ref = max(group, key=lambda r: (r["dofs"], r["steps_per_period"]))
         for r in group:
-            r[f"diff_{label.replace(' ', '_')}_percent"] = d = \
+            r[f"diff_{label.replace(' ', '_')}_percent"] = d = (
                 100 * (r["speed"] - ref["speed"]) / abs(ref["speed"])
-            print(f"{label:>9}: {r['mesh']:>6} at {r['steps_per_period']:>4} steps/T "
-                  f"{d:+8.3f} % from {ref['mesh']} at {ref['steps_per_period']}")
+            )
+            print(
+                f"{label:>9}: {r['mesh']:>6} at {r['steps_per_period']:>4} steps/T "
+                f"{d:+8.3f} % from {ref['mesh']} at {ref['steps_per_period']}"
+            )
 
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "strip_accuracy_cost.csv"
@@ -145,8 +181,13 @@ def main(argv=None) -> int:
     with open(path, "w", encoding="utf-8") as f:
         f.write(",".join(keys) + "\n")
         for r in rows:
-            f.write(",".join(f"{r[k]:.6g}" if isinstance(r.get(k), float) else str(r.get(k, ""))
-                             for k in keys) + "\n")
+            f.write(
+                ",".join(
+                    f"{r[k]:.6g}" if isinstance(r.get(k), float) else str(r.get(k, ""))
+                    for k in keys
+                )
+                + "\n"
+            )
     print(f"wrote {path}")
     return 0 if all(r["status"] == "ok" for r in rows) else 1
 

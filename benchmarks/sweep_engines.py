@@ -42,11 +42,31 @@ ENGINES = [("local", 1), ("local", 2), ("dask", 1), ("dask", 2)]
 def sweep(out: Path, executor: str, jobs: int, runs: int, end: float) -> tuple[float, float]:
     """(wall time of the sweep, sum of the runs' own wall times)."""
     amplitudes = ",".join(f"{0.05 + 0.01 * k:.2f}" for k in range(runs))
-    cmd = [sys.executable, "-m", "rftfem", "sweep", str(ROOT / "demos" / "swimming_sheet.toml"),
-           "--vary", f"motion.0.amplitude={amplitudes}", "--quantity", "x=max(front_ux)",
-           "--set", "mesh.divisions=[10,2]", "--set", "time.until=end",
-           "--set", f"time.end={end!r}", "--set", "output.fields=false",
-           "--executor", executor, "--jobs", str(jobs), "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "sweep",
+        str(ROOT / "demos" / "swimming_sheet.toml"),
+        "--vary",
+        f"motion.0.amplitude={amplitudes}",
+        "--quantity",
+        "x=max(front_ux)",
+        "--set",
+        "mesh.divisions=[10,2]",
+        "--set",
+        "time.until=end",
+        "--set",
+        f"time.end={end!r}",
+        "--set",
+        "output.fields=false",
+        "--executor",
+        executor,
+        "--jobs",
+        str(jobs),
+        "--out",
+        str(out),
+    ]
     env = dict(os.environ, OMP_NUM_THREADS="1")
     t0 = time.perf_counter()
     done = subprocess.run(cmd, capture_output=True, text=True, env=env)
@@ -66,26 +86,27 @@ def sweep(out: Path, executor: str, jobs: int, runs: int, end: float) -> tuple[f
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=16)
-    parser.add_argument("--end", type=float, default=2.0,
-                        help="time.end of each run (2 s: about 10 s of run here)")
+    parser.add_argument(
+        "--end", type=float, default=2.0, help="time.end of each run (2 s: about 10 s of run here)"
+    )
     args = parser.parse_args(argv)
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         # one untimed run first: the forms compiled and the caches warm
         sweep(Path(tmp) / "warm", "local", 1, 1, args.end)
         for executor, jobs in ENGINES:
-            wall, own = sweep(Path(tmp) / f"{executor}{jobs}", executor, jobs, args.runs,
-                              args.end)
+            wall, own = sweep(Path(tmp) / f"{executor}{jobs}", executor, jobs, args.runs, args.end)
             results[(executor, jobs)] = (wall, own)
             print(f"{executor} --jobs {jobs}: {wall:.1f} s", flush=True)
     print(f"\n{args.runs} runs of the sheet to t = {args.end:g} (10 × 2)\n")
-    print("| engine | workers | sweep wall (s) | runs' own (s) | overhead a run (s) "
-          "| speed-up on 2 |")
+    print(
+        "| engine | workers | sweep wall (s) | runs' own (s) | overhead a run (s) | speed-up on 2 |"
+    )
     print("| --- | ---: | ---: | ---: | ---: | ---: |")
     for executor, jobs in ENGINES:
         wall, own = results[(executor, jobs)]
         overhead = (wall * jobs - own) / args.runs
-        speedup = (f"{results[(executor, 1)][0] / wall:.2f}" if jobs == 2 else "")
+        speedup = f"{results[(executor, 1)][0] / wall:.2f}" if jobs == 2 else ""
         print(f"| {executor} | {jobs} | {wall:.1f} | {own:.1f} | {overhead:.2f} | {speedup} |")
     # local --jobs 1 runs in the sweep's process (no process to start); at two workers
     # both engines start a child `rftfem run` per run: the difference is the engine's

@@ -69,9 +69,11 @@ def groups(scene: dict) -> dict:
     end_area = (region["x"][1] - region["x"][0]) * W
     couple = part["magnetization"] * field["strength"] * t * end_area
     omega = 2 * math.pi * field.get("frequency", 0.0)
-    return {"magneto_elastic_number": couple * L / (D * W),
-            "sperm_number": L * (scene["fluid"]["drag"][2] * omega / D) ** 0.25,
-            "end_couple_Nmm": couple}
+    return {
+        "magneto_elastic_number": couple * L / (D * W),
+        "sperm_number": L * (scene["fluid"]["drag"][2] * omega / D) ** 0.25,
+        "end_couple_Nmm": couple,
+    }
 
 
 def parse_set(text: str) -> tuple[str, object]:
@@ -117,8 +119,10 @@ def rotational_drag(mesh, C, material_axis, axis, centre) -> float:
     ij = np.array([(0, 0), (2, 0), (2, 2), (0, 2), (1, 0), (2, 1), (1, 2), (0, 1), (1, 1)])
 
     def lagrange(s):  # the quadratic shape functions at 0, 1/2, 1 and their derivatives
-        return (np.array([2 * (s - 0.5) * (s - 1), -4 * s * (s - 1), 2 * s * (s - 0.5)]),
-                np.array([4 * s - 3, 4 - 8 * s, 4 * s - 1]))
+        return (
+            np.array([2 * (s - 0.5) * (s - 1), -4 * s * (s - 1), 2 * s * (s - 0.5)]),
+            np.array([4 * s - 3, 4 - 8 * s, 4 * s - 1]),
+        )
 
     points, weights = np.polynomial.legendre.leggauss(3)
     a, zeta = unit(axis), 0.0
@@ -134,8 +138,9 @@ def rotational_drag(mesh, C, material_axis, axis, centre) -> float:
             e1 = unit(np.einsum("cij,cj->ci", g, along))  # F E₁ (E₁ made tangent)
             e3 = normal / area[:, None]
             v = np.cross(a, N @ x - centre)
-            power = sum(c * np.einsum("ck,ck->c", v, e) ** 2
-                        for c, e in zip(C, (e1, np.cross(e3, e1), e3)))
+            power = sum(
+                c * np.einsum("ck,ck->c", v, e) ** 2 for c, e in zip(C, (e1, np.cross(e3, e1), e3))
+            )
             zeta += wp * wq * float(power @ area)
     return zeta
 
@@ -151,8 +156,7 @@ def phase1(result, scene) -> tuple[np.ndarray, float]:
     row = body.iloc[int(np.argmin(abs(body["time"].to_numpy() - mesh.field_data["time"][0])))]
     Q = row[["moment_x", "moment_y", "moment_z"]].to_numpy(dtype=float)
     centre = row[["centroid_x", "centroid_y", "centroid_z"]].to_numpy(dtype=float)
-    zeta = rotational_drag(mesh, result.summary["fluid"]["drag"], scene["shell.axis"], axis,
-                           centre)
+    zeta = rotational_drag(mesh, result.summary["fluid"]["drag"], scene["shell.axis"], axis, centre)
     q_perp = np.linalg.norm(Q - (Q @ axis) * axis)
     shape = np.asarray(mesh.points) + np.asarray(mesh.point_data["displacement"])
     return shape, q_perp * field["strength"] / zeta / (2 * math.pi)
@@ -161,8 +165,7 @@ def phase1(result, scene) -> tuple[np.ndarray, float]:
 def centroid_path(result) -> tuple[np.ndarray, np.ndarray]:
     """The centroid at each output time (body.csv): times (n,) and positions (n, 3)."""
     body = result.body
-    return (body["time"].to_numpy(),
-            body[["centroid_x", "centroid_y", "centroid_z"]].to_numpy())
+    return (body["time"].to_numpy(), body[["centroid_x", "centroid_y", "centroid_z"]].to_numpy())
 
 
 def net_displacement(t, c, axis, t0: float, t1: float) -> float:
@@ -176,6 +179,7 @@ def net_displacement(t, c, axis, t0: float, t1: float) -> float:
 
 def plot_shapes(shapes: dict, path: Path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -197,6 +201,7 @@ def plot_shapes(shapes: dict, path: Path):
 
 def plot_trajectories(curves: dict, ramp: float, path: Path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -267,26 +272,35 @@ def sweep_row(folder: Path, settle: float = SETTLE) -> dict:
     if steady.get("reached"):
         values = steady["values"]
         speed = float(axis @ [values[f"centroid_{k}_rate"] for k in "xyz"])
-    return {"frequency": field["frequency"], "speed": speed, "slip": lost / max(turns, 1e-300),
-            "status": summary["status"], "end": float(t1),
-            "steady": bool(steady.get("reached")) if steady else None}
+    return {
+        "frequency": field["frequency"],
+        "speed": speed,
+        "slip": lost / max(turns, 1e-300),
+        "status": summary["status"],
+        "end": float(t1),
+        "steady": bool(steady.get("reached")) if steady else None,
+    }
 
 
 def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rows = []
-    for run in sorted(p for p in folder.iterdir()
-                      if (p / "body.csv").exists() and (p / "summary.json").exists()):
+    for run in sorted(
+        p for p in folder.iterdir() if (p / "body.csv").exists() and (p / "summary.json").exists()
+    ):
         try:
             rows.append(sweep_row(run, settle))
-        except ValueError as error:   # a run that failed early: say so, plot the others
+        except ValueError as error:  # a run that failed early: say so, plot the others
             print(f"bidirectional_strip: left out of the sweep: {error}", file=sys.stderr)
     if not rows:
-        print(f"bidirectional_strip: no usable runs (body.csv and summary.json) in {folder}",
-              file=sys.stderr)
+        print(
+            f"bidirectional_strip: no usable runs (body.csv and summary.json) in {folder}",
+            file=sys.stderr,
+        )
         return 2
     rows.sort(key=lambda r: r["frequency"])
     f = np.array([r["frequency"] for r in rows])
@@ -297,24 +311,38 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     slipping = np.array([r["slip"] > STEPPED_OUT_SLIP for r in rows])
     peak = int(np.argmax(np.abs(v)))
     with open(folder / "sweep.csv", "w", encoding="utf-8") as out:
-        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s,"
-                  "steady\n")
+        out.write("frequency_hz,mean_speed_mm_s,slip_turns_per_field_turn,status,t_end_s,steady\n")
         for r in rows:
-            out.write(f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f},{r['status']},"
-                      f"{r['end']:.6g},{'' if r['steady'] is None else str(r['steady']).lower()}"
-                      "\n")
+            out.write(
+                f"{r['frequency']},{r['speed']:.6g},{r['slip']:.4f},{r['status']},"
+                f"{r['end']:.6g},{'' if r['steady'] is None else str(r['steady']).lower()}"
+                "\n"
+            )
     fig, ax = plt.subplots(figsize=(6, 4))
     # signed: the direction along the axis may change with f
     ax.axhline(0.0, color="grey", lw=0.6)
     ax.plot(f, v, "o-", color="C0", label="mean speed along the rotation axis")
     ax.plot(f[peak], v[peak], "*", color="C1", ms=12, label="fastest")
     if slipping.any():
-        ax.plot(f[slipping], v[slipping], "x", color="C3", ms=10,
-                label="stepped out: the moment slips behind the field")
+        ax.plot(
+            f[slipping],
+            v[slipping],
+            "x",
+            color="C3",
+            ms=10,
+            label="stepped out: the moment slips behind the field",
+        )
     failed = np.array([r["status"] != "ok" for r in rows])
     if failed.any():
-        ax.plot(f[failed], v[failed], "s", mfc="none", color="k", ms=10,
-                label="run failed: measured up to where it stopped")
+        ax.plot(
+            f[failed],
+            v[failed],
+            "s",
+            mfc="none",
+            color="k",
+            ms=10,
+            label="run failed: measured up to where it stopped",
+        )
     if estimate:
         ax.axvline(estimate, color="grey", ls="--", label=f"rigid-rotor estimate {estimate:.0f} Hz")
     if f.min() > 0 and f.max() / f.min() > 8:
@@ -327,8 +355,10 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
     for r in rows:
         failed = "" if r["status"] == "ok" else f"  (run FAILED at t = {r['end']:.4g} s)"
         how = {True: "steady", False: "NOT steady by its end", None: "window mean"}[r["steady"]]
-        print(f"f = {r['frequency']:6.2f} Hz: speed {r['speed']:+9.4f} mm/s ({how}), "
-              f"slip {r['slip']:.3f} turn per field turn{failed}")
+        print(
+            f"f = {r['frequency']:6.2f} Hz: speed {r['speed']:+9.4f} mm/s ({how}), "
+            f"slip {r['slip']:.3f} turn per field turn{failed}"
+        )
     print(f"wrote {folder / 'sweep.csv'} and {folder / 'sweep.png'}")
     return 0
 
@@ -339,20 +369,34 @@ def sweep(folder: Path, estimate: float | None, settle: float = SETTLE) -> int:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("results/bidirectional_strip"))
-    parser.add_argument("--set", dest="overrides", action="append", default=[],
-                        metavar="KEY=VALUE", help="scene override, as for rftfem run")
-    parser.add_argument("--sweep", type=Path, metavar="DIR",
-                        help="only plot the sweep made by demos/strip_sweep.sh in DIR")
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="scene override, as for rftfem run",
+    )
+    parser.add_argument(
+        "--sweep",
+        type=Path,
+        metavar="DIR",
+        help="only plot the sweep made by demos/strip_sweep.sh in DIR",
+    )
     parser.add_argument("--estimate", type=float, help="step-out estimate to mark (Hz)")
-    parser.add_argument("--settle", type=float, default=SETTLE,
-                        help=f"seconds after the ramp left out of the sweep's speeds "
-                             f"(default {SETTLE})")
+    parser.add_argument(
+        "--settle",
+        type=float,
+        default=SETTLE,
+        help=f"seconds after the ramp left out of the sweep's speeds (default {SETTLE})",
+    )
     args = parser.parse_args(argv)
     if args.sweep:
         return sweep(args.sweep, args.estimate, args.settle)
 
-    import rftfem  # noqa: F401  (before mpi4py: sets up the FEniCSx stack)
     from mpi4py import MPI
+
+    import rftfem  # noqa: F401  (before mpi4py: sets up the FEniCSx stack)
 
     comm = MPI.COMM_WORLD
     runs = {name: run_protocol(name, args.overrides, args.out, comm) for name in PROTOCOLS}
@@ -363,19 +407,24 @@ def main(argv=None) -> int:
     axis = unit(field["rotation_axis"])
     end, period = scene["time.end"], 1.0 / field["frequency"]
     paths = {name: centroid_path(result) for name, (result, _) in runs.items()}
-    net = {name: net_displacement(*path, axis, end - 2 * period, end)
-           for name, path in paths.items()}
+    net = {
+        name: net_displacement(*path, axis, end - 2 * period, end) for name, path in paths.items()
+    }
     g = groups(scene.to_dict())
     phases = {name: phase1(result, protocol) for name, (result, protocol) in runs.items()}
     f_c = phases["+X"][1]
     args.out.mkdir(parents=True, exist_ok=True)
     lines = [
-        f"| quantity | value |", "|---|---|",
+        "| quantity | value |",
+        "|---|---|",
         f"| magneto-elastic number m B t A_end L / (D W) | {g['magneto_elastic_number']:.3g} |",
-        f"| sperm number L (C₃ ω / D)^¼ at f = {field['frequency']:g} Hz | {g['sperm_number']:.3g} |",
+        f"| sperm number L (C₃ ω / D)^¼ at f = {field['frequency']:g} Hz "
+        f"| {g['sperm_number']:.3g} |",
         f"| rigid-rotor step-out estimate of the phase-1 shape | {f_c:.3g} Hz |",
-    ] + [f"| net displacement along the axis, last two periods, field along {n} | {d:+.4f} mm |"
-         for n, d in net.items()]
+    ] + [
+        f"| net displacement along the axis, last two periods, field along {n} | {d:+.4f} mm |"
+        for n, d in net.items()
+    ]
     (args.out / "groups.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
     with open(args.out / "trajectory.csv", "w", encoding="utf-8") as f:
@@ -384,8 +433,7 @@ def main(argv=None) -> int:
         along = [c @ axis for _, c in paths.values()]
         for i, ti in enumerate(t):
             f.write(f"{float(ti)!r}," + ",".join(f"{float(z[i])!r}" for z in along) + "\n")
-    plot_shapes({n: shape for n, (shape, _) in phases.items()},
-                args.out / "shape_phase1.png")
+    plot_shapes({n: shape for n, (shape, _) in phases.items()}, args.out / "shape_phase1.png")
     curves = {n: (t, c @ axis) for n, (t, c) in paths.items()}
     plot_trajectories(curves, field["ramp_time"], args.out / "trajectory.png")
     print(f"wrote groups.md, trajectory.csv, shape_phase1.png, trajectory.png in {args.out}")
@@ -394,8 +442,11 @@ def main(argv=None) -> int:
         draw_picture_and_film(result.folder, "strip", view="follow")
     a, b = net["+X"], net["-X"]
     if not (a * b < 0 and abs(abs(a) / abs(b) - 1) <= 0.05):
-        print(f"bidirectional_strip: FAILED: the protocols should swim in opposite senses "
-              f"with equal magnitudes (5 %); got {a:+.4f} and {b:+.4f} mm", file=sys.stderr)
+        print(
+            f"bidirectional_strip: FAILED: the protocols should swim in opposite senses "
+            f"with equal magnitudes (5 %); got {a:+.4f} and {b:+.4f} mm",
+            file=sys.stderr,
+        )
         return 1
     return 0
 

@@ -58,9 +58,9 @@ HERE = Path(__file__).resolve().parent
 SCENE = HERE / "magnetic_design.toml"
 #: the design: each parameter (parameters.NAME) and its interval LO:HI[:log]
 DESIGN = {
-    "wavelength": "3.6:5.6",                       # mm
-    "phase": f"{-math.pi:.6f}:{math.pi:.6f}",      # rad
-    "frequency": "2:8:log",                        # Hz
+    "wavelength": "3.6:5.6",  # mm
+    "phase": f"{-math.pi:.6f}:{math.pi:.6f}",  # rad
+    "frequency": "2:8:log",  # Hz
 }
 #: one period's advance along X (the second burst's less the first's, read at rest), times f
 OBJECTIVE = "(centroid_x@end - 2*centroid_x@1.25 + centroid_x@0.5)*scene(parameters.frequency)"
@@ -80,8 +80,9 @@ def rftfem(*args: str) -> None:
     subprocess.run([sys.executable, "-m", "rftfem", *args], check=True)
 
 
-def optimize(out: Path, names: list[str], method: str, budget: int, sets: dict,
-             reuse: bool) -> tuple[dict, list[dict], float, int]:
+def optimize(
+    out: Path, names: list[str], method: str, budget: int, sets: dict, reuse: bool
+) -> tuple[dict, list[dict], float, int]:
     """Run ``rftfem optimize`` over ``names`` with ``sets`` fixed; its best row, its
     finished rows (ok or infeasible, each with ``folder`` made a path), its wall time
     and its number of runs."""
@@ -90,9 +91,20 @@ def optimize(out: Path, names: list[str], method: str, budget: int, sets: dict,
         cmd += ["--vary", f"{key(n)}={DESIGN[n]}"]
     for n, v in sets.items():
         cmd += ["--set", f"{key(n)}={v!r}"]
-    cmd += ["--objective", OBJECTIVE, "--constraint", SAME_SHAPE, "--maximize",
-            "--method", method, "--budget", str(budget), "--out", str(out),
-            *(["--reuse"] if reuse else [])]
+    cmd += [
+        "--objective",
+        OBJECTIVE,
+        "--constraint",
+        SAME_SHAPE,
+        "--maximize",
+        "--method",
+        method,
+        "--budget",
+        str(budget),
+        "--out",
+        str(out),
+        *(["--reuse"] if reuse else []),
+    ]
     t0 = time.perf_counter()
     rftfem(*cmd)
     wall = time.perf_counter() - t0
@@ -115,8 +127,14 @@ def measure(row: dict) -> dict:
 
     result = rftfem.Result(row["folder"])  # its formulas are rftfem optimize's
     ux, uz, q = (result.quantity(f) for f in (OBJECTIVE, SIDEWAYS, REST_MOMENT))
-    return {**row, "U": ux, "Uz": uz, "size": math.hypot(ux, uz),
-            "direction": math.degrees(math.atan2(uz, ux)), "Q": q}
+    return {
+        **row,
+        "U": ux,
+        "Uz": uz,
+        "size": math.hypot(ux, uz),
+        "direction": math.degrees(math.atan2(uz, ux)),
+        "Q": q,
+    }
 
 
 def run_finished(folder: Path) -> bool:
@@ -128,39 +146,65 @@ def run_finished(folder: Path) -> bool:
 
 def describe(r: dict) -> str:
     shape = "" if r.get("status", "ok") == "ok" else " (changed: infeasible)"
-    return (f"| {r['wavelength']:.4f} | {r['phase']:+.4f} | {r['frequency']:.3f} | "
-            f"{r['U']:.5f} | {r['size']:.5f} | {r['direction']:+.1f}° | {r['Q']:.2f}{shape} |")
+    return (
+        f"| {r['wavelength']:.4f} | {r['phase']:+.4f} | {r['frequency']:.3f} | "
+        f"{r['U']:.5f} | {r['size']:.5f} | {r['direction']:+.1f}° | {r['Q']:.2f}{shape} |"
+    )
 
 
-HEAD = ("| λ (mm) | φ (rad) | f (Hz) | U along X (mm/s) | \\|U\\| (mm/s) | direction "
-        "(from X to Z) | moment at rest (A·mm²) |")
+HEAD = (
+    "| λ (mm) | φ (rad) | f (Hz) | U along X (mm/s) | \\|U\\| (mm/s) | direction "
+    "(from X to Z) | moment at rest (A·mm²) |"
+)
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("results/magnetic_design"),
-                        help="the results folder (default results/magnetic_design)")
-    parser.add_argument("--method", default="cobyla",
-                        help="rftfem optimize --method (default cobyla, rftfem's default)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/magnetic_design"),
+        help="the results folder (default results/magnetic_design)",
+    )
+    parser.add_argument(
+        "--method",
+        default="cobyla",
+        help="rftfem optimize --method (default cobyla, rftfem's default)",
+    )
     parser.add_argument("--budget", type=int, default=40, help="the search's runs at most")
-    parser.add_argument("--grid-wavelength", type=int, default=13, metavar="N",
-                        help="grid points along λ (0: no grid)")
-    parser.add_argument("--grid-frequency", type=int, default=5, metavar="N",
-                        help="grid points along f (0: no grid)")
-    parser.add_argument("--grid-phase", type=int, default=5, metavar="N",
-                        help="grid points along φ (0: no grid)")
-    parser.add_argument("--no-film", action="store_true",
-                        help="skip the fields and the film of the optimum")
+    parser.add_argument(
+        "--grid-wavelength",
+        type=int,
+        default=13,
+        metavar="N",
+        help="grid points along λ (0: no grid)",
+    )
+    parser.add_argument(
+        "--grid-frequency",
+        type=int,
+        default=5,
+        metavar="N",
+        help="grid points along f (0: no grid)",
+    )
+    parser.add_argument(
+        "--grid-phase", type=int, default=5, metavar="N", help="grid points along φ (0: no grid)"
+    )
+    parser.add_argument(
+        "--no-film", action="store_true", help="skip the fields and the film of the optimum"
+    )
     parser.add_argument("--reuse", action="store_true", help="read finished runs")
     args = parser.parse_args(argv)
     t_start = time.perf_counter()
-    shipped = {n: float(v) for n, v in
-               tomllib.loads(SCENE.read_text(encoding="utf-8"))["parameters"].items()
-               if n in DESIGN}
+    shipped = {
+        n: float(v)
+        for n, v in tomllib.loads(SCENE.read_text(encoding="utf-8"))["parameters"].items()
+        if n in DESIGN
+    }
 
     # 1. the search, from the scene as shipped
     best, rows, search_wall, search_runs = optimize(
-        args.out / "optimize", list(DESIGN), args.method, args.budget, {}, args.reuse)
+        args.out / "optimize", list(DESIGN), args.method, args.budget, {}, args.reuse
+    )
     best = measure(best)
     base = [r for r in rows if all(abs(r[n] - shipped[n]) < 1e-9 for n in DESIGN)]
     base_wall = 0.0
@@ -177,25 +221,42 @@ def main(argv=None) -> int:
 
     # 2. brute force along each parameter, the others at the optimum
     grids = {}
-    for name, points in (("wavelength", args.grid_wavelength),
-                         ("frequency", args.grid_frequency), ("phase", args.grid_phase)):
+    for name, points in (
+        ("wavelength", args.grid_wavelength),
+        ("frequency", args.grid_frequency),
+        ("phase", args.grid_phase),
+    ):
         if points < 2:
             continue
         sets = {n: v for n, v in optimum.items() if n != name}
-        g_best, g_rows, g_wall, _ = optimize(args.out / f"grid-{name}", [name], "grid",
-                                             points, sets, args.reuse)
-        grids[name] = (measure(g_best), sorted((measure(r) for r in g_rows),
-                                               key=lambda r: r[name]), g_wall)
+        g_best, g_rows, g_wall, _ = optimize(
+            args.out / f"grid-{name}", [name], "grid", points, sets, args.reuse
+        )
+        grids[name] = (
+            measure(g_best),
+            sorted((measure(r) for r in g_rows), key=lambda r: r[name]),
+            g_wall,
+        )
 
     # 3. the optimum at dt halved, with fields for the film
     fine_dir = args.out / "optimum-dt2"
     t0 = time.perf_counter()
-    if not (args.reuse and run_finished(fine_dir)
-            and (args.no_film or (fine_dir / "fields.xdmf").exists())):
-        rftfem("run", str(SCENE), "--out", str(fine_dir), "--quiet",
-               *[f"--set={key(n)}={v!r}" for n, v in optimum.items()],
-               f"--set=time.dt={DT / 2!r}", "--set=time.output_every=8",
-               f"--set=output.fields={'false' if args.no_film else 'true'}")
+    if not (
+        args.reuse
+        and run_finished(fine_dir)
+        and (args.no_film or (fine_dir / "fields.xdmf").exists())
+    ):
+        rftfem(
+            "run",
+            str(SCENE),
+            "--out",
+            str(fine_dir),
+            "--quiet",
+            *[f"--set={key(n)}={v!r}" for n, v in optimum.items()],
+            f"--set=time.dt={DT / 2!r}",
+            "--set=time.output_every=8",
+            f"--set=output.fields={'false' if args.no_film else 'true'}",
+        )
     fine_wall = time.perf_counter() - t0
     fine = measure({"folder": fine_dir, **optimum})
 
@@ -215,8 +276,10 @@ def main(argv=None) -> int:
         f"| optimum {describe(best)} {args.method} | {search_runs} | {search_wall:.0f} |",
     ]
     for name, (g_best, g_rows, g_wall) in grids.items():
-        lines.append(f"| grid along {name}: best {describe(g_best)} grid of {len(g_rows)} | "
-                     f"{len(g_rows)} | {g_wall:.0f} |")
+        lines.append(
+            f"| grid along {name}: best {describe(g_best)} grid of {len(g_rows)} | "
+            f"{len(g_rows)} | {g_wall:.0f} |"
+        )
     lines += [
         f"| optimum at dt halved {describe(fine)} {DT / 2:.6g} s | 1 | {fine_wall:.0f} |",
         "",
@@ -226,18 +289,29 @@ def main(argv=None) -> int:
     ]
     for name, (g_best, g_rows, g_wall) in grids.items():
         fixed = ", ".join(f"{n} = {v:.4g}" for n, v in optimum.items() if n != name)
-        lines += ["", f"Grid along {name} ({fixed}):", "", HEAD, "| --- " * 7 + "|",
-                  *(describe(r) for r in g_rows)]
-    lines += ["", f"Total wall time {time.perf_counter() - t_start:.0f} s"
-              + (" (--reuse: finished runs were read)." if args.reuse else ".")]
+        lines += [
+            "",
+            f"Grid along {name} ({fixed}):",
+            "",
+            HEAD,
+            "| --- " * 7 + "|",
+            *(describe(r) for r in g_rows),
+        ]
+    lines += [
+        "",
+        f"Total wall time {time.perf_counter() - t_start:.0f} s"
+        + (" (--reuse: finished runs were read)." if args.reuse else "."),
+    ]
     text = "\n".join(lines)
     print(text)
     (args.out / "magnetic.md").write_text(text + "\n", encoding="utf-8")
     if not args.no_film:
         film = args.out / "optimum.mp4"
         rftfem("render", str(fine_dir), "--out", str(film), "--view", "xz")
-        print(f"film of the optimum: {film}; the search's history: "
-              f"{args.out / 'optimize' / 'optimize.png'}")
+        print(
+            f"film of the optimum: {film}; the search's history: "
+            f"{args.out / 'optimize' / 'optimize.png'}"
+        )
     if best["U"] < base["U"]:
         print("the optimum is slower than the baseline", file=sys.stderr)
         return 1

@@ -60,12 +60,16 @@ def arch_mesh(path: Path, cells: int = 16) -> Path:
         geo = gmsh.model.geo
         centre = geo.addPoint(0, 0, RISE - radius)
         arc = geo.addCircleArc(geo.addPoint(0, 0, RISE), centre, geo.addPoint(HALF_SPAN, 0, 0))
-        top, surface, at_end, at_crown = geo.extrude([(1, arc)], 0, WIDTH, 0,
-                                                     numElements=[1], recombine=True)
+        top, surface, at_end, at_crown = geo.extrude(
+            [(1, arc)], 0, WIDTH, 0, numElements=[1], recombine=True
+        )
         geo.synchronize()
         gmsh.model.mesh.setTransfiniteCurve(arc, cells + 1)
-        for dim, tag, name in ((2, surface[1], "arch"), (1, abs(at_crown[1]), "crown"),
-                               (1, abs(at_end[1]), "end")):
+        for dim, tag, name in (
+            (2, surface[1], "arch"),
+            (1, abs(at_crown[1]), "crown"),
+            (1, abs(at_end[1]), "end"),
+        ):
             gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, [tag]), name)
         gmsh.model.mesh.generate(2)
         gmsh.model.mesh.setOrder(2)
@@ -106,8 +110,13 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("results/magnetic_snap"))
     p.add_argument("--film", action="store_true", help="render snap.mp4 of the snapping run")
-    p.add_argument("--mesh", type=int, default=None, metavar="N",
-                   help="rewrite demos/magnetic_arch.msh with N cells along the half arch")
+    p.add_argument(
+        "--mesh",
+        type=int,
+        default=None,
+        metavar="N",
+        help="rewrite demos/magnetic_arch.msh with N cells along the half arch",
+    )
     args = p.parse_args(argv)
     if args.mesh or not MESH.exists():
         arch_mesh(MESH, args.mesh or 16)
@@ -118,8 +127,10 @@ def main(argv=None) -> int:
     b_path = PATH_FIELD * path["load_factor"]
     w_path = path["crown_uz"]
     b_up, b_back = b_path[top], b_path[bottom]
-    print(f"path: {len(b_path) - 1} arc steps; snap-through limit {b_up:.4f} mT at crown "
-          f"uz = {w_path[top]:+.3f} mm; snap-back limit {b_back:+.4f} mT at {w_path[bottom]:+.3f} mm")
+    print(
+        f"path: {len(b_path) - 1} arc steps; snap-through limit {b_up:.4f} mT at crown "
+        f"uz = {w_path[top]:+.3f} mm; snap-back limit {b_back:+.4f} mT at {w_path[bottom]:+.3f} mm"
+    )
 
     runs = {}
     for factor in (0.95, 1.05):
@@ -132,24 +143,37 @@ def main(argv=None) -> int:
         snapped = bool(w[-1] < -RISE)
         speed = np.gradient(w, t)
         fastest = int(np.argmin(speed))
-        runs[factor] = dict(t=t, w=w, snapped=snapped, time=t[fastest],
-                            field=factor * b_up * np.clip((t - RAMP_START) / RAMP, 0, 1))
-        print(f"held at {factor:.2f} × the limit ({factor * b_up:.3f} mT): "
-              + (f"snapped through, fastest at t = {t[fastest]:.3f} s "
-                 f"({-speed[fastest]:.1f} mm/s); crown ends at {w[-1]:+.3f} mm"
-                 if snapped else f"stays up, crown at {w[-1]:+.3f} mm"))
+        runs[factor] = dict(
+            t=t,
+            w=w,
+            snapped=snapped,
+            time=t[fastest],
+            field=factor * b_up * np.clip((t - RAMP_START) / RAMP, 0, 1),
+        )
+        print(
+            f"held at {factor:.2f} × the limit ({factor * b_up:.3f} mT): "
+            + (
+                f"snapped through, fastest at t = {t[fastest]:.3f} s "
+                f"({-speed[fastest]:.1f} mm/s); crown ends at {w[-1]:+.3f} mm"
+                if snapped
+                else f"stays up, crown at {w[-1]:+.3f} mm"
+            )
+        )
     if args.film and (args.out / "x1.05" / "render.mp4").exists():
         (args.out / "x1.05" / "render.mp4").replace(args.out / "snap.mp4")
 
     _plot(b_path, w_path, top, bottom, runs, args.out / "path.png")
     ok = runs[1.05]["snapped"] and not runs[0.95]["snapped"]
-    lines = ["| | field (mT) | crown uz (mm) |", "| --- | --- | --- |",
-             f"| snap-through limit (arc length) | {b_up:.3f} | {w_path[top]:+.3f} |",
-             f"| snap-back limit (arc length) | {b_back:+.3f} | {w_path[bottom]:+.3f} |",
-             f"| in drag, held at 0.95 × | {0.95 * b_up:.3f} | "
-             f"{'snapped' if runs[0.95]['snapped'] else 'stays up'} |",
-             f"| in drag, held at 1.05 × | {1.05 * b_up:.3f} | "
-             f"{'snaps at t = %.3f s' % runs[1.05]['time'] if runs[1.05]['snapped'] else 'stays up'} |"]
+    lines = [
+        "| | field (mT) | crown uz (mm) |",
+        "| --- | --- | --- |",
+        f"| snap-through limit (arc length) | {b_up:.3f} | {w_path[top]:+.3f} |",
+        f"| snap-back limit (arc length) | {b_back:+.3f} | {w_path[bottom]:+.3f} |",
+        f"| in drag, held at 0.95 × | {0.95 * b_up:.3f} | "
+        f"{'snapped' if runs[0.95]['snapped'] else 'stays up'} |",
+        f"| in drag, held at 1.05 × | {1.05 * b_up:.3f} | "
+        f"{'snaps at t = %.3f s' % runs[1.05]['time'] if runs[1.05]['snapped'] else 'stays up'} |",
+    ]
     (args.out / "summary.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
     print(f"wrote {args.out / 'path.png'} and {args.out / 'summary.md'}")
@@ -164,11 +188,13 @@ def _plot(b_path, w_path, top, bottom, runs, png):
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     ax.plot(w_path, b_path, color="k", lw=1.4, label="equilibrium path (arc length)")
-    ax.plot(w_path[[top, bottom]], b_path[[top, bottom]], "o", color="tab:red",
-            label="limit points")
+    ax.plot(
+        w_path[[top, bottom]], b_path[[top, bottom]], "o", color="tab:red", label="limit points"
+    )
     for (factor, r), style in zip(sorted(runs.items(), reverse=True), ("--", ":")):
-        ax.plot(r["w"], r["field"], lw=1.4, ls=style,
-                label=f"in drag, held at {factor:.2f} × the limit")
+        ax.plot(
+            r["w"], r["field"], lw=1.4, ls=style, label=f"in drag, held at {factor:.2f} × the limit"
+        )
     ax.axhline(0.0, color="grey", lw=0.6)
     ax.set_xlabel("crown displacement uz (mm)")
     ax.set_ylabel("field B_z (mT)")

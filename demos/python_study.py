@@ -40,7 +40,7 @@ import numpy as np  # noqa: E402
 import rftfem  # noqa: E402
 
 SCENE = Path(__file__).resolve().parent / "swimming_sheet.toml"
-AMPLITUDES = [0.05, 0.1, 0.15, 0.2, 0.3]     # b, mm
+AMPLITUDES = [0.05, 0.1, 0.15, 0.2, 0.3]  # b, mm
 
 
 # --- the answer local drag gives -----------------------------------------------
@@ -53,8 +53,14 @@ def exact_speed(b: float, k: float, omega: float, c1: float, c3: float) -> float
     phi = np.linspace(0.0, 2 * np.pi, 4096, endpoint=False)
     s = k * b * np.cos(phi)
     root = np.sqrt(1 + s**2)
-    return (c3 - c1) * k * omega * b**2 * np.mean(np.cos(phi) ** 2 / root) / np.mean(
-        (c1 + c3 * s**2) / root)
+    return (
+        (c3 - c1)
+        * k
+        * omega
+        * b**2
+        * np.mean(np.cos(phi) ** 2 / root)
+        / np.mean((c1 + c3 * s**2) / root)
+    )
 
 
 # --- one run -------------------------------------------------------------------
@@ -76,8 +82,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("results/python_study"))
     parser.add_argument("--jobs", type=int, default=1, help="runs at a time (processes)")
-    parser.add_argument("--quick", action="store_true",
-                        help="two amplitudes on a 10 × 2 mesh (a try, not the figure)")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="two amplitudes on a 10 × 2 mesh (a try, not the figure)",
+    )
     args = parser.parse_args(argv)
 
     changes = {"output.fields": False}
@@ -90,8 +99,9 @@ def main(argv=None) -> int:
     # starts each worker afresh (a FEniCSx process should not be forked).
     if args.jobs > 1:
         with ProcessPoolExecutor(args.jobs, mp_context=get_context("spawn")) as pool:
-            speeds = list(pool.map(swim, [scene] * len(amplitudes), amplitudes,
-                                   [args.out] * len(amplitudes)))
+            speeds = list(
+                pool.map(swim, [scene] * len(amplitudes), amplitudes, [args.out] * len(amplitudes))
+            )
     else:
         speeds = [swim(scene, b, args.out) for b in amplitudes]
 
@@ -115,10 +125,18 @@ def main(argv=None) -> int:
 
     fine = np.linspace(0.0, max(amplitudes) * 1.05, 100)
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(fine, [exact_speed(b, k, omega, c1, c3) for b in fine], "k-",
-            label="exact resistive-force speed")
-    ax.plot(fine, 0.5 * (c3 / c1 - 1) * k * omega * fine**2, "k:",
-            label="small-amplitude limit ½(C₃/C₁ − 1) k ω b²")
+    ax.plot(
+        fine,
+        [exact_speed(b, k, omega, c1, c3) for b in fine],
+        "k-",
+        label="exact resistive-force speed",
+    )
+    ax.plot(
+        fine,
+        0.5 * (c3 / c1 - 1) * k * omega * fine**2,
+        "k:",
+        label="small-amplitude limit ½(C₃/C₁ − 1) k ω b²",
+    )
     ax.plot(amplitudes, speeds, "o", color="C3", label="rftfem (steady speed)")
     ax.set_xlabel("wave amplitude b (mm)")
     ax.set_ylabel("swimming speed U (mm/s)")

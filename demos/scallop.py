@@ -79,8 +79,16 @@ def sperm_number(E: float, period: float) -> float:
     return LINK_WIDTH * (C3 * 2 * math.pi / period / D) ** 0.25
 
 
-def swim(kind: str, arm_E: float, cycles: int, amplitude: float = 0.1, period: float = 1.0,
-         steps_per_leg: int = 40, divisions=(1, 4), out=None):
+def swim(
+    kind: str,
+    arm_E: float,
+    cycles: int,
+    amplitude: float = 0.1,
+    period: float = 1.0,
+    steps_per_leg: int = 40,
+    divisions=(1, 4),
+    out=None,
+):
     """Run the scene with the given loop and arm modulus (into ``out``, or a
     temporary folder without fields); return the centre's Y displacement at the end
     of every cycle (mm) and the run's summary."""
@@ -89,13 +97,21 @@ def swim(kind: str, arm_E: float, cycles: int, amplitude: float = 0.1, period: f
     import rftfem
 
     wl, wr = loop_tables(kind, amplitude, period, cycles)
-    scene = rftfem.load_scene(SCENE, set={
-        "time.end": float(cycles * period), "time.dt": period / (4 * steps_per_leg),
-        "motion.0.values": wl, "motion.1.values": wr, "mesh.divisions": list(divisions)})
+    scene = rftfem.load_scene(
+        SCENE,
+        set={
+            "time.end": float(cycles * period),
+            "time.dt": period / (4 * steps_per_leg),
+            "motion.0.values": wl,
+            "motion.1.values": wr,
+            "mesh.divisions": list(divisions),
+        },
+    )
     if arm_E != scene["shell.E"]:
-        scene["shell.parts"] = [{"region": r, "E": float(arm_E), "nu": NU,
-                                 "thickness": THICKNESS, "density": 0.0}
-                                for r in ("left", "right")]
+        scene["shell.parts"] = [
+            {"region": r, "E": float(arm_E), "nu": NU, "thickness": THICKNESS, "density": 0.0}
+            for r in ("left", "right")
+        ]
     with tempfile.TemporaryDirectory() as scratch:
         if out is None:
             out = Path(scratch) / "run"
@@ -105,20 +121,26 @@ def swim(kind: str, arm_E: float, cycles: int, amplitude: float = 0.1, period: f
             summary = result.summary
         except rftfem.RunFailed as err:  # a study goes on; the row says why this run stopped
             result = rftfem.Result(err.folder)
-            summary = {"status": "failed", "failure": str(err),
-                       "counts": result.summary["counts"]}
+            summary = {"status": "failed", "failure": str(err), "counts": result.summary["counts"]}
         probes = result.probes
     t, y = probes["time"].to_numpy(), probes["centre_uy"].to_numpy()
-    ends = [y[int(np.argmin(abs(t - n * period)))] if t[-1] >= n * period - 1e-9 else np.nan
-            for n in range(1, cycles + 1)]
+    ends = [
+        y[int(np.argmin(abs(t - n * period)))] if t[-1] >= n * period - 1e-9 else np.nan
+        for n in range(1, cycles + 1)
+    ]
     return np.array(ends), summary
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("results/scallop"))
-    parser.add_argument("--sp", type=float, nargs="+", default=[0.5, 1, 1.5, 2, 2.5, 3],
-                        help="elasto-viscous numbers of the soft arms")
+    parser.add_argument(
+        "--sp",
+        type=float,
+        nargs="+",
+        default=[0.5, 1, 1.5, 2, 2.5, 3],
+        help="elasto-viscous numbers of the soft arms",
+    )
     parser.add_argument("--cycles", type=int, default=3)
     args = parser.parse_args(argv)
     if args.cycles < 2:
@@ -133,19 +155,31 @@ def main(argv=None) -> int:
     for kind, E in runs:
         ends, summary = swim(kind, E, args.cycles)
         per_cycle = ends[-1] - ends[-2]  # the last cycle: past the start from rest
-        rows.append({"loop": kind, "arm_E": E, "Sp": sperm_number(E, 1.0),
-                     "y_per_cycle": per_cycle, "y_total": ends[-1],
-                     "status": summary["status"], "steps": summary["counts"]["steps"]})
-        print(f"{kind:10s} Sp = {rows[-1]['Sp']:8.3g}  net Y per cycle {per_cycle:+.4e} mm"
-              + ("" if summary["status"] == "ok" else f"  FAILED: {summary['failure']}"))
+        rows.append(
+            {
+                "loop": kind,
+                "arm_E": E,
+                "Sp": sperm_number(E, 1.0),
+                "y_per_cycle": per_cycle,
+                "y_total": ends[-1],
+                "status": summary["status"],
+                "steps": summary["counts"]["steps"],
+            }
+        )
+        print(
+            f"{kind:10s} Sp = {rows[-1]['Sp']:8.3g}  net Y per cycle {per_cycle:+.4e} mm"
+            + ("" if summary["status"] == "ok" else f"  FAILED: {summary['failure']}")
+        )
 
     square, recip = rows[0]["y_per_cycle"], rows[1]["y_per_cycle"]
     if rows[0]["status"] != "ok" or rows[1]["status"] != "ok":
         print("a rigid-link run did not complete")
         ok = False
     if abs(square / SQUARE_Y_PER_CYCLE - 1) > 0.02:
-        print(f"rigid square loop: {square:.5e} mm per cycle, exact {SQUARE_Y_PER_CYCLE:.5e}: "
-              "more than 2 % off")
+        print(
+            f"rigid square loop: {square:.5e} mm per cycle, exact {SQUARE_Y_PER_CYCLE:.5e}: "
+            "more than 2 % off"
+        )
         ok = False
     if abs(recip) > 1e-3 * abs(square):
         print(f"rigid out-and-back loop moved {recip:.3e} mm per cycle: not reciprocal")
@@ -157,14 +191,18 @@ def main(argv=None) -> int:
         writer.writerows(rows)
     failed = [r for r in rows if r["status"] != "ok"]
     if failed:
-        print("runs that did not complete (left out of the plot): "
-              + ", ".join(f"{r['loop']} at Sp = {r['Sp']:.3g}" for r in failed))
+        print(
+            "runs that did not complete (left out of the plot): "
+            + ", ".join(f"{r['loop']} at Sp = {r['Sp']:.3g}" for r in failed)
+        )
     soft = [r for r in rows[2:] if r["loop"] == "reciprocal" and r["status"] == "ok"]
     if soft:
         peak = max(soft, key=lambda r: abs(r["y_per_cycle"]))
-        print(f"out-and-back loop with soft arms: largest swim {peak['y_per_cycle']:+.3e} mm "
-              f"per cycle at Sp = {peak['Sp']:.3g} ({abs(peak['y_per_cycle']) / LINK_WIDTH:.2e} "
-              f"link widths; rigid arms: {recip:+.1e})")
+        print(
+            f"out-and-back loop with soft arms: largest swim {peak['y_per_cycle']:+.3e} mm "
+            f"per cycle at Sp = {peak['Sp']:.3g} ({abs(peak['y_per_cycle']) / LINK_WIDTH:.2e} "
+            f"link widths; rigid arms: {recip:+.1e})"
+        )
     _plot(rows, args.out / "scallop.png")
     print(f"wrote {args.out / 'scallop.csv'} and {args.out / 'scallop.png'}")
     return 0 if ok else 1
@@ -178,15 +216,25 @@ def _plot(rows, path):
 
     fig, ax = plt.subplots(figsize=(6, 4))
     for kind, marker in (("square", "s"), ("reciprocal", "o")):
-        soft = sorted((r for r in rows[2:] if r["loop"] == kind and r["status"] == "ok"),
-                      key=lambda r: r["Sp"])
+        soft = sorted(
+            (r for r in rows[2:] if r["loop"] == kind and r["status"] == "ok"),
+            key=lambda r: r["Sp"],
+        )
         if soft:
-            ax.plot([r["Sp"] for r in soft], [abs(r["y_per_cycle"]) / LINK_WIDTH for r in soft],
-                    marker=marker, label=f"{kind} loop, soft arms")
+            ax.plot(
+                [r["Sp"] for r in soft],
+                [abs(r["y_per_cycle"]) / LINK_WIDTH for r in soft],
+                marker=marker,
+                label=f"{kind} loop, soft arms",
+            )
         rigid = next(r for r in rows[:2] if r["loop"] == kind)
-        ax.axhline(max(abs(rigid["y_per_cycle"]) / LINK_WIDTH, 1e-12), ls="--", lw=0.8,
-                   color="k" if kind == "square" else "grey",
-                   label=f"{kind} loop, rigid arms")
+        ax.axhline(
+            max(abs(rigid["y_per_cycle"]) / LINK_WIDTH, 1e-12),
+            ls="--",
+            lw=0.8,
+            color="k" if kind == "square" else "grey",
+            label=f"{kind} loop, rigid arms",
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("Sp = ℓ (C₃ ω / D)^¼ of the arms")

@@ -39,6 +39,8 @@ repository_python.ensure()
 GAP_LOWEST = 0.5 + 2.5 * 0.25
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "sheet_near_wall.toml"
+
+
 def scene_changes(height: float | None, model: str = "stokes") -> list[str]:
     """The command-line changes that make the shipped scene's case: the wall at
     ``height`` below the sheet, no wall (None), or local drag of the same viscosity
@@ -56,8 +58,17 @@ def run(name: str, changes: list[str], out: Path, reuse: bool) -> Path:
         print(f"{name}: reusing {folder}", flush=True)
         return folder
     out.mkdir(parents=True, exist_ok=True)
-    cmd = [sys.executable, "-m", "rftfem", "run", str(SCENE), "--out", str(folder), "--quiet",
-           *changes]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(SCENE),
+        "--out",
+        str(folder),
+        "--quiet",
+        *changes,
+    ]
     print(f"{name}: {' '.join(cmd)}", flush=True)
     with open(out / f"{name}.log", "w") as log:
         status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
@@ -70,8 +81,7 @@ def steady_speed(folder: Path) -> tuple[float, bool, float]:
     """The steady speed of the front corner, whether the run became steady, wall s."""
     summary = json.loads((folder / "summary.json").read_text())
     steady = summary["steady"]
-    return (steady["values"]["front_ux_rate"], bool(steady["reached"]),
-            summary["wall_s"]["total"])
+    return (steady["values"]["front_ux_rate"], bool(steady["reached"]), summary["wall_s"]["total"])
 
 
 def main(argv=None) -> int:
@@ -82,9 +92,11 @@ def main(argv=None) -> int:
     parser.add_argument("--reuse", action="store_true", help="keep finished runs in --out")
     args = parser.parse_args(argv)
     if min(args.heights) < GAP_LOWEST:
-        parser.error(f"--heights: below h = {GAP_LOWEST} the closest gap between the waving "
-                     "sheet (amplitude 0.5) and the wall is under 2.5 blobs (0.25 on the "
-                     "shipped mesh) and the wall leaks; refine the mesh in the scene first")
+        parser.error(
+            f"--heights: below h = {GAP_LOWEST} the closest gap between the waving "
+            "sheet (amplitude 0.5) and the wall is under 2.5 blobs (0.25 on the "
+            "shipped mesh) and the wall leaks; refine the mesh in the scene first"
+        )
 
     cases = [(f"h_{h:g}", scene_changes(h), h) for h in args.heights]
     cases += [("free", scene_changes(None), None), ("rft", scene_changes(None, "rft"), None)]
@@ -95,10 +107,20 @@ def main(argv=None) -> int:
     rows = []
     for (name, _, h), folder in zip(cases, folders):
         U, reached, wall_s = steady_speed(folder)
-        rows.append({"case": name, "h": "" if h is None else h, "U": U,
-                     "U_over_free": U / free, "steady": reached, "wall_s": round(wall_s, 1)})
-        print(f"{name:>8}: U = {U:.5f} mm/s, {U / free:.4f} of the free sheet's"
-              + ("" if reached else "  (NOT steady by time.end)"))
+        rows.append(
+            {
+                "case": name,
+                "h": "" if h is None else h,
+                "U": U,
+                "U_over_free": U / free,
+                "steady": reached,
+                "wall_s": round(wall_s, 1),
+            }
+        )
+        print(
+            f"{name:>8}: U = {U:.5f} mm/s, {U / free:.4f} of the free sheet's"
+            + ("" if reached else "  (NOT steady by time.end)")
+        )
     with open(args.out / "table.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -107,8 +129,10 @@ def main(argv=None) -> int:
         f.write("| case | h (mm) | U (mm/s) | U / U_free | steady | wall (s) |\n")
         f.write("|---|---:|---:|---:|---|---:|\n")
         for r in rows:
-            f.write(f"| {r['case']} | {r['h']} | {r['U']:.5f} | {r['U_over_free']:.4f} | "
-                    f"{r['steady']} | {r['wall_s']} |\n")
+            f.write(
+                f"| {r['case']} | {r['h']} | {r['U']:.5f} | {r['U_over_free']:.4f} | "
+                f"{r['steady']} | {r['wall_s']} |\n"
+            )
     plot(rows, args.out / "speed.png")
     near = dict(zip([c[0] for c in cases], folders)).get("h_1.5")
     if near is not None:

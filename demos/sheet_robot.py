@@ -55,17 +55,24 @@ def field(b_mT: float, f: float) -> list[str]:
     return [f"{b!r}*{ramp}*sin({angle})", "0", f"{b!r}*{ramp}*cos({angle})"]
 
 
-def swim(b_mT: float, f: float, periods: int, out: Path, settle: float = 1.0,
-         window: float = 0.5) -> dict:
+def swim(
+    b_mT: float, f: float, periods: int, out: Path, settle: float = 1.0, window: float = 0.5
+) -> dict:
     import rftfem
 
     span = max(periods / f, window)
     end = 2 / f + settle + span
     row = {"field_mT": b_mT, "frequency_Hz": f, "status": "ok"}
     if not _finished(out):
-        scene = rftfem.load_scene(SCENE, set={
-            "magnetic.field.B": field(b_mT, f), "time.end": end,
-            "time.dt": 1 / (STEPS_PER_PERIOD * f), "output.fields": False})
+        scene = rftfem.load_scene(
+            SCENE,
+            set={
+                "magnetic.field.B": field(b_mT, f),
+                "time.end": end,
+                "time.dt": 1 / (STEPS_PER_PERIOD * f),
+                "output.fields": False,
+            },
+        )
         try:
             rftfem.run(scene, out=out)
         except rftfem.RunFailed as exc:
@@ -77,8 +84,11 @@ def swim(b_mT: float, f: float, periods: int, out: Path, settle: float = 1.0,
     inside = t >= end - span - 1e-12
     speed = (x[inside][-1] - x[inside][0]) / (t[inside][-1] - t[inside][0])
     moment = body[["moment_x", "moment_y", "moment_z"]].to_numpy()[inside]
-    row.update(speed_mm_s=speed, body_lengths_s=speed / LENGTH,
-               moment=float(np.linalg.norm(moment, axis=1).mean()))
+    row.update(
+        speed_mm_s=speed,
+        body_lengths_s=speed / LENGTH,
+        moment=float(np.linalg.norm(moment, axis=1).mean()),
+    )
     return row
 
 
@@ -96,8 +106,9 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("results/sheet_robot"))
     p.add_argument("--freqs", type=float, nargs="+", default=[1, 2, 4, 8, 16, 32, 64, 128])
-    p.add_argument("--fields", type=float, nargs="+", default=[1, 2, 4],
-                   help="field strengths in mT")
+    p.add_argument(
+        "--fields", type=float, nargs="+", default=[1, 2, 4], help="field strengths in mT"
+    )
     p.add_argument("--periods", type=int, default=8)
     p.add_argument("--settle", type=float, default=1.0, help="seconds after the ramp")
     p.add_argument("--window", type=float, default=0.5, help="shortest measured span (s)")
@@ -108,24 +119,30 @@ def main(argv=None) -> int:
     for b in args.fields:
         mine = []
         for f in sorted(args.freqs):
-            row = swim(b, f, args.periods, args.out / f"b{b:g}_f{f:g}", args.settle,
-                       args.window)
+            row = swim(b, f, args.periods, args.out / f"b{b:g}_f{f:g}", args.settle, args.window)
             rows.append(row)
             mine.append(row)
             if row["status"] != "ok":
                 print(f"{b:5g} {f:6g} {row['status']}", flush=True)
                 continue
-            print(f"{b:5g} {f:6g} {row['speed_mm_s']:11.4f} {row['body_lengths_s']:7.3f} "
-                  f"{row['moment']:10.3f}", flush=True)
+            print(
+                f"{b:5g} {f:6g} {row['speed_mm_s']:11.4f} {row['body_lengths_s']:7.3f} "
+                f"{row['moment']:10.3f}",
+                flush=True,
+            )
         largest = max((r["moment"] for r in mine if r["status"] == "ok"), default=None)
         for r in mine:
             if r["status"] == "ok":
                 r["bend"] = r["moment"] / largest
-    print("bend (|Q| over the largest of its field strength): " + "; ".join(
-        f"{r['field_mT']:g} mT {r['frequency_Hz']:g} Hz {r['bend']:.2f}" for r in rows
-        if r["status"] == "ok"))
-    keys = ["field_mT", "frequency_Hz", "status", "speed_mm_s", "body_lengths_s",
-            "moment", "bend"]
+    print(
+        "bend (|Q| over the largest of its field strength): "
+        + "; ".join(
+            f"{r['field_mT']:g} mT {r['frequency_Hz']:g} Hz {r['bend']:.2f}"
+            for r in rows
+            if r["status"] == "ok"
+        )
+    )
+    keys = ["field_mT", "frequency_Hz", "status", "speed_mm_s", "body_lengths_s", "moment", "bend"]
     with open(args.out / "sweep.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
@@ -144,8 +161,10 @@ def _plot(rows, path):
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(6, 6), sharex=True)
     for b in sorted({r["field_mT"] for r in rows}):
-        ok = sorted((r for r in rows if r["field_mT"] == b and r["status"] == "ok"),
-                    key=lambda r: r["frequency_Hz"])
+        ok = sorted(
+            (r for r in rows if r["field_mT"] == b and r["status"] == "ok"),
+            key=lambda r: r["frequency_Hz"],
+        )
         f = [r["frequency_Hz"] for r in ok]
         a1.plot(f, [r["speed_mm_s"] for r in ok], marker="o", label=f"{b:g} mT")
         a2.plot(f, [r["bend"] for r in ok], marker="o", label=f"{b:g} mT")

@@ -57,9 +57,15 @@ def walk(f: float, periods: int, out: Path, fields: bool = False) -> dict:
     end = (1 + periods) / f
     row = {"frequency_Hz": f, "status": "ok"}
     if not _finished(out):
-        scene = rftfem.load_scene(SCENE, set={
-            "parameters.f": f, "time.end": end, "time.dt": 1.0 / (STEPS_PER_PERIOD * f),
-            "output.fields": fields})
+        scene = rftfem.load_scene(
+            SCENE,
+            set={
+                "parameters.f": f,
+                "time.end": end,
+                "time.dt": 1.0 / (STEPS_PER_PERIOD * f),
+                "output.fields": fields,
+            },
+        )
         try:
             rftfem.run(scene, out=out)
         except rftfem.RunFailed as exc:
@@ -71,9 +77,15 @@ def walk(f: float, periods: int, out: Path, fields: bool = False) -> dict:
     last = np.interp(end, t, x) - np.interp(end - 1 / f, t, x)
     before = np.interp(end - 1 / f, t, x) - np.interp(end - 2 / f, t, x)
     its = steps["newton_its"]
-    row.update(step_mm=last, step_body_lengths=last / LENGTH, speed_mm_s=last * f,
-               change_from_period_before=last - before, newton_mean=float(its.mean()),
-               newton_max=int(its.max()), steps=len(its))
+    row.update(
+        step_mm=last,
+        step_body_lengths=last / LENGTH,
+        speed_mm_s=last * f,
+        change_from_period_before=last - before,
+        newton_mean=float(its.mean()),
+        newton_max=int(its.max()),
+        steps=len(its),
+    )
     return row
 
 
@@ -88,25 +100,40 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=Path("results/sheet_walking_sweep"))
     p.add_argument("--freqs", type=float, nargs="+", default=[0.25, 0.5, 1, 2, 4, 8, 16])
-    p.add_argument("--periods", type=int, default=4,
-                   help="periods after the ramp's (the last one is measured)")
+    p.add_argument(
+        "--periods", type=int, default=4, help="periods after the ramp's (the last one is measured)"
+    )
     p.add_argument("--fields", action="store_true", help="write fields (for films)")
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
-    print(f"{'f Hz':>6} {'step mm':>9} {'step L':>7} {'speed mm/s':>11} {'change':>9} "
-          f"{'Newton mean/max':>16}")
+    print(
+        f"{'f Hz':>6} {'step mm':>9} {'step L':>7} {'speed mm/s':>11} {'change':>9} "
+        f"{'Newton mean/max':>16}"
+    )
     for f in sorted(args.freqs):
         row = walk(f, args.periods, args.out / f"f{f:g}", args.fields)
         rows.append(row)
         if row["status"] != "ok":
             print(f"{f:6g} {row['status']}", flush=True)
             continue
-        print(f"{f:6g} {row['step_mm']:9.4f} {row['step_body_lengths']:7.3f} "
-              f"{row['speed_mm_s']:11.4f} {row['change_from_period_before']:+9.1e} "
-              f"{row['newton_mean']:10.2f} / {row['newton_max']}", flush=True)
-    keys = ["frequency_Hz", "status", "step_mm", "step_body_lengths", "speed_mm_s",
-            "change_from_period_before", "newton_mean", "newton_max", "steps"]
+        print(
+            f"{f:6g} {row['step_mm']:9.4f} {row['step_body_lengths']:7.3f} "
+            f"{row['speed_mm_s']:11.4f} {row['change_from_period_before']:+9.1e} "
+            f"{row['newton_mean']:10.2f} / {row['newton_max']}",
+            flush=True,
+        )
+    keys = [
+        "frequency_Hz",
+        "status",
+        "step_mm",
+        "step_body_lengths",
+        "speed_mm_s",
+        "change_from_period_before",
+        "newton_mean",
+        "newton_max",
+        "steps",
+    ]
     with open(args.out / "sweep.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
@@ -129,8 +156,7 @@ def _plot(rows, path):
     a1.plot(f, [r["step_mm"] for r in ok], marker="o")
     a1.set_ylabel("step per field period (mm)")
     a1.set_ylim(bottom=0.0)
-    right = a1.secondary_yaxis("right", functions=(lambda s: s / LENGTH,
-                                                   lambda b: b * LENGTH))
+    right = a1.secondary_yaxis("right", functions=(lambda s: s / LENGTH, lambda b: b * LENGTH))
     right.set_ylabel("body lengths")
     a1.set_title("Sheet robot walking: field rocking ±0.5 rad, 1.5-3.5 mT")
     a2.plot(f, [r["speed_mm_s"] for r in ok], marker="o", color="C1")

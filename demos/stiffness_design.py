@@ -85,20 +85,21 @@ class Strip:
         ell = self.L / n
         ds = [self.bending(E) for E in moduli]
         turns = [cmath.exp(1j * (-math.pi / 8 + j * math.pi / 2)) for j in range(4)]
-        ks = [[(self.c_normal * self.omega / d) ** 0.25 * z for z in turns]
-              for d in ds]  # the roots of k⁴ = −i C₃ ω / D
+        ks = [
+            [(self.c_normal * self.omega / d) ** 0.25 * z for z in turns] for d in ds
+        ]  # the roots of k⁴ = −i C₃ ω / D
         M = np.zeros((4 * n, 4 * n), complex)
         rhs = np.zeros(4 * n, complex)
-        M[0, 0:4], rhs[0] = 1.0, self.A                  # W(0) = A
-        M[1, 0:4] = ks[0]                                # W'(0) = 0 (clamped heave)
+        M[0, 0:4], rhs[0] = 1.0, self.A  # W(0) = A
+        M[1, 0:4] = ks[0]  # W'(0) = 0 (clamped heave)
         row = 2
         for s in range(n - 1):  # the joints: W, W', D W'', D W''' continuous
             for p, (da, db) in enumerate(((1, 1), (1, 1), (ds[s], ds[s + 1]), (ds[s], ds[s + 1]))):
-                M[row, 4 * s:4 * s + 4] = [da * k**p * cmath.exp(k * ell) for k in ks[s]]
-                M[row, 4 * s + 4:4 * s + 8] = [-db * k**p for k in ks[s + 1]]
+                M[row, 4 * s : 4 * s + 4] = [da * k**p * cmath.exp(k * ell) for k in ks[s]]
+                M[row, 4 * s + 4 : 4 * s + 8] = [-db * k**p for k in ks[s + 1]]
                 row += 1
         for p in (2, 3):  # the free end: no moment, no shear force
-            M[row, 4 * n - 4:] = [k**p * cmath.exp(k * ell) for k in ks[-1]]
+            M[row, 4 * n - 4 :] = [k**p * cmath.exp(k * ell) for k in ks[-1]]
             row += 1
         c = np.linalg.solve(M, rhs).reshape(n, 4)
         x = np.linspace(0.0, ell, samples)
@@ -111,16 +112,27 @@ class Strip:
         return -(self.c_normal - self.c_along) * flux / (self.c_along * self.L)
 
 
-def optimize(out: Path, vary: list[str], method: str, budget: int, sets: list[str],
-             reuse: bool) -> tuple[dict, list[dict], float]:
+def optimize(
+    out: Path, vary: list[str], method: str, budget: int, sets: list[str], reuse: bool
+) -> tuple[dict, list[dict], float]:
     """Run ``rftfem optimize``; its best row, all its ok rows, its wall time."""
     cmd = [sys.executable, "-m", "rftfem", "optimize", str(SCENE)]
     for v in vary:
         cmd += ["--vary", v]
     for s in sets:
         cmd += ["--set", s]
-    cmd += ["--objective", OBJECTIVE, "--maximize", "--method", method,
-            "--budget", str(budget), "--out", str(out), *(["--reuse"] if reuse else [])]
+    cmd += [
+        "--objective",
+        OBJECTIVE,
+        "--maximize",
+        "--method",
+        method,
+        "--budget",
+        str(budget),
+        "--out",
+        str(out),
+        *(["--reuse"] if reuse else []),
+    ]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     wall = time.perf_counter() - t0
@@ -133,11 +145,16 @@ def optimize(out: Path, vary: list[str], method: str, budget: int, sets: list[st
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("results/stiffness_design"),
-                        help="the results folder (default results/stiffness_design)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/stiffness_design"),
+        help="the results folder (default results/stiffness_design)",
+    )
     parser.add_argument("--grid", type=int, default=11, help="uniform E values of the scan")
-    parser.add_argument("--refine", type=int, default=8,
-                        help="runs refining the scan's best (0: none)")
+    parser.add_argument(
+        "--refine", type=int, default=8, help="runs refining the scan's best (0: none)"
+    )
     parser.add_argument("--budget", type=int, default=40, help="the 3-part search's runs at most")
     parser.add_argument("--no-film", action="store_true", help="skip the film of the optimum")
     parser.add_argument("--reuse", action="store_true", help="read finished runs")
@@ -146,16 +163,22 @@ def main(argv=None) -> int:
     t_start = time.perf_counter()
 
     # 1. uniform: a grid over shell.E, then its best refined between its neighbours
-    scan, scan_rows, scan_wall = optimize(args.out / "uniform", [f"shell.E={E_LO}:{E_HI}:log"],
-                                          "grid", args.grid, [], args.reuse)
+    scan, scan_rows, scan_wall = optimize(
+        args.out / "uniform", [f"shell.E={E_LO}:{E_HI}:log"], "grid", args.grid, [], args.reuse
+    )
     uniform, uniform_runs, uniform_wall = scan, len(scan_rows), scan_wall
     if args.refine > 0:
         grid = sorted(float(r["shell.E"]) for r in scan_rows)
         i = grid.index(float(scan["shell.E"]))
         lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
         fine, fine_rows, fine_wall = optimize(
-            args.out / "uniform-refine", [f"shell.E={lo:.10g}:{hi:.10g}:log"], "nelder-mead",
-            args.refine, [f"shell.E={scan['shell.E']}"], args.reuse)
+            args.out / "uniform-refine",
+            [f"shell.E={lo:.10g}:{hi:.10g}:log"],
+            "nelder-mead",
+            args.refine,
+            [f"shell.E={scan['shell.E']}"],
+            args.reuse,
+        )
         uniform_runs += len(fine_rows)
         uniform_wall += fine_wall
         if float(fine["objective"]) > float(uniform["objective"]):
@@ -165,8 +188,13 @@ def main(argv=None) -> int:
     # 2. designed: the three parts' E, from the uniform optimum
     keys = [f"shell.parts.{j}.E" for j in range(3)]
     design, design_rows, design_wall = optimize(
-        args.out / "design", [f"{k}={E_LO}:{E_HI}:log" for k in keys], "nelder-mead",
-        args.budget, [f"{k}={E_u!r}" for k in keys], args.reuse)
+        args.out / "design",
+        [f"{k}={E_LO}:{E_HI}:log" for k in keys],
+        "nelder-mead",
+        args.budget,
+        [f"{k}={E_u!r}" for k in keys],
+        args.reuse,
+    )
     E_d = [float(design[k]) for k in keys]
     U_d = float(design["objective"])
     gain = U_d / U_u - 1.0
@@ -177,25 +205,51 @@ def main(argv=None) -> int:
     best = args.out / "design" / design["folder"]
 
     def row(name, moduli, sp, U, lin, gain, search, runs, wall):
-        return (f"| {name} | {moduli} | {sp} | {U:.5g} | {lin:.5g} | {gain} | {search} | "
-                f"{runs} | {wall:.0f} |")
+        return (
+            f"| {name} | {moduli} | {sp} | {U:.5g} | {lin:.5g} | {gain} | {search} | "
+            f"{runs} | {wall:.0f} |"
+        )
 
     lines = [
         f"Heaved strip (L = {strip.L:g} mm, t = {strip.t:g} mm, A = {strip.A:g} mm, "
         f"ω = {strip.omega:.4g} rad/s), E in [{E_LO:g}, {E_HI:g}] MPa; "
         f"speed U = {OBJECTIVE} mm/s.",
         "",
-        "| swimmer | E (MPa) | Sp | U (mm/s) | linear theory U | gain | search | runs "
-        "| wall (s) |",
+        "| swimmer | E (MPa) | Sp | U (mm/s) | linear theory U | gain | search | runs | wall (s) |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
-        row("uniform, grid's best", f"{E_g:.4g}", f"{strip.sp(E_g):.3f}", U_g, lin_g,
-            f"{100 * (U_g / U_u - 1):+.2f} %", f"grid of {len(scan_rows)}", len(scan_rows),
-            scan_wall),
-        row("uniform optimum", f"{E_u:.4g}", f"{strip.sp(E_u):.3f}", U_u, lin_u, "0",
-            "grid + refine", uniform_runs, uniform_wall),
-        row("designed (3 parts)", ", ".join(f"{p} {E:.3g}" for p, E in zip(PARTS, E_d)),
-            " / ".join(f"{strip.sp(E):.2f}" for E in E_d), U_d, lin_d,
-            f"{100 * gain:+.2f} %", "nelder-mead", len(design_rows), design_wall),
+        row(
+            "uniform, grid's best",
+            f"{E_g:.4g}",
+            f"{strip.sp(E_g):.3f}",
+            U_g,
+            lin_g,
+            f"{100 * (U_g / U_u - 1):+.2f} %",
+            f"grid of {len(scan_rows)}",
+            len(scan_rows),
+            scan_wall,
+        ),
+        row(
+            "uniform optimum",
+            f"{E_u:.4g}",
+            f"{strip.sp(E_u):.3f}",
+            U_u,
+            lin_u,
+            "0",
+            "grid + refine",
+            uniform_runs,
+            uniform_wall,
+        ),
+        row(
+            "designed (3 parts)",
+            ", ".join(f"{p} {E:.3g}" for p, E in zip(PARTS, E_d)),
+            " / ".join(f"{strip.sp(E):.2f}" for E in E_d),
+            U_d,
+            lin_d,
+            f"{100 * gain:+.2f} %",
+            "nelder-mead",
+            len(design_rows),
+            design_wall,
+        ),
         "",
         f"Uniform optimum at Sp = {strip.sp(E_u):.3f}; the designed swimmer is "
         f"{100 * gain:+.2f} % faster (linear theory of the same moduli: "
@@ -207,10 +261,13 @@ def main(argv=None) -> int:
     (args.out / "stiffness.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     if not args.no_film:
         film = args.out / "optimum.mp4"
-        subprocess.run([sys.executable, "-m", "rftfem", "render", str(best), "--out", str(film)],
-                       check=True)
-        print(f"film of the designed swimmer: {film}; the searches' histories: "
-              f"{args.out}/*/optimize.png")
+        subprocess.run(
+            [sys.executable, "-m", "rftfem", "render", str(best), "--out", str(film)], check=True
+        )
+        print(
+            f"film of the designed swimmer: {film}; the searches' histories: "
+            f"{args.out}/*/optimize.png"
+        )
     print(f"total wall time {time.perf_counter() - t_start:.0f} s")
     if U_d < U_u:
         print("the designed swimmer is slower than the uniform optimum", file=sys.stderr)

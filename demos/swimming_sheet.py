@@ -57,10 +57,10 @@ SCENE = HERE / "swimming_sheet.toml"
 
 # --- the physics: sheet data and the exact RFT speed ------------------------------
 
-THICKNESS, DENSITY = 0.1, 1.0e-8          # mm, t/mm³
-C1, C3 = 3.0e-9, 5.67e-9                  # N·s/mm³ (C₂ = C₁)
-K = 0.5                                   # wavenumber, 1/mm
-TAU = DENSITY * THICKNESS / C1            # start-up time constant, s
+THICKNESS, DENSITY = 0.1, 1.0e-8  # mm, t/mm³
+C1, C3 = 3.0e-9, 5.67e-9  # N·s/mm³ (C₂ = C₁)
+K = 0.5  # wavenumber, 1/mm
+TAU = DENSITY * THICKNESS / C1  # start-up time constant, s
 
 #: case -> (elements along X, amplitude b, wave speed V_w, the paper's FEM speed)
 CASES = {
@@ -84,8 +84,14 @@ def exact_speed(b: float, k: float, omega: float, c1: float = C1, c3: float = C3
     phi = np.linspace(0.0, 2 * np.pi, 4096, endpoint=False)
     s = k * b * np.cos(phi)
     root = np.sqrt(1 + s**2)
-    return (c3 - c1) * k * omega * b**2 * np.mean(np.cos(phi) ** 2 / root) / np.mean(
-        (c1 + c3 * s**2) / root)
+    return (
+        (c3 - c1)
+        * k
+        * omega
+        * b**2
+        * np.mean(np.cos(phi) ** 2 / root)
+        / np.mean((c1 + c3 * s**2) / root)
+    )
 
 
 # --- running one case --------------------------------------------------------------
@@ -97,11 +103,19 @@ def case_settings(case: str, steps_per_period: int, periods: int, run_out: bool)
     nx, b, vw, _ = CASES[case]
     omega = K * vw
     period = 2 * np.pi / omega
-    start = math.ceil(10 * TAU / period)            # first whole period after 10 τ
+    start = math.ceil(10 * TAU / period)  # first whole period after 10 τ
     end_periods = max(start + periods, math.ceil(2.0 / period))
-    return {"nx": nx, "b": b, "omega": omega, "period": period, "dt": period / steps_per_period,
-            "t0": start * period, "t1": (start + periods) * period, "end": end_periods * period,
-            "until": "end" if run_out else "periodic"}
+    return {
+        "nx": nx,
+        "b": b,
+        "omega": omega,
+        "period": period,
+        "dt": period / steps_per_period,
+        "t0": start * period,
+        "t1": (start + periods) * period,
+        "end": end_periods * period,
+        "until": "end" if run_out else "periodic",
+    }
 
 
 def finished(folder: Path, settings: dict) -> bool:
@@ -111,11 +125,15 @@ def finished(folder: Path, settings: dict) -> bool:
     except (OSError, ValueError):
         return False
     scene = summary["scene"]
-    return (summary["status"] == "ok" and scene["mesh"]["divisions"][0] == settings["nx"]
-            and scene["motion"][0]["amplitude"] == settings["b"]
-            and scene["motion"][0]["angular_frequency"] == settings["omega"]
-            and scene["time"]["dt"] == settings["dt"] and scene["time"]["end"] == settings["end"]
-            and scene["time"].get("until", "end") == settings["until"])
+    return (
+        summary["status"] == "ok"
+        and scene["mesh"]["divisions"][0] == settings["nx"]
+        and scene["motion"][0]["amplitude"] == settings["b"]
+        and scene["motion"][0]["angular_frequency"] == settings["omega"]
+        and scene["time"]["dt"] == settings["dt"]
+        and scene["time"]["end"] == settings["end"]
+        and scene["time"].get("until", "end") == settings["until"]
+    )
 
 
 def run_case(case: str, settings: dict, out: Path, launcher: list[str], reuse: bool) -> Path:
@@ -123,17 +141,34 @@ def run_case(case: str, settings: dict, out: Path, launcher: list[str], reuse: b
     if reuse and finished(folder, settings):
         print(f"case {case}: reusing {folder}", flush=True)
         return folder
-    cmd = [*launcher, sys.executable, "-m", "rftfem", "run", str(SCENE), "--out", str(folder),
-           "--quiet",
-           "--set", f"title=\"Swimming sheet, case {case}\"",
-           "--set", f"mesh.divisions=[{settings['nx']},4]",
-           "--set", f"motion.0.amplitude={settings['b']!r}",
-           "--set", f"motion.0.angular_frequency={settings['omega']!r}",
-           "--set", f"time.dt={settings['dt']!r}",
-           "--set", f"time.end={settings['end']!r}",
-           "--set", f"time.until={settings['until']}",
-           "--set", "time.output_every=1"]
-    print(f"case {case}: {' '.join(cmd[len(launcher):])}", flush=True)
+    cmd = [
+        *launcher,
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(SCENE),
+        "--out",
+        str(folder),
+        "--quiet",
+        "--set",
+        f'title="Swimming sheet, case {case}"',
+        "--set",
+        f"mesh.divisions=[{settings['nx']},4]",
+        "--set",
+        f"motion.0.amplitude={settings['b']!r}",
+        "--set",
+        f"motion.0.angular_frequency={settings['omega']!r}",
+        "--set",
+        f"time.dt={settings['dt']!r}",
+        "--set",
+        f"time.end={settings['end']!r}",
+        "--set",
+        f"time.until={settings['until']}",
+        "--set",
+        "time.output_every=1",
+    ]
+    print(f"case {case}: {' '.join(cmd[len(launcher) :])}", flush=True)
     log = out / f"case_{case}.log"
     with open(log, "w") as stream:
         status = subprocess.call(cmd, stdout=stream, stderr=subprocess.STDOUT)
@@ -144,7 +179,7 @@ def run_case(case: str, settings: dict, out: Path, launcher: list[str], reuse: b
 
 def front_corner(folder: Path) -> tuple[np.ndarray, np.ndarray]:
     data = np.loadtxt(folder / "probes.csv", delimiter=",", skiprows=1, ndmin=2)
-    return data[:, 0], data[:, 1]        # time, front_ux
+    return data[:, 0], data[:, 1]  # time, front_ux
 
 
 def speed(t: np.ndarray, x: np.ndarray, t0: float, t1: float) -> float:
@@ -159,16 +194,26 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cases", default=",".join(CASES), help="comma-separated, e.g. I,II")
     parser.add_argument("--steps-per-period", type=int, default=48)
-    parser.add_argument("--periods", type=int, default=8,
-                        help="with --run-out: periods in the transient-free window")
-    parser.add_argument("--run-out", action="store_true",
-                        help="run each case to past 2 s and 10 τ and measure its speed in "
-                             "windows, instead of stopping once it is steady")
+    parser.add_argument(
+        "--periods",
+        type=int,
+        default=8,
+        help="with --run-out: periods in the transient-free window",
+    )
+    parser.add_argument(
+        "--run-out",
+        action="store_true",
+        help="run each case to past 2 s and 10 τ and measure its speed in "
+        "windows, instead of stopping once it is steady",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="runs at once")
     parser.add_argument("--np", type=int, default=1, help="MPI processes per run")
     parser.add_argument("--out", type=Path, default=Path("results/swimming_sheet"))
-    parser.add_argument("--reuse", action="store_true",
-                        help="keep runs already finished in --out with the same settings")
+    parser.add_argument(
+        "--reuse",
+        action="store_true",
+        help="keep runs already finished in --out with the same settings",
+    )
     args = parser.parse_args(argv)
     cases = [c.strip() for c in args.cases.split(",") if c.strip()]
     unknown = [c for c in cases if c not in CASES]
@@ -177,11 +222,16 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     launcher = ["mpirun", "-n", str(args.np)] if args.np > 1 else []
 
-    settings = {c: case_settings(c, args.steps_per_period, args.periods, args.run_out)
-                for c in cases}
+    settings = {
+        c: case_settings(c, args.steps_per_period, args.periods, args.run_out) for c in cases
+    }
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        folders = dict(zip(cases, pool.map(
-            lambda c: run_case(c, settings[c], args.out, launcher, args.reuse), cases)))
+        folders = dict(
+            zip(
+                cases,
+                pool.map(lambda c: run_case(c, settings[c], args.out, launcher, args.reuse), cases),
+            )
+        )
 
     rows, curves = [], {}
     for c in cases:
@@ -192,22 +242,36 @@ def main(argv=None) -> int:
         row = {"case": c, "mesh": f"4x{s['nx']}", "dofs": summary["dofs"], "dt": s["dt"]}
         if args.run_out:
             paper_window, periods = speed(t, x, 1.5, 2.0), speed(t, x, s["t0"], s["t1"])
-            row.update({"U_paper_window": paper_window,
-                        "err_paper_window_pct": 100 * (paper_window / exact - 1),
-                        "U": periods, "how": f"periods [{s['t0']:.3f}, {s['t1']:.3f}] s"})
+            row.update(
+                {
+                    "U_paper_window": paper_window,
+                    "err_paper_window_pct": 100 * (paper_window / exact - 1),
+                    "U": periods,
+                    "how": f"periods [{s['t0']:.3f}, {s['t1']:.3f}] s",
+                }
+            )
             curves[c] = (t, x, exact, s["t0"])
         else:
             steady = summary["steady"]
-            row.update({"U": steady["values"]["front_ux_rate"],
-                        "how": f"steady after {steady['periods']} periods"
-                               + ("" if steady["reached"] else " (NOT reached)"),
-                        "estimated_error": steady["estimated_errors"]["front_ux_rate"],
-                        "reached": steady["reached"]})
+            row.update(
+                {
+                    "U": steady["values"]["front_ux_rate"],
+                    "how": f"steady after {steady['periods']} periods"
+                    + ("" if steady["reached"] else " (NOT reached)"),
+                    "estimated_error": steady["estimated_errors"]["front_ux_rate"],
+                    "reached": steady["reached"],
+                }
+            )
             curves[c] = (t, x, exact, t[-1])
-        row.update({"err_pct": 100 * (row["U"] / exact - 1), "U_exact": exact,
-                    "U_paper_fem": CASES[c][3],
-                    "newton_its": summary["counts"]["newton_iterations"],
-                    "wall_s": summary["wall_s"]["total"]})
+        row.update(
+            {
+                "err_pct": 100 * (row["U"] / exact - 1),
+                "U_exact": exact,
+                "U_paper_fem": CASES[c][3],
+                "newton_its": summary["counts"]["newton_iterations"],
+                "wall_s": summary["wall_s"]["total"],
+            }
+        )
         rows.append(row)
 
     write_tables(rows, args.out)
@@ -241,25 +305,35 @@ def write_tables(rows: list[dict], out: Path):
         writer.writerows(rows)
     run_out = "U_paper_window" in rows[0]
     head = "| case | mesh | dofs | dt (s) | "
-    head += "U, paper window | error | U, periods after 10τ | " if run_out else \
-        "U, steady | estimated error | periods | "
-    lines = [head + "error | exact RFT | paper FEM | wall (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    head += (
+        "U, paper window | error | U, periods after 10τ | "
+        if run_out
+        else "U, steady | estimated error | periods | "
+    )
+    lines = [
+        head + "error | exact RFT | paper FEM | wall (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        middle = (f"{r['U_paper_window']:.5f} | {r['err_paper_window_pct']:+.2f} % | "
-                  f"{r['U']:.5f} | " if run_out else
-                  f"{r['U']:.5f} | {r['estimated_error']:.1e} | {r['how'].split()[2]} | ")
+        middle = (
+            f"{r['U_paper_window']:.5f} | {r['err_paper_window_pct']:+.2f} % | {r['U']:.5f} | "
+            if run_out
+            else f"{r['U']:.5f} | {r['estimated_error']:.1e} | {r['how'].split()[2]} | "
+        )
         lines.append(
             f"| {r['case']} | {r['mesh']} | {r['dofs']} | {r['dt']:.3e} | {middle}"
             f"{r['err_pct']:+.2f} % | {r['U_exact']:.5f} | "
-            f"{r['U_paper_fem']:.4f} | {r['wall_s']:.0f} |")
+            f"{r['U_paper_fem']:.4f} | {r['wall_s']:.0f} |"
+        )
     by_case = {r["case"]: r for r in rows}
     for a, b in (("IV", "II"), ("V", "IV")):
         if a in by_case and b in by_case:
             ours = by_case[a]["U"] / by_case[b]["U"]
             exact = by_case[a]["U_exact"] / by_case[b]["U_exact"]
-            lines.append(f"\nRatio {a}/{b}: {ours:.5f} (exact {exact:.5f}, "
-                         f"{100 * (ours / exact - 1):+.2f} %)")
+            lines.append(
+                f"\nRatio {a}/{b}: {ours:.5f} (exact {exact:.5f}, "
+                f"{100 * (ours / exact - 1):+.2f} %)"
+            )
     text = "\n".join(lines) + "\n"
     (out / "table.md").write_text(text)
     print(text)
@@ -299,8 +373,8 @@ def plot(curves: dict, path: Path):
         return
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for case, (t, x, exact, t0) in curves.items():
-        line, = ax.plot(t, x, lw=0.8, label=f"case {case}")
-        x0 = np.interp(t0, t, x)      # the slope through the window's start or the last row
+        (line,) = ax.plot(t, x, lw=0.8, label=f"case {case}")
+        x0 = np.interp(t0, t, x)  # the slope through the window's start or the last row
         ax.plot(t, x0 + exact * (t - t0), "--", color=line.get_color(), lw=0.8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("front corner X displacement (mm)")

@@ -59,14 +59,21 @@ import numpy as np  # noqa: E402
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "thickness_design.toml"
 BOUNDS = (0.05, 0.2)  # mm: the thinnest and the thickest the strip may be anywhere
-CHORD = 0.5           # mm: from the back probe to the tip probe
+CHORD = 0.5  # mm: from the back probe to the tip probe
 #: the angle of the chord from the back probe to the tip probe (rad): the tip's rotation
 #: less 1e-3 of it (the last half millimetre hardly bends: the moment vanishes at the end)
 OBJECTIVE = f"atan((tip_uz@end - back_uz@end)/({CHORD} + tip_ux@end - back_ux@end))"
-DESIGN = ["--vary-field", f"shell.thickness={BOUNDS[0]}:{BOUNDS[1]}",
-          "--constraint", "mass=start", "--maximize", "--objective", OBJECTIVE]
-RAMP_STEPS = 25   # load steps of the film's runs
-SCALE = 10.0      # the film draws the displacements this many times larger
+DESIGN = [
+    "--vary-field",
+    f"shell.thickness={BOUNDS[0]}:{BOUNDS[1]}",
+    "--constraint",
+    "mass=start",
+    "--maximize",
+    "--objective",
+    OBJECTIVE,
+]
+RAMP_STEPS = 25  # load steps of the film's runs
+SCALE = 10.0  # the film draws the displacements this many times larger
 
 
 class Strip:
@@ -85,8 +92,7 @@ class Strip:
         self.X = np.array([float(r["X"]) for r in rows])
         self.start = np.array([float(r["thickness"]) for r in rows])
         # the mean thickness (the profile is linear between its nodes: trapezoids)
-        self.mean = np.sum((self.start[1:] + self.start[:-1]) / 2 * np.diff(self.X)) \
-            / self.length
+        self.mean = np.sum((self.start[1:] + self.start[:-1]) / 2 * np.diff(self.X)) / self.length
         #: beam theory: theta_L = K * J[t], J = int_0^L (int_x^L t ds) / t(x)^3 dx
         self.K = 12 * self.M0 * self.B / self.E
 
@@ -135,9 +141,14 @@ def measure(folder: Path) -> dict:
     line = line[np.argsort(X[line, 0])]
     with open(folder / "thickness.csv", newline="") as f:
         t = np.array([float(r["thickness"]) for r in csv.DictReader(f)])
-    return {"folder": folder, "chord": result.quantity(OBJECTIVE),  # rftfem optimize's formula
-            "tip": float(np.arctan2(-d[tip, 0], d[tip, 2])), "t": t,
-            "X": X[line, 0], "u": np.asarray(u[line])}
+    return {
+        "folder": folder,
+        "chord": result.quantity(OBJECTIVE),  # rftfem optimize's formula
+        "tip": float(np.arctan2(-d[tip, 0], d[tip, 2])),
+        "t": t,
+        "X": X[line, 0],
+        "u": np.asarray(u[line]),
+    }
 
 
 def beam(strip: Strip) -> dict | None:
@@ -156,12 +167,16 @@ def beam(strip: Strip) -> dict | None:
     best, J = mr.magnetic_strip_piecewise_linear_optimum(L, strip.mean, lo, hi, len(strip.X))
     a, J_cont, _ = mr.bang_bang_coefficients(L, strip.mean, lo, hi)
     return {
-        "uniform": (K * mr.magnetic_strip_linear_coefficient(uniform, L),
-                    K * mr.magnetic_strip_linear_coefficient(uniform, L, CHORD)),
+        "uniform": (
+            K * mr.magnetic_strip_linear_coefficient(uniform, L),
+            K * mr.magnetic_strip_linear_coefficient(uniform, L, CHORD),
+        ),
         "same": (K * J, K * mr.magnetic_strip_linear_coefficient(best, L, CHORD)),
         # thick over the last CHORD: its bending there is K CHORD^2 / (6 hi^2)
         "continuous": (K * J_cont, K * (J_cont - CHORD**2 / (6 * hi**2))),
-        "t_same": best, "a": a}
+        "t_same": best,
+        "a": a,
+    }
 
 
 def ramp(scene, out: Path, title: str) -> Path:
@@ -170,27 +185,45 @@ def ramp(scene, out: Path, title: str) -> Path:
     import rftfem as api
 
     B = api.load_scene(scene)["magnetic.field.B"]
-    api.run(api.load_scene(scene, set={
-        "magnetic.field.B": [f"({b})*t" for b in B], "time.dt": 1.0 / RAMP_STEPS,
-        "title": title}), out=out)
+    api.run(
+        api.load_scene(
+            scene,
+            set={
+                "magnetic.field.B": [f"({b})*t" for b in B],
+                "time.dt": 1.0 / RAMP_STEPS,
+                "title": title,
+            },
+        ),
+        out=out,
+    )
     return out
 
 
 def table(start, best, ref, runs, wall) -> list[str]:
-    rows = [("rftfem, uniform (the start)", start["tip"], start["chord"]),
-            (f"rftfem, designed ({best['folder'].name})", best["tip"], best["chord"])]
+    rows = [
+        ("rftfem, uniform (the start)", start["tip"], start["chord"]),
+        (f"rftfem, designed ({best['folder'].name})", best["tip"], best["chord"]),
+    ]
     if ref is not None:
-        rows += [("beam, uniform", *ref["uniform"]),
-                 ("beam, best of 21 nodes, linear between", *ref["same"]),
-                 (f"beam, best of all (thin, then thick from X = {ref['a']:.3f})", *ref["continuous"])]
-    lines = ["| strip | tip rotation (rad) | ÷ uniform | angle of the last 0.5 mm "
-             "(rad, the objective) | ÷ uniform |", "| --- | ---: | ---: | ---: | ---: |"]
+        rows += [
+            ("beam, uniform", *ref["uniform"]),
+            ("beam, best of 21 nodes, linear between", *ref["same"]),
+            (f"beam, best of all (thin, then thick from X = {ref['a']:.3f})", *ref["continuous"]),
+        ]
+    lines = [
+        "| strip | tip rotation (rad) | ÷ uniform | angle of the last 0.5 mm "
+        "(rad, the objective) | ÷ uniform |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
     for i, (name, tip, chord) in enumerate(rows):
         base = rows[0] if i < 2 else rows[2]
-        lines.append(f"| {name} | {tip:.7f} | {tip / base[1]:.4f} | {chord:.7f} | "
-                     f"{chord / base[2]:.4f} |")
-    lines += ["", f"rftfem optimize: {runs} runs in {wall:.1f} s (each a static run and "
-              "its adjoint)."]
+        lines.append(
+            f"| {name} | {tip:.7f} | {tip / base[1]:.4f} | {chord:.7f} | {chord / base[2]:.4f} |"
+        )
+    lines += [
+        "",
+        f"rftfem optimize: {runs} runs in {wall:.1f} s (each a static run and its adjoint).",
+    ]
     return lines
 
 
@@ -204,16 +237,29 @@ def figure(strip, start, best, ref, rows, path: Path) -> None:
     a.plot(strip.X, start["t"], "o--", color="0.5", ms=3, label="start (uniform)")
     a.plot(strip.X, best["t"], "o-", ms=5, label=f"rftfem optimize ({best['folder'].name})")
     if ref is not None:
-        a.plot(strip.X, ref["t_same"], "x", color="C3", ms=8,
-               label="beam theory, best of the same 21 nodes")
-        a.step([0, ref["a"], strip.length], [BOUNDS[0], BOUNDS[1], BOUNDS[1]], where="post",
-               color="C2", lw=1, label="beam theory, best of all profiles")
+        a.plot(
+            strip.X,
+            ref["t_same"],
+            "x",
+            color="C3",
+            ms=8,
+            label="beam theory, best of the same 21 nodes",
+        )
+        a.step(
+            [0, ref["a"], strip.length],
+            [BOUNDS[0], BOUNDS[1], BOUNDS[1]],
+            where="post",
+            color="C2",
+            lw=1,
+            label="beam theory, best of all profiles",
+        )
     a.set_ylabel("thickness (mm)")
     a.set_title("Thickness along the strip (same mass, 0.05-0.2 mm)", fontsize=10)
     a.legend(fontsize=8)
     for run, name, colour in ((start, "uniform", "0.4"), (best, "designed", "C0")):
-        b.plot(run["X"] + run["u"][:, 0], run["u"][:, 2], color=colour, lw=3,
-               label=f"rftfem, {name}")
+        b.plot(
+            run["X"] + run["u"][:, 0], run["u"][:, 2], color=colour, lw=3, label=f"rftfem, {name}"
+        )
     if ref is not None:
         for t in (start["t"], ref["t_same"]):
             b.plot(*strip.centre_line(t), "--", color="w", lw=1)
@@ -226,8 +272,14 @@ def figure(strip, start, best, ref, rows, path: Path) -> None:
     c.plot([int(r["evaluation"]) for r in ok], [float(r["objective"]) for r in ok], "o-")
     off = [r for r in ok if not r["feasible"]]
     if off:
-        c.plot([int(r["evaluation"]) for r in off], [float(r["objective"]) for r in off], "o",
-               mfc="w", color="C3", label="off the mass constraint (a trial step)")
+        c.plot(
+            [int(r["evaluation"]) for r in off],
+            [float(r["objective"]) for r in off],
+            "o",
+            mfc="w",
+            color="C3",
+            label="off the mass constraint (a trial step)",
+        )
     if ref is not None:
         c.axhline(ref["same"][1], color="C3", ls="--", lw=1, label="beam, same 21 nodes")
         c.axhline(ref["continuous"][1], color="C2", ls=":", lw=1, label="beam, best of all")
@@ -256,6 +308,7 @@ def film(runs: list[tuple[str, Path, np.ndarray, str]], strip: Strip, path: Path
 
     try:
         import imageio_ffmpeg
+
         plt.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
     except ImportError:
         pass
@@ -277,9 +330,13 @@ def film(runs: list[tuple[str, Path, np.ndarray, str]], strip: Strip, path: Path
             n = np.stack([-dz, dx]) / np.hypot(dx, dz)
             half = np.interp(X[line, 0], strip.X, t_nodes) / 2
             d = f.point_data["director"][line[-1]]
-            shapes.append((np.r_[x + n[0] * half, (x - n[0] * half)[::-1]],
-                           np.r_[z + n[1] * half, (z - n[1] * half)[::-1]],
-                           float(np.arctan2(-d[0], d[2]))))
+            shapes.append(
+                (
+                    np.r_[x + n[0] * half, (x - n[0] * half)[::-1]],
+                    np.r_[z + n[1] * half, (z - n[1] * half)[::-1]],
+                    float(np.arctan2(-d[0], d[2])),
+                )
+            )
         frames.append((time_, shapes))
     fig, ax = plt.subplots(figsize=(8, 3.6))
     writer = FFMpegWriter(fps=8, codec="libx264", extra_args=["-pix_fmt", "yuv420p"])
@@ -289,16 +346,24 @@ def film(runs: list[tuple[str, Path, np.ndarray, str]], strip: Strip, path: Path
             ax.clear()
             ax.axvline(0.0, color="0.3", lw=4)  # the clamp
             for (name, _, _, colour), (xs, zs, tip) in zip(runs, shapes):
-                ax.fill(xs, zs, color=colour, alpha=0.8,
-                        label=f"{name}: tip turned {1000 * tip:.1f} mrad")
+                ax.fill(
+                    xs,
+                    zs,
+                    color=colour,
+                    alpha=0.8,
+                    label=f"{name}: tip turned {1000 * tip:.1f} mrad",
+                )
             ax.set_xlim(-0.3, strip.length + 0.3)
             ax.set_ylim(-0.3, top + 0.3)
             ax.set_aspect("equal")
             ax.set_xlabel("X (mm)")
             ax.set_ylabel("Z (mm)")
             ax.legend(loc="upper left", fontsize=9)
-            ax.set_title(f"field {time_:.2f} × 8e-10 along Z; same mass; displacements × "
-                         f"{SCALE:g}, thickness true", fontsize=10)
+            ax.set_title(
+                f"field {time_:.2f} × 8e-10 along Z; same mass; displacements × "
+                f"{SCALE:g}, thickness true",
+                fontsize=10,
+            )
             fig.tight_layout()
             writer.grab_frame()
     plt.close(fig)
@@ -307,10 +372,18 @@ def film(runs: list[tuple[str, Path, np.ndarray, str]], strip: Strip, path: Path
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("results/thickness_design"),
-                        help="the results folder (default results/thickness_design)")
-    parser.add_argument("--figures", type=Path, default=HERE.parent / "docs" / "figures",
-                        help="where thickness_design.png and .mp4 go (default docs/figures)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/thickness_design"),
+        help="the results folder (default results/thickness_design)",
+    )
+    parser.add_argument(
+        "--figures",
+        type=Path,
+        default=HERE.parent / "docs" / "figures",
+        help="where thickness_design.png and .mp4 go (default docs/figures)",
+    )
     parser.add_argument("--no-film", action="store_true", help="skip the ramps and the film")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -327,12 +400,17 @@ def main(argv=None) -> int:
     ref = beam(strip)
     lines = table(start, best, ref, len(rows), wall)
     if ref is not None:
-        lines += ["", "Optimal thickness node by node (mm):", "",
-                  "| X | " + " | ".join(f"{x:g}" for x in strip.X) + " |",
-                  "| --- " * (len(strip.X) + 1) + "|",
-                  "| rftfem | " + " | ".join(f"{t:.4f}" for t in best["t"]) + " |",
-                  "| beam | " + " | ".join(f"{t:.4f}" for t in ref["t_same"]) + " |", "",
-                  f"largest difference {np.abs(best['t'] - ref['t_same']).max():.1e} mm"]
+        lines += [
+            "",
+            "Optimal thickness node by node (mm):",
+            "",
+            "| X | " + " | ".join(f"{x:g}" for x in strip.X) + " |",
+            "| --- " * (len(strip.X) + 1) + "|",
+            "| rftfem | " + " | ".join(f"{t:.4f}" for t in best["t"]) + " |",
+            "| beam | " + " | ".join(f"{t:.4f}" for t in ref["t_same"]) + " |",
+            "",
+            f"largest difference {np.abs(best['t'] - ref['t_same']).max():.1e} mm",
+        ]
     else:
         lines += ["", "tests/material_references.py not found: no beam theory"]
     text = "\n".join(lines)
@@ -343,11 +421,24 @@ def main(argv=None) -> int:
 
     # 3. the film: the field ramped up on both strips
     if not args.no_film:
-        runs = [("uniform", ramp(SCENE, args.out / "ramp-uniform", "uniform strip"),
-                 start["t"], "0.55"),
-                ("designed", ramp(args.out / "optimize" / "best.toml",
-                                  args.out / "ramp-designed", "designed strip"),
-                 best["t"], "C0")]
+        runs = [
+            (
+                "uniform",
+                ramp(SCENE, args.out / "ramp-uniform", "uniform strip"),
+                start["t"],
+                "0.55",
+            ),
+            (
+                "designed",
+                ramp(
+                    args.out / "optimize" / "best.toml",
+                    args.out / "ramp-designed",
+                    "designed strip",
+                ),
+                best["t"],
+                "C0",
+            ),
+        ]
         if film(runs, strip, args.figures / "thickness_design.mp4"):
             print(f"film: {args.figures / 'thickness_design.mp4'}")
     return 0 if best["chord"] > start["chord"] else 1

@@ -62,8 +62,17 @@ CASES = {
     "IV": ((4.0, 4.0, 400.0), ("w_L", "w_R")),
 }
 #: the paper's Table 4 (case I): corner displacement along Y (mm) at t = 0.4, 0.8, ...
-PAPER_TABLE4 = [-0.003758, -0.003759, -0.003650, -0.003648, -0.003535,
-                -0.003537, -0.003420, -0.003427, -0.003305]
+PAPER_TABLE4 = [
+    -0.003758,
+    -0.003759,
+    -0.003650,
+    -0.003648,
+    -0.003535,
+    -0.003537,
+    -0.003420,
+    -0.003427,
+    -0.003305,
+]
 PERIOD, CYCLES = 0.4, 9
 RHO, T, NU, LINK, C3 = 1.0e-8, 0.2, 0.3, 0.5, 5.67e-9
 #: how far case I may lie from the rigid-link reference (relative)
@@ -85,10 +94,14 @@ def run_case(name: str, density: float, out: Path):
     if density == 0.0:
         changes["time.scheme"] = "backward-euler"
     scene = rftfem.load_scene(SCENE, set=changes)
-    parts = [{"region": r, "E": E, "nu": NU, "thickness": T, "density": density}
-             for r, E in (("left", EL), ("middle", EM), ("right", ER))]
-    changes = {"shell.parts": parts,
-               "title": f"Three-link swimmer, case {name}" + ("" if density else ", no inertia")}
+    parts = [
+        {"region": r, "E": E, "nu": NU, "thickness": T, "density": density}
+        for r, E in (("left", EL), ("middle", EM), ("right", ER))
+    ]
+    changes = {
+        "shell.parts": parts,
+        "title": f"Three-link swimmer, case {name}" + ("" if density else ", no inertia"),
+    }
     if "w_R" not in driven:
         changes["motion"] = [m for m in scene.raw()["motion"] if m["where"] != "y=W"]
     scene.update(changes)
@@ -106,8 +119,11 @@ def measures(probes) -> dict:
     left = np.array([2.5, 0.5, 0.0]) + probes[2]
     right = np.array([2.5, 1.0, 0.0]) + probes[3]
     chord = right - left
-    return {"corner_y": probes[0][1], "centre_z": probes[1][2],
-            "angle_middle": math.atan2(chord[2], chord[1])}
+    return {
+        "corner_y": probes[0][1],
+        "centre_z": probes[1][2],
+        "angle_middle": math.atan2(chord[2], chord[1]),
+    }
 
 
 def rigid_reference(scene_path: Path = SCENE) -> dict | None:
@@ -125,8 +141,9 @@ def rigid_reference(scene_path: Path = SCENE) -> dict | None:
 
     scene = tomllib.loads(scene_path.read_text(encoding="utf-8"))
     w_left, w_right = (m["values"] for m in scene["motion"])
-    result = rigid_links.simulate(w_left, w_right, PERIOD * CYCLES, density=RHO,
-                                  thickness=T, link_width=LINK)
+    result = rigid_links.simulate(
+        w_left, w_right, PERIOD * CYCLES, density=RHO, thickness=T, link_width=LINK
+    )
     return result.summary()
 
 
@@ -151,23 +168,28 @@ def main(argv=None) -> int:
             table[label] = [float(y[i]) for i in rows]
             centroids[label] = [float(centroid[i]) for i in rows]
             last[label] = {**measures(probes[-1]), "centroid_y": float(centroid[-1])}
-            print(f"case {label:18s} after nine cycles: corner Y {table[label][-1]:+.6f} mm, "
-                  f"centroid Y {centroids[label][-1]:+.6f} mm "
-                  f"({summary['counts']['steps']} steps, {summary['wall_s']['total']:.0f} s)")
+            print(
+                f"case {label:18s} after nine cycles: corner Y {table[label][-1]:+.6f} mm, "
+                f"centroid Y {centroids[label][-1]:+.6f} mm "
+                f"({summary['counts']['steps']} steps, {summary['wall_s']['total']:.0f} s)"
+            )
 
     with open(args.out / "table4.csv", "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(["t", *table, "paper case I"])
         for i, m in enumerate(marks):
-            writer.writerow([f"{m:.1f}", *(f"{v[i]:.6f}" for v in table.values()),
-                             PAPER_TABLE4[i]])
-    lines = ["| case | E_L, E_M, E_R (MPa) | inertia ρtω/C₃ | Sp of the links |",
-             "|---|---|---|---|"]
+            writer.writerow([f"{m:.1f}", *(f"{v[i]:.6f}" for v in table.values()), PAPER_TABLE4[i]])
+    lines = [
+        "| case | E_L, E_M, E_R (MPa) | inertia ρtω/C₃ | Sp of the links |",
+        "|---|---|---|---|",
+    ]
     for name in args.cases:
         Es = CASES[name][0]
         sp = ", ".join(f"{groups(E)['Sp']:.3f}" for E in Es)
-        lines.append(f"| {name} | {', '.join(f'{E:g}' for E in Es)} | "
-                     f"{groups(Es[0])['inertia']:.2f} | {sp} |")
+        lines.append(
+            f"| {name} | {', '.join(f'{E:g}' for E in Es)} | "
+            f"{groups(Es[0])['inertia']:.2f} | {sp} |"
+        )
     (args.out / "groups.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
     with open(args.out / "centroid.csv", "w", newline="", encoding="utf-8") as fh:
@@ -180,25 +202,35 @@ def main(argv=None) -> int:
         if reference is None:
             print("tests/rigid_links.py not found: case I not compared with the rigid links")
         else:
-            lines = ["| after nine cycles | case I | rigid links | difference |",
-                     "|---|---|---|---|"]
-            for key, what in (("corner_y", "corner Y (mm)"), ("centre_z", "centre Z (mm)"),
-                              ("angle_middle", "middle-link angle (rad)"),
-                              ("centroid_y", "centroid Y (mm)")):
+            lines = [
+                "| after nine cycles | case I | rigid links | difference |",
+                "|---|---|---|---|",
+            ]
+            for key, what in (
+                ("corner_y", "corner Y (mm)"),
+                ("centre_z", "centre Z (mm)"),
+                ("angle_middle", "middle-link angle (rad)"),
+                ("centroid_y", "centroid Y (mm)"),
+            ):
                 ours, ref = last["I"][key], reference[key]
                 rel = ours / ref - 1
                 # the centroid hardly moves: it is compared against the corner's scale
-                off = abs(ours - ref) / abs(reference["corner_y"]) if key == "centroid_y" \
+                off = (
+                    abs(ours - ref) / abs(reference["corner_y"])
+                    if key == "centroid_y"
                     else abs(rel)
+                )
                 lines.append(f"| {what} | {ours:+.6f} | {ref:+.6f} | {100 * rel:+.2f} % |")
                 if off > REFERENCE_TOLERANCE:
-                    failed.append(f"case I {what} off the rigid-link reference by "
-                                  f"{100 * off:.2f} %")
+                    failed.append(
+                        f"case I {what} off the rigid-link reference by {100 * off:.2f} %"
+                    )
             (args.out / "reference.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
             print("\n".join(lines))
     _plot(curves, args.out / "three_link.png")
-    print(f"wrote {args.out / 'table4.csv'}, centroid.csv, reference.md, groups.md and "
-          "three_link.png")
+    print(
+        f"wrote {args.out / 'table4.csv'}, centroid.csv, reference.md, groups.md and three_link.png"
+    )
     # a picture and a film of the first case, drawn as `rftfem render` draws them
     draw_picture_and_film(args.out / f"case_{args.cases[0]}", "swimmer", view="follow")
     if failed:
@@ -233,8 +265,12 @@ def _plot(curves, path):
         style = "-" if "no inertia" not in label else ":"
         ax.plot(t, 1e3 * y, ls=style, label=f"case {label}")
         bx.plot(t, 1e3 * centroid, ls=style, label=f"case {label}")
-    ax.plot([PERIOD * k for k in range(1, CYCLES + 1)], [1e3 * v for v in PAPER_TABLE4], "kx",
-            label="paper, case I (Table 4)")
+    ax.plot(
+        [PERIOD * k for k in range(1, CYCLES + 1)],
+        [1e3 * v for v in PAPER_TABLE4],
+        "kx",
+        label="paper, case I (Table 4)",
+    )
     ax.set_xlabel("t (s)")
     ax.set_ylabel("corner displacement along Y (µm)")
     ax.set_title("the corner (0, 0): the chain folding")

@@ -48,9 +48,24 @@ OBJECTIVE = "-rate(centre_uy, 1, 3)/mean(drag_power, 1, 3)"
 
 def optimize(out: Path, method: str, budget: int, reuse: bool) -> tuple[dict, int, float]:
     """Run ``rftfem optimize``; the best row of optimize.csv, the runs, the wall time."""
-    cmd = [sys.executable, "-m", "rftfem", "optimize", str(SCENE), *VARY,
-           "--objective", OBJECTIVE, "--maximize", "--method", method,
-           "--budget", str(budget), "--out", str(out), *(["--reuse"] if reuse else [])]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "optimize",
+        str(SCENE),
+        *VARY,
+        "--objective",
+        OBJECTIVE,
+        "--maximize",
+        "--method",
+        method,
+        "--budget",
+        str(budget),
+        "--out",
+        str(out),
+        *(["--reuse"] if reuse else []),
+    ]
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True)
     wall = time.perf_counter() - t0
@@ -62,8 +77,10 @@ def optimize(out: Path, method: str, budget: int, reuse: bool) -> tuple[dict, in
 def describe(row: dict) -> str:
     r = float(row["motion.1.amplitude"]) / A
     phase = float(row["motion.1.phase"])
-    return (f"r = {r:.4f}, φ = {phase:.4f} rad ({math.degrees(phase):.1f}°): "
-            f"{float(row['objective']):.5g} mm/mJ ({row['folder']})")
+    return (
+        f"r = {r:.4f}, φ = {phase:.4f} rad ({math.degrees(phase):.1f}°): "
+        f"{float(row['objective']):.5g} mm/mJ ({row['folder']})"
+    )
 
 
 def main(argv=None) -> int:
@@ -89,9 +106,18 @@ def main(argv=None) -> int:
     (args.out / "stroke.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     if not args.no_film:
         film = args.out / "optimum.mp4"
-        subprocess.run([sys.executable, "-m", "rftfem", "render",
-                        str(args.out / "optimize" / best["folder"]), "--out", str(film)],
-                       check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "rftfem",
+                "render",
+                str(args.out / "optimize" / best["folder"]),
+                "--out",
+                str(film),
+            ],
+            check=True,
+        )
         print(f"film of the best stroke: {film}; history: {args.out / 'optimize' / 'optimize.png'}")
     if float(best["objective"]) < float(grid["objective"]):
         print("the optimiser's best is worse than the grid's", file=sys.stderr)

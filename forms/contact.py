@@ -42,7 +42,7 @@ def gap(x_face, point, normal):
 
 
 def _log_barrier(s, s_hat):
-    return -(s - s_hat) ** 2 * ufl.ln(s / s_hat)
+    return -((s - s_hat) ** 2) * ufl.ln(s / s_hat)
 
 
 def barrier(g, reach):
@@ -52,8 +52,7 @@ def barrier(g, reach):
     sc = CLAMP * s_hat
     b_c = _log_barrier(sc, s_hat)
     db_c = -2 * (sc - s_hat) * ufl.ln(sc / s_hat) - (sc - s_hat) ** 2 / sc
-    d2b_c = (-2 * ufl.ln(sc / s_hat) - 4 * (sc - s_hat) / sc
-             + (sc - s_hat) ** 2 / sc ** 2)
+    d2b_c = -2 * ufl.ln(sc / s_hat) - 4 * (sc - s_hat) / sc + (sc - s_hat) ** 2 / sc**2
     taylor = b_c + db_c * (s - sc) + 0.5 * d2b_c * (s - sc) ** 2
     s_log = ufl.max_value(s, sc)  # keeps ln's argument positive on the branch not taken
     inside = ufl.conditional(ufl.gt(s, sc), _log_barrier(s_log, s_hat), taylor)
@@ -97,8 +96,10 @@ def step_pressure(stiffness, g, g_start, reach, alpha_f, weighted):
     small = ufl.lt(abs(dg), SECANT_FLOOR * reach)
     slope, slope_start = barrier_slope(g, reach), barrier_slope(g_start, reach)
     secant = ufl.conditional(
-        small, barrier_slope(0.5 * (g + g_start), reach),
-        (barrier(g, reach) - barrier(g_start, reach)) / ufl.conditional(small, 1.0, dg))
+        small,
+        barrier_slope(0.5 * (g + g_start), reach),
+        (barrier(g, reach) - barrier(g_start, reach)) / ufl.conditional(small, 1.0, dg),
+    )
     stepped = secant + (0.5 - alpha_f) * (slope - slope_start)
     return -stiffness * (weighted * stepped + (1 - weighted) * slope)
 
@@ -119,14 +120,15 @@ def friction_coefficient(mu_kinetic, mu_static, speed, v_scale):
     """``μ(y)``: ``μ_s`` up to ``y = ε_v``, then ``μ_k + (μ_s − μ_k) exp(−((y − ε_v)/ε_v)²)``
     (C¹; below 1e-4 of the step by y = 4 ε_v)."""
     over = ufl.max_value(speed - v_scale, 0 * speed) / v_scale
-    return mu_kinetic + (mu_static - mu_kinetic) * ufl.exp(-over ** 2)
+    return mu_kinetic + (mu_static - mu_kinetic) * ufl.exp(-(over**2))
 
 
 def mollifier(speed, v_scale):
     """``f₁(y)/y``: ``(2 − y/ε_v)/ε_v`` below ``ε_v``, ``1/y`` above (IPC's C¹ smoothing
     of the direction ``v/|v|``; finite at zero slip)."""
-    return ufl.conditional(ufl.lt(speed, v_scale), (2 - speed / v_scale) / v_scale,
-                           1 / ufl.max_value(speed, v_scale))
+    return ufl.conditional(
+        ufl.lt(speed, v_scale), (2 - speed / v_scale) / v_scale, 1 / ufl.max_value(speed, v_scale)
+    )
 
 
 def friction_traction(pressure, v_slip, v_scale, mu_kinetic, mu_static, frame=None):

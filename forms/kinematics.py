@@ -19,8 +19,7 @@ def covariant_basis(mesh):
 
 def metric(a1, a2):
     """First fundamental form ``a_ab = a_a . a_b`` of a pair of tangent vectors."""
-    return ufl.as_matrix([[ufl.dot(a1, a1), ufl.dot(a1, a2)],
-                          [ufl.dot(a2, a1), ufl.dot(a2, a2)]])
+    return ufl.as_matrix([[ufl.dot(a1, a1), ufl.dot(a1, a2)], [ufl.dot(a2, a1), ufl.dot(a2, a2)]])
 
 
 def unit(v):

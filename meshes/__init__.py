@@ -63,8 +63,12 @@ __all__ = ["Body", "build_strip", "build_three_link", "read_gmsh", "build_body"]
 
 _DEFAULTS = {
     "strip": {"length": 12.0, "width": 1.0, "divisions": [16, 1], "cell": "quadrilateral"},
-    "three-link": {"length": 12.0, "link_width": 0.5, "divisions": [10, 2],
-                   "cell": "quadrilateral"},
+    "three-link": {
+        "length": 12.0,
+        "link_width": 0.5,
+        "divisions": [10, 2],
+        "cell": "quadrilateral",
+    },
 }
 
 
@@ -85,8 +89,9 @@ def _regions(raw) -> list:
             band = bands[k]
             if band is not None:
                 if not isinstance(band, (list, tuple)) or len(band) != 2:
-                    raise SceneError(f"mesh.regions.{i}.{axis}: expected [{axis}0, {axis}1], "
-                                     f"found {band!r}")
+                    raise SceneError(
+                        f"mesh.regions.{i}.{axis}: expected [{axis}0, {axis}1], found {band!r}"
+                    )
                 bands[k] = tuple(band)
         regions.append((item["name"], *bands))
     return regions
@@ -125,24 +130,42 @@ def build_body(comm, mesh_section: dict, scene_dir=None, hinges=()) -> Body:
         regions = _regions(mesh_section.get("regions", []))
         grading = float(mesh_section.get("grading") or 1.0)
         if kind == "strip":
-            return build_strip(comm, get("length"), get("width"), get("divisions"),
-                               get("cell"), regions, hinges, grading=grading)
-        return build_three_link(comm, get("length"), get("link_width"), get("divisions"),
-                                get("cell"), regions, hinges, grading=grading)
+            return build_strip(
+                comm,
+                get("length"),
+                get("width"),
+                get("divisions"),
+                get("cell"),
+                regions,
+                hinges,
+                grading=grading,
+            )
+        return build_three_link(
+            comm,
+            get("length"),
+            get("link_width"),
+            get("divisions"),
+            get("cell"),
+            regions,
+            hinges,
+            grading=grading,
+        )
     if kind == "gmsh":
         path = mesh_section.get("file")
         if not isinstance(path, str) or not path:
-            raise SceneError(f"mesh.file: required for kind = \"gmsh\" (a .msh path), "
-                             f"found {path!r}")
+            raise SceneError(f'mesh.file: required for kind = "gmsh" (a .msh path), found {path!r}')
         if float(mesh_section.get("grading") or 1.0) != 1.0:
-            raise SceneError("mesh.grading: for kind = \"strip\" or \"three-link\"; a gmsh "
-                             "file brings its own cell sizes (grade them in gmsh)")
+            raise SceneError(
+                'mesh.grading: for kind = "strip" or "three-link"; a gmsh '
+                "file brings its own cell sizes (grade them in gmsh)"
+            )
         if mesh_section.get("regions"):
-            raise SceneError("mesh.regions: x/y bands are for kind = \"strip\" or "
-                             "\"three-link\"; with kind = \"gmsh\" the named physical "
-                             "surfaces of the file are the regions")
+            raise SceneError(
+                'mesh.regions: x/y bands are for kind = "strip" or '
+                '"three-link"; with kind = "gmsh" the named physical '
+                "surfaces of the file are the regions"
+            )
         if scene_dir is not None and not os.path.isabs(path):
             path = os.path.join(os.fspath(scene_dir), path)
         return read_gmsh(comm, path)
-    raise SceneError(f"mesh.kind: expected \"strip\", \"three-link\" or \"gmsh\", "
-                     f"found {kind!r}")
+    raise SceneError(f'mesh.kind: expected "strip", "three-link" or "gmsh", found {kind!r}')

@@ -19,8 +19,12 @@ from rftfem.errors import SceneError
 
 # gmsh element types rftfem reads as surface cells: 3-node and 6-node
 # triangles, 4-node and 9-node quadrilaterals (geometry degree 1 or 2).
-_SURFACE_TYPES = {2: "3-node triangle", 3: "4-node quadrilateral",
-                  9: "6-node triangle", 10: "9-node quadrilateral"}
+_SURFACE_TYPES = {
+    2: "3-node triangle",
+    3: "4-node quadrilateral",
+    9: "6-node triangle",
+    10: "9-node quadrilateral",
+}
 
 
 # --- gmsh session (rank 0) ---------------------------------------------------
@@ -144,7 +148,7 @@ def _model_to_body(comm, prepare, options=None):
     ``(mesh, cell_tags, facet_tags, *names)``.
     """
     root = comm.rank == 0
-    with (_GmshSession(options) if root else nullcontext()) as gmsh:
+    with _GmshSession(options) if root else nullcontext() as gmsh:
         result = None
         if root:
             try:
@@ -158,8 +162,7 @@ def _model_to_body(comm, prepare, options=None):
             raise SceneError(payload)
         if status == "error":
             raise RuntimeError(f"building the mesh with gmsh failed: {payload}")
-        mesh, cell_tags, facet_tags = gmsh_model_to_mesh(gmsh.model if root else None,
-                                                         comm, 0, 3)
+        mesh, cell_tags, facet_tags = gmsh_model_to_mesh(gmsh.model if root else None, comm, 0, 3)
     if facet_tags is None:  # dolfinx >= 0.10 gives None when no curve is tagged
         facet_tags = _empty_meshtags(mesh, mesh.topology.dim - 1)
     return (mesh, cell_tags, facet_tags, *payload)
@@ -203,8 +206,11 @@ def _prepare_file(gmsh, path: str):
         _fail(path, "is not a surface mesh: it has no 2D elements")
     surfaces = [tag for dim, tag in groups if dim == 2]
     if not surfaces:
-        _fail(path, "has no physical surface; name the surfaces that make the body "
-                    "(Physical Surface(\"name\") = {...})")
+        _fail(
+            path,
+            "has no physical surface; name the surfaces that make the body "
+            '(Physical Surface("name") = {...})',
+        )
 
     regions: dict[str, list[int]] = {}
     owner: dict[int, int] = {}  # surface entity -> physical surface
@@ -214,8 +220,11 @@ def _prepare_file(gmsh, path: str):
         for entity in model.getEntitiesForPhysicalGroup(2, tag):
             entity = int(entity)
             if entity in owner:
-                _fail(path, f"surface {entity} is in two physical surfaces "
-                            f"({owner[entity]} and {tag}); each cell must be in one")
+                _fail(
+                    path,
+                    f"surface {entity} is in two physical surfaces "
+                    f"({owner[entity]} and {tag}); each cell must be in one",
+                )
             owner[entity] = tag
             types.update(int(t) for t in model.mesh.getElementTypes(2, entity))
         if name:
@@ -225,8 +234,11 @@ def _prepare_file(gmsh, path: str):
     bad = sorted(types - set(_SURFACE_TYPES))
     if bad:
         names = ", ".join(model.mesh.getElementProperties(t)[0] for t in bad)
-        _fail(path, f"has unsupported 2D elements ({names}); use 3- or 6-node triangles "
-                    "or 4- or 9-node quadrilaterals")
+        _fail(
+            path,
+            f"has unsupported 2D elements ({names}); use 3- or 6-node triangles "
+            "or 4- or 9-node quadrilaterals",
+        )
     if len(types) != 1:
         names = " and ".join(_SURFACE_TYPES[t] for t in sorted(types))
         _fail(path, f"mixes {names} cells in its physical surfaces; use one cell type")
@@ -256,11 +268,15 @@ def _prepare_file(gmsh, path: str):
                     on_body.update(int(n) for n in model.mesh.getNodes(2, e, True)[0])
             if not set(int(n) for n in nodes) <= on_body:
                 # a node outside every cell would leave the mesh a free vertex
-                _fail(path, f"physical point '{name or tag}' is not on the body's "
-                            "surface; a named point must be a node of its mesh")
+                _fail(
+                    path,
+                    f"physical point '{name or tag}' is not on the body's "
+                    "surface; a named point must be a node of its mesh",
+                )
             if name:
-                points[name] = np.vstack([points.get(name, np.empty((0, 3))),
-                                          np.asarray(xyz).reshape(-1, 3)])
+                points[name] = np.vstack(
+                    [points.get(name, np.empty((0, 3))), np.asarray(xyz).reshape(-1, 3)]
+                )
     return regions, edges, points, report
 
 
@@ -286,8 +302,9 @@ def _check_cells(model, path: str, cell_type: int, entities: list[int]):
     grads = model.mesh.getBasisFunctions(cell_type, points, "GradLagrange")[1]
     grads = np.asarray(grads).reshape(len(points) // 3, nodes.shape[1], 3)[:, :, :2]
     try:
-        turn, report = check_surface(cell_type, index[nodes], np.asarray(xyz).reshape(-1, 3),
-                                     grads, tags)
+        turn, report = check_surface(
+            cell_type, index[nodes], np.asarray(xyz).reshape(-1, 3), grads, tags
+        )
     except ValueError as e:
         _fail(path, str(e))
     if turn.any():
@@ -297,8 +314,7 @@ def _check_cells(model, path: str, cell_type: int, entities: list[int]):
             mine = entity_of == e
             model.mesh.clear([(2, int(e))])
             model.mesh.addNodes(2, int(e), inside, coords)
-            model.mesh.addElements(2, int(e), [cell_type], [tags[mine]],
-                                   [nodes[mine].ravel()])
+            model.mesh.addElements(2, int(e), [cell_type], [tags[mine]], [nodes[mine].ravel()])
     return report
 
 
@@ -342,10 +358,19 @@ def read_gmsh(comm, path):
     """
     path = os.fspath(path)
     mesh, cell_tags, facet_tags, regions, edges, points, report = _model_to_body(
-        comm, lambda gmsh: _prepare_file(gmsh, path))
+        comm, lambda gmsh: _prepare_file(gmsh, path)
+    )
     length, width = _extents(comm, mesh)
     from . import Body
 
-    return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
-                regions=regions, edges=edges, points=points, length=length, width=width,
-                report=report)
+    return Body(
+        mesh=mesh,
+        cell_tags=cell_tags,
+        facet_tags=facet_tags,
+        regions=regions,
+        edges=edges,
+        points=points,
+        length=length,
+        width=width,
+        report=report,
+    )

@@ -20,8 +20,12 @@ EDGE_TAGS = {"x=0": 1, "x=L": 2, "y=0": 3, "y=W": 4}
 CELLS = ("quadrilateral", "triangle")
 
 # gmsh options the strip depends on (global in gmsh: set and restored around the build)
-_OPTIONS = {"Mesh.ElementOrder": 1, "Mesh.RecombineAll": 0,
-            "Mesh.SubdivisionAlgorithm": 0, "Mesh.Smoothing": 0}
+_OPTIONS = {
+    "Mesh.ElementOrder": 1,
+    "Mesh.RecombineAll": 0,
+    "Mesh.SubdivisionAlgorithm": 0,
+    "Mesh.Smoothing": 0,
+}
 
 _HINGE = re.compile(r"\s*([xy])\s*=\s*(\S+)\s*")
 
@@ -72,8 +76,10 @@ def check_size(key: str, v) -> float:
     if not _is_number(v) or not (math.isfinite(v) and v > 0):
         raise SceneError(f"mesh.{key}: expected a positive number, found {v!r}")
     if v > MAX_SIZE:
-        raise SceneError(f"mesh.{key}: expected a length below {MAX_SIZE:g} (its area must "
-                         f"be finite in double precision), found {v!r}")
+        raise SceneError(
+            f"mesh.{key}: expected a length below {MAX_SIZE:g} (its area must "
+            f"be finite in double precision), found {v!r}"
+        )
     return float(v)
 
 
@@ -85,14 +91,15 @@ def check_divisions(divisions, names: str) -> tuple[int, int]:
     except (TypeError, ValueError):
         ok = False
     if not ok:
-        raise SceneError(f"mesh.divisions: expected two positive integers {names}, "
-                         f"found {divisions!r}")
+        raise SceneError(
+            f"mesh.divisions: expected two positive integers {names}, found {divisions!r}"
+        )
     return int(a), int(b)
 
 
 def check_cell(cell) -> None:
     if cell not in CELLS:
-        raise SceneError(f"mesh.cell: expected \"quadrilateral\" or \"triangle\", found {cell!r}")
+        raise SceneError(f'mesh.cell: expected "quadrilateral" or "triangle", found {cell!r}')
 
 
 def _check_band(key: str, band, axis: str, extent: float):
@@ -101,18 +108,22 @@ def _check_band(key: str, band, axis: str, extent: float):
     try:
         a, b = band
     except (TypeError, ValueError):
-        raise SceneError(f"{key}: expected two numbers [{axis}0, {axis}1], "
-                         f"found {band!r}") from None
+        raise SceneError(
+            f"{key}: expected two numbers [{axis}0, {axis}1], found {band!r}"
+        ) from None
     if not (_is_number(a) and _is_number(b)):
         raise SceneError(f"{key}: expected two numbers [{axis}0, {axis}1], found {list(band)!r}")
     a, b = float(a), float(b)
     what = "length" if axis == "x" else "width"
     if not (math.isfinite(a) and math.isfinite(b)) or b - a <= tol:
-        raise SceneError(f"{key}: expected an interval [{axis}0, {axis}1] with {axis}1 − {axis}0 "
-                         f"> {tol:.3g} (1e-9 of the {what}), found [{a:g}, {b:g}]")
+        raise SceneError(
+            f"{key}: expected an interval [{axis}0, {axis}1] with {axis}1 − {axis}0 "
+            f"> {tol:.3g} (1e-9 of the {what}), found [{a:g}, {b:g}]"
+        )
     if a < -tol or b > extent + tol:
-        raise SceneError(f"{key}: [{a:g}, {b:g}] is not inside the body: it spans {axis} in "
-                         f"[0, {extent:g}]")
+        raise SceneError(
+            f"{key}: [{a:g}, {b:g}] is not inside the body: it spans {axis} in [0, {extent:g}]"
+        )
     return min(max(a, 0.0), extent), min(max(b, 0.0), extent)
 
 
@@ -128,18 +139,23 @@ def _check_regions(regions, length: float, width: float, reserved=()):
         try:
             name, xband, yband = (*item, None) if len(item) == 2 else item
         except (TypeError, ValueError):
-            raise SceneError(f"{key}: expected a name and bands x = [x0, x1] and/or "
-                             f"y = [y0, y1], found {item!r}") from None
+            raise SceneError(
+                f"{key}: expected a name and bands x = [x0, x1] and/or y = [y0, y1], found {item!r}"
+            ) from None
         if not isinstance(name, str) or not name:
             raise SceneError(f"{key}.name: expected a non-empty string, found {name!r}")
         if name in seen:
             raise SceneError(f"{key}.name: region '{name}' is defined twice")
         if name in EDGE_TAGS:
-            raise SceneError(f"{key}.name: '{name}' is the name of an edge of the body; "
-                             "choose another region name")
+            raise SceneError(
+                f"{key}.name: '{name}' is the name of an edge of the body; "
+                "choose another region name"
+            )
         if name in reserved:
-            raise SceneError(f"{key}.name: '{name}' is a built-in region of this mesh; "
-                             "choose another region name")
+            raise SceneError(
+                f"{key}.name: '{name}' is a built-in region of this mesh; "
+                "choose another region name"
+            )
         seen.add(name)
         if xband is None and yband is None:
             raise SceneError(f"{key}: expected x = [a, b] and/or y = [a, b]")
@@ -160,7 +176,7 @@ def _check_hinges(hinges, length: float, width: float, builtin=()):
     body, or a second hinge on one line (within 1e-9 of the extent).
     """
     if isinstance(hinges, (str, bytes)):
-        raise SceneError(f"hinge: expected a list of \"x=c\" / \"y=c\" lines, found {hinges!r}")
+        raise SceneError(f'hinge: expected a list of "x=c" / "y=c" lines, found {hinges!r}')
     extent = {"x": length, "y": width}
     lines = [(axis, c, name, name) for axis, c, name in builtin]  # + label for messages
     for i, where in enumerate(hinges):
@@ -171,16 +187,21 @@ def _check_hinges(hinges, length: float, width: float, builtin=()):
         except ValueError:
             c = math.nan
         if not math.isfinite(c):
-            raise SceneError(f"{key}: expected \"x=c\" or \"y=c\" (a line of the mesh) with c "
-                             f"a finite number, found {where!r}")
+            raise SceneError(
+                f'{key}: expected "x=c" or "y=c" (a line of the mesh) with c '
+                f"a finite number, found {where!r}"
+            )
         axis = match.group(1)
         size, tol = extent[axis], 1e-9 * extent[axis]
         if c < -tol or c > size + tol:
-            raise SceneError(f"{key}: \"{where}\" is not a line of the mesh: the body spans "
-                             f"{axis} in [0, {size:g}]")
+            raise SceneError(
+                f'{key}: "{where}" is not a line of the mesh: the body spans '
+                f"{axis} in [0, {size:g}]"
+            )
         if abs(c) <= tol or abs(c - size) <= tol:
-            raise SceneError(f"{key}: \"{where}\" lies on the body's boundary; "
-                             "a hinge joins two sides")
+            raise SceneError(
+                f'{key}: "{where}" lies on the body\'s boundary; a hinge joins two sides'
+            )
         for other_axis, other, _, label in lines:
             if other_axis == axis and abs(other - c) <= tol:
                 raise SceneError(f"{key}: two hinges on one line: {label} and {key}")
@@ -212,7 +233,7 @@ def _share(cuts, groups) -> list[int]:
     out = []
     for a, b, n in groups:
         i, j = cuts.index(a), cuts.index(b)
-        out += share_divisions([q - p for p, q in zip(cuts[i:j], cuts[i + 1:j + 1])], n)
+        out += share_divisions([q - p for p, q in zip(cuts[i:j], cuts[i + 1 : j + 1])], n)
     return out
 
 
@@ -236,8 +257,7 @@ def _grade_nodes(gmsh, xs, ys, grading: float) -> None:
         return
     tags, xyz, _ = gmsh.model.mesh.getNodes()
     for tag, (x, y, z) in zip(tags, xyz.reshape(-1, 3)):
-        gmsh.model.mesh.setNode(int(tag), [graded(x, xs, grading), graded(y, ys, grading), z],
-                                [])
+        gmsh.model.mesh.setNode(int(tag), [graded(x, xs, grading), graded(y, ys, grading), z], [])
 
 
 def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
@@ -263,8 +283,9 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
             mesh.setTransfiniteCurve(v[i][j], nys[j] + 1)
     model = gmsh.model
     for tag, (s, i, j) in surfaces.items():
-        mesh.setTransfiniteSurface(s, cornerTags=[p[j][i], p[j][i + 1],
-                                                  p[j + 1][i + 1], p[j + 1][i]])
+        mesh.setTransfiniteSurface(
+            s, cornerTags=[p[j][i], p[j][i + 1], p[j + 1][i + 1], p[j + 1][i]]
+        )
         if quads:
             mesh.setRecombine(2, s)
         model.addPhysicalGroup(2, [s], tag)
@@ -283,14 +304,30 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
     def inside(band, a, b):
         return band is None or band[0] <= 0.5 * (a + b) <= band[1]
 
-    names = {name: [tag for tag, (_, i, j) in surfaces.items()
-                    if inside(xband, xs[i], xs[i + 1]) and inside(yband, ys[j], ys[j + 1])]
-             for name, xband, yband in regions}
+    names = {
+        name: [
+            tag
+            for tag, (_, i, j) in surfaces.items()
+            if inside(xband, xs[i], xs[i + 1]) and inside(yband, ys[j], ys[j + 1])
+        ]
+        for name, xband, yband in regions
+    }
     return names, edges
 
 
-def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges, grading=1.0,
-              builtin_lines=(), builtin_regions=()):
+def grid_body(
+    comm,
+    length,
+    width,
+    nx,
+    ygroups,
+    cell,
+    regions,
+    hinges,
+    grading=1.0,
+    builtin_lines=(),
+    builtin_regions=(),
+):
     """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles.
 
     Checked arguments except ``regions`` and ``hinges`` (user input, checked
@@ -316,18 +353,35 @@ def grid_body(comm, length, width, nx, ygroups, cell, regions, hinges, grading=1
 
     mesh, cell_tags, facet_tags, names, edges = _model_to_body(
         comm,
-        lambda gmsh: _prepare_grid(gmsh, xs, nxs, ys, nys, cell == "quadrilateral",
-                                   all_regions, lines, grading),
-        options=_OPTIONS)
+        lambda gmsh: _prepare_grid(
+            gmsh, xs, nxs, ys, nys, cell == "quadrilateral", all_regions, lines, grading
+        ),
+        options=_OPTIONS,
+    )
     from . import Body
 
-    return Body(mesh=mesh, cell_tags=cell_tags, facet_tags=facet_tags,
-                regions=names, edges=edges, length=length, width=width,
-                hinges=[name for _, _, name in builtin_lines])
+    return Body(
+        mesh=mesh,
+        cell_tags=cell_tags,
+        facet_tags=facet_tags,
+        regions=names,
+        edges=edges,
+        length=length,
+        width=width,
+        hinges=[name for _, _, name in builtin_lines],
+    )
 
 
-def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=(), hinges=(),
-                grading: float = 1.0):
+def build_strip(
+    comm,
+    length,
+    width,
+    divisions,
+    cell="quadrilateral",
+    regions=(),
+    hinges=(),
+    grading: float = 1.0,
+):
     """A structured strip ``x in [0, L], y in [0, W]`` at Z = 0 as a Body.
 
     ``divisions = [nx, ny]``: elements along X and Y; ``cell`` is
@@ -365,5 +419,6 @@ def build_strip(comm, length, width, divisions, cell="quadrilateral", regions=()
     length, width = check_size("length", length), check_size("width", width)
     nx, ny = check_divisions(divisions, "[nx, ny]")
     check_cell(cell)
-    return grid_body(comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges,
-                     grading=grading)
+    return grid_body(
+        comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges, grading=grading
+    )

@@ -28,10 +28,13 @@ import numpy as np
 #: corners of each gmsh surface element type, and the node order of the same cell
 #: facing the other way (corners reversed, edge nodes along the reversed edges)
 CORNERS = {2: 3, 3: 4, 9: 3, 10: 4}
-REVERSED = {2: [0, 2, 1], 3: [0, 3, 2, 1], 9: [0, 2, 1, 5, 4, 3],
-            10: [0, 3, 2, 1, 7, 6, 5, 4, 8]}
-NAMES = {2: "3-node triangles", 3: "4-node quadrilaterals", 9: "6-node triangles",
-         10: "9-node quadrilaterals"}
+REVERSED = {2: [0, 2, 1], 3: [0, 3, 2, 1], 9: [0, 2, 1, 5, 4, 3], 10: [0, 3, 2, 1, 7, 6, 5, 4, 8]}
+NAMES = {
+    2: "3-node triangles",
+    3: "4-node quadrilaterals",
+    9: "6-node triangles",
+    10: "9-node quadrilaterals",
+}
 
 #: a cell whose area at a quadrature point is below this fraction of the square of
 #: its longest corner-to-corner distance is degenerate
@@ -45,23 +48,30 @@ class SurfaceReport:
     """What the checks found, in the file's terms."""
 
     cells: dict[str, int] = field(default_factory=dict)  # type name -> count
-    turned: int = 0                 # cells turned to face as their neighbours
-    free_edges: int = 0             # edges with one cell (0: a closed surface)
+    turned: int = 0  # cells turned to face as their neighbours
+    free_edges: int = 0  # edges with one cell (0: a closed surface)
     pieces: list[int] = field(default_factory=list)  # cells of each piece, largest first
-    non_manifold_edges: int = 0     # edges shared by three or more cells
+    non_manifold_edges: int = 0  # edges shared by three or more cells
 
     def lines(self) -> list[str]:
         """The report as ``rftfem check`` prints it."""
         cells = ", ".join(f"{n} {name}" for name, n in self.cells.items())
-        orientation = ("consistent" if not self.turned else
-                       f"{self.turned} cell(s) turned to face as their neighbours")
-        closed = ("closed (no free edge)" if not self.free_edges else
-                  f"open ({self.free_edges} free edges)")
-        pieces = (f"{len(self.pieces)} piece" if len(self.pieces) == 1 else
-                  f"{len(self.pieces)} pieces of " + ", ".join(map(str, self.pieces))
-                  + " cells")
-        out = [f"mesh: {cells}", f"mesh: orientation {orientation}",
-               f"mesh: {closed}, {pieces}"]
+        orientation = (
+            "consistent"
+            if not self.turned
+            else f"{self.turned} cell(s) turned to face as their neighbours"
+        )
+        closed = (
+            "closed (no free edge)"
+            if not self.free_edges
+            else f"open ({self.free_edges} free edges)"
+        )
+        pieces = (
+            f"{len(self.pieces)} piece"
+            if len(self.pieces) == 1
+            else f"{len(self.pieces)} pieces of " + ", ".join(map(str, self.pieces)) + " cells"
+        )
+        out = [f"mesh: {cells}", f"mesh: orientation {orientation}", f"mesh: {closed}, {pieces}"]
         if self.non_manifold_edges:
             out.append(f"mesh: {self.non_manifold_edges} edges shared by three or more cells")
         return out
@@ -71,8 +81,13 @@ def _where(x) -> str:
     return "(" + ", ".join(f"{v:.6g}" for v in x) + ")"
 
 
-def check_surface(cell_type: int, cells: np.ndarray, x: np.ndarray, grads: np.ndarray,
-                  tags: np.ndarray | None = None) -> tuple[np.ndarray, SurfaceReport]:
+def check_surface(
+    cell_type: int,
+    cells: np.ndarray,
+    x: np.ndarray,
+    grads: np.ndarray,
+    tags: np.ndarray | None = None,
+) -> tuple[np.ndarray, SurfaceReport]:
     """Check the cells and orient them consistently.
 
     ``cells``: (n, k) node indices into ``x`` (m, 3), in gmsh's node order for
@@ -123,28 +138,34 @@ def check_surface(cell_type: int, cells: np.ndarray, x: np.ndarray, grads: np.nd
 
 def _check_cells(cell_type, cells, x, grads, size, tags):
     """Degenerate and inverted cells, from the normal at every point of ``grads``."""
-    xc = x[cells]                                    # (n, k, 3)
-    g = np.einsum("nkd,qka->nqad", xc, grads)        # tangents (n, q, 2, 3)
-    normal = np.cross(g[:, :, 0], g[:, :, 1])        # (n, q, 3)
+    xc = x[cells]  # (n, k, 3)
+    g = np.einsum("nkd,qka->nqad", xc, grads)  # tangents (n, q, 2, 3)
+    normal = np.cross(g[:, :, 0], g[:, :, 1])  # (n, q, 3)
     area = np.linalg.norm(normal, axis=2)
     floor = AREA_FLOOR * size[:, None] ** 2
     # the side of the cell: its normal where its area is largest
     largest = normal[np.arange(len(normal)), np.argmax(area, axis=1)]
-    side = np.einsum("nqd,nd->nq", normal, largest) / np.maximum(
-        np.linalg.norm(largest, axis=1), np.finfo(float).tiny)[:, None]
+    side = (
+        np.einsum("nqd,nd->nq", normal, largest)
+        / np.maximum(np.linalg.norm(largest, axis=1), np.finfo(float).tiny)[:, None]
+    )
     inverted = (side < -floor).any(axis=1)
     if inverted.any():
         i = int(np.flatnonzero(inverted)[0])
-        raise ValueError(f"cell {tags[i]} is turned inside out near "
-                         f"{_where(xc[i, :CORNERS[cell_type]].mean(axis=0))}: the "
-                         f"normal of its map changes side within the cell (a node "
-                         f"moved across an edge, or its nodes in the wrong order)")
+        raise ValueError(
+            f"cell {tags[i]} is turned inside out near "
+            f"{_where(xc[i, : CORNERS[cell_type]].mean(axis=0))}: the "
+            f"normal of its map changes side within the cell (a node "
+            f"moved across an edge, or its nodes in the wrong order)"
+        )
     small = (area < floor).any(axis=1)
     if small.any():
         i = int(np.flatnonzero(small)[0])
-        raise ValueError(f"cell {tags[i]} has (nearly) zero area near "
-                         f"{_where(xc[i, :CORNERS[cell_type]].mean(axis=0))}: its "
-                         f"nodes are collinear or coincide")
+        raise ValueError(
+            f"cell {tags[i]} has (nearly) zero area near "
+            f"{_where(xc[i, : CORNERS[cell_type]].mean(axis=0))}: its "
+            f"nodes are collinear or coincide"
+        )
 
 
 def _check_coincident(x, used, shortest):
@@ -155,9 +176,11 @@ def _check_coincident(x, used, shortest):
     pairs = cKDTree(pts).query_pairs(COINCIDENT * shortest, output_type="ndarray")
     if len(pairs):
         i, j = used[pairs[0]]
-        raise ValueError(f"{len(pairs)} pair(s) of nodes coincide but are not merged, "
-                         f"the first at {_where(x[i])}: the cells on either side are "
-                         f"not joined (merge them, e.g. gmsh's Coherence Mesh)")
+        raise ValueError(
+            f"{len(pairs)} pair(s) of nodes coincide but are not merged, "
+            f"the first at {_where(x[i])}: the cells on either side are "
+            f"not joined (merge them, e.g. gmsh's Coherence Mesh)"
+        )
 
 
 def _orient(n, cell1, cell2, same, tags, x, corners) -> np.ndarray:
@@ -191,10 +214,12 @@ def _orient(n, cell1, cell2, same, tags, x, corners) -> np.ndarray:
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
         i, j = cell1[k], cell2[k]
-        raise ValueError(f"the surface cannot be oriented (a Möbius band?): cells "
-                         f"{tags[i]} and {tags[j]} near "
-                         f"{_where(x[corners[i]].mean(axis=0))} cannot both face the "
-                         f"side of the rest of their piece")
+        raise ValueError(
+            f"the surface cannot be oriented (a Möbius band?): cells "
+            f"{tags[i]} and {tags[j]} near "
+            f"{_where(x[corners[i]].mean(axis=0))} cannot both face the "
+            f"side of the rest of their piece"
+        )
     return turn
 
 
@@ -205,7 +230,8 @@ def _pieces(n, cells) -> list[int]:
 
     k = cells.shape[1]
     rows = np.repeat(np.arange(n), k)
-    incidence = coo_matrix((np.ones(rows.size), (rows, cells.ravel())),
-                           shape=(n, int(cells.max()) + 1)).tocsr()
+    incidence = coo_matrix(
+        (np.ones(rows.size), (rows, cells.ravel())), shape=(n, int(cells.max()) + 1)
+    ).tocsr()
     count, label = connected_components(incidence @ incidence.T, directed=False)
     return sorted(np.bincount(label, minlength=count).tolist(), reverse=True)

@@ -8,8 +8,16 @@ LINKS = ("left", "middle", "right")
 HINGES = ("hinge-left", "hinge-right")
 
 
-def build_three_link(comm, length, link_width, divisions, cell="quadrilateral",
-                     regions=(), hinges=(), grading: float = 1.0):
+def build_three_link(
+    comm,
+    length,
+    link_width,
+    divisions,
+    cell="quadrilateral",
+    regions=(),
+    hinges=(),
+    grading: float = 1.0,
+):
     """Three equal links ``[0, L] x [k w, (k+1) w]`` (k = 0, 1, 2) at Z = 0 as a Body.
 
     The body is the strip ``[0, L] x [0, 3 w]`` of :func:`.strip.build_strip`
@@ -34,7 +42,16 @@ def build_three_link(comm, length, link_width, divisions, cell="quadrilateral",
     nx, n = check_divisions(divisions, "[nx, n_per_link]")
     check_cell(cell)
     y = [0.0, w, 2.0 * w, 3.0 * w]
-    return grid_body(comm, length, y[3], nx, [(y[k], y[k + 1], n) for k in range(3)],
-                     cell, regions, hinges, grading=grading,
-                     builtin_lines=[("y", y[1], HINGES[0]), ("y", y[2], HINGES[1])],
-                     builtin_regions=[(LINKS[k], None, (y[k], y[k + 1])) for k in range(3)])
+    return grid_body(
+        comm,
+        length,
+        y[3],
+        nx,
+        [(y[k], y[k + 1], n) for k in range(3)],
+        cell,
+        regions,
+        hinges,
+        grading=grading,
+        builtin_lines=[("y", y[1], HINGES[0]), ("y", y[2], HINGES[1])],
+        builtin_regions=[(LINKS[k], None, (y[k], y[k + 1])) for k in range(3)],
+    )

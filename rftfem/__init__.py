@@ -21,11 +21,17 @@ except ImportError:
 
 #: the public names and the module each comes from (loaded on first use)
 _PUBLIC = {
-    "Scene": "rftfem.api", "load_scene": "rftfem.api", "scene_from_dict": "rftfem.api",
-    "scene_from_toml": "rftfem.api", "run": "rftfem.api",
-    "gradient": "rftfem.studies.gradient_runs", "Gradient": "rftfem.studies.gradient_runs",
+    "Scene": "rftfem.api",
+    "load_scene": "rftfem.api",
+    "scene_from_dict": "rftfem.api",
+    "scene_from_toml": "rftfem.api",
+    "run": "rftfem.api",
+    "gradient": "rftfem.studies.gradient_runs",
+    "Gradient": "rftfem.studies.gradient_runs",
     "Result": "rftfem.result",
-    "SceneError": "rftfem.errors", "RunFailed": "rftfem.errors", "RunWarning": "rftfem.errors",
+    "SceneError": "rftfem.errors",
+    "RunFailed": "rftfem.errors",
+    "RunWarning": "rftfem.errors",
     "RunInterrupted": "rftfem.errors",
 }
 

@@ -21,11 +21,17 @@ import warnings
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from rftfem.scene import toml_writer
 from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
+from rftfem.scene import toml_writer
 from rftfem.scene.overrides import lookup
-from rftfem.scene.reading import (complete_scene, parse_scene_text, read_scene_file, set_key,
-                                  unset_key, unset_text)
+from rftfem.scene.reading import (
+    complete_scene,
+    parse_scene_text,
+    read_scene_file,
+    set_key,
+    unset_key,
+    unset_text,
+)
 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
@@ -44,8 +50,10 @@ def _change(raw: dict, changes: Mapping[str, Any], what: str = "Scene.update") -
     """Make ``changes`` (dotted keys to values) in the raw table; their override texts.
     A value None removes the key, as ``--unset`` does (TOML has no null)."""
     if not isinstance(changes, Mapping):
-        raise SceneError(f"{what}: expected a dict of dotted keys to values "
-                         f"({{'time.dt': 0.01}}), found {type(changes).__name__}")
+        raise SceneError(
+            f"{what}: expected a dict of dotted keys to values "
+            f"({{'time.dt': 0.01}}), found {type(changes).__name__}"
+        )
     texts = []
     for key, value in changes.items():
         _split(key)
@@ -66,7 +74,7 @@ def _python_form(message: str, key: str) -> str:
     """A --set/--unset message as Python's: ``scene["KEY"]: ...``."""
     for prefix in (f"--set {key}: ", f"--unset {key}: ", "--set: ", "--unset: "):
         if message.startswith(prefix):
-            return f'scene["{key}"]: ' + message[len(prefix):]
+            return f'scene["{key}"]: ' + message[len(prefix) :]
     return message
 
 
@@ -94,11 +102,17 @@ class Scene:
     again, raising :class:`SceneError` (and changing nothing) if it is refused.
     Arrays of tables take an index: ``scene["load.0.value"]``."""
 
-    def __init__(self, raw: Mapping, folder: str | os.PathLike = ".",
-                 path: str | os.PathLike | None = None, overrides: Iterable[str] = ()):
+    def __init__(
+        self,
+        raw: Mapping,
+        folder: str | os.PathLike = ".",
+        path: str | os.PathLike | None = None,
+        overrides: Iterable[str] = (),
+    ):
         if not isinstance(raw, Mapping):
-            raise SceneError(f"a scene: expected a table (dict) of keys, found "
-                             f"{type(raw).__name__}")
+            raise SceneError(
+                f"a scene: expected a table (dict) of keys, found {type(raw).__name__}"
+            )
         self._raw = copy.deepcopy(dict(raw))
         self._folder = str(Path(folder).expanduser().resolve())
         self._path = None if path is None else str(Path(path).expanduser().resolve())
@@ -116,8 +130,9 @@ class Scene:
                 set_key(copy.deepcopy(self._raw), key, None)
             except SceneError as exc:
                 text = str(exc)
-                raise SceneError(text[len("--set: "):] if text.startswith("--set: ")
-                                 else text) from None
+                raise SceneError(
+                    text[len("--set: ") :] if text.startswith("--set: ") else text
+                ) from None
             return None
         return copy.deepcopy(node)
 
@@ -208,8 +223,9 @@ class Scene:
         """Make several changes at once and validate once (for changes that only
         agree together, such as time.dt and time.end)."""
         if _:
-            raise TypeError("Scene.update takes a dict of dotted keys: "
-                            "scene.update({'time.dt': 0.01})")
+            raise TypeError(
+                "Scene.update takes a dict of dotted keys: scene.update({'time.dt': 0.01})"
+            )
         raw = copy.deepcopy(self._raw)
         texts = _change(raw, {} if changes is None else changes)
         overrides = [*self._overrides, *texts]
@@ -240,8 +256,12 @@ class Scene:
         return copy.deepcopy(self._scene)
 
     def __getstate__(self) -> dict:
-        return {"raw": self._raw, "folder": self._folder, "path": self._path,
-                "overrides": self._overrides}
+        return {
+            "raw": self._raw,
+            "folder": self._folder,
+            "path": self._path,
+            "overrides": self._overrides,
+        }
 
     def __setstate__(self, state: dict) -> None:
         self._raw, self._folder = state["raw"], state["folder"]
@@ -286,8 +306,9 @@ def _scene_of(scene) -> Scene:
         return load_scene(scene)
     if isinstance(scene, Mapping):
         return scene_from_dict(scene)
-    raise SceneError(f"run: expected a rftfem.Scene, a scene file or a dict, found "
-                     f"{type(scene).__name__}")
+    raise SceneError(
+        f"run: expected a rftfem.Scene, a scene file or a dict, found {type(scene).__name__}"
+    )
 
 
 def default_out(scene: Scene) -> Path:
@@ -295,9 +316,14 @@ def default_out(scene: Scene) -> Path:
     return Path("results") / (scene.path.stem if scene.path is not None else "scene")
 
 
-def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
-        petsc: Iterable[str] | Mapping[str, Any] | None = None,
-        restart: str | os.PathLike | None = None, comm=None):
+def run(
+    scene,
+    out: str | os.PathLike | None = None,
+    quiet: bool = True,
+    petsc: Iterable[str] | Mapping[str, Any] | None = None,
+    restart: str | os.PathLike | None = None,
+    comm=None,
+):
     """Run ``scene`` (a :class:`Scene`, a scene file or a dict) into the folder
     ``out`` and return its :class:`rftfem.Result`, as ``rftfem run`` would.
 
@@ -337,6 +363,7 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
         for k, v in petsc.items():
             args += [f"-{str(k).lstrip('-')}"] + ([] if v is None or v == "" else [str(v)])
         petsc = args
+
     def warn(text: str):
         # issued at the line that called rftfem.run (the first frame outside rftfem)
         frame, level = sys._getframe(1), 2
@@ -345,12 +372,17 @@ def run(scene, out: str | os.PathLike | None = None, quiet: bool = True,
         warnings.warn(text, RunWarning, stacklevel=level)
 
     try:
-        run_simulation(scene.completed(), out_dir=Path(out), quiet=bool(quiet),
-                       petsc_args=list(petsc or []), comm=comm, signals=True,
-                       restart=None if restart is None else Path(restart),
-                       warn=warn if quiet else None)
+        run_simulation(
+            scene.completed(),
+            out_dir=Path(out),
+            quiet=bool(quiet),
+            petsc_args=list(petsc or []),
+            comm=comm,
+            signals=True,
+            restart=None if restart is None else Path(restart),
+            warn=warn if quiet else None,
+        )
     except (RunFailed, RunInterrupted) as exc:
         exc.folder = Path(out)
         raise
     return Result(out)
-

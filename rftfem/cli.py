@@ -46,36 +46,54 @@ def _build_parser() -> _Parser:
     parser = _Parser(
         prog="rftfem",
         description="Large-rotation shells in viscous fluid (RFT drag, magnetic couples) "
-                    "on FEniCSx. A scene is one TOML file (see docs/scenes.md).",
+        "on FEniCSx. A scene is one TOML file (see docs/scenes.md).",
         allow_abbrev=False,
     )
     parser.add_argument("--version", action="version", version=f"rftfem {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True,
-                                parser_class=_Parser)
+    sub = parser.add_subparsers(
+        dest="command", metavar="COMMAND", required=True, parser_class=_Parser
+    )
 
     run = sub.add_parser(
-        "run", help="run a scene", allow_abbrev=False,
+        "run",
+        help="run a scene",
+        allow_abbrev=False,
         description="Run a scene and write probes.csv, steps.csv, summary.json and fields. "
-                    "Extra options with a single dash (-snes_monitor, -ksp_type preonly) "
-                    "are passed to PETSc.",
+        "Extra options with a single dash (-snes_monitor, -ksp_type preonly) "
+        "are passed to PETSc.",
         epilog="exit status: 0 ok, 2 bad scene or option, 3 the run failed numerically, "
-               "130/143 stopped by SIGINT/SIGTERM (after its step; outputs closed)")
+        "130/143 stopped by SIGINT/SIGTERM (after its step; outputs closed)",
+    )
     run.add_argument("scene", metavar="SCENE.toml", help="the scene file")
-    run.add_argument("--out", metavar="DIR", type=Path, default=None,
-                     help="output folder (default: results/<scene file stem>)")
+    run.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        default=None,
+        help="output folder (default: results/<scene file stem>)",
+    )
     add_override_arguments(run)
-    run.add_argument("--quiet", action="store_true",
-                     help="plain log lines instead of a progress bar")
-    run.add_argument("--restart", metavar="DIR", type=Path, default=None,
-                     help="go on from the last checkpoint in the results folder DIR "
-                          "(output.checkpoint_every), appending to its outputs; the scene "
-                          "may differ only in time.end and how the run is watched")
+    run.add_argument(
+        "--quiet", action="store_true", help="plain log lines instead of a progress bar"
+    )
+    run.add_argument(
+        "--restart",
+        metavar="DIR",
+        type=Path,
+        default=None,
+        help="go on from the last checkpoint in the results folder DIR "
+        "(output.checkpoint_every), appending to its outputs; the scene "
+        "may differ only in time.end and how the run is watched",
+    )
 
     check = sub.add_parser(
-        "check", help="validate a scene and print its active effects", allow_abbrev=False,
+        "check",
+        help="validate a scene and print its active effects",
+        allow_abbrev=False,
         description="Validate a scene (including its mesh) and print the active effects "
-                    "and the time scheme.",
-        epilog="exit status: 0 ok, 2 bad scene or option")
+        "and the time scheme.",
+        epilog="exit status: 0 ok, 2 bad scene or option",
+    )
     check.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     add_override_arguments(check)
 
@@ -84,23 +102,48 @@ def _build_parser() -> _Parser:
     from rftfem.outputs import collect, render_cli
     from rftfem.studies import optimize, study, sweep
 
-    render_cli.add_arguments(sub.add_parser(
-        "render", help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
-        allow_abbrev=False, description=render_cli.DESCRIPTION,
-        epilog="exit status: 0 ok, 2 bad option or results folder"))
-    collect.add_arguments(sub.add_parser(
-        "collect", help="one table row per run folder of a parameter study",
-        allow_abbrev=False, description=collect.DESCRIPTION,
-        epilog="exit status: 0 ok, 2 bad option or folder"))
-    study.add_arguments(sub.add_parser(
-        "study", help="what accuracy costs: a scene at successive refinements",
-        allow_abbrev=False, description=study.DESCRIPTION))
-    sweep.add_arguments(sub.add_parser(
-        "sweep", help="a scene over a grid of values of any keys, by any executor",
-        allow_abbrev=False, description=sweep.DESCRIPTION))
-    optimize.add_arguments(sub.add_parser(
-        "optimize", help="search scene parameters for the best value of a quantity",
-        allow_abbrev=False, description=optimize.DESCRIPTION))
+    render_cli.add_arguments(
+        sub.add_parser(
+            "render",
+            help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
+            allow_abbrev=False,
+            description=render_cli.DESCRIPTION,
+            epilog="exit status: 0 ok, 2 bad option or results folder",
+        )
+    )
+    collect.add_arguments(
+        sub.add_parser(
+            "collect",
+            help="one table row per run folder of a parameter study",
+            allow_abbrev=False,
+            description=collect.DESCRIPTION,
+            epilog="exit status: 0 ok, 2 bad option or folder",
+        )
+    )
+    study.add_arguments(
+        sub.add_parser(
+            "study",
+            help="what accuracy costs: a scene at successive refinements",
+            allow_abbrev=False,
+            description=study.DESCRIPTION,
+        )
+    )
+    sweep.add_arguments(
+        sub.add_parser(
+            "sweep",
+            help="a scene over a grid of values of any keys, by any executor",
+            allow_abbrev=False,
+            description=sweep.DESCRIPTION,
+        )
+    )
+    optimize.add_arguments(
+        sub.add_parser(
+            "optimize",
+            help="search scene parameters for the best value of a quantity",
+            allow_abbrev=False,
+            description=optimize.DESCRIPTION,
+        )
+    )
     return parser
 
 
@@ -126,7 +169,7 @@ def _split_petsc(argv: list[str]) -> tuple[list[str], list[str]]:
             rest.extend(argv[i:])
             break
         if tok in ("--out", "--set", "--unset") and i + 1 < len(argv):
-            rest.extend(argv[i: i + 2])
+            rest.extend(argv[i : i + 2])
             i += 2
             continue
         if _PETSC_OPTION.match(tok) and tok != "-h":
@@ -207,15 +250,24 @@ def _default_out(scene_file: str) -> Path:
 def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
     from rftfem.scene.reading import load_scene
 
-    out_dir = args.out if args.out is not None else (
-        args.restart if args.restart is not None else _default_out(args.scene))
+    out_dir = (
+        args.out
+        if args.out is not None
+        else (args.restart if args.restart is not None else _default_out(args.scene))
+    )
     try:
         scene = load_scene(args.scene, args.overrides)
         from rftfem.integration.simulation import run as run_simulation
 
         console.refresh()  # the simulation brought in mpi4py
-        run_simulation(scene, out_dir=out_dir, quiet=bool(args.quiet), petsc_args=petsc_args,
-                       signals=True, restart=args.restart)
+        run_simulation(
+            scene,
+            out_dir=out_dir,
+            quiet=bool(args.quiet),
+            petsc_args=petsc_args,
+            signals=True,
+            restart=args.restart,
+        )
         status = 0
     except SceneError as exc:
         console.refresh()
@@ -243,8 +295,10 @@ def _cmd_check(args, console: _Console) -> int:
         try:
             from rftfem.integration.model_setup import check_report
         except ImportError:  # the simulation module is not there: a scene-only check
+
             def check_report(scene):
                 return active_effects(scene), [], []
+
         effects, groups, mesh_lines = check_report(scene)  # mesh and fluid lines
         console.refresh()
     except SceneError as exc:
@@ -334,8 +388,12 @@ def main(argv: list[str] | None = None) -> int:
         # under a memory limit (ulimit, a batch job's): one line, not a traceback; with
         # no limit the kernel may stop the process first, and nothing can be said
         console.refresh()
-        print("rftfem: error: out of memory while setting up or running the scene: fewer "
-              "cells (mesh.divisions) or more processes", file=sys.stderr, flush=True)
+        print(
+            "rftfem: error: out of memory while setting up or running the scene: fewer "
+            "cells (mesh.divisions) or more processes",
+            file=sys.stderr,
+            flush=True,
+        )
         if console.comm is not None and console.comm.size > 1:
             console.comm.Abort(2)  # the other processes would wait in a collective call
         return 2

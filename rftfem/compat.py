@@ -47,8 +47,9 @@ def _element(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
     if _HAS_BASIX_UFL:
         kwargs = {"shape": shape} if shape else {}
         if family in ("DG", "Discontinuous Lagrange"):
-            return _basix_ufl.element("Lagrange", mesh.basix_cell(), degree,
-                                      discontinuous=True, **kwargs)
+            return _basix_ufl.element(
+                "Lagrange", mesh.basix_cell(), degree, discontinuous=True, **kwargs
+            )
         return _basix_ufl.element(family, mesh.basix_cell(), degree, **kwargs)
     cell = mesh.ufl_cell()
     if family == "DG" and cell.cellname() in ("quadrilateral", "hexahedron"):
@@ -147,10 +148,20 @@ def vector_flags(cpuinfo: str = "/proc/cpuinfo", machine: str | None = None) -> 
 #: costs about half as much as with the JIT's own ``-O2`` (docs/performance.md).
 #: ``RFTFEM_COMPILE_FLAGS`` in the environment replaces them (e.g. "-O2 -g0").
 FLAGS_FROM_ENVIRONMENT = bool(os.environ.get("RFTFEM_COMPILE_FLAGS"))
-COMPILE_FLAGS = tuple(os.environ["RFTFEM_COMPILE_FLAGS"].split()) \
-    if FLAGS_FROM_ENVIRONMENT else (
-        "-O3", "-g0", "-fno-math-errno", "-fno-trapping-math", "-fno-signed-zeros",
-        "-fassociative-math", "-freciprocal-math") + vector_flags()
+COMPILE_FLAGS = (
+    tuple(os.environ["RFTFEM_COMPILE_FLAGS"].split())
+    if FLAGS_FROM_ENVIRONMENT
+    else (
+        "-O3",
+        "-g0",
+        "-fno-math-errno",
+        "-fno-trapping-math",
+        "-fno-signed-zeros",
+        "-fassociative-math",
+        "-freciprocal-math",
+    )
+    + vector_flags()
+)
 #: seconds a process waits for another one compiling the same form into the shared
 #: JIT cache (runs of a study side by side); the JIT's own 10 s failed them, the
 #: shell's Jacobian takes 20-90 s to compile
@@ -164,8 +175,11 @@ SNES_NOT_FINITE = ("DIVERGED_FNORM_NAN", "DIVERGED_FUNCTION_NANORINF")
 def form(ufl_form, jit_options: dict | None = None):
     """Compile a UFL form (list of forms allowed) to a dolfinx Form, with
     ``COMPILE_FLAGS`` and ``COMPILE_WAIT`` unless ``jit_options`` gives its own."""
-    options = {"cffi_extra_compile_args": list(COMPILE_FLAGS), "timeout": COMPILE_WAIT,
-               **(jit_options or {})}
+    options = {
+        "cffi_extra_compile_args": list(COMPILE_FLAGS),
+        "timeout": COMPILE_WAIT,
+        **(jit_options or {}),
+    }
     try:
         return dolfinx.fem.form(ufl_form, **{_JIT_KEY: options})
     except Exception as error:
@@ -173,9 +187,11 @@ def form(ufl_form, jit_options: dict | None = None):
         if FLAGS_FROM_ENVIRONMENT and "CompileError" in str(error):
             from rftfem.errors import SceneError
 
-            raise SceneError("RFTFEM_COMPILE_FLAGS: the C compiler failed with the flags "
-                             f"'{' '.join(COMPILE_FLAGS)}' (unset it, or give flags it "
-                             "accepts)") from error
+            raise SceneError(
+                "RFTFEM_COMPILE_FLAGS: the C compiler failed with the flags "
+                f"'{' '.join(COMPILE_FLAGS)}' (unset it, or give flags it "
+                "accepts)"
+            ) from error
         raise
 
 
@@ -272,8 +288,9 @@ def nearest_cells(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     for i, p in enumerate(points):
         node = int(np.argmin(np.linalg.norm(x - p, axis=1)))
         near = np.flatnonzero((cells == node).any(axis=1)).astype(np.int32)
-        d2 = dolfinx.geometry.squared_distance(mesh, mesh.topology.dim, near,
-                                               np.tile(p, (len(near), 1)))
+        d2 = dolfinx.geometry.squared_distance(
+            mesh, mesh.topology.dim, near, np.tile(p, (len(near), 1))
+        )
         k = int(np.argmin(d2))
         corners = x[cells[near[k]]]
         out[0][i], out[1][i] = near[k], float(np.sqrt(max(d2[k], 0.0)))
@@ -323,21 +340,20 @@ def serial_lagrange_mesh(cell: str, degree: int, cells: np.ndarray, x: np.ndarra
     if _HAS_BASIX_UFL:
         domain = ufl.Mesh(_basix_ufl.element("Lagrange", cell, degree, shape=(3,)))
         return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, domain, x)
-    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.Cell(cell, geometric_dimension=3),
-                                        degree))
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", ufl.Cell(cell, geometric_dimension=3), degree))
     return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, x, domain)
 
 
 def local_to_global(index_map, local: np.ndarray) -> np.ndarray:
     """Global numbers of the local indices ``local`` of ``index_map``."""
-    return np.asarray(index_map.local_to_global(np.asarray(local, dtype=np.int32)),
-                      dtype=np.int64)
+    return np.asarray(index_map.local_to_global(np.asarray(local, dtype=np.int32)), dtype=np.int64)
 
 
 def create_meshtags(mesh, dim: int, entities: np.ndarray, values: np.ndarray):
     order = np.argsort(entities)
-    return dolfinx.mesh.meshtags(mesh, dim, entities[order].astype(np.int32),
-                                 values[order].astype(np.int32))
+    return dolfinx.mesh.meshtags(
+        mesh, dim, entities[order].astype(np.int32), values[order].astype(np.int32)
+    )
 
 
 # --- versions ---------------------------------------------------------------
@@ -395,6 +411,7 @@ def repair_xdmf_namespace(path) -> None:
     bad = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
     if bad in text:
         tmp = path.with_suffix(".xdmf.tmp")
-        tmp.write_text(text.replace(bad, 'xmlns:xi="http://www.w3.org/2001/XInclude"'),
-                       encoding="utf-8")
+        tmp.write_text(
+            text.replace(bad, 'xmlns:xi="http://www.w3.org/2001/XInclude"'), encoding="utf-8"
+        )
         tmp.replace(path)

@@ -31,8 +31,14 @@ class RunInterrupted(RuntimeError):
     ``dropped``: the first signal came in a slow step (rftfem.integration.step_watch),
     which was dropped: the last row is the last completed step's."""
 
-    def __init__(self, signum: int, time: float | None = None, step: int | None = None,
-                 immediate: bool = False, dropped: bool = False):
+    def __init__(
+        self,
+        signum: int,
+        time: float | None = None,
+        step: int | None = None,
+        immediate: bool = False,
+        dropped: bool = False,
+    ):
         self.signum, self.time, self.step, self.immediate = signum, time, step, immediate
         self.dropped = dropped
         super().__init__(signum)
@@ -52,8 +58,13 @@ class RunInterrupted(RuntimeError):
 
     def __str__(self) -> str:
         where = "" if self.time is None else f" at t = {self.time:.6g} (step {self.step})"
-        how = (" at once (a second signal)" if self.immediate else
-               " inside a slow step, which was dropped" if self.dropped else " after its step")
+        how = (
+            " at once (a second signal)"
+            if self.immediate
+            else " inside a slow step, which was dropped"
+            if self.dropped
+            else " after its step"
+        )
         return f"run interrupted by {self.signal_name}{where}{how}"
 
 

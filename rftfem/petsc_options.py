@@ -10,8 +10,14 @@ from __future__ import annotations
 from petsc4py import PETSc
 
 from rftfem import compat
-from rftfem.scene.schema import (FACTORIZATIONS, MATRIX_TYPES, TANGENTS, check_factorization,
-                     check_matrix_type, check_tangent)
+from rftfem.scene.schema import (
+    FACTORIZATIONS,
+    MATRIX_TYPES,
+    TANGENTS,
+    check_factorization,
+    check_matrix_type,
+    check_tangent,
+)
 
 PREFIX = "rftfem_"
 
@@ -50,15 +56,26 @@ PETSC_LU_UP_TO = 5_000
 #: than 1e-10 and the same Newton iterations), a limit past which a stale
 #: factorisation is given up and the solve made again with a fresh one, and SNES told
 #: to keep the preconditioner (the solver drops it when it wants new factors)
-KRYLOV = {"ksp_type": "gmres", "ksp_rtol": 1e-8, "ksp_atol": 0.0, "ksp_max_it": 40,
-          "ksp_gmres_restart": 40, "snes_lag_preconditioner": -2}
+KRYLOV = {
+    "ksp_type": "gmres",
+    "ksp_rtol": 1e-8,
+    "ksp_atol": 0.0,
+    "ksp_max_it": 40,
+    "ksp_gmres_restart": 40,
+    "snes_lag_preconditioner": -2,
+}
 
 
 #: with a nonlocal effect (Stokes flow) the tangent is a shell matrix, solved by GMRES
 #: preconditioned by the factors of its local part (coupled.py): as many iterations
 #: as the nonlocal part's spectrum needs (tens on the rigid disk), within one restart
-NONLOCAL_KRYLOV = {"ksp_type": "gmres", "ksp_rtol": 1e-10, "ksp_atol": 0.0,
-                   "ksp_max_it": 400, "ksp_gmres_restart": 400}
+NONLOCAL_KRYLOV = {
+    "ksp_type": "gmres",
+    "ksp_rtol": 1e-10,
+    "ksp_atol": 0.0,
+    "ksp_max_it": 400,
+    "ksp_gmres_restart": 400,
+}
 
 
 def tangent(scene_solver: dict | None = None, command_line: list[str] | None = None) -> str:
@@ -69,14 +86,14 @@ def tangent(scene_solver: dict | None = None, command_line: list[str] | None = N
     return check_tangent(value)
 
 
-def factorization(scene_solver: dict | None = None, command_line: list[str] | None = None,
-                  unknowns: int = 0) -> str:
+def factorization(
+    scene_solver: dict | None = None, command_line: list[str] | None = None, unknowns: int = 0
+) -> str:
     """When the tangent's factorisation is made: ``solver.factorization`` in the scene,
     replaced by ``-factorization`` on the command line; "auto" is resolved by the
     global number of ``unknowns`` (``REUSE_ABOVE``)."""
     value = (scene_solver or {}).get("factorization", FACTORIZATIONS[0])
-    value = check_factorization(parse_command_line(command_line or []).get(
-        "factorization", value))
+    value = check_factorization(parse_command_line(command_line or []).get("factorization", value))
     if value == "auto":
         return "reused" if unknowns > REUSE_ABOVE else "every-iteration"
     return value
@@ -97,14 +114,19 @@ def lu_package(unknowns: int, processes: int) -> str | None:
     return "petsc" if processes == 1 and unknowns <= PETSC_LU_UP_TO else "mumps"
 
 
-def user_sets(key: str, scene_solver: dict | None = None,
-              command_line: list[str] | None = None) -> bool:
+def user_sets(
+    key: str, scene_solver: dict | None = None, command_line: list[str] | None = None
+) -> bool:
     """Whether the scene's ``[solver]`` or the command line gives ``key``."""
     return key in (scene_solver or {}) or key in parse_command_line(command_line or [])
 
 
-def defaults(reference_force: float, factorization: str = "every-iteration",
-             lu: str | None = "mumps", nonlocal_tangent: bool = False) -> dict:
+def defaults(
+    reference_force: float,
+    factorization: str = "every-iteration",
+    lu: str | None = "mumps",
+    nonlocal_tangent: bool = False,
+) -> dict:
     """Newton with full steps and a direct solver.
 
     PETSc's default backtracking line search stalls on large-rotation shells
@@ -177,12 +199,13 @@ def _is_number(text: str) -> bool:
 
 
 def parse_command_line(args: list[str]) -> dict:
-    """``["-snes_monitor", "-ksp_type", "gmres"]`` -> ``{"snes_monitor": "", "ksp_type": "gmres"}``."""
+    """PETSc's command-line options as a dict: ``["-snes_monitor", "-ksp_type", "gmres"]``
+    -> ``{"snes_monitor": "", "ksp_type": "gmres"}``."""
     out, i = {}, 0
     while i < len(args):
         key = args[i].lstrip("-")
         if key.startswith(PREFIX):
-            key = key[len(PREFIX):]
+            key = key[len(PREFIX) :]
         if i + 1 < len(args) and (not args[i + 1].startswith("-") or _is_number(args[i + 1])):
             out[key] = args[i + 1]
             i += 2
@@ -192,10 +215,14 @@ def parse_command_line(args: list[str]) -> dict:
     return out
 
 
-def merged(reference_force: float, scene_solver: dict | None = None,
-           command_line: list[str] | None = None,
-           factorization: str = "every-iteration", lu: str | None = "mumps",
-           nonlocal_tangent: bool = False) -> dict:
+def merged(
+    reference_force: float,
+    scene_solver: dict | None = None,
+    command_line: list[str] | None = None,
+    factorization: str = "every-iteration",
+    lu: str | None = "mumps",
+    nonlocal_tangent: bool = False,
+) -> dict:
     """Defaults (for the resolved ``factorization`` and LU package, and a tangent with
     a ``nonlocal_tangent`` part), then the scene's ``[solver]``, then command-line
     options."""

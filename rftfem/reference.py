@@ -30,8 +30,8 @@ import sys
 from pathlib import Path
 from typing import Any, Iterator
 
-from rftfem.scene import schema as _schema
 from rftfem.scene import reading as _scene
+from rftfem.scene import schema as _schema
 from rftfem.scene import toml_writer
 
 #: docs/scenes.md of the source tree this module belongs to
@@ -72,10 +72,13 @@ def _heading(display: str) -> str:
 def _require_doc(node: Any, path: str) -> str:
     doc = (getattr(node, "doc", "") or "").strip()
     if not doc:
-        raise UndocumentedKey(f"scene key '{path}' has no doc: give its schema node in "
-                              "rftfem/scene/keys.py, rftfem/scene/mesh_keys.py or its effect's module in rftfem/model/effects a "
-                              "doc=\"...\" (what it means), then run "
-                              f"{REGENERATE}")
+        raise UndocumentedKey(
+            f"scene key '{path}' has no doc: give its schema node in "
+            "rftfem/scene/keys.py, rftfem/scene/mesh_keys.py or its effect's module in "
+            "rftfem/model/effects a "
+            'doc="..." (what it means), then run '
+            f"{REGENERATE}"
+        )
     return doc
 
 
@@ -85,9 +88,11 @@ def _default(leaf: Any, path: str) -> str:
     if leaf.default_doc:
         return leaf.default_doc
     if leaf.default is None:
-        raise UndocumentedKey(f"scene key '{path}' has no default and no default_doc: say "
-                              "in its schema node what a scene without it gets "
-                              "(default_doc=\"...\")")
+        raise UndocumentedKey(
+            f"scene key '{path}' has no default and no default_doc: say "
+            "in its schema node what a scene without it gets "
+            '(default_doc="...")'
+        )
     return f"`{_toml(leaf.default)}`"
 
 
@@ -146,8 +151,10 @@ def _status(node: Any) -> str:
     return "Optional table; without it every key takes its default."
 
 
-_HEADER = ["| Key | Accepted values | Default | Unit | Meaning |",
-           "| --- | --- | --- | --- | --- |"]
+_HEADER = [
+    "| Key | Accepted values | Default | Unit | Meaning |",
+    "| --- | --- | --- | --- | --- |",
+]
 
 
 def scene_keys_markdown(schema: Any = None) -> str:
@@ -164,38 +171,69 @@ def scene_keys_markdown(schema: Any = None) -> str:
             path = _join(display, key)
             if isinstance(sub, _schema.Leaf):
                 doc = _require_doc(sub, path)
-                rows.append("| " + " | ".join([
-                    f"`{path}`", _cell(sub.check.describe(key)), _cell(_default(sub, path)),
-                    _cell(sub.unit or "—"), _cell(doc)]) + " |")
+                rows.append(
+                    "| "
+                    + " | ".join(
+                        [
+                            f"`{path}`",
+                            _cell(sub.check.describe(key)),
+                            _cell(_default(sub, path)),
+                            _cell(sub.unit or "—"),
+                            _cell(doc),
+                        ]
+                    )
+                    + " |"
+                )
         for key, sub in fields.items():
             path = _join(display, key)
             if isinstance(sub, _schema.Kinds):
                 item = f"[[{path}]]"
-                table_section(item, _schema.Table(sub.common), f"`{item}`",
-                              f"{_status(sub)} {_require_doc(sub, item)}")
+                table_section(
+                    item,
+                    _schema.Table(sub.common),
+                    f"`{item}`",
+                    f"{_status(sub)} {_require_doc(sub, item)}",
+                )
                 for kind, fields in sub.kinds.items():
                     text = sub.kind_docs.get(kind) or ""
                     if not text:
                         raise UndocumentedKey(f"{item} kind '{kind}' has no doc")
-                    table_section(item, _schema.Table(fields),
-                                  f'`{item}` with kind = "{kind}"', text)
+                    table_section(
+                        item, _schema.Table(fields), f'`{item}` with kind = "{kind}"', text
+                    )
             elif isinstance(sub, _schema.Array):
                 item = f"[[{path}]]"
-                table_section(item, sub, f"`{item}`",
-                              f"{_status(sub)} {_require_doc(sub, item)}")
+                table_section(item, sub, f"`{item}`", f"{_status(sub)} {_require_doc(sub, item)}")
             elif isinstance(sub, _schema.Table):
-                table_section(path, sub, f"`[{path}]`",
-                              f"{_status(sub)} {_require_doc(sub, path)}")
+                table_section(path, sub, f"`[{path}]`", f"{_status(sub)} {_require_doc(sub, path)}")
             elif isinstance(sub, _schema.Free):
                 doc = _require_doc(sub, path)
-                sections.append((f"`[{path}]`", f"{_status(sub)} {doc}", [
-                    "| " + " | ".join([f"`{path}.*`", _cell(sub.expected),
-                                       sub.entry_default, "—",
-                                       _cell(sub.entry_doc.format(path=path))]) + " |"]))
+                sections.append(
+                    (
+                        f"`[{path}]`",
+                        f"{_status(sub)} {doc}",
+                        [
+                            "| "
+                            + " | ".join(
+                                [
+                                    f"`{path}.*`",
+                                    _cell(sub.expected),
+                                    sub.entry_default,
+                                    "—",
+                                    _cell(sub.entry_doc.format(path=path)),
+                                ]
+                            )
+                            + " |"
+                        ],
+                    )
+                )
 
     table_section("", schema, "Top level", _require_doc(schema, "(the top level)"))
-    out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from "
-           "the schema (rftfem/scene/reading.py, rftfem/scene/mesh_keys.py, rftfem/model/effects) -->", ""]
+    out = [
+        f"<!-- do not edit by hand: {REGENERATE} rewrites this part from "
+        "the schema (rftfem/scene/reading.py, rftfem/scene/mesh_keys.py, rftfem/model/effects) -->",
+        "",
+    ]
     for title, text, rows in sections:
         out += [f"### {title}", "", " ".join(text.split()), ""]
         if rows:
@@ -226,8 +264,11 @@ def command_line_markdown(parser: argparse.ArgumentParser | None = None) -> str:
         from rftfem.cli import _build_parser
 
         parser = _build_parser()
-    out = [f"<!-- do not edit by hand: {REGENERATE} rewrites this part from the "
-           "command-line parser -->", ""]
+    out = [
+        f"<!-- do not edit by hand: {REGENERATE} rewrites this part from the "
+        "command-line parser -->",
+        "",
+    ]
     parsers = [(parser.prog, parser)]
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
@@ -253,8 +294,9 @@ def _span(text: str, part: str) -> tuple[int, int]:
     """Start and end offsets of the body of ``part`` in ``text`` (between the markers)."""
     start = start_marker(part)
     if text.count(start) != 1:
-        raise ValueError(f"expected exactly one line '{start}' in the document, found "
-                         f"{text.count(start)}")
+        raise ValueError(
+            f"expected exactly one line '{start}' in the document, found {text.count(start)}"
+        )
     i = text.index(start) + len(start)
     j = text.find(END, i)
     if j < 0:
@@ -293,9 +335,14 @@ def diff(text: str, parts: dict[str, str] | None = None, limit: int = 40) -> str
     lines: list[str] = []
     for name in PARTS:
         if found[name] != parts[name]:
-            lines += difflib.unified_diff(found[name].splitlines(), parts[name].splitlines(),
-                                          f"docs/scenes.md ({name})", f"generated ({name})",
-                                          lineterm="", n=1)
+            lines += difflib.unified_diff(
+                found[name].splitlines(),
+                parts[name].splitlines(),
+                f"docs/scenes.md ({name})",
+                f"generated ({name})",
+                lineterm="",
+                n=1,
+            )
     if len(lines) > limit:
         lines = lines[:limit] + [f"... ({len(lines) - limit} more lines)"]
     return "\n".join(lines)
@@ -305,9 +352,11 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m rftfem.reference",
         description="Rewrite the generated parts of docs/scenes.md (scene keys from "
-                    "the schema, command line from rftfem/cli.py).")
-    ap.add_argument("--check", action="store_true",
-                    help="change nothing; exit 1 if the document is out of date")
+        "the schema, command line from rftfem/cli.py).",
+    )
+    ap.add_argument(
+        "--check", action="store_true", help="change nothing; exit 1 if the document is out of date"
+    )
     ap.add_argument("--file", type=Path, default=DOC_PATH, help=f"default: {DOC_PATH}")
     args = ap.parse_args(argv)
     try:
@@ -319,8 +368,11 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.check:
         if stale:
-            print(f"{args.file}: out of date ({', '.join(stale)}); regenerate with "
-                  f"{REGENERATE}\n{diff(text, parts)}", file=sys.stderr)
+            print(
+                f"{args.file}: out of date ({', '.join(stale)}); regenerate with "
+                f"{REGENERATE}\n{diff(text, parts)}",
+                file=sys.stderr,
+            )
             return 1
         print(f"{args.file}: up to date")
         return 0

@@ -35,12 +35,15 @@ class Result:
     def __init__(self, folder: str | os.PathLike):
         self.folder = Path(folder)
         if not self.folder.is_dir():
-            raise SceneError(f"{self.folder}: no such run folder" if not self.folder.exists()
-                             else f"{self.folder}: not a folder")
-        if not any((self.folder / f).is_file()
-                   for f in ("summary.json", *_TABLES.values())):
-            raise SceneError(f"{self.folder}: not a run folder (no summary.json, "
-                             f"{', '.join(_TABLES.values())})")
+            raise SceneError(
+                f"{self.folder}: no such run folder"
+                if not self.folder.exists()
+                else f"{self.folder}: not a folder"
+            )
+        if not any((self.folder / f).is_file() for f in ("summary.json", *_TABLES.values())):
+            raise SceneError(
+                f"{self.folder}: not a run folder (no summary.json, {', '.join(_TABLES.values())})"
+            )
         self._cache: dict = {}
 
     # --- tables ------------------------------------------------------------------
@@ -86,7 +89,7 @@ class Result:
 
     @property
     def status(self) -> str:
-        """"ok", "failed" or "interrupted", from the summary; "running" for a run that
+        """ "ok", "failed" or "interrupted", from the summary; "running" for a run that
         has not written its summary's last word: one still going, or one killed
         without a chance to (SIGKILL, a node that died).  A summary older than the
         tables is a newer run's in an old folder: "running" too (as ``rftfem
@@ -127,7 +130,8 @@ class Result:
                     "Result.fields needs pyvista, which cannot join a process that imported "
                     "dolfinx before it on this stack: call rftfem.run (or import "
                     "rftfem.outputs.render) before importing dolfinx, or open the Result in "
-                    f"another process ({exc})") from None
+                    f"another process ({exc})"
+                ) from None
 
             self._cache["fields"] = RunFields(self.folder)
         return self._cache["fields"]
@@ -172,8 +176,10 @@ class Result:
         names = [a.dest for a in parser._actions if a.option_strings and a.dest != "out"]
         unknown = [name for name in options if name not in names]
         if unknown:
-            raise SceneError(f"render: unknown option{'s' * (len(unknown) > 1)} "
-                             f"{', '.join(unknown)} (render takes {', '.join(names)})")
+            raise SceneError(
+                f"render: unknown option{'s' * (len(unknown) > 1)} "
+                f"{', '.join(unknown)} (render takes {', '.join(names)})"
+            )
         argv = [str(self.folder), "--out", str(out)]
         for name, value in options.items():
             if value is not None:

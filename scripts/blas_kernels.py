@@ -32,8 +32,9 @@ _PREFIXES = (("openblas_", ""), ("scipy_openblas_", "64_"), ("scipy_openblas_", 
 def loaded() -> list[tuple[str, str, int]]:
     """(path, core name, threads) of each OpenBLAS mapped into this process."""
     with open("/proc/self/maps", encoding="utf-8") as maps:
-        paths = sorted({line.split()[-1] for line in maps
-                        if "openblas" in line.split()[-1].lower()})
+        paths = sorted(
+            {line.split()[-1] for line in maps if "openblas" in line.split()[-1].lower()}
+        )
     found = []
     for path in paths:
         lib = ctypes.CDLL(path)

@@ -27,16 +27,19 @@ def ensure() -> None:
         return
     script = Path(sys.argv[0]).name
     if os.environ.get(_MARK):
-        _fail(f"{script}: the repository's environment does not import rftfem: run "
-              "./dev.sh setup again")
+        _fail(
+            f"{script}: the repository's environment does not import rftfem: run "
+            "./dev.sh setup again"
+        )
     for venv in (ROOT / ".venv", ROOT / ".venv-current"):
         python = venv / "bin" / "python"
         if python.exists():
             os.environ[_MARK] = "1"
             os.environ["PATH"] = f"{venv / 'bin'}{os.pathsep}{os.environ.get('PATH', '')}"
             os.execv(str(python), [str(python), *sys.argv])
-    _fail(f"{script}: rftfem is not installed: run ./dev.sh setup (or the README's quick "
-          "start) first")
+    _fail(
+        f"{script}: rftfem is not installed: run ./dev.sh setup (or the README's quick start) first"
+    )
 
 
 def _fail(message: str) -> None:

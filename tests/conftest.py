@@ -18,12 +18,11 @@ DEMOS = ROOT / "demos"
 
 def run_scene(scene_file, *overrides, out_dir=None, observers=(), petsc_args=None):
     """Load ``scene_file`` with ``--set`` style overrides, run it, return the Simulation."""
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import Simulation
+    from rftfem.scene.reading import load_scene
 
     scene = load_scene(scene_file, list(overrides))
-    sim = Simulation(scene, out_dir=out_dir, quiet=True, petsc_args=petsc_args,
-                     observers=observers)
+    sim = Simulation(scene, out_dir=out_dir, quiet=True, petsc_args=petsc_args, observers=observers)
     try:
         sim.summary = sim.run()
     finally:
@@ -41,8 +40,9 @@ def build_model(scene_text, tmp_path, overrides=(), comm=None, compile_forms=Fal
     from rftfem.scene.reading import load_scene
 
     scene = load_scene(write_scene(tmp_path, scene_text), list(overrides))
-    return Model(scene, build_body(comm or MPI.COMM_SELF, scene["mesh"]),
-                 compile_forms=compile_forms)
+    return Model(
+        scene, build_body(comm or MPI.COMM_SELF, scene["mesh"]), compile_forms=compile_forms
+    )
 
 
 def rows_at(sim, times, probe=0):
@@ -80,9 +80,13 @@ def fields_at(out_dir, point):
     import json
     import subprocess
 
-    done = subprocess.run([sys.executable, "-c", _READ_FIELDS, str(out_dir),
-                           json.dumps([float(x) for x in point])],
-                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", _READ_FIELDS, str(out_dir), json.dumps([float(x) for x in point])],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     back = json.loads(done.stdout.strip().splitlines()[-1])
     return back["distance"], np.array(back["rows"])

@@ -27,11 +27,12 @@ def write_hoop(path, radius: float, width: float, n_around: int, centre_z: float
         geo = gmsh.model.geo
         centre = geo.addPoint(0, 0, centre_z)
         # the bottom, front, top and back of the circle in the plane y = 0
-        corners = [geo.addPoint(radius * math.sin(a), 0, centre_z - radius * math.cos(a))
-                   for a in np.arange(4) * math.pi / 2]
+        corners = [
+            geo.addPoint(radius * math.sin(a), 0, centre_z - radius * math.cos(a))
+            for a in np.arange(4) * math.pi / 2
+        ]
         arcs = [geo.addCircleArc(corners[i], centre, corners[(i + 1) % 4]) for i in range(4)]
-        out = geo.extrude([(1, arc) for arc in arcs], 0, width, 0, numElements=[1],
-                          recombine=True)
+        out = geo.extrude([(1, arc) for arc in arcs], 0, width, 0, numElements=[1], recombine=True)
         geo.synchronize()
         for arc in arcs:
             gmsh.model.mesh.setTransfiniteCurve(arc, n_around // 4 + 1)

@@ -34,13 +34,11 @@ def _stiffness(width, E, thickness, plate, nu):
 
 def _quad(f, a, b, points=None):
     inner = None if points is None else [p for p in points if a < p < b]
-    val, _ = integrate.quad(f, a, b, epsabs=0.0, epsrel=RTOL, limit=500,
-                            points=inner or None)
+    val, _ = integrate.quad(f, a, b, epsabs=0.0, epsrel=RTOL, limit=500, points=inner or None)
     return val
 
 
-def tapered_tip_deflection(P, L, width, E, thickness, plate=False, nu=0.0,
-                           points=None):
+def tapered_tip_deflection(P, L, width, E, thickness, plate=False, nu=0.0, points=None):
     """Small-deflection tip deflection of a cantilever under a tip force P.
 
         delta = int_0^L P (L - x)^2 / EI(x) dx,   EI = E(x) w t(x)^3 / 12.
@@ -55,16 +53,14 @@ def tapered_tip_deflection(P, L, width, E, thickness, plate=False, nu=0.0,
     return _quad(lambda x: P * (L - x) ** 2 / EI(x), 0.0, L, points)
 
 
-def tapered_tip_rotation(P, L, width, E, thickness, plate=False, nu=0.0,
-                         points=None):
+def tapered_tip_rotation(P, L, width, E, thickness, plate=False, nu=0.0, points=None):
     """Small-deflection tip rotation under a tip force P:
     theta_L = int_0^L P (L - x) / EI(x) dx  (EI as in tapered_tip_deflection)."""
     EI = _stiffness(width, E, thickness, plate, nu)
     return _quad(lambda x: P * (L - x) / EI(x), 0.0, L, points)
 
 
-def tapered_deflection_gradient(P, L, width, E, thickness, edges, plate=False,
-                                nu=0.0):
+def tapered_deflection_gradient(P, L, width, E, thickness, edges, plate=False, nu=0.0):
     """d(delta)/d(t_i) for a uniform thickness change on [edges[i], edges[i+1]]:
 
         g_i = -3 int_{e_i}^{e_{i+1}} P (L - x)^2 * 12 / (E'(x) w t(x)^4) dx,
@@ -82,6 +78,7 @@ def tapered_deflection_gradient(P, L, width, E, thickness, edges, plate=False,
 # --------------------------------------------------------------------------
 # Large-deflection cantilever (elastica) with variable EI
 # --------------------------------------------------------------------------
+
 
 def nonuniform_elastica(P, L, EI, n=1, points=()):
     """Inextensible elastica of a cantilever under a dead tip load P (+y).
@@ -102,8 +99,9 @@ def nonuniform_elastica(P, L, EI, n=1, points=()):
         return 0.0, 0.0, 0.0
     sgn, Pa = np.sign(P), abs(P)
     EIf = _fun(EI)
-    br = np.unique(np.concatenate([np.linspace(0.0, L, int(n) + 1),
-                                   [p for p in points if 0 < p < L]]))
+    br = np.unique(
+        np.concatenate([np.linspace(0.0, L, int(n) + 1), [p for p in points if 0 < p < L]])
+    )
     atol = 1e-14 * np.array([1.0, Pa * L, L, L])
 
     def shoot(m0):
@@ -116,13 +114,13 @@ def nonuniform_elastica(P, L, EI, n=1, points=()):
                 EIs = EIf(min(max(s, a + eps), b - eps))
                 return [M / EIs, -Pa * np.cos(th), np.cos(th), np.sin(th)]
 
-            sol = integrate.solve_ivp(rhs, (a, b), z, method="DOP853",
-                                      rtol=RTOL, atol=atol)
+            sol = integrate.solve_ivp(rhs, (a, b), z, method="DOP853", rtol=RTOL, atol=atol)
             z = sol.y[:, -1]
         return z
 
-    m0 = optimize.brentq(lambda m: shoot(m)[1], 0.0, Pa * L,
-                         xtol=1e-15 * Pa * L, rtol=4 * np.finfo(float).eps)
+    m0 = optimize.brentq(
+        lambda m: shoot(m)[1], 0.0, Pa * L, xtol=1e-15 * Pa * L, rtol=4 * np.finfo(float).eps
+    )
     th, _, x, y = shoot(m0)
     return x - L, sgn * y, sgn * th
 
@@ -140,16 +138,19 @@ def uniform_elastica_elliptic(alpha):
     sin(v^2/2), so the integrand is f(theta) sqrt(2 / (cos(th0 - v^2/2)
     sinc(v^2/2))) on 0 <= v <= sqrt(th0).  Returns (1 - x/L, y/L, th0).
     """
+
     def integral(th0, f):
-        g = lambda v: f(th0 - v * v) * np.sqrt(
-            2.0 / (np.cos(th0 - v * v / 2) * np.sinc(v * v / (2 * np.pi))))
+        g = lambda v: (
+            f(th0 - v * v) * np.sqrt(2.0 / (np.cos(th0 - v * v / 2) * np.sinc(v * v / (2 * np.pi))))
+        )
         return _quad(g, 0.0, np.sqrt(th0))
 
     one = lambda th: 1.0
-    with warnings.catch_warnings():     # bracket end near pi/2: sign only
+    with warnings.catch_warnings():  # bracket end near pi/2: sign only
         warnings.simplefilter("ignore", integrate.IntegrationWarning)
-        th0 = optimize.brentq(lambda t: integral(t, one) - np.sqrt(alpha),
-                              1e-9, np.pi / 2 - 1e-9, xtol=1e-15)
+        th0 = optimize.brentq(
+            lambda t: integral(t, one) - np.sqrt(alpha), 1e-9, np.pi / 2 - 1e-9, xtol=1e-15
+        )
     xL = np.sqrt(2.0 * np.sin(th0) / alpha)
     yL = integral(th0, np.sin) / np.sqrt(alpha)
     return 1.0 - xL, yL, th0
@@ -158,6 +159,7 @@ def uniform_elastica_elliptic(alpha):
 # --------------------------------------------------------------------------
 # Orthotropic layer
 # --------------------------------------------------------------------------
+
 
 def orthotropic_D(E1, E2, G12, nu12, t, angle):
     """Bending stiffness D (3x3) of one orthotropic plane-stress layer.
@@ -172,14 +174,12 @@ def orthotropic_D(E1, E2, G12, nu12, t, angle):
     """
     nu21 = nu12 * E2 / E1
     d = 1.0 - nu12 * nu21
-    Q = np.array([[E1 / d, nu21 * E1 / d, 0.0],
-                  [nu12 * E2 / d, E2 / d, 0.0],
-                  [0.0, 0.0, G12]])
+    Q = np.array([[E1 / d, nu21 * E1 / d, 0.0], [nu12 * E2 / d, E2 / d, 0.0], [0.0, 0.0, G12]])
     c, s = np.cos(angle), np.sin(angle)
-    T = np.array([[c * c, s * s, c * s],
-                  [s * s, c * c, -c * s],
-                  [-2 * c * s, 2 * c * s, c * c - s * s]])
-    return T.T @ Q @ T * t ** 3 / 12.0
+    T = np.array(
+        [[c * c, s * s, c * s], [s * s, c * c, -c * s], [-2 * c * s, 2 * c * s, c * c - s * s]]
+    )
+    return T.T @ Q @ T * t**3 / 12.0
 
 
 def narrow_strip_curvatures(E1, E2, G12, nu12, t, angle, moment_per_width):
@@ -236,12 +236,13 @@ def wide_plate_curvature(E1, E2, G12, nu12, t, angle, moment_per_width):
 #     dJ/dt_k = -3 (S_{k+1} A_k + t_k B_k)/t_k^4 + B_k/t_k^3
 #               + h sum_{i<k} A_i / t_i^3.
 
+
 def _strip_weights(L, n, kind):
     h = L / n
     if kind == "rotation":
         return h, np.full(n, h), np.full(n, h * h / 2)
-    R = L - h * np.arange(1, n + 1)          # L - x_{i+1}
-    return h, R * h + h * h / 2, R * h * h / 2 + h ** 3 / 3
+    R = L - h * np.arange(1, n + 1)  # L - x_{i+1}
+    return h, R * h + h * h / 2, R * h * h / 2 + h**3 / 3
 
 
 def magnetic_strip_coefficient(t_values, L, kind="rotation"):
@@ -254,10 +255,10 @@ def magnetic_strip_coefficient(t_values, L, kind="rotation"):
 def _strip_objective(t, L, kind):
     n = len(t)
     h, A, B = _strip_weights(L, n, kind)
-    S_next = h * (np.cumsum(t[::-1])[::-1] - t)            # S_{i+1}
-    J = np.sum((S_next * A + t * B) / t ** 3)
-    inner = np.concatenate([[0.0], np.cumsum(A / t ** 3)[:-1]])
-    grad = -3 * (S_next * A + t * B) / t ** 4 + B / t ** 3 + h * inner
+    S_next = h * (np.cumsum(t[::-1])[::-1] - t)  # S_{i+1}
+    J = np.sum((S_next * A + t * B) / t**3)
+    inner = np.concatenate([[0.0], np.cumsum(A / t**3)[:-1]])
+    grad = -3 * (S_next * A + t * B) / t**4 + B / t**3 + h * inner
     return J, grad
 
 
@@ -270,27 +271,30 @@ def _slsqp(L, tbar, tmin, tmax, kind, u0):
         J, g = _strip_objective(u * tbar, L, kind)
         return -J / scale, -g * tbar / scale
 
-    cons = {"type": "eq", "fun": lambda u: np.mean(u) - 1.0,
-            "jac": lambda u: np.full(n, 1.0 / n)}
-    with warnings.catch_warnings():     # SLSQP's harmless bound clipping
+    cons = {"type": "eq", "fun": lambda u: np.mean(u) - 1.0, "jac": lambda u: np.full(n, 1.0 / n)}
+    with warnings.catch_warnings():  # SLSQP's harmless bound clipping
         warnings.filterwarnings("ignore", "Values in x were outside bounds")
-        return optimize.minimize(f, u0, jac=True, method="SLSQP",
-                                 bounds=[(tmin / tbar, tmax / tbar)] * n,
-                                 constraints=[cons],
-                                 options={"ftol": 1e-15, "maxiter": 2000})
+        return optimize.minimize(
+            f,
+            u0,
+            jac=True,
+            method="SLSQP",
+            bounds=[(tmin / tbar, tmax / tbar)] * n,
+            constraints=[cons],
+            options={"ftol": 1e-15, "maxiter": 2000},
+        )
 
 
 def _strip_optimum(L, tbar, tmin, tmax, n, kind):
     x = (np.arange(n) + 0.5) / n
-    if n > 40:      # continuation: refine the optimum of the half-size grid
+    if n > 40:  # continuation: refine the optimum of the half-size grid
         tc, _ = _strip_optimum(L, tbar, tmin, tmax, n // 2, kind)
         u0 = tc[np.minimum((x * len(tc)).astype(int), len(tc) - 1)] / tbar
         starts = (u0 / np.mean(u0),)
-    else:           # plain starts, best kept (the problem is not concave)
+    else:  # plain starts, best kept (the problem is not concave)
         ramp = 0.5 * (x - 0.5) * (tmax - tmin) / tbar
         starts = (np.ones(n), 1.0 + ramp, 1.0 - ramp)
-    best = min((_slsqp(L, tbar, tmin, tmax, kind, u0) for u0 in starts),
-               key=lambda r: r.fun)
+    best = min((_slsqp(L, tbar, tmin, tmax, kind, u0) for u0 in starts), key=lambda r: r.fun)
     t = np.clip(best.x, tmin / tbar, tmax / tbar) * tbar
     return t, magnetic_strip_coefficient(t, L, kind)
 
@@ -323,7 +327,7 @@ def uniform_strip_rotation_coefficient(L, tbar):
 
 def uniform_strip_deflection_coefficient(L, tbar):
     """Uniform strip: int_0^L (L - x)^2 / tbar^2 dx = L^3 / (3 tbar^2)."""
-    return L ** 3 / (3.0 * tbar * tbar)
+    return L**3 / (3.0 * tbar * tbar)
 
 
 def bang_bang_coefficients(L, tbar, tmin, tmax):
@@ -335,10 +339,11 @@ def bang_bang_coefficients(L, tbar, tmin, tmax):
     Returns (a, rotation_coefficient, deflection_coefficient)."""
     a = L * (tmax - tbar) / (tmax - tmin)
     b = L - a
-    rot = tmax * b * a / tmin ** 3 + a * a / (2 * tmin ** 2) + b * b / (2 * tmax ** 2)
+    rot = tmax * b * a / tmin**3 + a * a / (2 * tmin**2) + b * b / (2 * tmax**2)
     # int_0^a (L - x) dx = a L - a^2/2;  int_0^a (a - x)(L - x) dx = a^2 L/2 - a^3/6
-    defl = (tmax * b * (a * L - a * a / 2) + tmin * (a * a * L / 2 - a ** 3 / 6)) \
-        / tmin ** 3 + b ** 3 / (3 * tmax ** 2)
+    defl = (tmax * b * (a * L - a * a / 2) + tmin * (a * a * L / 2 - a**3 / 6)) / tmin**3 + b**3 / (
+        3 * tmax**2
+    )
     return a, rot, defl
 
 
@@ -349,6 +354,7 @@ def bang_bang_coefficients(L, tbar, tmin, tmax):
 # k = 1: tip rotation; chord = d: k = min(1, (L - x)/d), the slope of the chord
 # of the last d (theta_L less int kappa (x - L + d)/d over it; L - d a node).
 
+
 def _linear_strip(L, n, chord, m=16):
     e, h = n - 1, L / (n - 1)
     g, gw = np.polynomial.legendre.leggauss(m)
@@ -357,9 +363,9 @@ def _linear_strip(L, n, chord, m=16):
     for k in range(e):
         r = slice(k * m, (k + 1) * m)
         P[r, k], P[r, k + 1] = 1 - xi, xi
-        Q[r, k] = h * (1 - xi) ** 2 / 2             # int_x^{x_k+1} of the two hats
+        Q[r, k] = h * (1 - xi) ** 2 / 2  # int_x^{x_k+1} of the two hats
         Q[r, k + 1] = h * (1 - xi * xi) / 2 + (h / 2 if k + 1 < e else 0.0)
-        Q[r, k + 2:] = h - h / 2 * (np.arange(k + 2, n) == n - 1)  # later ones
+        Q[r, k + 2 :] = h - h / 2 * (np.arange(k + 2, n) == n - 1)  # later ones
     x = h * (np.arange(e)[:, None] + xi).ravel()
     w = np.tile(gw * h / 2, e) * (np.minimum(1.0, (L - x) / chord) if chord else 1.0)
     return P, Q, w
@@ -370,8 +376,8 @@ def magnetic_strip_linear_coefficient(t_nodes, L, chord=0.0, grad=False):
     t = np.asarray(t_nodes, float)
     P, Q, w = _linear_strip(L, len(t), chord)
     tq, mq = P @ t, Q @ t
-    J = w @ (mq / tq ** 3)
-    return (J, Q.T @ (w / tq ** 3) - 3 * P.T @ (w * mq / tq ** 4)) if grad else J
+    J = w @ (mq / tq**3)
+    return (J, Q.T @ (w / tq**3) - 3 * P.T @ (w * mq / tq**4)) if grad else J
 
 
 def magnetic_strip_piecewise_linear_optimum(L, tbar, tmin, tmax, n_nodes, chord=0.0):
@@ -380,7 +386,7 @@ def magnetic_strip_piecewise_linear_optimum(L, tbar, tmin, tmax, n_nodes, chord=
     seeded random starts; the best feasible end (the tmin | one ramp | tmax profile
     for n_nodes <= 81; at 301 it stops short).  Returns (t_nodes, J)."""
     n, lo, hi = n_nodes, tmin / tbar, tmax / tbar
-    c = np.r_[0.5, np.ones(n - 2), 0.5] / (n - 1)   # mean = c @ t
+    c = np.r_[0.5, np.ones(n - 2), 0.5] / (n - 1)  # mean = c @ t
     J0 = magnetic_strip_linear_coefficient(np.full(n, tbar), L, chord)
 
     def f(u):
@@ -391,11 +397,19 @@ def magnetic_strip_piecewise_linear_optimum(L, tbar, tmin, tmax, n_nodes, chord=
     us = [np.ones(n), 1 + x, 1 - x, *rng.uniform(lo, hi, (5, n))]
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "Values in x were outside bounds")
-        ends = [optimize.minimize(f, np.clip(u / (c @ u), lo, hi), jac=True,
-                                  method="SLSQP", bounds=[(lo, hi)] * n, options={
-                                      "ftol": 1e-15, "maxiter": 2000}, constraints=[
-                                      {"type": "eq", "fun": lambda u: c @ u - 1.0,
-                                       "jac": lambda u: c}]).x for u in us]
-    t = tbar * min((np.clip(u, lo, hi) for u in ends if abs(c @ u - 1) < 1e-9),
-                   key=lambda u: f(u)[0])
+        ends = [
+            optimize.minimize(
+                f,
+                np.clip(u / (c @ u), lo, hi),
+                jac=True,
+                method="SLSQP",
+                bounds=[(lo, hi)] * n,
+                options={"ftol": 1e-15, "maxiter": 2000},
+                constraints=[{"type": "eq", "fun": lambda u: c @ u - 1.0, "jac": lambda u: c}],
+            ).x
+            for u in us
+        ]
+    t = tbar * min(
+        (np.clip(u, lo, hi) for u in ends if abs(c @ u - 1) < 1e-9), key=lambda u: f(u)[0]
+    )
     return t, magnetic_strip_linear_coefficient(t, L, chord)

@@ -31,8 +31,8 @@ an (a (D22/D11)^(1/4)) x b rectangle.
 from __future__ import annotations
 
 import numpy as np
-from numpy.polynomial import legendre as npleg
 from numpy.polynomial import Legendre, Polynomial
+from numpy.polynomial import legendre as npleg
 from scipy import linalg, optimize
 
 # Timoshenko & Woinowsky-Krieger, Theory of Plates and Shells, table 35:
@@ -56,9 +56,12 @@ def _legendre_basis(m, xi):
 def beam_roots(m):
     """First m positive roots of tan(l) + tanh(l) = 0 (symmetric modes)."""
     g = lambda l: np.tan(l) + np.tanh(l)
-    return np.array([optimize.brentq(g, (k + 0.5) * np.pi + 1e-9,
-                                     (k + 1.0) * np.pi, xtol=1e-15)
-                     for k in range(m)])
+    return np.array(
+        [
+            optimize.brentq(g, (k + 0.5) * np.pi + 1e-9, (k + 1.0) * np.pi, xtol=1e-15)
+            for k in range(m)
+        ]
+    )
 
 
 def _beam_basis(m, xi):
@@ -70,7 +73,7 @@ def _beam_basis(m, xi):
     ch = e * (1.0 + np.exp(-2.0 * lam * ax))
     sh = np.sign(xi)[None, :] * e * (1.0 - np.exp(-2.0 * lam * ax))
     c, s = np.cos(lam * xi) / np.cos(lam), np.sin(lam * xi) / np.cos(lam)
-    return np.array([c - ch, -lam * (s + sh), -lam ** 2 * (c + ch)])
+    return np.array([c - ch, -lam * (s + sh), -(lam**2) * (c + ch)])
 
 
 def _one_d(m, length, basis):
@@ -80,32 +83,33 @@ def _one_d(m, length, basis):
     make = _legendre_basis if basis == "legendre" else _beam_basis
     V = make(m, xi)
     V0 = make(m, np.array([0.0]))[0, :, 0]
-    J = length / 2.0                      # dx = J dxi, d/dx = (1/J) d/dxi
-    X, X1, X2 = V[0], V[1] / J, V[2] / J ** 2
+    J = length / 2.0  # dx = J dxi, d/dx = (1/J) d/dxi
+    X, X1, X2 = V[0], V[1] / J, V[2] / J**2
     W = wq * J
     A0, A1, A2 = (X * W) @ X.T, (X1 * W) @ X1.T, (X2 * W) @ X2.T
     C = (X2 * W) @ X.T
     return A0, A1, A2, C, X @ W, V0
 
 
-def clamped_orthotropic_plate(a, b, D11, D12, D22, D66, q, terms=12,
-                              basis="legendre"):
+def clamped_orthotropic_plate(a, b, D11, D12, D22, D66, q, terms=12, basis="legendre"):
     """Centre deflection of the clamped a x b plate (Ritz, ``terms`` functions
     per direction, terms^2 unknowns).  See the module docstring."""
     A0x, A1x, A2x, Cx, bx, vx = _one_d(terms, a, basis)
     A0y, A1y, A2y, Cy, by, vy = _one_d(terms, b, basis)
-    K = (D11 * np.kron(A2x, A0y) + D22 * np.kron(A0x, A2y)
-         + D12 * (np.kron(Cx, Cy.T) + np.kron(Cx.T, Cy))
-         + 4.0 * D66 * np.kron(A1x, A1y))
+    K = (
+        D11 * np.kron(A2x, A0y)
+        + D22 * np.kron(A0x, A2y)
+        + D12 * (np.kron(Cx, Cy.T) + np.kron(Cx.T, Cy))
+        + 4.0 * D66 * np.kron(A1x, A1y)
+    )
     F = q * np.kron(bx, by)
     s = 1.0 / np.sqrt(np.diag(K))
     c = s * linalg.solve(K * np.outer(s, s), F * s, assume_a="pos")
     return float(np.kron(vx, vy) @ c)
 
 
-def clamped_orthotropic_plate_series(a, b, D11, D12, D22, D66, q,
-                                     terms=(2, 4, 6, 8, 10, 12),
-                                     basis="legendre"):
+def clamped_orthotropic_plate_series(
+    a, b, D11, D12, D22, D66, q, terms=(2, 4, 6, 8, 10, 12), basis="legendre"
+):
     """[(terms, centre deflection)] for a sequence of basis sizes."""
-    return [(m, clamped_orthotropic_plate(a, b, D11, D12, D22, D66, q, m, basis))
-            for m in terms]
+    return [(m, clamped_orthotropic_plate(a, b, D11, D12, D22, D66, q, m, basis)) for m in terms]

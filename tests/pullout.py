@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 from pathlib import Path
 
 from test_curved_shells import _gmsh, _name_mesh_write
@@ -92,32 +91,44 @@ def octant_cylinder(path: Path, n_circ: int, n_axial: int) -> Path:
         centre = geo.addPoint(0, 0, 0)
         a = geo.addPoint(0, 0, RADIUS)
         arc = geo.addCircleArc(geo.addPoint(RADIUS, 0, 0), centre, a)
-        out = geo.extrude([(1, arc)], 0, LENGTH / 2, 0, numElements=[n_axial],
-                          recombine=True)
+        out = geo.extrude([(1, arc)], 0, LENGTH / 2, 0, numElements=[n_axial], recombine=True)
         geo.synchronize()
         gmsh.model.mesh.setTransfiniteCurve(arc, n_circ + 1)
-        groups = ((2, out[1][1], "shell"), (1, abs(out[2][1]), "sym_x"),
-                  (1, abs(out[3][1]), "sym_z"), (1, arc, "mid"), (1, out[0][1], "free"),
-                  (0, a, "A"))
+        groups = (
+            (2, out[1][1], "shell"),
+            (1, abs(out[2][1]), "sym_x"),
+            (1, abs(out[3][1]), "sym_z"),
+            (1, arc, "mid"),
+            (1, out[0][1], "free"),
+            (0, a, "A"),
+        )
         _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
     return path
 
 
-def scene_text(mesh_file: str = "pullout.msh", dt: float = 0.05, end: float = 1.0,
-               solver: dict | None = None, title: str | None = None) -> str:
+def scene_text(
+    mesh_file: str = "pullout.msh",
+    dt: float = 0.05,
+    end: float = 1.0,
+    solver: dict | None = None,
+    title: str | None = None,
+) -> str:
     """The TOML scene of the octant under load control: the force at A ramps
     linearly to P/4 · end / 1 at t = end (so t is P/Pmax), in static steps of dt;
     ``solver`` adds a [solver] table (PETSc options, e.g. {"snes_max_it": 200})."""
     solver_table = ""
     if solver:
-        lines = [f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"'
-                 for k, v in solver.items()]
+        lines = [
+            f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"' for k, v in solver.items()
+        ]
         solver_table = "[solver]\n" + "\n".join(lines) + "\n"
-    probes = "".join(f'[[output.probes]]\nname = "{name}"\nat = [{x!r}, {y!r}, {z!r}]\n'
-                     for name, (x, y, z) in POINTS.items())
-    return f"""title = "{title or 'pull-out of an open-ended cylinder (Sze 3.5), an octant'}"
+    probes = "".join(
+        f'[[output.probes]]\nname = "{name}"\nat = [{x!r}, {y!r}, {z!r}]\n'
+        for name, (x, y, z) in POINTS.items()
+    )
+    return f"""title = "{title or "pull-out of an open-ended cylinder (Sze 3.5), an octant"}"
 [mesh]
 kind = "gmsh"
 file = "{mesh_file}"
@@ -170,20 +181,28 @@ def compare(results: Path, times=None) -> list[tuple]:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("out", type=Path, help="folder for pullout.msh and pullout.toml "
-                        "(or, with --compare, a results folder)")
+    parser.add_argument(
+        "out",
+        type=Path,
+        help="folder for pullout.msh and pullout.toml (or, with --compare, a results folder)",
+    )
     parser.add_argument("--n-circ", type=int, default=8)
     parser.add_argument("--n-axial", type=int, default=8)
     parser.add_argument("--dt", type=float, default=0.05)
     parser.add_argument("--snes-max-it", type=int, default=None)
-    parser.add_argument("--compare", action="store_true",
-                        help="print the probes of the results folder OUT against the table")
+    parser.add_argument(
+        "--compare",
+        action="store_true",
+        help="print the probes of the results folder OUT against the table",
+    )
     args = parser.parse_args(argv)
     if args.compare:
         print("P/Pmax   W_A (ref)           -U_B (ref)          -U_C (ref)")
         for p, got, ref, err in compare(args.out):
-            print(f"{p:6.3f}  " + "  ".join(f"{g:.4f} ({r:.3f} {100 * e:+.2f}%)"
-                                             for g, r, e in zip(got, ref, err)))
+            print(
+                f"{p:6.3f}  "
+                + "  ".join(f"{g:.4f} ({r:.3f} {100 * e:+.2f}%)" for g, r, e in zip(got, ref, err))
+            )
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
     octant_cylinder(args.out / "pullout.msh", args.n_circ, args.n_axial)

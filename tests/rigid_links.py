@@ -105,15 +105,16 @@ LOOPS = {
 # The body's data
 # --------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class Body:
     """Geometry, density and drag of the three-link body."""
 
-    link_width: float = 0.5        # ℓ, across a link (mm)
-    length: float = 5.0            # L, along X (mm)
-    thickness: float = 0.2         # t (mm)
-    density: float = 1.0e-8        # ρ (t/mm³)
-    drag: tuple = DRAG             # (C₁, C₂, C₃); C₁ (along X) plays no role
+    link_width: float = 0.5  # ℓ, across a link (mm)
+    length: float = 5.0  # L, along X (mm)
+    thickness: float = 0.2  # t (mm)
+    density: float = 1.0e-8  # ρ (t/mm³)
+    drag: tuple = DRAG  # (C₁, C₂, C₃); C₁ (along X) plays no role
 
     @property
     def mu(self) -> float:
@@ -145,6 +146,7 @@ class Body:
 # Prescribed edge heights
 # --------------------------------------------------------------------------
 
+
 class Table:
     """Piecewise-linear history from ``[[t, w], ...]``, constant outside the table.
 
@@ -166,7 +168,7 @@ class Table:
 
     def piece(self, t_mid):
         i = int(np.searchsorted(self.t, t_mid, side="right")) - 1
-        if i < 0 or i >= len(self.t) - 1:             # constant before / after
+        if i < 0 or i >= len(self.t) - 1:  # constant before / after
             w0 = float(self.w[0] if i < 0 else self.w[-1])
             return (lambda t: w0), (lambda t: 0.0), (lambda t: 0.0)
         t0, w0 = float(self.t[i]), float(self.w[i])
@@ -246,21 +248,28 @@ def smooth_stroke(amplitude: float, period: float, lag: float = 0.25):
     half = amplitude / 2
 
     def cosine(shift):
-        return (lambda t: half * (1 - math.cos(omega * (t - shift))),
-                lambda t: half * omega * math.sin(omega * (t - shift)),
-                lambda t: half * omega ** 2 * math.cos(omega * (t - shift)))
+        return (
+            lambda t: half * (1 - math.cos(omega * (t - shift))),
+            lambda t: half * omega * math.sin(omega * (t - shift)),
+            lambda t: half * omega**2 * math.cos(omega * (t - shift)),
+        )
 
     def zero(t):
         return 0.0
 
-    return (Smooth(*cosine(0.0), time_scale=1 / omega),
-            Smooth.pieces([(-math.inf, (zero, zero, zero)), (lag * period, cosine(lag * period))],
-                          time_scale=1 / omega))
+    return (
+        Smooth(*cosine(0.0), time_scale=1 / omega),
+        Smooth.pieces(
+            [(-math.inf, (zero, zero, zero)), (lag * period, cosine(lag * period))],
+            time_scale=1 / omega,
+        ),
+    )
 
 
 # --------------------------------------------------------------------------
 # Formulation A: middle centre and three link angles
 # --------------------------------------------------------------------------
+
 
 class AngleModel:
     """q = (Y_c, Z_c, θ_L, θ_M, θ_R): the middle link's centre and the link angles.
@@ -317,21 +326,22 @@ class AngleModel:
         body = self.body
         l, L, m = body.link_width, body.length, body.link_mass
         th = q[2:5]
-        diff = th[:, None] - th[None, :]                  # θ_k − θ_j
+        diff = th[:, None] - th[None, :]  # θ_k − θ_j
         S, C = np.sin(diff), np.cos(diff)
         cos, sin = np.cos(th), np.sin(th)
         a = self.a_centre
-        Je, Jn = np.empty((3, 5)), np.empty((3, 5))       # rows e_kᵀ J_k, n_kᵀ J_k
+        Je, Jn = np.empty((3, 5)), np.empty((3, 5))  # rows e_kᵀ J_k, n_kᵀ J_k
         Je[:, 0], Je[:, 1], Je[:, 2:] = cos, sin, a * S
         Jn[:, 0], Jn[:, 1], Jn[:, 2:] = -sin, cos, a * C
         EE, NN = Je.T @ Je, Jn.T @ Jn
         M = m * (EE + NN) + (m * l * l / 12) * self.spin
-        R = (L * l) * (body.c_across * EE + body.c_normal * NN
-                       + (body.c_normal * l * l / 12) * self.spin)
+        R = (L * l) * (
+            body.c_across * EE + body.c_normal * NN + (body.c_normal * l * l / 12) * self.spin
+        )
         w2 = v[2:5] ** 2
         h = m * (Je.T @ (-(a * C) @ w2) + Jn.T @ ((a * S) @ w2))
         G = self.jacobian(q, cos)
-        gamma = -(self.a_edge * w2) @ sin                  # Z of the edges' b
+        gamma = -(self.a_edge * w2) @ sin  # Z of the edges' b
         return M, R, h, G, gamma
 
     def mass(self, q):
@@ -367,13 +377,19 @@ class AngleModel:
         corner = c - 0.5 * l * e[1] - l * e[0]
         right = c + 0.5 * l * e[1] + l * e[2]
         centroid = c + (l / 6) * (e[2] - e[0])
-        return {"corner": corner, "right": right, "centre": c, "angles": q[2:5].copy(),
-                "centroid": centroid}
+        return {
+            "corner": corner,
+            "right": right,
+            "centre": c,
+            "angles": q[2:5].copy(),
+            "centroid": centroid,
+        }
 
 
 # --------------------------------------------------------------------------
 # Formulation B: Cartesian edge/hinge lines with rigid-length constraints
 # --------------------------------------------------------------------------
+
 
 class LineModel:
     """q = (Y₀, Z₀, Y₁, Z₁, Y₂, Z₂, Y₃, Z₃): the outer edges P₀, P₃ and hinges P₁, P₂.
@@ -396,15 +412,20 @@ class LineModel:
         pair = np.array([[2.0, 1.0], [1.0, 2.0]]) / 6
         M = np.zeros((8, 8))
         for k in range(3):
-            M[2 * k:2 * k + 4, 2 * k:2 * k + 4] += body.link_mass * np.kron(pair, np.eye(2))
+            M[2 * k : 2 * k + 4, 2 * k : 2 * k + 4] += body.link_mass * np.kron(pair, np.eye(2))
         self._mass = M
         self._pair_drag = np.array([[1 / 3, 1 / 6], [1 / 6, 1 / 3]])
 
     def terms(self, q, v):
         """(M, R, h = 0, G, Ġq̇) at (q, q̇); for a length row Ġq̇ = |V_{k+1} − V_k|²."""
         V = v.reshape(4, 2)
-        return (self._mass, self.drag_matrix(q), np.zeros(8), self.jacobian(q),
-                np.concatenate([((V[1:] - V[:-1]) ** 2).sum(1), [0.0, 0.0]]))
+        return (
+            self._mass,
+            self.drag_matrix(q),
+            np.zeros(8),
+            self.jacobian(q),
+            np.concatenate([((V[1:] - V[:-1]) ** 2).sum(1), [0.0, 0.0]]),
+        )
 
     def mass(self, q):
         return self._mass
@@ -415,14 +436,19 @@ class LineModel:
         d = np.diff(q.reshape(4, 2), axis=0)
         e = d / np.hypot(d[:, 0], d[:, 1])[:, None]
         n = np.stack([-e[:, 1], e[:, 0]], 1)
-        D = (b.c_across * e[:, :, None] * e[:, None, :]
-             + b.c_normal * n[:, :, None] * n[:, None, :])            # (3, 2, 2)
-        blocks = (b.length * b.link_width
-                  * self._pair_drag[None, :, None, :, None] * D[:, None, :, None, :])
+        D = (
+            b.c_across * e[:, :, None] * e[:, None, :] + b.c_normal * n[:, :, None] * n[:, None, :]
+        )  # (3, 2, 2)
+        blocks = (
+            b.length
+            * b.link_width
+            * self._pair_drag[None, :, None, :, None]
+            * D[:, None, :, None, :]
+        )
         blocks = blocks.reshape(3, 4, 4)
         R = np.zeros((8, 8))
         for k in range(3):
-            R[2 * k:2 * k + 4, 2 * k:2 * k + 4] += blocks[k]
+            R[2 * k : 2 * k + 4, 2 * k : 2 * k + 4] += blocks[k]
         return R
 
     def constraint(self, q):
@@ -435,14 +461,14 @@ class LineModel:
         G = np.zeros((5, 8))
         for k in range(3):
             d = P[k + 1] - P[k]
-            G[k, 2 * k:2 * k + 2] = -d
-            G[k, 2 * k + 2:2 * k + 4] = d
+            G[k, 2 * k : 2 * k + 2] = -d
+            G[k, 2 * k + 2 : 2 * k + 4] = d
         G[3, 1] = 1.0
         G[4, 7] = 1.0
         return G
 
     def targets(self, wl, wr):
-        half_l2 = 0.5 * self.body.link_width ** 2
+        half_l2 = 0.5 * self.body.link_width**2
         return np.array([half_l2, half_l2, half_l2, wl, wr])
 
     def rates(self, dwl, dwr):
@@ -451,9 +477,13 @@ class LineModel:
     def outputs(self, q):
         P = q.reshape(4, 2)
         d = P[1:] - P[:-1]
-        return {"corner": P[0].copy(), "right": P[3].copy(), "centre": 0.5 * (P[1] + P[2]),
-                "angles": np.arctan2(d[:, 1], d[:, 0]),          # in (−π, π]
-                "centroid": (P[0] + 2 * P[1] + 2 * P[2] + P[3]) / 6}
+        return {
+            "corner": P[0].copy(),
+            "right": P[3].copy(),
+            "centre": 0.5 * (P[1] + P[2]),
+            "angles": np.arctan2(d[:, 1], d[:, 0]),  # in (−π, π]
+            "centroid": (P[0] + 2 * P[1] + 2 * P[2] + P[3]) / 6,
+        }
 
 
 MODELS = {"angles": AngleModel, "lines": LineModel}
@@ -462,6 +492,7 @@ MODELS = {"angles": AngleModel, "lines": LineModel}
 # --------------------------------------------------------------------------
 # The driver
 # --------------------------------------------------------------------------
+
 
 @dataclass
 class Leg:
@@ -483,8 +514,9 @@ class Leg:
 
     @property
     def imbalance(self) -> float:
-        return (self.ke_end - self.ke_before) - (self.impulse_work + self.constraint_work
-                                                 - self.dissipation)
+        return (self.ke_end - self.ke_before) - (
+            self.impulse_work + self.constraint_work - self.dissipation
+        )
 
 
 @dataclass
@@ -537,12 +569,20 @@ class Result:
 
     def summary(self, t=None) -> dict:
         i = -1 if t is None else self.at(t)
-        return {"t": float(self.t[i]), "corner_y": float(self.corner_y[i]),
-                "corner_z": float(self.corner_z[i]), "right_y": float(self.right_y[i]),
-                "right_z": float(self.right_z[i]), "centre_y": float(self.centre_y[i]),
-                "centre_z": float(self.centre_z[i]), "angle_middle": float(self.angle_middle[i]),
-                "angle_left": float(self.angles[i, 0]), "angle_right": float(self.angles[i, 2]),
-                "centroid_y": float(self.centroid_y[i]), "centroid_z": float(self.centroid_z[i])}
+        return {
+            "t": float(self.t[i]),
+            "corner_y": float(self.corner_y[i]),
+            "corner_z": float(self.corner_z[i]),
+            "right_y": float(self.right_y[i]),
+            "right_z": float(self.right_z[i]),
+            "centre_y": float(self.centre_y[i]),
+            "centre_z": float(self.centre_z[i]),
+            "angle_middle": float(self.angle_middle[i]),
+            "angle_left": float(self.angles[i, 0]),
+            "angle_right": float(self.angles[i, 2]),
+            "centroid_y": float(self.centroid_y[i]),
+            "centroid_z": float(self.centroid_z[i]),
+        }
 
 
 def _solve_saddle(A, G, top, bottom):
@@ -571,7 +611,7 @@ class _Integrator:
         n = self.n
         if self.overdamped:
             return y[:n], None, y[n:]
-        return y[:n], y[n:2 * n], y[2 * n:]
+        return y[:n], y[n : 2 * n], y[2 * n :]
 
     def rhs(self, t, y, piece):
         m = self.model
@@ -667,9 +707,21 @@ def _merge(values, prefer=()):
     return out
 
 
-def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_width=0.5,
-             length=5.0, drag=DRAG, times=None, max_step=None, model="angles",
-             overdamped=None) -> Result:
+def simulate(
+    w_left,
+    w_right,
+    t_end,
+    *,
+    density=1.0e-8,
+    thickness=0.2,
+    link_width=0.5,
+    length=5.0,
+    drag=DRAG,
+    times=None,
+    max_step=None,
+    model="angles",
+    overdamped=None,
+) -> Result:
     """Move the three-link body with the outer edges' heights prescribed.
 
     ``w_left``, ``w_right``: a ``[[t, w], ...]`` table, a ``(w, w', w'')`` triple of
@@ -686,8 +738,9 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
     A kink at ``t_end`` itself is not applied: the outputs at ``t_end`` are the
     state arriving there.  Returns a ``Result``."""
     t_end = float(t_end)
-    body = Body(link_width=link_width, length=length, thickness=thickness,
-                density=density, drag=tuple(drag))
+    body = Body(
+        link_width=link_width, length=length, thickness=thickness, density=density, drag=tuple(drag)
+    )
     if overdamped is None:
         overdamped = density == 0.0
     if not overdamped and density <= 0.0:
@@ -697,8 +750,9 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
     if max(abs(h.piece(0.0)[0](0.0)) for h in (hl, hr)) > 1e-12:
         raise ValueError("the body starts flat: w_L(0) = w_R(0) = 0")
     tol = 1e-12 * max(1.0, t_end)
-    kinks = [t for t in _merge([0.0, *(t for t in hl.breaks + hr.breaks if t > 0.0)])
-             if t < t_end - tol]          # a kink at t_end (to rounding) is not applied
+    kinks = [
+        t for t in _merge([0.0, *(t for t in hl.breaks + hr.breaks if t > 0.0)]) if t < t_end - tol
+    ]  # a kink at t_end (to rounding) is not applied
     ends = kinks + [t_end]
     times = _merge(ends if times is None else times, ends)
     if times[0] < 0 or times[-1] > t_end:
@@ -714,7 +768,7 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
 
     integ = _Integrator(mdl, overdamped)
     y = np.concatenate([mdl.q0, np.zeros(3 if overdamped else len(mdl.q0) + 3)])
-    n_state = len(y) - 3                    # y[n_state:] = (D, W, I_Y)
+    n_state = len(y) - 3  # y[n_state:] = (D, W, I_Y)
     rows, legs = [], []
     impulse_total, drift, steps = 0.0, 0.0, 0
 
@@ -722,7 +776,7 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
         leg = legs[-1]
         leg.t1 = t
         leg.ke_end = integ.kinetic_energy(y)
-        leg.dissipation = float(y[n_state] - leg.dissipation)   # running totals at the start
+        leg.dissipation = float(y[n_state] - leg.dissipation)  # running totals at the start
         leg.constraint_work = float(y[n_state + 1] - leg.constraint_work)
 
     # Between stops: Runge-Kutta steps, projected back onto the constraints every
@@ -732,19 +786,37 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
     for i, t0 in enumerate(stops):
         last = i == len(stops) - 1
         t1 = t0 + 1.0 if last else stops[i + 1]
-        piece = (hl.piece(0.5 * (t0 + t1)), hr.piece(0.5 * (t0 + t1)))   # motion after t0
+        piece = (hl.piece(0.5 * (t0 + t1)), hr.piece(0.5 * (t0 + t1)))  # motion after t0
         if legs and (t0 in kinks or last):
             close_leg(t0)
         if t0 in kinks and not last:
             ke = integ.kinetic_energy(y)
             work = integ.impulse(y, t0, piece)
             impulse_total += work
-            legs.append(Leg(t0, t1, ke, work, integ.kinetic_energy(y),
-                            constraint_work=y[n_state + 1], dissipation=y[n_state]))
+            legs.append(
+                Leg(
+                    t0,
+                    t1,
+                    ke,
+                    work,
+                    integ.kinetic_energy(y),
+                    constraint_work=y[n_state + 1],
+                    dissipation=y[n_state],
+                )
+            )
         if t0 in times:
             o = mdl.outputs(integ.split(y)[0])
-            rows.append((t0, o, integ.momentum_y(y), y[n_state + 2],
-                         integ.kinetic_energy(y), y[n_state], y[n_state + 1] + impulse_total))
+            rows.append(
+                (
+                    t0,
+                    o,
+                    integ.momentum_y(y),
+                    y[n_state + 2],
+                    integ.kinetic_energy(y),
+                    y[n_state],
+                    y[n_state + 1] + impulse_total,
+                )
+            )
         if last:
             break
         n = max(1, int(math.ceil((t1 - t0) / max_step - 1e-9)))
@@ -761,25 +833,36 @@ def simulate(w_left, w_right, t_end, *, density=1.0e-8, thickness=0.2, link_widt
 
     corner, right, centre = col("corner"), col("right"), col("centre")
     angles, centroid = col("angles"), col("centroid")
-    y_ref = 1.5 * link_width                # reference Y of the middle centre and centroid
+    y_ref = 1.5 * link_width  # reference Y of the middle centre and centroid
     return Result(
         t=np.array([r[0] for r in rows]),
-        corner_y=corner[:, 0], corner_z=corner[:, 1],
-        right_y=right[:, 0] - 3 * link_width, right_z=right[:, 1],
-        centre_y=centre[:, 0] - y_ref, centre_z=centre[:, 1],
-        angle_middle=angles[:, 1], angles=angles,
-        centroid_y=centroid[:, 0] - y_ref, centroid_z=centroid[:, 1],
+        corner_y=corner[:, 0],
+        corner_z=corner[:, 1],
+        right_y=right[:, 0] - 3 * link_width,
+        right_z=right[:, 1],
+        centre_y=centre[:, 0] - y_ref,
+        centre_z=centre[:, 1],
+        angle_middle=angles[:, 1],
+        angles=angles,
+        centroid_y=centroid[:, 0] - y_ref,
+        centroid_z=centroid[:, 1],
         momentum_y=np.array([r[2] for r in rows]),
         drag_impulse_y=np.array([r[3] for r in rows]),
         kinetic_energy=np.array([r[4] for r in rows]),
         dissipation=np.array([r[5] for r in rows]),
         constraint_work=np.array([r[6] for r in rows]),
-        legs=legs, max_drift=drift, steps=steps, model=model, overdamped=overdamped)
+        legs=legs,
+        max_drift=drift,
+        steps=steps,
+        model=model,
+        overdamped=overdamped,
+    )
 
 
 # --------------------------------------------------------------------------
 # Figures for the FE tests:  python3 tests/rigid_links.py
 # --------------------------------------------------------------------------
+
 
 def report(amplitude=0.1, period=0.4, cycles=9):
     """Print the nine-cycle inertial outputs of the three strokes and the
@@ -792,8 +875,17 @@ def report(amplitude=0.1, period=0.4, cycles=9):
         "square": loop_tables("square", amplitude, period, cycles),
         "smooth, w_R lags T/4": smooth_stroke(amplitude, period),
     }
-    keys = ["corner_y", "corner_z", "centre_y", "centre_z", "angle_middle",
-            "angle_left", "angle_right", "centroid_y", "centroid_z"]
+    keys = [
+        "corner_y",
+        "corner_z",
+        "centre_y",
+        "centre_z",
+        "angle_middle",
+        "angle_left",
+        "angle_right",
+        "centroid_y",
+        "centroid_z",
+    ]
     for name, (wl, wr) in strokes.items():
         for density in (1.0e-8, 0.0):
             start = time.perf_counter()
@@ -802,12 +894,13 @@ def report(amplitude=0.1, period=0.4, cycles=9):
             label = f"{name}, ρ = {density:g}"
             print(f"\n{label}: {r.steps} RK4 steps, {wall:.2f} s, drift {r.max_drift:.1e}")
             s = r.summary()
-            print("  after %d cycles: " % cycles
-                  + ", ".join(f"{k} {s[k]:+.6e}" for k in keys))
+            print("  after %d cycles: " % cycles + ", ".join(f"{k} {s[k]:+.6e}" for k in keys))
             print("  per cycle (t, corner Y, centre Y, centre Z, middle angle, centroid Y):")
             for i, t in enumerate(r.t[1:], start=1):
-                print(f"    {t:4.1f} {r.corner_y[i]:+.6e} {r.centre_y[i]:+.6e} "
-                      f"{r.centre_z[i]:+.6e} {r.angle_middle[i]:+.6e} {r.centroid_y[i]:+.6e}")
+                print(
+                    f"    {t:4.1f} {r.corner_y[i]:+.6e} {r.centre_y[i]:+.6e} "
+                    f"{r.centre_z[i]:+.6e} {r.angle_middle[i]:+.6e} {r.centroid_y[i]:+.6e}"
+                )
 
 
 if __name__ == "__main__":

@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import ROOT
 
 _H5_TIMES = """
@@ -50,17 +49,19 @@ def rank_pids(proc, np_: int) -> list[int]:
         return [proc.pid]
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
-        ranks = [p for p in _children(proc.pid)
-                 if b"rftfem" in Path(f"/proc/{p}/cmdline").read_bytes()
-                 and b"mpirun" not in Path(f"/proc/{p}/cmdline").read_bytes()]
+        ranks = [
+            p
+            for p in _children(proc.pid)
+            if b"rftfem" in Path(f"/proc/{p}/cmdline").read_bytes()
+            and b"mpirun" not in Path(f"/proc/{p}/cmdline").read_bytes()
+        ]
         if len(ranks) >= np_:
             return ranks
         time.sleep(0.2)
     pytest.fail(f"the {np_} ranks of mpirun were not found")
 
 
-def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restart=False,
-              extra=()):
+def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restart=False, extra=()):
     """``rftfem run SCENE --out OUT --quiet EXTRA --set ...`` (``--restart OUT`` instead
     of ``--out`` with ``restart``) as a child process, under ``mpirun -n np_`` if > 1."""
     where = ["--restart", str(out)] if restart else ["--out", str(out)]
@@ -70,8 +71,9 @@ def start_run(scene: Path, out: Path, sets=(), mpirun=None, np_: int = 1, restar
     if np_ > 1:
         exe, env = mpirun
         cmd = [exe, "-n", str(np_), *cmd]
-    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
 
 
 def wait_for_steps(proc, out: Path, steps: int, timeout: float = 600):
@@ -101,8 +103,12 @@ def finish(proc, timeout: float = 120):
 
 def fields_times(out: Path) -> dict:
     """The times of each field in ``fields.h5``, read with h5py in a child process."""
-    done = subprocess.run([sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-c", _H5_TIMES, str(out / "fields.h5")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     h5 = json.loads(done.stdout)
     assert h5["finite"]
@@ -131,17 +137,24 @@ def vector_scales(path: Path, table: np.ndarray) -> np.ndarray:
     displacement agrees to round-off."""
     header = path.read_text().splitlines()[0].split(",")
     power = ("drag_power", "fluid_power")
-    groups = [h.rsplit("_", 1)[0] if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
-              else h[:-2] if h[-2:] in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
-              else "energy" if h.endswith("_energy") or h in power else h
-              for h in header]
+    groups = [
+        h.rsplit("_", 1)[0]
+        if h.rsplit("_", 1)[-1] in ("x", "y", "z", "ux", "uy", "uz")
+        else h[:-2]
+        if h[-2:] in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+        else "energy"
+        if h.endswith("_energy") or h in power
+        else h
+        for h in header
+    ]
     size = np.abs(table).max(axis=0)
     size = np.where(np.isin(header, power), size * table[-1, 0], size)
     return np.array([max(size[j] for j, g2 in enumerate(groups) if g2 == g) for g in groups])
 
 
-def assert_tables_agree(reference: Path, other: Path, tolerance: float, what: str,
-                        names=("body.csv", "probes.csv")):
+def assert_tables_agree(
+    reference: Path, other: Path, tolerance: float, what: str, names=("body.csv", "probes.csv")
+):
     """Every column of each table of run ``other`` within ``tolerance`` of its vector's
     scale (:func:`vector_scales`) of run ``reference``'s; prints the worst."""
     for name in names:

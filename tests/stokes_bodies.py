@@ -4,6 +4,7 @@ ellipsoid (a sphere when its semi-axes are equal), second-order quadrilaterals."
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -20,8 +21,9 @@ def _group(gmsh, dim, tags, name):
     gmsh.model.setPhysicalName(dim, gmsh.model.addPhysicalGroup(dim, tags), name)
 
 
-def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | None = None,
-               tilt: float = 0.0):
+def write_disk(
+    path, radius: float = 1.0, size: float = 0.2, edge_size: float | None = None, tilt: float = 0.0
+):
     """A flat disk in the XY plane, centre at the origin: surface group "disk", its rim
     the curve group "rim"; ``edge_size`` grades the cells towards the rim; ``tilt``
     (rad) turns it about Y (its normal then leans towards +X)."""
@@ -30,8 +32,10 @@ def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | 
         gmsh.model.add("disk")
         g = gmsh.model.geo
         c = g.addPoint(0, 0, 0)
-        p = [g.addPoint(radius * math.cos(a), radius * math.sin(a), 0)
-             for a in np.arange(4) * math.pi / 2]
+        p = [
+            g.addPoint(radius * math.cos(a), radius * math.sin(a), 0)
+            for a in np.arange(4) * math.pi / 2
+        ]
         arcs = [g.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
         surface = g.addPlaneSurface([g.addCurveLoop(arcs)])
         g.synchronize()
@@ -66,8 +70,9 @@ def write_disk(path, radius: float = 1.0, size: float = 0.2, edge_size: float | 
         gmsh.finalize()
 
 
-def write_disk_ogrid(path, radius: float = 1.0, around: int = 6, radial: int = 4,
-                     inner: float = 0.45):
+def write_disk_ogrid(
+    path, radius: float = 1.0, around: int = 6, radial: int = 4, inner: float = 0.45
+):
     """A flat disk meshed as an O-grid (a structured square of side ``inner``·√2·radius
     inside four structured blocks out to the rim): ``around`` cells along each quarter
     of the rim and across the square, ``radial`` cells from the square to the rim;
@@ -78,8 +83,10 @@ def write_disk_ogrid(path, radius: float = 1.0, around: int = 6, radial: int = 4
         g = gmsh.model.geo
         c = g.addPoint(0, 0, 0)
         angles = np.pi / 4 + np.arange(4) * np.pi / 2
-        sq = [g.addPoint(inner * radius * math.cos(a), inner * radius * math.sin(a), 0)
-              for a in angles]
+        sq = [
+            g.addPoint(inner * radius * math.cos(a), inner * radius * math.sin(a), 0)
+            for a in angles
+        ]
         rim = [g.addPoint(radius * math.cos(a), radius * math.sin(a), 0) for a in angles]
         inside = [g.addLine(sq[i], sq[(i + 1) % 4]) for i in range(4)]
         arcs = [g.addCircleArc(rim[i], c, rim[(i + 1) % 4]) for i in range(4)]

@@ -16,10 +16,10 @@ def radial(r: np.ndarray, eps: float):
     dist = np.sqrt(np.einsum("...k,...k->...", r, r))
     if eps == 0.0:
         inv = 1.0 / dist
-        inv3 = inv ** 3
+        inv3 = inv**3
         return inv, inv3, -inv3, -3.0 * inv3 * inv * inv
     f0, f1, f2, f3 = stokeslets.radial(dist / eps)
-    return f0 / eps, f1 / eps ** 3, f2 / eps ** 3, f3 / eps ** 5
+    return f0 / eps, f1 / eps**3, f2 / eps**3, f3 / eps**5
 
 
 def kernel_blocks(r, eps):
@@ -51,18 +51,20 @@ def image_pairs(wall: stokeslets.Wall, targets, sources, forces):
     R = xi - eta * np.array([1.0, 1.0, -1.0])
     Rn = np.sqrt(np.sum(R * R, axis=-1))
     R3 = R[..., 2]
-    inv1, inv3 = 1.0 / Rn, 1.0 / Rn ** 3
-    inv5 = inv3 / Rn ** 2
+    inv1, inv3 = 1.0 / Rn, 1.0 / Rn**3
+    inv5 = inv3 / Rn**2
     RF = np.sum(R * f, axis=-1)
     g = f * np.array([1.0, 1.0, -1.0])  # D F
     Rg = np.sum(R * g, axis=-1)
     g3 = g[..., 2]
     e3 = np.array([0.0, 0.0, 1.0])
     # Σ_j g_j ∂Φ/∂R_j
-    dphi = (h[..., None] * (g * inv3[..., None] - 3 * R * (Rg * inv5)[..., None])
-            + e3 * (Rg * inv3)[..., None]
-            - (g * R3[..., None] + R * g3[..., None]) * inv3[..., None]
-            + 3 * R * (R3 * Rg * inv5)[..., None])
+    dphi = (
+        h[..., None] * (g * inv3[..., None] - 3 * R * (Rg * inv5)[..., None])
+        + e3 * (Rg * inv3)[..., None]
+        - (g * R3[..., None] + R * g3[..., None]) * inv3[..., None]
+        + 3 * R * (R3 * Rg * inv5)[..., None]
+    )
     u = -(f * inv1[..., None] + R * (RF * inv3)[..., None]) + 2 * h[..., None] * dphi
     return u @ wall.Q
 
@@ -110,8 +112,7 @@ def layer_matrix(layer, x, wall=None) -> np.ndarray:
     r = x[s.target] - s.positions(x)
     Ks = kernel_blocks(r, layer.epsilon) * s.weight[:, None, None]
     for a in range(s.nodes.shape[1]):
-        np.add.at(A, (s.target, slice(None), s.nodes[:, a]),
-                  s.psi[:, a, None, None] * Ks)
+        np.add.at(A, (s.target, slice(None), s.nodes[:, a]), s.psi[:, a, None, None] * Ks)
     return A.reshape(3 * n, 3 * n)
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CANTILEVER, run_command
 
 import rftfem
-from conftest import CANTILEVER, run_command
 from rftfem import cli
 
 BAD = Path(__file__).parent / "scenes_bad"
@@ -47,10 +47,12 @@ def api_error(call) -> str:
 
 
 def test_import_is_cheap_and_public_names_load_on_use():
-    code = ("import sys, rftfem; heavy = [m for m in ('dolfinx', 'ufl', 'numpy', 'pandas', "
-            "'pyvista') if m in sys.modules]; assert not heavy, heavy; "
-            "assert rftfem.load_scene.__module__ == 'rftfem.api'; "
-            "assert rftfem.Result.__module__ == 'rftfem.result'; print('ok')")
+    code = (
+        "import sys, rftfem; heavy = [m for m in ('dolfinx', 'ufl', 'numpy', 'pandas', "
+        "'pyvista') if m in sys.modules]; assert not heavy, heavy; "
+        "assert rftfem.load_scene.__module__ == 'rftfem.api'; "
+        "assert rftfem.Result.__module__ == 'rftfem.result'; print('ok')"
+    )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.stdout.strip() == "ok", done.stderr
 
@@ -63,14 +65,17 @@ def test_every_bad_scene_gives_the_command_line_message(path):
     assert api_error(load_and_check) == cli_error("check", path)
 
 
-@pytest.mark.parametrize("key, value, text", [
-    ("shell.E", -5, "-5"),
-    ("shell.EE", 1.0, "1.0"),
-    ("load.3.value", [0, 0, 1], "[0,0,1]"),
-    ("time.scheme", "leapfrog", "leapfrog"),
-    ("mesh.divisions", [0, 1], "[0,1]"),
-    ("time.dt.x", 1, "1"),
-])
+@pytest.mark.parametrize(
+    "key, value, text",
+    [
+        ("shell.E", -5, "-5"),
+        ("shell.EE", 1.0, "1.0"),
+        ("load.3.value", [0, 0, 1], "[0,0,1]"),
+        ("time.scheme", "leapfrog", "leapfrog"),
+        ("mesh.divisions", [0, 1], "[0,1]"),
+        ("time.dt.x", 1, "1"),
+    ],
+)
 def test_a_bad_change_gives_the_command_line_message(tmp_path, key, value, text):
     """The command line's words, in Python's form: ``scene["KEY"]: ...`` where the
     command line says ``--set KEY: ...`` (a new user read "--set" from Python as a
@@ -80,7 +85,8 @@ def test_a_bad_change_gives_the_command_line_message(tmp_path, key, value, text)
     cli = cli_error("check", path, "--set", f"{key}={text}")
     # the same words, naming the key in Python's form where the command line names --set
     expected = cli.replace(f"--set {key}: ", f'scene["{key}"]: ').replace(
-        "--set: ", f'scene["{key}"]: ')
+        "--set: ", f'scene["{key}"]: '
+    )
     assert ("--set" in cli) == (expected != cli) and "--set" not in expected
     assert api_error(lambda: rftfem.load_scene(path, set={key: value})) == expected
     scene = rftfem.load_scene(path)
@@ -131,8 +137,7 @@ def test_scenes_results_and_errors_pickle(tmp_path):
     failed = rftfem.RunFailed("Newton diverged", 0.25, 3)
     failed.folder = tmp_path
     again = pickle.loads(pickle.dumps(failed))
-    assert (str(again), again.time, again.step, again.folder) == \
-        (str(failed), 0.25, 3, tmp_path)
+    assert (str(again), again.time, again.step, again.folder) == (str(failed), 0.25, 3, tmp_path)
     error = pickle.loads(pickle.dumps(rftfem.SceneError("shell.E: expected ...")))
     assert str(error) == "shell.E: expected ..."
 
@@ -143,8 +148,7 @@ def test_scenes_results_and_errors_pickle(tmp_path):
 def test_an_api_run_is_the_command_line_run_to_the_bit(tmp_path, capfd):
     scene_file = DEMOS / "swimming_sheet.toml"
     overrides = dict(s.split("=", 1) for s in SWIM)
-    values = {"time.end": 0.0125, "time.dt": 0.003125, "time.until": "end",
-              "output.fields": False}
+    values = {"time.end": 0.0125, "time.dt": 0.003125, "time.until": "end", "output.fields": False}
     assert set(values) == set(overrides)
     scene = rftfem.load_scene(scene_file, set=values)
     capfd.readouterr()
@@ -152,8 +156,20 @@ def test_an_api_run_is_the_command_line_run_to_the_bit(tmp_path, capfd):
     said = capfd.readouterr()
     assert said.out == "" and said.err == ""  # quiet by default
     sets = [a for s in SWIM for a in ("--set", s)]
-    done = run_command([sys.executable, "-m", "rftfem", "run", scene_file, *sets,
-                        "--out", tmp_path / "cli", "--quiet"], timeout=300)
+    done = run_command(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "run",
+            scene_file,
+            *sets,
+            "--out",
+            tmp_path / "cli",
+            "--quiet",
+        ],
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     cli_result = rftfem.Result(tmp_path / "cli")
     for name in ("probes", "body", "steps"):
@@ -165,7 +181,11 @@ def test_an_api_run_is_the_command_line_run_to_the_bit(tmp_path, capfd):
         assert np.array_equal(ours.to_numpy(), theirs.to_numpy()), name
     assert result.summary["scene"] == cli_result.summary["scene"]
     assert result.ok and result.summary["overrides"] == [
-        "time.end=0.0125", "time.dt=0.003125", 'time.until="end"', "output.fields=false"]
+        "time.end=0.0125",
+        "time.dt=0.003125",
+        'time.until="end"',
+        "output.fields=false",
+    ]
     # a quantity is collect's
     assert result.quantity("max(front_uz)") == result.probes["front_uz"].max()
 
@@ -224,8 +244,9 @@ def test_a_quiet_run_warns_through_warnings(tmp_path):
     assert "(magnetic.field.frequency)" in str(ours[0].message) and result.ok
     assert Path(ours[0].filename) == Path(__file__), ours[0].filename
     (tmp_path / "alias.toml").write_text(ALIAS)
-    done = run_command([sys.executable, "-c", FIRST_RUN_WARNS, tmp_path,
-                        tmp_path / "alias.toml"], timeout=300)
+    done = run_command(
+        [sys.executable, "-c", FIRST_RUN_WARNS, tmp_path, tmp_path / "alias.toml"], timeout=300
+    )
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
 
 
@@ -237,27 +258,38 @@ def test_a_restart_goes_on_to_the_uninterrupted_run_to_the_bit(tmp_path):
     from a finished run's time says to raise time.end.  Broke: the restart's
     generalized-α forces F_n left at zero (restart.py) → front_ux at t = 0.0125
     -0.013125 against -0.013115."""
-    values = {"time.end": 0.0125, "time.dt": 0.003125, "time.until": "end",
-              "output.fields": False, "time.output_every": 1, "output.checkpoint_every": 2}
+    values = {
+        "time.end": 0.0125,
+        "time.dt": 0.003125,
+        "time.until": "end",
+        "output.fields": False,
+        "time.output_every": 1,
+        "output.checkpoint_every": 2,
+    }
     sheet = DEMOS / "swimming_sheet.toml"
     whole = rftfem.run(rftfem.load_scene(sheet, set=values), out=tmp_path / "whole")
-    first = rftfem.run(rftfem.load_scene(sheet, set={**values, "time.end": 0.00625}),
-                       out=tmp_path / "part")
+    first = rftfem.run(
+        rftfem.load_scene(sheet, set={**values, "time.end": 0.00625}), out=tmp_path / "part"
+    )
     assert first.probes["time"].tolist() == [0.0, 0.003125, 0.00625]
     with pytest.raises(rftfem.SceneError, match="not before time.end = 0.00625; raise"):
-        rftfem.run(rftfem.load_scene(sheet, set={**values, "time.end": 0.00625}),
-                   restart=tmp_path / "part")
+        rftfem.run(
+            rftfem.load_scene(sheet, set={**values, "time.end": 0.00625}), restart=tmp_path / "part"
+        )
     again = rftfem.run(rftfem.load_scene(sheet, set=values), restart=tmp_path / "part")
     assert again.folder == tmp_path / "part" and again.ok
     assert again.summary["restarts"] == [
-        {"time": 0.00625, "step": 2, "checkpoint": "step-00000002"}]
+        {"time": 0.00625, "step": 2, "checkpoint": "step-00000002"}
+    ]
     for name in ("probes", "body", "steps"):
         ours, theirs = getattr(again, name), getattr(whole, name)
         if name == "steps":
             ours, theirs = ours.drop(columns="wall_s"), theirs.drop(columns="wall_s")
         assert list(ours.columns) == list(theirs.columns) and len(ours) == 5 - (name == "steps")
-        assert np.array_equal(ours.to_numpy(), theirs.to_numpy()), \
-            (name, np.abs(ours.to_numpy() - theirs.to_numpy()).max())
+        assert np.array_equal(ours.to_numpy(), theirs.to_numpy()), (
+            name,
+            np.abs(ours.to_numpy() - theirs.to_numpy()).max(),
+        )
 
 
 def test_a_result_says_which_folder_or_file_is_missing(tmp_path):
@@ -271,8 +303,11 @@ def test_a_result_says_which_folder_or_file_is_missing(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(rftfem.SceneError, match=r"file: not a folder$"):
         rftfem.Result(tmp_path / "file")
-    with pytest.raises(rftfem.SceneError, match=r"not a run folder \(no summary.json, "
-                       r"probes.csv, body.csv, steps.csv\)$"):
+    with pytest.raises(
+        rftfem.SceneError,
+        match=r"not a run folder \(no summary.json, "
+        r"probes.csv, body.csv, steps.csv\)$",
+    ):
         rftfem.Result(tmp_path)
     (tmp_path / "summary.json").write_text('{"status": "ok"}')
     result = rftfem.Result(tmp_path)
@@ -284,31 +319,55 @@ def test_a_result_says_which_folder_or_file_is_missing(tmp_path):
     with pytest.raises(rftfem.SceneError, match=r"summary.json: missing \(the run has not"):
         rftfem.Result(tmp_path).summary
     takes = "(render takes color, time, view, trail, fps, every, scale, size)"
-    for options, words in [({"colour": "tip_uz"}, f"unknown option colour {takes}"),
-                           ({"col": "tip_uz"}, f"unknown option col {takes}"),
-                           ({"t": 0.5, "zoom": 2}, f"unknown options t, zoom {takes}"),
-                           ({"view": "top"}, "argument --view: invalid choice: 'top'"),
-                           ({"fps": "fast"}, "argument --fps: invalid float value: 'fast'")]:
+    for options, words in [
+        ({"colour": "tip_uz"}, f"unknown option colour {takes}"),
+        ({"col": "tip_uz"}, f"unknown option col {takes}"),
+        ({"t": 0.5, "zoom": 2}, f"unknown options t, zoom {takes}"),
+        ({"view": "top"}, "argument --view: invalid choice: 'top'"),
+        ({"fps": "fast"}, "argument --fps: invalid float value: 'fast'"),
+    ]:
         with pytest.raises(rftfem.SceneError) as info:
             result.render(tmp_path / "x.png", **options)
         assert str(info.value).startswith(f"render: {words}"), (options, str(info.value))
         assert "\n" not in str(info.value) and not (tmp_path / "x.png").exists()
 
 
-@pytest.mark.parametrize("change, words", [
-    ({"shell.E": "stiff"}, 'shell.E: expected a number > 0, a formula of X, Y, Z or a '
-                           'profile file; found the string "stiff"'),
-    ({"shell.E": {1, 2}}, "shell.E: expected a number > 0, found a set value {1, 2}"),
-    ({"mesh.divisions": "4x1"}, "mesh.divisions: expected [n_length, n_width], two "
-                                'integers >= 1, found the string "4x1"'),
-    ({"shell": 3.0}, "shell: expected a table [shell], found 3"),
-    ({5: 1.0}, "expected a dotted key path like shell.thickness, found 5"),
-    ([("shell.E", 2.0)], "Scene.update: expected a dict of dotted keys to values "
-                         "({'time.dt': 0.01}), found list"),
-    ("shell.E=2", "Scene.update: expected a dict of dotted keys to values "
-                  "({'time.dt': 0.01}), found str"),
-], ids=["string-for-number", "set", "string-for-pair", "number-for-table", "int-key",
-        "list-of-pairs", "set-text"])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (
+            {"shell.E": "stiff"},
+            "shell.E: expected a number > 0, a formula of X, Y, Z or a "
+            'profile file; found the string "stiff"',
+        ),
+        ({"shell.E": {1, 2}}, "shell.E: expected a number > 0, found a set value {1, 2}"),
+        (
+            {"mesh.divisions": "4x1"},
+            "mesh.divisions: expected [n_length, n_width], two "
+            'integers >= 1, found the string "4x1"',
+        ),
+        ({"shell": 3.0}, "shell: expected a table [shell], found 3"),
+        ({5: 1.0}, "expected a dotted key path like shell.thickness, found 5"),
+        (
+            [("shell.E", 2.0)],
+            "Scene.update: expected a dict of dotted keys to values "
+            "({'time.dt': 0.01}), found list",
+        ),
+        (
+            "shell.E=2",
+            "Scene.update: expected a dict of dotted keys to values ({'time.dt': 0.01}), found str",
+        ),
+    ],
+    ids=[
+        "string-for-number",
+        "set",
+        "string-for-pair",
+        "number-for-table",
+        "int-key",
+        "list-of-pairs",
+        "set-text",
+    ],
+)
 def test_a_change_of_the_wrong_type_says_which_key(change, words):
     """A value, a key or a change of a type the scene cannot take: one line naming
     the key (or what Scene.update takes), the scene unchanged.  Broke: Scene.update
@@ -320,12 +379,13 @@ def test_a_change_of_the_wrong_type_says_which_key(change, words):
     assert str(info.value).startswith(words) and "\n" not in str(info.value), str(info.value)
     assert scene.to_dict() == before and scene.overrides == []
     if isinstance(change, dict):  # the same through scene[key] = value
-        (key, value), = change.items()
+        ((key, value),) = change.items()
         with pytest.raises(rftfem.SceneError, match=re.escape(words)):
             scene[key] = value
     else:  # and through load_scene(set=...)
-        with pytest.raises(rftfem.SceneError, match=re.escape(words.replace(
-                "Scene.update", "load_scene(set=...)"))):
+        with pytest.raises(
+            rftfem.SceneError, match=re.escape(words.replace("Scene.update", "load_scene(set=...)"))
+        ):
             rftfem.load_scene(DEMOS / "swimming_sheet.toml", set=change)
 
 
@@ -358,8 +418,9 @@ print("ok")
 def test_a_result_gives_fields_and_pictures(tmp_path):
     """In a fresh process, as a user's script: rftfem.run loads pyvista first."""
     (tmp_path / "scene.toml").write_text(CANTILEVER)
-    done = run_command([sys.executable, "-c", FIELDS_AND_PICTURES, tmp_path,
-                        tmp_path / "scene.toml"], timeout=300)
+    done = run_command(
+        [sys.executable, "-c", FIELDS_AND_PICTURES, tmp_path, tmp_path / "scene.toml"], timeout=300
+    )
     assert done.returncode == 0 and done.stdout.strip().endswith("ok"), done.stderr
 
 

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 A, H, WIDTH, T, E = 10.0, 1.0, 1.0, 1.2, 1000.0
@@ -50,8 +49,9 @@ def truss_bar(path: Path, n: int = 4) -> Path:
             gmsh.model.mesh.setTransfiniteCurve(line, cells + 1)
         gmsh.model.mesh.setTransfiniteSurface(surface)
         gmsh.model.mesh.setRecombine(2, surface)
-        _name_mesh_write(gmsh, ((2, surface, "bar"), (1, lines[3], "support"),
-                                (1, lines[1], "apex")), path)
+        _name_mesh_write(
+            gmsh, ((2, surface, "bar"), (1, lines[3], "support"), (1, lines[1], "apex")), path
+        )
     finally:
         gmsh.finalize()
     return path
@@ -105,8 +105,18 @@ F_LIMIT = EA * H**3 / (3 * math.sqrt(3) * L0**3)
 def truss_scene(tmp_path, **keys) -> Path:
     """The bar's mesh and scene in ``tmp_path``; ``keys`` replace SCENE's defaults."""
     truss_bar(tmp_path / "bar.msh")
-    values = dict(T=T, E=E, A=A, H=H, end=1.0, dt=0.1, max_steps=200,
-                  support_fix='"ux", "uy", "uz"', force=-1.0, motion="")
+    values = dict(
+        T=T,
+        E=E,
+        A=A,
+        H=H,
+        end=1.0,
+        dt=0.1,
+        max_steps=200,
+        support_fix='"ux", "uy", "uz"',
+        force=-1.0,
+        motion="",
+    )
     values.update(keys)
     return write_scene(tmp_path, SCENE.format(**values))
 
@@ -116,8 +126,10 @@ def soft_support(F0):
     unloading stiffness under the force λ F₀, and that sink per unit λ."""
     k = 0.5 * EA * H**2 / (2 * L0**3)
     sink = F0 / k
-    return ('[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
-            f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]'), sink
+    return (
+        '[[motion]]\nname = "spring"\nwhere = "support"\ncomponent = "uz"\n'
+        f'kind = "table"\nvalues = [[-10.0, {10 * sink}], [10.0, {-10 * sink}]]'
+    ), sink
 
 
 def run_truss(tmp_path, **keys):
@@ -136,8 +148,10 @@ def test_truss_through_both_load_limit_points(tmp_path):
     F0 = 1.5 * F_LIMIT
     sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05)
     error = np.abs(lam * F0 - apex_force(w)).max() / F_LIMIT
-    print(f"{len(w)} rows, w up to {w.max():.3f} (2h = {2 * H}), λ from {lam.min():.3f} to "
-          f"{lam.max():.3f}; error {error:.1e} of F_max; {sim.counts}")
+    print(
+        f"{len(w)} rows, w up to {w.max():.3f} (2h = {2 * H}), λ from {lam.min():.3f} to "
+        f"{lam.max():.3f}; error {error:.1e} of F_max; {sim.counts}"
+    )
     assert sim.load_factor == pytest.approx(1.0, abs=1e-12)
     assert w.max() > 2 * H  # through the flat state, the second limit and beyond
     assert lam.min() < -0.6 / 1.5 and lam.max() > 0.6  # both limits, ±F_max / F₀ = ±0.67
@@ -156,13 +170,14 @@ def test_truss_on_a_soft_support_through_its_snap_backs(tmp_path):
     than PATH_TURN from the last were rejected and retried with half the arc (16)."""
     F0 = 1.5 * F_LIMIT
     motion, sink = soft_support(F0)  # the support's descent per unit λ
-    sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05, motion=motion,
-                            support_fix='"ux", "uy"')
+    sim, lam, w = run_truss(tmp_path, force=-F0, dt=0.05, motion=motion, support_fix='"ux", "uy"')
     error = np.abs(lam * F0 - apex_force(w - lam * sink)).max() / F_LIMIT
     dw = np.diff(w)
     back = np.flatnonzero(dw[1:] * dw[:-1] < 0)
-    print(f"{len(w)} rows; λ from {lam.min():.3f} to {lam.max():.3f}; w turns at rows "
-          f"{back + 1} (w = {w[back + 1]}); error {error:.1e}; {sim.counts}")
+    print(
+        f"{len(w)} rows; λ from {lam.min():.3f} to {lam.max():.3f}; w turns at rows "
+        f"{back + 1} (w = {w[back + 1]}); error {error:.1e}; {sim.counts}"
+    )
     assert sim.load_factor == pytest.approx(1.0, abs=1e-12)
     assert len(back) >= 2  # w turns back and forward again: the snap-backs
     assert lam.min() < -0.6 / 1.5  # and the load limit points on the way
@@ -182,8 +197,14 @@ class ArcSteps:
 
     def __call__(self, sim):  # called before the step sets the next arc
         cuts = sim.counts["dt_cuts"] + sim.counts["rejected_steps"]
-        self.rows.append((sim.arc, sim.t - self._t, sim.load_factor - self._lam,
-                          cuts != self._cuts or sim.load_factor == sim.scene["time"]["end"]))
+        self.rows.append(
+            (
+                sim.arc,
+                sim.t - self._t,
+                sim.load_factor - self._lam,
+                cuts != self._cuts or sim.load_factor == sim.scene["time"]["end"],
+            )
+        )
         self._cuts, self._lam, self._t = cuts, sim.load_factor, sim.t
 
 
@@ -205,8 +226,10 @@ def test_each_step_keeps_its_arc_and_the_path_turns_back_at_the_limits(tmp_path)
     lam, w = rows[:, header.index("load_factor")], -rows[:, header.index("apex_uz")]
     kept = [(arc, du) for arc, du, _, odd in steps.rows[1:] if not odd]
     worst = max(abs(du / arc - 1) for arc, du in kept)
-    print(f"{len(kept)} of {len(steps.rows)} steps at their own arc: ‖Δu‖/arc − 1 up to "
-          f"{worst:.1e}; first arc {sim.first_arc:.4g}")
+    print(
+        f"{len(kept)} of {len(steps.rows)} steps at their own arc: ‖Δu‖/arc − 1 up to "
+        f"{worst:.1e}; first arc {sim.first_arc:.4g}"
+    )
     assert len(kept) > 0.6 * len(steps.rows) and worst < 1e-12
     assert max(arc for arc, *_ in steps.rows[1:]) <= MAX_GROWTH * sim.first_arc * (1 + 1e-12)
     v, dlam = H - w, np.diff(lam)
@@ -214,8 +237,9 @@ def test_each_step_keeps_its_arc_and_the_path_turns_back_at_the_limits(tmp_path)
     rising = (mid > H / math.sqrt(3)) | (mid < -H / math.sqrt(3))
     falling = np.abs(mid) < H / math.sqrt(3)
     away = np.minimum(np.abs(v[1:] - H / math.sqrt(3)), np.abs(v[:-1] - H / math.sqrt(3)))
-    away = np.minimum(away, np.minimum(np.abs(v[1:] + H / math.sqrt(3)),
-                                       np.abs(v[:-1] + H / math.sqrt(3))))
+    away = np.minimum(
+        away, np.minimum(np.abs(v[1:] + H / math.sqrt(3)), np.abs(v[:-1] + H / math.sqrt(3)))
+    )
     clear = away > 0.02 * H  # steps that straddle a limit point may go either way
     assert (dlam[rising & clear] > 0).all() and (dlam[falling & clear] < 0).all()
     assert falling.sum() >= 5 and (rising & (mid < 0)).sum() >= 2
@@ -231,8 +255,10 @@ def test_support_reaction_is_the_bar_force(tmp_path):
     from rftfem.outputs.quantities import read_csv
 
     header, body = read_csv(tmp_path / "out" / "body.csv")
-    r = np.stack([body[:, header.index(f"support_{c}")] for c in
-                  ("Fx", "Fy", "Fz", "Mx", "My", "Mz")], axis=1)
+    r = np.stack(
+        [body[:, header.index(f"support_{c}")] for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")],
+        axis=1,
+    )
     v = H - w
     strain = (A**2 + v**2 - L0**2) / (2 * L0**2)
     force = -(EA * strain / L0)[:, None] * np.stack([np.full_like(v, A), 0 * v, v], axis=1)
@@ -259,8 +285,12 @@ def test_arc_length_branches_that_end_a_run(tmp_path):
     with pytest.raises(RunFailed, match="do not move the body"):
         run_scene(truss_scene(tmp_path, force=0.0))
     with pytest.raises(RunFailed, match=r"after 3 halvings of the arc \(time.max_cuts\)"):
-        run_scene(truss_scene(tmp_path, force=-F0, dt=0.05), "time.max_cuts=3",
-                  "solver.snes_max_it=1", "solver.snes_stol=0")
+        run_scene(
+            truss_scene(tmp_path, force=-F0, dt=0.05),
+            "time.max_cuts=3",
+            "solver.snes_max_it=1",
+            "solver.snes_stol=0",
+        )
 
 
 def _table(path):
@@ -274,25 +304,40 @@ def _table(path):
 @pytest.mark.both_stacks
 def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, cli_run):
     """The snap-back path of the truss on a soft support: stopped after 20 steps by
-    time.max_steps (a checkpoint every 5), where the load falls, restarted with a larger one, and on two
+    time.max_steps (a checkpoint every 5), where the load falls, restarted with a larger one,
+    and on two
     processes, against the uninterrupted serial run: probes.csv and body.csv (the
     reactions), to 3e-6 of each column.  The first step after the restart differs
     from the serial run's in the last digit, and two processes' partitioned solves
     by their round-off; both grow where this path turns sharply (arcs of 1e-3 of
     the first, converged in one update) to 3.4e-7 and 2.4e-7."""
     F0 = 1.5 * F_LIMIT
-    scene = truss_scene(tmp_path, dt=0.05, support_fix='"ux", "uy"', force=-F0,
-                        motion=soft_support(F0)[0])
+    scene = truss_scene(
+        tmp_path, dt=0.05, support_fix='"ux", "uy"', force=-F0, motion=soft_support(F0)[0]
+    )
     serial = cli_run(scene, tmp_path / "serial")
     cli_run(scene, tmp_path / "cut", ["time.max_steps=20", "output.checkpoint_every=5"])
     half = _table(tmp_path / "cut" / "probes.csv")[1]
     assert 0.0 < half[-1, -1] < half[-2, -1] < 1.0  # stopped on the way down
-    from conftest import run_command
     import sys
 
-    done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--restart",
-                        str(tmp_path / "cut"), "--quiet", "--set", "time.max_steps=200"],
-                       timeout=600)
+    from conftest import run_command
+
+    done = run_command(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "run",
+            str(scene),
+            "--restart",
+            str(tmp_path / "cut"),
+            "--quiet",
+            "--set",
+            "time.max_steps=200",
+        ],
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     two = cli_run(scene, tmp_path / "two", np=2)
     for name in ("probes.csv", "body.csv"):
@@ -307,15 +352,23 @@ def test_restart_in_the_middle_and_two_processes_equal_the_serial_run(tmp_path, 
             assert err < 3e-6
 
 
-@pytest.mark.parametrize("sets, message", [
-    (['fluid.drag=[1.0, 1.0, 2.0]'],
-     'time.scheme: "arc-length" follows a static equilibrium path, and the [fluid] drag is '
-     "a force of motion; remove [fluid] or use a scheme in time"),
-    (["time.dt=-0.1"], "time.dt: expected a number > 0, found -0.1"),
-    (["time.max_steps=0"], "time.max_steps: expected an integer >= 1, found 0"),
-    (["time.tolerance=1e-3"], "time.tolerance: the scheme is static (load steps have no time "
-                              "error to control); remove time.tolerance or use a scheme in time"),
-])
+@pytest.mark.parametrize(
+    "sets, message",
+    [
+        (
+            ["fluid.drag=[1.0, 1.0, 2.0]"],
+            'time.scheme: "arc-length" follows a static equilibrium path, and the [fluid] drag is '
+            "a force of motion; remove [fluid] or use a scheme in time",
+        ),
+        (["time.dt=-0.1"], "time.dt: expected a number > 0, found -0.1"),
+        (["time.max_steps=0"], "time.max_steps: expected an integer >= 1, found 0"),
+        (
+            ["time.tolerance=1e-3"],
+            "time.tolerance: the scheme is static (load steps have no time "
+            "error to control); remove time.tolerance or use a scheme in time",
+        ),
+    ],
+)
 def test_bad_arc_length_settings_are_refused(tmp_path, sets, message):
     from rftfem.errors import SceneError
     from rftfem.scene.reading import load_scene
@@ -332,8 +385,10 @@ def test_bad_setting_exits_2_in_one_line(tmp_path):
     from conftest import run_command
 
     scene = truss_scene(tmp_path, dt=0.05)
-    done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--set",
-                        "fluid.drag=[1.0, 1.0, 2.0]"], timeout=300)
+    done = run_command(
+        [sys.executable, "-m", "rftfem", "run", str(scene), "--set", "fluid.drag=[1.0, 1.0, 2.0]"],
+        timeout=300,
+    )
     print(done.stderr)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
     assert "arc-length" in done.stderr

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import csv
 import importlib.util
-import tomllib
 import subprocess
 import sys
+import tomllib
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_scene
 
 SCENE = DEMOS / "bidirectional_strip.toml"
@@ -45,9 +44,14 @@ def swim(frequency, periods, steps_per_period, direction=(1.0, 0.0, 0.0)):
     """Run the demo scene for phase 1 and ``periods`` field periods."""
     end = RAMP + periods / frequency
     track = Track()
-    sim = run_scene(SCENE, f"magnetic.field.frequency={float(frequency)}", f"time.end={end!r}",
-                    f"time.dt={1 / (frequency * steps_per_period)!r}",
-                    f"magnetic.field.direction={list(direction)}", observers=[track])
+    sim = run_scene(
+        SCENE,
+        f"magnetic.field.frequency={float(frequency)}",
+        f"time.end={end!r}",
+        f"time.dt={1 / (frequency * steps_per_period)!r}",
+        f"magnetic.field.direction={list(direction)}",
+        observers=[track],
+    )
     return sim, track, end
 
 
@@ -75,8 +79,9 @@ def test_opposite_protocols_swim_opposite_ways():
         assert sim.summary["status"] == "ok"
         assert sim.summary["director_unit_error"] < 1e-10
         net[direction[0]] = track.net_z(end - 2 / f, end)
-    print(f"net displacement along Z, last two periods: +X {net[1.0]:+.5f} mm, "
-          f"−X {net[-1.0]:+.5f} mm")
+    print(
+        f"net displacement along Z, last two periods: +X {net[1.0]:+.5f} mm, −X {net[-1.0]:+.5f} mm"
+    )
     assert net[1.0] < 0 < net[-1.0]
     assert abs(abs(net[1.0]) / abs(net[-1.0]) - 1) < 0.05
     assert abs(net[1.0] + net[-1.0]) < 1e-6 * abs(net[1.0])
@@ -88,15 +93,22 @@ def _sweep_run(tmp_path, demo, frequency, steps_per_period=100):
     8 periods but at least 0.1 s), measured by the demo's own sweep code."""
     end = RAMP + demo.SETTLE + max(8 / frequency, 0.1)
     out = tmp_path / f"f{frequency:g}"
-    sim = run_scene(SCENE, f"magnetic.field.frequency={float(frequency)}", f"time.end={end!r}",
-                    f"time.dt={1 / (frequency * steps_per_period)!r}", "time.output_every=1",
-                    "output.fields=false", out_dir=out)
+    sim = run_scene(
+        SCENE,
+        f"magnetic.field.frequency={float(frequency)}",
+        f"time.end={end!r}",
+        f"time.dt={1 / (frequency * steps_per_period)!r}",
+        "time.output_every=1",
+        "output.fields=false",
+        out_dir=out,
+    )
     return sim, demo.sweep_row(out)
 
 
 def _demo_module():
-    spec = importlib.util.spec_from_file_location("bidirectional_strip",
-                                                  DEMOS / "bidirectional_strip.py")
+    spec = importlib.util.spec_from_file_location(
+        "bidirectional_strip", DEMOS / "bidirectional_strip.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -134,8 +146,13 @@ def test_above_step_out_completes_and_slows(tmp_path):
 def test_strip_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the strip (phase 1 and one field period at 10 Hz) gives the
     serial centroid path (body.csv) to 1e-10 mm (reached 1e-13 mm)."""
-    overrides = ["magnetic.field.frequency=10.0", "time.end=0.2", "time.dt=0.002",
-                 "time.output_every=5", "output.fields=false"]
+    overrides = [
+        "magnetic.field.frequency=10.0",
+        "time.end=0.2",
+        "time.dt=0.002",
+        "time.output_every=5",
+        "output.fields=false",
+    ]
     paths = {}
     for n in (1, 2):
         out = cli_run(SCENE, tmp_path / f"np{n}", overrides, np=n)
@@ -143,8 +160,10 @@ def test_strip_mpirun_matches_serial(tmp_path, cli_run):
         rows = list(csv.DictReader(open(out / "body.csv", encoding="utf-8")))
         paths[n] = np.array([[float(r[f"centroid_{k}"]) for k in "xyz"] for r in rows])
     drift = np.abs(paths[1] - paths[1][0]).max()
-    print(f"largest centroid excursion {drift:.4f} mm; serial vs np 2: "
-          f"{np.abs(paths[2] - paths[1]).max():.2e} mm")
+    print(
+        f"largest centroid excursion {drift:.4f} mm; serial vs np 2: "
+        f"{np.abs(paths[2] - paths[1]).max():.2e} mm"
+    )
     assert drift > 0.3
     assert np.abs(paths[2] - paths[1]).max() < 1e-10
 
@@ -153,9 +172,13 @@ def test_strip_mpirun_matches_serial(tmp_path, cli_run):
 def test_bidirectional_strip_demo(tmp_path):
     """The demo as shipped: both protocols, 8 periods at 4 Hz; it checks opposite
     senses and 5 % itself (exit status) and writes its figures."""
-    done = subprocess.run([sys.executable, str(DEMOS / "bidirectional_strip.py"),
-                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
-                          timeout=3 * 3600)  # slow: both protocols, about an hour
+    done = subprocess.run(
+        [sys.executable, str(DEMOS / "bidirectional_strip.py"), "--out", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=3 * 3600,
+    )  # slow: both protocols, about an hour
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     for name in ("groups.md", "trajectory.csv", "shape_phase1.png", "trajectory.png"):

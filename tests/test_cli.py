@@ -7,8 +7,8 @@ import types
 from pathlib import Path
 
 import pytest
-
 from conftest import ROOT, run_command
+
 from rftfem import cli
 from rftfem.errors import RunFailed, SceneError
 
@@ -39,8 +39,7 @@ at = [10.0, 0.5, 0.0]
 
 
 def rftfem(*args, cwd=None, timeout=60):
-    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
-                       timeout=timeout)
+    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd, timeout=timeout)
 
 
 def assert_one_line_error(proc, *words):
@@ -122,13 +121,35 @@ def test_check_good_scene(good):
 
 def test_split_petsc_options():
     rest, petsc = cli._split_petsc(
-        ["run", "-snes_monitor", "a.toml", "--set", "time.dt=0.1", "-ksp_type", "preonly",
-         "--quiet", "-pc_factor_mat_solver_type", "mumps", "-snes_view", "--out", "o"])
+        [
+            "run",
+            "-snes_monitor",
+            "a.toml",
+            "--set",
+            "time.dt=0.1",
+            "-ksp_type",
+            "preonly",
+            "--quiet",
+            "-pc_factor_mat_solver_type",
+            "mumps",
+            "-snes_view",
+            "--out",
+            "o",
+        ]
+    )
     assert rest == ["run", "a.toml", "--set", "time.dt=0.1", "--quiet", "--out", "o"]
-    assert petsc == ["-snes_monitor", "-ksp_type", "preonly", "-pc_factor_mat_solver_type",
-                     "mumps", "-snes_view"]
-    assert cli._split_petsc(["check", "a.toml", "-snes_monitor"]) == \
-        (["check", "a.toml", "-snes_monitor"], [])
+    assert petsc == [
+        "-snes_monitor",
+        "-ksp_type",
+        "preonly",
+        "-pc_factor_mat_solver_type",
+        "mumps",
+        "-snes_view",
+    ]
+    assert cli._split_petsc(["check", "a.toml", "-snes_monitor"]) == (
+        ["check", "a.toml", "-snes_monitor"],
+        [],
+    )
 
 
 @pytest.fixture
@@ -162,11 +183,22 @@ def fake_simulation(monkeypatch):
     return module
 
 
-def test_run_passes_scene_out_dir_and_petsc_args(good, fake_simulation, tmp_path, monkeypatch,
-                                                 capsys):
+def test_run_passes_scene_out_dir_and_petsc_args(
+    good, fake_simulation, tmp_path, monkeypatch, capsys
+):
     monkeypatch.chdir(tmp_path)
-    status = cli.main(["run", str(good), "--set", "time.dt=0.25", "--quiet",
-                       "-snes_monitor", "-ksp_type", "preonly"])
+    status = cli.main(
+        [
+            "run",
+            str(good),
+            "--set",
+            "time.dt=0.25",
+            "--quiet",
+            "-snes_monitor",
+            "-ksp_type",
+            "preonly",
+        ]
+    )
     assert status == 0
     kind, scene, out_dir, quiet, petsc = fake_simulation.calls[0]
     assert scene["time"]["dt"] == 0.25
@@ -203,29 +235,42 @@ def test_check_uses_simulation_check(good, fake_simulation, capsys):
     assert cli.main(["check", str(good)]) == 0
     assert fake_simulation.calls[0][0] == "check"
     out = capsys.readouterr().out.splitlines()
-    assert out == ["scene OK: cli cantilever", "active effects: elasticity, edge-moment",
-                   "scheme: static"]
+    assert out == [
+        "scene OK: cli cantilever",
+        "active effects: elasticity, edge-moment",
+        "scheme: static",
+    ]
 
 
 def test_check_falls_back_without_simulation_module(good, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "rftfem.integration.model_setup", None)  # -> ImportError
     assert cli.main(["check", str(good), "--set", "shell.density=1"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out == ["scene OK: cli cantilever", "active effects: elasticity, inertia, edge-moment",
-                   "scheme: generalized-alpha"]
+    assert out == [
+        "scene OK: cli cantilever",
+        "active effects: elasticity, inertia, edge-moment",
+        "scheme: generalized-alpha",
+    ]
 
 
 def test_run_rejects_bad_petsc_option_and_out(tmp_path, good):
     """A PETSc option PETSc does not know, and an --out that is a file: exit 2 with
     one line each (not a petsc4py or OSError traceback)."""
-    line = assert_one_line_error(rftfem("run", good, "--out", tmp_path / "o", "--set",
-                                        "solver.pc_type=bogus", timeout=300), "solver", "bogus")
+    line = assert_one_line_error(
+        rftfem("run", good, "--out", tmp_path / "o", "--set", "solver.pc_type=bogus", timeout=300),
+        "solver",
+        "bogus",
+    )
     assert "PETSc rejected" in line
     (tmp_path / "afile").write_text("not a folder")
-    assert_one_line_error(rftfem("run", good, "--out", tmp_path / "afile", timeout=300),
-                          "--out", "found a file")
-    assert_one_line_error(rftfem("run", good, "--out", tmp_path / "afile" / "sub", timeout=300),
-                          "--out", "cannot make this folder")
+    assert_one_line_error(
+        rftfem("run", good, "--out", tmp_path / "afile", timeout=300), "--out", "found a file"
+    )
+    assert_one_line_error(
+        rftfem("run", good, "--out", tmp_path / "afile" / "sub", timeout=300),
+        "--out",
+        "cannot make this folder",
+    )
 
 
 def test_out_of_memory_is_one_line(good, fake_simulation, capsys):
@@ -308,8 +353,9 @@ def test_a_vector_component_has_one_address_everywhere(tmp_path):
         load_scene(demo, ["load.0.value.5=1"])
     with pytest.raises(SceneError, match=r"'load.0.ramp' is 'linear', not a vector"):
         load_scene(demo, ["load.0.ramp.1=1"])
-    done = run_command([sys.executable, "-m", "rftfem", "check", str(demo), "--set",
-                        "load.0.value.2=-4"], cwd=ROOT)
+    done = run_command(
+        [sys.executable, "-m", "rftfem", "check", str(demo), "--set", "load.0.value.2=-4"], cwd=ROOT
+    )
     assert done.returncode == 0, done.stderr
 
 

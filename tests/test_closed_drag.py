@@ -5,12 +5,10 @@ C₁ ≠ C₂ it is refused in one line naming a point where the axis meets the 
 
 from __future__ import annotations
 
-import subprocess
 import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_command, write_scene
 from stokes_bodies import write_ellipsoid
 
@@ -46,8 +44,9 @@ def sphere(tmp_path_factory):
     return folder
 
 
-@pytest.mark.parametrize("drag", [(2e-6, 2e-6, 2e-6), (1e-6, 1e-6, 5e-6)],
-                         ids=["isotropic", "transverse"])
+@pytest.mark.parametrize(
+    "drag", [(2e-6, 2e-6, 2e-6), (1e-6, 1e-6, 5e-6)], ids=["isotropic", "transverse"]
+)
 def test_sphere_sinks_at_its_terminal_speed(sphere, drag):
     """A sphere sinking under its weight translates at ρ t g / C̄ with C̄ the drag
     tensor averaged over the sphere's normals, (2 C₁ + C₃) / 3 (the mean of n⊗n over a
@@ -56,25 +55,38 @@ def test_sphere_sinks_at_its_terminal_speed(sphere, drag):
     the curved cells' area differently by about that much.  A wrong tensor is far
     off: C₁ and C₃ swapped would sink 36 % slower."""
     c1, _, c3 = drag
-    scene = write_scene(sphere, SPHERE.replace("DRAG", str(list(drag))),
-                        name=f"sphere-{c3}.toml")
+    scene = write_scene(sphere, SPHERE.replace("DRAG", str(list(drag))), name=f"sphere-{c3}.toml")
     out = sphere / f"out-{c3}"
-    done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out),
-                        "--quiet", "--set", "output.fields=false"], cwd=ROOT)
+    done = run_command(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "run",
+            str(scene),
+            "--out",
+            str(out),
+            "--quiet",
+            "--set",
+            "output.fields=false",
+        ],
+        cwd=ROOT,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     import json
 
     fluid = json.loads((out / "summary.json").read_text())["fluid"]
-    assert fluid == {"model": "rft", "drag": list(drag), "from": "fluid.drag",
-                     "axis_free": True}
+    assert fluid == {"model": "rft", "drag": list(drag), "from": "fluid.drag", "axis_free": True}
     body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
     speed = -np.diff(body["centroid_z"]) / np.diff(body["time"])
     exact = RHO * T * G / ((2 * c1 + c3) / 3)
     print(f"{drag}: speeds {speed}, exact {exact}")
     assert np.abs(speed / exact - 1).max() < 1e-3
     for axis in "xy":
-        assert np.abs(body[f"centroid_{axis}"] - body[f"centroid_{axis}"][0]).max() \
+        assert (
+            np.abs(body[f"centroid_{axis}"] - body[f"centroid_{axis}"][0]).max()
             < 1e-3 * exact * body["time"][-1]
+        )
 
 
 def _model(folder, text, name):
@@ -85,8 +97,9 @@ def _model(folder, text, name):
     from rftfem.scene.reading import load_scene
 
     scene = load_scene(write_scene(folder, text, name=name))
-    return Model(scene, build_body(MPI.COMM_SELF, scene["mesh"], scene_dir=folder),
-                 compile_forms=False)
+    return Model(
+        scene, build_body(MPI.COMM_SELF, scene["mesh"], scene_dir=folder), compile_forms=False
+    )
 
 
 def test_anisotropic_drag_on_a_sphere_names_the_point(sphere):

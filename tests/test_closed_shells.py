@@ -9,7 +9,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import run_command, write_scene
 from stokes_bodies import write_ellipsoid
 
@@ -53,8 +52,7 @@ def closed_meshes(tmp_path_factory):
     return folder
 
 
-@pytest.mark.parametrize("mesh, area", [("sphere.msh", 4 * math.pi),
-                                        ("spheroid.msh", 21.4784)])
+@pytest.mark.parametrize("mesh, area", [("sphere.msh", 4 * math.pi), ("spheroid.msh", 21.4784)])
 def test_a_rigid_turn_strains_nothing(closed_meshes, mesh, area):
     """Every node moved by the same rigid turn (three ``kind = "rotation"`` motions,
     an oblique axis off the centre), 16 steps to a full turn, the rotations free: the
@@ -62,7 +60,8 @@ def test_a_rigid_turn_strains_nothing(closed_meshes, mesh, area):
     at every row (reached: 8e-26 on the sphere, 1e-22 on the spheroid; the triads
     of one global axis stored 0.68 of a 1 % stretch on the spheroid)."""
     text = TURN.format(mesh=mesh, t=T, E=E, nu=NU) + "".join(
-        MOTION.format(c=c) for c in ("ux", "uy", "uz"))
+        MOTION.format(c=c) for c in ("ux", "uy", "uz")
+    )
     scene = write_scene(closed_meshes, text, name=f"turn-{mesh}.toml")
     out = closed_meshes / f"out-{mesh}"
     done = run_command(["rftfem", "run", str(scene), "--out", str(out), "--quiet"])
@@ -146,16 +145,19 @@ def test_sphere_inflates_by_its_membrane_answer(closed_meshes, mpirun, processes
 
     t, p = 0.01, 0.5
     exact = p * (1 - NU) / (2 * E * t)
-    scene = write_scene(closed_meshes, INFLATE.format(t=t, E=E, nu=NU, p=p),
-                        name=f"inflate-{processes}.toml")
+    scene = write_scene(
+        closed_meshes, INFLATE.format(t=t, E=E, nu=NU, p=p), name=f"inflate-{processes}.toml"
+    )
     exe, env = mpirun
     cmd = [sys.executable, "-c", RADIAL, str(scene), str(closed_meshes / f"out-{processes}")]
     cmd = [exe, "-n", str(processes), *cmd] if processes > 1 else cmd
     done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     w_min, w_max, tangential, nodes = json.loads(done.stdout.strip().splitlines()[-1])
-    print(f"{processes} process(es), {nodes} nodes: w / exact in [{w_min / exact:.6f}, "
-          f"{w_max / exact:.6f}], tangential / exact {tangential / exact:.2e}")
+    print(
+        f"{processes} process(es), {nodes} nodes: w / exact in [{w_min / exact:.6f}, "
+        f"{w_max / exact:.6f}], tangential / exact {tangential / exact:.2e}"
+    )
     assert max(abs(w_min / exact - 1), abs(w_max / exact - 1)) < 5e-3
     assert tangential < 1e-2 * exact
 
@@ -168,9 +170,9 @@ def test_taylor_on_a_sphere_turned_a_quarter(closed_meshes):
     pressure and RFT drag: the Taylor remainder falls as ε² (orders ≥ 1.9; reached
     2.00), on all rows and on the rotation rows alone.  Broken: G left out of the
     tangent gives order 1."""
+    from conftest import build_model
     from test_consistency import _assemble_residual, _jacobian_action, _orders
 
-    from conftest import build_model
     from rftfem.integration.schemes import make_scheme
     from rftfem.model.triad import rotate
 
@@ -199,8 +201,14 @@ def test_taylor_on_a_sphere_turned_a_quarter(closed_meshes):
     # the rotation rows alone (where G acts; the displacement rows' remainder is larger)
     rows = model.theta_dofs[model.theta_dofs < n_local]
     # (small steps: there G's first-order part outweighs the second-order remainder)
-    orders, rem, _ = _orders(lambda: _assemble_residual(model)[rows], w0, delta, jd[rows], model,
-                             eps=(4e-4, 2e-4, 1e-4, 5e-5))
+    orders, rem, _ = _orders(
+        lambda: _assemble_residual(model)[rows],
+        w0,
+        delta,
+        jd[rows],
+        model,
+        eps=(4e-4, 2e-4, 1e-4, 5e-5),
+    )
     print(f"rotation rows: remainders {rem}, orders {orders}")
     assert orders.min() >= 1.9
 
@@ -227,8 +235,13 @@ def test_sphere_turns_freely_in_stokes_flow(closed_meshes, modulus):
     from stokes_bodies import write_ellipsoid
 
     write_ellipsoid(closed_meshes / "stokes-sphere.msh", size=0.5)
-    omega = _turned_by_couple(closed_meshes, closed_meshes / "stokes-sphere.msh", modulus,
-                              [0.0, 0.0, 1.0], [1.0, 0.0, 0.0])
+    omega = _turned_by_couple(
+        closed_meshes,
+        closed_meshes / "stokes-sphere.msh",
+        modulus,
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+    )
     ratio = 2.0 / omega[1] / (8 * math.pi)  # T = 2 e_z × e_x = 2 e_y
     print(f"E = {modulus:.0e}: T/(8πμa³Ω) = {ratio:.5f}, ω = {omega}")
     assert abs(ratio - 1) < 0.01
@@ -240,8 +253,10 @@ def _chwang_wu_rotation(a, b):
     axis and about a minor axis (Chwang & Wu 1974; Kim & Karrila, table 3.4)."""
     e = math.sqrt(1 - (b / a) ** 2)
     L = math.log((1 + e) / (1 - e))
-    return (4 / 3 * e**3 * (1 - e**2) / (2 * e - (1 - e**2) * L),
-            4 / 3 * e**3 * (2 - e**2) / (-2 * e + (1 + e**2) * L))
+    return (
+        4 / 3 * e**3 * (1 - e**2) / (2 * e - (1 - e**2) * L),
+        4 / 3 * e**3 * (2 - e**2) / (-2 * e + (1 + e**2) * L),
+    )
 
 
 @pytest.mark.long
@@ -255,8 +270,7 @@ def test_prolate_spheroid_turns_as_chwang_and_wu(tmp_path):
     write_ellipsoid(tmp_path / "spheroid.msh", (a, b, b), size=0.25)
     axial, minor = _chwang_wu_rotation(a, b)
     for force, k, exact in (([0.0, 1.0, 0.0], 0, axial), ([1.0, 0.0, 0.0], 1, minor)):
-        omega = _turned_by_couple(tmp_path, tmp_path / "spheroid.msh", 1e10, [0.0, 0.0, b],
-                                  force)
+        omega = _turned_by_couple(tmp_path, tmp_path / "spheroid.msh", 1e10, [0.0, 0.0, b], force)
         torque = 2 * np.cross([0.0, 0.0, b], force)
         ratio = torque[k] / omega[k] / (8 * math.pi * a**3) / exact
         print(f"about {'XYZ'[k]}: T / Chwang-Wu = {ratio:.5f}, ω = {omega}")
@@ -271,16 +285,23 @@ def test_points_of_the_true_surface_are_on_a_coarse_sphere(closed_meshes):
     of a cell), the
     point is refused in one line.  Broken: without the nearest cell, "outside the
     body"."""
-    from rftfem.errors import SceneError
     from stokes_bodies import write_ellipsoid
 
+    from rftfem.errors import SceneError
+
     write_ellipsoid(closed_meshes / "stokes-sphere.msh", size=0.5)
-    omega = _turned_by_couple(closed_meshes, closed_meshes / "stokes-sphere.msh", 1e9,
-                              [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    omega = _turned_by_couple(
+        closed_meshes, closed_meshes / "stokes-sphere.msh", 1e9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]
+    )
     ratio = 2.0 / omega[2] / (8 * math.pi)
     print(f"equator couple: T/(8πμa³Ω) = {ratio:.5f}")
     assert abs(ratio - 1) < 0.01
     refused = r"load\.0\.at: point \[1\.1, 0, 0\] is outside the body"
     with pytest.raises(SceneError, match=refused):
-        _turned_by_couple(closed_meshes, closed_meshes / "stokes-sphere.msh", 1e9,
-                          [1.1, 0.0, 0.0], [0.0, 1.0, 0.0])
+        _turned_by_couple(
+            closed_meshes,
+            closed_meshes / "stokes-sphere.msh",
+            1e9,
+            [1.1, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+        )

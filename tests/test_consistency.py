@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 import ufl
-
 from conftest import build_model, write_scene
+
 from rftfem import compat
-from rftfem.model.shell_model import Model
-from rftfem.meshes import build_body
-from rftfem.scene.reading import load_scene
 from rftfem.integration.schemes import make_scheme
+from rftfem.meshes import build_body
+from rftfem.model.shell_model import Model
+from rftfem.scene.reading import load_scene
 
 SCENE = """
 title = "random state for a Taylor test"
@@ -158,8 +158,9 @@ def _random_state(model, rng, theta_amplitude):
     for f in (model.u_n, model.v_n, model.a_n):
         f.x.array[:] = rng.uniform(-0.1, 0.1, len(f.x.array))
     model.w.x.array[:] = rng.uniform(-0.1, 0.1, len(model.w.x.array))
-    model.w.x.array[model.theta_dofs] = rng.uniform(-theta_amplitude, theta_amplitude,
-                                                    len(model.theta_dofs))
+    model.w.x.array[model.theta_dofs] = rng.uniform(
+        -theta_amplitude, theta_amplitude, len(model.theta_dofs)
+    )
     return model.w.x.array.copy()
 
 
@@ -191,8 +192,15 @@ def test_every_effect_taylor_remainder(tmp_path):
     ``ufl.derivative``.  Gravity, a dead load per reference area, has no derivative:
     its remainder is round-off."""
     model = build_model(EVERY_EFFECT, tmp_path, compile_forms=True)
-    assert set(model.effects) >= {"elasticity", "hinge-spring", "drag", "magnetic", "pressure",
-                                  "gravity", "edge-loads"}, set(model.effects)
+    assert set(model.effects) >= {
+        "elasticity",
+        "hinge-spring",
+        "drag",
+        "magnetic",
+        "pressure",
+        "gravity",
+        "edge-loads",
+    }, set(model.effects)
     assert model.n_colours == 2 and model.inertia is not None
     model.set_coefficients(make_scheme(model.scene["time"]).coefficients(0.01))
     model.set_time(0.5)
@@ -200,14 +208,21 @@ def test_every_effect_taylor_remainder(tmp_path):
     w0 = _random_state(model, rng, 0.4)
     n_local = model.W.dofmap.index_map.size_local * model.W.dofmap.index_map_bs
     delta = rng.uniform(-1, 1, len(w0))
-    orders, rem, _ = _orders(lambda: _assemble_residual(model), w0, delta,
-                             _jacobian_action(model, delta[:n_local]), model)
+    orders, rem, _ = _orders(
+        lambda: _assemble_residual(model),
+        w0,
+        delta,
+        _jacobian_action(model, delta[:n_local]),
+        model,
+    )
     print(f"whole model: remainders {rem}, orders {orders}")
     assert orders.min() >= 1.9
     for name, term in model.effects.items():
         orders, rem, r0, jd = term_taylor(model, term, w0, delta)
-        print(f"{name}: |R| {np.linalg.norm(r0):.3e}, |J δ| {np.linalg.norm(jd):.3e}, "
-              f"remainders {rem}, orders {orders}")
+        print(
+            f"{name}: |R| {np.linalg.norm(r0):.3e}, |J δ| {np.linalg.norm(jd):.3e}, "
+            f"remainders {rem}, orders {orders}"
+        )
         assert np.linalg.norm(r0) > 0, name
         if name == "gravity":
             assert np.linalg.norm(jd) == 0.0 and rem.max() <= 1e-13 * np.linalg.norm(r0), name
@@ -219,12 +234,14 @@ def test_every_effect_taylor_remainder(tmp_path):
 def vector_of(model, F, V=None):
     """A function assembling the compiled 1-form ``F`` (on ``V``, default ``model.W``)
     of the current state into a numpy array (no boundary conditions, no ghost update)."""
+
     def residual():
         b = compat.create_vector(F, model.W if V is None else V)
         compat.assemble_vector(b, F)
         out = b.getArray().copy()
         b.destroy()
         return out
+
     return residual
 
 
@@ -289,6 +306,5 @@ def test_drag_alone_taylor_remainder(tmp_path):
         model.z.x.array[:] = w0 + e * delta
         remainders.append(np.linalg.norm(residual() - r0 - e * jd))
     orders = np.log(np.array(remainders[:-1]) / remainders[1:]) / np.log(2)
-    print(f"drag alone: |R| = {np.linalg.norm(r0):.3e}, remainders {remainders}, "
-          f"orders {orders}")
+    print(f"drag alone: |R| = {np.linalg.norm(r0):.3e}, remainders {remainders}, orders {orders}")
     assert np.linalg.norm(r0) > 0 and orders.min() >= 1.9

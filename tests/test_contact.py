@@ -26,7 +26,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 G, RHO, T, AREA = 9810.0, 1.0e-9, 0.1, 1.0
@@ -62,10 +61,27 @@ static_friction = {mu_s}
 """
 
 
-def strip(tmp_path, name, gravity=(0.0, 0.0, -G), mu_k=0.3, mu_s=0.4, end=0.05, dt=1e-3,
-          rho_inf=0.0, extra="", sets=()):
-    text = STRIP.format(end=end, dt=dt, rho_inf=rho_inf, gravity=[float(g) for g in gravity],
-                        mu_k=mu_k, mu_s=mu_s, extra=extra)
+def strip(
+    tmp_path,
+    name,
+    gravity=(0.0, 0.0, -G),
+    mu_k=0.3,
+    mu_s=0.4,
+    end=0.05,
+    dt=1e-3,
+    rho_inf=0.0,
+    extra="",
+    sets=(),
+):
+    text = STRIP.format(
+        end=end,
+        dt=dt,
+        rho_inf=rho_inf,
+        gravity=[float(g) for g in gravity],
+        mu_k=mu_k,
+        mu_s=mu_s,
+        extra=extra,
+    )
     out = tmp_path / name
     sim = run_scene(write_scene(tmp_path, text, name=f"{name}.toml"), *sets, out_dir=out)
     body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
@@ -107,20 +123,25 @@ at = [0.0, 0.25, 0.0]
 name = "light_end"
 at = [2.0, 0.25, 0.0]
 """
-    sim, body, _ = strip(tmp_path, "rest", end=1.0, dt=0.5, extra=extra,
-                         sets=["time.scheme=static"])
+    sim, body, _ = strip(
+        tmp_path, "rest", end=1.0, dt=0.5, extra=extra, sets=["time.scheme=static"]
+    )
     weight = (3.0 + 1.0) / 2 * MASS * G
     last = body[-1]
-    print(f"weight {last['contact_Fz'] / weight - 1:.1e}, sideways "
-          f"{max(abs(last['contact_Fx']), abs(last['contact_Fy'])) / weight:.1e}")
+    print(
+        f"weight {last['contact_Fz'] / weight - 1:.1e}, sideways "
+        f"{max(abs(last['contact_Fx']), abs(last['contact_Fy'])) / weight:.1e}"
+    )
     assert abs(last["contact_Fz"] - weight) < 2e-15 * weight, last["contact_Fz"] / weight - 1
     assert abs(last["contact_Fx"]) < 3e-13 * weight and abs(last["contact_Fy"]) < 3e-13 * weight
     reach = sim.model.get("contact").planes[0].reach
     assert reach == pytest.approx(0.1 * T)
     probes = np.genfromtxt(tmp_path / "rest" / "probes.csv", delimiter=",", names=True)
     heavy, light = probes["heavy_end_uz"][-1], probes["light_end_uz"][-1]
-    print(f"weight {last['contact_Fz'] / weight - 1:.1e}; ends at {heavy:.4g}, {light:.4g} "
-          f"(δ = {reach:g})")
+    print(
+        f"weight {last['contact_Fz'] / weight - 1:.1e}; ends at {heavy:.4g}, {light:.4g} "
+        f"(δ = {reach:g})"
+    )
     assert -reach < heavy < 0.0 < light < reach  # lower faces within ±δ of the plane
     # it tilts about its lower face, which friction holds: the mid-surface shifts by
     # (t/2) × the tilt
@@ -128,15 +149,19 @@ at = [2.0, 0.25, 0.0]
     assert 0.0 < abs(last["centroid_x"] - 1.0) < 1.01 * T / 2 * tilt
 
 
-@pytest.mark.parametrize("direction, mu, slides, scheme, within", [
-    # forward (+shell.axis): μ_s 0.25 < tan α
-    ((1.0, 0.0), 0.2, True, "generalized-alpha", 4e-8),
-    ((-1.0, 0.0), 0.3, True, "generalized-alpha", 3e-7),  # backward: μ_s 0.35 < tan α
-    ((0.0, 1.0), 0.5, False, "generalized-alpha", None),  # sideways: μ_s 0.6 > tan α, sticks
-    # HHT damps the start's transient (the first step's mean acceleration against the
-    # kinetic one) less than generalized-α at ρ∞ = 0: reached 3.5e-5
-    ((-1.0, 0.0), 0.3, True, "hht", 1e-4),
-], ids=["forward", "backward", "sideways", "backward-hht"])
+@pytest.mark.parametrize(
+    "direction, mu, slides, scheme, within",
+    [
+        # forward (+shell.axis): μ_s 0.25 < tan α
+        ((1.0, 0.0), 0.2, True, "generalized-alpha", 4e-8),
+        ((-1.0, 0.0), 0.3, True, "generalized-alpha", 3e-7),  # backward: μ_s 0.35 < tan α
+        ((0.0, 1.0), 0.5, False, "generalized-alpha", None),  # sideways: μ_s 0.6 > tan α, sticks
+        # HHT damps the start's transient (the first step's mean acceleration against the
+        # kinetic one) less than generalized-α at ρ∞ = 0: reached 3.5e-5
+        ((-1.0, 0.0), 0.3, True, "hht", 1e-4),
+    ],
+    ids=["forward", "backward", "sideways", "backward-hht"],
+)
 def test_incline_with_anisotropic_friction(tmp_path, direction, mu, slides, scheme, within):
     """tan α = 0.4 with friction [0.2, 0.3, 0.5] and static [0.25, 0.35, 0.6] along
     the strip's axis (X): slides down along ±X at g (sin α − μ_k cos α), forward
@@ -145,9 +170,14 @@ def test_incline_with_anisotropic_friction(tmp_path, direction, mu, slides, sche
     within 4e-5, reached 3.8e-6); also with HHT-α.  Broke: the forward and backward
     coefficients swapped → forward −0.50, backward +1.0."""
     alpha = math.atan(0.4)
-    sim, body, _ = strip(tmp_path, "incline", gravity=tilted(alpha, direction),
-                         mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6],
-                         sets=[f"time.scheme={scheme}"])
+    sim, body, _ = strip(
+        tmp_path,
+        "incline",
+        gravity=tilted(alpha, direction),
+        mu_k=[0.2, 0.3, 0.5],
+        mu_s=[0.25, 0.35, 0.6],
+        sets=[f"time.scheme={scheme}"],
+    )
     axis = "x" if direction[0] else "y"
     sign = direction[0] + direction[1]
     if slides:
@@ -159,8 +189,10 @@ def test_incline_with_anisotropic_friction(tmp_path, direction, mu, slides, sche
         creep = abs(body[f"centroid_{axis}"][-1] - body[f"centroid_{axis}"][0])
         v_scale = sim.model.get("contact").planes[0].slip_velocity
         friction = -sign * body[f"contact_F{axis}"][-1]
-        print(f"sticks: crept {creep:.3g} (ε_v t = {v_scale * 0.05:.3g}), friction / "
-              f"m g sin α - 1 = {friction / (MASS * G * math.sin(alpha)) - 1:.1e}")
+        print(
+            f"sticks: crept {creep:.3g} (ε_v t = {v_scale * 0.05:.3g}), friction / "
+            f"m g sin α - 1 = {friction / (MASS * G * math.sin(alpha)) - 1:.1e}"
+        )
         assert creep < v_scale * 0.05
         assert abs(friction / (MASS * G * math.sin(alpha)) - 1) < 4e-5
 
@@ -223,11 +255,22 @@ def test_friction_work_is_the_energy_lost(tmp_path):
     assert abs(lost[-1] / work[-1] - 1) < 5e-7
 
 
-@pytest.mark.parametrize("rho_inf", [1.0, pytest.param(0.5, marks=pytest.mark.xfail(
-    strict=True, reason="open (issue 59 note): since the nodal directors the free fall's "
-    "first three steps gain 2.4e-9 of m g h with the mixed-point tangent (1.2e-10 with "
-    "the exact one, -2.7e-10 before); each step stops after one update at the force "
-    "tolerance, and the mixed-point update lands 1e-7 off"))])
+@pytest.mark.parametrize(
+    "rho_inf",
+    [
+        1.0,
+        pytest.param(
+            0.5,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="open (issue 59 note): since the nodal directors the free fall's "
+                "first three steps gain 2.4e-9 of m g h with the mixed-point tangent (1.2e-10 with "
+                "the exact one, -2.7e-10 before); each step stops after one update at the force "
+                "tolerance, and the mixed-point update lands 1e-7 off",
+            ),
+        ),
+    ],
+)
 def test_dropped_strip_bounces_without_gaining_energy(tmp_path, rho_inf):
     """Dropped from 0.1 mm (a thickness) above the floor, it hits it at 44 mm/s (an
     impact the default barrier takes within its reach).  The barrier's pressure over
@@ -237,17 +280,31 @@ def test_dropped_strip_bounces_without_gaining_energy(tmp_path, rho_inf):
     energy (restitution 0.81).  No point goes deeper than the reach δ, and no step
     takes more than 6 Newton iterations (reached 5 and 6)."""
     fall = 0.1
-    _, body, steps = strip(tmp_path, "drop", rho_inf=rho_inf, end=0.03, dt=2.5e-4,
-                           mu_k=0.0, mu_s=0.0, sets=[f"contact.0.point=[0, 0, {-0.05 - fall}]"])
-    energy = (body["kinetic_energy"] + body["elastic_energy"] + body["contact_energy"]
-              + MASS * G * body["centroid_z"])
+    _, body, steps = strip(
+        tmp_path,
+        "drop",
+        rho_inf=rho_inf,
+        end=0.03,
+        dt=2.5e-4,
+        mu_k=0.0,
+        mu_s=0.0,
+        sets=[f"contact.0.point=[0, 0, {-0.05 - fall}]"],
+    )
+    energy = (
+        body["kinetic_energy"]
+        + body["elastic_energy"]
+        + body["contact_energy"]
+        + MASS * G * body["centroid_z"]
+    )
     z = body["centroid_z"] + fall  # the mid-surface over its height resting on the floor
     lowest = np.flatnonzero(np.diff(np.sign(np.diff(z))) > 0) + 1
     peaks = np.flatnonzero(np.diff(np.sign(np.diff(z))) < 0) + 1
     restitution = np.sqrt(z[peaks[0]] / fall)
     growth = (energy - energy[0]).max() / (MASS * G * fall)
-    print(f"ρ∞ = {rho_inf}: energy growth {growth:.1e}; lowest {z[lowest]} (reach 0.01); "
-          f"restitution {restitution:.4f}; Newton iterations max {steps['newton_its'].max():.0f}")
+    print(
+        f"ρ∞ = {rho_inf}: energy growth {growth:.1e}; lowest {z[lowest]} (reach 0.01); "
+        f"restitution {restitution:.4f}; Newton iterations max {steps['newton_its'].max():.0f}"
+    )
     assert len(lowest) >= 2 and len(peaks) >= 1  # down, up, down again
     assert growth < 1e-9
     if rho_inf == 1.0:
@@ -272,9 +329,11 @@ value = [{F!r}, 0.0, 0.0]
     _, body, steps = strip(tmp_path, "onset", extra=extra, end=0.1, dt=1e-3)
     x, t = body["centroid_x"] - 1.0, body["time"]
     moving = t[np.flatnonzero(np.gradient(x, t) > 10 * 0.4 * 2.06e-3 / 0.1)]
-    print(f"breaks loose at t = {moving[0]:.3g} (F/(μ_s m g) = {1.5 * moving[0] / 0.1:.3f}); "
-          f"Newton iterations max {steps['newton_its'].max():.0f}, mean "
-          f"{steps['newton_its'].mean():.2f}")
+    print(
+        f"breaks loose at t = {moving[0]:.3g} (F/(μ_s m g) = {1.5 * moving[0] / 0.1:.3f}); "
+        f"Newton iterations max {steps['newton_its'].max():.0f}, mean "
+        f"{steps['newton_its'].mean():.2f}"
+    )
     assert 0.97 <= 1.5 * moving[0] / 0.1 < 1.1
     assert steps["newton_its"].max() <= 6
 
@@ -294,9 +353,9 @@ def test_lift_off_and_landing_converge_in_six_iterations(tmp_path):
     (the scene's) → 8.0e-6."""
     extra = "table = [[0.0, 1.0], [0.005, 1.0], [0.0051, -1.0], [0.007, -1.0], [0.0071, 1.0]]"
     pull = G / 10
-    text = STRIP.format(end=0.03, dt=2.5e-4, rho_inf=0.5, gravity=[0.0, 0.0, -G], mu_k=0.0,
-                        mu_s=0.0, extra="").replace('ramp = "constant"', 'ramp = "table"\n'
-                                                    + extra)
+    text = STRIP.format(
+        end=0.03, dt=2.5e-4, rho_inf=0.5, gravity=[0.0, 0.0, -G], mu_k=0.0, mu_s=0.0, extra=""
+    ).replace('ramp = "constant"', 'ramp = "table"\n' + extra)
     text += f'[[load]]\nkind = "gravity"\nvalue = [{pull!r}, 0.0, 0.0]\nramp = "constant"\n'
     out = tmp_path / "lift"
     run_scene(write_scene(tmp_path, text, name="lift.toml"), out_dir=out)
@@ -304,14 +363,16 @@ def test_lift_off_and_landing_converge_in_six_iterations(tmp_path):
     steps = np.genfromtxt(out / "steps.csv", delimiter=",", names=True)
     airborne = body["contact_Fz"] == 0.0
     t, x = body["time"], body["centroid_x"] - body["centroid_x"][0]
-    ballistic = 0.5 * pull * t ** 2
+    ballistic = 0.5 * pull * t**2
     drift = np.abs(x - ballistic).max() / ballistic[-1]
-    print(f"airborne {airborne.sum()} of {len(body)} rows, highest "
-          f"{body['centroid_z'].max():.3g}; x against g t²/20: {drift:.1e} of "
-          f"{ballistic[-1]:.3g}; Newton iterations max {steps['newton_its'].max():.0f}, "
-          f"mean {steps['newton_its'].mean():.2f}")
+    print(
+        f"airborne {airborne.sum()} of {len(body)} rows, highest "
+        f"{body['centroid_z'].max():.3g}; x against g t²/20: {drift:.1e} of "
+        f"{ballistic[-1]:.3g}; Newton iterations max {steps['newton_its'].max():.0f}, "
+        f"mean {steps['newton_its'].mean():.2f}"
+    )
     lifted = np.flatnonzero(airborne & (t > 0.006))
-    assert len(lifted) and (~airborne[lifted[0]:]).any()  # up, and down again
+    assert len(lifted) and (~airborne[lifted[0] :]).any()  # up, and down again
     assert body["centroid_z"].max() > 0.03  # well off the floor
     assert drift < 5e-8
     assert steps["newton_its"].max() <= 6
@@ -323,12 +384,22 @@ def test_two_processes_slide_as_one(tmp_path, cli_run):
     mpirun -n 2: body.csv as in serial to 1e-9 of the sliding distance, contact forces
     to 1e-9 of the weight."""
     alpha = math.atan(0.4)
-    text = STRIP.format(end=0.02, dt=1e-3, rho_inf=0.0, gravity=list(tilted(alpha, (-1, 0))),
-                        mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6],
-                        extra="")
+    text = STRIP.format(
+        end=0.02,
+        dt=1e-3,
+        rho_inf=0.0,
+        gravity=list(tilted(alpha, (-1, 0))),
+        mu_k=[0.2, 0.3, 0.5],
+        mu_s=[0.25, 0.35, 0.6],
+        extra="",
+    )
     scene = write_scene(tmp_path, text.replace("divisions = [4, 1]", "divisions = [8, 2]"))
-    tables = [np.genfromtxt(cli_run(scene, tmp_path / f"np{n}", np=n) / "body.csv",
-                            delimiter=",", names=True) for n in (1, 2)]
+    tables = [
+        np.genfromtxt(
+            cli_run(scene, tmp_path / f"np{n}", np=n) / "body.csv", delimiter=",", names=True
+        )
+        for n in (1, 2)
+    ]
     serial, two = tables
     slid = abs(serial["centroid_x"][-1] - serial["centroid_x"][0])
     assert slid > 0.1
@@ -354,7 +425,8 @@ def test_slides_through_a_liquid_at_the_force_balance(tmp_path, fluid):
     3e-14 (reached 2.9e-15).  The friction there is μ times the measured pressure:
     the strip tilts by 1e-4 rad on the friction at its lower face, and the liquid
     lifts it by 2e-5 of the pressure, so the closed form (sin α − μ cos α) m g / R₁₁
-    is 3.1e-5 off; R₁₁ of the reference shape is 1.8e-8 off.  Broke: the liquid seeing the reference shape carried along rigidly
+    is 3.1e-5 off; R₁₁ of the reference shape is 1.8e-8 off.  Broke: the liquid seeing the
+    reference shape carried along rigidly
     (in the run's forces and body.csv's) → speed +1.8e-8 (the balance held, 7.6e-16);
     kinetic and static coefficients swapped → friction/pressure − μ = 0.1 (rft)."""
     alpha = math.atan(0.5)
@@ -362,17 +434,28 @@ def test_slides_through_a_liquid_at_the_force_balance(tmp_path, fluid):
     viscosity = 1.0e-9
     # equal coefficients: friction on the lower face tilts the strip by 1e-4 rad, which
     # unequal ones would turn into a lift of that order
-    liquid = ('[fluid]\ndrag = [2.0e-8, 2.0e-8, 2.0e-8]\n' if fluid == "rft" else
-              f'[fluid]\nmodel = "stokes"\nviscosity = {viscosity!r}\n')
-    sim, body, _ = strip(tmp_path, fluid, gravity=g, extra=liquid, end=0.02, dt=2e-3,
-                         sets=["time.scheme=backward-euler"])
+    liquid = (
+        "[fluid]\ndrag = [2.0e-8, 2.0e-8, 2.0e-8]\n"
+        if fluid == "rft"
+        else f'[fluid]\nmodel = "stokes"\nviscosity = {viscosity!r}\n'
+    )
+    sim, body, _ = strip(
+        tmp_path,
+        fluid,
+        gravity=g,
+        extra=liquid,
+        end=0.02,
+        dt=2e-3,
+        sets=["time.scheme=backward-euler"],
+    )
     weight = MASS * np.asarray(g)
     last = body[-1]
     pressure = last["contact_Fz"]
-    balance = [last[f"contact_F{c}"] + last[f"fluid_F{c}"] + weight[i]
-               for i, c in enumerate("xyz")]
-    print(f"{fluid}: friction/pressure - μ {-last['contact_Fx'] / pressure - 0.3:.1e}, "
-          f"balance {np.abs(balance).max() / (MASS * G):.1e} of the weight")
+    balance = [last[f"contact_F{c}"] + last[f"fluid_F{c}"] + weight[i] for i, c in enumerate("xyz")]
+    print(
+        f"{fluid}: friction/pressure - μ {-last['contact_Fx'] / pressure - 0.3:.1e}, "
+        f"balance {np.abs(balance).max() / (MASS * G):.1e} of the weight"
+    )
     assert abs(-last["contact_Fx"] / pressure - 0.3) < 1e-15
     assert np.abs(balance).max() < 5e-14 * MASS * G, balance
     if fluid == "rft":
@@ -381,18 +464,22 @@ def test_slides_through_a_liquid_at_the_force_balance(tmp_path, fluid):
         from rftfem.model import stokes_layer, stokes_report
 
         stokes = sim.model["stokes"]  # (serial: its layer has every row)
-        x = stokes.X + sim.model.u_n.x.array.reshape(-1, 3)[:len(stokes.X)]
-        fresh = stokes_layer.LayerResistance(stokes.layer, x, viscosity,
-                                             interpolation=stokes.interpolation)
+        x = stokes.X + sim.model.u_n.x.array.reshape(-1, 3)[: len(stokes.X)]
+        fresh = stokes_layer.LayerResistance(
+            stokes.layer, x, viscosity, interpolation=stokes.interpolation
+        )
         resistance = stokes_report.rigid_resistance(fresh, x)[0, 0]
-    speed = (body["centroid_x"][-1] - body["centroid_x"][-2]) / (body["time"][-1]
-                                                                 - body["time"][-2])
+    speed = (body["centroid_x"][-1] - body["centroid_x"][-2]) / (
+        body["time"][-1] - body["time"][-2]
+    )
     if fluid == "rft":
         exact = (math.sin(alpha) - 0.3 * math.cos(alpha)) * MASS * G / resistance
     else:
         exact = (weight[0] + last["contact_Fx"]) / resistance
-    print(f"{fluid}: speed {speed:.6g} against the driving force over R, {exact:.6g}: "
-          f"{speed / exact - 1:.1e}")
+    print(
+        f"{fluid}: speed {speed:.6g} against the driving force over R, {exact:.6g}: "
+        f"{speed / exact - 1:.1e}"
+    )
     assert abs(speed / exact - 1) < (6e-13 if fluid == "rft" else 3e-14), speed / exact - 1
 
 
@@ -448,8 +535,10 @@ def test_slip_turning_round_converges_without_cuts(tmp_path):
     steps = np.genfromtxt(out / "steps.csv", delimiter=",", names=True)
     v = np.gradient(body["centroid_x"], body["time"])
     turns = np.flatnonzero(np.diff(np.sign(body["contact_Fx"][np.abs(v) > 0.1])) != 0)
-    print(f"friction turned round {len(turns)} times; Newton iterations max "
-          f"{steps['newton_its'].max():.0f}, mean {steps['newton_its'].mean():.2f}")
+    print(
+        f"friction turned round {len(turns)} times; Newton iterations max "
+        f"{steps['newton_its'].max():.0f}, mean {steps['newton_its'].mean():.2f}"
+    )
     assert len(turns) >= 3
     assert len(steps) == 200  # no step cut
     assert steps["newton_its"].max() <= 12 and steps["newton_its"].mean() < 2.5
@@ -459,8 +548,13 @@ def test_a_slip_velocity_too_large_for_sticking_warns(tmp_path):
     """slip_velocity = 10 mm/s on the 2 mm strip over a 0.05 s run lets a sticking body
     creep 24 % of its size: the run warns (log and summary.json) that friction then
     acts as a drag; the default (0.1 %) does not."""
-    sim, _, _ = strip(tmp_path, "creep", gravity=tilted(math.atan(0.35)), dt=0.01,
-                      sets=["contact.0.slip_velocity=10"])
+    sim, _, _ = strip(
+        tmp_path,
+        "creep",
+        gravity=tilted(math.atan(0.35)),
+        dt=0.01,
+        sets=["contact.0.slip_velocity=10"],
+    )
     warnings = [w for w in sim.summary["warnings"] if "contact.0.slip_velocity" in w]
     assert len(warnings) == 1 and "creep 0.24 of its size" in warnings[0], warnings
     sim, _, _ = strip(tmp_path, "no_creep", gravity=tilted(math.atan(0.35)), dt=0.01)

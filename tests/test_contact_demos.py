@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, run_scene
 
 #: sheet_walking.toml at 64×2 cells and 512 steps a period: the centroid's advance
@@ -41,8 +40,10 @@ def test_sheet_walking_as_shipped_steps_as_refined(tmp_path):
     run_scene(DEMOS / "sheet_walking.toml", "output.fields=false", out_dir=tmp_path)
     step = _advance(tmp_path, 3.0, 4.0)
     its = _newton(tmp_path)
-    print(f"sheet walking: {step:.5f} mm a period ({100 * (step / WALKING_REFINED - 1):+.2f} % "
-          f"from the refined run); Newton {its.mean():.2f} a step, at most {its.max():.0f}")
+    print(
+        f"sheet walking: {step:.5f} mm a period ({100 * (step / WALKING_REFINED - 1):+.2f} % "
+        f"from the refined run); Newton {its.mean():.2f} a step, at most {its.max():.0f}"
+    )
     assert step > 0.5
     assert abs(step / WALKING_REFINED - 1) < 0.07
     assert its.mean() < 4.0
@@ -56,8 +57,10 @@ def test_sheet_inchworm_as_shipped_crawls_as_refined(tmp_path):
     run_scene(DEMOS / "sheet_inchworm.toml", "output.fields=false", out_dir=tmp_path)
     speed = _advance(tmp_path, 2.0, 3.0)  # a period of 1 s
     its = _newton(tmp_path)
-    print(f"sheet inchworm: {speed:.5f} mm/s ({100 * (speed / INCHWORM_REFINED - 1):+.2f} % "
-          f"from the refined run); Newton {its.mean():.2f} a step, at most {its.max():.0f}")
+    print(
+        f"sheet inchworm: {speed:.5f} mm/s ({100 * (speed / INCHWORM_REFINED - 1):+.2f} % "
+        f"from the refined run); Newton {its.mean():.2f} a step, at most {its.max():.0f}"
+    )
     assert speed > 0.5
     assert abs(speed / INCHWORM_REFINED - 1) < 0.06
     assert its.mean() < 4.0
@@ -70,9 +73,16 @@ def test_sheet_inchworm_on_even_friction_goes_nowhere(tmp_path):
     the ratchet floor's step (reached 2.8e-13 and 3.3e-13 of it: −2.6e-13 and −3.2e-13
     mm against 0.94 mm).  Broke: friction [0.4, 0.40000004, 0.4] (backward 1e-7 above
     forward) → moved 4.4e-7 of the step (the earlier 1e-6 passed it)."""
-    run_scene(DEMOS / "sheet_inchworm.toml", "output.fields=false", "contact.0.friction=0.4",
-              "time.end=1.0", out_dir=tmp_path)
+    run_scene(
+        DEMOS / "sheet_inchworm.toml",
+        "output.fields=false",
+        "contact.0.friction=0.4",
+        "time.end=1.0",
+        out_dir=tmp_path,
+    )
     moved = _advance(tmp_path, 0.0, 1.0)
-    print(f"on even friction: moved {moved:.2e} mm in a pulse "
-          f"({abs(moved) / INCHWORM_REFINED:.1e} of the ratchet's step)")
+    print(
+        f"on even friction: moved {moved:.2e} mm in a pulse "
+        f"({abs(moved) / INCHWORM_REFINED:.1e} of the ratchet's step)"
+    )
     assert abs(moved) < 3e-12 * INCHWORM_REFINED

@@ -51,7 +51,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 from contact_bodies import write_hoop
 
@@ -103,8 +102,9 @@ at = [0.0, {half_width!r}, {top!r}]
 
 @pytest.fixture(scope="module")
 def hoop_mesh(tmp_path_factory):
-    return write_hoop(tmp_path_factory.mktemp("hoop") / "hoop.msh", RADIUS, WIDTH,
-                      N_AROUND, centre_z=CENTRE_Z)
+    return write_hoop(
+        tmp_path_factory.mktemp("hoop") / "hoop.msh", RADIUS, WIDTH, N_AROUND, centre_z=CENTRE_Z
+    )
 
 
 def exact(alpha, mu_k, mu_s):
@@ -113,8 +113,11 @@ def exact(alpha, mu_k, mu_s):
     if math.tan(alpha) <= mu_s * (1 + ratio):
         a = G * math.sin(alpha) * ratio / (1 + ratio)
         return True, a, a / R_FACE
-    return (False, G * (math.sin(alpha) - mu_k * math.cos(alpha)),
-            mu_k * G * math.cos(alpha) * R_FACE / RADIUS**2)
+    return (
+        False,
+        G * (math.sin(alpha) - mu_k * math.cos(alpha)),
+        mu_k * G * math.cos(alpha) * R_FACE / RADIUS**2,
+    )
 
 
 def line_stiffness(alpha):
@@ -130,11 +133,20 @@ def roll(tmp_path, mesh, alpha, mu_k, mu_s, stiffness=False, rho_inf=0.0):
     """Run the hoop (at ``line_stiffness``, or the default one); its fitted
     (acceleration, angular acceleration), printed with the Newton iterations a step."""
     (tmp_path / "hoop.msh").write_bytes(mesh.read_bytes())
-    text = HOOP.format(t=THICKNESS, rho=RHO, end=END, dt=DT, gx=G * math.sin(alpha),
-                       gz=-G * math.cos(alpha), mu_k=mu_k, mu_s=mu_s,
-                       stiffness=f"stiffness = {line_stiffness(alpha)!r}" if stiffness
-                       else "", half_width=WIDTH / 2, top=CENTRE_Z + RADIUS,
-                       rho_inf=rho_inf)
+    text = HOOP.format(
+        t=THICKNESS,
+        rho=RHO,
+        end=END,
+        dt=DT,
+        gx=G * math.sin(alpha),
+        gz=-G * math.cos(alpha),
+        mu_k=mu_k,
+        mu_s=mu_s,
+        stiffness=f"stiffness = {line_stiffness(alpha)!r}" if stiffness else "",
+        half_width=WIDTH / 2,
+        top=CENTRE_Z + RADIUS,
+        rho_inf=rho_inf,
+    )
     out = tmp_path / "out"
     sim = run_scene(write_scene(tmp_path, text), out_dir=out)
     assert sim.summary["status"] == "ok"
@@ -144,21 +156,29 @@ def roll(tmp_path, mesh, alpha, mu_k, mu_s, stiffness=False, rho_inf=0.0):
     assert np.allclose(body["time"], probe["time"])
     t = body["time"]
     # the angle the top has turned about +Y (forward rolling): its position from the centroid
-    turned = np.unwrap(np.arctan2(probe["top_ux"] - body["centroid_x"],
-                                  CENTRE_Z + RADIUS + probe["top_uz"] - body["centroid_z"]))
+    turned = np.unwrap(
+        np.arctan2(
+            probe["top_ux"] - body["centroid_x"],
+            CENTRE_Z + RADIUS + probe["top_uz"] - body["centroid_z"],
+        )
+    )
     late = t >= END / 2 - 1e-12
     a = 2 * np.polyfit(t[late], body["centroid_x"][late], 2)[0]
     turning = 2 * np.polyfit(t[late], turned[late], 2)[0]
     its = steps["newton_its"]
-    print(f"alpha {alpha}: a {a:.3f}, turning {turning:.3f} rad/s², final angle "
-          f"{turned[-1]:.3f} rad; {len(its)} steps, Newton iterations max {its.max():.0f}, "
-          f"mean {its.mean():.2f}")
+    print(
+        f"alpha {alpha}: a {a:.3f}, turning {turning:.3f} rad/s², final angle "
+        f"{turned[-1]:.3f} rad; {len(its)} steps, Newton iterations max {its.max():.0f}, "
+        f"mean {its.mean():.2f}"
+    )
     return a, turning
 
 
-@pytest.mark.parametrize("alpha, rho_inf, stiffness", [
-    (0.2, 0.0, False), (0.5, 0.0, False), (0.2, 0.9, False), (0.2, 0.0, True)],
-    ids=["alpha0.2", "alpha0.5", "alpha0.2-rho0.9", "alpha0.2-line-stiffness"])
+@pytest.mark.parametrize(
+    "alpha, rho_inf, stiffness",
+    [(0.2, 0.0, False), (0.5, 0.0, False), (0.2, 0.9, False), (0.2, 0.0, True)],
+    ids=["alpha0.2", "alpha0.5", "alpha0.2-rho0.9", "alpha0.2-line-stiffness"],
+)
 def test_hoop_rolls_without_slip(tmp_path, hoop_mesh, alpha, rho_inf, stiffness):
     """μ_k = 0.2, μ_s = 0.3: both angles roll, a = g sin α R²/(R² + r²) and a/R, within
     0.5 %, at the default stiffness (the weight over the area within reach at the
@@ -166,8 +186,10 @@ def test_hoop_rolls_without_slip(tmp_path, hoop_mesh, alpha, rho_inf, stiffness)
     rolls, a_exact, turning_exact = exact(alpha, 0.2, 0.3)
     assert rolls
     a, turning = roll(tmp_path, hoop_mesh, alpha, 0.2, 0.3, stiffness, rho_inf)
-    print(f"errors: a {100 * (a / a_exact - 1):+.3f} %, turning "
-          f"{100 * (turning / turning_exact - 1):+.3f} %")
+    print(
+        f"errors: a {100 * (a / a_exact - 1):+.3f} %, turning "
+        f"{100 * (turning / turning_exact - 1):+.3f} %"
+    )
     assert abs(a / a_exact - 1) < 5e-3
     assert abs(turning / turning_exact - 1) < 5e-3
 
@@ -179,7 +201,9 @@ def test_hoop_slips_beyond_static_friction(tmp_path, hoop_mesh):
     rolls, a_exact, turning_exact = exact(0.8, 0.2, 0.3)
     assert not rolls
     a, turning = roll(tmp_path, hoop_mesh, 0.8, 0.2, 0.3)
-    print(f"errors: a {100 * (a / a_exact - 1):+.4f} %, turning "
-          f"{100 * (turning / turning_exact - 1):+.3f} %")
+    print(
+        f"errors: a {100 * (a / a_exact - 1):+.4f} %, turning "
+        f"{100 * (turning / turning_exact - 1):+.3f} %"
+    )
     assert abs(a / a_exact - 1) < 2e-4
     assert abs(turning / turning_exact - 1) < 5e-3

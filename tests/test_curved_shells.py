@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import fields_at, run_scene, write_scene
 
 
@@ -43,16 +42,22 @@ def quarter_cylinder(path: Path, radius: float, height: float, n: int) -> Path:
         out = geo.extrude([(1, arc)], 0, height, 0, numElements=[n], recombine=True)
         geo.synchronize()
         gmsh.model.mesh.setTransfiniteCurve(arc, n + 1)
-        groups = ((2, out[1][1], "shell"), (1, abs(out[2][1]), "sym_x"),
-                  (1, abs(out[3][1]), "sym_z"), (1, arc, "bottom"), (1, out[0][1], "top"))
+        groups = (
+            (2, out[1][1], "shell"),
+            (1, abs(out[2][1]), "sym_x"),
+            (1, abs(out[3][1]), "sym_z"),
+            (1, arc, "bottom"),
+            (1, out[0][1], "top"),
+        )
         _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
     return path
 
 
-def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int,
-                       points: dict | None = None) -> Path:
+def quarter_hemisphere(
+    path: Path, radius: float, hole_deg: float, n: int, points: dict | None = None
+) -> Path:
     """A quarter of a hemisphere (x, y ≥ 0, z ≥ 0) with a hole of hole_deg about the
     pole; curves "sym_x" (x = 0), "sym_y" (y = 0), "equator", "hole", and the point
     "pin" where the hole meets y = 0 (to hold the rigid motion along z that the two
@@ -69,16 +74,23 @@ def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int,
         equator = geo.addCircleArc(ex, o, ey)
         sym_y, sym_x = geo.addCircleArc(ex, o, hx), geo.addCircleArc(ey, o, hy)
         hole = geo.addCircleArc(hx, geo.addPoint(0, 0, radius * math.cos(h)), hy)
-        surface = geo.addSurfaceFilling([geo.addCurveLoop([equator, sym_x, -hole, -sym_y])],
-                                        sphereCenterTag=o)
+        surface = geo.addSurfaceFilling(
+            [geo.addCurveLoop([equator, sym_x, -hole, -sym_y])], sphereCenterTag=o
+        )
         extra = tuple((0, geo.addPoint(*xyz), name) for name, xyz in (points or {}).items())
         geo.synchronize()
         for curve in (equator, sym_x, hole, sym_y):
             gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
         gmsh.model.mesh.setTransfiniteSurface(surface)
         gmsh.model.mesh.setRecombine(2, surface)
-        groups = ((2, surface, "shell"), (1, sym_x, "sym_x"), (1, sym_y, "sym_y"),
-                  (1, equator, "equator"), (1, hole, "hole"), (0, hx, "pin"))
+        groups = (
+            (2, surface, "shell"),
+            (1, sym_x, "sym_x"),
+            (1, sym_y, "sym_y"),
+            (1, equator, "equator"),
+            (1, hole, "hole"),
+            (0, hx, "pin"),
+        )
         groups += extra
         _name_mesh_write(gmsh, groups, path)
     finally:
@@ -86,8 +98,7 @@ def quarter_hemisphere(path: Path, radius: float, hole_deg: float, n: int,
     return path
 
 
-def quarter_roof(path: Path, radius: float, half_length: float, angle_deg: float,
-                 n: int) -> Path:
+def quarter_roof(path: Path, radius: float, half_length: float, angle_deg: float, n: int) -> Path:
     """The Scordelis–Lo roof's quarter: axis X, 0 ≤ x ≤ half_length, from the crown
     (y = 0, z = R) to the free edge at angle_deg; curves "sym_x" (x = 0), "crown"
     (y = 0), "diaphragm" (x = half_length), "free_edge"; n × n 9-node quads."""
@@ -109,8 +120,13 @@ def quarter_roof(path: Path, radius: float, half_length: float, angle_deg: float
             gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
         gmsh.model.mesh.setTransfiniteSurface(surface)
         gmsh.model.mesh.setRecombine(2, surface)
-        groups = ((2, surface, "roof"), (1, arcs[0], "sym_x"), (1, arcs[1], "diaphragm"),
-                  (1, crown, "crown"), (1, free, "free_edge"))
+        groups = (
+            (2, surface, "roof"),
+            (1, arcs[0], "sym_x"),
+            (1, arcs[1], "diaphragm"),
+            (1, crown, "crown"),
+            (1, free, "free_edge"),
+        )
         _name_mesh_write(gmsh, groups, path)
     finally:
         gmsh.finalize()
@@ -156,8 +172,9 @@ def cylinder_mesh(tmp_path_factory):
 
 
 def _cylinder(tmp_path, mesh, title, load):
-    scene = write_scene(tmp_path, CYLINDER.format(title=title, t=T, E=E, R=R,
-                                                  half_height=H / 2, load=load))
+    scene = write_scene(
+        tmp_path, CYLINDER.format(title=title, t=T, E=E, R=R, half_height=H / 2, load=load)
+    )
     (tmp_path / "cylinder.msh").write_bytes(mesh.read_bytes())
     return run_scene(scene).history[-1][1]
 
@@ -166,8 +183,12 @@ def test_cylinder_under_internal_pressure(tmp_path, cylinder_mesh):
     """Radial displacement p R²/(E t) everywhere, within 1e-4 (the Green strain's
     quadratic part is 1e-6 of it; reached 1.5e-5)."""
     p = 1.0e-3
-    u = _cylinder(tmp_path, cylinder_mesh, "cylinder under pressure",
-                  f'[[load]]\nkind = "pressure"\nvalue = {-p}')
+    u = _cylinder(
+        tmp_path,
+        cylinder_mesh,
+        "cylinder under pressure",
+        f'[[load]]\nkind = "pressure"\nvalue = {-p}',
+    )
     exact = p * R**2 / (E * T)
     radial = np.array([u[0, 2], u[1, 0]])
     print(f"radial displacement {radial}, p R²/(E t) = {exact:.6e}")
@@ -179,9 +200,13 @@ def test_pinched_ring(tmp_path, cylinder_mesh):
     opposite: the crown moves (π/4 − 2/π) P R³/(2EI) in and the side (2/π − ½) P R³/(2EI)
     out, within 1 % (reached 0.17 % and 0.17 %)."""
     P = 1.0e-4
-    u = _cylinder(tmp_path, cylinder_mesh, "pinched ring",
-                  f'[[load]]\nkind = "edge-force"\nwhere = "sym_x"\n'
-                  f'value = [0.0, 0.0, {-P / 2}]\nramp = "constant"')
+    u = _cylinder(
+        tmp_path,
+        cylinder_mesh,
+        "pinched ring",
+        f'[[load]]\nkind = "edge-force"\nwhere = "sym_x"\n'
+        f'value = [0.0, 0.0, {-P / 2}]\nramp = "constant"',
+    )
     EI = E * H * T**3 / 12
     crown = -(math.pi / 4 - 2 / math.pi) * P * R**3 / (2 * EI)
     side = (2 / math.pi - 0.5) * P * R**3 / (2 * EI)
@@ -190,7 +215,7 @@ def test_pinched_ring(tmp_path, cylinder_mesh):
 
 
 #: a roof or cylinder quarter from quarter_roof: rigid diaphragm, the planes x = 0, y = 0
-ROOF_SUPPORTS = '''[[boundary]]
+ROOF_SUPPORTS = """[[boundary]]
 where = "diaphragm"
 fix = ["uy", "uz"]
 [[boundary]]
@@ -199,7 +224,7 @@ symmetry = [1.0, 0.0, 0.0]
 [[boundary]]
 where = "crown"
 symmetry = [0.0, 1.0, 0.0]
-'''
+"""
 
 
 def test_scordelis_lo_roof(tmp_path):
@@ -212,7 +237,9 @@ def test_scordelis_lo_roof(tmp_path):
     a = math.radians(angle)
     scale = 1.0e-3
     thickness, weight = 0.25, 90.0
-    scene = write_scene(tmp_path, f"""
+    scene = write_scene(
+        tmp_path,
+        f"""
 title = "Scordelis-Lo roof, a quarter"
 [mesh]
 kind = "gmsh"
@@ -233,10 +260,13 @@ value = [0.0, 0.0, {-scale}]
 [[output.probes]]
 name = "midside"
 at = [0.0, {radius * math.sin(a)!r}, {radius * math.cos(a)!r}]
-""")
+""",
+    )
     w = -run_scene(scene).history[-1][1][0, 2] / scale
-    print(f"Scordelis-Lo midside deflection {w:.5f} (reference 0.3024, "
-          f"{100 * (w / 0.3024 - 1):+.2f} %)")
+    print(
+        f"Scordelis-Lo midside deflection {w:.5f} (reference 0.3024, "
+        f"{100 * (w / 0.3024 - 1):+.2f} %)"
+    )
     assert abs(w / 0.3024 - 1) < 0.02
 
 
@@ -247,7 +277,9 @@ def test_pinched_cylinder(tmp_path):
     (reached −0.41 %). A point load is singular on a Reissner–Mindlin shell: the
     value creeps up with refinement (+1.2 % on 16 × 16)."""
     quarter_roof(tmp_path / "octant.msh", 300.0, 300.0, 90.0, 8)
-    scene = write_scene(tmp_path, f"""
+    scene = write_scene(
+        tmp_path,
+        f"""
 title = "pinched cylinder, an octant"
 [mesh]
 kind = "gmsh"
@@ -270,10 +302,13 @@ value = [0.0, 0.0, -0.25]
 [[output.probes]]
 name = "load"
 at = [0.0, 0.0, 300.0]
-""")
+""",
+    )
     w = -run_scene(scene).history[-1][1][0, 2]
-    print(f"pinched cylinder: {w:.5e} under the load (reference 1.8248e-5, "
-          f"{100 * (w / 1.8248e-5 - 1):+.2f} %)")
+    print(
+        f"pinched cylinder: {w:.5e} under the load (reference 1.8248e-5, "
+        f"{100 * (w / 1.8248e-5 - 1):+.2f} %)"
+    )
     assert abs(w / 1.8248e-5 - 1) < 0.02
 
 
@@ -301,7 +336,9 @@ symmetry = [1.0, 0.0, 0.0]
 where = "sym_y"
 symmetry = [0.0, 1.0, 0.0]
 """
-HEMISPHERE = HEMISPHERE_QUARTER + """[[boundary]]
+HEMISPHERE = (
+    HEMISPHERE_QUARTER
+    + """[[boundary]]
 where = "pin"
 fix = ["uz"]
 [[load]]
@@ -319,6 +356,7 @@ at = [10.0, 0.0, 0.0]
 name = "in"
 at = [0.0, 10.0, 0.0]
 """
+)
 
 
 def _hemisphere(tmp_path, n, load, dt=1.0, atol=None, out_dir=None):
@@ -326,8 +364,9 @@ def _hemisphere(tmp_path, n, load, dt=1.0, atol=None, out_dir=None):
     scene's snes_atol is ``atol`` if given (the default otherwise)."""
     quarter_hemisphere(tmp_path / "hemisphere.msh", 10.0, 18.0, n)
     solver = f"[solver]\nsnes_atol = {atol}\n" if atol is not None else ""
-    scene = write_scene(tmp_path, HEMISPHERE.format(
-        half=load / 2, minus_half=-load / 2, dt=dt, solver=solver))
+    scene = write_scene(
+        tmp_path, HEMISPHERE.format(half=load / 2, minus_half=-load / 2, dt=dt, solver=solver)
+    )
     sim = run_scene(scene, out_dir=out_dir)
     return sim, {t: (u[0, 0], -u[1, 1]) for t, u in sim.history}
 
@@ -344,8 +383,10 @@ def test_pinched_hemisphere_with_a_hole(tmp_path):
     scale = 1.0e-3
     _, rows = _hemisphere(tmp_path, 8, 2.0 * scale, atol=1.0e-5 * scale)
     along = np.array(rows[1.0]) / scale  # scaled back to the loads of 2
-    print(f"pinched hemisphere: {along} under the loads of 2 (reference 0.094, "
-          f"{100 * (along.mean() / 0.094 - 1):+.2f} %)")
+    print(
+        f"pinched hemisphere: {along} under the loads of 2 (reference 0.094, "
+        f"{100 * (along.mean() / 0.094 - 1):+.2f} %)"
+    )
     assert np.all(np.abs(along / 0.094 - 1) < 0.02)
 
 
@@ -365,8 +406,10 @@ def test_hemisphere_large_deflection_matches_sze(tmp_path):
     for p, ref in SZE_HEMISPHERE.items():
         got = np.array(rows[p])
         err = got / np.array(ref) - 1
-        print(f"P/Pmax = {p}: outward {got[0]:.4f} ({ref[0]}), inward {got[1]:.4f} "
-              f"({ref[1]}); errors {100 * err[0]:+.2f} %, {100 * err[1]:+.2f} %")
+        print(
+            f"P/Pmax = {p}: outward {got[0]:.4f} ({ref[0]}), inward {got[1]:.4f} "
+            f"({ref[1]}); errors {100 * err[0]:+.2f} %, {100 * err[1]:+.2f} %"
+        )
         assert np.all(np.abs(err) < 0.02), f"P/Pmax = {p}: {got}, reference {ref}"
     # a curved mesh's fields are written on its nine nodes per cell, as the probes saw
     distance, written = fields_at(tmp_path / "out", [0.0, 10.0, 0.0])
@@ -374,15 +417,24 @@ def test_hemisphere_large_deflection_matches_sze(tmp_path):
     assert np.allclose(-written[:, 2], [rows[t][1] for t in sorted(rows)], rtol=1e-6, atol=1e-6)
 
 
-@pytest.mark.parametrize("entry, words", [
-    ('[[boundary]]\nwhere = "pin"\nsymmetry = [0.0, 1.0, 0.0]',
-     "boundary.2.where: 'pin' is a point; a plane of symmetry is an edge"),
-    ('[[load]]\nkind = "pressure"\nwhere = "pin"\nvalue = 1.0',
-     "load.0.where: 'pin' is a point; a pressure acts on a surface"),
-    ('[[load]]\nkind = "edge-force"\nwhere = "pin"\nvalue = [1.0, 0.0, 0.0]',
-     "load.0.where: 'pin' is a point; this needs an edge"),
-    ("", "mesh.file: physical point 'stray' is not on the body's surface"),
-])
+@pytest.mark.parametrize(
+    "entry, words",
+    [
+        (
+            '[[boundary]]\nwhere = "pin"\nsymmetry = [0.0, 1.0, 0.0]',
+            "boundary.2.where: 'pin' is a point; a plane of symmetry is an edge",
+        ),
+        (
+            '[[load]]\nkind = "pressure"\nwhere = "pin"\nvalue = 1.0',
+            "load.0.where: 'pin' is a point; a pressure acts on a surface",
+        ),
+        (
+            '[[load]]\nkind = "edge-force"\nwhere = "pin"\nvalue = [1.0, 0.0, 0.0]',
+            "load.0.where: 'pin' is a point; this needs an edge",
+        ),
+        ("", "mesh.file: physical point 'stray' is not on the body's surface"),
+    ],
+)
 def test_a_point_selector_only_where_a_point_fits(tmp_path, entry, words):
     """A named gmsh point holds degrees of freedom at vertices; where an edge or a
     surface is needed, or off the body (a free node in the file, which would crash

@@ -7,10 +7,10 @@ figures reached is docs/accuracy.md's."""
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
 import tomllib
 
+import numpy as np
+import pytest
 from conftest import DEMOS, run_scene
 
 EXACT_SHEET_I = 0.49763  # docs/verification.md case F, exact RFT
@@ -27,9 +27,11 @@ def test_swimming_sheet_as_shipped_swims_at_the_exact_speed(tmp_path):
     sim = run_scene(DEMOS / "swimming_sheet.toml", "output.fields=false", out_dir=tmp_path)
     steady = sim.summary["steady"]
     speed = steady["values"]["front_ux_rate"]
-    print(f"sheet as shipped: U = {speed:.5f} ({100 * (speed / EXACT_SHEET_I - 1):+.2f} %) "
-          f"after {steady['periods']} periods, estimated error "
-          f"{steady['estimated_errors']['front_ux_rate']:.1e}")
+    print(
+        f"sheet as shipped: U = {speed:.5f} ({100 * (speed / EXACT_SHEET_I - 1):+.2f} %) "
+        f"after {steady['periods']} periods, estimated error "
+        f"{steady['estimated_errors']['front_ux_rate']:.1e}"
+    )
     assert steady["reached"] and steady["periods"] <= 8
     assert abs(speed / EXACT_SHEET_I - 1) < 0.005
 
@@ -43,18 +45,27 @@ def test_swimming_sheet_steady_error_estimate_bounds_the_true_error(tmp_path):
     against 2.0e-6, 2.4 times), and so is the 1e-5 run's (4.1e-8 against 1.3e-8)."""
     runs = {}
     for tol in (1e-3, 1e-5, 1e-7):
-        sim = run_scene(DEMOS / "swimming_sheet.toml", "output.fields=false",
-                        f"time.steady_tolerance={tol}", "time.end=100")
+        sim = run_scene(
+            DEMOS / "swimming_sheet.toml",
+            "output.fields=false",
+            f"time.steady_tolerance={tol}",
+            "time.end=100",
+        )
         steady = sim.summary["steady"]
         assert steady["reached"]
-        runs[tol] = (steady["values"]["front_ux_rate"],
-                     steady["estimated_errors"]["front_ux_rate"], steady["periods"])
+        runs[tol] = (
+            steady["values"]["front_ux_rate"],
+            steady["estimated_errors"]["front_ux_rate"],
+            steady["periods"],
+        )
     reference = runs[1e-7][0]
     for tol in (1e-3, 1e-5):
         value, estimate, periods = runs[tol]
         true = abs(value - reference)
-        print(f"steady to {tol:g} after {periods} periods: U = {value!r}, estimated error "
-              f"{estimate:.2e}, true {true:.2e} ({estimate / true:.1f} times)")
+        print(
+            f"steady to {tol:g} after {periods} periods: U = {value!r}, estimated error "
+            f"{estimate:.2e}, true {true:.2e} ({estimate / true:.1f} times)"
+        )
         assert true <= estimate <= 10 * true
     assert runs[1e-7][1] < 1e-2 * abs(runs[1e-3][0] - reference)
 
@@ -76,11 +87,18 @@ def test_bidirectional_strip_as_shipped_swims_as_with_finer_steps(tmp_path):
     shipped = tmp_path / "shipped"
     run_scene(DEMOS / "bidirectional_strip.toml", "output.fields=false", out_dir=shipped)
     fine = tmp_path / "fine"
-    run_scene(DEMOS / "bidirectional_strip.toml", "output.fields=false",
-              f"time.dt={period / 200!r}", "time.output_every=8", out_dir=fine)
+    run_scene(
+        DEMOS / "bidirectional_strip.toml",
+        "output.fields=false",
+        f"time.dt={period / 200!r}",
+        "time.output_every=8",
+        out_dir=fine,
+    )
     a, b = _strip_net(shipped, end, period), _strip_net(fine, end, period)
-    print(f"strip, last two periods: shipped {a:+.5f} mm, 200 a period {b:+.5f} mm "
-          f"({100 * (a / b - 1):+.3f} %)")
+    print(
+        f"strip, last two periods: shipped {a:+.5f} mm, 200 a period {b:+.5f} mm "
+        f"({100 * (a / b - 1):+.3f} %)"
+    )
     assert abs(a / b - 1) < 0.01
 
 
@@ -92,13 +110,16 @@ def test_sheet_robot_as_shipped_swims_as_with_finer_steps(tmp_path):
     docs/magnetic_actuation.md)."""
     speeds = []
     for k, sets in ((1, []), (2, ["time.dt=0.0009765625"])):
-        run_scene(DEMOS / "sheet_robot.toml", "output.fields=false", *sets,
-                  out_dir=tmp_path / f"dt{k}")
+        run_scene(
+            DEMOS / "sheet_robot.toml", "output.fields=false", *sets, out_dir=tmp_path / f"dt{k}"
+        )
         body = np.genfromtxt(tmp_path / f"dt{k}" / "body.csv", delimiter=",", names=True)
         t, x = body["time"], body["centroid_x"]
         speeds.append((np.interp(3.0, t, x) - np.interp(2.0, t, x)) / 1.0)
-    print(f"sheet robot: {speeds[0]:.5f} mm/s as shipped, {speeds[1]:.5f} at half the step "
-          f"({100 * (speeds[0] / speeds[1] - 1):+.2f} %)")
+    print(
+        f"sheet robot: {speeds[0]:.5f} mm/s as shipped, {speeds[1]:.5f} at half the step "
+        f"({100 * (speeds[0] / speeds[1] - 1):+.2f} %)"
+    )
     assert speeds[1] > 0.05  # it swims, along +X
     assert abs(speeds[0] / speeds[1] - 1) < 0.01
 
@@ -109,8 +130,9 @@ def test_moving_magnet_as_shipped_follows_as_with_finer_steps(tmp_path):
     of its range of the same run at four times the steps (reached 0.09 %)."""
     rows = []
     for k, sets in ((1, []), (4, ["time.dt=0.003125"])):
-        run_scene(DEMOS / "moving_magnet.toml", "output.fields=false", *sets,
-                  out_dir=tmp_path / f"dt{k}")
+        run_scene(
+            DEMOS / "moving_magnet.toml", "output.fields=false", *sets, out_dir=tmp_path / f"dt{k}"
+        )
         rows.append(np.loadtxt(tmp_path / f"dt{k}" / "probes.csv", delimiter=",", skiprows=1))
     coarse, fine = rows
     fine = np.array([fine[np.argmin(abs(fine[:, 0] - t))] for t in coarse[:, 0]])
@@ -141,11 +163,18 @@ def test_magnetic_snap_as_shipped_brackets_its_limit(tmp_path):
     path = {name: rows[:, i] for i, name in enumerate(header)}
     top, bottom = magnetic_snap.limits(path)
     limit = path["load_factor"][top]
-    print(f"snap-through limit {20 * limit:.4f} mT, snap-back {20 * path['load_factor'][bottom]:+.4f} mT")
+    print(
+        f"snap-through limit {20 * limit:.4f} mT, "
+        f"snap-back {20 * path['load_factor'][bottom]:+.4f} mT"
+    )
     assert path["load_factor"][bottom] < 0  # bistable: the inverted arch needs a reversed field
     for factor, fails in ((0.99, False), (1.01, True)):
-        sets = ["time.scheme=static", f"time.end={float(factor * limit)!r}", "time.dt=1e-4",
-                "output.fields=false"]
+        sets = [
+            "time.scheme=static",
+            f"time.end={float(factor * limit)!r}",
+            "time.dt=1e-4",
+            "output.fields=false",
+        ]
         try:
             run_scene(DEMOS / "magnetic_snap_path.toml", *sets, out_dir=tmp_path / f"lc{factor}")
             failed = False
@@ -170,7 +199,7 @@ def test_sheet_near_wall_as_shipped_has_the_refined_ratio(tmp_path):
     10 × 2 gives 2.1884)."""
     text = (DEMOS / "sheet_near_wall.toml").read_text()
     free = tmp_path / "free.toml"
-    free.write_text(text[:text.index("[fluid.wall]")] + text[text.index("[time]"):])
+    free.write_text(text[: text.index("[fluid.wall]")] + text[text.index("[time]") :])
     speeds = {}
     for name, scene in (("wall", DEMOS / "sheet_near_wall.toml"), ("free", free)):
         sim = run_scene(scene, "output.fields=false")
@@ -200,9 +229,12 @@ def test_python_study_meets_exact_rft(tmp_path):
     import subprocess
     import sys
 
-    done = subprocess.run([sys.executable, str(DEMOS / "python_study.py"), "--out",
-                           str(tmp_path), "--jobs", "2"], capture_output=True, text=True,
-                          timeout=1200)
+    done = subprocess.run(
+        [sys.executable, str(DEMOS / "python_study.py"), "--out", str(tmp_path), "--jobs", "2"],
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     with open(tmp_path / "study.csv", encoding="utf-8") as fh:
         rows = {float(r["b"]): r for r in csv.DictReader(fh)}

@@ -11,21 +11,49 @@ from conftest import ROOT
 
 def test_a_run_that_collects_no_test_fails():
     env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST")}
-    done = subprocess.run(["bash", str(ROOT / "dev.sh"), "test", "-p", "no:cacheprovider",
-                           "-k", "no_test_has_this_name_xyz"], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=900, stdin=subprocess.DEVNULL)
+    done = subprocess.run(
+        [
+            "bash",
+            str(ROOT / "dev.sh"),
+            "test",
+            "-p",
+            "no:cacheprovider",
+            "-k",
+            "no_test_has_this_name_xyz",
+        ],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        stdin=subprocess.DEVNULL,
+    )
     assert done.returncode == 1, done.stdout[-1000:] + done.stderr[-1000:]
     assert "pytest collected no tests (exit 5)" in done.stderr
 
 
 def _kernels(tmp_path, variants):
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("PYTEST", "OPENBLAS", "OMP_NUM"))}
+    env = {
+        k: v for k, v in os.environ.items() if not k.startswith(("PYTEST", "OPENBLAS", "OMP_NUM"))
+    }
     env.update(RFTFEM_KERNELS=variants, RFTFEM_KERNEL_LOGS=str(tmp_path))
-    return subprocess.run(["bash", str(ROOT / "dev.sh"), "test-kernels", "reference",
-                           "tests/test_layout.py", "-k", "no_module_much_over"],
-                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=900,
-                          stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        [
+            "bash",
+            str(ROOT / "dev.sh"),
+            "test-kernels",
+            "reference",
+            "tests/test_layout.py",
+            "-k",
+            "no_module_over",
+        ],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        stdin=subprocess.DEVNULL,
+    )
 
 
 def test_kernel_variants_run_the_kernels_they_name(tmp_path):

@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import build_model, run_scene, write_scene
 
 #: RFT coefficients (N·s/mm³) deliberately all different, so a wrong axis shows
@@ -41,13 +40,16 @@ drag = {list(DRAG)}
 def _pull(where: tuple[str, str], direction) -> str:
     """Half the total force on each end: no net moment about the centre."""
     value = [float(v) for v in 0.5 * FORCE * np.asarray(direction, dtype=float)]
-    return "".join(f"""
+    return "".join(
+        f"""
 [[load]]
 kind = "edge-force"
 where = "{w}"
 value = {value}
 ramp = "constant"
-""" for w in where)
+"""
+        for w in where
+    )
 
 
 class MeanVelocity:
@@ -97,8 +99,9 @@ def _write_rotated_strip(path, R):
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("rotated-strip")
         geo = gmsh.model.geo
-        corners = [R @ np.array(p) for p in
-                   ((0, 0, 0), (LENGTH, 0, 0), (LENGTH, WIDTH, 0), (0, WIDTH, 0))]
+        corners = [
+            R @ np.array(p) for p in ((0, 0, 0), (LENGTH, 0, 0), (LENGTH, WIDTH, 0), (0, WIDTH, 0))
+        ]
         pts = [geo.addPoint(*p) for p in corners]
         lines = [geo.addLine(pts[k], pts[(k + 1) % 4]) for k in range(4)]
         surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
@@ -107,8 +110,11 @@ def _write_rotated_strip(path, R):
             gmsh.model.mesh.setTransfiniteCurve(line, n)
         gmsh.model.mesh.setTransfiniteSurface(surface)
         gmsh.model.mesh.setRecombine(2, surface)
-        for dim, tags, tag, name in ((2, [surface], 1, "strip"), (1, [lines[1]], 2, "head"),
-                                     (1, [lines[3]], 3, "tail")):
+        for dim, tags, tag, name in (
+            (2, [surface], 1, "strip"),
+            (1, [lines[1]], 2, "head"),
+            (1, [lines[3]], 3, "tail"),
+        ):
             gmsh.model.addPhysicalGroup(dim, tags, tag)
             gmsh.model.setPhysicalName(dim, tag, name)
         gmsh.model.mesh.generate(2)
@@ -140,13 +146,16 @@ def test_reaction_of_a_strip_translating_at_prescribed_velocity(tmp_path):
     """Every node moves at a prescribed constant velocity: the reaction taken from
     the assembled residual (the sum of its displacement rows) is C̃ v A."""
     velocity = np.array([0.3, -0.2, 0.5])
-    motions = "".join(f"""
+    motions = "".join(
+        f"""
 [[motion]]
 where = "all"
 component = "{c}"
 kind = "table"
 values = [[0.0, 0.0], [1.0, {vc}]]
-""" for c, vc in zip(("ux", "uy", "uz"), velocity))
+"""
+        for c, vc in zip(("ux", "uy", "uz"), velocity)
+    )
     reactions = []
 
     def reaction(sim):
@@ -197,6 +206,7 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
 def test_drag_form_absent_without_fluid(tmp_path):
     """Without [fluid] the drag is neither built nor compiled (no drag coefficients
     among the compiled forces' constants); with it, it is."""
+
     def constants(text):
         model = build_model(text, tmp_path)
         values = [np.atleast_1d(c.value) for c in model.forces_ufl.constants()]
@@ -242,8 +252,11 @@ def test_drag_on_a_deformed_translating_strip(tmp_path, case):
     axis and the current area, to round-off; and with the whole state turned by a
     rotation R (configuration and velocity), the force turns with it (objectivity)."""
     model = build_model(STRIP, tmp_path)
-    F = (np.diag([1.4, 0.7, 1.0]) if case == "stretched"
-         else np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.3, 1.0]]))
+    F = (
+        np.diag([1.4, 0.7, 1.0])
+        if case == "stretched"
+        else np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.3, 1.0]])
+    )
     v = np.array([0.3, -0.2, 0.5])
     a = 0.9
     axis = np.array([1.0, 2.0, 2.0]) / 3.0

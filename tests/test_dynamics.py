@@ -3,7 +3,6 @@ and energy."""
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 L, W, T_, E, RHO = 10.0, 1.0, 0.1, 1.2e6, 1e-9  # L/t = 100; mm, t/mm³
@@ -72,9 +71,14 @@ def _energies(tmp_path, rho_inf, periods=10, steps_per_period=40):
         energy.append((sim.model.elastic_energy(), sim.model["inertia"].kinetic_energy()))
 
     scene = write_scene(tmp_path, RELEASE.replace("[16, 1]", "[8, 1]"))
-    run_scene(scene, f"time.rho_inf={rho_inf}", f"time.end={periods * PERIOD}",
-              f"time.dt={PERIOD / steps_per_period}", out_dir=tmp_path / f"out{rho_inf}",
-              observers=[record])
+    run_scene(
+        scene,
+        f"time.rho_inf={rho_inf}",
+        f"time.end={periods * PERIOD}",
+        f"time.dt={PERIOD / steps_per_period}",
+        out_dir=tmp_path / f"out{rho_inf}",
+        observers=[record],
+    )
     return np.array(energy)
 
 
@@ -87,8 +91,10 @@ def test_energy_is_conserved_without_numerical_dissipation(tmp_path):
     parts = _energies(tmp_path, 1.0)
     e = parts.sum(axis=1)
     drift = np.abs(e - e[0]).max() / e[0]
-    print(f"rho_inf = 1: max energy drift {100 * drift:.2e} % over {len(e)} steps; "
-          f"kinetic share up to {parts[:, 1].max() / e[0]:.3f}")
+    print(
+        f"rho_inf = 1: max energy drift {100 * drift:.2e} % over {len(e)} steps; "
+        f"kinetic share up to {parts[:, 1].max() / e[0]:.3f}"
+    )
     assert parts[:, 1].max() > 0.9 * e[0], "energy must swing between elastic and kinetic"
     assert drift < 3e-7  # reached: 3.5e-8
 
@@ -100,8 +106,10 @@ def test_energy_decays_with_numerical_dissipation(tmp_path):
     its own energy norm, not in the physical one.
     """
     e = _energies(tmp_path, 0.5).sum(axis=1)
-    print(f"rho_inf = 0.5: energy after 10 periods {e[-1] / e[0]:.4f} of the first step's, "
-          f"max {e.max() / e[0]:.6f}")
+    print(
+        f"rho_inf = 0.5: energy after 10 periods {e[-1] / e[0]:.4f} of the first step's, "
+        f"max {e.max() / e[0]:.6f}"
+    )
     assert e.max() <= e[0] * (1 + 1e-6)
     assert e[-1] < 0.99 * e[0]
 
@@ -114,12 +122,15 @@ def _hht_oscillator(omega, dt, alpha, n):
     Hughes & Taylor (1977) write it: a_{n+1} + (1 + α) ω² u_{n+1} − α ω² u_n = 0 with
     Newmark's β = (1 − α)²/4, γ = ½ − α; an implementation independent of rftfem's."""
     beta, gamma = (1 - alpha) ** 2 / 4, 0.5 - alpha
-    u, v, a = 1.0, 0.0, -omega**2
+    u, v, a = 1.0, 0.0, -(omega**2)
     out = [u]
     for _ in range(n):
         predicted = u + dt * v + dt**2 * (0.5 - beta) * a
-        a_new = (-omega**2 * ((1 + alpha) * predicted - alpha * u)
-                 / (1 + (1 + alpha) * omega**2 * beta * dt**2))
+        a_new = (
+            -(omega**2)
+            * ((1 + alpha) * predicted - alpha * u)
+            / (1 + (1 + alpha) * omega**2 * beta * dt**2)
+        )
         u_new = predicted + beta * dt**2 * a_new
         v += dt * ((1 - gamma) * a + gamma * a_new)
         u, a = u_new, a_new
@@ -134,7 +145,7 @@ def _period_and_decay(t, w, skip):
     i = np.where(s[:-1] * s[1:] < 0)[0]
     tc = t[i] - w[i] * (t[i + 1] - t[i]) / (w[i + 1] - w[i])
     tc = tc[skip:]
-    peaks = np.array([np.abs(w[a:b + 1]).max() for a, b in zip(i[skip:-1], i[skip + 1:])])
+    peaks = np.array([np.abs(w[a : b + 1]).max() for a, b in zip(i[skip:-1], i[skip + 1 :])])
     ratio = (peaks[-1] / peaks[0]) ** (2.0 / (len(peaks) - 1))
     return 2 * (tc[-1] - tc[0]) / (len(tc) - 1), ratio
 
@@ -145,16 +156,23 @@ def test_hht_period_and_damping_match_the_algorithm(tmp_path):
     u'' + ω₁² u = 0 at the same ω₁ dt, to 0.3 % and 0.5 %. With α ignored (the
     trapezoidal rule) the period would be 1.4 % shorter and the amplitude kept."""
     alpha, steps = -0.3, 10
-    sim = run_scene(write_scene(tmp_path, RELEASE), "time.scheme=hht", f"time.alpha={alpha}",
-                    f"time.dt={PERIOD / steps}", f"time.end={12 * PERIOD}")
+    sim = run_scene(
+        write_scene(tmp_path, RELEASE),
+        "time.scheme=hht",
+        f"time.alpha={alpha}",
+        f"time.dt={PERIOD / steps}",
+        f"time.end={12 * PERIOD}",
+    )
     t = np.array([r[0] for r in sim.history])
     w = np.array([r[1][0][2] for r in sim.history])
     period, ratio = _period_and_decay(t, w, skip=4)
     u = _hht_oscillator(OMEGA1, PERIOD / steps, alpha, 12 * steps)
     ref_period, ref_ratio = _period_and_decay(np.arange(len(u)) * PERIOD / steps, u, skip=4)
-    print(f"HHT α = {alpha}, dt = T/{steps}: period {period / PERIOD:.5f} T "
-          f"(oscillator {ref_period / PERIOD:.5f} T), amplitude ratio per cycle {ratio:.5f} "
-          f"(oscillator {ref_ratio:.5f})")
+    print(
+        f"HHT α = {alpha}, dt = T/{steps}: period {period / PERIOD:.5f} T "
+        f"(oscillator {ref_period / PERIOD:.5f} T), amplitude ratio per cycle {ratio:.5f} "
+        f"(oscillator {ref_ratio:.5f})"
+    )
     assert ref_ratio < 0.985  # the algorithm damps enough for the check to see it
     assert abs(period / ref_period - 1) < 0.003
     assert abs(ratio / ref_ratio - 1) < 0.005
@@ -188,8 +206,12 @@ def test_generalized_alpha_period_and_damping_match_the_amplification_matrix(tmp
     rows, a step apart); asserted 6e-4 and 20 %. (ρ∞ = 1 would lengthen it 3.21 % and
     keep the amplitude; ρ∞ = 0.5 has α_m = 0 and would not check α_m.)"""
     rho_inf, steps = 0.2, 10
-    sim = run_scene(write_scene(tmp_path, RELEASE), f"time.rho_inf={rho_inf}",
-                    f"time.dt={PERIOD / steps}", f"time.end={12 * PERIOD}")
+    sim = run_scene(
+        write_scene(tmp_path, RELEASE),
+        f"time.rho_inf={rho_inf}",
+        f"time.dt={PERIOD / steps}",
+        f"time.end={12 * PERIOD}",
+    )
     t = np.array([r[0] for r in sim.history])
     w = np.array([r[1][0][2] for r in sim.history])
     period, ratio = _period_and_decay(t, w, skip=4)
@@ -197,10 +219,12 @@ def test_generalized_alpha_period_and_damping_match_the_amplification_matrix(tmp
     ref_period = 2 * np.pi * (PERIOD / steps) / np.angle(root)
     ref_ratio = abs(root) ** (2 * np.pi / np.angle(root))
     decay_error = (1 - ratio) / (1 - ref_ratio) - 1
-    print(f"generalized-α ρ∞ = {rho_inf}, dt = T/{steps}: period {period / PERIOD:.5f} T "
-          f"(amplification matrix {ref_period / PERIOD:.5f} T, {period / ref_period - 1:+.2e}); "
-          f"amplitude ratio per cycle {ratio:.5f} (matrix {ref_ratio:.5f}, decay "
-          f"{decay_error:+.2e} of it)")
+    print(
+        f"generalized-α ρ∞ = {rho_inf}, dt = T/{steps}: period {period / PERIOD:.5f} T "
+        f"(amplification matrix {ref_period / PERIOD:.5f} T, {period / ref_period - 1:+.2e}); "
+        f"amplitude ratio per cycle {ratio:.5f} (matrix {ref_ratio:.5f}, decay "
+        f"{decay_error:+.2e} of it)"
+    )
     assert 1 - ref_ratio > 0.1  # the algorithm damps enough for the check to see it
     assert abs(period / ref_period - 1) < 6e-4
     assert abs(decay_error) < 0.2
@@ -234,12 +258,19 @@ def _travel_error(tmp_path, scheme, dt):
     the exact travel: in drag (no mass) C₃ z' = p t / T; in vacuum M z'' = f t / T."""
     name = f"{scheme}_{dt}"
     if scheme == "backward-euler":  # a pressure p on the flat strip, drag C₃ along its normal
-        text = FREE_STRIP.format(density=0.0, scheme=scheme, dt=dt, kind="pressure",
-                                 value=2.0e-6, fluid="[fluid]\ndrag = [1e-6, 1e-6, 4e-6]")
+        text = FREE_STRIP.format(
+            density=0.0,
+            scheme=scheme,
+            dt=dt,
+            kind="pressure",
+            value=2.0e-6,
+            fluid="[fluid]\ndrag = [1e-6, 1e-6, 4e-6]",
+        )
         exact = lambda t: 2.0e-6 / 4.0e-6 * t**2 / (2 * 0.1)  # noqa: E731
     else:  # its weight ρ t g in vacuum: z = g t³ / (6 T)
-        text = FREE_STRIP.format(density=1.0e-9, scheme=scheme, dt=dt, kind="gravity",
-                                 value=[0.0, 0.0, 9810.0], fluid="")
+        text = FREE_STRIP.format(
+            density=1.0e-9, scheme=scheme, dt=dt, kind="gravity", value=[0.0, 0.0, 9810.0], fluid=""
+        )
         exact = lambda t: 9810.0 * t**3 / (6 * 0.1)  # noqa: E731
     out = tmp_path / name
     run_scene(write_scene(tmp_path, text, name=f"{name}.toml"), out_dir=out)
@@ -247,8 +278,9 @@ def _travel_error(tmp_path, scheme, dt):
     return np.abs(body["centroid_z"] - exact(body["time"])).max() / exact(body["time"][-1])
 
 
-@pytest.mark.parametrize("scheme, order", [("backward-euler", 1), ("hht", 2),
-                                           ("generalized-alpha", 2)])
+@pytest.mark.parametrize(
+    "scheme, order", [("backward-euler", 1), ("hht", 2), ("generalized-alpha", 2)]
+)
 def test_observed_order_of_each_scheme(tmp_path, scheme, order):
     """Halving dt divides the error of a free strip's travel under a ramped push by
     2^order: 1 for backward Euler (drag, no mass), 2 for HHT-α and generalized-α
@@ -268,11 +300,16 @@ def test_energy_after_a_large_rotation_release(tmp_path):
     rotations are large: at T/80 the drift is 5.8 %."""
     mmax = 2 * np.pi * EI / L
     ramp_end, release_end = PERIOD, 1.5 * PERIOD
-    text = (RELEASE.replace('kind = "edge-force"', 'kind = "edge-moment"')
-            .replace(f"value = [0.0, 0.0, {1e-3 * 3 * EI / L**2}]",
-                     f"value = [0.0, {-0.25 * mmax}, 0.0]")
-            .replace("table = [[0.0, 1.0], [1e-12, 0.0]]",
-                     f"table = [[0.0, 0.0], [{ramp_end}, 1.0], [{release_end}, 0.0]]"))
+    text = (
+        RELEASE.replace('kind = "edge-force"', 'kind = "edge-moment"')
+        .replace(
+            f"value = [0.0, 0.0, {1e-3 * 3 * EI / L**2}]", f"value = [0.0, {-0.25 * mmax}, 0.0]"
+        )
+        .replace(
+            "table = [[0.0, 1.0], [1e-12, 0.0]]",
+            f"table = [[0.0, 0.0], [{ramp_end}, 1.0], [{release_end}, 0.0]]",
+        )
+    )
     steps = 160
     energy, turn = [], []
 
@@ -282,8 +319,13 @@ def test_energy_after_a_large_rotation_release(tmp_path):
         d = sim.model.dn.x.array.reshape(-1, 3)
         turn.append(np.degrees(np.arccos(np.clip(d[:, 2], -1, 1))).max())
 
-    run_scene(write_scene(tmp_path, text), "time.rho_inf=1.0", f"time.end={4.5 * PERIOD}",
-              f"time.dt={PERIOD / steps}", observers=[record])
+    run_scene(
+        write_scene(tmp_path, text),
+        "time.rho_inf=1.0",
+        f"time.end={4.5 * PERIOD}",
+        f"time.dt={PERIOD / steps}",
+        observers=[record],
+    )
     e = np.array(energy)
     drift = np.abs(e - e[0]).max() / e[0]
     print(f"largest director turn {max(turn):.1f}°; energy drift after release {drift:.2e}")

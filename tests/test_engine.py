@@ -5,14 +5,14 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, run_scene
 
 
 def test_static_scene_compiles_no_inertia(tmp_path):
     """A static scene has exactly the effects it asks for: no inertia form exists."""
-    sim = run_scene(DEMOS / "rollup.toml", "time.end=0.1", "load.0.value=[0, 5.0, 0]",
-                    out_dir=tmp_path)
+    sim = run_scene(
+        DEMOS / "rollup.toml", "time.end=0.1", "load.0.value=[0, 5.0, 0]", out_dir=tmp_path
+    )
     m = sim.model
     assert m.active_effects() == ["elasticity", "edge-moment"]
     assert m.inertia is None and m.inertia_form is None
@@ -22,16 +22,25 @@ def test_static_scene_compiles_no_inertia(tmp_path):
 
 
 def test_dynamic_scene_has_inertia(tmp_path):
-    sim = run_scene(DEMOS / "rollup.toml", "shell.density=1e-9", "time.end=0.1",
-                    "load.0.value=[0, 5.0, 0]",
-                    "time.scheme=generalized-alpha", out_dir=tmp_path)
+    sim = run_scene(
+        DEMOS / "rollup.toml",
+        "shell.density=1e-9",
+        "time.end=0.1",
+        "load.0.value=[0, 5.0, 0]",
+        "time.scheme=generalized-alpha",
+        out_dir=tmp_path,
+    )
     assert sim.model.active_effects() == ["elasticity", "inertia", "edge-moment"]
     assert sim.model.a_n in set(sim.model.jacobian_ufl.coefficients())
 
 
 def test_check_prints_the_active_effects():
-    out = subprocess.run([sys.executable, "-m", "rftfem", "check", str(DEMOS / "end_shear.toml")],
-                         capture_output=True, text=True, timeout=300)
+    out = subprocess.run(
+        [sys.executable, "-m", "rftfem", "check", str(DEMOS / "end_shear.toml")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr
     lines = [ln for ln in out.stdout.splitlines() if ln.startswith("active effects:")]
     assert lines == ["active effects: elasticity, edge-force"]
@@ -39,11 +48,12 @@ def test_check_prints_the_active_effects():
 
 def test_director_stays_unit_after_1000_steps_of_a_spinning_end(tmp_path):
     """Two full turns of the free end in 1000 load steps: | |d| − 1 | < 1e-10 at every node."""
-    sim = run_scene(DEMOS / "rollup.toml", "time.dt=0.002", "output.fields=false",
-                    out_dir=tmp_path)
+    sim = run_scene(DEMOS / "rollup.toml", "time.dt=0.002", "output.fields=false", out_dir=tmp_path)
     c = sim.summary["counts"]
-    print(f"{c['steps']} steps, {c['newton_iterations']} Newton iterations; "
-          f"max | |d| - 1 | = {sim.summary['director_unit_error']:.2e}")
+    print(
+        f"{c['steps']} steps, {c['newton_iterations']} Newton iterations; "
+        f"max | |d| - 1 | = {sim.summary['director_unit_error']:.2e}"
+    )
     assert c["steps"] == 1000 and c["dt_cuts"] == 0
     assert sim.summary["director_unit_error"] < 1e-10
 
@@ -70,9 +80,9 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
     dₙ, as a long spin leaves them (up to 180° apart within one cell), come back
     smooth and equal to the frames of the run, along the rolled strip's tangent;
     dₙ and the state (the force vector at θ = 0) are unchanged."""
+    from rftfem.integration.simulation import Simulation
     from rftfem.model.triad import rotate
     from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import Simulation
 
     scene = load_scene(DEMOS / "rollup.toml", ["time.end=0.5", "output.fields=false"])
     sim = Simulation(scene, quiet=True)
@@ -94,8 +104,10 @@ def test_triad_update_realigns_drifted_frames(tmp_path):
         realigned = _largest_frame_angle(m)
         sim.solver.assemble_forces(forces)
         after = forces.getArray()
-        print(f"largest a1 angle within a cell: run {smooth:.2e}°, scrambled {scrambled:.1f}°, "
-              f"realigned {realigned:.2e}°; force change {np.abs(after - before).max():.1e}")
+        print(
+            f"largest a1 angle within a cell: run {smooth:.2e}°, scrambled {scrambled:.1f}°, "
+            f"realigned {realigned:.2e}°; force change {np.abs(after - before).max():.1e}"
+        )
         assert scrambled > 90 and smooth < 1 and realigned < 1
         assert np.array_equal(m.dn.x.array, dn_run)
         assert np.abs(m.triads[0][0].x.array - a1_run).max() < 1e-10
@@ -123,4 +135,5 @@ def test_two_processes_reproduce_the_serial_probe_history(tmp_path, cli_run):
     print(f"serial vs 2 processes: max relative difference {rel:.2e}")
     assert rel < 1e-8
     import json
+
     assert json.loads((tmp_path / "mpi" / "summary.json").read_text())["mpi_size"] == 2

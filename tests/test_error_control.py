@@ -13,18 +13,23 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_scene, write_scene
+from test_magnetic import PLATE
+from test_study import OMEGA, OMEGA_C, PROBES, adler_angle
+
 from rftfem.errors import RunFailed
 from rftfem.outputs.quantities import evaluate
-from test_study import OMEGA, OMEGA_C, PROBES, adler_angle
-from test_magnetic import PLATE
 
 T_END = 0.5
 #: the tolerance of the strip test (benchmarks/strip_tolerance.py measures its cost)
 STRIP_TOL = 3e-3
-SETS = ["magnetic.field.frequency=1.0", "magnetic.field.rotation_axis=[0, 0, 1]",
-        f"time.end={T_END}", "output.fields=false", "time.output_every=5"]
+SETS = [
+    "magnetic.field.frequency=1.0",
+    "magnetic.field.rotation_axis=[0, 0, 1]",
+    f"time.end={T_END}",
+    "output.fields=false",
+    "time.output_every=5",
+]
 
 
 def run_plate(tmp_path, name, *sets):
@@ -45,13 +50,20 @@ def test_tolerance_buys_accuracy(tmp_path, scheme, order):
     rejected), and every output lands on its time."""
     errors, steps = {}, {}
     for tol in (1e-3, 1e-5):
-        sim, out, errors[tol] = run_plate(tmp_path, f"tol{tol}", f'time.scheme="{scheme}"',
-                                          "time.dt=0.002", f"time.tolerance={tol}",
-                                          "time.output_every=50")
+        sim, out, errors[tol] = run_plate(
+            tmp_path,
+            f"tol{tol}",
+            f'time.scheme="{scheme}"',
+            "time.dt=0.002",
+            f"time.tolerance={tol}",
+            "time.output_every=50",
+        )
         c = sim.summary["counts"]
         steps[tol] = c["steps"]
-        print(f"{scheme}, tolerance {tol}: error {errors[tol]:.3e}, {c['steps']} steps, "
-              f"{c['rejected_steps']} rejected, {c['dt_cuts']} cuts")
+        print(
+            f"{scheme}, tolerance {tol}: error {errors[tol]:.3e}, {c['steps']} steps, "
+            f"{c['rejected_steps']} rejected, {c['dt_cuts']} cuts"
+        )
         assert c["rejected_steps"] < 0.1 * c["steps"] and c["dt_cuts"] == 0
         t = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)[:, 0]
         assert t == pytest.approx(np.arange(6) * 0.1, abs=1e-12)
@@ -88,8 +100,12 @@ name = "corner"
 at = [0.0, 0.0, 0.0]
 """
 G, T_PUSH = 9810.0, 0.1
-SECOND_ORDER = [("generalized-alpha", "rho_inf = 0.9"), ("generalized-alpha", "rho_inf = 0.5"),
-                ("hht", "alpha = -0.05"), ("hht", "alpha = -0.3")]
+SECOND_ORDER = [
+    ("generalized-alpha", "rho_inf = 0.9"),
+    ("generalized-alpha", "rho_inf = 0.5"),
+    ("hht", "alpha = -0.05"),
+    ("hht", "alpha = -0.3"),
+]
 
 
 def _one_step_error(scheme, parameter, h, t):
@@ -117,12 +133,16 @@ def test_estimate_of_second_order_schemes_has_the_true_scale(tmp_path, scheme, p
     0.70 (the estimate takes the trapezoidal rule's error constant 1/12; with the
     plain prediction distance, no 1/11, it is 11 times too large)."""
     dt = 0.004
-    sim = run_scene(write_scene(tmp_path, FREE_STRIP.format(scheme=scheme, parameter=parameter,
-                                                              dt=dt)), out_dir=tmp_path / "o")
+    sim = run_scene(
+        write_scene(tmp_path, FREE_STRIP.format(scheme=scheme, parameter=parameter, dt=dt)),
+        out_dir=tmp_path / "o",
+    )
     estimate = sim.summary["time_error"]["max"] * sim.model.size()
     exact = _one_step_error(scheme, parameter, dt, 0.05)
-    print(f"{scheme} {parameter}: estimate {estimate:.4e} mm, exact local error {exact:.4e} mm, "
-          f"ratio {estimate / exact:.3f}")
+    print(
+        f"{scheme} {parameter}: estimate {estimate:.4e} mm, exact local error {exact:.4e} mm, "
+        f"ratio {estimate / exact:.3f}"
+    )
     assert 1 / 1.6 < estimate / exact < 1.6
 
 
@@ -136,14 +156,20 @@ def test_tolerance_buys_accuracy_with_inertia(tmp_path, scheme, parameter):
     for tol in (1e-4, 1e-6):
         out = tmp_path / f"tol{tol}"
         text = FREE_STRIP.format(scheme=scheme, parameter=parameter, dt=1e-4)
-        sim = run_scene(write_scene(tmp_path, text, name=f"tol{tol}.toml"),
-                        f"time.tolerance={tol}", "time.output_every=100", out_dir=out)
+        sim = run_scene(
+            write_scene(tmp_path, text, name=f"tol{tol}.toml"),
+            f"time.tolerance={tol}",
+            "time.output_every=100",
+            out_dir=out,
+        )
         rows = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)
         exact = G * rows[:, 0] ** 3 / (6 * T_PUSH)
         errors[tol] = np.abs(rows[:, 3] - exact).max()
         c = sim.summary["counts"]
-        print(f"{scheme} {parameter}, tolerance {tol}: error {errors[tol]:.3e} mm of "
-              f"{exact[-1]:.3e}, {c['steps']} steps, {c['rejected_steps']} rejected")
+        print(
+            f"{scheme} {parameter}, tolerance {tol}: error {errors[tol]:.3e} mm of "
+            f"{exact[-1]:.3e}, {c['steps']} steps, {c['rejected_steps']} rejected"
+        )
         assert rows[:, 0] == pytest.approx(np.arange(11) * 0.01, abs=1e-12)
     gain = errors[1e-4] / errors[1e-6]
     print(f"100 times tighter: {gain:.1f} times less error")
@@ -154,8 +180,14 @@ def test_rejected_steps_are_counted_apart(tmp_path):
     """A first step of 0.05, 25 times what the tolerance allows there: the control
     rejects the steps it would grow from it (counted as rejections, not cuts), and
     the accepted steps (steps.csv) are the summary's count."""
-    sim, out, error = run_plate(tmp_path, "big", 'time.scheme="bdf2"', "time.dt=0.05",
-                                "time.tolerance=1e-5", "time.output_every=1")
+    sim, out, error = run_plate(
+        tmp_path,
+        "big",
+        'time.scheme="bdf2"',
+        "time.dt=0.05",
+        "time.tolerance=1e-5",
+        "time.output_every=1",
+    )
     c = sim.summary["counts"]
     print(f"counts {c}, error {error:.2e}")
     assert c["rejected_steps"] > 0 and c["dt_cuts"] == 0
@@ -165,17 +197,23 @@ def test_rejected_steps_are_counted_apart(tmp_path):
 
 def test_step_below_dt_min_fails_naming_it(tmp_path):
     with pytest.raises(RunFailed, match="time.dt_min"):
-        run_plate(tmp_path, "floor", 'time.scheme="bdf2"', "time.dt=0.01",
-                  "time.tolerance=1e-9", "time.dt_min=0.005")
+        run_plate(
+            tmp_path,
+            "floor",
+            'time.scheme="bdf2"',
+            "time.dt=0.01",
+            "time.tolerance=1e-9",
+            "time.dt_min=0.005",
+        )
 
 
 def test_fixed_steps_unchanged_without_tolerance(tmp_path):
     """No tolerance: the fixed-step loop (the rows at every nominal step)."""
-    sim, out, _ = run_plate(tmp_path, "fixed", 'time.scheme="bdf2"', "time.dt=0.01",
-                            "time.output_every=1")
+    sim, out, _ = run_plate(
+        tmp_path, "fixed", 'time.scheme="bdf2"', "time.dt=0.01", "time.output_every=1"
+    )
     assert sim.summary["counts"]["steps"] == 50 and sim.summary["counts"]["rejected_steps"] == 0
-    assert math.isclose(np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)[:, 1].min(),
-                        0.01)
+    assert math.isclose(np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1)[:, 1].min(), 0.01)
 
 
 @pytest.mark.slow
@@ -188,9 +226,14 @@ def test_strip_tolerance_reaches_the_fine_step_speed(tmp_path, cli_run):
     scene = ROOT / "demos" / "bidirectional_strip.toml"
     common = ["time.end=2.2", "output.fields=false"]
     fine = cli_run(scene, tmp_path / "fine", [*common, "time.dt=0.00125", "time.output_every=1"])
-    adaptive = cli_run(scene, tmp_path / "tol", [*common, f"time.tolerance={STRIP_TOL}",
-                                                 "time.dt=0.0025", "time.output_every=8"])
-    speed = {name: evaluate("rate(centroid_z, 0.2, 2.2)", out)
-             for name, out in (("fine", fine), ("tol", adaptive))}
+    adaptive = cli_run(
+        scene,
+        tmp_path / "tol",
+        [*common, f"time.tolerance={STRIP_TOL}", "time.dt=0.0025", "time.output_every=8"],
+    )
+    speed = {
+        name: evaluate("rate(centroid_z, 0.2, 2.2)", out)
+        for name, out in (("fine", fine), ("tol", adaptive))
+    }
     print(speed, f"{100 * (speed['tol'] / speed['fine'] - 1):+.2f} %")
     assert abs(speed["tol"] / speed["fine"] - 1) < 0.02

@@ -13,15 +13,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, run_scene
 
 ROLLUP = ("mesh.divisions=[8,1]", "time.dt=0.1")
 
 
 def _rollup(policy: str, *extra, petsc_args=()):
-    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, f'solver.factorization="{policy}"',
-                    *extra, petsc_args=list(petsc_args))
+    sim = run_scene(
+        DEMOS / "rollup.toml",
+        *ROLLUP,
+        f'solver.factorization="{policy}"',
+        *extra,
+        petsc_args=list(petsc_args),
+    )
     tips = np.array([row[1][0] for row in sim.history])
     return sim, tips
 
@@ -36,8 +40,11 @@ def test_every_policy_reaches_the_same_rollup(direct):
     changes between Newton iterates (static load steps of a turning strip), so "reused"
     ends up factorising nearly every tangent; it must get there without a cut step."""
     sim_d, tips_d = direct
-    assert sim_d.summary["factorization"] == {"policy": "every-iteration", "lu": "petsc",
-                                              "made": sim_d.solver.calls["jacobian"]}
+    assert sim_d.summary["factorization"] == {
+        "policy": "every-iteration",
+        "lu": "petsc",
+        "made": sim_d.solver.calls["jacobian"],
+    }
     for policy in ("every-step", "reused"):
         sim, tips = _rollup(policy)
         assert np.abs(tips - tips_d).max() < 1e-7 * 12.0, policy
@@ -52,9 +59,14 @@ def test_reused_factors_serve_a_whole_sheet_run():
     probes equal a run of direct solves to 1e-9 of their size."""
     runs = {}
     for policy in ("every-iteration", "reused"):
-        sim = run_scene(DEMOS / "swimming_sheet.toml", "mesh.divisions=[10,2]",
-                        'time.until="end"', "time.end=0.0471238898038469",
-                        "output.fields=false", f'solver.factorization="{policy}"')
+        sim = run_scene(
+            DEMOS / "swimming_sheet.toml",
+            "mesh.divisions=[10,2]",
+            'time.until="end"',
+            "time.end=0.0471238898038469",
+            "output.fields=false",
+            f'solver.factorization="{policy}"',
+        )
         runs[policy] = (sim, np.array([row[1] for row in sim.history]))
     (sim_d, rows_d), (sim_r, rows_r) = runs["every-iteration"], runs["reused"]
     assert sim_r.counts["steps"] == sim_d.counts["steps"] == 24
@@ -82,8 +94,9 @@ def test_auto_keeps_the_factors_only_on_large_meshes():
     assert factorization({}, [], REUSE_ABOVE) == "every-iteration"
     assert factorization({}, [], REUSE_ABOVE + 1) == "reused"
     assert factorization({"factorization": "every-step"}, [], 10**6) == "every-step"
-    assert factorization({"factorization": "every-step"}, ["-factorization", "reused"],
-                         10) == "reused"
+    assert (
+        factorization({"factorization": "every-step"}, ["-factorization", "reused"], 10) == "reused"
+    )
 
 
 @pytest.mark.parametrize("where", ["scene", "command line"])
@@ -114,14 +127,16 @@ def test_small_serial_runs_use_petscs_lu_and_fall_back_on_mumps(direct):
     assert sim_d.summary["factorization"]["lu"] == "petsc"
     if not compat.has_mumps():
         pytest.skip("this PETSc has no MUMPS to fall back on")
-    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, "solver.pc_factor_zeropivot=1e300",
-                    'solver.mat_type="aij"')
+    sim = run_scene(
+        DEMOS / "rollup.toml", *ROLLUP, "solver.pc_factor_zeropivot=1e300", 'solver.mat_type="aij"'
+    )
     tips = np.array([row[1][0] for row in sim.history])
     assert sim.summary["status"] == "ok" and sim.counts["dt_cuts"] == 0
     assert sim.summary["factorization"]["lu"] == "mumps"
     assert np.abs(tips - tips_d).max() < 1e-7 * 12.0
-    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, 'solver.pc_factor_mat_solver_type="mumps"',
-                    "time.end=0.2")
+    sim = run_scene(
+        DEMOS / "rollup.toml", *ROLLUP, 'solver.pc_factor_mat_solver_type="mumps"', "time.end=0.2"
+    )
     assert sim.summary["factorization"]["lu"] == "mumps"
 
 
@@ -140,8 +155,9 @@ def test_the_tangent_is_a_block_matrix_unless_asked(direct):
     run_scene(DEMOS / "rollup.toml", *ROLLUP, "time.end=0.2", observers=[matrix_of(seen)])
     assert seen == {("seqbaij", 5)}
     seen = set()
-    sim = run_scene(DEMOS / "rollup.toml", *ROLLUP, 'solver.mat_type="aij"',
-                    observers=[matrix_of(seen)])
+    sim = run_scene(
+        DEMOS / "rollup.toml", *ROLLUP, 'solver.mat_type="aij"', observers=[matrix_of(seen)]
+    )
     tips = np.array([row[1][0] for row in sim.history])
     assert seen == {("seqaij", 5)}
     assert np.abs(tips - tips_d).max() < 1e-7 * 12.0

@@ -18,37 +18,68 @@ from test_sensitivity import MAGNET, STRIP
 
 #: the magnetized strip with a second part, magnetized along Y, on the other half
 #: (the region "root"); ``{other}`` its magnetization
-TWO_PARTS = MAGNET.replace('''[[mesh.regions]]
-name = "magnet"''', '''[[mesh.regions]]
+TWO_PARTS = MAGNET.replace(
+    '''[[mesh.regions]]
+name = "magnet"''',
+    '''[[mesh.regions]]
 name = "root"
 x = [0.0, 5.0]
 [[mesh.regions]]
-name = "magnet"''').replace('''[magnetic.field]''', '''[[magnetic.parts]]
+name = "magnet"''',
+).replace(
+    """[magnetic.field]""",
+    """[[magnetic.parts]]
 region = "root"
 magnetization = {other}
 direction = [0.0, 1.0, 0.0]
-[magnetic.field]''')
+[magnetic.field]""",
+)
 
 #: the bent and twisted strip, orthotropic (no part)
-ORTHOTROPIC = STRIP.replace("nu = 0.3", 'material = "orthotropic"\nE1 = 2.4e6\nE2 = 0.6e6\n'
-                            "G12 = 0.4e6\nnu12 = 0.3").replace("E = 1.2e6\n", "").replace(
-    '[[shell.parts]]\nregion = "root"\nE = 2.0e6\n', "")
+ORTHOTROPIC = (
+    STRIP.replace(
+        "nu = 0.3", 'material = "orthotropic"\nE1 = 2.4e6\nE2 = 0.6e6\nG12 = 0.4e6\nnu12 = 0.3'
+    )
+    .replace("E = 1.2e6\n", "")
+    .replace('[[shell.parts]]\nregion = "root"\nE = 2.0e6\n', "")
+)
 
 KEY = "magnetic.parts.0.magnetization"
 
 
-@pytest.mark.parametrize("text, key, message", [
-    (MAGNET.replace("magnetization = 100.0", 'magnetization = "100 + 10*X"'), KEY,
-     "the part is magnetized by a formula"),
-    (MAGNET.replace("direction = [1.0, 0.0, 0.0]", 'direction = ["1", "0", "0.1*X"]'), KEY,
-     "the part is magnetized by a formula"),
-    (TWO_PARTS.format(other='"50 + 5*X"'), KEY,
-     "another part is magnetized by a formula or profile"),
-    (TWO_PARTS.format(other="50.0"), "magnetic.parts.2.magnetization",
-     "the scene has 2 [[magnetic.parts]]"),
-    (ORTHOTROPIC, "shell.E", "the shell is orthotropic"),
-], ids=["magnetization-formula", "direction-formula", "other-part-formula",
-        "part-out-of-range", "orthotropic-E"])
+@pytest.mark.parametrize(
+    "text, key, message",
+    [
+        (
+            MAGNET.replace("magnetization = 100.0", 'magnetization = "100 + 10*X"'),
+            KEY,
+            "the part is magnetized by a formula",
+        ),
+        (
+            MAGNET.replace("direction = [1.0, 0.0, 0.0]", 'direction = ["1", "0", "0.1*X"]'),
+            KEY,
+            "the part is magnetized by a formula",
+        ),
+        (
+            TWO_PARTS.format(other='"50 + 5*X"'),
+            KEY,
+            "another part is magnetized by a formula or profile",
+        ),
+        (
+            TWO_PARTS.format(other="50.0"),
+            "magnetic.parts.2.magnetization",
+            "the scene has 2 [[magnetic.parts]]",
+        ),
+        (ORTHOTROPIC, "shell.E", "the shell is orthotropic"),
+    ],
+    ids=[
+        "magnetization-formula",
+        "direction-formula",
+        "other-part-formula",
+        "part-out-of-range",
+        "orthotropic-E",
+    ],
+)
 def test_refused_by_the_api(tmp_path, text, key, message):
     """rftfem.gradient refuses, before any run, with a one-line SceneError naming the
     key (also the folder's run.log): a part magnetized by a formula (its value or its
@@ -67,16 +98,19 @@ def test_refused_by_the_api(tmp_path, text, key, message):
     said = str(info.value)
     print(said)
     assert "\n" not in said and said.startswith(f"field gradient '{key}': ") and message in said
-    assert (tmp_path / "out" / "run.log").read_text(encoding="utf-8") == \
-        f"rftfem: error: {said}\n"
+    assert (tmp_path / "out" / "run.log").read_text(encoding="utf-8") == f"rftfem: error: {said}\n"
     assert not (tmp_path / "out" / "probes.csv").exists()
 
 
-@pytest.mark.parametrize("text, field, message", [
-    (ORTHOTROPIC, "shell.E=1e5:1e7", "(E and nu of an isotropic shell)"),
-    (ORTHOTROPIC, "shell.nu=0.1:0.4", "(E and nu of an isotropic shell)"),
-    (MAGNET, f"{KEY}=50:150", "expected one of shell.thickness"),
-], ids=["orthotropic-E", "orthotropic-nu", "magnetization"])
+@pytest.mark.parametrize(
+    "text, field, message",
+    [
+        (ORTHOTROPIC, "shell.E=1e5:1e7", "(E and nu of an isotropic shell)"),
+        (ORTHOTROPIC, "shell.nu=0.1:0.4", "(E and nu of an isotropic shell)"),
+        (MAGNET, f"{KEY}=50:150", "expected one of shell.thickness"),
+    ],
+    ids=["orthotropic-E", "orthotropic-nu", "magnetization"],
+)
 def test_refused_by_the_command_line(tmp_path, text, field, message):
     """``rftfem optimize --vary-field`` refuses the modulus and Poisson's ratio of an
     orthotropic shell, and a magnetization (the command varies the shell's fields):
@@ -85,9 +119,25 @@ def test_refused_by_the_command_line(tmp_path, text, field, message):
     check_field_keys refused its first evaluation (exit 2, its own message)."""
     scene = write_scene(tmp_path, text)
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "rftfem", "optimize", str(scene),
-                           "--vary-field", field, "--objective", "tip_uz@end", "--out",
-                           str(out)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "optimize",
+            str(scene),
+            "--vary-field",
+            field,
+            "--objective",
+            "tip_uz@end",
+            "--out",
+            str(out),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     lines = done.stderr.strip().splitlines()
     print(lines)
     assert done.returncode == 2, done.stderr[-2000:]
@@ -112,8 +162,10 @@ def test_two_parts_of_numbers_are_taken(tmp_path):
     cells = table[f"d/d{KEY}"].to_numpy()
     own = table["x"].to_numpy() > 5.0
     total = cells.sum()
-    print(f"cells: {cells}; sum {total:.12e}, scalar key {got.keys[KEY]:.12e}, "
-          f"{abs(total / got.keys[KEY] - 1):.2e}")
+    print(
+        f"cells: {cells}; sum {total:.12e}, scalar key {got.keys[KEY]:.12e}, "
+        f"{abs(total / got.keys[KEY] - 1):.2e}"
+    )
     assert own.sum() == 4 and (~own).sum() == 4
     assert np.all(cells[~own] == 0.0) and np.all(cells[own] != 0.0)
     assert abs(total / got.keys[KEY] - 1) < 5e-15

@@ -27,18 +27,20 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import write_scene
 from material_references import tapered_deflection_gradient
 from test_sensitivity import MAGNET, STRIP, TIGHT
 
 ONE_STEP = ["time.dt=1.0"]
 
-SAGGING = STRIP.replace("[[load]]", """[[load]]
+SAGGING = STRIP.replace(
+    "[[load]]",
+    """[[load]]
 kind = "gravity"
 value = [0.0, 0.0, -9.81]
 ramp = "constant"
-[[load]]""").replace("nu = 0.3", "nu = 0.3\ndensity = 0.01")
+[[load]]""",
+).replace("nu = 0.3", "nu = 0.3\ndensity = 0.01")
 # the weight alone would sag the tip by about 1.2; the end force adds its bend and twist
 
 TAPERED = """
@@ -109,13 +111,17 @@ def _direction(f, key, rng):
     return f.x.array * rng.uniform(-1.0, 1.0, size=len(f.x.array))
 
 
-@pytest.mark.parametrize("text, key, objective", [
-    (STRIP, "shell.thickness", "tip_uz@end"),
-    (STRIP, "shell.E", "tip_uz@end"),
-    (STRIP, "shell.nu", "tip_uy@end"),
-    (SAGGING, "shell.density", "tip_uz@end"),
-    (MAGNET, "magnetic.parts.0.magnetization", "tip_ux@end"),
-], ids=["thickness", "E", "nu", "density", "magnetization"])
+@pytest.mark.parametrize(
+    "text, key, objective",
+    [
+        (STRIP, "shell.thickness", "tip_uz@end"),
+        (STRIP, "shell.E", "tip_uz@end"),
+        (STRIP, "shell.nu", "tip_uy@end"),
+        (SAGGING, "shell.density", "tip_uz@end"),
+        (MAGNET, "magnetic.parts.0.magnetization", "tip_ux@end"),
+    ],
+    ids=["thickness", "E", "nu", "density", "magnetization"],
+)
 def test_taylor_per_field(tmp_path, text, key, objective):
     """Order 2 along a random direction of the whole field (measured 1.986–2.001)."""
     scene = write_scene(tmp_path, text)
@@ -162,12 +168,14 @@ def test_random_cells_against_central_differences(tmp_path):
     n_cells = len(g.cells.x.array)
     cells = np.random.default_rng(11).choice(n_cells, size=5, replace=False)
     for c in cells:
+
         def moved(sign, c=c):
             def change(model):
                 f = model.material["t"]
                 dofs = compat.cell_dofs(f.function_space)[c]
                 f.x.array[dofs] += sign * 1e-4 * f.x.array[dofs].mean()
                 box[sign] = 1e-4 * f.x.array[dofs].mean() / (1 + sign * 1e-4)
+
             return change
 
         box = {}
@@ -176,8 +184,9 @@ def test_random_cells_against_central_differences(tmp_path):
         fd = (up - down) / (2 * box[+1])
         cell_dof = compat.cell_dofs(g.cells.function_space)[c, 0]
         got = g.cells.x.array[cell_dof]
-        print(f"cell {c}: adjoint {got:.10e}, central difference {fd:.10e}, "
-              f"{abs(got / fd - 1):.2e}")
+        print(
+            f"cell {c}: adjoint {got:.10e}, central difference {fd:.10e}, {abs(got / fd - 1):.2e}"
+        )
         assert abs(got / fd - 1) < 1e-6
 
 
@@ -192,11 +201,14 @@ def test_tapered_cantilever_closed_form(tmp_path):
     L, n = 10.0, 20
     column = np.minimum((x / (L / n)).astype(int), n - 1)
     ours = np.bincount(column, weights=g.cells.x.array[: len(x)], minlength=n)
-    exact = tapered_deflection_gradient(1e-5, L, 1.0, 1.2e6, lambda X: 0.15 - 0.01 * X,
-                                        np.linspace(0.0, L, n + 1))
+    exact = tapered_deflection_gradient(
+        1e-5, L, 1.0, 1.2e6, lambda X: 0.15 - 0.01 * X, np.linspace(0.0, L, n + 1)
+    )
     error = np.abs(ours / exact - 1)
-    print(f"per column: largest error {error.max():.2e} (column {error.argmax()}), "
-          f"root {error[0]:.2e}")
+    print(
+        f"per column: largest error {error.max():.2e} (column {error.argmax()}), "
+        f"root {error[0]:.2e}"
+    )
     assert error.max() < 1e-2
 
 
@@ -218,18 +230,19 @@ def test_profile_gradient_carries_the_cells(tmp_path):
 
     def write(name, values):
         (tmp_path / name).write_text(
-            "X,Y,Z,t\n" + "".join(f"{float(x)!r},0,0,{float(v)!r}\n"
-                                   for x, v in zip(X, values)),
-            encoding="utf-8")
+            "X,Y,Z,t\n" + "".join(f"{float(x)!r},0,0,{float(v)!r}\n" for x, v in zip(X, values)),
+            encoding="utf-8",
+        )
 
     t = 0.15 - 0.01 * X
     write("t.csv", t)
     _, (formula,) = _solve(scene, [], "tip_uz@end", ["shell.thickness"])
-    _, (profile,) = _solve(scene, ['shell.thickness="t.csv"'], "tip_uz@end",
-                           ["shell.thickness"])
+    _, (profile,) = _solve(scene, ['shell.thickness="t.csv"'], "tip_uz@end", ["shell.thickness"])
     a, b = formula.cells.x.array, profile.cells.x.array
-    print(f"cells' gradients, formula against profile: {np.abs(a / b - 1).max():.2e}; "
-          f"scaled by the largest {np.abs(a - b).max() / np.abs(b).max():.2e}")
+    print(
+        f"cells' gradients, formula against profile: {np.abs(a / b - 1).max():.2e}; "
+        f"scaled by the largest {np.abs(a - b).max() / np.abs(b).max():.2e}"
+    )
     assert np.allclose(a, b, rtol=2e-9, atol=0), np.abs(a / b - 1).max()
     points, values = profile.profile
     assert points.shape == (11, 3)
@@ -244,8 +257,10 @@ def test_profile_gradient_carries_the_cells(tmp_path):
             write(f"t{k}{sign}.csv", moved)
             J.append(_solve(scene, [f'shell.thickness="t{k}{sign}.csv"'], "tip_uz@end")[0])
         fd = (J[0] - J[1]) / (2 * h)
-        print(f"grid point X = {X[k]}: adjoint {values[k]:.10e}, central difference "
-              f"{fd:.10e}, {abs(values[k] / fd - 1):.2e}")
+        print(
+            f"grid point X = {X[k]}: adjoint {values[k]:.10e}, central difference "
+            f"{fd:.10e}, {abs(values[k] / fd - 1):.2e}"
+        )
         assert abs(values[k] / fd - 1) < 1e-6
 
 
@@ -270,15 +285,19 @@ def test_outputs_of_a_field_gradient(tmp_path):
     import sys
 
     from conftest import ROOT
+
     from rftfem.studies.gradient_runs import run_with_field_gradients
 
     scene = write_scene(tmp_path, TAPERED)
     X = np.linspace(0, 10, 11)
-    (tmp_path / "t.csv").write_text("X,Y,Z,t\n" + "".join(
-        f"{float(x)!r},0,0,{0.15 - 0.01 * float(x)!r}\n" for x in X), encoding="utf-8")
+    (tmp_path / "t.csv").write_text(
+        "X,Y,Z,t\n" + "".join(f"{float(x)!r},0,0,{0.15 - 0.01 * float(x)!r}\n" for x in X),
+        encoding="utf-8",
+    )
     out = tmp_path / "run"
-    status, J, fields = run_with_field_gradients(scene, ['shell.thickness="t.csv"'], out,
-                                                 ["shell.thickness"], "tip_uz@end")
+    status, J, fields = run_with_field_gradients(
+        scene, ['shell.thickness="t.csv"'], out, ["shell.thickness"], "tip_uz@end"
+    )
     assert status == 0
     g = fields["shell.thickness"]
     data = json.loads((out / "gradient.json").read_text())
@@ -288,8 +307,13 @@ def test_outputs_of_a_field_gradient(tmp_path):
     rows = np.loadtxt(out / entry["profile"], delimiter=",", skiprows=1)
     np.testing.assert_allclose(rows[:, 0], X)
     np.testing.assert_allclose(rows[:, 3], g.profile[1], rtol=1e-15)
-    done = subprocess.run([sys.executable, "-c", _READ_CELLS, str(out / entry["cells"])],
-                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", _READ_CELLS, str(out / entry["cells"])],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     back = json.loads(done.stdout.strip().splitlines()[-1])
     assert back["dtype"] == "float64"
@@ -309,21 +333,30 @@ def test_magnetization_profile_against_central_differences(tmp_path):
     1e-6, let pass."""
     from rftfem.studies.gradient_runs import run_with_field_gradients
 
-    text = MAGNET.replace('''magnetization = 100.0
-direction = [1.0, 0.0, 0.0]''', 'profile = "m.csv"')
+    text = MAGNET.replace(
+        """magnetization = 100.0
+direction = [1.0, 0.0, 0.0]""",
+        'profile = "m.csv"',
+    )
     scene = write_scene(tmp_path, text)
     X = np.linspace(5.0, 10.0, 6)
     M = np.column_stack([100.0 + 10.0 * (X - 5.0), np.zeros(6), 20.0 * np.sin(X)])
 
     def write(name, values):
-        (tmp_path / name).write_text("X,Y,Z,mx,my,mz\n" + "".join(
-            f"{float(x)!r},0,0,{float(a)!r},{float(b)!r},{float(c)!r}\n"
-            for x, (a, b, c) in zip(X, values)), encoding="utf-8")
+        (tmp_path / name).write_text(
+            "X,Y,Z,mx,my,mz\n"
+            + "".join(
+                f"{float(x)!r},0,0,{float(a)!r},{float(b)!r},{float(c)!r}\n"
+                for x, (a, b, c) in zip(X, values)
+            ),
+            encoding="utf-8",
+        )
 
     write("m.csv", M)
     key = "magnetic.parts.0.magnetization"
-    status, J, fields = run_with_field_gradients(scene, ONE_STEP, tmp_path / "base", [key],
-                                                 "tip_ux@end", TIGHT)
+    status, J, fields = run_with_field_gradients(
+        scene, ONE_STEP, tmp_path / "base", [key], "tip_ux@end", TIGHT
+    )
     assert status == 0, (tmp_path / "base" / "run.log").read_text()
     points, grad = fields[key].profile
     rows = np.loadtxt(tmp_path / "base" / f"gradient-{key}.csv", delimiter=",", skiprows=1)
@@ -336,13 +369,16 @@ direction = [1.0, 0.0, 0.0]''', 'profile = "m.csv"')
             moved[k, c] += sign * h
             write(f"m{sign}.csv", moved)
             over = [*ONE_STEP, f'magnetic.parts.0.profile="m{sign}.csv"']
-            status, Jh, _ = run_with_field_gradients(scene, over, tmp_path / f"r{k}{sign}",
-                                                     [key], "tip_ux@end", TIGHT)
+            status, Jh, _ = run_with_field_gradients(
+                scene, over, tmp_path / f"r{k}{sign}", [key], "tip_ux@end", TIGHT
+            )
             assert status == 0
             Js.append(Jh)
         fd = (Js[0] - Js[1]) / (2 * h)
-        print(f"grid point {k}, component {c}: adjoint {grad[k, c]:.10e}, central "
-              f"difference {fd:.10e}, {abs(grad[k, c] / fd - 1):.2e}")
+        print(
+            f"grid point {k}, component {c}: adjoint {grad[k, c]:.10e}, central "
+            f"difference {fd:.10e}, {abs(grad[k, c] / fd - 1):.2e}"
+        )
         assert abs(grad[k, c] / fd - 1) < 2e-9
 
 
@@ -358,12 +394,14 @@ def test_public_gradient_takes_a_scene_and_raises(tmp_path):
     scene_file = write_scene(tmp_path, TAPERED)
     _, (cells,) = _solve(scene_file, [], "tip_uz@end", ["shell.thickness"])
     scene = rftfem.scene_from_toml(TAPERED, folder=tmp_path)
-    got = rftfem.gradient(scene, "tip_uz@end", keys=["shell.E"], fields=["shell.thickness"],
-                          out=tmp_path / "api")
+    got = rftfem.gradient(
+        scene, "tip_uz@end", keys=["shell.E"], fields=["shell.thickness"], out=tmp_path / "api"
+    )
     table = got.fields["shell.thickness"]
     assert list(table.columns) == ["x", "y", "z", "d/dshell.thickness"]
-    np.testing.assert_allclose(table["d/dshell.thickness"].to_numpy(), cells.cells.x.array,
-                               rtol=2e-9, atol=0)
+    np.testing.assert_allclose(
+        table["d/dshell.thickness"].to_numpy(), cells.cells.x.array, rtol=2e-9, atol=0
+    )
     # J ∝ 1/E: E dJ/dE = −J
     assert got.keys["shell.E"] * 1.2e6 == pytest.approx(-got.value, rel=1e-6)
     assert not list(tmp_path.glob(".rftfem-gradient-*"))
@@ -373,5 +411,4 @@ def test_public_gradient_takes_a_scene_and_raises(tmp_path):
     from rftfem.studies.gradient_runs import run_with_field_gradients
 
     with pytest.raises(rftfem.SceneError, match="for a rftfem.Scene use rftfem.gradient"):
-        run_with_field_gradients(scene, [], tmp_path / "old", ["shell.thickness"],
-                                 "tip_uz@end")
+        run_with_field_gradients(scene, [], tmp_path / "old", ["shell.thickness"], "tip_uz@end")

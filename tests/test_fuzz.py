@@ -37,14 +37,13 @@ import signal
 import tomllib
 from pathlib import Path
 
-import pytest
-
 # installed by scripts/setup.sh on both stacks: missing, the test fails (no silent skip)
 import hypothesis
+import pytest
+from conftest import DEMOS
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from conftest import DEMOS
 from rftfem import cli
 from rftfem.scene import toml_writer
 
@@ -60,8 +59,10 @@ EXAMPLE_LIMIT = {"default": 900.0, "slow": 1800.0}
 @pytest.fixture(scope="module", autouse=True)
 def print_seed(request):
     """The seed of this run, printed past pytest's capture (on every run)."""
-    line = (f"\ntest_fuzz: hypothesis seed {FUZZ_SEED}; RFTFEM_FUZZ_SEED={FUZZ_SEED} "
-            "draws these scenes again")
+    line = (
+        f"\ntest_fuzz: hypothesis seed {FUZZ_SEED}; RFTFEM_FUZZ_SEED={FUZZ_SEED} "
+        "draws these scenes again"
+    )
     capture = request.config.pluginmanager.getplugin("capturemanager")
     if capture is not None:
         with capture.global_and_fixture_disabled():
@@ -69,12 +70,43 @@ def print_seed(request):
     else:
         print(line)
 
-BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8"))
-         for p in sorted(DEMOS.glob("*.toml"))}
-TOP_KEYS = ("title", "mesh", "shell", "time", "fluid", "magnetic", "load", "boundary", "motion",
-            "hinge", "contact", "output", "solver", "parameters", "--set", "scene file")
-EDGE_NUMBERS = [0, -1, 0.0, -0.0, 1e308, -1e308, 1e-308, math.nan, math.inf, -math.inf, 2**70,
-                -(2**70), 1, 3, 1e-12]
+
+BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8")) for p in sorted(DEMOS.glob("*.toml"))}
+TOP_KEYS = (
+    "title",
+    "mesh",
+    "shell",
+    "time",
+    "fluid",
+    "magnetic",
+    "load",
+    "boundary",
+    "motion",
+    "hinge",
+    "contact",
+    "output",
+    "solver",
+    "parameters",
+    "--set",
+    "scene file",
+)
+EDGE_NUMBERS = [
+    0,
+    -1,
+    0.0,
+    -0.0,
+    1e308,
+    -1e308,
+    1e-308,
+    math.nan,
+    math.inf,
+    -math.inf,
+    2**70,
+    -(2**70),
+    1,
+    3,
+    1e-12,
+]
 
 scalars = st.one_of(
     st.booleans(),
@@ -93,11 +125,13 @@ values = st.one_of(
 
 # --- a scene back to TOML ------------------------------------------------------
 
+
 def to_toml(table: dict) -> str:
     return toml_writer.document(table)
 
 
 # --- mutations -----------------------------------------------------------------
+
 
 def _paths(node, path=()):
     """Every (container, key) of a scene, tables and arrays included."""
@@ -125,12 +159,18 @@ def mutants(draw):
     sets = []
     for _ in range(draw(st.integers(1, 3))):
         places = list(_paths(scene))
-        kind = draw(st.sampled_from(["value", "value", "value", "delete", "unknown", "length",
-                                     "huge", "set"]))
+        kind = draw(
+            st.sampled_from(
+                ["value", "value", "value", "delete", "unknown", "length", "huge", "set"]
+            )
+        )
         if kind == "set" or not places:
             known = [".".join(map(str, p)) for *_, p in places] or ["title"]
-            path = draw(st.one_of(st.integers(0, len(known) - 1).map(known.__getitem__),
-                                  st.text(max_size=15)))
+            path = draw(
+                st.one_of(
+                    st.integers(0, len(known) - 1).map(known.__getitem__), st.text(max_size=15)
+                )
+            )
             suffix = draw(st.sampled_from(["", ".x", ".0", ".99", "..", "."]))
             text = draw(st.one_of(st.builds(toml_writer.value, values), st.text(max_size=10)))
             sets.append(f"{path}{suffix}={text}")
@@ -152,8 +192,11 @@ def mutants(draw):
         elif kind == "length":
             if isinstance(container[key], list):
                 n = draw(st.integers(0, 6))
-                container[key] = (container[key] * 3)[:n] if container[key] else \
-                    draw(st.lists(scalars, min_size=n, max_size=n))
+                container[key] = (
+                    (container[key] * 3)[:n]
+                    if container[key]
+                    else draw(st.lists(scalars, min_size=n, max_size=n))
+                )
             else:
                 container[key] = [container[key]] * draw(st.integers(0, 4))
         elif kind == "huge":
@@ -162,11 +205,11 @@ def mutants(draw):
                 container[key] = [0.5] * 5000
             elif what == "tables":
                 probe = {"name": "p", "at": [0.0, 0.0, 0.0]}
-                _table(scene, "output")["probes"] = [
-                    dict(probe, name=f"p{i}") for i in range(2000)]
+                _table(scene, "output")["probes"] = [dict(probe, name=f"p{i}") for i in range(2000)]
             elif what == "divisions":
-                _table(scene, "mesh")["divisions"] = draw(st.sampled_from(
-                    [[10**9, 4], [100000, 100000], [2**70, 1], [4000, 1]]))
+                _table(scene, "mesh")["divisions"] = draw(
+                    st.sampled_from([[10**9, 4], [100000, 100000], [2**70, 1], [4000, 1]])
+                )
             else:
                 container[key] = "é" * 100000
     return name, scene, sets
@@ -208,8 +251,15 @@ def _main(args: list[str], what: str, limit: float) -> tuple[int, str]:
     return status, err.getvalue()
 
 
-def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: bool,
-                 new_forms: bool = True, limit: float = EXAMPLE_LIMIT["default"]):
+def check_mutant(
+    tmp_path: Path,
+    name: str,
+    scene: dict,
+    sets: list[str],
+    run: bool,
+    new_forms: bool = True,
+    limit: float = EXAMPLE_LIMIT["default"],
+):
     hypothesis.note(f"RFTFEM_FUZZ_SEED={FUZZ_SEED}")
     path = tmp_path / f"{name}.toml"
     path.write_text(to_toml(scene), encoding="utf-8")
@@ -217,8 +267,10 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
     for extra in [*DEMOS.glob("*.msh"), *DEMOS.glob("*.csv")]:
         (tmp_path / extra.name).write_bytes(extra.read_bytes())
     args = [arg for s in sets for arg in ("--set", s)]
-    what = (f"a mutant of demos/{name}.toml, --set {sets}, written to {path} "
-            f"(RFTFEM_FUZZ_SEED={FUZZ_SEED} draws it again)")
+    what = (
+        f"a mutant of demos/{name}.toml, --set {sets}, written to {path} "
+        f"(RFTFEM_FUZZ_SEED={FUZZ_SEED} draws it again)"
+    )
     status, err = _main(["check", str(path), *args], what, limit)
     hypothesis.event(f"check: exit {status}")
     assert status in (0, 2), (status, err, sets)
@@ -234,9 +286,22 @@ def check_mutant(tmp_path: Path, name: str, scene: dict, sets: list[str], run: b
     if end is None:
         return
     out = tmp_path / "out"
-    status, err = _main(["run", str(path), "--out", str(out), "--quiet", *args,
-                         "--set", f"time.end={end!r}", "--set", "output.fields=false"],
-                        what, limit)
+    status, err = _main(
+        [
+            "run",
+            str(path),
+            "--out",
+            str(out),
+            "--quiet",
+            *args,
+            "--set",
+            f"time.end={end!r}",
+            "--set",
+            "output.fields=false",
+        ],
+        what,
+        limit,
+    )
     hypothesis.event(f"run: exit {status}")
     assert status in (0, 2, 3), (status, err, sets)
     if status in (2, 3):
@@ -252,16 +317,26 @@ def _form_key(scene: dict) -> tuple:
     shell = scene["shell"]
     # a number is a cellwise value; a formula or profile anywhere makes the key a DG2
     # field, and an orthotropic law other forms (rftfem/model/materials.py)
-    fields = tuple(any(isinstance(p.get(k), (str, dict)) for p in [shell, *shell["parts"]])
-                   for k in ("E", "nu", "thickness", "density", "E1", "E2", "G12", "nu12",
-                             "G13", "G23"))
+    fields = tuple(
+        any(isinstance(p.get(k), (str, dict)) for p in [shell, *shell["parts"]])
+        for k in ("E", "nu", "thickness", "density", "E1", "E2", "G12", "nu12", "G13", "G23")
+    )
     fibre = tuple(isinstance(v, str) for v in shell.get("fibre") or [])
     # RFT drag with C1 = C2 takes the form without a material axis (forms/drag.py)
     drag = (scene.get("fluid") or {}).get("drag")
     axis_free = isinstance(drag, list) and len(drag) == 3 and drag[0] == drag[1]
-    return (tuple(active_effects(scene)), axis_free, scene["mesh"].get("cell"), scene["time"]["scheme"],
-            (scene.get("solver") or {}).get("tangent"), scene["mesh"].get("kind"),
-            scene["mesh"].get("file"), shell["material"], fields, fibre)
+    return (
+        tuple(active_effects(scene)),
+        axis_free,
+        scene["mesh"].get("cell"),
+        scene["time"]["scheme"],
+        (scene.get("solver") or {}).get("tangent"),
+        scene["mesh"].get("kind"),
+        scene["mesh"].get("file"),
+        shell["material"],
+        fields,
+        fibre,
+    )
 
 
 def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float | None:
@@ -284,9 +359,16 @@ def _scene_end(path: Path, args: list[str], same_forms_as: str | None) -> float 
 
 # the draws come from FUZZ_SEED (hypothesis.seed below), not from the test's name
 # (derandomize) nor from a database of earlier failures
-PROFILE = dict(deadline=None, database=None, derandomize=False,
-               suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                      HealthCheck.too_slow, HealthCheck.data_too_large])
+PROFILE = dict(
+    deadline=None,
+    database=None,
+    derandomize=False,
+    suppress_health_check=[
+        HealthCheck.function_scoped_fixture,
+        HealthCheck.too_slow,
+        HealthCheck.data_too_large,
+    ],
+)
 
 
 @hypothesis.seed(FUZZ_SEED)
@@ -296,8 +378,9 @@ def test_fuzzed_scenes(tmp_path, mutant, run):
     """The CI profile: short runs only of mutants whose forms the demos' own tests
     compile, so that the test stays within a minute."""
     name, scene, sets = mutant
-    check_mutant(tmp_path, name, scene, sets, run == 0, new_forms=False,
-                 limit=EXAMPLE_LIMIT["default"])
+    check_mutant(
+        tmp_path, name, scene, sets, run == 0, new_forms=False, limit=EXAMPLE_LIMIT["default"]
+    )
 
 
 @pytest.mark.slow

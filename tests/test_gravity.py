@@ -6,8 +6,6 @@ drag settles at the terminal velocity ``(ρ − ρ_f) t g / C₃`` with buoyancy
 """
 
 import numpy as np
-import pytest
-
 from conftest import run_scene, write_scene
 
 RHO, T, G, END = 1.0e-9, 0.1, 9810.0, 0.1
@@ -41,7 +39,7 @@ def _fall_error(tmp_path, dt):
     # petsc_options.ATOL_FACTOR), 7e-15 of the bending force D W / L² that dwarfs it
     run_scene(write_scene(tmp_path, FREE_STRIP), f"time.dt={dt}", out_dir=out)
     body = _body(out)
-    exact = -G * body["time"]**3 / (6 * END)
+    exact = -G * body["time"] ** 3 / (6 * END)
     assert np.abs(body["centroid_x"] - 1.0).max() < 1e-8 * abs(exact[-1])  # straight down
     assert body["elastic_energy"].max() < 1e-12 * RHO * T * G * abs(exact[-1])  # flat
     return np.abs(body["centroid_z"] - exact).max() / abs(exact[-1])
@@ -56,8 +54,10 @@ def test_free_fall_in_vacuum(tmp_path):
     with snes_atol = 1e-18."""
     coarse, fine = _fall_error(tmp_path, 0.002), _fall_error(tmp_path, 0.001)
     order = np.log2(coarse / fine)
-    print(f"largest error of the fall {coarse:.2e} (50 steps), {fine:.2e} (100 steps): "
-          f"order {order:.2f}")
+    print(
+        f"largest error of the fall {coarse:.2e} (50 steps), {fine:.2e} (100 steps): "
+        f"order {order:.2f}"
+    )
     assert coarse < 3e-4 and order > 1.8
 
 
@@ -67,8 +67,14 @@ def test_terminal_velocity_in_drag_with_buoyancy(tmp_path):
     c3, rho_f = 1.0e-6, 0.4 * RHO
     scene = FREE_STRIP + f"[fluid]\ndrag = [1.0e-6, 1.0e-6, {c3}]\n"
     out = tmp_path / "out"
-    run_scene(write_scene(tmp_path, scene), "time.end=2.0e-3", "time.dt=2.0e-5",
-              "load.0.ramp=constant", f"load.0.fluid_density={rho_f}", out_dir=out)
+    run_scene(
+        write_scene(tmp_path, scene),
+        "time.end=2.0e-3",
+        "time.dt=2.0e-5",
+        "load.0.ramp=constant",
+        f"load.0.fluid_density={rho_f}",
+        out_dir=out,
+    )
     body = _body(out)
     v = np.diff(body["centroid_z"]) / np.diff(body["time"])
     terminal = -(RHO - rho_f) * T * G / c3
@@ -83,7 +89,9 @@ def test_weight_is_cellwise_net_of_buoyancy(tmp_path):
 
     from rftfem import compat
 
-    scene = FREE_STRIP + """
+    scene = (
+        FREE_STRIP
+        + """
 [[mesh.regions]]
 name = "heavy"
 x = [0.0, 0.5]
@@ -92,8 +100,8 @@ region = "heavy"
 density = 3.0e-9
 thickness = 0.2
 """
-    model = build_model(scene, tmp_path, ["load.0.ramp=constant",
-                                          "load.0.fluid_density=0.5e-9"])
+    )
+    model = build_model(scene, tmp_path, ["load.0.ramp=constant", "load.0.fluid_density=0.5e-9"])
     model.set_time(0.0)
     form = model.mapped(model.effects["gravity"])
     b = compat.create_vector(form, model.W)
@@ -115,12 +123,14 @@ def test_weight_on_at_the_start_falls_freely_from_rest(tmp_path):
     its own, Haswell, SkylakeX kernels and one thread; 1.5e-12 with Sandybridge's) and
     2.9e-12 (current, every kernel type: the forms are compiled for the CPU, which no
     BLAS setting reaches; 1.1e-12 on the reference stack with the forms compiled by
-    -O2 alone, the test-kernels variant forms-O2).  The bound is 10 times the largest; a start that missed
+    -O2 alone, the test-kernels variant forms-O2).  The bound is 10 times the largest; a start
+    that missed
     the consistent acceleration is off by O(dt), 1e-2.
     Before the start of a run was defined this failed: no static equilibrium."""
     out = tmp_path / "out"
-    run_scene(write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant", "time.dt=0.02",
-              out_dir=out)
+    run_scene(
+        write_scene(tmp_path, FREE_STRIP), "load.0.ramp=constant", "time.dt=0.02", out_dir=out
+    )
     body = _body(out)
     exact = -G * body["time"] ** 2 / 2
     err = np.abs(body["centroid_z"] - exact).max() / abs(exact[-1])

@@ -34,8 +34,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, fields_at, run_command, write_scene
+
 from rftfem.outputs.quantities import evaluate, read_csv
 
 pytestmark = pytest.mark.hard
@@ -53,11 +53,16 @@ def cost_table(request):
     yield
     if not ROWS:
         return
-    lines = ["", "| case | shows | steps | Newton its | mean | dt cuts | wall (s) |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "",
+        "| case | shows | steps | Newton its | mean | dt cuts | wall (s) |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for r in ROWS:
-        lines.append(f"| {r['case']} | {r['shows']} | {r['steps']} | {r['newton']} | "
-                     f"{r['mean_newton']} | {r['cuts']} | {r['wall_s']} |")
+        lines.append(
+            f"| {r['case']} | {r['shows']} | {r['steps']} | {r['newton']} | "
+            f"{r['mean_newton']} | {r['cuts']} | {r['wall_s']} |"
+        )
     total = sum(float(r["wall_s"]) for r in ROWS)
     lines.append(f"\n{len(ROWS)} runs, {total:.1f} s of wall time in rftfem processes")
     capture = request.config.pluginmanager.getplugin("capturemanager")
@@ -105,15 +110,20 @@ class Run:
 
     def at(self, name: str, t: float) -> float:
         """A column's value at an output time (rows are written at the nominal steps)."""
-        times, values = self.column(name, "body.csv" if name.startswith("centroid") else
-                                    "probes.csv")
+        times, values = self.column(
+            name, "body.csv" if name.startswith("centroid") else "probes.csv"
+        )
         i = int(np.argmin(np.abs(times - t)))
         assert abs(times[i] - t) < 1e-9 * max(1.0, abs(t)), f"no output row at t = {t}"
         return float(values[i])
 
     def assert_ok(self):
-        assert self.returncode == 0 and self.status == "ok", \
-            (self.returncode, self.status, self.reason, self.stderr[-2000:])
+        assert self.returncode == 0 and self.status == "ok", (
+            self.returncode,
+            self.status,
+            self.reason,
+            self.stderr[-2000:],
+        )
 
 
 def run_case(case: str, shows: str, scene, out: Path, sets=(), timeout: float = 900) -> Run:
@@ -126,8 +136,17 @@ def run_case(case: str, shows: str, scene, out: Path, sets=(), timeout: float = 
         done = run_command(cmd, cwd=ROOT, timeout=timeout)
     except subprocess.TimeoutExpired:
         wall = time.perf_counter() - start
-        ROWS.append(dict(case=case, shows=shows, steps="", newton="", mean_newton="", cuts="",
-                         wall_s=f"{wall:.1f}"))
+        ROWS.append(
+            dict(
+                case=case,
+                shows=shows,
+                steps="",
+                newton="",
+                mean_newton="",
+                cuts="",
+                wall_s=f"{wall:.1f}",
+            )
+        )
         pytest.fail(f"{case}: rftfem run did not end within {timeout:g} s")
     run = Run(Path(out), done, time.perf_counter() - start)
     counts = run.summary.get("counts", {})
@@ -135,11 +154,22 @@ def run_case(case: str, shows: str, scene, out: Path, sets=(), timeout: float = 
     cuts = counts.get("dt_cuts", 0)
     mean = newton / steps if steps else float("nan")
     compile_s = run.summary.get("wall_s", {}).get("compile", float("nan"))
-    print(f"[hard] {case}: {steps} steps, {newton} Newton its ({mean:.2f} per step), "
-          f"{cuts} dt cuts, {run.wall:.1f} s wall ({compile_s:.1f} s compiling); "
-          f"exit {run.returncode}, {run.status}" + (f" ({run.reason})" if run.reason else ""))
-    ROWS.append(dict(case=case, shows=shows, steps=steps, newton=newton,
-                     mean_newton=f"{mean:.2f}", cuts=cuts, wall_s=f"{run.wall:.1f}"))
+    print(
+        f"[hard] {case}: {steps} steps, {newton} Newton its ({mean:.2f} per step), "
+        f"{cuts} dt cuts, {run.wall:.1f} s wall ({compile_s:.1f} s compiling); "
+        f"exit {run.returncode}, {run.status}" + (f" ({run.reason})" if run.reason else "")
+    )
+    ROWS.append(
+        dict(
+            case=case,
+            shows=shows,
+            steps=steps,
+            newton=newton,
+            mean_newton=f"{mean:.2f}",
+            cuts=cuts,
+            wall_s=f"{run.wall:.1f}",
+        )
+    )
     return run
 
 
@@ -206,19 +236,24 @@ def assert_rollup_exact(run: Run, times, tol: float = ROLLUP_TOL):
     for t in times:
         ux, uz = run.at("tip_ux", t), run.at("tip_uz", t)
         ex, ez = rollup_tip(t)
-        print(f"  t = {t:g}: tip (ux, uz) = ({ux:.5f}, {uz:.5f}), exact ({ex:.5f}, {ez:.5f}), "
-              f"error {max(abs(ux - ex), abs(uz - ez)) / ROLLUP_L:.2e} L")
+        print(
+            f"  t = {t:g}: tip (ux, uz) = ({ux:.5f}, {uz:.5f}), exact ({ex:.5f}, {ez:.5f}), "
+            f"error {max(abs(ux - ex), abs(uz - ez)) / ROLLUP_L:.2e} L"
+        )
         assert abs(ux - ex) < tol * ROLLUP_L and abs(uz - ez) < tol * ROLLUP_L, (t, ux, uz)
 
 
 # --- 1. very thin ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("thickness", [
-    pytest.param(0.012, id="L_t_1e3"),
-    pytest.param(0.0012, id="L_t_1e4"),
-    pytest.param(0.00012, id="L_t_1e5"),
-])
+@pytest.mark.parametrize(
+    "thickness",
+    [
+        pytest.param(0.012, id="L_t_1e3"),
+        pytest.param(0.0012, id="L_t_1e4"),
+        pytest.param(0.00012, id="L_t_1e5"),
+    ],
+)
 def test_very_thin_rollup(tmp_path, thickness):
     """The roll-up at L/t = 10³, 10⁴, 10⁵ with the bending stiffness E t³ of the
     shipped scene (E = 1.2e6 (0.1/t)³): the membrane stiffness E t grows as 1/t², so
@@ -227,9 +262,13 @@ def test_very_thin_rollup(tmp_path, thickness):
     parameter 1 (tip_ux = −L, tip_uz = 0) and winds twice at 2; the tip stays within
     1.5 % of L of the exact values (ROLLUP_TOL) at both."""
     E = 1.2e6 * (0.1 / thickness) ** 3
-    run = run_case(f"very-thin L/t={ROLLUP_L / thickness:.0e}", "ok, tip exact to 1.5 % L",
-                   ROLLUP, tmp_path / "out", [f"shell.thickness={thickness!r}", f"shell.E={E!r}",
-                                              "output.fields=false"])
+    run = run_case(
+        f"very-thin L/t={ROLLUP_L / thickness:.0e}",
+        "ok, tip exact to 1.5 % L",
+        ROLLUP,
+        tmp_path / "out",
+        [f"shell.thickness={thickness!r}", f"shell.E={E!r}", "output.fields=false"],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, ROLLUP_L)
     assert_rollup_exact(run, [1.0, 2.0])
@@ -247,10 +286,18 @@ def test_thinnest_rollup_in_small_load_steps(tmp_path):
     repeated with more workspace (tests/test_petsc_options.py), and the predicted
     static steps no longer reach that tangent."""
     t = 0.00012
-    run = run_case("very-thin L/t=1e+05, 160 load steps", "ok, tip exact to 1.5 % L", ROLLUP,
-                   tmp_path / "out", [f"shell.thickness={t!r}",
-                                      f"shell.E={1.2e6 * (0.1 / t) ** 3!r}", "time.dt=0.0125",
-                                      "output.fields=false"])
+    run = run_case(
+        "very-thin L/t=1e+05, 160 load steps",
+        "ok, tip exact to 1.5 % L",
+        ROLLUP,
+        tmp_path / "out",
+        [
+            f"shell.thickness={t!r}",
+            f"shell.E={1.2e6 * (0.1 / t) ** 3!r}",
+            "time.dt=0.0125",
+            "output.fields=false",
+        ],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, ROLLUP_L)
     assert_rollup_exact(run, [1.0, 2.0])
@@ -265,8 +312,13 @@ def test_rollup_in_few_load_steps(tmp_path, steps):
     quarter turn of the tip per step): ends ok, and the tip at every output is the
     exact one within the tolerance of the thin cases (1.5 % of L).  Steps that Newton
     cannot take whole are halved (counted as cuts)."""
-    run = run_case(f"huge-steps rollup dt={2.0 / steps:g}", "ok, tip exact to 1.5 % L", ROLLUP,
-                   tmp_path / "out", [f"time.dt={2.0 / steps!r}", "output.fields=false"])
+    run = run_case(
+        f"huge-steps rollup dt={2.0 / steps:g}",
+        "ok, tip exact to 1.5 % L",
+        ROLLUP,
+        tmp_path / "out",
+        [f"time.dt={2.0 / steps!r}", "output.fields=false"],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, ROLLUP_L)
     assert_rollup_exact(run, [k * 2.0 / steps for k in range(1, steps + 1)])
@@ -278,8 +330,13 @@ TWIST = DEMOS / "twist.toml"
 @pytest.fixture(scope="module")
 def twist_reference(tmp_path_factory):
     """The twist demo as shipped (50 load steps): the reference end state."""
-    run = run_case("huge-steps twist reference dt=0.02", "reference for the one-step twist",
-                   TWIST, tmp_path_factory.mktemp("twist") / "out", ["output.fields=false"])
+    run = run_case(
+        "huge-steps twist reference dt=0.02",
+        "reference for the one-step twist",
+        TWIST,
+        tmp_path_factory.mktemp("twist") / "out",
+        ["output.fields=false"],
+    )
     run.assert_ok()
     return run
 
@@ -291,8 +348,10 @@ def end_rotation(run: Run, t: float) -> float:
     return math.atan2(dz, dy)
 
 
-@pytest.mark.parametrize("dt", [pytest.param(1.0, id="one_step"),
-                                pytest.param(0.5, id="two_steps", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "dt",
+    [pytest.param(1.0, id="one_step"), pytest.param(0.5, id="two_steps", marks=pytest.mark.slow)],
+)
 def test_twist_in_one_or_two_load_steps(tmp_path, twist_reference, dt):
     """The twist demo (an end torque that turns the free end by about 430° at t = 1)
     in one load step (more than a full turn in a step) or two: ends ok, in the same
@@ -301,8 +360,13 @@ def test_twist_in_one_or_two_load_steps(tmp_path, twist_reference, dt):
     winding (430° − 360° = 70°) shortens the strip far less and fails the second
     check.  (The shortening and the angle change by O(dt) with the load step: 0.3 %
     and 0.4° between 50 steps and 1.)"""
-    run = run_case(f"huge-steps twist dt={dt:g}", "ok, end state of the 50-step twist",
-                   TWIST, tmp_path / "out", [f"time.dt={dt!r}", "output.fields=false"])
+    run = run_case(
+        f"huge-steps twist dt={dt:g}",
+        "ok, end state of the 50-step twist",
+        TWIST,
+        tmp_path / "out",
+        [f"time.dt={dt!r}", "output.fields=false"],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, 10.0)
     ref = twist_reference
@@ -310,9 +374,11 @@ def test_twist_in_one_or_two_load_steps(tmp_path, twist_reference, dt):
     angle, angle_ref = end_rotation(run, 1.0), end_rotation(ref, 1.0)
     diff = (angle - angle_ref + math.pi) % (2 * math.pi) - math.pi
     ux, ux_ref = run.at("corner0_ux", 1.0), ref.at("corner0_ux", 1.0)
-    print(f"  end rotation {math.degrees(angle):.2f}° (mod 360) vs "
-          f"{math.degrees(angle_ref):.2f}° in 50 steps (winding {math.degrees(winding):.1f}°); "
-          f"corner ux {ux:.5f} vs {ux_ref:.5f}")
+    print(
+        f"  end rotation {math.degrees(angle):.2f}° (mod 360) vs "
+        f"{math.degrees(angle_ref):.2f}° in 50 steps (winding {math.degrees(winding):.1f}°); "
+        f"corner ux {ux:.5f} vs {ux_ref:.5f}"
+    )
     assert math.degrees(winding) > 360.0
     assert abs(math.degrees(diff)) < 2.0
     assert abs(ux / ux_ref - 1) < 0.02
@@ -322,7 +388,9 @@ def test_twist_in_one_or_two_load_steps(tmp_path, twist_reference, dt):
 
 from test_magnetic import AXES, MB, PLATE, PLATE_L, PLATE_T, PLATE_W  # noqa: E402
 
-PLATE_PROBES = PLATE + f"""
+PLATE_PROBES = (
+    PLATE
+    + f"""
 [[output.probes]]
 name = "a"
 at = [0.0, {PLATE_W / 2}, 0.0]
@@ -330,6 +398,7 @@ at = [0.0, {PLATE_W / 2}, 0.0]
 name = "b"
 at = [{PLATE_L}, {PLATE_W / 2}, 0.0]
 """
+)
 _AXIS, _ZETA = AXES["in-plane"]
 #: the in-plane axis's critical rate m B t A / ζ (rad/s), 7.85 rad/s
 PLATE_OMEGA_C = MB * PLATE_T * PLATE_L * PLATE_W / _ZETA
@@ -340,8 +409,11 @@ def double_precision(out: Path) -> Path:
     writes them as float64 but leaves out the Precision attribute, and VTK's XDMF
     reader then reads them as float32 (| |d| − 1 | ~ 3e-8 from rounding alone)."""
     path = out / "fields.xdmf"
-    text = re.sub(r'<DataItem (?![^>]*(?:NumberType|Precision))([^>]*Format="HDF")',
-                  r'<DataItem NumberType="Float" Precision="8" \1', path.read_text())
+    text = re.sub(
+        r'<DataItem (?![^>]*(?:NumberType|Precision))([^>]*Format="HDF")',
+        r'<DataItem NumberType="Float" Precision="8" \1',
+        path.read_text(),
+    )
     path.write_text(text)
     return out
 
@@ -361,12 +433,20 @@ def test_plate_follows_field_for_50_turns(tmp_path):
     omega = ratio * PLATE_OMEGA_C
     period = 2 * math.pi / omega
     end = turns * period
-    run = run_case("long-run plate 50 turns", "follows, rate 2 %, lag 0.5 %, unit directors",
-                   write_scene(tmp_path, PLATE_PROBES), tmp_path / "out",
-                   [f"magnetic.field.frequency={1 / period!r}",
-                    f"magnetic.field.rotation_axis={toml_value(_AXIS)}",
-                    f"time.end={end!r}", f"time.dt={period / per_turn!r}",
-                    "time.max_rotation=0.5", f"time.output_every={per_turn // 4}"])
+    run = run_case(
+        "long-run plate 50 turns",
+        "follows, rate 2 %, lag 0.5 %, unit directors",
+        write_scene(tmp_path, PLATE_PROBES),
+        tmp_path / "out",
+        [
+            f"magnetic.field.frequency={1 / period!r}",
+            f"magnetic.field.rotation_axis={toml_value(_AXIS)}",
+            f"time.end={end!r}",
+            f"time.dt={period / per_turn!r}",
+            "time.max_rotation=0.5",
+            f"time.output_every={per_turn // 4}",
+        ],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, PLATE_L)
     rate = evaluate(f"spin(a, b, y, {10 * period!r}, {end!r})", run.out)
@@ -377,8 +457,10 @@ def test_plate_follows_field_for_50_turns(tmp_path):
     wh = omega * period / per_turn
     lag_be = math.asin(ratio * math.sin(wh) / wh)
     adler = math.asin(ratio)
-    print(f"  mean rate {rate:.6f} rad/s vs field {omega:.6f}; lag {math.degrees(lag):.3f}° vs "
-          f"backward Euler {math.degrees(lag_be):.3f}° (Adler {math.degrees(adler):.3f}°)")
+    print(
+        f"  mean rate {rate:.6f} rad/s vs field {omega:.6f}; lag {math.degrees(lag):.3f}° vs "
+        f"backward Euler {math.degrees(lag_be):.3f}° (Adler {math.degrees(adler):.3f}°)"
+    )
     assert abs(rate / omega - 1) < 0.02
     assert abs(lag / lag_be - 1) < 0.005
     assert run.summary["director_unit_error"] < 1e-10
@@ -401,17 +483,28 @@ def test_plate_slips_for_50_turns(tmp_path):
     slip = 2 * math.pi / big
     end = slip * math.ceil(50 * 2 * math.pi / exact / slip)
     dt = min(2 * math.pi / omega, slip) / 100
-    run = run_case("long-run plate slipping 50 turns", "Adler rate 2 %, unit directors",
-                   write_scene(tmp_path, PLATE_PROBES), tmp_path / "out",
-                   [f"magnetic.field.frequency={omega / (2 * math.pi)!r}",
-                    f"magnetic.field.rotation_axis={toml_value(_AXIS)}",
-                    f"time.end={end!r}", f"time.dt={dt!r}", "time.output_every=25",
-                    "output.fields=false"], timeout=3600)
+    run = run_case(
+        "long-run plate slipping 50 turns",
+        "Adler rate 2 %, unit directors",
+        write_scene(tmp_path, PLATE_PROBES),
+        tmp_path / "out",
+        [
+            f"magnetic.field.frequency={omega / (2 * math.pi)!r}",
+            f"magnetic.field.rotation_axis={toml_value(_AXIS)}",
+            f"time.end={end!r}",
+            f"time.dt={dt!r}",
+            "time.output_every=25",
+            "output.fields=false",
+        ],
+        timeout=3600,
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, PLATE_L)
     rate = evaluate("spin(a, b, y)", run.out)
-    print(f"  mean rate {rate:.5f} rad/s vs Adler {exact:.5f} ({100 * (rate / exact - 1):+.2f} %), "
-          f"{rate * end / (2 * math.pi):.1f} turns")
+    print(
+        f"  mean rate {rate:.5f} rad/s vs Adler {exact:.5f} ({100 * (rate / exact - 1):+.2f} %), "
+        f"{rate * end / (2 * math.pi):.1f} turns"
+    )
     assert rate * end >= 50 * 2 * math.pi * 0.999
     assert abs(rate / exact - 1) < 0.02
     assert run.summary["director_unit_error"] < 1e-10
@@ -423,7 +516,7 @@ SHEET = DEMOS / "swimming_sheet.toml"
 _SHEET = demo("swimming_sheet.toml")
 SHEET_L = _SHEET["mesh"]["length"]
 SHEET_PERIOD = 2 * math.pi / _SHEET["motion"][0]["angular_frequency"]
-SHEET_EXACT = 0.49763        # docs/verification.md case F, case I
+SHEET_EXACT = 0.49763  # docs/verification.md case F, case I
 #: docs/figures/accuracy/sheet.md (20 × 4, speed over periods 34-42): 0.50476168 at
 #: dt = T/16, 0.49981273 at T/32, 0.49859378 at T/64, observed order 2.02.  The
 #: Richardson limit 0.49818746 is 0.11 % off the exact speed (the mesh); the time
@@ -444,11 +537,19 @@ def test_sheet_large_steps_short(tmp_path, steps_per_period):
     periods: ends ok, every value finite and every displacement under 10 L.  (Its
     speed needs 34 periods to settle: test_sheet_large_steps_speed.)"""
     n = steps_per_period
-    run = run_case(f"large-dt sheet T/{n} 8 periods", "ok, finite, bounded", SHEET,
-                   tmp_path / "out", [f"time.dt={SHEET_PERIOD / n!r}",
-                                      f"time.end={8 * SHEET_PERIOD!r}", "time.output_every=1",
-                                      "time.until=end",
-                                      "output.fields=false"])
+    run = run_case(
+        f"large-dt sheet T/{n} 8 periods",
+        "ok, finite, bounded",
+        SHEET,
+        tmp_path / "out",
+        [
+            f"time.dt={SHEET_PERIOD / n!r}",
+            f"time.end={8 * SHEET_PERIOD!r}",
+            "time.output_every=1",
+            "time.until=end",
+            "output.fields=false",
+        ],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
     speed = evaluate(f"rate(centroid_x, {6 * SHEET_PERIOD!r}, {8 * SHEET_PERIOD!r})", run.out)
@@ -464,17 +565,28 @@ def test_sheet_large_steps_speed(tmp_path, steps_per_period):
     reached 28 % and 5.7 %)."""
     n = steps_per_period
     end = 42 * SHEET_PERIOD
-    run = run_case(f"large-dt sheet T/{n} 42 periods", "speed within the dt² bound", SHEET,
-                   tmp_path / "out", [f"time.dt={SHEET_PERIOD / n!r}", f"time.end={end!r}",
-                                      "time.output_every=1", "output.fields=false",
-                                      "time.until=end"],
-                   timeout=1800)
+    run = run_case(
+        f"large-dt sheet T/{n} 42 periods",
+        "speed within the dt² bound",
+        SHEET,
+        tmp_path / "out",
+        [
+            f"time.dt={SHEET_PERIOD / n!r}",
+            f"time.end={end!r}",
+            "time.output_every=1",
+            "output.fields=false",
+            "time.until=end",
+        ],
+        timeout=1800,
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
     speed = evaluate(f"rate(front_ux, {34 * SHEET_PERIOD!r}, {end!r})", run.out)
     error, bound = abs(speed / SHEET_EXACT - 1), sheet_error_bound(n)
-    print(f"  speed {speed:.5f} vs exact {SHEET_EXACT}: error {100 * error:.2f} %, "
-          f"bound {100 * bound:.1f} %")
+    print(
+        f"  speed {speed:.5f} vs exact {SHEET_EXACT}: error {100 * error:.2f} %, "
+        f"bound {100 * bound:.1f} %"
+    )
     assert error < bound
 
 
@@ -487,8 +599,10 @@ STRIP_PERIOD = 1 / _STRIP["magnetic"]["field"]["frequency"]
 STRIP_FINE = {0.2: 0.70729, 0.6: -2.65275}
 
 
-@pytest.mark.parametrize("end", [pytest.param(0.2, id="flip"),
-                                 pytest.param(0.6, id="two_periods", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "end",
+    [pytest.param(0.2, id="flip"), pytest.param(0.6, id="two_periods", marks=pytest.mark.slow)],
+)
 def test_strip_ten_steps_a_period_ends_ok_with_cut_steps(tmp_path, end):
     """The bidirectional strip with a nominal 10 steps a field period (the demo takes
     125), through the flip of phase 1 (to t = 0.2) or two periods of swimming (to 0.6).
@@ -500,18 +614,24 @@ def test_strip_ten_steps_a_period_ends_ok_with_cut_steps(tmp_path, end):
     not checked: there is no independent answer for this strip; the centroid height
     is printed beside that of the code's own run with steps of T/100."""
     dt = STRIP_PERIOD / 10
-    run = run_case(f"large-dt strip T/10 to {end:g}", "ok, finite, counts add up", STRIP,
-                   tmp_path / "out", [f"time.dt={dt!r}", f"time.end={end!r}",
-                                      "output.fields=false"])
+    run = run_case(
+        f"large-dt strip T/10 to {end:g}",
+        "ok, finite, counts add up",
+        STRIP,
+        tmp_path / "out",
+        [f"time.dt={dt!r}", f"time.end={end!r}", "output.fields=false"],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, STRIP_L)
     header, steps = run.table("steps.csv")
     counts = run.summary["counts"]
     t, h = steps[:, header.index("time")], steps[:, header.index("dt")]
     z = run.at("centroid_z", end)
-    print(f"  {counts['steps']} steps, {counts['dt_cuts']} dt cuts; centroid_z({end:g}) = "
-          f"{z:.5f}, {STRIP_FINE[end]} with T/100 ({abs(z - STRIP_FINE[end]) / STRIP_L:.2e} L; "
-          "not asserted)")
+    print(
+        f"  {counts['steps']} steps, {counts['dt_cuts']} dt cuts; centroid_z({end:g}) = "
+        f"{z:.5f}, {STRIP_FINE[end]} with T/100 ({abs(z - STRIP_FINE[end]) / STRIP_L:.2e} L; "
+        "not asserted)"
+    )
     assert len(t) == counts["steps"]
     assert h.max() <= dt * (1 + 1e-12)
     assert np.abs(np.cumsum(h) - t).max() < 1e-12 and abs(t[-1] - end) < 1e-12
@@ -524,8 +644,10 @@ def test_strip_ten_steps_a_period_ends_ok_with_cut_steps(tmp_path, end):
 def contrast_scene(tmp_path) -> Path:
     """The roll-up with two halves, "root" (X in [0, 6]) and "outer" ([6, 12])."""
     text = ROLLUP.read_text(encoding="utf-8")
-    regions = ('cell = "quadrilateral"\n[[mesh.regions]]\nname = "root"\nx = [0.0, 6.0]\n'
-               '[[mesh.regions]]\nname = "outer"\nx = [6.0, 12.0]\n')
+    regions = (
+        'cell = "quadrilateral"\n[[mesh.regions]]\nname = "root"\nx = [0.0, 6.0]\n'
+        '[[mesh.regions]]\nname = "outer"\nx = [6.0, 12.0]\n'
+    )
     part = '[[shell.parts]]\nregion = "root"\nE = 1.2e12\n\n[time]'
     assert text.count('cell = "quadrilateral"\n') == 1 and text.count("\n[time]") == 1
     text = text.replace('cell = "quadrilateral"\n', regions).replace("\n[time]", "\n" + part)
@@ -538,9 +660,13 @@ def test_stiffness_contrast_1e6(tmp_path, stiff):
     soft half alone bends, with the roll-up's curvature 2πλ/L, and the stiff half
     stays straight.  Exact tips from the two arcs (arc_tip) at λ = 0.5 (a quarter
     circle) and 1 (a half circle): within 1.5 % of L."""
-    run = run_case(f"contrast E 1e6 stiff {stiff}", "ok, two-arc tip 1.5 % L",
-                   contrast_scene(tmp_path), tmp_path / "out",
-                   [f'shell.parts.0.region="{stiff}"', "output.fields=false"])
+    run = run_case(
+        f"contrast E 1e6 stiff {stiff}",
+        "ok, two-arc tip 1.5 % L",
+        contrast_scene(tmp_path),
+        tmp_path / "out",
+        [f'shell.parts.0.region="{stiff}"', "output.fields=false"],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, ROLLUP_L)
     for lam in (0.5, 1.0):
@@ -582,10 +708,18 @@ def test_sheet_drag_contrast(tmp_path, factor):
     from the first period on: the second period's speed is the exact one within
     2 % (dt = T/32: 0.3 % reached; the study's time error at T/32 is 0.44 %)."""
     drag = [c * factor for c in _SHEET["fluid"]["drag"]]
-    run = run_case(f"drag x{factor:g} sheet", "ok; x1e-6 centroid still, x1e6 speed 2 %", SHEET,
-                   tmp_path / "out", [f"fluid.drag={toml_value(drag)}",
-                                      f"time.end={2 * SHEET_PERIOD!r}", "time.output_every=1",
-                                      "output.fields=false"])
+    run = run_case(
+        f"drag x{factor:g} sheet",
+        "ok; x1e-6 centroid still, x1e6 speed 2 %",
+        SHEET,
+        tmp_path / "out",
+        [
+            f"fluid.drag={toml_value(drag)}",
+            f"time.end={2 * SHEET_PERIOD!r}",
+            "time.output_every=1",
+            "output.fields=false",
+        ],
+    )
     run.assert_ok()
     assert_finite_and_bounded(run, SHEET_L)
     if factor > 1:
@@ -603,10 +737,17 @@ def test_strip_magnetization_x100(tmp_path):
     """The bidirectional strip with 100 times the demo's magnetization (so 100 times
     its couples), the first 0.02 s of the field's ramp (a fifth of it): ok, or exit 3
     with its reason; whatever was written is finite and bounded."""
-    sets = [f"magnetic.parts.{i}.magnetization={100 * p['magnetization']!r}"
-            for i, p in enumerate(_STRIP["magnetic"]["parts"])]
-    run = run_case("magnetic couple x100 strip", "ok or exit 3 + reason, finite", STRIP,
-                   tmp_path / "out", sets + ["time.end=0.02", "output.fields=false"])
+    sets = [
+        f"magnetic.parts.{i}.magnetization={100 * p['magnetization']!r}"
+        for i, p in enumerate(_STRIP["magnetic"]["parts"])
+    ]
+    run = run_case(
+        "magnetic couple x100 strip",
+        "ok or exit 3 + reason, finite",
+        STRIP,
+        tmp_path / "out",
+        sets + ["time.end=0.02", "output.fields=false"],
+    )
     assert_ok_or_clear_failure(run)
     assert_finite_and_bounded(run, STRIP_L)
 
@@ -616,50 +757,97 @@ def test_strip_magnetization_x100(tmp_path):
 #: mm–t–s (force in N) to m–kg–s (force in N: t·mm/s² = 1e3 kg · 1e-3 m/s²), the
 #: factor on a value of each dimension
 SI = {
-    "length": 1e-3,                  # mm -> m
-    "1/length": 1e3,                 # rad/mm -> rad/m
-    "force": 1.0,                    # N -> N
-    "force*length": 1e-3,            # N·mm -> N·m (a moment, a total edge moment)
-    "force/length^2": 1e6,           # MPa = N/mm² -> Pa (E, a pressure)
-    "mass/length^3": 1e12,           # t/mm³ = 1e3 kg / 1e-9 m³ -> kg/m³
-    "force*time/length^3": 1e9,      # N·s/mm³ -> N·s/m³ (drag)
-    "current/length": 1e3,           # A/mm -> A/m (magnetization)
-    "force/(current*length)": 1e3,   # N/(A·mm) -> N/(A·m) = T (flux density)
-    "length/time^2": 1e-3,           # mm/s² -> m/s² (gravity)
+    "length": 1e-3,  # mm -> m
+    "1/length": 1e3,  # rad/mm -> rad/m
+    "force": 1.0,  # N -> N
+    "force*length": 1e-3,  # N·mm -> N·m (a moment, a total edge moment)
+    "force/length^2": 1e6,  # MPa = N/mm² -> Pa (E, a pressure)
+    "mass/length^3": 1e12,  # t/mm³ = 1e3 kg / 1e-9 m³ -> kg/m³
+    "force*time/length^3": 1e9,  # N·s/mm³ -> N·s/m³ (drag)
+    "current/length": 1e3,  # A/mm -> A/m (magnetization)
+    "force/(current*length)": 1e3,  # N/(A·mm) -> N/(A·m) = T (flux density)
+    "length/time^2": 1e-3,  # mm/s² -> m/s² (gravity)
 }
 #: the dimension of each dimensional key a scene may hold (index-free paths)
 DIMENSIONS = {
-    "mesh.length": "length", "mesh.width": "length", "mesh.link_width": "length",
-    "mesh.regions.x": "length", "mesh.regions.y": "length",
-    "mesh.hinge_stiffness": "force", "hinge.stiffness": "force",
-    "shell.thickness": "length", "shell.E": "force/length^2",
+    "mesh.length": "length",
+    "mesh.width": "length",
+    "mesh.link_width": "length",
+    "mesh.regions.x": "length",
+    "mesh.regions.y": "length",
+    "mesh.hinge_stiffness": "force",
+    "hinge.stiffness": "force",
+    "shell.thickness": "length",
+    "shell.E": "force/length^2",
     "shell.density": "mass/length^3",
-    "shell.parts.thickness": "length", "shell.parts.E": "force/length^2",
+    "shell.parts.thickness": "length",
+    "shell.parts.E": "force/length^2",
     "shell.parts.density": "mass/length^3",
     "fluid.drag": "force*time/length^3",
-    "motion.amplitude": "length", "motion.wavenumber": "1/length", "motion.origin": "length",
+    "motion.amplitude": "length",
+    "motion.wavenumber": "1/length",
+    "motion.origin": "length",
     "magnetic.parts.magnetization": "current/length",
     "magnetic.field.strength": "force/(current*length)",
-    "output.probes.at": "length", "load.at": "length",
+    "output.probes.at": "length",
+    "load.at": "length",
 }
-LOAD_DIMENSIONS = {"edge-moment": "force*length", "edge-force": "force",
-                   "point-force": "force", "pressure": "force/length^2",
-                   "gravity": "length/time^2"}
+LOAD_DIMENSIONS = {
+    "edge-moment": "force*length",
+    "edge-force": "force",
+    "point-force": "force",
+    "pressure": "force/length^2",
+    "gravity": "length/time^2",
+}
 #: keys without a length, mass or current in them (times are seconds in both)
-DIMENSIONLESS = {"title", "mesh.kind", "mesh.divisions", "mesh.cell", "mesh.regions.name",
-                 "shell.nu", "shell.axis", "shell.parts.region", "shell.parts.nu",
-                 "time.end", "time.dt", "time.scheme", "time.rho_inf", "time.alpha",
-                 "time.output_every", "time.max_cuts", "time.tolerance", "time.dt_min",
-                 "time.dt_max", "time.max_rotation", "time.until", "time.period",
-                 "time.steady_tolerance", "boundary.where", "boundary.fix",
-                 "boundary.symmetry", "load.kind", "load.where", "load.ramp", "load.table",
-                 "motion.where", "motion.component", "motion.kind",
-                 "motion.angular_frequency", "motion.phase", "motion.ramp_time",
-                 "magnetic.parts.region",
-                 "magnetic.parts.direction", "magnetic.field.ramp_time",
-                 "magnetic.field.direction", "magnetic.field.frequency",
-                 "magnetic.field.rotation_axis", "output.fields", "output.render",
-                 "output.probes.name", "solver.pc_factor_mat_ordering_type"}
+DIMENSIONLESS = {
+    "title",
+    "mesh.kind",
+    "mesh.divisions",
+    "mesh.cell",
+    "mesh.regions.name",
+    "shell.nu",
+    "shell.axis",
+    "shell.parts.region",
+    "shell.parts.nu",
+    "time.end",
+    "time.dt",
+    "time.scheme",
+    "time.rho_inf",
+    "time.alpha",
+    "time.output_every",
+    "time.max_cuts",
+    "time.tolerance",
+    "time.dt_min",
+    "time.dt_max",
+    "time.max_rotation",
+    "time.until",
+    "time.period",
+    "time.steady_tolerance",
+    "boundary.where",
+    "boundary.fix",
+    "boundary.symmetry",
+    "load.kind",
+    "load.where",
+    "load.ramp",
+    "load.table",
+    "motion.where",
+    "motion.component",
+    "motion.kind",
+    "motion.angular_frequency",
+    "motion.phase",
+    "motion.ramp_time",
+    "magnetic.parts.region",
+    "magnetic.parts.direction",
+    "magnetic.field.ramp_time",
+    "magnetic.field.direction",
+    "magnetic.field.frequency",
+    "magnetic.field.rotation_axis",
+    "output.fields",
+    "output.render",
+    "output.probes.name",
+    "solver.pc_factor_mat_ordering_type",
+}
 
 
 def si_overrides(scene: dict, factor: dict = SI) -> list[str]:
@@ -696,8 +884,11 @@ def si_overrides(scene: dict, factor: dict = SI) -> list[str]:
 #: scene, the short run, the length to compare by (mm)
 SCALE_CASES = {
     "rollup": (ROLLUP, [], ROLLUP_L),
-    "sheet": (SHEET, [f"time.end={SHEET_PERIOD!r}", "time.output_every=1", "time.until=end"],
-              SHEET_L),
+    "sheet": (
+        SHEET,
+        [f"time.end={SHEET_PERIOD!r}", "time.output_every=1", "time.until=end"],
+        SHEET_L,
+    ),
     "strip": (STRIP, ["time.end=0.1", "time.output_every=5"], STRIP_L),
 }
 
@@ -708,8 +899,11 @@ def scaled_tables(run: Run, to_mm: float) -> dict[str, np.ndarray]:
     body_header, body = run.table("body.csv")
     centroid = body[:, [body_header.index(f"centroid_{c}") for c in "xyz"]]
     displacement = [i for i, c in enumerate(header) if c.endswith(("_ux", "_uy", "_uz"))]
-    return {"time": probes[:, 0], "probes": probes[:, displacement] * to_mm,
-            "centroid": centroid * to_mm}
+    return {
+        "time": probes[:, 0],
+        "probes": probes[:, displacement] * to_mm,
+        "centroid": centroid * to_mm,
+    }
 
 
 @pytest.mark.parametrize("name", list(SCALE_CASES))
@@ -726,10 +920,16 @@ def test_scale_invariance(tmp_path, name):
     the strip's by 4e-3."""
     scene, sets, length = SCALE_CASES[name]
     common = [*sets, "output.fields=false"]
-    mm = run_case(f"scale {name} mm-t-s", "same motion in both unit systems", scene,
-                  tmp_path / "mm", common)
-    si = run_case(f"scale {name} m-kg-s", "same motion in both unit systems", scene,
-                  tmp_path / "m", si_overrides(tomllib.loads(scene.read_text())) + common)
+    mm = run_case(
+        f"scale {name} mm-t-s", "same motion in both unit systems", scene, tmp_path / "mm", common
+    )
+    si = run_case(
+        f"scale {name} m-kg-s",
+        "same motion in both unit systems",
+        scene,
+        tmp_path / "m",
+        si_overrides(tomllib.loads(scene.read_text())) + common,
+    )
     mm.assert_ok()
     si.assert_ok()
     a, b = scaled_tables(mm, 1.0), scaled_tables(si, 1e3)
@@ -769,9 +969,14 @@ def test_free_body_constant_load(tmp_path):
     """The roll-up's end moment at full value from t = 0 on a strip that nothing
     holds (no [[boundary]], no [fluid]): no static equilibrium exists.  Exit 3 at
     t = 0 within a minute, one line saying that nothing holds the body."""
-    run = run_case("ill-posed free body, constant load", "exit 3, names the cause",
-                   free_rollup(tmp_path), tmp_path / "out",
-                   ['load.0.ramp="constant"', "output.fields=false"], timeout=60)
+    run = run_case(
+        "ill-posed free body, constant load",
+        "exit 3, names the cause",
+        free_rollup(tmp_path),
+        tmp_path / "out",
+        ['load.0.ramp="constant"', "output.fields=false"],
+        timeout=60,
+    )
     assert_clear_failure(run, "nothing holds this body")
 
 
@@ -780,9 +985,14 @@ def test_free_body_ramped_load(tmp_path):
     stiffness is singular from the first step on, which passes t = 0 (zero load) and
     fails as an unresolved step.  Exit 3 within a minute, one line saying that
     nothing holds the body (it once said only "step not resolved")."""
-    run = run_case("ill-posed free body, ramped load", "exit 3, names the cause",
-                   free_rollup(tmp_path), tmp_path / "out", ["output.fields=false"],
-                   timeout=60)
+    run = run_case(
+        "ill-posed free body, ramped load",
+        "exit 3, names the cause",
+        free_rollup(tmp_path),
+        tmp_path / "out",
+        ["output.fields=false"],
+        timeout=60,
+    )
     assert_clear_failure(run, "nothing holds this body")
 
 
@@ -790,8 +1000,17 @@ def test_load_too_big_for_one_step(tmp_path):
     """The clamped roll-up's moment ×10 (twenty turns) in a single load step with
     time.max_cuts = 0: Newton cannot take it and may not cut it.  Exit 3 within a
     minute, one line naming the unresolved step and time.max_cuts."""
-    run = run_case("ill-posed one step x10 load, no cuts", "exit 3, names the cause", ROLLUP,
-                   tmp_path / "out", ["time.dt=2.0", "time.max_cuts=0",
-                                      f"load.0.value=[0.0, {10 * 104.71975511965977!r}, 0.0]",
-                                      "output.fields=false"], timeout=60)
+    run = run_case(
+        "ill-posed one step x10 load, no cuts",
+        "exit 3, names the cause",
+        ROLLUP,
+        tmp_path / "out",
+        [
+            "time.dt=2.0",
+            "time.max_cuts=0",
+            f"load.0.value=[0.0, {10 * 104.71975511965977!r}, 0.0]",
+            "output.fields=false",
+        ],
+        timeout=60,
+    )
     assert_clear_failure(run, "step not resolved", "time.max_cuts")

@@ -12,9 +12,8 @@ import sys
 
 import numpy as np
 import pytest
-import ufl
-
 import rigid_links
+import ufl
 from conftest import DEMOS, ROOT, run_scene, write_scene
 
 SCALLOP = DEMOS / "scallop.toml"
@@ -65,8 +64,9 @@ name = "fixed_edge"
 at = [2.5, 0.0, 0.0]
 """
 
-PROBES = np.array([[2.5, 0.5, 0.0], [2.5, 0.75, 0.0], [2.5, 1.0, 0.0],
-                   [2.5, 0.25, 0.0], [2.5, 0.0, 0.0]])
+PROBES = np.array(
+    [[2.5, 0.5, 0.0], [2.5, 0.75, 0.0], [2.5, 1.0, 0.0], [2.5, 0.25, 0.0], [2.5, 0.0, 0.0]]
+)
 
 
 def positions(values):
@@ -114,8 +114,10 @@ class TieAndFold:
             d = m.kinematics().d
             length = compat.form(fem.Constant(m.mesh, 1.0) * dS)
             self.length = m.comm.allreduce(fem.assemble_scalar(length))
-            self.forms = [compat.form(ufl.dot(u("+") - u("-"), u("+") - u("-")) * dS),
-                          compat.form(ufl.dot(d("+") - d("-"), d("+") - d("-")) * dS)]
+            self.forms = [
+                compat.form(ufl.dot(u("+") - u("-"), u("+") - u("-")) * dS),
+                compat.form(ufl.dot(d("+") - d("-"), d("+") - d("-")) * dS),
+            ]
         gap, jump = (m.comm.allreduce(fem.assemble_scalar(f)) for f in self.forms)
         self.gap.append(math.sqrt(max(gap, 0.0) / self.length))
         self.jump.append(math.sqrt(max(jump, 0.0) / self.length))
@@ -130,11 +132,20 @@ def test_spring_hinge_folds_by_moment_over_stiffness(tmp_path):
     and the two sides' nodal directors on the hinge differ by the fold angle."""
     k, phi_max = 0.01, 2 * math.pi / 3
     M = k * L * phi_max
-    scene = write_scene(tmp_path, TWO_LINKS.format(E=1.2e9, k=k, clamp="y=0", M=M, extra="""
+    scene = write_scene(
+        tmp_path,
+        TWO_LINKS.format(
+            E=1.2e9,
+            k=k,
+            clamp="y=0",
+            M=M,
+            extra="""
 [time]
 scheme = "static"
 end = 1.0
-dt = 0.1"""))
+dt = 0.1""",
+        ),
+    )
     sim = run_scene(scene)
     assert sim.model.active_effects()[:3] == ["elasticity", "hinge", "hinge-spring"]
     rows = sim.history[1:]
@@ -172,15 +183,23 @@ def free_link_scene(tmp_path):
     constant moment at one turn a second for 1.25 s (backward Euler, dt = 0.01)."""
     C3, tau = FREE_LINK_C3, FREE_LINK_RAMP
     zeta = C3 * L * ELL**3 / 3
-    return write_scene(tmp_path, TWO_LINKS.format(
-        E=1.2e6, k=0.0, clamp="fixed", M=FREE_LINK_RATE * zeta, extra=f"""
+    return write_scene(
+        tmp_path,
+        TWO_LINKS.format(
+            E=1.2e6,
+            k=0.0,
+            clamp="fixed",
+            M=FREE_LINK_RATE * zeta,
+            extra=f"""
 ramp = "table"
 table = [[0.0, 0.0], [{tau}, 1.0], [2.0, 1.0]]
 [fluid]
 drag = [3.0e-9, 3.0e-9, {C3}]
 [time]
 end = 1.25
-dt = 0.01"""))
+dt = 0.01""",
+        ),
+    )
 
 
 def test_free_hinge_turns_against_drag(tmp_path):
@@ -212,9 +231,11 @@ def test_free_hinge_turns_against_drag(tmp_path):
     rate = (angle[-1] - angle[i1]) / (t[-1] - t[i1]) / omega - 1
     steps = np.arcsin(omega * np.minimum(t[1:] / tau, 1.0) * np.diff(t))
     discrete = angle[-1] / steps.sum() - 1
-    print(f"angle {angle[-1]:.8f} rad after {t[-1]} s, backward Euler's exact "
-          f"{steps.sum():.8f}: error {discrete:.2e}; against ω (t − τ/2) {final:.2e}; "
-          f"rate error {rate:.2e}; hinge line moved {np.abs(hinge).max() / ELL:.1e} ℓ")
+    print(
+        f"angle {angle[-1]:.8f} rad after {t[-1]} s, backward Euler's exact "
+        f"{steps.sum():.8f}: error {discrete:.2e}; against ω (t − τ/2) {final:.2e}; "
+        f"rate error {rate:.2e}; hinge line moved {np.abs(hinge).max() / ELL:.1e} ℓ"
+    )
     assert angle[-1] > 2 * math.pi
     assert abs(discrete) < 2e-10
     assert abs(final) < 1e-2 and abs(rate) < 7e-3
@@ -240,8 +261,9 @@ def _corner_rows(sim):
 #: tests/rigid_links.py (which test_rigid_links.py checks against the published
 #: −1.29213e-3, −4.8837e-3, ...): after 1, 2, 3 square cycles (A = 0.1), the
 #: middle link's centre Y and angle
-_PURCELL = rigid_links.simulate(*rigid_links.loop_tables("square", 0.1, 1.0, 3), 3.0,
-                                density=0.0, times=[1.0, 2.0, 3.0])
+_PURCELL = rigid_links.simulate(
+    *rigid_links.loop_tables("square", 0.1, 1.0, 3), 3.0, density=0.0, times=[1.0, 2.0, 3.0]
+)
 PURCELL_Y, PURCELL_ANGLE = tuple(_PURCELL.centre_y), tuple(_PURCELL.angle_middle)
 
 
@@ -263,8 +285,10 @@ def test_purcell_square_loop_matches_rigid_links():
     rows = _corner_rows(sim)
     for n in (1, 2, 3):
         _, y, _, angle = rows[int(np.argmin(abs(rows[:, 0] - n)))]
-        print(f"cycle {n}: Y {y:.6e} ({y / PURCELL_Y[n - 1] - 1:+.2e}), "
-              f"angle {angle:.6e} ({angle / PURCELL_ANGLE[n - 1] - 1:+.2e})")
+        print(
+            f"cycle {n}: Y {y:.6e} ({y / PURCELL_Y[n - 1] - 1:+.2e}), "
+            f"angle {angle:.6e} ({angle / PURCELL_ANGLE[n - 1] - 1:+.2e})"
+        )
         assert y == pytest.approx(PURCELL_Y[n - 1], rel=0.005)
         assert angle == pytest.approx(PURCELL_ANGLE[n - 1], rel=0.02)
     assert max(track.gap) < 1e-12 * L  # by construction (TieAndFold): not a check of the hinges
@@ -282,7 +306,6 @@ def test_reciprocal_loop_goes_nowhere():
     per_cycle = abs(rows[-1, 1]) / 3
     print(f"reciprocal: {per_cycle:.3e} mm per cycle; square: {abs(PURCELL_Y[0]):.3e}")
     assert per_cycle < 5e-4 * abs(PURCELL_Y[0])
-
 
 
 def _load_demo():
@@ -311,24 +334,29 @@ def test_soft_arms_break_the_scallop_theorem():
     soft = demo.arm_modulus(2.0, 1.0)
     per_cycle = {}
     for spl in (30, 60):
-        ends, summary = demo.swim("reciprocal", soft, 3, amplitude=0.2, divisions=(1, 4),
-                                  steps_per_leg=spl)
+        ends, summary = demo.swim(
+            "reciprocal", soft, 3, amplitude=0.2, divisions=(1, 4), steps_per_leg=spl
+        )
         assert summary["status"] == "ok"
         per_cycle[spl] = ends[-1] - ends[-2]
     rigid = {}
     for spl in (60, 120):
-        ends, _ = demo.swim("reciprocal", demo.RIGID_E, 2, amplitude=0.2, divisions=(1, 4),
-                            steps_per_leg=spl)
+        ends, _ = demo.swim(
+            "reciprocal", demo.RIGID_E, 2, amplitude=0.2, divisions=(1, 4), steps_per_leg=spl
+        )
         rigid[spl] = ends[-1] - ends[-2]
     limit = 2 * rigid[120] - rigid[60]
     width = demo.LINK_WIDTH
-    print(f"soft arms: {per_cycle[30]:.4e}, {per_cycle[60]:.4e} mm per cycle "
-          f"({abs(per_cycle[60]) / width:.2e} link widths); rigid: {rigid[60]:.3e}, "
-          f"{rigid[120]:.3e}, dt → 0: {limit:.2e}")
+    print(
+        f"soft arms: {per_cycle[30]:.4e}, {per_cycle[60]:.4e} mm per cycle "
+        f"({abs(per_cycle[60]) / width:.2e} link widths); rigid: {rigid[60]:.3e}, "
+        f"{rigid[120]:.3e}, dt → 0: {limit:.2e}"
+    )
     assert abs(per_cycle[60]) > 1e-4 * width
     assert per_cycle[30] == pytest.approx(per_cycle[60], rel=0.05)
     assert rigid[60] / rigid[120] == pytest.approx(2.0, abs=0.3)
     assert abs(per_cycle[60]) > 100 * abs(limit)
+
 
 # --- gmsh meshes: a straight oblique crease, a crease that stops inside ---------------
 
@@ -345,8 +373,10 @@ def write_creased_plate(path, dangling=False):
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("creased")
         geo = gmsh.model.geo
-        p = {xy: geo.addPoint(*xy, 0.0, 0.1) for xy in
-             ((0, 0), (0.8, 0), (2, 0), (2, 1), (1.2, 1), (0, 1))}
+        p = {
+            xy: geo.addPoint(*xy, 0.0, 0.1)
+            for xy in ((0, 0), (0.8, 0), (2, 0), (2, 1), (1.2, 1), (0, 1))
+        }
         line = lambda a, b: geo.addLine(p[a], p[b])  # noqa: E731
         free = line((2, 0), (2, 1))
         if dangling:
@@ -358,11 +388,25 @@ def write_creased_plate(path, dangling=False):
             surfaces = {"a": [plate]}
         else:
             crease = [line((0.8, 0), (1.2, 1))]
-            a = geo.addPlaneSurface([geo.addCurveLoop(
-                [line((0, 0), (0.8, 0)), crease[0], line((1.2, 1), (0, 1)),
-                 line((0, 1), (0, 0))])])
-            b = geo.addPlaneSurface([geo.addCurveLoop(
-                [line((0.8, 0), (2, 0)), free, line((2, 1), (1.2, 1)), -crease[0]])])
+            a = geo.addPlaneSurface(
+                [
+                    geo.addCurveLoop(
+                        [
+                            line((0, 0), (0.8, 0)),
+                            crease[0],
+                            line((1.2, 1), (0, 1)),
+                            line((0, 1), (0, 0)),
+                        ]
+                    )
+                ]
+            )
+            b = geo.addPlaneSurface(
+                [
+                    geo.addCurveLoop(
+                        [line((0.8, 0), (2, 0)), free, line((2, 1), (1.2, 1)), -crease[0]]
+                    )
+                ]
+            )
             surfaces = {"a": [a], "b": [b]}
         geo.synchronize()
         if dangling:
@@ -429,8 +473,10 @@ def test_oblique_crease_on_a_gmsh_mesh_folds_exactly(tmp_path):
     r = (p0 - c) - np.dot(p0 - c, axis) * axis  # in-plane arm, ⟂ to the crease
     for t, values in sim.history[1:]:
         p = p0 + values[0]
-        turned = math.atan2(np.dot(p - c, np.cross(axis, r / np.linalg.norm(r))),
-                            np.dot(p - c, r / np.linalg.norm(r)))
+        turned = math.atan2(
+            np.dot(p - c, np.cross(axis, r / np.linalg.norm(r))),
+            np.dot(p - c, r / np.linalg.norm(r)),
+        )
         print(f"t = {t}: fold {turned:.6f}, exact {phi * t:.6f}")
         assert turned == pytest.approx(phi * t, rel=6e-6)
 
@@ -442,17 +488,38 @@ def test_hinge_selectors_that_are_not_hinge_lines(tmp_path, mpirun):
     dangling = write_creased_plate(tmp_path / "dangling.msh", dangling=True)
     plate = write_creased_plate(tmp_path / "creased.msh")
     cases = [
-        (CREASED.format(file=plate.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
-            'where = "crease"', 'where = "fold"'), "hinge.0.where", "unknown selector 'fold'"),
-        (CREASED.format(file=dangling.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
-            'where = "a"\n', 'where = "free"\n'), "hinge.0.where", "does not cut"),
-        (CREASED.format(file=plate.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
-            'where = "crease"', 'where = "x=1.33"'), "hinge.0.where", "not a line of the mesh"),
+        (
+            CREASED.format(file=plate.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
+                'where = "crease"', 'where = "fold"'
+            ),
+            "hinge.0.where",
+            "unknown selector 'fold'",
+        ),
+        (
+            CREASED.format(file=dangling.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
+                'where = "a"\n', 'where = "free"\n'
+            ),
+            "hinge.0.where",
+            "does not cut",
+        ),
+        (
+            CREASED.format(file=plate.name, k=0.0, M=[0.0, 0.01, 0.0]).replace(
+                'where = "crease"', 'where = "x=1.33"'
+            ),
+            "hinge.0.where",
+            "not a line of the mesh",
+        ),
     ]
     for i, (text, key, words) in enumerate(cases):
         scene = write_scene(tmp_path, text, name=f"bad{i}.toml")
-        done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene)], env=env,
-                              cwd=ROOT, capture_output=True, text=True, timeout=600)
+        done = subprocess.run(
+            [sys.executable, "-m", "rftfem", "check", str(scene)],
+            env=env,
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         lines = done.stderr.strip().splitlines()
         assert done.returncode == 2, done.stdout + done.stderr
         assert len(lines) == 1 and key in lines[0] and words in lines[0], lines
@@ -489,8 +556,14 @@ def test_three_link_mpirun_matches_serial(tmp_path, cli_run, mpirun):
     partition would not show in the probes)."""
     exe, env = mpirun
     sets = ["time.end=1.0", "time.dt=0.0125", "mesh.divisions=[8, 1]", "output.fields=false"]
-    done = subprocess.run([exe, "-n", "2", sys.executable, "-c", PARTITION, str(SCALLOP), *sets],
-                          env=env, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [exe, "-n", "2", sys.executable, "-c", PARTITION, str(SCALLOP), *sets],
+        env=env,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert done.stdout.split()[-2:] == ["CUT", "PANELS"], done.stdout[-500:]
     rows = {}
@@ -499,8 +572,10 @@ def test_three_link_mpirun_matches_serial(tmp_path, cli_run, mpirun):
         with open(out / "probes.csv", encoding="utf-8") as fh:
             rows[n] = np.array([[float(v) for v in r.values()] for r in csv.DictReader(fh)])
     moved = np.abs(rows[1][:, 1:]).max()
-    print(f"largest probe displacement {moved:.3e} mm; serial vs np 2: "
-          f"{np.abs(rows[2] - rows[1]).max():.2e} mm")
+    print(
+        f"largest probe displacement {moved:.3e} mm; serial vs np 2: "
+        f"{np.abs(rows[2] - rows[1]).max():.2e} mm"
+    )
     assert moved > 0.01
     assert np.abs(rows[2] - rows[1]).max() < 1e-8
 
@@ -513,8 +588,13 @@ def test_three_link_demo(tmp_path):
     """The paper's cases I-IV, each with and without inertia, run to completion and
     write their Table 4 analogue, groups and plot; without inertia the rigid-link
     case I obeys the scallop theorem (corner moves < 1e-4 mm in 9 cycles)."""
-    done = subprocess.run([sys.executable, str(DEMOS / "three_link.py"), "--out", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=3 * 3600)
+    done = subprocess.run(
+        [sys.executable, str(DEMOS / "three_link.py"), "--out", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=3 * 3600,
+    )
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     for name in ("table4.csv", "groups.md", "three_link.png"):
@@ -529,8 +609,13 @@ def test_three_link_demo(tmp_path):
 def test_scallop_demo(tmp_path):
     """The scallop study as shipped: it checks the rigid square loop against the exact
     result (2 %) and the rigid out-and-back loop (1e-3 of it) itself (exit status)."""
-    done = subprocess.run([sys.executable, str(DEMOS / "scallop.py"), "--out", str(tmp_path)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=2 * 3600)
+    done = subprocess.run(
+        [sys.executable, str(DEMOS / "scallop.py"), "--out", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=2 * 3600,
+    )
     print(done.stdout[-3000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert (tmp_path / "scallop.png").stat().st_size > 0

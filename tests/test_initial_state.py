@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 SIDE, C, FORCE, RHO, THICK = 2.0, 1.0e-3, 1.0e-6, 1.0e-6, 0.1
@@ -47,8 +46,9 @@ ramp = "constant"
 
 def _centroid_moves(tmp_path, text, *overrides):
     """(times, centroid displacement from the reference) of a run's body.csv rows."""
-    run_scene(write_scene(tmp_path, text), *overrides, "output.fields=false",
-              out_dir=tmp_path / "out")
+    run_scene(
+        write_scene(tmp_path, text), *overrides, "output.fields=false", out_dir=tmp_path / "out"
+    )
     body = np.genfromtxt(tmp_path / "out" / "body.csv", delimiter=",", names=True)
     centroid = np.stack([body[f"centroid_{c}"] for c in "xyz"], axis=1)
     return body["time"], centroid - [SIDE / 2, SIDE / 2, 0.0]
@@ -77,11 +77,10 @@ def test_free_plate_with_mass_accelerates_at_force_over_mass_from_rest(tmp_path,
     text = PLATE.replace("nu = 0.3", f"nu = 0.3\ndensity = {RHO}")
     t, u = _centroid_moves(tmp_path, text, f'time.scheme="{scheme}"')
     mass = RHO * THICK * AREA
-    exact = np.outer(t ** 2, FORCE * DIRECTION / (2 * mass))
+    exact = np.outer(t**2, FORCE * DIRECTION / (2 * mass))
     err = np.abs(u - exact).max() / np.abs(exact).max()
     first = np.abs(u[1] - exact[1]).max() / np.abs(exact[1]).max()
-    print(f"{scheme}: u_x {u[:, 0]} against {exact[:, 0]}; error {err:.1e} "
-          f"(first row {first:.1e})")
+    print(f"{scheme}: u_x {u[:, 0]} against {exact[:, 0]}; error {err:.1e} (first row {first:.1e})")
     assert np.abs(u[0]).max() < 1e-14 * SIDE
     assert err < 2e-10 and first < 2e-10
 
@@ -91,7 +90,9 @@ def _gradient_plate():
     B = G (x, −(y − ½), 0) with G = 0.5 at full strength from t = 0."""
     from test_magnetic_fields import GRADIENT_PLATE
 
-    return GRADIENT_PLATE + """
+    return (
+        GRADIENT_PLATE
+        + """
 [time]
 dt = 0.1
 end = 1.0
@@ -103,6 +104,7 @@ B = ["0.5*x", "-0.5*(y - 0.5)", "0"]
 [solver]
 snes_atol = 1e-14
 """
+    )
 
 
 def test_gradient_field_on_at_t0_drifts_at_the_resultant_speed_from_the_start(tmp_path):
@@ -162,9 +164,9 @@ def test_dipole_first_step_moves_at_the_resultant_speed(tmp_path):
     t, u = _centroid_moves(tmp_path, DIPOLE_PLATE)
     u = u + [SIDE / 2 - 0.005, SIDE / 2 - 0.005, 0.0]
     c = np.array([0.005, 0.005, 0.0])
-    m1 = 0.001 * 50.0 * 0.01 ** 2 * np.array([1.0, 0.0, 0.0])
+    m1 = 0.001 * 50.0 * 0.01**2 * np.array([1.0, 0.0, 0.0])
     force = dipole_force(m1, c, np.array([0.3, -0.5, 1.2]), np.array([0.605, 0.005, 0.8]))
-    exact = force / (1.0e-3 * 0.01 ** 2)
+    exact = force / (1.0e-3 * 0.01**2)
     speed = u[1] / t[1]
     err = np.linalg.norm(speed - exact) / np.linalg.norm(exact)
     print(f"dipole: first-step speed {speed} against {exact}; error {err:.1e}")

@@ -1,5 +1,6 @@
 """The package's layout (docs/development.md, "The packages"): which package may
-import which at module level, no import cycles, and no module over 400 lines.
+import which at module level, no import cycles, and no module over 480 lines
+(as ruff formats it).
 
 Imports inside functions are left out: they are how a module reaches a heavier
 or higher one only when it needs it (dolfinx, pyvista, the simulation)."""
@@ -20,10 +21,27 @@ ALLOWED = {
     "outputs": {"errors", "compat", "scene"},
     "model": {"errors", "compat", "scene", "petsc_options", "forms", "model.effects"},
     "model.effects": {"errors", "compat", "scene", "petsc_options", "forms", "model"},
-    "integration": {"errors", "compat", "scene", "petsc_options", "forms", "meshes", "model",
-                    "model.effects", "outputs"},
-    "studies": {"errors", "compat", "scene", "petsc_options", "model", "model.effects",
-                "integration", "outputs"},
+    "integration": {
+        "errors",
+        "compat",
+        "scene",
+        "petsc_options",
+        "forms",
+        "meshes",
+        "model",
+        "model.effects",
+        "outputs",
+    },
+    "studies": {
+        "errors",
+        "compat",
+        "scene",
+        "petsc_options",
+        "model",
+        "model.effects",
+        "integration",
+        "outputs",
+    },
     "api": {"errors", "scene"},
     "result": {"errors"},
     "cli": {"errors"},
@@ -36,7 +54,7 @@ EXCEPTIONS = {
     ("rftfem.scene.keys", "rftfem.model.effects"),
     ("rftfem.scene.reading", "rftfem.model.effects"),
 }
-MOST_LINES = 400
+MOST_LINES = 480
 
 
 def modules() -> dict[str, Path]:
@@ -52,8 +70,12 @@ def module_level_imports(path: Path, known: dict) -> set[str]:
     an import of the module ``pkg.mod``, not of the package's __init__)."""
     out = set()
     for node in ast.parse(path.read_text(encoding="utf-8")).body:
-        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module \
-                and node.module.split(".")[0] == "rftfem":
+        if (
+            isinstance(node, ast.ImportFrom)
+            and node.level == 0
+            and node.module
+            and node.module.split(".")[0] == "rftfem"
+        ):
             subs = {f"{node.module}.{a.name}" for a in node.names}
             if subs <= set(known):
                 out |= subs
@@ -90,8 +112,11 @@ def test_every_part_imports_only_what_it_may():
         for dep in deps:
             theirs = part(dep)
             # the package's own __init__ (its __version__) imports nothing: anyone may
-            if theirs not in (mine, "__init__") and theirs not in ALLOWED[mine] and \
-                    (module, dep) not in EXCEPTIONS:
+            if (
+                theirs not in (mine, "__init__")
+                and theirs not in ALLOWED[mine]
+                and (module, dep) not in EXCEPTIONS
+            ):
                 wrong.append(f"{module} -> {dep}")
     assert not wrong, "imports against the layout:\n" + "\n".join(sorted(wrong))
 
@@ -127,9 +152,12 @@ def test_no_import_cycles():
     assert not cycles, f"import cycles: {cycles}"
 
 
-def test_no_module_over_400_lines():
-    long = {m: n for m, p in modules().items()
-            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MOST_LINES}
+def test_no_module_over_480_lines():
+    long = {
+        m: n
+        for m, p in modules().items()
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MOST_LINES
+    }
     assert not long, f"modules over {MOST_LINES} lines: {long}"
 
 
@@ -156,7 +184,7 @@ def imports(path: Path, everywhere: bool = False) -> list[tuple[int, str]]:
     relative ``from . import x`` level 1 and ``x``."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     out = []
-    for node in (ast.walk(tree) if everywhere else tree.body):
+    for node in ast.walk(tree) if everywhere else tree.body:
         if isinstance(node, ast.Import):
             out += [(0, a.name) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -169,8 +197,9 @@ def public_names() -> set[str]:
     """The names ``import rftfem`` offers: rftfem/__init__.py's ``_PUBLIC`` and
     ``__version__`` (read, not imported: the current stack's import loads MPI)."""
     for node in ast.parse((PACKAGE / "__init__.py").read_text(encoding="utf-8")).body:
-        if isinstance(node, ast.Assign) and [getattr(t, "id", None) for t in node.targets] \
-                == ["_PUBLIC"]:
+        if isinstance(node, ast.Assign) and [getattr(t, "id", None) for t in node.targets] == [
+            "_PUBLIC"
+        ]:
             return {"__version__", *ast.literal_eval(node.value)}
     raise AssertionError("rftfem/__init__.py: no _PUBLIC table of the public names")
 
@@ -189,16 +218,26 @@ def demo_api_uses(path: Path, public: set[str]) -> list[str]:
                     aliases.add(a.asname or a.name)
                 elif a.name.startswith("rftfem."):
                     wrong.append(f"line {node.lineno}: import {a.name}")
-        elif isinstance(node, ast.ImportFrom) and node.module and \
-                node.module.split(".")[0] == "rftfem":
+        elif (
+            isinstance(node, ast.ImportFrom)
+            and node.module
+            and node.module.split(".")[0] == "rftfem"
+        ):
             if node.module != "rftfem":
                 wrong.append(f"line {node.lineno}: from {node.module} import ...")
             else:
-                wrong += [f"line {node.lineno}: from rftfem import {a.name}"
-                          for a in node.names if a.name not in public]
+                wrong += [
+                    f"line {node.lineno}: from rftfem import {a.name}"
+                    for a in node.names
+                    if a.name not in public
+                ]
     for node in ast.walk(tree):
-        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
-                node.value.id in aliases and node.attr not in public:
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in aliases
+            and node.attr not in public
+        ):
             wrong.append(f"line {node.lineno}: {node.value.id}.{node.attr}")
     return wrong
 
@@ -234,8 +273,9 @@ def test_forms_import_only_ufl():
             top = module.split(".")[0]
             if level == 1:  # from .kinematics import unit: another forms module
                 relative += 1
-            elif level or not (top in {"ufl", "numpy"} or top in STDLIB
-                               or module.startswith("rftfem.forms.")):
+            elif level or not (
+                top in {"ufl", "numpy"} or top in STDLIB or module.startswith("rftfem.forms.")
+            ):
                 wrong.append(f"{path.name}: {'.' * level}{module}")
     assert not wrong, "forms/ imports beyond UFL:\n" + "\n".join(wrong)
     assert relative >= 4  # the parser sees forms' imports of each other
@@ -256,10 +296,15 @@ def test_meshes_import_only_gmsh_numpy_errors_and_compat():
             seen.add(module)
             if level == 1:  # from .strip import build_strip: another meshes module
                 continue
-            if level or not (top in {"numpy", "gmsh"} or top in STDLIB
-                             or module.startswith(("rftfem.errors.", "rftfem.compat.",
-                                                   "rftfem.meshes."))):
+            if level or not (
+                top in {"numpy", "gmsh"}
+                or top in STDLIB
+                or module.startswith(("rftfem.errors.", "rftfem.compat.", "rftfem.meshes."))
+            ):
                 wrong.append(f"{path.name}: {'.' * level}{module}")
     assert not wrong, "meshes/ imports against the layout:\n" + "\n".join(wrong)
-    assert {"rftfem.errors.SceneError", "rftfem.compat.gmsh_model_to_mesh",
-            "gmsh_file.read_gmsh"} <= seen
+    assert {
+        "rftfem.errors.SceneError",
+        "rftfem.compat.gmsh_model_to_mesh",
+        "gmsh_file.read_gmsh",
+    } <= seen

@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 import pytest
-
 from conftest import build_model, run_scene, write_scene
 
-LENGTH, THICKNESS, E = 10.0, 0.1, 1.2e4        # EI = E w t³/12 = 1 N·mm² for w = 1
+LENGTH, THICKNESS, E = 10.0, 0.1, 1.2e4  # EI = E w t³/12 = 1 N·mm² for w = 1
 
 CANTILEVER = f"""
 title = "hard-magnetic cantilever"
@@ -65,7 +64,7 @@ def elastica_tip(lam: float, psi: float, n: int = 4000):
             y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         return y
 
-    lo, hi = 0.0, lam * 2          # θ'(1) > 0 at κ₀ = 0 ... < 0 at a large κ₀
+    lo, hi = 0.0, lam * 2  # θ'(1) > 0 at κ₀ = 0 ... < 0 at a large κ₀
     assert shoot(lo)[1] < 0 < shoot(hi)[1] or shoot(lo)[1] > 0 > shoot(hi)[1]
     sign_lo = math.copysign(1, shoot(lo)[1])
     for _ in range(60):
@@ -88,8 +87,13 @@ class TipDirector:
         m = sim.model
         X = m.Vu.tabulate_dof_coordinates()
         i = int(np.argmin(np.linalg.norm(X - [LENGTH, 0.5, 0.0], axis=1)))
-        self.rows.append((sim.t, m.dn.x.array.reshape(-1, 3)[i].copy(),
-                          m.displacement.x.array.reshape(-1, 3)[i].copy()))
+        self.rows.append(
+            (
+                sim.t,
+                m.dn.x.array.reshape(-1, 3)[i].copy(),
+                m.displacement.x.array.reshape(-1, 3)[i].copy(),
+            )
+        )
 
 
 @pytest.mark.parametrize("psi_deg", [90.0, 135.0])
@@ -102,9 +106,12 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
     psi = math.radians(psi_deg)
     direction = [math.cos(psi), 0.0, math.sin(psi)]
     observe = TipDirector()
-    sim = run_scene(write_scene(tmp_path, CANTILEVER),
-                    f"magnetic.field.direction={direction}", observers=[observe],
-                    out_dir=tmp_path / "out")
+    sim = run_scene(
+        write_scene(tmp_path, CANTILEVER),
+        f"magnetic.field.direction={direction}",
+        observers=[observe],
+        out_dir=tmp_path / "out",
+    )
     assert sim.summary["active_effects"] == ["elasticity", "magnetic"]
     lam = 100.0 * 3.0e-3 * THICKNESS * 1.0 * LENGTH**2 / 1.0
     theta, x, z = elastica_tip(lam, psi)
@@ -112,10 +119,12 @@ def test_static_hard_magnetic_elastica(tmp_path, psi_deg):
     # director d = (−sin θ, 0, cos θ) for a strip bent in the XZ plane
     theta_fe = math.atan2(-d[0], d[2])
     x_fe, z_fe = (LENGTH + u[0]) / LENGTH, u[2] / LENGTH
-    print(f"ψ = {psi_deg}°, λ = {lam}: tip angle FE {math.degrees(theta_fe):.3f}° vs "
-          f"elastica {math.degrees(theta):.3f}°; tip (x, z)/L FE ({x_fe:.4f}, {z_fe:.4f}) vs "
-          f"({x:.4f}, {z:.4f}); relative errors {abs(theta_fe / theta - 1):.1e}, "
-          f"{abs(x_fe / x - 1):.1e}, {abs(z_fe / z - 1):.1e}")
+    print(
+        f"ψ = {psi_deg}°, λ = {lam}: tip angle FE {math.degrees(theta_fe):.3f}° vs "
+        f"elastica {math.degrees(theta):.3f}°; tip (x, z)/L FE ({x_fe:.4f}, {z_fe:.4f}) vs "
+        f"({x:.4f}, {z:.4f}); relative errors {abs(theta_fe / theta - 1):.1e}, "
+        f"{abs(x_fe / x - 1):.1e}, {abs(z_fe / z - 1):.1e}"
+    )
     assert abs(theta_fe / theta - 1) < 6e-4
     assert abs(x_fe / x - 1) < 6e-4 and abs(z_fe / z - 1) < 6e-4
     assert 0 < theta < psi
@@ -125,9 +134,16 @@ def test_field_protocol():
     """b(t): linear ramp along `direction`, then right-handed rotation about the axis."""
     from rftfem.model.magnetic_sources import UniformField
 
-    field_at = UniformField({"kind": "rotating", "strength": 2.0, "ramp_time": 0.5,
-                             "direction": [2.0, 0.0, 0.0], "frequency": 4.0,
-                             "rotation_axis": [0.0, 0.0, 3.0]}).at
+    field_at = UniformField(
+        {
+            "kind": "rotating",
+            "strength": 2.0,
+            "ramp_time": 0.5,
+            "direction": [2.0, 0.0, 0.0],
+            "frequency": 4.0,
+            "rotation_axis": [0.0, 0.0, 3.0],
+        }
+    ).at
     assert np.allclose(field_at(0.25), [1.0, 0, 0])
     assert np.allclose(field_at(0.5), [2.0, 0, 0])
     assert np.allclose(field_at(0.5 + 1 / 16), [0, 2.0, 0], atol=1e-12)  # quarter turn: +Y
@@ -156,7 +172,7 @@ PLATE_L, PLATE_W, PLATE_T = 2.0, 1.0, 0.1
 # moves as Adler's planar solution (+51 % mean rate at ω/ω_c = 1.2): that is
 # three-dimensional physics, outside docs/verification.md case G.
 DRAG = 1.0e-3
-MB = 2 * math.pi * DRAG / 0.24      # m B: spin about the normal has ω_c = π rad/s
+MB = 2 * math.pi * DRAG / 0.24  # m B: spin about the normal has ω_c = π rad/s
 
 PLATE = f"""
 title = "rigid magnetic plate in a rotating field"
@@ -189,8 +205,10 @@ direction = [1.0, 0.0, 0.0]
 
 #: axis -> (rotation axis, ζ = rotational drag about it through the centre)
 AXES = {
-    "normal": ([0.0, 0.0, 1.0],                                         # C₁ ∫ r² dA
-               2 * DRAG * PLATE_L * PLATE_W * (PLATE_L**2 + PLATE_W**2) / 12),
+    "normal": (
+        [0.0, 0.0, 1.0],  # C₁ ∫ r² dA
+        2 * DRAG * PLATE_L * PLATE_W * (PLATE_L**2 + PLATE_W**2) / 12,
+    ),
     "in-plane": ([0.0, 1.0, 0.0], DRAG * PLATE_W * PLATE_L**3 / 12),  # C₃ ∫ r⊥² dA
 }
 
@@ -207,8 +225,10 @@ class PlateAngle:
         m = sim.model
         if self.nodes is None:
             X = m.Vu.tabulate_dof_coordinates()
-            self.nodes = [int(np.argmin(np.linalg.norm(X - p, axis=1)))
-                          for p in ([0.0, PLATE_W / 2, 0], [PLATE_L, PLATE_W / 2, 0])]
+            self.nodes = [
+                int(np.argmin(np.linalg.norm(X - p, axis=1)))
+                for p in ([0.0, PLATE_W / 2, 0], [PLATE_L, PLATE_W / 2, 0])
+            ]
             self.X = X
         x = self.X + m.displacement.x.array.reshape(-1, 3)
         v = x[self.nodes[1]] - x[self.nodes[0]]
@@ -241,7 +261,7 @@ def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
     turns = 5 if axis_name == "in-plane" else 0
     if ratio < 1:
         lag = math.asin(ratio)
-        settle = 8 / (omega_c * math.cos(lag))        # 8 time constants of the lag
+        settle = 8 / (omega_c * math.cos(lag))  # 8 time constants of the lag
         end = max(settle, (turns + 0.5) * 2 * math.pi / omega if turns else 0.0)
         dt = 2 * math.pi / omega / 100
     else:
@@ -250,23 +270,32 @@ def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
         end = slip * max(3, math.ceil(turns * 2 * math.pi / rate / slip))
         dt = min(2 * math.pi / omega, slip) / 100
     observe = PlateAngle(axis)
-    sim = run_scene(write_scene(tmp_path, PLATE),
-                    f"magnetic.field.frequency={omega / (2 * math.pi)!r}",
-                    f"magnetic.field.rotation_axis={axis}",
-                    f"time.end={end!r}", f"time.dt={dt!r}", "output.fields=false",
-                    observers=[observe], out_dir=tmp_path / "out")
+    sim = run_scene(
+        write_scene(tmp_path, PLATE),
+        f"magnetic.field.frequency={omega / (2 * math.pi)!r}",
+        f"magnetic.field.rotation_axis={axis}",
+        f"time.end={end!r}",
+        f"time.dt={dt!r}",
+        "output.fields=false",
+        observers=[observe],
+        out_dir=tmp_path / "out",
+    )
     t, phi = np.array(observe.times), np.array(observe.angles)
     assert sim.summary["counts"]["dt_cuts"] == 0
     if ratio < 1:
         measured = omega * t[-1] - phi[-1]
-        print(f"{axis_name}, ω/ω_c = {ratio}: lag {math.degrees(measured):.3f}° vs Adler "
-              f"{math.degrees(lag):.3f}° ({100 * (measured / lag - 1):+.4f} %)")
+        print(
+            f"{axis_name}, ω/ω_c = {ratio}: lag {math.degrees(measured):.3f}° vs Adler "
+            f"{math.degrees(lag):.3f}° ({100 * (measured / lag - 1):+.4f} %)"
+        )
         assert abs(measured / lag - 1) < STEP_OUT_TOLERANCE[ratio]
     else:
-        rate = phi[-1] / t[-1]                       # whole slip cycles from t = 0
+        rate = phi[-1] / t[-1]  # whole slip cycles from t = 0
         exact = omega - math.sqrt(omega**2 - omega_c**2)
-        print(f"{axis_name}, ω/ω_c = {ratio}: mean rate {rate:.4f} vs Adler {exact:.4f} "
-              f"({100 * (rate / exact - 1):+.4f} %), {phi[-1] / (2 * math.pi):.2f} turns")
+        print(
+            f"{axis_name}, ω/ω_c = {ratio}: mean rate {rate:.4f} vs Adler {exact:.4f} "
+            f"({100 * (rate / exact - 1):+.4f} %), {phi[-1] / (2 * math.pi):.2f} turns"
+        )
         assert abs(rate / exact - 1) < STEP_OUT_TOLERANCE[ratio]
     assert phi[-1] >= turns * 2 * math.pi * 0.999
     assert sim.summary["director_unit_error"] < 1e-10
@@ -276,13 +305,22 @@ def test_rigid_plate_step_out(tmp_path, axis_name, ratio):
 def test_magnetic_plate_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the magnetic plate in a rotating field (above step-out, with a
     probe) gives the serial probe history to 1e-8."""
-    scene = write_scene(tmp_path, PLATE.replace("divisions = [4, 2]", "divisions = [8, 4]") + """
+    scene = write_scene(
+        tmp_path,
+        PLATE.replace("divisions = [4, 2]", "divisions = [8, 4]")
+        + """
 [[output.probes]]
 name = "corner"
 at = [2.0, 1.0, 0.0]
-""")
-    sets = ["magnetic.field.frequency=2.0", "magnetic.field.rotation_axis=[0.0,1.0,0.0]",
-            "time.end=0.4", "time.dt=0.005", "output.fields=false"]
+""",
+    )
+    sets = [
+        "magnetic.field.frequency=2.0",
+        "magnetic.field.rotation_axis=[0.0,1.0,0.0]",
+        "time.end=0.4",
+        "time.dt=0.005",
+        "output.fields=false",
+    ]
     histories = {}
     for n in (1, 2):
         out = cli_run(scene, tmp_path / f"np{n}", sets, np=n)
@@ -295,8 +333,12 @@ at = [2.0, 1.0, 0.0]
 def test_part_switched_off(tmp_path):
     """A part with magnetization 0 (as a sweep may set) feels nothing and the run
     stays finite: the cantilever in the field stays straight."""
-    sim = run_scene(write_scene(tmp_path, CANTILEVER), "magnetic.parts.0.magnetization=0.0",
-                    "time.end=0.2", out_dir=tmp_path / "out")
+    sim = run_scene(
+        write_scene(tmp_path, CANTILEVER),
+        "magnetic.parts.0.magnetization=0.0",
+        "time.end=0.2",
+        out_dir=tmp_path / "out",
+    )
     assert sim.summary["status"] == "ok"
     assert np.abs(sim.model.displacement.x.array).max() == 0.0
 
@@ -374,8 +416,8 @@ def test_energy_bookkeeping_in_rotating_field(tmp_path):
     not in the moment, fails both, which 1 % did not see).  Each term carries
     weight: dissipation over half the work, stored elastic energy over a tenth,
     kinetic energy at its peak over a hundredth (reached 0.79, 0.21, 0.018)."""
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import Simulation
+    from rftfem.scene.reading import load_scene
 
     sim = Simulation(load_scene(write_scene(tmp_path, ENERGY)), quiet=True)
     book = EnergyBook(sim.model)
@@ -388,10 +430,12 @@ def test_energy_bookkeeping_in_rotating_field(tmp_path):
     balance = dissipated + stored
     later = t > 2.0
     along = np.max(np.abs(work[later] - balance[later]) / work[later])
-    print(f"field work {work[-1]:.6e}, drag dissipation {dissipated[-1]:.6e}, "
-          f"Δ(elastic + kinetic) {stored[-1]:.6e}; max kinetic {kinetic.max():.3e}; "
-          f"imbalance {abs(work[-1] - balance[-1]) / work[-1]:.2e} at the end, "
-          f"at most {along:.2e} after the ramp")
+    print(
+        f"field work {work[-1]:.6e}, drag dissipation {dissipated[-1]:.6e}, "
+        f"Δ(elastic + kinetic) {stored[-1]:.6e}; max kinetic {kinetic.max():.3e}; "
+        f"imbalance {abs(work[-1] - balance[-1]) / work[-1]:.2e} at the end, "
+        f"at most {along:.2e} after the ramp"
+    )
     assert work[-1] > 0 and dissipated[-1] > 0.5 * work[-1]
     assert stored[-1] > 0.1 * work[-1] and kinetic.max() > 0.01 * work[-1]
     assert abs(work[-1] - balance[-1]) < 1e-3 * work[-1]
@@ -405,8 +449,9 @@ def test_rigid_rotor_diagnostics(tmp_path):
     plate's centre, and ``magnetic_moment`` is t m A q₀."""
     from mpi4py import MPI
 
-    model = build_model(PLATE, tmp_path, ["time.end=1.0", "time.dt=0.1"], comm=MPI.COMM_WORLD,
-                        compile_forms=True)
+    model = build_model(
+        PLATE, tmp_path, ["time.end=1.0", "time.dt=0.1"], comm=MPI.COMM_WORLD, compile_forms=True
+    )
     assert np.allclose(model.centroid(), [PLATE_L / 2, PLATE_W / 2, 0.0], atol=1e-12)
     for axis, zeta in AXES.values():
         assert abs(model["drag"].rotational(axis) / zeta - 1) < 1e-10
@@ -450,8 +495,9 @@ def turned_plate_works(model, stretch, tilt):
     model.w.x.array[:] = 0.0
     model.w.x.array[model.theta_dofs.reshape(-1, 2)[:, 0]] = tilt
     model.update_triad()
-    R = np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)],
-                  [0, math.sin(tilt), math.cos(tilt)]])
+    R = np.array(
+        [[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)], [0, math.sin(tilt), math.cos(tilt)]]
+    )
     d = model.triads[0][2].x.array.reshape(-1, 3)
     assert np.abs(d - R[:, 2]).max() < 1e-14
     X = model.Vu.tabulate_dof_coordinates()[:, :3]
@@ -477,7 +523,8 @@ def turned_plate_works(model, stretch, tilt):
 
 @pytest.mark.parametrize("stretch, tilt", [(1.0, 0.0), (1.3, 0.0), (1.3, 0.7)])
 def test_couple_of_a_stretched_turned_plate_with_out_of_plane_magnetization(
-        tmp_path, stretch, tilt):
+    tmp_path, stretch, tilt
+):
     """Exact: a flat plate (normal N = Z) stretched by λ along X and turned rigidly by
     ψ = 0.7 about X, magnetized along q₀ = (cos φ, 0, sin φ) with φ = 40° (out of its
     plane), in a uniform field b.  With F = F_s + d ⊗ N = R (S + N ⊗ N) the fibre is

@@ -22,13 +22,12 @@ import io
 import re
 from contextlib import redirect_stderr
 
-import numpy as np
-import pytest
-from scipy import integrate
-
 import material_references as mr
+import numpy as np
 import plate_references as pr
+import pytest
 from conftest import rows_at, run_scene, write_scene
+from scipy import integrate
 
 #: the cantilever strip of the small-deflection tests: clamped at X = 0, a tip force
 #: P along Z spread over the edge X = L; ν = 0, so its EI is E W t³/12
@@ -46,8 +45,19 @@ G12 = {G12}
 nu12 = {NU12}"""
 
 
-def strip(shell: str, *, length=L, width=W, divisions=DIVISIONS, load=(0.0, 0.0, P),
-          end=1.0, dt=1.0, ramp="constant", probes=None, extra="") -> str:
+def strip(
+    shell: str,
+    *,
+    length=L,
+    width=W,
+    divisions=DIVISIONS,
+    load=(0.0, 0.0, P),
+    end=1.0,
+    dt=1.0,
+    ramp="constant",
+    probes=None,
+    extra="",
+) -> str:
     """A cantilever scene: ``shell`` is the body of [shell]; probes (name, point), by
     default the middle of the tip edge."""
     probes = probes or [("tip", (length, width / 2, 0.0))]
@@ -71,19 +81,29 @@ kind = "edge-force"
 where = "x=L"
 value = [{load[0]}, {load[1]}, {load[2]}]
 ramp = "{ramp}"
-""" + "".join(f"""
+""" + "".join(
+        f"""
 [[output.probes]]
 name = "{name}"
 at = [{at[0]}, {at[1]}, {at[2]}]
-""" for name, at in probes)
+"""
+        for name, at in probes
+    )
 
 
 def shear_deflection(P, L, width, G, thickness, points=None) -> float:
     """The Timoshenko part of the tip deflection, ∫₀ᴸ P / (k_s G(x) W t(x)) dx (the
     shell's transverse shear; Euler-Bernoulli leaves it out)."""
     G, t = (f if callable(f) else (lambda x, c=f: c) for f in (G, thickness))
-    value, _ = integrate.quad(lambda x: P / (K_S * G(x) * width * t(x)), 0.0, L,
-                              points=points, epsabs=0.0, epsrel=1e-12, limit=200)
+    value, _ = integrate.quad(
+        lambda x: P / (K_S * G(x) * width * t(x)),
+        0.0,
+        L,
+        points=points,
+        epsabs=0.0,
+        epsrel=1e-12,
+        limit=200,
+    )
     return value
 
 
@@ -119,9 +139,11 @@ def _check_tapered(sim, E_of_x, t_of_x, label, tolerance=1e-5, points=None):
     exact = bending + shear_deflection(P, L, W, G_of_x, t_of_x, points=points)
     theta = bending_rotation(tip_director(sim))
     theta_exact = mr.tapered_tip_rotation(P, L, W, E_of_x, t_of_x, points=points)
-    print(f"{label}: tip deflection {w:.9e}, exact {exact:.9e} (error {w / exact - 1:+.2e}; "
-          f"Euler-Bernoulli alone {w / bending - 1:+.2e}); tip rotation {theta:.9e}, exact "
-          f"{theta_exact:.9e} (error {theta / theta_exact - 1:+.2e})")
+    print(
+        f"{label}: tip deflection {w:.9e}, exact {exact:.9e} (error {w / exact - 1:+.2e}; "
+        f"Euler-Bernoulli alone {w / bending - 1:+.2e}); tip rotation {theta:.9e}, exact "
+        f"{theta_exact:.9e} (error {theta / theta_exact - 1:+.2e})"
+    )
     assert abs(w / exact - 1) < tolerance
     assert abs(theta / theta_exact - 1) < tolerance
     return w
@@ -163,16 +185,18 @@ def test_thickness_profile_matches_the_formula(tmp_path):
 
     rows = "".join(f"{x},0.5,0,{thickness_taper(x)!r}\n" for x in map(float, range(11)))
     (tmp_path / "taper.csv").write_text("X,Y,Z,thickness\n" + rows, encoding="utf-8")
-    profile = write_scene(tmp_path, strip(f'thickness = {{ profile = "taper.csv" }}\nE = {E}'),
-                          "profile.toml")
+    profile = write_scene(
+        tmp_path, strip(f'thickness = {{ profile = "taper.csv" }}\nE = {E}'), "profile.toml"
+    )
     bare = write_scene(tmp_path, strip(f'thickness = "taper.csv"\nE = {E}'), "bare.toml")
     assert load_scene(bare)["shell"]["thickness"] == {"profile": "taper.csv"}
     assert load_scene(profile)["shell"]["thickness"] == {"profile": "taper.csv"}
 
     by_profile = run_scene(profile)
     w = _check_tapered(by_profile, E, thickness_taper, "thickness profile")
-    by_formula = run_scene(write_scene(tmp_path, strip(f'thickness = "0.15 - 0.01*X"\nE = {E}'),
-                                       "formula.toml"))
+    by_formula = run_scene(
+        write_scene(tmp_path, strip(f'thickness = "0.15 - 0.01*X"\nE = {E}'), "formula.toml")
+    )
     w_formula = tip_deflection(by_formula)
     print(f"profile vs formula: {w / w_formula - 1:+.2e}")
     assert abs(w / w_formula - 1) < 1.5e-14
@@ -184,9 +208,10 @@ def test_part_thickness_formula_on_a_region(tmp_path):
     (tapered_tip_deflection and tapered_tip_rotation with a break at X = 4, plus the
     shear) within 1e-5: reached −1.0e-6 and −1.9e-7 on both stacks ([shell]'s 0.1 on
     the part too deflects twice as much)."""
-    scene = strip(f"thickness = 0.1\nE = {E}\n"
-                  '[[shell.parts]]\nregion = "root"\nthickness = "0.16 - 0.01*X"',
-                  extra='[[mesh.regions]]\nname = "root"\nx = [0.0, 4.0]')
+    scene = strip(
+        f'thickness = 0.1\nE = {E}\n[[shell.parts]]\nregion = "root"\nthickness = "0.16 - 0.01*X"',
+        extra='[[mesh.regions]]\nname = "root"\nx = [0.0, 4.0]',
+    )
     sim = run_scene(write_scene(tmp_path, scene))
 
     def thickness(x):
@@ -202,6 +227,7 @@ def test_tapered_cantilever_large_deflection_is_the_nonuniform_elastica(tmp_path
     P against the inextensible, unshearable elastica with EI(x) (nonuniform_elastica),
     within 0.1 %: reached 1.1e-4 (the shell's shear and stretch, which the elastica
     leaves out) on both stacks; the tip turns by 1.0 rad and moves in to 0.78 L."""
+
     def thickness(x):
         return 0.12 - 0.004 * x
 
@@ -209,20 +235,32 @@ def test_tapered_cantilever_large_deflection_is_the_nonuniform_elastica(tmp_path
         return E * W * thickness(x) ** 3 / 12
 
     force = 2 * EI(0.0) / L**2
-    sim = run_scene(write_scene(tmp_path, strip(
-        f'thickness = "0.12 - 0.004*X"\nE = {E}', load=(0.0, 0.0, force), dt=0.25,
-        ramp="linear")))
+    sim = run_scene(
+        write_scene(
+            tmp_path,
+            strip(
+                f'thickness = "0.12 - 0.004*X"\nE = {E}',
+                load=(0.0, 0.0, force),
+                dt=0.25,
+                ramp="linear",
+            ),
+        )
+    )
     assert sim.summary["status"] == "ok"
     worst = 0.0
     for scale, (ux, _, uz) in zip((0.5, 1.0), rows_at(sim, [0.5, 1.0])):
         dx, dz, theta = mr.nonuniform_elastica(scale * force, L, EI, 8)
         errors = (ux / dx - 1, uz / dz - 1)
-        print(f"P = {scale} x 2EI(0)/L²: tip (ux, uz) = ({ux:.6f}, {uz:.6f}), elastica "
-              f"({dx:.6f}, {dz:.6f}), errors {errors[0]:+.2e}, {errors[1]:+.2e}")
+        print(
+            f"P = {scale} x 2EI(0)/L²: tip (ux, uz) = ({ux:.6f}, {uz:.6f}), elastica "
+            f"({dx:.6f}, {dz:.6f}), errors {errors[0]:+.2e}, {errors[1]:+.2e}"
+        )
         worst = max(worst, *map(abs, errors))
     rotation = bending_rotation(tip_director(sim))
-    print(f"tip rotation {rotation:.6f} rad, elastica {theta:.6f} rad, "
-          f"error {rotation / theta - 1:+.2e}")
+    print(
+        f"tip rotation {rotation:.6f} rad, elastica {theta:.6f} rad, "
+        f"error {rotation / theta - 1:+.2e}"
+    )
     worst = max(worst, abs(rotation / theta - 1))
     assert worst < 1e-3
 
@@ -244,22 +282,39 @@ def test_orthotropic_law_with_isotropic_moduli_is_the_isotropic_law(tmp_path):
     force = E * W * t**3 / 12 / L**2
     angle = np.radians(30.0)
     fibre = f"[{float(np.cos(angle))!r}, {float(np.sin(angle))!r}, 0.0]"
-    probes = [("tip0", (L, 0.0, 0.0)), ("tip1", (L, W, 0.0)), ("mid0", (L / 2, 0.0, 0.0)),
-              ("mid1", (L / 2, W, 0.0))]
-    common = dict(divisions="[20, 2]", load=(0.0, 0.3 * force, force), dt=0.5, ramp="linear",
-                  probes=probes)
-    iso = run_scene(write_scene(tmp_path, strip(f"thickness = {t}\nE = {E}\nnu = {nu}",
-                                                **common), "isotropic.toml"))
-    ortho = run_scene(write_scene(tmp_path, strip(
-        f'thickness = {t}\nmaterial = "orthotropic"\nE1 = {E}\nE2 = {E}\nG12 = {G}\n'
-        f"G13 = {G}\nG23 = {G}\nnu12 = {nu}\nfibre = {fibre}",
-        **common), "orthotropic.toml"))
+    probes = [
+        ("tip0", (L, 0.0, 0.0)),
+        ("tip1", (L, W, 0.0)),
+        ("mid0", (L / 2, 0.0, 0.0)),
+        ("mid1", (L / 2, W, 0.0)),
+    ]
+    common = dict(
+        divisions="[20, 2]", load=(0.0, 0.3 * force, force), dt=0.5, ramp="linear", probes=probes
+    )
+    iso = run_scene(
+        write_scene(
+            tmp_path, strip(f"thickness = {t}\nE = {E}\nnu = {nu}", **common), "isotropic.toml"
+        )
+    )
+    ortho = run_scene(
+        write_scene(
+            tmp_path,
+            strip(
+                f'thickness = {t}\nmaterial = "orthotropic"\nE1 = {E}\nE2 = {E}\nG12 = {G}\n'
+                f"G13 = {G}\nG23 = {G}\nnu12 = {nu}\nfibre = {fibre}",
+                **common,
+            ),
+            "orthotropic.toml",
+        )
+    )
     a = np.array([row[1] for row in iso.history])
     b = np.array([row[1] for row in ortho.history])
     assert a.shape == b.shape == (3, 4, 3)
     tip = a[-1]
-    print(f"tip corners {tip[0]}, {tip[1]}; largest difference "
-          f"{np.abs(a - b).max() / np.abs(a).max():.1e} of the largest displacement")
+    print(
+        f"tip corners {tip[0]}, {tip[1]}; largest difference "
+        f"{np.abs(a - b).max() / np.abs(a).max():.1e} of the largest displacement"
+    )
     assert abs(tip[1, 2] - tip[0, 2]) > 1e-3 and abs(tip[0, 1]) > 1e-2  # twisted, bent in plane
     assert np.abs(a - b).max() < 1e-14 * np.abs(a).max()
 
@@ -273,8 +328,11 @@ def _curvature(u, z, h):
 LONG, STATIONS = 20.0, (6.0, 10.0, 14.0)
 
 
-@pytest.mark.parametrize("fibre, modulus", [((2.0, 0.0, 1.0), E1), ((0.0, 3.0, 0.0), E2)],
-                         ids=["fibre-along", "fibre-across"])
+@pytest.mark.parametrize(
+    "fibre, modulus",
+    [((2.0, 0.0, 1.0), E1), ((0.0, 3.0, 0.0), E2)],
+    ids=["fibre-along", "fibre-across"],
+)
 def test_orthotropic_strip_bends_with_the_modulus_along_it(tmp_path, fibre, modulus):
     """A narrow strip (L = 20, W = 1, t = 0.1, 40 x 2 cells) with the fibre along X
     bends with E1 I, across X with E2 I (I = W t³/12; free long edges: the plane-stress
@@ -287,23 +345,34 @@ def test_orthotropic_strip_bends_with_the_modulus_along_it(tmp_path, fibre, modu
     (the clamp holds the anticlastic curvature −ν κ of the root, ν = ν12 or ν21)."""
     probes = [("tip", (LONG, W / 2, 0.0))]
     probes += [(f"x{x:g}", (x, W / 2, 0.0)) for x in STATIONS]
-    sim = run_scene(write_scene(tmp_path, strip(
-        f"thickness = 0.1\n{ORTHOTROPIC}\nfibre = [{fibre[0]}, {fibre[1]}, {fibre[2]}]",
-        length=LONG, divisions="[40, 2]", probes=probes)))
+    sim = run_scene(
+        write_scene(
+            tmp_path,
+            strip(
+                f"thickness = 0.1\n{ORTHOTROPIC}\nfibre = [{fibre[0]}, {fibre[1]}, {fibre[2]}]",
+                length=LONG,
+                divisions="[40, 2]",
+                probes=probes,
+            ),
+        )
+    )
     uz = sim.history[-1][1][:, 2]
     EI = modulus * W * 0.1**3 / 12
     kappa = _curvature(uz, (1, 2, 3), STATIONS[1] - STATIONS[0])
     kappa_exact = P * (LONG - STATIONS[1]) / EI
     tip_exact = P * LONG**3 / (3 * EI) + P * LONG / (K_S * G12 * W * 0.1)
-    print(f"fibre {fibre}: curvature {kappa:.9e}, P(L - x)/EI {kappa_exact:.9e} (error "
-          f"{kappa / kappa_exact - 1:+.2e}); tip {uz[0]:.6e}, beam {tip_exact:.6e} "
-          f"(error {uz[0] / tip_exact - 1:+.2e})")
+    print(
+        f"fibre {fibre}: curvature {kappa:.9e}, P(L - x)/EI {kappa_exact:.9e} (error "
+        f"{kappa / kappa_exact - 1:+.2e}); tip {uz[0]:.6e}, beam {tip_exact:.6e} "
+        f"(error {uz[0] / tip_exact - 1:+.2e})"
+    )
     assert abs(kappa / kappa_exact - 1) < 3e-7
     assert abs(uz[0] / tip_exact - 1) < 5e-3
 
 
-@pytest.mark.parametrize("degrees, cells", [(45.0, "quadrilateral"), (-30.0, "quadrilateral"),
-                                            (45.0, "triangle")])
+@pytest.mark.parametrize(
+    "degrees, cells", [(45.0, "quadrilateral"), (-30.0, "quadrilateral"), (45.0, "triangle")]
+)
 def test_off_axis_fibre_twists_the_bent_strip(tmp_path, degrees, cells):
     """Bending-twisting coupling: the narrow strip (L = 20, W = 1, W/L = 0.05) with the
     fibre at an angle α from X toward Y, bent by the tip force P along Z.  Narrow-strip
@@ -325,11 +394,23 @@ def test_off_axis_fibre_twists_the_bent_strip(tmp_path, degrees, cells):
         # skewed cells (their metric is not diagonal) and the fibre as a field: the
         # same constant direction written as formulas of X
         fibre = f'["{float(np.cos(angle))!r} + 0*X", "{float(np.sin(angle))!r}", "0"]'
-    probes = [(f"{side}{x:g}", (x, y, 0.0)) for x in STATIONS
-              for side, y in (("a", 0.0), ("b", W), ("m", W / 2))]
-    sim = run_scene(write_scene(tmp_path, strip(
-        f"thickness = 0.1\n{ORTHOTROPIC}\nfibre = {fibre}",
-        length=LONG, divisions="[40, 2]", probes=probes, extra=f'cell = "{cells}"')))
+    probes = [
+        (f"{side}{x:g}", (x, y, 0.0))
+        for x in STATIONS
+        for side, y in (("a", 0.0), ("b", W), ("m", W / 2))
+    ]
+    sim = run_scene(
+        write_scene(
+            tmp_path,
+            strip(
+                f"thickness = 0.1\n{ORTHOTROPIC}\nfibre = {fibre}",
+                length=LONG,
+                divisions="[40, 2]",
+                probes=probes,
+                extra=f'cell = "{cells}"',
+            ),
+        )
+    )
     uz = sim.history[-1][1][:, 2]
     kxx, _, k2xy = mr.narrow_strip_curvatures(E1, E2, G12, NU12, 0.1, angle, 1.0)
     phi = [(uz[3 * i + 1] - uz[3 * i]) / W for i in range(3)]
@@ -338,17 +419,21 @@ def test_off_axis_fibre_twists_the_bent_strip(tmp_path, degrees, cells):
     twist_exact = 0.5 * k2xy * P / W * ((LONG - x0) ** 2 - (LONG - x1) ** 2) / 2
     kappa = _curvature(uz, (2, 5, 8), STATIONS[1] - STATIONS[0])
     kappa_exact = kxx * P * (LONG - STATIONS[1]) / W
-    print(f"fibre at {degrees}°: twist φ(14) − φ(6) = {twist:.9e} rad, narrow strip "
-          f"{twist_exact:.9e} (error {twist / twist_exact - 1:+.2e}); φ(6) {phi[0]:.4e}; "
-          f"curvature error {kappa / kappa_exact - 1:+.2e}")
+    print(
+        f"fibre at {degrees}°: twist φ(14) − φ(6) = {twist:.9e} rad, narrow strip "
+        f"{twist_exact:.9e} (error {twist / twist_exact - 1:+.2e}); φ(6) {phi[0]:.4e}; "
+        f"curvature error {kappa / kappa_exact - 1:+.2e}"
+    )
     # triangles (the third case) reached 1.5e-7 and 4.9e-9
     assert abs(twist / twist_exact - 1) < (1e-8 if cells == "quadrilateral" else 1.5e-6)
     assert abs(kappa / kappa_exact - 1) < 2e-7
 
 
-@pytest.mark.parametrize("fibre, modulus, shear", [((1.0, 0.0, 0.0), E1, "G13"),
-                                                   ((0.0, 1.0, 0.0), E2, "G23")],
-                         ids=["fibre-along", "fibre-across"])
+@pytest.mark.parametrize(
+    "fibre, modulus, shear",
+    [((1.0, 0.0, 0.0), E1, "G13"), ((0.0, 1.0, 0.0), E2, "G23")],
+    ids=["fibre-along", "fibre-across"],
+)
 def test_transverse_shear_moduli_of_the_fibre_frame(tmp_path, fibre, modulus, shear):
     """A short thick strip (L = 10, W = 4, t = 0.5, ν12 = 0, so no anticlastic
     coupling) with G13 = 0.1e6 and G23 = 0.05e6 given: the plane of X and the normal is
@@ -358,17 +443,28 @@ def test_transverse_shear_moduli_of_the_fibre_frame(tmp_path, fibre, modulus, sh
     1e-7, reached −4e-9 and −8e-9 on both stacks (G13 and G23 swapped: 0.9 % off)."""
     length, width, t, force = 10.0, 4.0, 0.5, 1.0e-3
     moduli = {"G13": 0.1e6, "G23": 0.05e6}
-    sim = run_scene(write_scene(tmp_path, strip(
-        f'thickness = {t}\nmaterial = "orthotropic"\nE1 = {E1}\nE2 = {E2}\nG12 = {G12}\n'
-        f"nu12 = 0.0\nG13 = {moduli['G13']}\nG23 = {moduli['G23']}\n"
-        f"fibre = [{fibre[0]}, {fibre[1]}, {fibre[2]}]",
-        length=length, width=width, load=(0.0, 0.0, force),
-        probes=[("tip", (length, width / 2, 0.0))])))
+    sim = run_scene(
+        write_scene(
+            tmp_path,
+            strip(
+                f'thickness = {t}\nmaterial = "orthotropic"\nE1 = {E1}\nE2 = {E2}\nG12 = {G12}\n'
+                f"nu12 = 0.0\nG13 = {moduli['G13']}\nG23 = {moduli['G23']}\n"
+                f"fibre = [{fibre[0]}, {fibre[1]}, {fibre[2]}]",
+                length=length,
+                width=width,
+                load=(0.0, 0.0, force),
+                probes=[("tip", (length, width / 2, 0.0))],
+            ),
+        )
+    )
     w = tip_deflection(sim)
-    exact = (force * length**3 / (3 * modulus * width * t**3 / 12)
-             + force * length / (K_S * moduli[shear] * width * t))
-    print(f"fibre {fibre}: tip deflection {w:.9e}, Timoshenko with {shear} {exact:.9e}, "
-          f"error {w / exact - 1:+.2e}")
+    exact = force * length**3 / (3 * modulus * width * t**3 / 12) + force * length / (
+        K_S * moduli[shear] * width * t
+    )
+    print(
+        f"fibre {fibre}: tip deflection {w:.9e}, Timoshenko with {shear} {exact:.9e}, "
+        f"error {w / exact - 1:+.2e}"
+    )
     assert abs(w / exact - 1) < 1e-7
 
 
@@ -376,8 +472,10 @@ PLATE = 10.0
 
 
 def plate_scene(t: float, q: float, divisions: str) -> str:
-    clamps = "".join(f'\n[[boundary]]\nwhere = "{edge}"\nfix = ["clamped"]\n'
-                     for edge in ("x=0", "x=L", "y=0", "y=W"))
+    clamps = "".join(
+        f'\n[[boundary]]\nwhere = "{edge}"\nfix = ["clamped"]\n'
+        for edge in ("x=0", "x=L", "y=0", "y=W")
+    )
     return f"""
 title = "clamped orthotropic square plate"
 [mesh]
@@ -418,13 +516,16 @@ def test_clamped_orthotropic_plate_under_pressure(tmp_path):
     for t in (PLATE / 100, PLATE / 200):
         D = mr.orthotropic_D(E1, E2, G12, NU12, t, 0.0)
         q = 1e-4 * t * D[1, 1] / (pr.SQUARE_CLAMPED * PLATE**4)  # deflection below 1e-4 t
-        ritz = pr.clamped_orthotropic_plate(PLATE, PLATE, D[0, 0], D[0, 1], D[1, 1], D[2, 2],
-                                            q, terms=12)
+        ritz = pr.clamped_orthotropic_plate(
+            PLATE, PLATE, D[0, 0], D[0, 1], D[1, 1], D[2, 2], q, terms=12
+        )
         sim = run_scene(write_scene(tmp_path, plate_scene(t, q, "[24, 24]"), f"plate{t:g}.toml"))
         w = tip_deflection(sim)
         ratios[t] = w / ritz
-        print(f"a/t = {PLATE / t:g}: centre deflection {w:.6e}, Ritz {ritz:.6e} "
-              f"(w/t {w / t:.1e}), ratio - 1 = {ratios[t] - 1:+.3e}")
+        print(
+            f"a/t = {PLATE / t:g}: centre deflection {w:.6e}, Ritz {ritz:.6e} "
+            f"(w/t {w / t:.1e}), ratio - 1 = {ratios[t] - 1:+.3e}"
+        )
     thick, thin = ratios[PLATE / 100], ratios[PLATE / 200]
     kirchhoff = (4 * thin - thick) / 3
     print(f"extrapolated to t -> 0: ratio - 1 = {kirchhoff - 1:+.3e}")
@@ -451,10 +552,10 @@ def _check_error(scene) -> str:
 def test_profile_that_does_not_cover_the_body(tmp_path):
     """A profile over 0 ≤ X ≤ 5 on the strip of length 10: one line naming the key, a
     point of the body beyond X = 5 and the profile's X range."""
-    (tmp_path / "short.csv").write_text("X,Y,Z,thickness\n0,0.5,0,0.1\n2.5,0.5,0,0.1\n"
-                                        "5,0.5,0,0.1\n", encoding="utf-8")
-    line = _check_error(write_scene(tmp_path, strip('thickness = "short.csv"',
-                                                    divisions="[4, 1]")))
+    (tmp_path / "short.csv").write_text(
+        "X,Y,Z,thickness\n0,0.5,0,0.1\n2.5,0.5,0,0.1\n5,0.5,0,0.1\n", encoding="utf-8"
+    )
+    line = _check_error(write_scene(tmp_path, strip('thickness = "short.csv"', divisions="[4, 1]")))
     print(line)
     assert "shell.thickness.profile" in line and "does not cover the body" in line
     assert "its X range [0, 5]" in line

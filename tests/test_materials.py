@@ -5,7 +5,6 @@ scene)."""
 from __future__ import annotations
 
 import numpy as np
-
 from conftest import run_scene, write_scene
 
 PULLED = """
@@ -81,8 +80,9 @@ def test_uniaxial_tension_contracts_by_poissons_ratio(tmp_path):
     sim = run_scene(write_scene(tmp_path, PULLED))
     shell, mesh = sim.scene["shell"], sim.scene["mesh"]
     sigma = sim.scene["load"][0]["value"][0] / (mesh["width"] * shell["thickness"])
-    exact = np.array([sigma * mesh["length"] / shell["E"],
-                      -shell["nu"] * sigma * mesh["width"] / shell["E"]])
+    exact = np.array(
+        [sigma * mesh["length"] / shell["E"], -shell["nu"] * sigma * mesh["width"] / shell["E"]]
+    )
     got = sim.history[-1][1][0][:2]
     print(f"far corner (u, v) {got}, exact {exact}")
     assert np.allclose(got, exact, rtol=1e-4, atol=0)
@@ -102,6 +102,8 @@ def test_composite_cantilever_matches_beam_theory(tmp_path):
     EI_tip = shell["E"] * W * shell["thickness"] ** 3 / 12
     exact = P * ((L**3 - (L - a) ** 3) / (3 * EI_root) + (L - a) ** 3 / (3 * EI_tip))
     w = sim.history[-1][1][0][2]
-    print(f"tip deflection {w:.6e}, composite beam {exact:.6e}, "
-          f"error {100 * abs(w / exact - 1):.4f} %")
+    print(
+        f"tip deflection {w:.6e}, composite beam {exact:.6e}, "
+        f"error {100 * abs(w / exact - 1):.4f} %"
+    )
     assert abs(w / exact - 1) < 1e-3

@@ -12,18 +12,26 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_command, write_scene
-from rftfem.meshes.surface_checks import REVERSED, check_surface
 from stokes_bodies import write_disk, write_ellipsoid
+
+from rftfem.meshes.surface_checks import REVERSED, check_surface
 
 #: gradients of the bilinear quadrilateral's shape functions (gmsh's corner order,
 #: reference square [-1, 1]²) at the 2 × 2 Gauss points
 _G = 1 / math.sqrt(3)
 _QUAD_POINTS = [(-_G, -_G), (_G, -_G), (_G, _G), (-_G, _G)]
-QUAD_GRADS = np.array([[[-(1 - e) / 4, -(1 - x) / 4], [(1 - e) / 4, -(1 + x) / 4],
-                        [(1 + e) / 4, (1 + x) / 4], [-(1 + e) / 4, (1 - x) / 4]]
-                       for x, e in _QUAD_POINTS])
+QUAD_GRADS = np.array(
+    [
+        [
+            [-(1 - e) / 4, -(1 - x) / 4],
+            [(1 - e) / 4, -(1 + x) / 4],
+            [(1 + e) / 4, (1 + x) / 4],
+            [-(1 + e) / 4, (1 - x) / 4],
+        ]
+        for x, e in _QUAD_POINTS
+    ]
+)
 TRI_GRADS = np.array([[[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]]])
 
 
@@ -58,8 +66,17 @@ def test_moebius_band_is_refused():
     """A Möbius band of 24 quadrilaterals cannot face one side: refused, naming two cells."""
     n = 24
     u = 2 * np.pi * np.arange(n) / n
-    x = np.array([((1 + s * np.cos(a / 2)) * np.cos(a), (1 + s * np.cos(a / 2)) * np.sin(a),
-                   s * np.sin(a / 2)) for a in u for s in (-0.3, 0.3)])
+    x = np.array(
+        [
+            (
+                (1 + s * np.cos(a / 2)) * np.cos(a),
+                (1 + s * np.cos(a / 2)) * np.sin(a),
+                s * np.sin(a / 2),
+            )
+            for a in u
+            for s in (-0.3, 0.3)
+        ]
+    )
     cells = [[2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1] for i in range(n - 1)]
     cells.append([2 * n - 2, 1, 0, 2 * n - 1])  # the band joins itself turned over
     with pytest.raises(ValueError, match="cannot be oriented .* cells"):
@@ -74,7 +91,7 @@ def test_bad_cells_and_unmerged_nodes_are_named():
     bowtie[5] = bowtie[5][[0, 1, 3, 2]]
     with pytest.raises(ValueError, match=r"cell 6 is turned inside out near \(0.75, 0.75, 0\)"):
         check_surface(3, bowtie, x, QUAD_GRADS)
-    apart = np.vstack([x, x[cells[1, 1]]])        # cell 2's corner, not merged with cell 3's
+    apart = np.vstack([x, x[cells[1, 1]]])  # cell 2's corner, not merged with cell 3's
     unmerged = cells.copy()
     unmerged[1, 1] = len(x)
     with pytest.raises(ValueError, match=r"1 pair\(s\) of nodes coincide .* at \(1, 0, 0\)"):
@@ -151,13 +168,28 @@ def test_disk_with_a_reversed_ring_runs_as_the_consistent_disk(tmp_path):
         scene = write_scene(tmp_path, DISK.format(file=f"{name}.msh"), name=f"{name}.toml")
         done = run_command([sys.executable, "-m", "rftfem", "check", str(scene)], cwd=ROOT)
         assert done.returncode == 0, done.stderr
-        expected = "consistent" if name == "good" else \
-            f"{turned} cell(s) turned to face as their neighbours"
+        expected = (
+            "consistent"
+            if name == "good"
+            else f"{turned} cell(s) turned to face as their neighbours"
+        )
         assert f"mesh: orientation {expected}" in done.stdout, done.stdout
         assert "mesh: open (" in done.stdout and ", 1 piece" in done.stdout
         out = tmp_path / f"out-{name}"
-        done = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--out",
-                            str(out), "--set", "output.fields=false"], cwd=ROOT)
+        done = run_command(
+            [
+                sys.executable,
+                "-m",
+                "rftfem",
+                "run",
+                str(scene),
+                "--out",
+                str(out),
+                "--set",
+                "output.fields=false",
+            ],
+            cwd=ROOT,
+        )
         assert done.returncode == 0, done.stderr[-2000:]
         if name == "mixed":
             assert f"mesh: turned {turned} cell(s) of " in done.stdout
@@ -166,22 +198,34 @@ def test_disk_with_a_reversed_ring_runs_as_the_consistent_disk(tmp_path):
     good, mixed = rows["good"], rows["mixed"]
     travel = 1.0e-3 / 2.0e-3 * good["time"][-1]
     apart = max(np.abs(good[f"centroid_{a}"] - mixed[f"centroid_{a}"]).max() for a in "xyz")
-    print(f"z: {good['centroid_z']} / {mixed['centroid_z']}; exact {travel} at the end; "
-          f"largest difference {apart / travel:.1e} of the travel")
+    print(
+        f"z: {good['centroid_z']} / {mixed['centroid_z']}; exact {travel} at the end; "
+        f"largest difference {apart / travel:.1e} of the travel"
+    )
     assert good["centroid_z"][-1] == pytest.approx(travel, rel=1e-9)
     for axis in "xyz":
-        assert np.abs(good[f"centroid_{axis}"] - mixed[f"centroid_{axis}"]).max() \
-            <= 1e-12 * travel
+        assert np.abs(good[f"centroid_{axis}"] - mixed[f"centroid_{axis}"]).max() <= 1e-12 * travel
 
 
 def _write_msh(path, x, cells, cell_type=3):
     """A gmsh 2.2 file of one physical surface "body" from nodes and cells (0-based)."""
-    lines = ["$MeshFormat", "2.2 0 8", "$EndMeshFormat", "$PhysicalNames", "1",
-             '2 1 "body"', "$EndPhysicalNames", "$Nodes", str(len(x))]
+    lines = [
+        "$MeshFormat",
+        "2.2 0 8",
+        "$EndMeshFormat",
+        "$PhysicalNames",
+        "1",
+        '2 1 "body"',
+        "$EndPhysicalNames",
+        "$Nodes",
+        str(len(x)),
+    ]
     lines += [f"{i + 1} {a!r} {b!r} {c!r}" for i, (a, b, c) in enumerate(np.asarray(x).tolist())]
     lines += ["$EndNodes", "$Elements", str(len(cells))]
-    lines += [f"{k + 1} {cell_type} 2 1 1 " + " ".join(str(n + 1) for n in c)
-              for k, c in enumerate(np.asarray(cells).tolist())]
+    lines += [
+        f"{k + 1} {cell_type} 2 1 1 " + " ".join(str(n + 1) for n in c)
+        for k, c in enumerate(np.asarray(cells).tolist())
+    ]
     path.write_text("\n".join(lines + ["$EndElements", ""]), encoding="utf-8")
 
 
@@ -206,8 +250,12 @@ def test_closed_surfaces_and_pieces_are_reported(tmp_path):
     legal body that `rftfem check` lists."""
     write_ellipsoid(tmp_path / "one.msh", size=0.5)
     x, cells = _sphere_cells(tmp_path / "one.msh")
-    _write_msh(tmp_path / "two.msh", np.vstack([x, x + [3.0, 0, 0]]),
-               np.vstack([cells, cells + len(x)]), cell_type=10)
+    _write_msh(
+        tmp_path / "two.msh",
+        np.vstack([x, x + [3.0, 0, 0]]),
+        np.vstack([cells, cells + len(x)]),
+        cell_type=10,
+    )
     for name, pieces in (("one", "1 piece"), ("two", f"2 pieces of {len(cells)}, ")):
         scene = write_scene(tmp_path, DISK.format(file=f"{name}.msh"), name=f"{name}.toml")
         done = run_command([sys.executable, "-m", "rftfem", "check", str(scene)], cwd=ROOT)
@@ -221,8 +269,13 @@ def test_refusals_through_the_command_line(tmp_path):
     cells[5] = cells[5][[0, 1, 3, 2]]
     _write_msh(tmp_path / "bad.msh", x, cells)
     scene = write_scene(tmp_path, DISK.format(file="bad.msh"))
-    done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-m", "rftfem", "check", str(scene)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 2
     err = done.stderr.strip().splitlines()
     assert len(err) == 1 and "mesh.file: cell 6 is turned inside out" in err[0], err

@@ -11,18 +11,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import dolfinx.fem  # noqa: E402
 import numpy as np
 import pytest
-
-from rftfem import compat  # noqa: F401  (imports dolfinx the right way first)
-
-import dolfinx.fem  # noqa: E402
 import ufl  # noqa: E402
 from mpi4py import MPI  # noqa: E402
 
+from rftfem import compat  # noqa: F401  (imports dolfinx the right way first)
 from rftfem.errors import SceneError  # noqa: E402
-from rftfem.meshes import (Body, build_body, build_strip, build_three_link,  # noqa: E402
-                           read_gmsh)
+from rftfem.meshes import Body, build_body, build_strip, build_three_link, read_gmsh  # noqa: E402
 from rftfem.meshes.strip import share_divisions  # noqa: E402
 
 COMM = MPI.COMM_WORLD
@@ -60,17 +57,20 @@ def areas(body: Body):
     tags = owned_tags(body)
     comm = body.mesh.comm
     total = _sum(float(per_cell.sum()), comm)
-    regions = {name: _sum(float(per_cell[np.isin(tags, ids)].sum()), comm)
-               for name, ids in body.regions.items()}
+    regions = {
+        name: _sum(float(per_cell[np.isin(tags, ids)].sum()), comm)
+        for name, ids in body.regions.items()
+    }
     return total, regions
 
 
 def edge_lengths(body: Body):
     ds = ufl.Measure("ds", domain=body.mesh, subdomain_data=body.facet_tags)
     one = dolfinx.fem.Constant(body.mesh, 1.0)
-    return {name: _sum(dolfinx.fem.assemble_scalar(compat.form(one * ds(tuple(ids)))),
-                       body.mesh.comm)
-            for name, ids in body.edges.items()}
+    return {
+        name: _sum(dolfinx.fem.assemble_scalar(compat.form(one * ds(tuple(ids)))), body.mesh.comm)
+        for name, ids in body.edges.items()
+    }
 
 
 def line_integrals(body: Body, names):
@@ -90,8 +90,11 @@ def line_integrals(body: Body, names):
     for name, (k, c) in names.items():
         ids = tuple(body.edges[name])
         off = (x[k] - c) ** 2
-        out[name] = [total(one("+") * dS(ids)), total(one * ds(ids)),
-                     total(off("+") * dS(ids) + off * ds(ids))]
+        out[name] = [
+            total(one("+") * dS(ids)),
+            total(one * ds(ids)),
+            total(off("+") * dS(ids) + off * ds(ids)),
+        ]
     return out
 
 
@@ -124,8 +127,16 @@ def num_cells(body: Body) -> int:
     return body.mesh.topology.index_map(2).size_global
 
 
-def write_quarter_cylinder(path, radius=2.0, height=3.0, order=1, quads=True,
-                           physical=True, named=True, extra_surface=False):
+def write_quarter_cylinder(
+    path,
+    radius=2.0,
+    height=3.0,
+    order=1,
+    quads=True,
+    physical=True,
+    named=True,
+    extra_surface=False,
+):
     """A quarter of a cylinder of axis Y: x² + z² = R², x, z ≥ 0, 0 ≤ y ≤ H.
 
     Named groups: surface "shell" (tag 5), curves "bottom" (y = 0, tag 11) and
@@ -260,8 +271,9 @@ def test_strip_graded_towards_its_edges():
 
 
 def test_strip_without_regions_and_coarse_division():
-    body = build_strip(COMM, 3.0, 0.5, [1, 1], "triangle",
-                       regions=[("r", (1.0, 2.0))])  # nx < segments: one each
+    body = build_strip(
+        COMM, 3.0, 0.5, [1, 1], "triangle", regions=[("r", (1.0, 2.0))]
+    )  # nx < segments: one each
     assert num_cells(body) == 2 * 3
     total, region_areas = areas(body)
     assert total == pytest.approx(1.5) and region_areas["r"] == pytest.approx(0.5)
@@ -272,8 +284,11 @@ def test_strip_without_regions_and_coarse_division():
 
 @pytest.mark.parametrize("cell, per_rect", [("quadrilateral", 1), ("triangle", 2)])
 def test_strip_grid_x_and_y_bands(cell, per_rect):
-    regions = [("end", (0.0, 1.0), None), ("side", None, (0.0, 0.5)),
-               ("patch", (2.0, 4.0), (0.5, 1.5))]
+    regions = [
+        ("end", (0.0, 1.0), None),
+        ("side", None, (0.0, 0.5)),
+        ("patch", (2.0, 4.0), (0.5, 1.5)),
+    ]
     body = build_strip(COMM, 6.0, 2.0, [12, 4], cell, regions)
     # X cuts 0 1 2 4 6 -> 2/2/4/4 divisions; Y cuts 0 0.5 1.5 2 -> 1/2/1; tag j*4 + i + 1
     assert body.regions == {"end": [1, 5, 9], "side": [1, 2, 3, 4], "patch": [7]}
@@ -293,10 +308,17 @@ def test_strip_grid_x_and_y_bands(cell, per_rect):
 @pytest.mark.parametrize("cell, per_rect", [("quadrilateral", 1), ("triangle", 2)])
 def test_strip_hinge_lines_cut_and_named(cell, per_rect):
     L, W = 5.0, 1.0
-    body = build_strip(COMM, L, W, [10, 3], cell, regions=[("tip", (4.0, 5.0))],
-                       hinges=["x=1.7", "y=0.5"])
-    assert body.edges == {"x=0": [1], "x=L": [2], "y=0": [3], "y=W": [4],
-                          "x=1.7": [5], "y=0.5": [6]}
+    body = build_strip(
+        COMM, L, W, [10, 3], cell, regions=[("tip", (4.0, 5.0))], hinges=["x=1.7", "y=0.5"]
+    )
+    assert body.edges == {
+        "x=0": [1],
+        "x=L": [2],
+        "y=0": [3],
+        "y=W": [4],
+        "x=1.7": [5],
+        "y=0.5": [6],
+    }
     assert body.hinges == []
     # X cuts 0 1.7 4 5 -> 3/5/2 of 10; Y cuts 0 0.5 1 -> 2/1 of 3 (tie to the lower)
     assert num_cells(body) == per_rect * 10 * 3
@@ -309,43 +331,48 @@ def test_strip_hinge_lines_cut_and_named(cell, per_rect):
         counts = facet_cell_counts(body, name)
         assert _sum(len(counts)) > 0 and set(counts) <= {2}  # interior: a cell on each side
     assert set(facet_cell_counts(body, "x=0")) <= {1}
-    sides = line_integrals(body, {"x=0": (0, 0.0), "x=L": (0, L), "y=0": (1, 0.0),
-                                  "y=W": (1, W)})
-    assert sides == {"x=0": pytest.approx([0.0, W, 0.0], abs=1e-12),
-                     "x=L": pytest.approx([0.0, W, 0.0], abs=1e-12),
-                     "y=0": pytest.approx([0.0, L, 0.0], abs=1e-12),
-                     "y=W": pytest.approx([0.0, L, 0.0], abs=1e-12)}
+    sides = line_integrals(body, {"x=0": (0, 0.0), "x=L": (0, L), "y=0": (1, 0.0), "y=W": (1, W)})
+    assert sides == {
+        "x=0": pytest.approx([0.0, W, 0.0], abs=1e-12),
+        "x=L": pytest.approx([0.0, W, 0.0], abs=1e-12),
+        "y=0": pytest.approx([0.0, L, 0.0], abs=1e-12),
+        "y=W": pytest.approx([0.0, L, 0.0], abs=1e-12),
+    }
     total, region_areas = areas(body)
     assert total == pytest.approx(L * W) and region_areas["tip"] == pytest.approx(1.0)
 
 
 def test_strip_hinge_named_as_written_and_region_limit_merged():
     """The selector is the name; a region limit within 1e-9 L of the line is that line."""
-    body = build_strip(COMM, 4.0, 1.0, [8, 2], regions=[("a", (0.0, 2.0 - 1e-12))],
-                       hinges=["x = 2.0"])
+    body = build_strip(
+        COMM, 4.0, 1.0, [8, 2], regions=[("a", (0.0, 2.0 - 1e-12))], hinges=["x = 2.0"]
+    )
     assert body.edges["x = 2.0"] == [5] and body.regions == {"a": [1]}
     assert tag_counts(body, 2) == [8, 8]
     lines = line_integrals(body, {"x = 2.0": (0, 2.0)})
     assert lines["x = 2.0"] == pytest.approx([1.0, 0.0, 0.0], abs=1e-12)
 
 
-@pytest.mark.parametrize("kwargs, key", [
-    (dict(regions=[("r", (-1.0, 1.0))]), "mesh.regions.0.x"),
-    (dict(regions=[("r", (2.0, 1.0))]), "mesh.regions.0.x"),
-    (dict(regions=[("r", (0.0, 1.0)), ("r", (1.0, 2.0))]), "mesh.regions.1.name"),
-    (dict(regions=[("x=0", (0.0, 1.0))]), "mesh.regions.0.name"),
-    (dict(divisions=[0, 1]), "mesh.divisions"),
-    (dict(divisions=[4.5, 1]), "mesh.divisions"),
-    (dict(cell="hexahedron"), "mesh.cell"),
-    (dict(length=-1.0), "mesh.length"),
-    (dict(width=math.inf), "mesh.width"),
-    (dict(regions=[("r", None, (-1.0, 0.5))]), "mesh.regions.0.y"),
-    (dict(regions=[("r", None, (0.5, 0.5))]), "mesh.regions.0.y"),
-    (dict(regions=[("r", (0.0, 1.0), (0.0, 2.0))]), "mesh.regions.0.y"),
-    (dict(regions=[("r", None, ("a", 1.0))]), "mesh.regions.0.y"),
-    (dict(regions=[("r", None, None)]), "mesh.regions.0"),
-    (dict(regions=[("y=W", None, (0.0, 0.5))]), "mesh.regions.0.name"),
-])
+@pytest.mark.parametrize(
+    "kwargs, key",
+    [
+        (dict(regions=[("r", (-1.0, 1.0))]), "mesh.regions.0.x"),
+        (dict(regions=[("r", (2.0, 1.0))]), "mesh.regions.0.x"),
+        (dict(regions=[("r", (0.0, 1.0)), ("r", (1.0, 2.0))]), "mesh.regions.1.name"),
+        (dict(regions=[("x=0", (0.0, 1.0))]), "mesh.regions.0.name"),
+        (dict(divisions=[0, 1]), "mesh.divisions"),
+        (dict(divisions=[4.5, 1]), "mesh.divisions"),
+        (dict(cell="hexahedron"), "mesh.cell"),
+        (dict(length=-1.0), "mesh.length"),
+        (dict(width=math.inf), "mesh.width"),
+        (dict(regions=[("r", None, (-1.0, 0.5))]), "mesh.regions.0.y"),
+        (dict(regions=[("r", None, (0.5, 0.5))]), "mesh.regions.0.y"),
+        (dict(regions=[("r", (0.0, 1.0), (0.0, 2.0))]), "mesh.regions.0.y"),
+        (dict(regions=[("r", None, ("a", 1.0))]), "mesh.regions.0.y"),
+        (dict(regions=[("r", None, None)]), "mesh.regions.0"),
+        (dict(regions=[("y=W", None, (0.0, 0.5))]), "mesh.regions.0.name"),
+    ],
+)
 def test_strip_bad_arguments(kwargs, key):
     args = dict(length=10.0, width=1.0, divisions=[4, 1], cell="quadrilateral", regions=())
     args.update(kwargs)
@@ -368,10 +395,16 @@ BAD_HINGES = [  # on a strip [0, 5] x [0, 1]
     (["x=5"], "hinge.0.where", "lies on the body's boundary"),
     (["y=0.5", "y=1.0"], "hinge.1.where", "lies on the body's boundary"),
     (["y=1e-12"], "hinge.0.where", "lies on the body's boundary"),
-    (["x=1", "y=0.5", "x=1.0"], "hinge.2.where",
-     "two hinges on one line: hinge.0.where and hinge.2.where"),
-    (["y=0.5", "y=0.5000000000001"], "hinge.1.where",
-     "two hinges on one line: hinge.0.where and hinge.1.where"),
+    (
+        ["x=1", "y=0.5", "x=1.0"],
+        "hinge.2.where",
+        "two hinges on one line: hinge.0.where and hinge.2.where",
+    ),
+    (
+        ["y=0.5", "y=0.5000000000001"],
+        "hinge.1.where",
+        "two hinges on one line: hinge.0.where and hinge.1.where",
+    ),
 ]
 
 
@@ -392,25 +425,44 @@ def test_three_link_links_hinges_edges(cell, per_rect):
     body = build_three_link(COMM, L, w, [8, 2], cell)
     assert (body.length, body.width) == (L, 3 * w)
     assert body.hinges == ["hinge-left", "hinge-right"]
-    assert body.edges == {"x=0": [1], "x=L": [2], "y=0": [3], "y=W": [4],
-                          "hinge-left": [5], "hinge-right": [6]}
+    assert body.edges == {
+        "x=0": [1],
+        "x=L": [2],
+        "y=0": [3],
+        "y=W": [4],
+        "hinge-left": [5],
+        "hinge-right": [6],
+    }
     assert body.regions == {"left": [1], "middle": [2], "right": [3]}
     assert num_cells(body) == per_rect * 8 * 3 * 2
     assert tag_counts(body, 3) == [per_rect * 8 * 2] * 3
     total, region_areas = areas(body)
     assert total == pytest.approx(3 * L * w, rel=1e-12)
-    assert region_areas == pytest.approx({"left": L * w, "middle": L * w, "right": L * w},
-                                         rel=1e-12)
+    assert region_areas == pytest.approx(
+        {"left": L * w, "middle": L * w, "right": L * w}, rel=1e-12
+    )
     lengths = edge_lengths(body)
-    assert lengths == pytest.approx({"x=0": 3 * w, "x=L": 3 * w, "y=0": L, "y=W": L,
-                                     "hinge-left": 0.0, "hinge-right": 0.0}, abs=1e-12)
-    lines = line_integrals(body, {"hinge-left": (1, w), "hinge-right": (1, 2 * w),
-                                  "y=0": (1, 0.0), "y=W": (1, 3 * w), "x=L": (0, L)})
-    assert lines == {"hinge-left": pytest.approx([L, 0.0, 0.0], abs=1e-12),
-                     "hinge-right": pytest.approx([L, 0.0, 0.0], abs=1e-12),
-                     "y=0": pytest.approx([0.0, L, 0.0], abs=1e-12),
-                     "y=W": pytest.approx([0.0, L, 0.0], abs=1e-12),
-                     "x=L": pytest.approx([0.0, 3 * w, 0.0], abs=1e-12)}
+    assert lengths == pytest.approx(
+        {"x=0": 3 * w, "x=L": 3 * w, "y=0": L, "y=W": L, "hinge-left": 0.0, "hinge-right": 0.0},
+        abs=1e-12,
+    )
+    lines = line_integrals(
+        body,
+        {
+            "hinge-left": (1, w),
+            "hinge-right": (1, 2 * w),
+            "y=0": (1, 0.0),
+            "y=W": (1, 3 * w),
+            "x=L": (0, L),
+        },
+    )
+    assert lines == {
+        "hinge-left": pytest.approx([L, 0.0, 0.0], abs=1e-12),
+        "hinge-right": pytest.approx([L, 0.0, 0.0], abs=1e-12),
+        "y=0": pytest.approx([0.0, L, 0.0], abs=1e-12),
+        "y=W": pytest.approx([0.0, L, 0.0], abs=1e-12),
+        "x=L": pytest.approx([0.0, 3 * w, 0.0], abs=1e-12),
+    }
     for name in body.hinges:
         counts = facet_cell_counts(body, name)
         assert _sum(len(counts)) > 0 and set(counts) <= {2}
@@ -420,24 +472,45 @@ def test_three_link_links_hinges_edges(cell, per_rect):
 
 def test_three_link_user_regions_and_hinges_share_link_divisions():
     L, w = 4.0, 0.5
-    body = build_three_link(COMM, L, w, [8, 4],
-                            regions=[("tip", (3.0, 4.0), None), ("stripe", None, (0.1, 0.4)),
-                                     ("dot", (0.0, 1.0), (1.0, 1.2))],
-                            hinges=["y=1.2", "x=2"])
+    body = build_three_link(
+        COMM,
+        L,
+        w,
+        [8, 4],
+        regions=[
+            ("tip", (3.0, 4.0), None),
+            ("stripe", None, (0.1, 0.4)),
+            ("dot", (0.0, 1.0), (1.0, 1.2)),
+        ],
+        hinges=["y=1.2", "x=2"],
+    )
     assert body.hinges == ["hinge-left", "hinge-right"]
-    assert body.edges == {"x=0": [1], "x=L": [2], "y=0": [3], "y=W": [4],
-                          "hinge-left": [5], "hinge-right": [6], "y=1.2": [7], "x=2": [8]}
+    assert body.edges == {
+        "x=0": [1],
+        "x=L": [2],
+        "y=0": [3],
+        "y=W": [4],
+        "hinge-left": [5],
+        "hinge-right": [6],
+        "y=1.2": [7],
+        "x=2": [8],
+    }
     # X cuts 0 1 2 3 4 -> 2 each; Y cuts 0 .1 .4 .5 | 1 | 1.2 1.5: per link 1/2/1, 4, 2/2
     assert num_cells(body) == 8 * 12
     nxs, nys = [2, 2, 2, 2], [1, 2, 1, 4, 2, 2]
     assert tag_counts(body, 24) == [n * m for m in nys for n in nxs]
-    assert body.regions == {"left": list(range(1, 13)), "middle": [13, 14, 15, 16],
-                            "right": list(range(17, 25)),
-                            "tip": [4, 8, 12, 16, 20, 24], "stripe": [5, 6, 7, 8],
-                            "dot": [17]}
+    assert body.regions == {
+        "left": list(range(1, 13)),
+        "middle": [13, 14, 15, 16],
+        "right": list(range(17, 25)),
+        "tip": [4, 8, 12, 16, 20, 24],
+        "stripe": [5, 6, 7, 8],
+        "dot": [17],
+    }
     total, region_areas = areas(body)
-    assert region_areas == pytest.approx({"left": 2.0, "middle": 2.0, "right": 2.0,
-                                          "tip": 1.5, "stripe": 1.2, "dot": 0.2}, rel=1e-12)
+    assert region_areas == pytest.approx(
+        {"left": 2.0, "middle": 2.0, "right": 2.0, "tip": 1.5, "stripe": 1.2, "dot": 0.2}, rel=1e-12
+    )
     lines = line_integrals(body, {"y=1.2": (1, 1.2), "x=2": (0, 2.0)})
     assert lines["y=1.2"] == pytest.approx([L, 0.0, 0.0], abs=1e-12)
     assert lines["x=2"] == pytest.approx([3 * w, 0.0, 0.0], abs=1e-12)
@@ -453,28 +526,40 @@ def test_three_link_extra_cuts_share_their_links_divisions():
     assert body.regions == {"left": [1, 2], "middle": [3, 4], "right": [5]}
 
 
-@pytest.mark.parametrize("kwargs, key, words", [
-    (dict(length=-1.0), "mesh.length", "positive number"),
-    (dict(length=math.nan), "mesh.length", "positive number"),
-    (dict(link_width=0.0), "mesh.link_width", "positive number"),
-    (dict(link_width=math.inf), "mesh.link_width", "positive number"),
-    (dict(link_width="1"), "mesh.link_width", "positive number"),
-    (dict(divisions=[3]), "mesh.divisions", "[nx, n_per_link]"),
-    (dict(divisions=[3, 0]), "mesh.divisions", "two positive integers"),
-    (dict(divisions=[3.0, 1]), "mesh.divisions", "two positive integers"),
-    (dict(cell="hexahedron"), "mesh.cell", "quadrilateral"),
-    (dict(regions=[("left", (0.0, 1.0))]), "mesh.regions.0.name", "'left'"),
-    (dict(regions=[("r", None, (1.0, 1.2)), ("middle", None, (0.0, 0.1))]),
-     "mesh.regions.1.name", "'middle'"),
-    (dict(regions=[("r", None, (0.0, 2.0))]), "mesh.regions.0.y", "[0, 1.5]"),
-    (dict(hinges=["y=0.5"]), "hinge.0.where",
-     "two hinges on one line: hinge-left and hinge.0.where"),
-    (dict(hinges=["x=1", "y=1.0"]), "hinge.1.where",
-     "two hinges on one line: hinge-right and hinge.1.where"),
-    (dict(hinges=["y=1.5"]), "hinge.0.where", "lies on the body's boundary"),
-    (dict(hinges=["y=2"]), "hinge.0.where", "the body spans y in [0, 1.5]"),
-    (dict(hinges=["w=1"]), "hinge.0.where", 'expected "x=c" or "y=c"'),
-])
+@pytest.mark.parametrize(
+    "kwargs, key, words",
+    [
+        (dict(length=-1.0), "mesh.length", "positive number"),
+        (dict(length=math.nan), "mesh.length", "positive number"),
+        (dict(link_width=0.0), "mesh.link_width", "positive number"),
+        (dict(link_width=math.inf), "mesh.link_width", "positive number"),
+        (dict(link_width="1"), "mesh.link_width", "positive number"),
+        (dict(divisions=[3]), "mesh.divisions", "[nx, n_per_link]"),
+        (dict(divisions=[3, 0]), "mesh.divisions", "two positive integers"),
+        (dict(divisions=[3.0, 1]), "mesh.divisions", "two positive integers"),
+        (dict(cell="hexahedron"), "mesh.cell", "quadrilateral"),
+        (dict(regions=[("left", (0.0, 1.0))]), "mesh.regions.0.name", "'left'"),
+        (
+            dict(regions=[("r", None, (1.0, 1.2)), ("middle", None, (0.0, 0.1))]),
+            "mesh.regions.1.name",
+            "'middle'",
+        ),
+        (dict(regions=[("r", None, (0.0, 2.0))]), "mesh.regions.0.y", "[0, 1.5]"),
+        (
+            dict(hinges=["y=0.5"]),
+            "hinge.0.where",
+            "two hinges on one line: hinge-left and hinge.0.where",
+        ),
+        (
+            dict(hinges=["x=1", "y=1.0"]),
+            "hinge.1.where",
+            "two hinges on one line: hinge-right and hinge.1.where",
+        ),
+        (dict(hinges=["y=1.5"]), "hinge.0.where", "lies on the body's boundary"),
+        (dict(hinges=["y=2"]), "hinge.0.where", "the body spans y in [0, 1.5]"),
+        (dict(hinges=["w=1"]), "hinge.0.where", 'expected "x=c" or "y=c"'),
+    ],
+)
 def test_three_link_bad_arguments(kwargs, key, words):
     args = dict(length=4.0, link_width=0.5, divisions=[4, 1])
     args.update(kwargs)
@@ -505,9 +590,14 @@ def test_gmsh_left_as_found():
 # --- gmsh files ----------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name, cells, rel", [
-    ("qc_q1.msh", 32, 2e-3), ("qc_q2.msh", 32, 1e-5), ("qc_t2.msh", 64, 1e-5),
-])
+@pytest.mark.parametrize(
+    "name, cells, rel",
+    [
+        ("qc_q1.msh", 32, 2e-3),
+        ("qc_q2.msh", 32, 1e-5),
+        ("qc_t2.msh", 64, 1e-5),
+    ],
+)
 def test_read_curved_surface(msh_dir, name, cells, rel):
     body = read_gmsh(COMM, msh_dir / name)
     R, H = 2.0, 3.0
@@ -543,14 +633,17 @@ def test_read_hand_written_msh22():
     assert np.allclose(nz, area)
 
 
-@pytest.mark.parametrize("name, words", [
-    ("garbage.msh", "cannot read"),
-    ("empty.msh", "cannot read"),
-    ("missing.msh", "no such file"),
-    ("qc_nogroups.msh", "no physical surface"),
-    ("qc_unnamed.msh", "no named physical surface"),
-    ("plate.geo", ".msh"),
-])
+@pytest.mark.parametrize(
+    "name, words",
+    [
+        ("garbage.msh", "cannot read"),
+        ("empty.msh", "cannot read"),
+        ("missing.msh", "no such file"),
+        ("qc_nogroups.msh", "no physical surface"),
+        ("qc_unnamed.msh", "no named physical surface"),
+        ("plate.geo", ".msh"),
+    ],
+)
 def test_read_bad_files(msh_dir, name, words):
     with pytest.raises(SceneError) as err:
         read_gmsh(COMM, msh_dir / name)
@@ -563,39 +656,60 @@ def test_read_bad_files(msh_dir, name, words):
 
 
 def test_build_body_dispatch(msh_dir):
-    strip = build_body(COMM, {"kind": "strip", "length": 4.0, "width": 1.0,
-                              "divisions": [8, 1], "cell": "triangle",
-                              "regions": [{"name": "end1", "x": [0.0, 1.0]}]})
+    strip = build_body(
+        COMM,
+        {
+            "kind": "strip",
+            "length": 4.0,
+            "width": 1.0,
+            "divisions": [8, 1],
+            "cell": "triangle",
+            "regions": [{"name": "end1", "x": [0.0, 1.0]}],
+        },
+    )
     assert strip.regions == {"end1": [1]} and num_cells(strip) == 16
-    grid = build_body(COMM, {"length": 4.0, "divisions": [4, 2],
-                             "regions": [{"name": "s", "y": [0.0, 0.5]},
-                                         {"name": "e", "x": [3.0, 4.0], "y": None}]},
-                      hinges=["x=2"])
+    grid = build_body(
+        COMM,
+        {
+            "length": 4.0,
+            "divisions": [4, 2],
+            "regions": [{"name": "s", "y": [0.0, 0.5]}, {"name": "e", "x": [3.0, 4.0], "y": None}],
+        },
+        hinges=["x=2"],
+    )
     assert grid.regions == {"s": [1, 2, 3], "e": [3, 6]} and grid.edges["x=2"] == [5]
-    links = build_body(COMM, {"kind": "three-link", "length": 2.0,
-                              "regions": [{"name": "end", "x": [1.5, 2.0]}]},
-                       hinges=["x=1"])
+    links = build_body(
+        COMM,
+        {"kind": "three-link", "length": 2.0, "regions": [{"name": "end", "x": [1.5, 2.0]}]},
+        hinges=["x=1"],
+    )
     assert num_cells(links) == 10 * 3 * 2  # default divisions [10, 2]
     assert (links.length, links.width) == (2.0, 1.5)  # default link_width 0.5
     assert links.hinges == ["hinge-left", "hinge-right"] and links.edges["x=1"] == [7]
     assert links.regions["end"] == [3, 6, 9]
-    curved = build_body(COMM, {"kind": "gmsh", "file": "qc_q1.msh"}, scene_dir=msh_dir,
-                        hinges=["x=1", "nonsense"])  # gmsh: hinges resolved later
+    curved = build_body(
+        COMM, {"kind": "gmsh", "file": "qc_q1.msh"}, scene_dir=msh_dir, hinges=["x=1", "nonsense"]
+    )  # gmsh: hinges resolved later
     assert curved.regions == {"shell": [5]} and curved.hinges == []
-    for section, key in (({"kind": "three-links"}, "mesh.kind"),
-                         ({"regions": [{"name": "r"}]}, "mesh.regions.0"),
-                         ({"regions": [{"name": "r", "x": None, "y": None}]}, "mesh.regions.0"),
-                         ({"regions": [{"name": "r", "y": [1.0]}]}, "mesh.regions.0.y"),
-                         ({"kind": "three-link", "link_width": -0.5}, "mesh.link_width"),
-                         ({"kind": "three-link", "regions": [{"name": "right", "x": [0, 1]}]},
-                          "mesh.regions.0.name"),
-                         ({"kind": "gmsh", "file": "qc_q1.msh",
-                           "regions": [{"name": "r", "y": [0, 1]}]}, "mesh.regions"),
-                         ({"kind": "gmsh"}, "mesh.file"),
-                         ({"kind": "gmsh", "file": "nope.msh"}, "mesh.file"),
-                         ({"kind": "strip", "length": 1.0, "regions": [{"x": [0, 1]}]},
-                          "mesh.regions.0.name"),
-                         ({"kind": "strip", "length": 1.0, "divisions": [1]}, "mesh.divisions")):
+    for section, key in (
+        ({"kind": "three-links"}, "mesh.kind"),
+        ({"regions": [{"name": "r"}]}, "mesh.regions.0"),
+        ({"regions": [{"name": "r", "x": None, "y": None}]}, "mesh.regions.0"),
+        ({"regions": [{"name": "r", "y": [1.0]}]}, "mesh.regions.0.y"),
+        ({"kind": "three-link", "link_width": -0.5}, "mesh.link_width"),
+        (
+            {"kind": "three-link", "regions": [{"name": "right", "x": [0, 1]}]},
+            "mesh.regions.0.name",
+        ),
+        (
+            {"kind": "gmsh", "file": "qc_q1.msh", "regions": [{"name": "r", "y": [0, 1]}]},
+            "mesh.regions",
+        ),
+        ({"kind": "gmsh"}, "mesh.file"),
+        ({"kind": "gmsh", "file": "nope.msh"}, "mesh.file"),
+        ({"kind": "strip", "length": 1.0, "regions": [{"x": [0, 1]}]}, "mesh.regions.0.name"),
+        ({"kind": "strip", "length": 1.0, "divisions": [1]}, "mesh.divisions"),
+    ):
         with pytest.raises(SceneError) as err:
             build_body(COMM, section, scene_dir=msh_dir)
         assert str(err.value).startswith(key + ":")
@@ -626,13 +740,18 @@ def _mpirun():
     vendor = MPI.get_vendor()[0]
     marks = ("Open MPI", "OpenRTE") if "Open MPI" in vendor else ("HYDRA", "MPICH")
     here = Path(sys.executable).parent
-    candidates = [here / "mpirun", here / "mpiexec",
-                  shutil.which("mpirun"), shutil.which("mpiexec")]
+    candidates = [
+        here / "mpirun",
+        here / "mpiexec",
+        shutil.which("mpirun"),
+        shutil.which("mpiexec"),
+    ]
     for c in candidates:
         if c and os.path.isfile(c) and os.access(c, os.X_OK):
             try:
-                text = subprocess.run([str(c), "--version"], capture_output=True, text=True,
-                                      timeout=30).stdout
+                text = subprocess.run(
+                    [str(c), "--version"], capture_output=True, text=True, timeout=30
+                ).stdout
             except (OSError, subprocess.SubprocessError):
                 continue
             if any(m in text for m in marks):
@@ -645,15 +764,28 @@ def measure(comm, msh, bad):
     body and a gmsh file built on ``comm``, and the message for an unreadable file."""
     out = {}
     for cell in ("quadrilateral", "triangle"):
-        body = build_strip(comm, 10.0, 2.0, [16, 2], cell,
-                           regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))])
+        body = build_strip(
+            comm, 10.0, 2.0, [16, 2], cell, regions=[("end1", (0.0, 1.0)), ("mid", (3.0, 7.5))]
+        )
         out[cell] = [areas(body), edge_lengths(body), num_cells(body), body.regions]
-    body = build_three_link(comm, 6.0, 0.5, [12, 2], "quadrilateral",
-                            regions=[("tip", (5.0, 6.0), None)], hinges=["x=3"])
+    body = build_three_link(
+        comm,
+        6.0,
+        0.5,
+        [12, 2],
+        "quadrilateral",
+        regions=[("tip", (5.0, 6.0), None)],
+        hinges=["x=3"],
+    )
     out["three-link"] = [areas(body), edge_lengths(body), num_cells(body), body.regions]
     body = read_gmsh(comm, msh)
-    out["gmsh"] = [areas(body), edge_lengths(body), num_cells(body), body.regions,
-                   [body.length, body.width]]
+    out["gmsh"] = [
+        areas(body),
+        edge_lengths(body),
+        num_cells(body),
+        body.regions,
+        [body.length, body.width],
+    ]
     try:
         read_gmsh(comm, bad)
     except SceneError as err:
@@ -684,15 +816,26 @@ def _on_two_ranks(tmp_path, call: str) -> dict:
             pytest.fail(f"no mpirun found for {MPI.get_vendor()[0]}")
         script = tmp_path / "mpi_meshes.py"
         script.write_text(MPI_SCRIPT.format(tests=str(Path(__file__).parent), call=call))
-        env = {k: v for k, v in os.environ.items()
-               if not k.startswith(("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPIR_"))}
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-                   OMPI_MCA_rmaps_base_oversubscribe="1")
-        proc = subprocess.run([mpirun, "-n", "2", sys.executable, str(script)], env=env,
-                              capture_output=True, text=True, timeout=120)
+        env = {
+            k: v
+            for k, v in os.environ.items()
+            if not k.startswith(("OMPI_", "PMIX_", "PMI_", "HYDRA_", "MPIR_"))
+        }
+        env.update(
+            OMPI_ALLOW_RUN_AS_ROOT="1",
+            OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+            OMPI_MCA_rmaps_base_oversubscribe="1",
+        )
+        proc = subprocess.run(
+            [mpirun, "-n", "2", sys.executable, str(script)],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
         lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT ")]
         assert proc.returncode == 0 and lines, proc.stdout[-2000:] + proc.stderr[-2000:]
-        out = json.loads(lines[0][len("RESULT "):])
+        out = json.loads(lines[0][len("RESULT ") :])
     assert out.pop("size") == (COMM.size if COMM.size > 1 else 2)
     return out
 

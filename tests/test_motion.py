@@ -4,7 +4,6 @@ step, on edges and regions, for tables and travelling waves, any component."""
 from __future__ import annotations
 
 import numpy as np
-
 from conftest import rows_at, run_scene, write_scene
 
 BASE = """
@@ -35,7 +34,10 @@ def test_table_motion_on_an_edge(tmp_path):
     plane); the rest of the cantilever follows elastically.  The in-plane motion is
     kept small: its membrane stresses stiffen this thin strip's bending noticeably
     (at 0.1 the mid-span deflection ratio drops from 0.31 to 0.26)."""
-    scene = write_scene(tmp_path, BASE + """
+    scene = write_scene(
+        tmp_path,
+        BASE
+        + """
 [[motion]]
 where = "x=L"
 component = "uz"
@@ -52,7 +54,8 @@ at = [4.0, 0.5, 0.0]
 [[output.probes]]
 name = "middle"
 at = [2.0, 0.5, 0.0]
-""")
+""",
+    )
     sim = run_scene(scene, out_dir=tmp_path / "out")
     times = [0.25, 0.5, 0.75, 1.0]
     tip = rows_at(sim, times, probe=0)
@@ -68,7 +71,10 @@ def test_travelling_wave_on_a_region(tmp_path):
     """A wave ``s(t) b sin(k (X − X₀) + ω t + φ)`` on a region's nodes, in-plane component
     ux, ramped in over 0.8 (s = (1 − cos(π t / 0.8)) / 2, then 1)."""
     b, k, w, x0, phi, tau = 0.01, 1.3, 2.0, 0.5, 0.4, 0.8
-    scene = write_scene(tmp_path, BASE + f"""
+    scene = write_scene(
+        tmp_path,
+        BASE
+        + f"""
 [[motion]]
 where = "band"
 component = "ux"
@@ -78,11 +84,16 @@ angular_frequency = {w}
 origin = {x0}
 phase = {phi}
 ramp_time = {tau}
-""" + "".join(f"""
+"""
+        + "".join(
+            f"""
 [[output.probes]]
 name = "p{i}"
 at = [{x}, 0.0, 0.0]
-""" for i, x in enumerate((1.0, 1.5, 2.0))))
+"""
+            for i, x in enumerate((1.0, 1.5, 2.0))
+        ),
+    )
     sim = run_scene(scene, out_dir=tmp_path / "out")
     for i, x in enumerate((1.0, 1.5, 2.0)):
         times = np.array([0.0, 0.5, 1.0])
@@ -97,8 +108,15 @@ def test_a_waves_rates_are_its_derivatives():
     differences of ``at`` agree to 1e-7, inside the ramp, at its end and after it."""
     from rftfem.model.effects.motion import Motion
 
-    spec = {"kind": "travelling-wave", "amplitude": 0.3, "wavenumber": 0.7,
-            "angular_frequency": 5.0, "origin": 0.2, "phase": 1.1, "ramp_time": 0.5}
+    spec = {
+        "kind": "travelling-wave",
+        "amplitude": 0.3,
+        "wavenumber": 0.7,
+        "angular_frequency": 5.0,
+        "origin": 0.2,
+        "phase": 1.1,
+        "ramp_time": 0.5,
+    }
     X = np.linspace(0.0, 3.0, 7)
     motion = Motion(spec, None, None, X, None)
     h = 1e-4

@@ -73,8 +73,10 @@ fibre = ["cos(0.08*X)", "sin(0.08*X)", "0"]"""
 #: the taper's profile: X = 0, 2.5, …, 10 at Y = 0 and 1 (thinner towards the tip and
 #: along Y)
 TAPER = "X,Y,Z,thickness\n" + "".join(
-    f"{x},{y},0,{0.13 - 0.006 * x - 0.01 * y!r}\n" for x in (0.0, 2.5, 5.0, 7.5, 10.0)
-    for y in (0.0, 1.0))
+    f"{x},{y},0,{0.13 - 0.006 * x - 0.01 * y!r}\n"
+    for x in (0.0, 2.5, 5.0, 7.5, 10.0)
+    for y in (0.0, 1.0)
+)
 
 CASES = {"fields": FIELDS, "orthotropic": ORTHOTROPIC}
 

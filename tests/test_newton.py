@@ -9,15 +9,15 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_command, run_scene, write_scene
+from test_consistency import SCENE, model_comm
+from test_hinges import free_link_scene
+
 from rftfem import compat
+from rftfem.integration.schemes import make_scheme
 from rftfem.meshes import build_body
 from rftfem.model.shell_model import Model
 from rftfem.scene.reading import load_scene
-from rftfem.integration.schemes import make_scheme
-from test_consistency import SCENE, model_comm
-from test_hinges import free_link_scene
 
 
 def _jacobian(model) -> np.ndarray:
@@ -43,18 +43,22 @@ def test_mixed_point_tangent_is_exact_after_a_vanishing_update(tmp_path):
     update of zero equals the exact tangent to round-off, and after a finite update
     it differs from it (the correction is there and is assembled)."""
     scene = load_scene(write_scene(tmp_path, SCENE))
-    models = {t: Model(scene, build_body(model_comm(), scene["mesh"]), tangent=t)
-              for t in ("exact", "mixed-point")}
+    models = {
+        t: Model(scene, build_body(model_comm(), scene["mesh"]), tangent=t)
+        for t in ("exact", "mixed-point")
+    }
     for model in models.values():
         _random_state(model, np.random.default_rng(7))
     exact = _jacobian(models["exact"])
     mixed = models["mixed-point"]
-    mixed._newton_last = mixed.w.x.array.copy()          # the last iterate is this one
+    mixed._newton_last = mixed.w.x.array.copy()  # the last iterate is this one
     mixed.tangent_at_iterate()
     assert np.abs(mixed.newton_update.x.array).max() == 0.0
     same = _jacobian(mixed)
     scale = np.abs(exact).max()
-    print(f"|K_mixed - K_exact| / |K| after a zero update: {np.abs(same - exact).max() / scale:.2e}")
+    print(
+        f"|K_mixed - K_exact| / |K| after a zero update: {np.abs(same - exact).max() / scale:.2e}"
+    )
     assert np.abs(same - exact).max() <= 1e-12 * scale
     # an update of 0.05 in every unknown: the membrane forces of its linearization differ
     mixed._newton_last = mixed.w.x.array - 0.05
@@ -66,16 +70,28 @@ def test_mixed_point_tangent_is_exact_after_a_vanishing_update(tmp_path):
 
 #: ``python -c`` of the rftfem command with the contraction test switched off
 #: (``CONTRACTION = 0``: no ratio of updates is below it), leaving PETSc's own step test
-_WITHOUT_CONTRACTION = ("import sys; import rftfem.integration.convergence as c; "
-                        "c.CONTRACTION = 0.0; from rftfem.cli import main; "
-                        "sys.exit(main(sys.argv[1:]))")
+_WITHOUT_CONTRACTION = (
+    "import sys; import rftfem.integration.convergence as c; "
+    "c.CONTRACTION = 0.0; from rftfem.cli import main; "
+    "sys.exit(main(sys.argv[1:]))"
+)
 
 
 def _rollup(tmp_path, name, *sets, contraction=True):
     out = tmp_path / name
     launch = ["-m", "rftfem"] if contraction else ["-c", _WITHOUT_CONTRACTION]
-    cmd = [sys.executable, *launch, "run", str(DEMOS / "rollup.toml"), "--out", str(out),
-           "--quiet", "--set", "output.fields=false", *[a for s in sets for a in ("--set", s)]]
+    cmd = [
+        sys.executable,
+        *launch,
+        "run",
+        str(DEMOS / "rollup.toml"),
+        "--out",
+        str(out),
+        "--quiet",
+        "--set",
+        "output.fields=false",
+        *[a for s in sets for a in ("--set", s)],
+    ]
     done = run_command(cmd, cwd=ROOT, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
@@ -111,8 +127,9 @@ def test_thin_rollup_needs_no_halving(tmp_path):
     Newton iterate of step 35 overshoots, with PETSc's LU and with MUMPS alike);
     one is allowed.  (With predicted starts the exact tangent no longer halves here
     either, but takes 7.75 iterations a step, which the mean below refuses.)"""
-    counts, rows = _rollup(tmp_path, "thin", "shell.thickness=0.0012",
-                           f"shell.E={1.2e6 * (0.1 / 0.0012) ** 3!r}")
+    counts, rows = _rollup(
+        tmp_path, "thin", "shell.thickness=0.0012", f"shell.E={1.2e6 * (0.1 / 0.0012) ** 3!r}"
+    )
     mean = counts["newton_iterations"] / counts["steps"]
     print(f"thin roll-up: {counts}, {mean:.2f} Newton iterations a step")
     assert counts["dt_cuts"] <= 1 and counts["steps"] == 40 + counts["dt_cuts"]
@@ -149,9 +166,11 @@ def test_newton_stops_when_its_contraction_shows_the_solution_near(tmp_path):
     counts_tight, rows_tight = _rollup(tmp_path, "tight", *thin, "solver.snes_stol=1e-13")
     steps = counts["steps"]
     saved = (counts_petsc["newton_iterations"] - counts["newton_iterations"]) / steps
-    print(f"L/t = 1e5: {counts['newton_iterations'] / steps:.3f} Newton updates a step; "
-          f"PETSc's step test alone {counts_petsc['newton_iterations'] / steps:.3f}: "
-          f"{saved:.3f} saved a step; snes_stol = 1e-13: {counts_tight}")
+    print(
+        f"L/t = 1e5: {counts['newton_iterations'] / steps:.3f} Newton updates a step; "
+        f"PETSc's step test alone {counts_petsc['newton_iterations'] / steps:.3f}: "
+        f"{saved:.3f} saved a step; snes_stol = 1e-13: {counts_tight}"
+    )
     # both runs take the same steps (the same cuts), so their counts compare
     assert counts["dt_cuts"] == counts_petsc["dt_cuts"] <= 1
     assert steps == counts_petsc["steps"] <= 45
@@ -176,21 +195,22 @@ def test_prediction_of_a_steady_turn_is_exact(tmp_path):
     X = model.Vu.tabulate_dof_coordinates()
     phi, dt = 0.3, 0.1
 
-    def u_at(k):                       # the body turned by k φ about +Y
+    def u_at(k):  # the body turned by k φ about +Y
         c, s = np.cos(k * phi), np.sin(k * phi)
         R = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
         return (X @ R.T - X).ravel()
 
     theta = np.zeros(len(model.theta_dofs))
-    theta[1::2] = phi                  # θ² along a₂ = +Y at every node
+    theta[1::2] = phi  # θ² along a₂ = +Y at every node
     for k in (1, 2):
         model.w.x.array[model.u_dofs] = u_at(k)
         model.w.x.array[model.theta_dofs] = theta
         model.accept(scheme, dt)
     model.predict(dt)
     turned = np.abs(model.w.x.array[model.u_dofs] - u_at(3)).max()
-    polynomial = np.abs(model.u_n.x.array + dt * model._extrapolated_rates(dt, turn=False)[0]
-                        - u_at(3)).max()
+    polynomial = np.abs(
+        model.u_n.x.array + dt * model._extrapolated_rates(dt, turn=False)[0] - u_at(3)
+    ).max()
     print(f"prediction error: turned increments {turned:.2e}, polynomial {polynomial:.2e}")
     assert turned < 1e-12
     assert polynomial > 1e-3

@@ -19,7 +19,6 @@ import tomllib
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, fields_at, run_scene
 
 TIP = np.array(tomllib.loads((DEMOS / "rollup.toml").read_text())["output"]["probes"][0]["at"])
@@ -28,8 +27,9 @@ TIP = np.array(tomllib.loads((DEMOS / "rollup.toml").read_text())["output"]["pro
 @pytest.fixture(scope="module")
 def rollup(tmp_path_factory):
     out = tmp_path_factory.mktemp("outputs") / "rollup"
-    sim = run_scene(DEMOS / "rollup.toml", "mesh.divisions=[16,2]", "time.output_every=2",
-                    out_dir=out)
+    sim = run_scene(
+        DEMOS / "rollup.toml", "mesh.divisions=[16,2]", "time.output_every=2", out_dir=out
+    )
     return sim, out
 
 
@@ -41,9 +41,21 @@ def test_steps_and_summary_agree_with_the_run(rollup):
     sim, out = rollup
     summary = json.loads((out / "summary.json").read_text())
     steps = _csv(out / "steps.csv")
-    for key in ("status", "scene", "scene_file", "overrides", "active_effects", "scheme",
-                "versions", "mpi_size", "dofs", "time_reached", "counts",
-                "director_unit_error", "wall_s"):
+    for key in (
+        "status",
+        "scene",
+        "scene_file",
+        "overrides",
+        "active_effects",
+        "scheme",
+        "versions",
+        "mpi_size",
+        "dofs",
+        "time_reached",
+        "counts",
+        "director_unit_error",
+        "wall_s",
+    ):
         assert key in summary, key
     assert summary["status"] == "ok" and summary["time_reached"] == sim.scene["time"]["end"]
     assert summary["active_effects"] == ["elasticity", "edge-moment"]
@@ -67,8 +79,9 @@ def test_probes_and_body_rows_at_every_output_time(rollup):
     assert np.allclose(probes["time"], times, atol=1e-12)
     assert np.allclose(body["time"], times, atol=1e-12)
     last = sim.history[-1][1][0]
-    assert np.allclose([probes["tip_ux"][-1], probes["tip_uy"][-1], probes["tip_uz"][-1]],
-                       last, rtol=0, atol=1e-15)
+    assert np.allclose(
+        [probes["tip_ux"][-1], probes["tip_uy"][-1], probes["tip_uz"][-1]], last, rtol=0, atol=1e-15
+    )
 
 
 def test_fields_file_holds_what_the_probes_saw(rollup):
@@ -85,7 +98,9 @@ def test_fields_file_holds_what_the_probes_saw(rollup):
     assert np.allclose(rows[:, 0], probes[:, 0], atol=1e-12)
     scale = np.abs(probes[:, 1:4]).max()
     error = np.abs(rows[:, 1:4] - probes[:, 1:4]).max() / scale
-    print(f"fields vs probes at the tip: {error:.1e} of the largest displacement; "
-          f"largest | |d| - 1 | at a vertex {rows[:, 4].max():.1e}")
+    print(
+        f"fields vs probes at the tip: {error:.1e} of the largest displacement; "
+        f"largest | |d| - 1 | at a vertex {rows[:, 4].max():.1e}"
+    )
     assert error < 1e-12
     assert rows[:, 4].max() < 1e-12

@@ -5,14 +5,13 @@ absolute tolerance is 1e-7 of the scene's driving force."""
 from __future__ import annotations
 
 import pytest
-
 from conftest import DEMOS
 
 
 def _tolerances(*overrides, petsc_args=()):
     """(rtol, atol, stol, max_it) of the SNES a Simulation of the roll-up builds."""
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import Simulation
+    from rftfem.scene.reading import load_scene
 
     scene = load_scene(DEMOS / "rollup.toml", ["mesh.divisions=[4,1]", *overrides])
     sim = Simulation(scene, quiet=True, petsc_args=list(petsc_args))
@@ -29,11 +28,17 @@ def test_atol_is_scaled_by_the_driving_force(scale):
     and at a millionth of it (far below: a tolerance in bending-force units would
     accept any state the moment had not yet moved). No relative tolerance."""
     (rtol, atol, stol, max_it), scene = _tolerances(
-        f"load.0.value=[0.0, {scale * 104.71975511965977!r}, 0.0]")
+        f"load.0.value=[0.0, {scale * 104.71975511965977!r}, 0.0]"
+    )
     shell, mesh = scene["shell"], scene["mesh"]
     moment = abs(scene["load"][0]["value"][1]) / mesh["length"]
-    bending = (shell["E"] * shell["thickness"]**3 / (12 * (1 - shell["nu"]**2))
-               * mesh["width"] / mesh["length"]**2)
+    bending = (
+        shell["E"]
+        * shell["thickness"] ** 3
+        / (12 * (1 - shell["nu"] ** 2))
+        * mesh["width"]
+        / mesh["length"] ** 2
+    )
     assert (moment > bending) == (scale == 1.0)
     assert atol == pytest.approx(1e-7 * moment, rel=1e-12)
     assert (rtol, stol, max_it) == (0.0, 1e-10, 25)
@@ -44,8 +49,7 @@ def test_scene_replaces_defaults_and_command_line_replaces_scene():
     snes_stol = false removes rftfem's 1e-10, leaving PETSc's own 1e-8."""
     (_, _, _, max_it), _ = _tolerances("solver.snes_max_it=7")
     assert max_it == 7
-    (_, _, _, max_it), _ = _tolerances("solver.snes_max_it=7",
-                                       petsc_args=["-snes_max_it", "9"])
+    (_, _, _, max_it), _ = _tolerances("solver.snes_max_it=7", petsc_args=["-snes_max_it", "9"])
     assert max_it == 9
     (_, _, stol, _), _ = _tolerances("solver.snes_stol=false")
     assert stol == pytest.approx(1e-8)
@@ -56,10 +60,21 @@ def test_negative_values_on_the_command_line_are_values():
     with a minus was once read as a second option, silently dropping the value)."""
     from rftfem.petsc_options import parse_command_line
 
-    assert parse_command_line(["-snes_lag_preconditioner", "-2", "-snes_monitor",
-                               "-rftfem_mat_mumps_cntl_1", "-1e-3", "-ksp_view"]) == {
-        "snes_lag_preconditioner": "-2", "snes_monitor": "", "mat_mumps_cntl_1": "-1e-3",
-        "ksp_view": ""}
+    assert parse_command_line(
+        [
+            "-snes_lag_preconditioner",
+            "-2",
+            "-snes_monitor",
+            "-rftfem_mat_mumps_cntl_1",
+            "-1e-3",
+            "-ksp_view",
+        ]
+    ) == {
+        "snes_lag_preconditioner": "-2",
+        "snes_monitor": "",
+        "mat_mumps_cntl_1": "-1e-3",
+        "ksp_view": "",
+    }
 
 
 def _saddle_point(n: int = 400, delta: float = 1e-12, seed: int = 0):
@@ -121,7 +136,7 @@ def test_mumps_workspace_grows_after_a_workspace_error():
         A.mult(x, r)
         r.axpy(-1.0, b)
         assert r.norm() < 1e-10 * b.norm(), r.norm()
-        if len(tried) == 1:   # nothing failed: nothing to grow
+        if len(tried) == 1:  # nothing failed: nothing to grow
             assert not petsc_options.grow_factor_workspace(ksp, opts, prefix)
             assert "mat_mumps_icntl_14" not in opts
         else:

@@ -8,7 +8,6 @@ processes give what one gives.
 
 import numpy as np
 import pytest
-
 from conftest import build_model, run_scene, write_scene
 
 CANTILEVER = """
@@ -50,8 +49,11 @@ def test_nodal_vector_carries_the_force_and_its_moment(tmp_path):
     """Σ f_i = P and Σ X_i f_i = X_p P to round-off at a point inside a cell (the shape
     functions are a partition of unity and reproduce linear fields)."""
     at, force = [3.3, 0.37, 0.0], np.array([0.2, -0.7, 1.3])
-    model = build_model(CANTILEVER, tmp_path, [f"load.0.at={at}", f"load.0.value={force.tolist()}",
-                                               "load.0.ramp=constant"])
+    model = build_model(
+        CANTILEVER,
+        tmp_path,
+        [f"load.0.at={at}", f"load.0.value={force.tolist()}", "load.0.ramp=constant"],
+    )
     model.set_time(0.5)
     F = np.zeros(len(model.w.x.array))
     model["point-force"].add_nodal_forces(F)
@@ -67,8 +69,10 @@ def test_cantilever_tip_point_load_matches_beam_theory(tmp_path):
     quadrilaterals, reached +0.003 %)."""
     sim = run_scene(write_scene(tmp_path, CANTILEVER))
     w = -sim.history[-1][1][:, 2]
-    print(f"tip deflections {w} (left, middle, right); beam theory {EXACT_TIP:.6e}; "
-          f"mean {100 * (w.mean() / EXACT_TIP - 1):+.4f} %")
+    print(
+        f"tip deflections {w} (left, middle, right); beam theory {EXACT_TIP:.6e}; "
+        f"mean {100 * (w.mean() / EXACT_TIP - 1):+.4f} %"
+    )
     assert abs(w.mean() / EXACT_TIP - 1) < 3e-4
     assert abs(w[0] - w[2]) < 1e-12 * EXACT_TIP  # symmetric: no twist
 
@@ -113,10 +117,12 @@ value = [0.0, 0.0, 1.0e-6]
     run_scene(write_scene(tmp_path, scene), out_dir=out)
     body = np.genfromtxt(out / "body.csv", delimiter=",", names=True)
     mass = 1.0e-9 * 0.1 * 2.0 * 0.5
-    exact = 1.0e-6 * body["time"]**3 / (6 * 0.1 * mass)
+    exact = 1.0e-6 * body["time"] ** 3 / (6 * 0.1 * mass)
     error = np.abs(body["centroid_z"] - exact).max() / exact[-1]
-    print(f"centre of mass moved {body['centroid_z'][-1]:.6f}, exact {exact[-1]:.6f}; "
-          f"largest error {error:.2e} of the travel")
+    print(
+        f"centre of mass moved {body['centroid_z'][-1]:.6f}, exact {exact[-1]:.6f}; "
+        f"largest error {error:.2e} of the travel"
+    )
     assert error < 3e-4
 
 
@@ -125,8 +131,9 @@ def test_two_processes_give_the_serial_deflection(tmp_path, cli_run):
     """One process adds the force, into its local vector before the ghost sums: the
     load sits inside a cell next to where the two processes meet (on the reference
     stack that cell's nodes at x = 5 belong to the other process)."""
-    scene = write_scene(tmp_path, CANTILEVER.replace("at = [10.0, 0.5, 0.0]\nvalue",
-                                                     "at = [5.1, 0.3, 0.0]\nvalue"))
+    scene = write_scene(
+        tmp_path, CANTILEVER.replace("at = [10.0, 0.5, 0.0]\nvalue", "at = [5.1, 0.3, 0.0]\nvalue")
+    )
     serial = run_scene(scene).history[-1][1]
     out = cli_run(scene, tmp_path / "mpi", np=2)
     row = np.loadtxt(out / "probes.csv", delimiter=",", skiprows=1)[-1]

@@ -9,8 +9,8 @@ from ``ufl.derivative`` is the exact derivative of the term (Taylor test).
 
 import numpy as np
 import ufl
-
 from conftest import build_model, run_scene, write_scene
+
 from rftfem import compat
 
 L, B, T, E = 10.0, 1.0, 0.1, 1.2e6
@@ -65,7 +65,9 @@ def test_two_pressures_one_on_a_region_superpose(tmp_path):
     own ramp, at half time: tip deflection within 0.06 % of the beam's
     q₁ b L⁴/8EI + q₂ b (3L⁴ − 4a³L + a⁴)/24EI with a = 5 (20×1, one step): reached
     0.0061 % on both stacks; a pressure 0.5 % too strong fails it."""
-    scene = CANTILEVER + """
+    scene = (
+        CANTILEVER
+        + """
 [[mesh.regions]]
 name = "outer"
 x = [5.0, 10.0]
@@ -76,11 +78,12 @@ value = -3.0e-6
 ramp = "table"
 table = [[0.0, 0.0], [0.5, 1.0]]
 """
-    sim = run_scene(write_scene(tmp_path, scene), "time.end=0.5", "time.dt=0.5",
-                    "load.0.ramp=constant")
+    )
+    sim = run_scene(
+        write_scene(tmp_path, scene), "time.end=0.5", "time.dt=0.5", "load.0.ramp=constant"
+    )
     EI, a = E * B * T**3 / 12, 5.0
-    exact = (1.0e-6 * B * L**4 / (8 * EI)
-             + 3.0e-6 * B * (3 * L**4 - 4 * a**3 * L + a**4) / (24 * EI))
+    exact = 1.0e-6 * B * L**4 / (8 * EI) + 3.0e-6 * B * (3 * L**4 - 4 * a**3 * L + a**4) / (24 * EI)
     w = -sim.history[-1][1][0, 2]
     print(f"tip deflection {w:.6e}, beam theory {exact:.6e}: error {w / exact - 1:+.2e}")
     assert abs(w / exact - 1) < 6e-4
@@ -89,7 +92,9 @@ table = [[0.0, 0.0], [0.5, 1.0]]
 def test_pressure_and_magnetic_parts_share_one_form(tmp_path):
     """A pressure with [magnetic] (whose parts have their own cell measure) builds,
     compiles and runs: the pressure's region enters as a 0/1 field, not as tags."""
-    scene = CANTILEVER.replace("divisions = [20, 1]", "divisions = [4, 1]") + """
+    scene = (
+        CANTILEVER.replace("divisions = [20, 1]", "divisions = [4, 1]")
+        + """
 [[mesh.regions]]
 name = "tip"
 x = [7.5, 10.0]
@@ -99,6 +104,7 @@ region = "tip"
 magnetization = 0.0
 direction = [1.0, 0.0, 0.0]
 """
+    )
     sim = run_scene(write_scene(tmp_path, scene))
     assert sim.summary["status"] == "ok" and "magnetic" in sim.summary["active_effects"]
 
@@ -124,13 +130,21 @@ def test_free_strip_in_drag_moves_at_p_over_c3(tmp_path):
     normal at p / C₃ from the first step (backward Euler is exact here)."""
     scene = CANTILEVER.replace('[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n', "")
     scene += "[fluid]\ndrag = [1.0e-6, 2.0e-6, 4.0e-6]\n"
-    run_scene(write_scene(tmp_path, scene), "time.dt=0.25", "load.0.value=2.0e-6",
-              "load.0.ramp=constant", out_dir=tmp_path / "out")
+    run_scene(
+        write_scene(tmp_path, scene),
+        "time.dt=0.25",
+        "load.0.value=2.0e-6",
+        "load.0.ramp=constant",
+        out_dir=tmp_path / "out",
+    )
     body = np.genfromtxt(tmp_path / "out" / "body.csv", delimiter=",", names=True)
     v = np.diff(body["centroid_z"]) / np.diff(body["time"])
     print(f"centroid speeds {v}, p / C3 = {2.0e-6 / 4.0e-6}")
     assert np.allclose(v[1:], 0.5, rtol=1e-6, atol=0)
-    assert abs(body["centroid_x"] - L / 2).max() < 1e-9 and abs(body["centroid_y"] - B / 2).max() < 1e-9
+    assert (
+        abs(body["centroid_x"] - L / 2).max() < 1e-9
+        and abs(body["centroid_y"] - B / 2).max() < 1e-9
+    )
 
 
 def test_load_stiffness_is_the_exact_derivative(tmp_path):
@@ -153,8 +167,11 @@ def test_load_stiffness_is_the_exact_derivative(tmp_path):
         b.ghostUpdate(addv=2, mode=1)  # ADD, REVERSE
         return b.array_r.copy()
 
-    J = MappedForm(model.compile(ufl.derivative(term, model.z, ufl.TrialFunction(model.Z))),
-                   model.directors, residual=residual_z)
+    J = MappedForm(
+        model.compile(ufl.derivative(term, model.z, ufl.TrialFunction(model.Z))),
+        model.directors,
+        residual=residual_z,
+    )
     A = compat.create_matrix(J)
     compat.assemble_matrix(A, J, [])
     A.assemble()

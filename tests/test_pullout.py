@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 from pullout import P_MAX, SZE_PULLOUT, octant_cylinder, scene_text
 
@@ -49,13 +48,17 @@ def test_pullout_by_arc_length(tmp_path, octant):
     got = np.stack([rows["A_uz"], -rows["B_ux"], -rows["C_ux"]], axis=1)
     top = int(np.argmax(np.diff(lam) < 0))  # the limit point: λ falls after it
     assert 0 < top and 0.51 < lam[top] < 0.53 and lam[top + 1] < lam[top]
-    k = int(np.searchsorted(lam[:top + 1], 0.5))
+    k = int(np.searchsorted(lam[: top + 1], 0.5))
     w = (0.5 - lam[k - 1]) / (lam[k] - lam[k - 1])
     at_half = (1 - w) * got[k - 1] + w * got[k]
-    errors = {0.5: at_half / np.array(SZE_PULLOUT[0.5]) - 1,
-              1.0: got[-1] / np.array(SZE_PULLOUT[1.0]) - 1}
-    print(f"{len(lam) - 1} steps {sim.counts}; limit at λ = {lam[top]:.4f}; errors "
-          + ", ".join(f"{p}: {np.round(100 * e, 2)} %" for p, e in errors.items()))
+    errors = {
+        0.5: at_half / np.array(SZE_PULLOUT[0.5]) - 1,
+        1.0: got[-1] / np.array(SZE_PULLOUT[1.0]) - 1,
+    }
+    print(
+        f"{len(lam) - 1} steps {sim.counts}; limit at λ = {lam[top]:.4f}; errors "
+        + ", ".join(f"{p}: {np.round(100 * e, 2)} %" for p, e in errors.items())
+    )
     assert lam[-1] == pytest.approx(1.0, abs=1e-12)
     for e in errors.values():
         assert np.abs(e).max() < 0.02
@@ -77,9 +80,10 @@ def test_pullout_by_displacement_control(tmp_path, octant):
     text = scene_text(dt=0.05)
     start = text.index("[[load]]")
     stop = text.index("[[output.probes]]")
-    text = (text[:start] + '[[motion]]\nname = "pull"\nwhere = "A"\ncomponent = "uz"\n'
-            f'kind = "table"\nvalues = [[0.0, 0.0], [0.5, {half}], [1.0, {full}]]\n'
-            + text[stop:])
+    text = (
+        text[:start] + '[[motion]]\nname = "pull"\nwhere = "A"\ncomponent = "uz"\n'
+        f'kind = "table"\nvalues = [[0.0, 0.0], [0.5, {half}], [1.0, {full}]]\n' + text[stop:]
+    )
     run_scene(_scene(tmp_path, octant, text), out_dir=tmp_path / "out")
     body = _table(tmp_path / "out" / "body.csv")
     probes = _table(tmp_path / "out" / "probes.csv")
@@ -91,8 +95,10 @@ def test_pullout_by_displacement_control(tmp_path, octant):
         loads = sorted(SZE_PULLOUT)
         table_w = np.interp(force[row], loads, [SZE_PULLOUT[q][0] for q in loads])
         errors[p] = (force[row] / p - 1, w_a[row] / table_w - 1)
-    print("force read back at the table's W_A, and W_A against the table's at that "
-          "force: " + ", ".join(f"{p}: {100 * f:+.2f} %, {100 * w:+.2f} %"
-                                for p, (f, w) in errors.items()))
+    print(
+        "force read back at the table's W_A, and W_A against the table's at that "
+        "force: "
+        + ", ".join(f"{p}: {100 * f:+.2f} %, {100 * w:+.2f} %" for p, (f, w) in errors.items())
+    )
     assert max(abs(w) for _, w in errors.values()) < 0.02
     assert abs(errors[0.5][0]) < 0.02

@@ -12,18 +12,22 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_command
 from running import vector_scales
 
 CASES = {
     # two wave periods of the swimming sheet (64 steps), a row every second step
-    "sheet": (DEMOS / "swimming_sheet.toml",
-              ["time.end=0.12566370614359174", "time.until=end", "time.output_every=2",
-               "output.fields=false"]),
+    "sheet": (
+        DEMOS / "swimming_sheet.toml",
+        [
+            "time.end=0.12566370614359174",
+            "time.until=end",
+            "time.output_every=2",
+            "output.fields=false",
+        ],
+    ),
     # the strip's fold (phase 1) and a fifth of a field period at 4 Hz, a row every 5 steps
-    "strip": (DEMOS / "bidirectional_strip.toml",
-              ["time.end=0.15", "output.fields=false"]),
+    "strip": (DEMOS / "bidirectional_strip.toml", ["time.end=0.15", "output.fields=false"]),
 }
 
 

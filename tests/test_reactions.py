@@ -14,7 +14,6 @@ runs reach.
 import numpy as np
 import pytest
 import ufl
-
 from conftest import run_scene, write_scene
 from test_curved_shells import quarter_cylinder
 
@@ -63,8 +62,9 @@ def body_rows(sim, name):
 def test_cantilever_reaction_holds_the_tip_force(tmp_path):
     """Large deflection (the tip drops 28 % of the length): the clamp carries −P and −x_p × P,
     x_p the load point where it has moved to.  Reached: force 1e-11, moment 5.4e-13."""
-    scene = write_scene(tmp_path, CANTILEVER.format(density="", end=1.0, dt=0.25, scheme="",
-                                                    ramp=""))
+    scene = write_scene(
+        tmp_path, CANTILEVER.format(density="", end=1.0, dt=0.25, scheme="", ramp="")
+    )
     sim = run_scene(scene, out_dir=tmp_path / "out")
     times, r = body_rows(sim, "clamp")
     force_err = moment_err = 0.0
@@ -139,14 +139,15 @@ def test_pressurised_curved_panel(tmp_path):
     X = ufl.SpatialCoordinate(mesh)
     dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 8})
     area = np.array([fem.assemble_scalar(fem.form(N[i] * dx)) for i in range(3)])
-    first = np.array([fem.assemble_scalar(fem.form(ufl.cross(X, N)[i] * dx))
-                      for i in range(3)])
+    first = np.array([fem.assemble_scalar(fem.form(ufl.cross(X, N)[i] * dx)) for i in range(3)])
     total = sum(body_rows(sim, name)[1][-1] for name in "abcd")
     bulge = np.abs(sim.model.u_n.x.array).max()
     force_err = np.abs(total[:3] + p * area).max() / (p * np.linalg.norm(area))
     moment_err = np.abs(total[3:] + p * first).max() / (p * np.linalg.norm(first))
-    print(f"bulge {bulge:.3f}; force {total[:3]} against {-p * area}: {force_err:.1e}; "
-          f"moment error {moment_err:.1e}")
+    print(
+        f"bulge {bulge:.3f}; force {total[:3]} against {-p * area}: {force_err:.1e}; "
+        f"moment error {moment_err:.1e}"
+    )
     assert bulge > 5e-3
     assert force_err < 5e-12 and moment_err < 2e-13
 
@@ -213,10 +214,16 @@ def test_dynamic_reaction_balances_load_inertia_and_drag(tmp_path):
     from rftfem import compat
     from rftfem.integration.schemes import Coefficients
 
-    scene = write_scene(tmp_path, CANTILEVER.format(
-        density="density = 1.0", end=0.2, dt=0.02,
-        scheme='scheme = "generalized-alpha"\nrho_inf = 0.5\n[fluid]\ndrag = [0.5, 1.0, 2.0]',
-        ramp=""))
+    scene = write_scene(
+        tmp_path,
+        CANTILEVER.format(
+            density="density = 1.0",
+            end=0.2,
+            dt=0.02,
+            scheme='scheme = "generalized-alpha"\nrho_inf = 0.5\n[fluid]\ndrag = [0.5, 1.0, 2.0]',
+            ramp="",
+        ),
+    )
     # the run starts at rest, unloaded and undeformed
     errors, forms = [], []
     previous = {"drag": np.zeros(3), "accel": np.zeros(3), "load": np.zeros(3)}
@@ -249,8 +256,12 @@ def test_dynamic_reaction_balances_load_inertia_and_drag(tmp_path):
         m.set_coefficients(step)
         load = sim.t / 0.2 * FORCE
         af, am = step.alpha_f, step.alpha_m
-        blend = ((1 - af) * (drag - load) + af * (previous["drag"] - previous["load"])
-                 + (1 - am) * accel + am * previous["accel"])
+        blend = (
+            (1 - af) * (drag - load)
+            + af * (previous["drag"] - previous["load"])
+            + (1 - am) * accel
+            + am * previous["accel"]
+        )
         errors.append(np.abs(sim.reactions.last[0, :3] - blend).max() / np.linalg.norm(FORCE))
         previous.update(drag=drag, accel=accel, load=load)
 
@@ -259,17 +270,24 @@ def test_dynamic_reaction_balances_load_inertia_and_drag(tmp_path):
     assert len(errors) >= 9 and max(errors) < 1e-10
 
 
-@pytest.mark.parametrize("bad, message", [
-    ('name = "clamp"', "motion.0.name: expected a unique reaction name, found 'clamp' "
-                       "a second time (also boundary.0.name)"),
-])
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        (
+            'name = "clamp"',
+            "motion.0.name: expected a unique reaction name, found 'clamp' "
+            "a second time (also boundary.0.name)",
+        ),
+    ],
+)
 def test_a_name_given_twice_is_refused(tmp_path, bad, message):
     from rftfem.errors import SceneError
     from rftfem.scene.reading import load_scene
 
     text = CANTILEVER.format(density="", end=1.0, dt=0.25, scheme="", ramp="") + (
         f'[[motion]]\n{bad}\nwhere = "x=L"\ncomponent = "uy"\nkind = "table"\n'
-        'values = [[0, 0], [1, 0.1]]\n')
+        "values = [[0, 0], [1, 0.1]]\n"
+    )
     with pytest.raises(SceneError) as err:
         load_scene(write_scene(tmp_path, text))
     assert str(err.value) == message

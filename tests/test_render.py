@@ -35,15 +35,22 @@ N_FRAMES = 41  # t = 0 and 40 load steps
 
 
 def _rftfem(*args, env=None, timeout=600):
-    return subprocess.run([sys.executable, "-m", "rftfem", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=timeout,
-                          env=env or dict(os.environ))
+    return subprocess.run(
+        [sys.executable, "-m", "rftfem", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env or dict(os.environ),
+    )
 
 
 @pytest.fixture(scope="module")
 def serial_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("render") / "rollup"
-    done = _rftfem("run", ROLLUP, "--out", out, "--quiet", *[a for s in COARSE for a in ("--set", s)])
+    done = _rftfem(
+        "run", ROLLUP, "--out", out, "--quiet", *[a for s in COARSE for a in ("--set", s)]
+    )
     assert done.returncode == 0, done.stderr
     return out
 
@@ -57,8 +64,20 @@ def mpi_run(tmp_path_factory):
     assert exe, "mpirun not found"
     out = tmp_path_factory.mktemp("render_mpi") / "rollup"
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    cmd = [exe, "-n", "2", sys.executable, "-m", "rftfem", "run", str(ROLLUP), "--out", str(out),
-           "--quiet", *[a for s in COARSE for a in ("--set", s)]]
+    cmd = [
+        exe,
+        "-n",
+        "2",
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(ROLLUP),
+        "--out",
+        str(out),
+        "--quiet",
+        *[a for s in COARSE for a in ("--set", s)],
+    ]
     done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=900, env=env)
     assert done.returncode == 0, done.stderr[-2000:]
     return out
@@ -75,9 +94,13 @@ print(json.dumps({"pixels": r.probe_pixels, "reference_pixels": r.reference_pixe
 
 
 def render_png(run: Path, out: Path, time="last", **options) -> dict:
-    done = subprocess.run([sys.executable, "-c", _RENDER, str(run), str(out), str(time),
-                           json.dumps(options)],
-                          capture_output=True, text=True, timeout=600, cwd=ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", _RENDER, str(run), str(out), str(time), json.dumps(options)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -106,16 +129,20 @@ def check_picture(png: Path, info: dict, run: Path):
     col, row = info["pixels"]["tip"]
     c, r = int(round(col)), int(round(row))
     assert 0 <= r < img.shape[0] and 0 <= c < img.shape[1], (col, row)
-    window = coloured[max(r - 3, 0):r + 4, max(c - 3, 0):c + 4]
-    assert window.any(), (f"no body at the tip's pixel ({col:.0f}, {row:.0f}); tip at "
-                          f"{tip_position(run, info['times'][-1])}")
+    window = coloured[max(r - 3, 0) : r + 4, max(c - 3, 0) : c + 4]
+    assert window.any(), (
+        f"no body at the tip's pixel ({col:.0f}, {row:.0f}); tip at "
+        f"{tip_position(run, info['times'][-1])}"
+    )
     # and no body where the tip would be undeformed (it has moved far from there)
     col0, row0 = info["reference_pixels"]["tip"]
     assert np.hypot(col - col0, row - row0) > 50
     c0, r0 = int(round(col0)), int(round(row0))
     if 0 <= r0 < img.shape[0] and 0 <= c0 < img.shape[1]:
-        window = coloured[max(r0 - 3, 0):r0 + 4, max(c0 - 3, 0):c0 + 4]
-        assert not window.any(), f"body drawn at the tip's reference position ({col0:.0f}, {row0:.0f})"
+        window = coloured[max(r0 - 3, 0) : r0 + 4, max(c0 - 3, 0) : c0 + 4]
+        assert not window.any(), (
+            f"body drawn at the tip's reference position ({col0:.0f}, {row0:.0f})"
+        )
     return img
 
 
@@ -155,8 +182,9 @@ def test_mp4_has_a_frame_per_output_time(serial_run, tmp_path):
 
 def test_gif_every_third_frame_ends_on_the_last(serial_run, tmp_path):
     film = tmp_path / "film.gif"
-    done = _rftfem("render", serial_run, "--out", film, "--every", "3", "--view", "follow",
-                   "--size", "320x240")
+    done = _rftfem(
+        "render", serial_run, "--out", film, "--every", "3", "--view", "follow", "--size", "320x240"
+    )
     assert done.returncode == 0, done.stderr
     # output frames 0, 3, ..., 39, then the last (40)
     assert _count_frames(film) == len(range(0, N_FRAMES, 3)) + 1
@@ -193,18 +221,19 @@ def test_bad_input_exits_2_with_one_line(serial_run, tmp_path):
     (empty / "summary.json").write_text("{}")
     _one_line_error(_rftfem("render", empty), "no fields.xdmf")
     _one_line_error(_rftfem("render", tmp_path / "nowhere"), "not found")
-    _one_line_error(_rftfem("render", serial_run, "--color", "pressure"), "pressure",
-                    "displacement")
+    _one_line_error(
+        _rftfem("render", serial_run, "--color", "pressure"), "pressure", "displacement"
+    )
     _one_line_error(_rftfem("render", serial_run, "--time", "7"), "--time", "outside")
     _one_line_error(_rftfem("render", serial_run, "--trail", "nose"), "nose", "tip")
     _one_line_error(_rftfem("render", serial_run, "--out", tmp_path / "x.jpg"), ".png")
     (tmp_path / "afile").write_text("")
-    _one_line_error(_rftfem("render", serial_run, "--out", tmp_path / "afile" / "x.png"),
-                    "--out")
+    _one_line_error(_rftfem("render", serial_run, "--out", tmp_path / "afile" / "x.png"), "--out")
     _one_line_error(_rftfem("render", serial_run, "--out", "/proc/rftfem.png"), "--out")
     _one_line_error(_rftfem("render", serial_run, "--size", "big"), "--size")
-    _one_line_error(_rftfem("render", serial_run, "--out", tmp_path / "f.mp4", "--time", "1"),
-                    "--time")
+    _one_line_error(
+        _rftfem("render", serial_run, "--out", tmp_path / "f.mp4", "--time", "1"), "--time"
+    )
     # a folder without its probe log still draws; a probe trail then says what is missing
     import shutil
 
@@ -217,8 +246,17 @@ def test_bad_input_exits_2_with_one_line(serial_run, tmp_path):
 
 def test_scene_output_render_draws_at_the_end(tmp_path):
     out = tmp_path / "r"
-    done = _rftfem("run", ROLLUP, "--out", out, "--quiet", "--set", "mesh.divisions=[8,1]",
-                   "--set", 'output.render="png"')
+    done = _rftfem(
+        "run",
+        ROLLUP,
+        "--out",
+        out,
+        "--quiet",
+        "--set",
+        "mesh.divisions=[8,1]",
+        "--set",
+        'output.render="png"',
+    )
     assert done.returncode == 0, done.stderr
     assert (out / "render.png").stat().st_size > 10_000
     assert done.stdout == ""  # quiet: nothing on success
@@ -236,8 +274,9 @@ def test_fields_file_has_the_xinclude_namespace_parsers_know(serial_run, tmp_pat
     assert 'xmlns:xi="http://www.w3.org/2001/XInclude"' in text
     broken = tmp_path / "killed"
     shutil.copytree(serial_run, broken)
-    (broken / "fields.xdmf").write_text(text.replace("http://www.w3.org/2001/XInclude",
-                                                     "https://www.w3.org/2001/XInclude"))
+    (broken / "fields.xdmf").write_text(
+        text.replace("http://www.w3.org/2001/XInclude", "https://www.w3.org/2001/XInclude")
+    )
     info = render_png(broken, tmp_path / "killed.png")
     check_picture(tmp_path / "killed.png", info, broken)
     assert "https://" in (broken / "fields.xdmf").read_text()  # the user's file is not touched
@@ -266,8 +305,13 @@ print(json.dumps({"reference": run.reference_points.tolist(), "x": x.tolist(),
 
 
 def _written(run: Path) -> dict:
-    done = subprocess.run([sys.executable, "-c", _WRITTEN, str(run)], capture_output=True,
-                          text=True, timeout=600, cwd=ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", _WRITTEN, str(run)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=ROOT,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -282,7 +326,7 @@ def written_nodes(run: Path) -> np.ndarray:
 def radial_variation(points_xz: np.ndarray) -> float:
     """(max - min) / mean of the distances of ``points_xz`` from their least-squares circle."""
     A = np.c_[2 * points_xz, np.ones(len(points_xz))]
-    centre = np.linalg.lstsq(A, (points_xz ** 2).sum(axis=1), rcond=None)[0][:2]
+    centre = np.linalg.lstsq(A, (points_xz**2).sum(axis=1), rcond=None)[0][:2]
     r = np.linalg.norm(points_xz - centre, axis=1)
     return float((r.max() - r.min()) / r.mean())
 
@@ -314,8 +358,10 @@ def written_outline(run: Path, curved: bool = True) -> np.ndarray:
 def test_rolled_up_turns_are_round_in_the_written_fields(serial_run):
     curved = radial_variation(written_outline(serial_run))
     chords = radial_variation(written_outline(serial_run, curved=False))
-    print(f"radius variation of the two turns, written cells: {100 * curved:.3f} % "
-          f"(through the corners only: {100 * chords:.2f} %)")
+    print(
+        f"radius variation of the two turns, written cells: {100 * curved:.3f} % "
+        f"(through the corners only: {100 * chords:.2f} %)"
+    )
     assert curved < 0.02
     assert chords > 0.05  # the measure tells an octagon from a circle
 
@@ -330,11 +376,11 @@ def picture_outline_variation(png: Path) -> tuple[float, int]:
     dark = img.sum(axis=2) < 250
     h = img.shape[0]
     dark[: int(0.08 * h)] = False
-    dark[int(0.8 * h):] = False
+    dark[int(0.8 * h) :] = False
     rows, cols = np.nonzero(dark)
     p = np.c_[cols, rows].astype(float)
     A = np.c_[2 * p, np.ones(len(p))]
-    centre = np.linalg.lstsq(A, (p ** 2).sum(axis=1), rcond=None)[0][:2]
+    centre = np.linalg.lstsq(A, (p**2).sum(axis=1), rcond=None)[0][:2]
     d = p - centre
     r = np.linalg.norm(d, axis=1)
     sector = ((np.arctan2(d[:, 1], d[:, 0]) + np.pi) // np.radians(5)).astype(int)
@@ -345,12 +391,15 @@ def picture_outline_variation(png: Path) -> tuple[float, int]:
 
 def test_rolled_up_turns_are_round_in_the_picture(serial_run, tmp_path):
     png = tmp_path / "side.png"
-    done = _rftfem("render", serial_run, "--out", png, "--view", "xz", "--color", "none",
-                   "--size", "2400x1000")
+    done = _rftfem(
+        "render", serial_run, "--out", png, "--view", "xz", "--color", "none", "--size", "2400x1000"
+    )
     assert done.returncode == 0, done.stderr
     variation, radius = picture_outline_variation(png)
-    print(f"radius variation of the two turns in the side view: {100 * variation:.2f} % "
-          f"(radius {radius} px)")
+    print(
+        f"radius variation of the two turns in the side view: {100 * variation:.2f} % "
+        f"(radius {radius} px)"
+    )
     assert radius > 100
     assert variation < 0.02
 
@@ -412,15 +461,21 @@ def test_scale_keeps_the_rigid_motion_true():
     a rigid motion is what is magnified (to the rigid fit's own small change)."""
     from rftfem.outputs.rigid_fit import magnified
 
-    X = np.array([[x, y, z] for x in np.linspace(-4, 4, 17) for y in np.linspace(-1, 1, 5)
-                  for z in (-0.05, 0.05)])   # a plate, symmetric about its centre
+    X = np.array(
+        [
+            [x, y, z]
+            for x in np.linspace(-4, 4, 17)
+            for y in np.linspace(-1, 1, 5)
+            for z in (-0.05, 0.05)
+        ]
+    )  # a plate, symmetric about its centre
     a = 0.7
     R = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0, 0, 1.0]])
     rigid = X @ R.T + [30.0, -2.0, 0.5]
     drawn, _ = magnified(X, rigid - X, 20.0)
     assert np.abs(drawn - rigid).max() < 1e-12
     bend = np.zeros_like(X)
-    bend[:, 2] = 1e-3 * X[:, 0] ** 2        # a small bending, in the body's own frame
+    bend[:, 2] = 1e-3 * X[:, 0] ** 2  # a small bending, in the body's own frame
     bend -= bend.mean(axis=0)
     x = rigid + bend @ R.T
     drawn, _ = magnified(X, x - X, 20.0)
@@ -470,8 +525,9 @@ print(np.ptp(glyphs.points[near, 0]), np.ptp(glyphs.points[~near, 0]))
 
 
 def test_magnetization_arrows_are_as_long_as_the_magnetization():
-    done = subprocess.run([sys.executable, "-c", _ARROWS], capture_output=True, text=True,
-                          timeout=300, cwd=ROOT)
+    done = subprocess.run(
+        [sys.executable, "-c", _ARROWS], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
     assert done.returncode == 0, done.stderr
     weak, strong = map(float, done.stdout.split())
     assert weak == pytest.approx(1.5, rel=1e-6) and strong == pytest.approx(3.0, rel=1e-6)

@@ -31,7 +31,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, fields_at, run_command
 from running import finish, rank_pids, start_run, tables, vector_scales, wait_for_steps
 from stokes_bodies import swimming_sheet_scene
@@ -42,26 +41,40 @@ RESTART_SEED = int(os.environ.get("RFTFEM_RESTART_SEED") or 17)
 SHEET_DT = 0.0019634954084936207  # demos/swimming_sheet.toml: a 32nd of the period
 CASES = {
     # 51 steps; a checkpoint every 4, a row every 3
-    "sheet": (DEMOS / "swimming_sheet.toml", 51,
-              ["time.end=0.1", "time.until=end", "time.output_every=3",
-               "output.checkpoint_every=4"]),
+    "sheet": (
+        DEMOS / "swimming_sheet.toml",
+        51,
+        ["time.end=0.1", "time.until=end", "time.output_every=3", "output.checkpoint_every=4"],
+    ),
     # the field's ramp (phase 1), 30 steps; a checkpoint every 4, a row every 5
-    "strip": (DEMOS / "bidirectional_strip.toml", 30,
-              ["mesh.divisions=[10, 2]", "time.end=0.06", "time.output_every=5",
-               "output.checkpoint_every=4"]),
+    "strip": (
+        DEMOS / "bidirectional_strip.toml",
+        30,
+        [
+            "mesh.divisions=[10, 2]",
+            "time.end=0.06",
+            "time.output_every=5",
+            "output.checkpoint_every=4",
+        ],
+    ),
     # error-controlled BDF2 (its last step and the controller's next one are state):
     # the rigid plate of test_magnetic slipping behind a field turning at 1 Hz,
     # 28 steps to t = 1 (2 rejected); a checkpoint every 3 steps, rows every 0.05
-    "plate-bdf2-tolerance": (lambda folder: plate_scene(folder), 28,
-                             ["output.checkpoint_every=3"]),
+    "plate-bdf2-tolerance": (lambda folder: plate_scene(folder), 28, ["output.checkpoint_every=3"]),
     # Stokes flow (a nonlocal effect) under generalized-α: a sheet swimming by a
     # travelling wave, 40 steps; a checkpoint every 4, a row every 3
-    "stokes-sheet": (lambda folder: swimming_sheet_scene(folder), 40,
-                     ["time.output_every=3", "output.checkpoint_every=4"]),
+    "stokes-sheet": (
+        lambda folder: swimming_sheet_scene(folder),
+        40,
+        ["time.output_every=3", "output.checkpoint_every=4"],
+    ),
     # contact: a strip sliding down a slope with anisotropic friction, its friction
     # measured from each step's start (generalized-α), 40 steps; a checkpoint every 4
-    "contact-slope": (lambda folder: slope_scene(folder), 40,
-                      ["time.output_every=3", "output.checkpoint_every=4"]),
+    "contact-slope": (
+        lambda folder: slope_scene(folder),
+        40,
+        ["time.output_every=3", "output.checkpoint_every=4"],
+    ),
 }
 
 
@@ -70,9 +83,15 @@ def slope_scene(folder: Path) -> Path:
 
     from test_contact import STRIP, tilted
 
-    text = STRIP.format(end=0.04, dt=1e-3, rho_inf=0.5, gravity=list(tilted(math.atan(0.4))),
-                        mu_k=[0.2, 0.3, 0.5], mu_s=[0.25, 0.35, 0.6],
-                        extra='[[output.probes]]\nname = "corner"\nat = [2.0, 0.5, 0.0]\n')
+    text = STRIP.format(
+        end=0.04,
+        dt=1e-3,
+        rho_inf=0.5,
+        gravity=list(tilted(math.atan(0.4))),
+        mu_k=[0.2, 0.3, 0.5],
+        mu_s=[0.25, 0.35, 0.6],
+        extra='[[output.probes]]\nname = "corner"\nat = [2.0, 0.5, 0.0]\n',
+    )
     path = Path(folder) / "slope.toml"
     path.write_text(text, encoding="utf-8")
     return path
@@ -81,10 +100,14 @@ def slope_scene(folder: Path) -> Path:
 def plate_scene(folder: Path) -> Path:
     from test_magnetic import PLATE
 
-    text = PLATE.replace('scheme = "backward-euler"', 'scheme = "bdf2"\nend = 1.0\n'
-                         'dt = 0.01\ntolerance = 1e-3\noutput_every = 5')
-    text += ('rotation_axis = [0.0, 0.0, 1.0]\nfrequency = 1.0\n'
-             '[[output.probes]]\nname = "corner"\nat = [2.0, 1.0, 0.0]\n')
+    text = PLATE.replace(
+        'scheme = "backward-euler"',
+        'scheme = "bdf2"\nend = 1.0\ndt = 0.01\ntolerance = 1e-3\noutput_every = 5',
+    )
+    text += (
+        "rotation_axis = [0.0, 0.0, 1.0]\nfrequency = 1.0\n"
+        '[[output.probes]]\nname = "corner"\nat = [2.0, 1.0, 0.0]\n'
+    )
     path = Path(folder) / "plate.toml"
     path.write_text(text, encoding="utf-8")
     return path
@@ -109,9 +132,12 @@ def xdmf_times(path: Path) -> dict:
     """The time steps of each field of an XDMF file."""
     text = path.read_text()
     out = {}
-    for name, body in re.findall(r'<Grid Name="(\w+)" GridType="Collection"[^>]*>(.*?)</Grid>\s*'
-                                 r'(?=<Grid Name="\w+" GridType="Collection"|</Domain>)',
-                                 text, flags=re.S):
+    for name, body in re.findall(
+        r'<Grid Name="(\w+)" GridType="Collection"[^>]*>(.*?)</Grid>\s*'
+        r'(?=<Grid Name="\w+" GridType="Collection"|</Domain>)',
+        text,
+        flags=re.S,
+    ):
         out[name] = [float(v) for v in re.findall(r'<Time Value="([^"]+)"', body)]
     return out
 
@@ -148,16 +174,21 @@ def ended_before_signal(out, status) -> bool:
     """The run had finished (summary status ok) when the signal came: exit 0, or
     -SIGTERM when it landed after the run had given its handlers back."""
     summary = out / "summary.json"
-    return status in (0, -signal.SIGTERM) and summary.exists() and \
-        json.loads(summary.read_text()).get("status") == "ok"
+    return (
+        status in (0, -signal.SIGTERM)
+        and summary.exists()
+        and json.loads(summary.read_text()).get("status") == "ok"
+    )
 
 
 def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case=""):
     """Start a run, SIGTERM it (one of its ranks) after a step drawn at random (seeded
     with RESTART_SEED, ``case`` and ``np_``, and printed); the step."""
     k = random.Random(f"{RESTART_SEED}/{case}/{np_}").randrange(6, n_steps - 6)
-    print(f"{case} on {np_} process(es): interrupted after step {k} of {n_steps} "
-          f"(RFTFEM_RESTART_SEED={RESTART_SEED})")
+    print(
+        f"{case} on {np_} process(es): interrupted after step {k} of {n_steps} "
+        f"(RFTFEM_RESTART_SEED={RESTART_SEED})"
+    )
     for attempt in range(3):
         proc = start_run(scene, out, sets, mpirun, np_)
         ranks = rank_pids(proc, np_)
@@ -179,11 +210,16 @@ def interrupt_at_random_step(scene, out, sets, n_steps, mpirun=None, np_=1, case
     return k
 
 
-@pytest.mark.parametrize("np_", [1, pytest.param(2, marks=[pytest.mark.mpi, pytest.mark.long])],
-                         ids=["serial", "np2"])
-@pytest.mark.parametrize("case", [c if c in ("sheet", "stokes-sheet")
-                                  else pytest.param(c, marks=pytest.mark.long)
-                                  for c in CASES])  # the current leg: the sheet only (CI time)
+@pytest.mark.parametrize(
+    "np_", [1, pytest.param(2, marks=[pytest.mark.mpi, pytest.mark.long])], ids=["serial", "np2"]
+)
+@pytest.mark.parametrize(
+    "case",
+    [
+        c if c in ("sheet", "stokes-sheet") else pytest.param(c, marks=pytest.mark.long)
+        for c in CASES
+    ],
+)  # the current leg: the sheet only (CI time)
 def test_restart_reproduces_the_run(tmp_path, mpirun, case, np_):
     scene, n_steps, sets = CASES[case]
     scene = scene(tmp_path) if callable(scene) else scene
@@ -224,13 +260,25 @@ def test_checkpoint_killed_while_written_is_not_read(tmp_path):
     scene, _, sets = CASES["sheet"]
     ref, run = tmp_path / "reference", tmp_path / "run"
     assert rftfem_run(scene, ref, sets).returncode == 0
-    cmd = [sys.executable, "-c", _KILLED_WRITING, "run", str(scene), "--out", str(run),
-           "--quiet", *[a for s in sets for a in ("--set", s)]]
+    cmd = [
+        sys.executable,
+        "-c",
+        _KILLED_WRITING,
+        "run",
+        str(scene),
+        "--out",
+        str(run),
+        "--quiet",
+        *[a for s in sets for a in ("--set", s)],
+    ]
     done = run_command(cmd, cwd=ROOT, timeout=600)
     assert done.returncode == 9, done.stderr[-2000:]
     saved = run / "checkpoint"
     assert sorted(p.name for p in saved.iterdir()) == [
-        "step-00000004", "step-00000008", "step-00000012.tmp"]
+        "step-00000004",
+        "step-00000008",
+        "step-00000012.tmp",
+    ]
     assert (saved / "step-00000012.tmp" / "meta.json").exists()
     (saved / "step-00000016").mkdir()
     done = rftfem_run(scene, run, sets, restart=True)
@@ -262,8 +310,17 @@ def test_interrupt_right_after_a_checkpoint(tmp_path):
     scene, _, sets = CASES["sheet"]
     ref, run = tmp_path / "reference", tmp_path / "run"
     assert rftfem_run(scene, ref, sets).returncode == 0
-    cmd = [sys.executable, "-c", _SIGNAL_AFTER_CHECKPOINT, "run", str(scene), "--out",
-           str(run), "--quiet", *[a for s in sets for a in ("--set", s)]]
+    cmd = [
+        sys.executable,
+        "-c",
+        _SIGNAL_AFTER_CHECKPOINT,
+        "run",
+        str(scene),
+        "--out",
+        str(run),
+        "--quiet",
+        *[a for s in sets for a in ("--set", s)],
+    ]
     done = run_command(cmd, cwd=ROOT, timeout=600)
     assert done.returncode == 143, done.stderr[-2000:]
     times = tables(run)[0][:, 0]
@@ -309,8 +366,20 @@ def test_restart_refusals(tmp_path, mpirun):
     assert "shell.E" in line and "checkpoint:" in line and "2.0" in line, line
     line = one_line(rftfem_run(scene, run, sets, mpirun, 2, restart=True), launcher=True)
     assert "one process" in line and "without mpirun" in line, line
-    other = run_command([sys.executable, "-m", "rftfem", "run", str(scene), "--restart",
-                         str(run), "--out", str(tmp_path / "elsewhere")], cwd=ROOT)
+    other = run_command(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "run",
+            str(scene),
+            "--restart",
+            str(run),
+            "--out",
+            str(tmp_path / "elsewhere"),
+        ],
+        cwd=ROOT,
+    )
     assert "--out" in one_line(other)
     (tmp_path / "empty").mkdir()
     line = one_line(rftfem_run(scene, tmp_path / "empty", sets, restart=True))

@@ -15,12 +15,20 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
-
 import rigid_links as rl
 
 A, T, CYCLES = 0.1, 0.4, 9
-OUTPUTS = ("corner_y", "corner_z", "right_y", "right_z", "centre_y", "centre_z",
-           "angle_middle", "centroid_y", "centroid_z")
+OUTPUTS = (
+    "corner_y",
+    "corner_z",
+    "right_y",
+    "right_z",
+    "centre_y",
+    "centre_z",
+    "angle_middle",
+    "centroid_y",
+    "centroid_z",
+)
 
 
 def case_i(model="angles", max_step=None, cycles=CYCLES):
@@ -41,8 +49,9 @@ def _run(stroke, density, cycles, model, max_step, period, per_cycle):
     else:
         wl, wr = rl.loop_tables(stroke, A, period, cycles)
     times = np.linspace(0.0, period * cycles, per_cycle * cycles + 1)
-    return rl.simulate(wl, wr, period * cycles, density=density, model=model,
-                       max_step=max_step, times=times)
+    return rl.simulate(
+        wl, wr, period * cycles, density=density, model=model, max_step=max_step, times=times
+    )
 
 
 def scaled_difference(a, b, keys=OUTPUTS + ("angles",)):
@@ -52,14 +61,14 @@ def scaled_difference(a, b, keys=OUTPUTS + ("angles",)):
     for k in keys:
         x, y = np.asarray(getattr(a, k)), np.asarray(getattr(b, k))
         scale = max(np.abs(x).max(), np.abs(y).max())
-        out[k] = float(np.abs(x - y).max() / scale) if scale > 1e-12 else float(
-            np.abs(x - y).max())
+        out[k] = float(np.abs(x - y).max() / scale) if scale > 1e-12 else float(np.abs(x - y).max())
     return out
 
 
 # --------------------------------------------------------------------------
 # Reference figures
 # --------------------------------------------------------------------------
+
 
 def test_case_i_matches_the_independent_figures():
     """After nine reciprocal cycles: corner Y +0.0771, middle centre Z −0.1108,
@@ -69,17 +78,15 @@ def test_case_i_matches_the_independent_figures():
     assert f"{s['centre_z']:+.4f}" == "-0.1108"
     assert f"{s['angle_middle']:.3f}" == "0.494"
     assert f"{s['centroid_y']:+.4f}" == "+0.0007"
-    assert abs(s["corner_z"]) < 1e-12 and abs(s["right_z"]) < 1e-12   # both edges back at 0
+    assert abs(s["corner_z"]) < 1e-12 and abs(s["right_z"]) < 1e-12  # both edges back at 0
 
 
 @pytest.mark.parametrize("period", [1.0, 0.4])
 def test_overdamped_square_loop_matches_purcell_figures(period):
     """ρ = 0, square loop, A = 0.1, any T: centre Y, Z and middle angle after 1, 2, 3 cycles."""
     r = run("square", 0.0, 3, period=period)
-    np.testing.assert_allclose(r.centre_y[1:], [-1.29213e-3, -2.58349e-3, -3.87332e-3],
-                               rtol=1e-4)
-    np.testing.assert_allclose(r.angle_middle[1:], [-4.8837e-3, -9.7661e-3, -1.46456e-2],
-                               rtol=1e-4)
+    np.testing.assert_allclose(r.centre_y[1:], [-1.29213e-3, -2.58349e-3, -3.87332e-3], rtol=1e-4)
+    np.testing.assert_allclose(r.angle_middle[1:], [-4.8837e-3, -9.7661e-3, -1.46456e-2], rtol=1e-4)
     assert [f"{z:.2g}" for z in r.centre_z[1:]] == ["3.3e-06", "1.3e-05", "2.9e-05"]
     assert [f"{z:.3g}" for z in r.centre_z[2:]] == ["1.31e-05", "2.94e-05"]
 
@@ -88,7 +95,7 @@ def test_overdamped_reciprocal_loop_returns_exactly():
     """Scallop theorem: the out-and-back loop gives no net motion per cycle at ρ = 0."""
     r = run("reciprocal", 0.0, 3)
     for k in ("corner_y", "centre_y", "centre_z", "angle_middle", "centroid_y"):
-        assert np.abs(getattr(r, k)).max() < 1e-10, k     # 1e-7 of a square cycle's
+        assert np.abs(getattr(r, k)).max() < 1e-10, k  # 1e-7 of a square cycle's
     # ... while the same loop does move the body when it has inertia
     assert abs(case_i().centroid_y[1]) > 1e-4
 
@@ -96,6 +103,7 @@ def test_overdamped_reciprocal_loop_returns_exactly():
 # --------------------------------------------------------------------------
 # ρ → 0: the inertial model tends to the overdamped one, error ∝ ρ
 # --------------------------------------------------------------------------
+
 
 def _error(stroke, density, keys):
     r, r0 = run(stroke, density, 1), run(stroke, 0.0, 1)
@@ -129,13 +137,13 @@ def test_small_density_tends_to_overdamped_square_loop():
 # Balances
 # --------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("model", ["angles", "lines"])
 def test_energy_balance_per_leg(model):
     """ΔKE = work of the edge forces (impulse included) − drag dissipation, every leg."""
     r = case_i(model)
     assert len(r.legs) == 4 * CYCLES
-    scale = max(max(abs(l.impulse_work), l.dissipation, abs(l.constraint_work))
-                for l in r.legs)
+    scale = max(max(abs(l.impulse_work), l.dissipation, abs(l.constraint_work)) for l in r.legs)
     worst = max(abs(l.imbalance) for l in r.legs)
     assert worst < 1e-8 * scale, worst / scale
     first = r.legs[0]
@@ -153,7 +161,7 @@ def test_energy_balance_square_and_overdamped():
     r = run("square", 1e-8, 3)
     scale = max(l.dissipation for l in r.legs)
     assert max(abs(l.imbalance) for l in r.legs) < 1e-8 * scale
-    r0 = run("square", 0.0, 3)            # no kinetic energy: the edges' work is dissipated
+    r0 = run("square", 0.0, 3)  # no kinetic energy: the edges' work is dissipated
     for leg in r0.legs:
         assert leg.constraint_work == pytest.approx(leg.dissipation, rel=1e-9, abs=0)
 
@@ -169,7 +177,7 @@ def test_y_momentum_balance(model):
 
 def test_centroid_moves_with_the_y_momentum():
     """3 m · (centroid Y displacement) = ∫ P_Y dt (Simpson's rule on a fine grid)."""
-    per_cycle = 160                       # outputs on the Runge-Kutta grid, 40 per leg
+    per_cycle = 160  # outputs on the Runge-Kutta grid, 40 per leg
     r = run("reciprocal", 1e-8, 1, per_cycle=per_cycle)
     mass = 3 * rl.Body().link_mass
     h = T / per_cycle
@@ -192,14 +200,17 @@ def test_constraints_hold():
 # A second formulation, and step refinement
 # --------------------------------------------------------------------------
 
+
 def test_second_formulation_agrees_case_i():
     """Cartesian hinge lines with rigid-length constraints, against link angles."""
     diff = scaled_difference(case_i("angles"), case_i("lines"))
     assert max(diff.values()) < 1e-7, diff
 
 
-@pytest.mark.parametrize("stroke,density,cycles,per_cycle", [
-    ("square", 0.0, 3, 1), ("square", 1e-8, 3, 1), ("smooth", 1e-8, 1, 4)])
+@pytest.mark.parametrize(
+    "stroke,density,cycles,per_cycle",
+    [("square", 0.0, 3, 1), ("square", 1e-8, 3, 1), ("smooth", 1e-8, 1, 4)],
+)
 def test_second_formulation_agrees_other_strokes(stroke, density, cycles, per_cycle):
     a = run(stroke, density, cycles, per_cycle=per_cycle)
     b = run(stroke, density, cycles, model="lines", per_cycle=per_cycle)
@@ -209,9 +220,13 @@ def test_second_formulation_agrees_other_strokes(stroke, density, cycles, per_cy
 
 def test_step_refinement_changes_nothing():
     """Refining the Runge-Kutta step changes the outputs by < 1e-7 of their range."""
-    for coarse, fine in [(case_i(cycles=2), case_i(cycles=2, max_step=T / 320)),
-                         (run("smooth", 1e-8, 1, per_cycle=4),
-                          run("smooth", 1e-8, 1, per_cycle=4, max_step=T / 640))]:
+    for coarse, fine in [
+        (case_i(cycles=2), case_i(cycles=2, max_step=T / 320)),
+        (
+            run("smooth", 1e-8, 1, per_cycle=4),
+            run("smooth", 1e-8, 1, per_cycle=4, max_step=T / 640),
+        ),
+    ]:
         diff = scaled_difference(coarse, fine)
         assert max(diff.values()) < 1e-7, diff
 
@@ -219,6 +234,7 @@ def test_step_refinement_changes_nothing():
 # --------------------------------------------------------------------------
 # The prescribed motion
 # --------------------------------------------------------------------------
+
 
 def test_loop_tables():
     wl, wr = rl.loop_tables("square", 0.1, 0.4, 2)
@@ -235,7 +251,7 @@ def test_table_pieces():
     table = rl.Table([[0.0, 0.0], [1.0, 2.0], [2.0, 2.0]])
     w, dw, ddw = table.piece(0.5)
     assert (w(1.0), dw(1.0), ddw(1.0)) == (2.0, 2.0, 0.0)
-    for t_mid in (1.5, 1.0):                      # at the kink itself: the segment after it
+    for t_mid in (1.5, 1.0):  # at the kink itself: the segment after it
         w, dw, _ = table.piece(t_mid)
         assert (w(1.0), dw(1.0)) == (2.0, 0.0)
     for t in (-1.0, 3.0):
@@ -260,7 +276,7 @@ def test_smooth_stroke_starts_from_rest():
         w, dw, _ = h.piece(0.01)
         assert w(0.0) == 0.0 and dw(0.0) == 0.0
     assert wr.breaks == [pytest.approx(T / 4)]
-    w, dw, ddw = wr.piece(T / 4 + 0.01)            # the piece after the lag starts at rest
+    w, dw, ddw = wr.piece(T / 4 + 0.01)  # the piece after the lag starts at rest
     assert abs(w(T / 4)) < 1e-15 and abs(dw(T / 4)) < 1e-12
     assert ddw(T / 4) == pytest.approx(A / 2 * (2 * math.pi / T) ** 2)
     r = run("smooth", 1e-8, 1, per_cycle=4)
@@ -280,6 +296,7 @@ def test_rejects_inconsistent_input():
 # Small amplitudes: an independent law
 # --------------------------------------------------------------------------
 
+
 def _linearised_swim_coefficient(link=0.5, c2=rl.DRAG[1], c3=rl.DRAG[2]):
     """The net Y displacement per square loop of side A in (w_L, w_R), over A², as
     A → 0, from linearised resistive-force theory, written here apart from
@@ -291,6 +308,7 @@ def _linearised_swim_coefficient(link=0.5, c2=rl.DRAG[1], c3=rl.DRAG[2]):
     Y = ∮ K_Y(q₀ + K₀ w) dw = Σ N_ij ∮ w_j dw_i with N = (∂K_Y/∂q) K₀, and the
     square loop (0,0) → (A,0) → (A,A) → (0,A) has ∮ w_L dw_R = A², ∮ w_R dw_L = −A²:
     Y / A² → N_RL − N_LR."""
+
     def lines(q):
         yc, zc, tl, tm, tr = q
         centre, e_m = np.array([yc, zc]), np.array([math.cos(tm), math.sin(tm)])
@@ -339,12 +357,14 @@ def test_small_square_loops_swim_as_the_linearised_law():
     for amplitude in (0.05, 0.025, 0.0125):
         wl, wr = rl.loop_tables("square", amplitude, 1.0, 1)
         r = rl.simulate(wl, wr, 1.0, density=0.0, times=np.array([0.0, 1.0]))
-        ratios.append(r.centre_y[-1] / amplitude ** 2)
+        ratios.append(r.centre_y[-1] / amplitude**2)
     errors = np.array(ratios) - c
     extrapolated = (4 * ratios[2] - ratios[1]) / 3
-    print(f"c = {c:.8f}; Y/A² at A = 0.05, 0.025, 0.0125: {np.round(ratios, 8)}; "
-          f"error ratios {errors[:-1] / errors[1:]}; extrapolated {extrapolated:.8f} "
-          f"({abs(extrapolated / c - 1):.1e})")
+    print(
+        f"c = {c:.8f}; Y/A² at A = 0.05, 0.025, 0.0125: {np.round(ratios, 8)}; "
+        f"error ratios {errors[:-1] / errors[1:]}; extrapolated {extrapolated:.8f} "
+        f"({abs(extrapolated / c - 1):.1e})"
+    )
     assert c == pytest.approx(-0.118667, rel=1e-5)
     assert np.all(np.abs(errors[:-1] / errors[1:] - 4) < 0.1)
     assert abs(extrapolated / c - 1) < 3e-6

@@ -25,7 +25,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_command
 from running import fields_times, finish, rank_pids, start_run, tables, wait_for_steps
 
@@ -33,6 +32,7 @@ SHEET = DEMOS / "swimming_sheet.toml"
 EVERY = 7  # output every 7 steps (t = 0 and ...); the signal comes after step 4 or later
 SETS = [f"time.output_every={EVERY}", "time.until=end"]
 STEPS_BEFORE_SIGNAL = 4
+
 
 def _check_outputs(out: Path, immediate: bool):
     """The summary says interrupted; CSV and HDF5 are whole up to the time reached."""
@@ -106,10 +106,14 @@ def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
 ROLLUP = DEMOS / "rollup.toml"
 
 
-@pytest.mark.parametrize("peak, words", [
-    ("2.5", ["step not resolved", "time.max_cuts"]),
-    ("1e300", ["the residual is not finite", "too large for double precision"]),
-], ids=["max-cuts", "nan"])
+@pytest.mark.parametrize(
+    "peak, words",
+    [
+        ("2.5", ["step not resolved", "time.max_cuts"]),
+        ("1e300", ["the residual is not finite", "too large for double precision"]),
+    ],
+    ids=["max-cuts", "nan"],
+)
 def test_failed_run_keeps_its_rows(tmp_path, peak, words):
     """The roll-up (load steps of 0.05, outputs every 3) under a table ramp that
     follows the demo to t = 0.5 (step 10) and then jumps to ``peak`` × the full
@@ -117,8 +121,12 @@ def test_failed_run_keeps_its_rows(tmp_path, peak, words):
     time and the cause; summary "failed" with the same; rows at 0, 0.15, 0.3,
     0.45 and at the last good step, 0.5, in both tables and in fields.h5."""
     out = tmp_path / "run"
-    sets = ['load.0.ramp="table"', f"load.0.table=[[0, 0], [0.5, 0.25], [0.55, {peak}]]",
-            "time.max_cuts=1", "time.output_every=3"]
+    sets = [
+        'load.0.ramp="table"',
+        f"load.0.table=[[0, 0], [0.5, 0.25], [0.55, {peak}]]",
+        "time.max_cuts=1",
+        "time.output_every=3",
+    ]
     cmd = [sys.executable, "-m", "rftfem", "run", str(ROLLUP), "--out", str(out), "--quiet"]
     done = run_command(cmd + [a for s in sets for a in ("--set", s)], cwd=ROOT, timeout=600)
     assert done.returncode == 3, done.stderr[-2000:]
@@ -140,8 +148,9 @@ def test_failed_run_keeps_its_rows(tmp_path, peak, words):
     # circle, whose tip is back over the clamp, 2 L / pi below it (the 16x1 mesh
     # within 1 % of L)
     length = 12.0
-    np.testing.assert_allclose(probes[-1, [1, 3]], [-length, -2 * length / np.pi],
-                               rtol=0, atol=0.01 * length)
+    np.testing.assert_allclose(
+        probes[-1, [1, 3]], [-length, -2 * length / np.pi], rtol=0, atol=0.01 * length
+    )
     steps = np.loadtxt(out / "steps.csv", delimiter=",", skiprows=1, ndmin=2)
     np.testing.assert_allclose(steps[:, 0], 0.05 * np.arange(1, 11), rtol=0, atol=1e-12)
     for name, times in fields_times(out).items():
@@ -172,8 +181,13 @@ def test_the_python_api_stops_on_sigterm_and_result_reads_a_running_folder(tmp_p
     from rftfem import Result
 
     out = tmp_path / "api-run"
-    proc = subprocess.Popen([sys.executable, "-c", _API_RUN, str(SHEET), str(out)], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _API_RUN, str(SHEET), str(out)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     wait_for_steps(proc, out, STEPS_BEFORE_SIGNAL)
     assert Result(out).status == "running"
     proc.send_signal(signal.SIGTERM)
@@ -186,7 +200,7 @@ def test_the_python_api_stops_on_sigterm_and_result_reads_a_running_folder(tmp_p
 
 # ------------------------------------------------------------- a slow step
 
-STOKES_SHEET = ["fluid.model=\"stokes\"", "fluid.viscosity=1e-9", "mesh.divisions=[10,2]"]
+STOKES_SHEET = ['fluid.model="stokes"', "fluid.viscosity=1e-9", "mesh.divisions=[10,2]"]
 
 
 def _signal_inside_a_step(out: Path, sets) -> tuple[int, str]:
@@ -194,10 +208,21 @@ def _signal_inside_a_step(out: Path, sets) -> tuple[int, str]:
     SIGTERM it once it prints a Krylov iteration of step 5: inside the step, with at
     least its Newton test still to come.  Returns (exit status, stderr)."""
     env = dict(os.environ, RFTFEM_SLOW_STEP="0", RFTFEM_LOG_INTERVAL="0")
-    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(out), "--unset",
-           "fluid.drag", *[a for s in sets for a in ("--set", s)]]
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(SHEET),
+        "--out",
+        str(out),
+        "--unset",
+        "fluid.drag",
+        *[a for s in sets for a in ("--set", s)],
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     for line in proc.stdout:
         if line.startswith("  step 5 towards") and "Krylov iteration" in line:
             proc.send_signal(signal.SIGTERM)
@@ -224,8 +249,9 @@ def test_signal_in_a_slow_step_drops_it(tmp_path):
     # the last row is step 4's state, as a run that ends there has it
     dt = summary["scene"]["time"]["dt"]
     ref = tmp_path / "step4"
-    status, stderr = finish(start_run(SHEET, ref, [*sets, f"time.end={4 * dt!r}"],
-                                      extra=["--unset", "fluid.drag"]))
+    status, stderr = finish(
+        start_run(SHEET, ref, [*sets, f"time.end={4 * dt!r}"], extra=["--unset", "fluid.drag"])
+    )
     assert status == 0, stderr[-2000:]
     last, expected = (np.loadtxt(d / "body.csv", delimiter=",", skiprows=1)[-1] for d in (out, ref))
     np.testing.assert_allclose(last, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
@@ -241,8 +267,19 @@ def test_a_slow_step_reports_its_iterations(tmp_path):
     Krylov iteration with their residuals; the run opens with the liquid's lines of
     ``rftfem check`` (nodes, operator, memory, time an update, estimated error)."""
     env = dict(os.environ, RFTFEM_SLOW_STEP="0", RFTFEM_LOG_INTERVAL="0")
-    cmd = [sys.executable, "-m", "rftfem", "run", str(SHEET), "--out", str(tmp_path / "run"),
-           "--unset", "fluid.drag", "--set", "time.end=0.002"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(SHEET),
+        "--out",
+        str(tmp_path / "run"),
+        "--unset",
+        "fluid.drag",
+        "--set",
+        "time.end=0.002",
+    ]
     cmd += [a for s in STOKES_SHEET for a in ("--set", s)]
     done = run_command(cmd, cwd=ROOT, timeout=600, env=env)
     assert done.returncode == 0, done.stderr[-2000:]

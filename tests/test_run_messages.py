@@ -10,14 +10,12 @@ import json
 import sys
 
 import pytest
-
 from conftest import ROOT, run_command, write_scene
 from test_arc_length import F_LIMIT, truss_scene
 
 
 def rftfem(*args, cwd=ROOT):
-    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
-                       timeout=600)
+    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd, timeout=600)
 
 
 def test_limit_point_under_load_control_names_arc_length(tmp_path):
@@ -34,8 +32,9 @@ def test_limit_point_under_load_control_names_arc_length(tmp_path):
     assert len(done.stderr.strip().splitlines()) == 1
     assert "a limit point: the loads stall at t = 0.5 " in done.stderr
     assert 'time.scheme = "arc-length"' in done.stderr
-    scene.write_text(text.replace(f"value = [0.0, 0.0, {-2 * F_LIMIT}]",
-                                  f"value = [0.0, 0.0, {-0.9 * F_LIMIT}]"))
+    scene.write_text(
+        text.replace(f"value = [0.0, 0.0, {-2 * F_LIMIT}]", f"value = [0.0, 0.0, {-0.9 * F_LIMIT}]")
+    )
     assert rftfem("run", scene, "--out", tmp_path / "ok", "--quiet").returncode == 0
 
 
@@ -112,17 +111,28 @@ frequency = 5.0
 """
 
 
-@pytest.mark.parametrize("field, words", [
-    ("strength = 1e-3\nfrequency = 5.0",
-     "a quarter of the field's rotation period at 5 Hz, 0.2 (magnetic.field.frequency)"),
-    ('kind = "expression"\nB = ["1e-3*cos(2*pi*5*t)", "1e-3*sin(10*pi*t + 1)", "0"]',
-     "a quarter of the period of the field's sin or cos of t, 0.2 (magnetic.field.B)"),
-    ('kind = "table"\nvalues = [[0, 0, 0, 0], [0.5, 1e-3, 0, 0], [0.6, 0, 0, 0]]',
-     "longer than the table's shortest interval, 0.1 (magnetic.field.values)"),
-], ids=["rotating", "formula", "table"])
+@pytest.mark.parametrize(
+    "field, words",
+    [
+        (
+            "strength = 1e-3\nfrequency = 5.0",
+            "a quarter of the field's rotation period at 5 Hz, 0.2 (magnetic.field.frequency)",
+        ),
+        (
+            'kind = "expression"\nB = ["1e-3*cos(2*pi*5*t)", "1e-3*sin(10*pi*t + 1)", "0"]',
+            "a quarter of the period of the field's sin or cos of t, 0.2 (magnetic.field.B)",
+        ),
+        (
+            'kind = "table"\nvalues = [[0, 0, 0, 0], [0.5, 1e-3, 0, 0], [0.6, 0, 0, 0]]',
+            "longer than the table's shortest interval, 0.1 (magnetic.field.values)",
+        ),
+    ],
+    ids=["rotating", "formula", "table"],
+)
 def test_a_step_longer_than_a_quarter_period_warns_once_and_is_kept(tmp_path, field, words):
     """dt = 0.3 against a 5 Hz drive (rotating field, sin and cos of t in a formula)
-    or a table whose rows are 0.1 apart (a step jumps over a row): one warning line on stderr with --quiet,
+    or a table whose rows are 0.1 apart (a step jumps over a row): one warning line on stderr
+    with --quiet,
     the same in summary.json's `warnings` and in `rftfem check`; exit 0, nothing on
     stdout.  At dt = 0.05 (a quarter period) nothing is said."""
     text = ALIAS.replace("strength = 1e-3\nfrequency = 5.0", field)
@@ -148,8 +158,9 @@ def test_periods_read_from_formulas():
         return periods_in_time(parse(text, "k", ("x", "y", "z", "t")))
 
     assert periods("2*sin(2*pi*5*t + x)") == pytest.approx([0.2])
-    assert periods("cos(-3*t)*tan(4*t)") == pytest.approx([2 * 3.141592653589793 / 3,
-                                                           3.141592653589793 / 4])
+    assert periods("cos(-3*t)*tan(4*t)") == pytest.approx(
+        [2 * 3.141592653589793 / 3, 3.141592653589793 / 4]
+    )
     assert periods("sin(t^2) + sin(x) + t") == []
 
 
@@ -160,8 +171,11 @@ def test_check_prints_the_scales_and_shows_a_unit_slip(tmp_path):
     length a million times smaller, flagged as a possible unit slip."""
     done = rftfem("check", ROOT / "demos" / "swimming_sheet.toml")
     print(done.stdout)
-    rows = {line[:32].strip(): line[32:].split()[0] for line in done.stdout.splitlines()
-            if line.startswith("  ")}
+    rows = {
+        line[:32].strip(): line[32:].split()[0]
+        for line in done.stdout.splitlines()
+        if line.startswith("  ")
+    }
     assert float(rows["steps per drive period"]) == 32
     assert float(rows["L/t"]) == 200
     assert "sperm number" in rows and "relaxation time / drive period" in rows
@@ -208,20 +222,24 @@ def test_check_flags_fluid_groups_and_thickness_in_other_units(tmp_path):
     # from the viscosity: the slender-body coefficients of the sheet's length and width
     text = sheet.read_text(encoding="utf-8")
     drag = next(ln for ln in text.splitlines() if ln.startswith("drag = "))
-    visc = rftfem("check", write_scene(tmp_path, text.replace(drag, "viscosity = 1.0e-9"),
-                                       "viscous.toml")).stdout
+    visc = rftfem(
+        "check", write_scene(tmp_path, text.replace(drag, "viscosity = 1.0e-9"), "viscous.toml")
+    ).stdout
     line = next(ln for ln in visc.splitlines() if ln.startswith("fluid: drag coefficients"))
     print(line)
     assert "from fluid.viscosity = 1e-09 (slender-body drag" in line
     C = [float(c) for c in line.split("[")[1].split("]")[0].split(",")]
-    assert C[0] < C[1] == C[2]   # along the axis, across it and normal
+    assert C[0] < C[1] == C[2]  # along the axis, across it and normal
 
 
 def test_quiet_run_that_succeeds_prints_nothing_and_its_compile_is_setup(tmp_path):
     """--quiet on success: no byte on stdout or stderr; summary.json's compile time is
     within its set-up time."""
-    scene = write_scene(tmp_path, FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
-                        + '[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n')
+    scene = write_scene(
+        tmp_path,
+        FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
+        + '[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n',
+    )
     done = rftfem("run", scene, "--out", tmp_path / "out", "--quiet")
     assert done.returncode == 0 and done.stdout == "" and done.stderr == ""
     wall = json.loads((tmp_path / "out" / "summary.json").read_text())["wall_s"]
@@ -232,12 +250,16 @@ def test_a_slow_set_up_says_it_is_compiling(tmp_path, capsys, monkeypatch):
     """A set-up longer than COMPILE_NOTICE_AFTER (its forms not yet in the JIT cache)
     says "compiling forms ..." once, before the run's own lines; --quiet does not."""
     from conftest import run_scene
+
     from rftfem.integration import simulation
     from rftfem.scene.reading import load_scene
 
     monkeypatch.setattr(simulation, "COMPILE_NOTICE_AFTER", 0.0)
-    scene = write_scene(tmp_path, FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
-                        + '[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n')
+    scene = write_scene(
+        tmp_path,
+        FREE_STRIP.replace('ramp = "constant"', 'ramp = "linear"')
+        + '[[boundary]]\nwhere = "x=0"\nfix = ["clamped"]\n',
+    )
     sim = simulation.Simulation(load_scene(scene, []), quiet=False)
     try:
         sim.run()
@@ -250,15 +272,26 @@ def test_a_slow_set_up_says_it_is_compiling(tmp_path, capsys, monkeypatch):
     assert "compiling" not in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("extra, words", [
-    ({"motion": [{"kind": "travelling-wave", "angular_frequency": 20 * 3.141592653589793}]},
-     "a quarter of the travelling wave's period, 0.1 (motion.0)"),
-    ({"load": [{"ramp": "table", "table": [[0.0, 0.0], [0.5, 1.0], [0.54, 0.0]]}]},
-     "longer than the table's shortest interval, 0.04 (load.0.table)"),
-    ({"load": [{"ramp": "table", "table": [[0.0, 0.0], [0.5, 1.0], [0.55, 0.0]]}]}, None),
-    ({"load": [{"ramp": "table", "table": [[0.0, 1.0], [1e-12, 0.0], [1.0, 0.0]]}]}, None),
-    ({"motion": [{"kind": "table", "values": [[-10.0, 0.0], [-9.99, 1.0], [10.0, 0.0]]}]}, None),
-], ids=["travelling-wave", "load-table", "rows-at-steps", "release-jump", "table-outside-the-run"])
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        (
+            {"motion": [{"kind": "travelling-wave", "angular_frequency": 20 * 3.141592653589793}]},
+            "a quarter of the travelling wave's period, 0.1 (motion.0)",
+        ),
+        (
+            {"load": [{"ramp": "table", "table": [[0.0, 0.0], [0.5, 1.0], [0.54, 0.0]]}]},
+            "longer than the table's shortest interval, 0.04 (load.0.table)",
+        ),
+        ({"load": [{"ramp": "table", "table": [[0.0, 0.0], [0.5, 1.0], [0.55, 0.0]]}]}, None),
+        ({"load": [{"ramp": "table", "table": [[0.0, 1.0], [1e-12, 0.0], [1.0, 0.0]]}]}, None),
+        (
+            {"motion": [{"kind": "table", "values": [[-10.0, 0.0], [-9.99, 1.0], [10.0, 0.0]]}]},
+            None,
+        ),
+    ],
+    ids=["travelling-wave", "load-table", "rows-at-steps", "release-jump", "table-outside-the-run"],
+)
 def test_aliasing_of_waves_and_tables(extra, words):
     """dt = 0.05 against a travelling wave of period 0.1 and a load table with rows
     0.04 apart: one warning each; rows 0.05 apart (each step lands on a row), a jump

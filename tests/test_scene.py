@@ -12,14 +12,20 @@ from pathlib import Path
 import pytest
 
 from rftfem.errors import SceneError
-from rftfem.scene.reading import (active_effects, apply_override, hinge_line, load_scene,
-                          resolved_scheme)
+from rftfem.scene.reading import (
+    active_effects,
+    apply_override,
+    hinge_line,
+    load_scene,
+    resolved_scheme,
+)
 
 BAD = Path(__file__).parent / "scenes_bad"
 #: fixtures whose error needs the mesh (second line "# found by: rftfem check") are
 #: run by test_cli's `rftfem check` only
-BAD_SCENES = sorted(p for p in BAD.glob("*.toml")
-                    if "# found by: rftfem check" not in p.read_text())
+BAD_SCENES = sorted(
+    p for p in BAD.glob("*.toml") if "# found by: rftfem check" not in p.read_text()
+)
 
 MINIMAL = """
 title = "minimal"
@@ -71,6 +77,7 @@ def write(tmp_path):
         p = tmp_path / name
         p.write_text(text)
         return p
+
     return _write
 
 
@@ -89,23 +96,55 @@ def test_minimal_scene_gets_every_default(write):
     p = write(MINIMAL)
     s = load_scene(p)
     assert s["_path"] == str(p.resolve())
-    assert s["mesh"] == {"kind": "strip", "length": 10.0, "width": 1.0, "link_width": None,
-                         "hinge_stiffness": None, "divisions": [16, 1], "grading": 1.0,
-                         "cell": "quadrilateral", "file": None, "regions": []}
-    assert s["shell"] == {"material": "isotropic", "thickness": 0.1, "E": 1.2e6, "nu": 0.0,
-                          "density": 0.0, "E1": None, "E2": None, "G12": None, "nu12": None,
-                          "G13": None, "G23": None, "axis": [1.0, 0.0, 0.0], "fibre": None,
-                          "parts": []}
-    assert s["time"] == {"end": 1.0, "dt": 0.01, "scheme": "static", "start": "rest",
-                         "rho_inf": 0.9,
-                         "alpha": -0.05, "output_every": 1, "until": "end", "period": None,
-                         "steady_tolerance": 1e-3, "max_steps": 1000, "max_cuts": 8,
-                         "tolerance": None, "dt_min": None, "dt_max": None,
-                         "max_rotation": 0.2}
+    assert s["mesh"] == {
+        "kind": "strip",
+        "length": 10.0,
+        "width": 1.0,
+        "link_width": None,
+        "hinge_stiffness": None,
+        "divisions": [16, 1],
+        "grading": 1.0,
+        "cell": "quadrilateral",
+        "file": None,
+        "regions": [],
+    }
+    assert s["shell"] == {
+        "material": "isotropic",
+        "thickness": 0.1,
+        "E": 1.2e6,
+        "nu": 0.0,
+        "density": 0.0,
+        "E1": None,
+        "E2": None,
+        "G12": None,
+        "nu12": None,
+        "G13": None,
+        "G23": None,
+        "axis": [1.0, 0.0, 0.0],
+        "fibre": None,
+        "parts": [],
+    }
+    assert s["time"] == {
+        "end": 1.0,
+        "dt": 0.01,
+        "scheme": "static",
+        "start": "rest",
+        "rho_inf": 0.9,
+        "alpha": -0.05,
+        "output_every": 1,
+        "until": "end",
+        "period": None,
+        "steady_tolerance": 1e-3,
+        "max_steps": 1000,
+        "max_cuts": 8,
+        "tolerance": None,
+        "dt_min": None,
+        "dt_max": None,
+        "max_rotation": 0.2,
+    }
     assert s["boundary"] == [] and s["load"] == [] and s["motion"] == [] and s["hinge"] == []
     assert s["fluid"] is None and s["magnetic"] is None
-    assert s["output"] == {"probes": [], "fields": True, "render": "none",
-                           "checkpoint_every": 0}
+    assert s["output"] == {"probes": [], "fields": True, "render": "none", "checkpoint_every": 0}
     assert s["solver"] == {}
 
 
@@ -113,17 +152,35 @@ def test_good_scene_values_and_inherited_part_values(write):
     s = load_scene(write(GOOD))
     assert s["mesh"]["length"] == 12.0 and isinstance(s["mesh"]["length"], float)
     part = s["shell"]["parts"][0]
-    assert part == {"region": "end1", "E": 400.0, "nu": 0.0, "thickness": 0.1, "density": 0.0,
-                    "E1": None, "E2": None, "G12": None, "nu12": None, "G13": None,
-                    "G23": None}
-    assert s["load"][0] == {"kind": "edge-moment", "where": "x=L", "value": [0.0, 52.36, 0.0],
-                            "ramp": "linear", "table": None}
+    assert part == {
+        "region": "end1",
+        "E": 400.0,
+        "nu": 0.0,
+        "thickness": 0.1,
+        "density": 0.0,
+        "E1": None,
+        "E2": None,
+        "G12": None,
+        "nu12": None,
+        "G13": None,
+        "G23": None,
+    }
+    assert s["load"][0] == {
+        "kind": "edge-moment",
+        "where": "x=L",
+        "value": [0.0, 52.36, 0.0],
+        "ramp": "linear",
+        "table": None,
+    }
     assert s["solver"] == {"snes_rtol": 1e-8, "pc_type": "lu"}
     assert active_effects(s) == ["elasticity", "edge-moment"]
 
 
 def test_nested_defaults_in_optional_tables(write):
-    s = load_scene(write(GOOD + """
+    s = load_scene(
+        write(
+            GOOD
+            + """
 [[motion]]
 component = "uz"
 amplitude = 0.15
@@ -132,16 +189,38 @@ amplitude = 0.15
 region = "end1"
 magnetization = 62.9
 direction = [1, 0, 0]
-"""))
-    assert s["motion"][0] == {"where": "all", "name": None, "component": "uz", "kind": "travelling-wave",
-                              "amplitude": 0.15, "wavenumber": 0.0, "angular_frequency": 0.0,
-                              "origin": 0.0, "ramp_time": 0.0, "rotation_axis": [0.0, 0.0, 1.0],
-                              "centre": [0.0, 0.0, 0.0], "phase": 0.0, "values": None}
-    assert s["magnetic"]["field"] == {"kind": "rotating", "strength": 0.0, "ramp_time": 0.0,
-                                      "direction": [1.0, 0.0, 0.0], "frequency": 0.0,
-                                      "rotation_axis": [0.0, 0.0, 1.0], "B": None,
-                                      "values": None, "interpolation": None, "moment": None,
-                                      "position": None, "path": None}
+"""
+        )
+    )
+    assert s["motion"][0] == {
+        "where": "all",
+        "name": None,
+        "component": "uz",
+        "kind": "travelling-wave",
+        "amplitude": 0.15,
+        "wavenumber": 0.0,
+        "angular_frequency": 0.0,
+        "origin": 0.0,
+        "ramp_time": 0.0,
+        "rotation_axis": [0.0, 0.0, 1.0],
+        "centre": [0.0, 0.0, 0.0],
+        "phase": 0.0,
+        "values": None,
+    }
+    assert s["magnetic"]["field"] == {
+        "kind": "rotating",
+        "strength": 0.0,
+        "ramp_time": 0.0,
+        "direction": [1.0, 0.0, 0.0],
+        "frequency": 0.0,
+        "rotation_axis": [0.0, 0.0, 1.0],
+        "B": None,
+        "values": None,
+        "interpolation": None,
+        "moment": None,
+        "position": None,
+        "path": None,
+    }
     assert s["magnetic"]["parts"][0]["direction"] == [1.0, 0.0, 0.0]
 
 
@@ -150,7 +229,9 @@ def test_gmsh_file_resolved_relative_to_scene(tmp_path, monkeypatch):
     (tmp_path / "meshes" / "plate.msh").write_text("$MeshFormat\n")
     scene = tmp_path / "scenes" / "plate.toml"
     scene.parent.mkdir()
-    scene.write_text(MINIMAL.replace("[mesh]", '[mesh]\nkind = "gmsh"\nfile = "../meshes/plate.msh"'))
+    scene.write_text(
+        MINIMAL.replace("[mesh]", '[mesh]\nkind = "gmsh"\nfile = "../meshes/plate.msh"')
+    )
     monkeypatch.chdir(tmp_path / "meshes")  # the current folder must not matter
     s = load_scene("../scenes/plate.toml")
     assert s["mesh"]["file"] == str((tmp_path / "meshes" / "plate.msh").resolve())
@@ -160,9 +241,11 @@ def test_gmsh_file_resolved_relative_to_scene(tmp_path, monkeypatch):
 def test_gmsh_names_are_not_checked_here(tmp_path):
     (tmp_path / "plate.msh").write_text("x")
     p = tmp_path / "s.toml"
-    p.write_text(MINIMAL.replace("[mesh]", '[mesh]\nkind = "gmsh"\nfile = "plate.msh"')
-                 + '[[boundary]]\nwhere = "left edge"\nfix = ["ux"]\n'
-                   '[[shell.parts]]\nregion = "head"\nE = 5.0\n')
+    p.write_text(
+        MINIMAL.replace("[mesh]", '[mesh]\nkind = "gmsh"\nfile = "plate.msh"')
+        + '[[boundary]]\nwhere = "left edge"\nfix = ["ux"]\n'
+        '[[shell.parts]]\nregion = "head"\nE = 5.0\n'
+    )
     s = load_scene(p)
     assert s["boundary"][0]["where"] == "left edge"
     assert s["shell"]["parts"][0]["region"] == "head"
@@ -172,16 +255,19 @@ def test_gmsh_names_are_not_checked_here(tmp_path):
 
 
 def test_overrides_scalar_array_word_index_and_new_table(write):
-    s = load_scene(write(GOOD), [
-        "time.dt=0.02",
-        "mesh.divisions=[50,4]",
-        "mesh.cell=triangle",
-        "load.0.value=[0,52.36,0]",
-        "fluid.drag=[1,1,2]",
-        "boundary.0.where=x=L",
-        "solver.ksp_type=preonly",
-        'title="a new title"',
-    ])
+    s = load_scene(
+        write(GOOD),
+        [
+            "time.dt=0.02",
+            "mesh.divisions=[50,4]",
+            "mesh.cell=triangle",
+            "load.0.value=[0,52.36,0]",
+            "fluid.drag=[1,1,2]",
+            "boundary.0.where=x=L",
+            "solver.ksp_type=preonly",
+            'title="a new title"',
+        ],
+    )
     assert s["time"]["dt"] == 0.02
     assert s["mesh"]["divisions"] == [50, 4]
     assert s["mesh"]["cell"] == "triangle"
@@ -194,7 +280,9 @@ def test_overrides_scalar_array_word_index_and_new_table(write):
     assert s["time"]["scheme"] == "backward-euler"
 
 
-PARAMETERS = MINIMAL + """
+PARAMETERS = (
+    MINIMAL
+    + """
 [parameters]
 wavelength = 3.7
 phase = 0.5
@@ -205,6 +293,7 @@ direction = ["cos(2*pi*X/wavelength + phase)", "0", "sin(2*pi*X/wavelength+phase
 [magnetic.field]
 strength = 1e-6
 """
+)
 
 
 def test_parameters_are_numbers_in_the_formulas(write):
@@ -234,17 +323,20 @@ def test_override_value_is_validated_afterwards(write):
     assert msg.startswith("shell.thickness:") and "-1" in msg
 
 
-@pytest.mark.parametrize("text, words", [
-    ("mesh.lenght=3", ["mesh.lenght", "mesh.length"]),
-    ("load.3.value=[0,1,0]", ["load.3.value", "out of range"]),
-    ("load.first.value=[0,1,0]", ["load.first.value", "index"]),
-    ("shell.thickness.x=1", ["shell.thickness.x"]),
-    ("output.probes.0.position=[1,0,0]", ["output.probes.0.position", "at"]),
-    ("motion.0.component=uz", ["motion.0.component", "out of range"]),
-    ("nonsense=1", ["nonsense"]),
-    ("time.dt", ["time.dt", "KEY=VALUE"]),
-    ("time.end=1.0.0", ["time.end", "TOML value"]),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("mesh.lenght=3", ["mesh.lenght", "mesh.length"]),
+        ("load.3.value=[0,1,0]", ["load.3.value", "out of range"]),
+        ("load.first.value=[0,1,0]", ["load.first.value", "index"]),
+        ("shell.thickness.x=1", ["shell.thickness.x"]),
+        ("output.probes.0.position=[1,0,0]", ["output.probes.0.position", "at"]),
+        ("motion.0.component=uz", ["motion.0.component", "out of range"]),
+        ("nonsense=1", ["nonsense"]),
+        ("time.dt", ["time.dt", "KEY=VALUE"]),
+        ("time.end=1.0.0", ["time.end", "TOML value"]),
+    ],
+)
 def test_bad_override_paths(write, text, words):
     msg = scene_error(write(GOOD), [text])
     for w in words:
@@ -270,7 +362,10 @@ def test_effects_and_schemes(write):
     s = load_scene(p, ["time.scheme=hht", "shell.density=1"])
     assert s["time"]["scheme"] == "hht"
 
-    s = load_scene(write(GOOD + """
+    s = load_scene(
+        write(
+            GOOD
+            + """
 [[load]]
 kind = "edge-force"
 where = "x=L"
@@ -284,9 +379,20 @@ values = [[0, 0], [1, 0.1]]
 region = "end1"
 magnetization = 1
 direction = [1, 0, 0]
-""", "all.toml"), ["shell.density=1", "fluid.drag=[1,1,1]"])
-    assert active_effects(s) == ["elasticity", "inertia", "drag", "magnetic", "edge-force",
-                                 "edge-moment", "prescribed-motion"]
+""",
+            "all.toml",
+        ),
+        ["shell.density=1", "fluid.drag=[1,1,1]"],
+    )
+    assert active_effects(s) == [
+        "elasticity",
+        "inertia",
+        "drag",
+        "magnetic",
+        "edge-force",
+        "edge-moment",
+        "prescribed-motion",
+    ]
 
 
 def test_explicit_second_order_scheme_needs_density(write):
@@ -326,7 +432,7 @@ def test_unknown_key_without_close_match_lists_keys(write):
 
 
 def test_wrong_types(write):
-    assert "found the string \"many\"" in scene_error(write(GOOD), ['mesh.divisions="many"'])
+    assert 'found the string "many"' in scene_error(write(GOOD), ['mesh.divisions="many"'])
     # a whole float is the integer it is (issue 62: Python and numpy give them)
     assert load_scene(write(GOOD), ["mesh.divisions=[16.0, 1]"])["mesh"]["divisions"] == [16, 1]
     msg = scene_error(write(GOOD), ["mesh.divisions=[16.5, 1]"])
@@ -390,16 +496,16 @@ def test_table_ramp_and_motion_values(write):
 
 def test_solver_option_names(write):
     msg = scene_error(write(GOOD.replace("pc_type", '"-pc_type"')))
-    assert msg.startswith('solver.-pc_type:')
+    assert msg.startswith("solver.-pc_type:")
 
 
 def test_missing_required(write):
-    assert scene_error(write(GOOD.replace('title = "roll-up"', ""))) \
-        .startswith("missing required key 'title'")
+    assert scene_error(write(GOOD.replace('title = "roll-up"', ""))).startswith(
+        "missing required key 'title'"
+    )
     msg = scene_error(write(GOOD.replace('kind = "edge-moment"\n', "")))
     assert "load.0.kind" in msg and "edge-moment" in msg
-    assert scene_error(write(MINIMAL.replace("[shell]", ""))) == \
-        "missing required section [shell]"
+    assert scene_error(write(MINIMAL.replace("[shell]", ""))) == "missing required section [shell]"
 
 
 def test_scene_file_problems(tmp_path):
@@ -425,23 +531,32 @@ divisions = [10, 2]
 
 def test_three_link_defaults_and_width(write):
     s = load_scene(write(THREE_LINK))
-    assert s["mesh"] == {"kind": "three-link", "length": 5.0, "width": 1.5, "link_width": 0.5,
-                         "hinge_stiffness": 0.0, "divisions": [10, 2], "grading": 1.0,
-                         "cell": "quadrilateral", "file": None, "regions": []}
+    assert s["mesh"] == {
+        "kind": "three-link",
+        "length": 5.0,
+        "width": 1.5,
+        "link_width": 0.5,
+        "hinge_stiffness": 0.0,
+        "divisions": [10, 2],
+        "grading": 1.0,
+        "cell": "quadrilateral",
+        "file": None,
+        "regions": [],
+    }
     assert s["hinge"] == []
     s = load_scene(write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2"])
     assert s["mesh"]["width"] == pytest.approx(1.2) and s["mesh"]["hinge_stiffness"] == 2.0
     # the three-link keys are dropped for another kind, as mesh.file is
-    s = load_scene(write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2",
-                                       "mesh.kind=strip"])
+    s = load_scene(
+        write(THREE_LINK), ["mesh.link_width=0.4", "mesh.hinge_stiffness=2", "mesh.kind=strip"]
+    )
     assert s["mesh"]["width"] == 1.0
     assert s["mesh"]["link_width"] is None and s["mesh"]["hinge_stiffness"] is None
     # the width of a three-link body comes from link_width only
     msg = scene_error(write(GOOD), ["mesh.kind=three-link", "mesh.width=1.5"])
     assert msg.startswith("mesh.width:") and "mesh.link_width" in msg
     assert scene_error(write(THREE_LINK), ["mesh.link_width=-1"]).startswith("mesh.link_width:")
-    assert scene_error(write(THREE_LINK), ["mesh.link_width=1e308"]) \
-        .startswith("mesh.link_width:")
+    assert scene_error(write(THREE_LINK), ["mesh.link_width=1e308"]).startswith("mesh.link_width:")
     msg = scene_error(write(THREE_LINK), ["mesh.hinge_stiffness=-1"])
     assert msg.startswith("mesh.hinge_stiffness:") and ">= 0" in msg
     msg = scene_error(write(THREE_LINK), ["mesh.kind=three-links"])
@@ -450,14 +565,20 @@ def test_three_link_defaults_and_width(write):
 
 def test_three_link_probes_span_three_links(write):
     probe = '[[output.probes]]\nname = "p"\nat = [5.0, {y}, 0.0]\n'
-    assert load_scene(write(THREE_LINK + probe.format(y=1.5)))["output"]["probes"][0]["at"] \
-        == [5.0, 1.5, 0.0]
+    assert load_scene(write(THREE_LINK + probe.format(y=1.5)))["output"]["probes"][0]["at"] == [
+        5.0,
+        1.5,
+        0.0,
+    ]
     msg = scene_error(write(THREE_LINK + probe.format(y=1.6)))
     assert msg.startswith("output.probes.0.at:") and "0 <= y <= 1.5" in msg
 
 
 def test_y_bands_and_rectangles(write):
-    s = load_scene(write(MINIMAL + """
+    s = load_scene(
+        write(
+            MINIMAL
+            + """
 [[mesh.regions]]
 name = "band"
 y = [0.0, 0.5]
@@ -465,9 +586,13 @@ y = [0.0, 0.5]
 name = "corner"
 x = [0, 1]
 y = [0.5, 1]
-"""))
-    assert s["mesh"]["regions"] == [{"name": "band", "x": None, "y": [0.0, 0.5]},
-                                    {"name": "corner", "x": [0.0, 1.0], "y": [0.5, 1.0]}]
+"""
+        )
+    )
+    assert s["mesh"]["regions"] == [
+        {"name": "band", "x": None, "y": [0.0, 0.5]},
+        {"name": "corner", "x": [0.0, 1.0], "y": [0.5, 1.0]},
+    ]
     assert load_scene(write(GOOD))["mesh"]["regions"][0]["y"] is None
     msg = scene_error(write(GOOD), ["mesh.regions.0.y=[0.5, 0.5]"])
     assert msg.startswith("mesh.regions.0.y:") and "selects nothing" in msg
@@ -493,7 +618,10 @@ y = [0.5, 1]
 
 
 def test_three_link_built_in_regions_are_references(write):
-    s = load_scene(write(THREE_LINK + """
+    s = load_scene(
+        write(
+            THREE_LINK
+            + """
 [[shell.parts]]
 region = "middle"
 E = 10.0
@@ -506,7 +634,9 @@ direction = [0, 1, 0]
 region = "right"
 magnetization = 1.0
 direction = [0, -1, 0]
-"""))
+"""
+        )
+    )
     assert s["shell"]["parts"][0]["region"] == "middle"
     assert [p["region"] for p in s["magnetic"]["parts"]] == ["left", "right"]
     # on a strip they are not regions
@@ -517,8 +647,7 @@ direction = [0, -1, 0]
 def test_hinge_defaults_and_numbers(write):
     s = load_scene(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\n'))
     assert s["hinge"] == [{"where": "y=0.5", "stiffness": 0.0}]
-    for where in ("x=6", "x=6.", "x=.5", "x=+6.5", "y=5e-1", "y=5E-1", "x=1.1e+1",
-                  "x=11.999"):
+    for where in ("x=6", "x=6.", "x=.5", "x=+6.5", "y=5e-1", "y=5E-1", "x=1.1e+1", "x=11.999"):
         s = load_scene(write(GOOD + f'[[hinge]]\nwhere = "{where}"\nstiffness = 2\n'))
         assert s["hinge"] == [{"where": where, "stiffness": 2.0}]
     assert hinge_line("y=5e-1") == ("y", 0.5) and hinge_line("x=-1") == ("x", -1.0)
@@ -528,24 +657,27 @@ def test_hinge_defaults_and_numbers(write):
         assert msg.startswith("hinge.0.where:") and '"x=c" or "y=c"' in msg, msg
     msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\nstiffness = -1e-9\n'))
     assert msg.startswith("hinge.0.stiffness:") and ">= 0" in msg
-    msg = scene_error(write(GOOD + '[[hinge]]\nstiffness = 1\n'))
+    msg = scene_error(write(GOOD + "[[hinge]]\nstiffness = 1\n"))
     assert "hinge.0.where" in msg and msg.startswith("missing required key")
     msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\nangle = 1\n'))
     assert "hinge.0.angle" in msg
 
 
-@pytest.mark.parametrize("where, words", [
-    ("x=0", ["lies on the body's boundary", "a hinge joins two sides", "0 < c < 12"]),
-    ("x=12", ["lies on the body's boundary"]),
-    ("x=L", ["lies on the body's boundary", "0 < c < 12"]),
-    ("y=0", ["lies on the body's boundary", "0 < c < 1"]),
-    ("y=W", ["lies on the body's boundary"]),
-    ("y=1.0", ["lies on the body's boundary"]),
-    ("y=0.999999999999", ["lies on the body's boundary"]),  # within 1e-9 of the width
-    ("x=-0.0", ["lies on the body's boundary"]),
-    ("x=13", ['"x=13" is not a line of the mesh', "the body spans x in [0, 12]"]),
-    ("y=-0.5", ['"y=-0.5" is not a line of the mesh', "the body spans y in [0, 1]"]),
-])
+@pytest.mark.parametrize(
+    "where, words",
+    [
+        ("x=0", ["lies on the body's boundary", "a hinge joins two sides", "0 < c < 12"]),
+        ("x=12", ["lies on the body's boundary"]),
+        ("x=L", ["lies on the body's boundary", "0 < c < 12"]),
+        ("y=0", ["lies on the body's boundary", "0 < c < 1"]),
+        ("y=W", ["lies on the body's boundary"]),
+        ("y=1.0", ["lies on the body's boundary"]),
+        ("y=0.999999999999", ["lies on the body's boundary"]),  # within 1e-9 of the width
+        ("x=-0.0", ["lies on the body's boundary"]),
+        ("x=13", ['"x=13" is not a line of the mesh', "the body spans x in [0, 12]"]),
+        ("y=-0.5", ['"y=-0.5" is not a line of the mesh', "the body spans y in [0, 1]"]),
+    ],
+)
 def test_hinge_must_lie_inside_the_body(write, where, words):
     msg = scene_error(write(GOOD + f'[[hinge]]\nwhere = "{where}"\n'))
     assert msg.startswith("hinge.0.where:"), msg
@@ -584,10 +716,12 @@ def test_gmsh_hinges_are_curve_names_or_lines(tmp_path):
     p.write_text(text + hinge.format("fold 1") + hinge.format("x=40") + hinge.format("x=-2"))
     s = load_scene(p)
     assert [h["where"] for h in s["hinge"]] == ["fold 1", "x=40", "x=-2"]
-    for hinges, words in ((("fold", "fold"), ["hinge.1.where", "two hinges on one line"]),
-                          (("x=1", "x=1.0"), ["hinge.1.where", "two hinges on one line"]),
-                          (("x=L",), ["hinge.0.where", "boundary"]),
-                          (("x=one",), ["hinge.0.where", "physical curve name"])):
+    for hinges, words in (
+        (("fold", "fold"), ["hinge.1.where", "two hinges on one line"]),
+        (("x=1", "x=1.0"), ["hinge.1.where", "two hinges on one line"]),
+        (("x=L",), ["hinge.0.where", "boundary"]),
+        (("x=one",), ["hinge.0.where", "physical curve name"]),
+    ):
         p.write_text(text + "".join(hinge.format(h) for h in hinges))
         msg = scene_error(p)
         for w in words:
@@ -595,7 +729,10 @@ def test_gmsh_hinges_are_curve_names_or_lines(tmp_path):
 
 
 def test_hinge_lines_are_selectors(write):
-    s = load_scene(write(GOOD + """
+    s = load_scene(
+        write(
+            GOOD
+            + """
 [[hinge]]
 where = "y=0.5"
 [[hinge]]
@@ -604,9 +741,15 @@ stiffness = 1.0
 [[motion]]
 where = "x=6"
 component = "uz"
-"""), ["boundary.0.where=y=0.5", "load.0.where=x=6"])
-    assert (s["boundary"][0]["where"], s["load"][0]["where"], s["motion"][0]["where"]) \
-        == ("y=0.5", "x=6", "x=6")
+"""
+        ),
+        ["boundary.0.where=y=0.5", "load.0.where=x=6"],
+    )
+    assert (s["boundary"][0]["where"], s["load"][0]["where"], s["motion"][0]["where"]) == (
+        "y=0.5",
+        "x=6",
+        "x=6",
+    )
     # a line that is not a hinge is not a selector; the message lists the hinge lines
     msg = scene_error(write(GOOD + '[[hinge]]\nwhere = "y=0.5"\n'), ["load.0.where=y=0.50"])
     assert msg.startswith("load.0.where: unknown selector 'y=0.50'")
@@ -615,31 +758,54 @@ component = "uz"
 
 
 def test_three_link_selectors(write):
-    scene = THREE_LINK + """
+    scene = (
+        THREE_LINK
+        + """
 [[hinge]]
 where = "x=2.5"
 [[mesh.regions]]
 name = "tip"
 x = [4.5, 5.0]
 """
-    for where in ("hinge-left", "hinge-right", "left", "middle", "right", "x=2.5", "tip",
-                  "y=W", "all"):
-        s = load_scene(write(scene + f'[[boundary]]\nwhere = "{where}"\nfix = ["uz"]\n'
-                                     f'[[motion]]\nwhere = "{where}"\ncomponent = "uz"\n'))
+    )
+    for where in (
+        "hinge-left",
+        "hinge-right",
+        "left",
+        "middle",
+        "right",
+        "x=2.5",
+        "tip",
+        "y=W",
+        "all",
+    ):
+        s = load_scene(
+            write(
+                scene + f'[[boundary]]\nwhere = "{where}"\nfix = ["uz"]\n'
+                f'[[motion]]\nwhere = "{where}"\ncomponent = "uz"\n'
+            )
+        )
         assert s["boundary"][0]["where"] == s["motion"][0]["where"] == where
     msg = scene_error(write(scene + '[[boundary]]\nwhere = "midle"\nfix = ["uz"]\n'))
-    assert msg == ("boundary.0.where: unknown selector 'midle'; expected one of: all, x=0, "
-                   "x=L, y=0, y=W, hinge-left, hinge-right, x=2.5, left, middle, right, tip "
-                   "(did you mean 'middle'?)")
+    assert msg == (
+        "boundary.0.where: unknown selector 'midle'; expected one of: all, x=0, "
+        "x=L, y=0, y=W, hinge-left, hinge-right, x=2.5, left, middle, right, tip "
+        "(did you mean 'middle'?)"
+    )
 
 
 def test_hinge_effects(write):
     hinge = '[[hinge]]\nwhere = "y=0.5"\nstiffness = {}\n'
     assert active_effects(load_scene(write(GOOD))) == ["elasticity", "edge-moment"]
-    assert active_effects(load_scene(write(GOOD + hinge.format(0)))) == \
-        ["elasticity", "hinge", "edge-moment"]
-    s = load_scene(write(GOOD + hinge.format(0) + hinge.replace("0.5", "0.25").format(1e-3)),
-                   ["shell.density=1"])
+    assert active_effects(load_scene(write(GOOD + hinge.format(0)))) == [
+        "elasticity",
+        "hinge",
+        "edge-moment",
+    ]
+    s = load_scene(
+        write(GOOD + hinge.format(0) + hinge.replace("0.5", "0.25").format(1e-3)),
+        ["shell.density=1"],
+    )
     assert active_effects(s) == ["elasticity", "hinge", "hinge-spring", "inertia", "edge-moment"]
     assert active_effects(load_scene(write(THREE_LINK))) == ["elasticity", "hinge"]
     s = load_scene(write(THREE_LINK), ["mesh.hinge_stiffness=0.5"])
@@ -648,8 +814,11 @@ def test_hinge_effects(write):
     s = load_scene(write(THREE_LINK), ["mesh.hinge_stiffness=0.5", "mesh.kind=strip"])
     assert active_effects(s) == ["elasticity"]
     # plain dicts (as summary.json echoes them)
-    assert active_effects({"mesh": {"kind": "three-link", "hinge_stiffness": 1.0}}) == \
-        ["elasticity", "hinge", "hinge-spring"]
+    assert active_effects({"mesh": {"kind": "three-link", "hinge_stiffness": 1.0}}) == [
+        "elasticity",
+        "hinge",
+        "hinge-spring",
+    ]
 
 
 def test_gmsh_mesh_file_changed_by_override(tmp_path):

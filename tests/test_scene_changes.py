@@ -9,9 +9,9 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import ROOT, run_command
 
 import rftfem
-from conftest import ROOT, run_command
 from rftfem.errors import SceneError
 from rftfem.scene.overrides import as_arguments
 from rftfem.scene.reading import load_scene, unset_text
@@ -23,13 +23,16 @@ STOKES = ["fluid.model=stokes", unset_text("fluid.drag"), "fluid.viscosity=1e-9"
 def test_switching_the_sheet_to_stokes_flow_from_the_command_line():
     """The shipped RFT sheet in Stokes flow with three options and no edit: the drag
     is removed by --unset; left in, the refusal says how to drop it."""
-    done = run_command([sys.executable, "-m", "rftfem", "check", str(SHEET),
-                        "--set", "fluid.model=stokes"], cwd=ROOT)
+    done = run_command(
+        [sys.executable, "-m", "rftfem", "check", str(SHEET), "--set", "fluid.model=stokes"],
+        cwd=ROOT,
+    )
     assert done.returncode == 2
     assert "drop the drag with --unset fluid.drag" in done.stderr
     assert 'del scene["fluid.drag"]' in done.stderr
-    done = run_command([sys.executable, "-m", "rftfem", "check", str(SHEET),
-                        *as_arguments(STOKES)], cwd=ROOT)
+    done = run_command(
+        [sys.executable, "-m", "rftfem", "check", str(SHEET), *as_arguments(STOKES)], cwd=ROOT
+    )
     assert done.returncode == 0, done.stderr
     assert "fluid: stokes" in done.stdout
 
@@ -41,16 +44,28 @@ def test_unset_in_scene_files_and_override_texts():
     scene = load_scene(SHEET, STOKES)
     assert scene["fluid"]["model"] == "stokes" and scene["fluid"]["drag"] is None
     assert scene["_overrides"][1] == "--unset fluid.drag"
-    assert as_arguments(STOKES) == ["--set", "fluid.model=stokes", "--unset", "fluid.drag",
-                                    "--set", "fluid.viscosity=1e-9"]
+    assert as_arguments(STOKES) == [
+        "--set",
+        "fluid.model=stokes",
+        "--unset",
+        "fluid.drag",
+        "--set",
+        "fluid.viscosity=1e-9",
+    ]
     shear = ROOT / "demos" / "end_shear.toml"
     assert load_scene(shear, [unset_text("load.0")])["load"] == []
     assert load_scene(SHEET, [unset_text("magnetic.field")]) is not None  # not set: no-op
-    with pytest.raises(SceneError, match=r"^--unset: unknown key 'fluid.dragg' "
-                                         r"\(did you mean 'fluid.drag'\?\)"):
+    with pytest.raises(
+        SceneError,
+        match=r"^--unset: unknown key 'fluid.dragg' "
+        r"\(did you mean 'fluid.drag'\?\)",
+    ):
         load_scene(SHEET, [unset_text("fluid.dragg")])
-    with pytest.raises(SceneError, match=r"^--unset load.0.value.1: 'load.0.value' is a "
-                                         r"value: unset it whole"):
+    with pytest.raises(
+        SceneError,
+        match=r"^--unset load.0.value.1: 'load.0.value' is a "
+        r"value: unset it whole",
+    ):
         load_scene(shear, [unset_text("load.0.value.1")])
 
 
@@ -61,15 +76,14 @@ def test_python_removes_keys_and_takes_python_values():
     scene = rftfem.load_scene(SHEET)
     scene.update({"fluid.model": "stokes", "fluid.drag": None, "fluid.viscosity": 1e-9})
     assert scene["fluid.model"] == "stokes" and scene["fluid.drag"] is None
-    assert scene.overrides == ['fluid.model="stokes"', "--unset fluid.drag",
-                               "fluid.viscosity=1e-9"]
+    assert scene.overrides == ['fluid.model="stokes"', "--unset fluid.drag", "fluid.viscosity=1e-9"]
     other = rftfem.load_scene(SHEET)
     assert other.pop("output.probes")[0]["name"] == "front"
     assert other.get("output.probes") == [] and other.pop("output.probes", 7) == 7
     with pytest.raises(KeyError):
         del other["output.probes"]
     with pytest.raises(SceneError, match="give either fluid.drag or fluid.viscosity"):
-        del other["fluid.drag"]   # alone it leaves RFT without coefficients
+        del other["fluid.drag"]  # alone it leaves RFT without coefficients
     scene["mesh.divisions"] = (20, 4)
     assert scene["mesh.divisions"] == [20, 4]
     scene["mesh.divisions"] = np.array([10, 2])

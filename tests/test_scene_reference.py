@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from rftfem import reference as scene_reference
+from rftfem.reference import UndocumentedKey
 from rftfem.scene import reading as scene
 from rftfem.scene.schema import Array, Free, Leaf, Num, Str, Table
-from rftfem.reference import UndocumentedKey
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "scenes.md"
@@ -36,7 +36,8 @@ def test_generated_part_is_current(part):
         f"docs/scenes.md: the generated part '{part}' is out of date (rftfem/scene/reading.py or "
         f"the command-line options changed); regenerate it with\n"
         f"    python -m rftfem.reference\n"
-        f"{scene_reference.diff(text, parts)}")
+        f"{scene_reference.diff(text, parts)}"
+    )
 
 
 def test_hand_written_sections_are_there():
@@ -51,10 +52,13 @@ def test_hand_written_sections_are_there():
 
 
 def test_generator_refuses_a_leaf_without_doc():
-    schema = Table({
-        "title": Leaf(Str(), required=True, doc="the name"),
-        "speed": Leaf(Num(), 1.0),  # no doc
-    }, doc="top")
+    schema = Table(
+        {
+            "title": Leaf(Str(), required=True, doc="the name"),
+            "speed": Leaf(Num(), 1.0),  # no doc
+        },
+        doc="top",
+    )
     with pytest.raises(UndocumentedKey, match=r"'speed' has no doc"):
         scene_reference.scene_keys_markdown(schema)
 
@@ -62,8 +66,9 @@ def test_generator_refuses_a_leaf_without_doc():
 def test_generator_refuses_undocumented_keys_at_any_depth():
     documented = {"a": Leaf(Num(), 1.0, doc="a number")}
     cases = {
-        "[[parts]].size": Table({"parts": Array(Table({
-            "size": Leaf(Num(), 1.0)}), doc="parts")}, doc="top"),
+        "[[parts]].size": Table(
+            {"parts": Array(Table({"size": Leaf(Num(), 1.0)}), doc="parts")}, doc="top"
+        ),
         "[[parts]]": Table({"parts": Array(Table(dict(documented)))}, doc="top"),
         "box": Table({"box": Table(dict(documented))}, doc="top"),
         "(the top level)": Table(dict(documented)),
@@ -78,7 +83,7 @@ def test_generator_refuses_an_optional_leaf_without_default_text():
     schema = Table({"file": Leaf(Str(), None, doc="a path")}, doc="top")
     with pytest.raises(UndocumentedKey, match="'file' has no default and no default_doc"):
         scene_reference.scene_keys_markdown(schema)
-    schema.fields["file"].default_doc = "none: only with kind = \"gmsh\""
+    schema.fields["file"].default_doc = 'none: only with kind = "gmsh"'
     assert "none: only with kind" in scene_reference.scene_keys_markdown(schema)
 
 
@@ -88,8 +93,9 @@ def test_a_key_added_to_the_validator_fails_the_reference(monkeypatch, tmp_path)
     motion = scene.SCHEMA.fields["motion"].item.fields
     monkeypatch.setitem(motion, "phase", Leaf(Num(), 0.0))
     path = tmp_path / "scene.toml"
-    path.write_text('title = "t"\n[mesh]\n[shell]\n[time]\n'
-                    '[[motion]]\ncomponent = "uz"\nphase = 0.5\n')
+    path.write_text(
+        'title = "t"\n[mesh]\n[shell]\n[time]\n[[motion]]\ncomponent = "uz"\nphase = 0.5\n'
+    )
     assert scene.load_scene(path)["motion"][0]["phase"] == 0.5  # the validator takes it
     with pytest.raises(UndocumentedKey, match=r"'\[\[motion\]\]\.phase' has no doc"):
         scene_reference.scene_keys_markdown()
@@ -98,8 +104,9 @@ def test_a_key_added_to_the_validator_fails_the_reference(monkeypatch, tmp_path)
     text = DOC.read_text(encoding="utf-8")
     keys = scene_reference.scene_keys_markdown()
     assert "`[[motion]].phase`" in keys
-    assert scene_reference.stale_parts(text, {**scene_reference.extract(text),
-                                              "scene keys": keys}) == ["scene keys"]
+    assert scene_reference.stale_parts(
+        text, {**scene_reference.extract(text), "scene keys": keys}
+    ) == ["scene keys"]
 
 
 def test_a_changed_default_makes_the_reference_stale(monkeypatch):
@@ -107,8 +114,9 @@ def test_a_changed_default_makes_the_reference_stale(monkeypatch):
     monkeypatch.setattr(time["max_cuts"], "default", 9)
     text = DOC.read_text(encoding="utf-8")
     keys = scene_reference.scene_keys_markdown()
-    assert scene_reference.stale_parts(text, {**scene_reference.extract(text),
-                                              "scene keys": keys}) == ["scene keys"]
+    assert scene_reference.stale_parts(
+        text, {**scene_reference.extract(text), "scene keys": keys}
+    ) == ["scene keys"]
 
 
 def test_every_schema_key_is_in_the_document():
@@ -117,9 +125,14 @@ def test_every_schema_key_is_in_the_document():
         assert f"`{path}`" in keys, path
 
 
-@pytest.mark.parametrize("path, default", [
-    (p, n.default) for p, n in scene_reference.walk()
-    if isinstance(n, Leaf) and not n.required and not n.default_doc])
+@pytest.mark.parametrize(
+    "path, default",
+    [
+        (p, n.default)
+        for p, n in scene_reference.walk()
+        if isinstance(n, Leaf) and not n.required and not n.default_doc
+    ],
+)
 def test_listed_defaults_read_back_as_the_defaults(path, default):
     """The default the reference prints is valid TOML for the real default."""
     assert tomllib.loads(f"v = {scene_reference._toml(default)}")["v"] == default
@@ -147,8 +160,7 @@ def _used_keys(data: dict, display: str, free: set[str]):
 
 @pytest.mark.parametrize("demo", DEMOS, ids=[p.name for p in DEMOS])
 def test_every_key_of_a_demo_scene_is_in_the_reference(demo):
-    free = {p for p, n in scene_reference.walk()
-            if isinstance(n, Free) and not p.endswith(".*")}
+    free = {p for p, n in scene_reference.walk() if isinstance(n, Free) and not p.endswith(".*")}
     listed = set(scene_reference.documented_paths())
     keys = scene_reference.extract(DOC.read_text(encoding="utf-8"))["scene keys"]
     used = sorted(set(_used_keys(tomllib.loads(demo.read_text(encoding="utf-8")), "", free)))
@@ -164,8 +176,9 @@ def test_check_and_rewrite(tmp_path, capsys):
     copy = tmp_path / "scenes.md"
     text = DOC.read_text(encoding="utf-8")
     body = scene_reference.extract(text)["scene keys"]
-    copy.write_text(text.replace(body, body.replace("| `mesh.length` |", "| `mesh.len` |")),
-                    encoding="utf-8")
+    copy.write_text(
+        text.replace(body, body.replace("| `mesh.length` |", "| `mesh.len` |")), encoding="utf-8"
+    )
     assert scene_reference.main(["--check", "--file", str(copy)]) == 1
     assert "python -m rftfem.reference" in capsys.readouterr().err
     assert scene_reference.main(["--file", str(copy)]) == 0

@@ -13,19 +13,31 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
 from conftest import ROOT
 
-SCRIPTS = sorted(p.relative_to(ROOT) for p in (*ROOT.glob("demos/*.py"),
-                                               *ROOT.glob("benchmarks/*.py")))
+SCRIPTS = sorted(
+    p.relative_to(ROOT) for p in (*ROOT.glob("demos/*.py"), *ROOT.glob("benchmarks/*.py"))
+)
 
 
 def plain_env() -> dict:
     """The environment of a fresh login shell: the system's PATH, no venv, no
     rftfem variables."""
-    keep = {k: v for k, v in os.environ.items()
-            if k in ("HOME", "LANG", "LC_ALL", "TERM", "USER", "TMPDIR",
-                     "OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")}
+    keep = {
+        k: v
+        for k, v in os.environ.items()
+        if k
+        in (
+            "HOME",
+            "LANG",
+            "LC_ALL",
+            "TERM",
+            "USER",
+            "TMPDIR",
+            "OMPI_ALLOW_RUN_AS_ROOT",
+            "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM",
+        )
+    }
     return {**keep, "PATH": "/usr/local/bin:/usr/bin:/bin"}
 
 
@@ -40,8 +52,9 @@ def pythons_without_rftfem() -> list[str]:
 
 
 def run(cmd, cwd=ROOT, timeout=600, env=None):
-    return subprocess.run(cmd, cwd=cwd, env=env or plain_env(), capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        cmd, cwd=cwd, env=env or plain_env(), capture_output=True, text=True, timeout=timeout
+    )
 
 
 @pytest.mark.parametrize("script", SCRIPTS, ids=str)
@@ -59,8 +72,16 @@ def test_every_script_calls_the_shim_before_rftfem():
     """Each Python script calls ``repository_python.ensure()`` at module level before
     anything imports rftfem or the FEniCSx stack (its --help alone would not show a
     missing call: most demos import rftfem only once they run)."""
-    stack = ("import rftfem", "from rftfem", "import dolfinx", "from dolfinx",
-             "import mpi4py", "from mpi4py", "import petsc4py", "from petsc4py")
+    stack = (
+        "import rftfem",
+        "from rftfem",
+        "import dolfinx",
+        "from dolfinx",
+        "import mpi4py",
+        "from mpi4py",
+        "import petsc4py",
+        "from petsc4py",
+    )
     for script in SCRIPTS:
         lines = (ROOT / script).read_text().splitlines()
         call = [i for i, line in enumerate(lines) if line == "repository_python.ensure()"]
@@ -73,9 +94,11 @@ def test_shim_runs_the_script_under_the_repository_environment(tmp_path):
     """A script with the demos' prelude, started by a python3 without rftfem, runs
     again under the repository's .venv: it imports rftfem from this checkout."""
     script = tmp_path / "probe.py"
-    script.write_text(f"import sys\nsys.path.insert(0, {str(ROOT / 'scripts')!r})\n"
-                      "import repository_python\nrepository_python.ensure()\n"
-                      "import rftfem\nprint(rftfem.__file__)\n")
+    script.write_text(
+        f"import sys\nsys.path.insert(0, {str(ROOT / 'scripts')!r})\n"
+        "import repository_python\nrepository_python.ensure()\n"
+        "import rftfem\nprint(rftfem.__file__)\n"
+    )
     for python in pythons_without_rftfem():
         done = run([python, str(script)], timeout=300)
         assert done.returncode == 0, done.stderr[-1500:]
@@ -99,8 +122,9 @@ def test_no_environment_is_a_clear_error(tmp_path):
 @pytest.mark.slow
 def test_parameter_study_script_from_a_plain_shell(tmp_path):
     """demos/parameter_study.sh as shipped (four short sheet runs and their table)."""
-    done = run(["bash", "demos/parameter_study.sh", "-j", "2", str(tmp_path / "study")],
-               timeout=1800)
+    done = run(
+        ["bash", "demos/parameter_study.sh", "-j", "2", str(tmp_path / "study")], timeout=1800
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     rows = (tmp_path / "study" / "table.csv").read_text().strip().splitlines()
     assert len(rows) == 5, rows
@@ -111,13 +135,27 @@ def test_strip_scripts_from_a_plain_shell(tmp_path):
     """demos/strip_sweep.sh and demos/strip_convergence.sh on one frequency, few steps
     and a coarse mesh: each run, its table and the sweep's plot (the demo's Python
     code, started as python3)."""
-    env = {**plain_env(), "FREQS": "128", "PERIODS": "1", "STEPS": "10", "SETTLE": "0",
-           "WINDOW": "0"}
-    done = run(["bash", "demos/strip_sweep.sh", str(tmp_path / "sweep"),
-                "--set", "mesh.divisions=[5,1]"], env=env, timeout=1800)
+    env = {
+        **plain_env(),
+        "FREQS": "128",
+        "PERIODS": "1",
+        "STEPS": "10",
+        "SETTLE": "0",
+        "WINDOW": "0",
+    }
+    done = run(
+        ["bash", "demos/strip_sweep.sh", str(tmp_path / "sweep"), "--set", "mesh.divisions=[5,1]"],
+        env=env,
+        timeout=1800,
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    assert (tmp_path / "sweep" / "runs.csv").exists() and (tmp_path / "sweep" / "sweep.png").exists()
+    assert (tmp_path / "sweep" / "runs.csv").exists() and (
+        tmp_path / "sweep" / "sweep.png"
+    ).exists()
     assert not (tmp_path / "sweep" / "f128" / "fields.h5").exists()  # rows only, unless FIELDS=true
-    done = run(["bash", "demos/strip_convergence.sh", str(tmp_path / "conv")],
-               env={**env, "LEVELS": "1"}, timeout=1800)
+    done = run(
+        ["bash", "demos/strip_convergence.sh", str(tmp_path / "conv")],
+        env={**env, "LEVELS": "1"},
+        timeout=1800,
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]

@@ -18,7 +18,6 @@ import json
 import math
 
 import pytest
-
 from conftest import write_scene
 
 TIGHT = ["-snes_atol", "1e-13", "-snes_stol", "1e-15"]
@@ -136,20 +135,23 @@ def _taylor(tmp_path, text, keys, objective, h0=0.02):
     from rftfem.studies.gradient_runs import run_with_gradient
 
     scene = write_scene(tmp_path, text)
-    status, J, grad = run_with_gradient(scene, [], tmp_path / "base", list(keys), objective,
-                                        TIGHT)
+    status, J, grad = run_with_gradient(scene, [], tmp_path / "base", list(keys), objective, TIGHT)
     assert status == 0, (tmp_path / "base" / "run.log").read_text()
     out = {}
     for (key, (value, override)), g in zip(keys.items(), grad):
         steps = [h0 * value / 2**i for i in range(3)]
-        Js = [_objective(scene, objective, tmp_path / f"{key}_{i}", [override(value + h)])
-              for i, h in enumerate(steps)]
+        Js = [
+            _objective(scene, objective, tmp_path / f"{key}_{i}", [override(value + h)])
+            for i, h in enumerate(steps)
+        ]
         r2 = [abs(Jh - J - h * g) for Jh, h in zip(Js, steps)]
         r1 = [abs(Jh - J) for Jh in Js]
         orders = [[math.log2(r[i] / r[i + 1]) for i in range(2)] for r in (r2, r1)]
-        print(f"{objective}, {key}: dJ/dp = {g:.6e}; r2 {r2[0]:.2e} {r2[1]:.2e} {r2[2]:.2e}, "
-              f"orders {orders[0][0]:.3f} {orders[0][1]:.3f}; first-order residual orders "
-              f"{orders[1][0]:.3f} {orders[1][1]:.3f}")
+        print(
+            f"{objective}, {key}: dJ/dp = {g:.6e}; r2 {r2[0]:.2e} {r2[1]:.2e} {r2[2]:.2e}, "
+            f"orders {orders[0][0]:.3f} {orders[0][1]:.3f}; first-order residual orders "
+            f"{orders[1][0]:.3f} {orders[1][1]:.3f}"
+        )
         out[key] = (*orders, r2)
     return out
 
@@ -193,17 +195,22 @@ def test_against_central_differences(tmp_path, dt, tolerance):
 
     scene = write_scene(tmp_path, STRIP)
     step = [f"time.dt={dt}"]
-    status, _, grad = run_with_gradient(scene, step, tmp_path / "base", list(STRIP_KEYS),
-                                        "tip_uz@end", TIGHT)
+    status, _, grad = run_with_gradient(
+        scene, step, tmp_path / "base", list(STRIP_KEYS), "tip_uz@end", TIGHT
+    )
     assert status == 0
     errors = {}
     for (key, (value, override)), g in zip(STRIP_KEYS.items(), grad):
         h = 1e-4 * value
-        J = [_objective(scene, "tip_uz@end", tmp_path / f"{key}{s}", step + [override(value + s)])
-             for s in (h, -h)]
+        J = [
+            _objective(scene, "tip_uz@end", tmp_path / f"{key}{s}", step + [override(value + s)])
+            for s in (h, -h)
+        ]
         errors[key] = (J[0] - J[1]) / (2 * h) / g - 1
-    print(f"{1 / dt:g} load step(s): adjoint against central differences: "
-          + ", ".join(f"{k} {e:.1e}" for k, e in errors.items()))
+    print(
+        f"{1 / dt:g} load step(s): adjoint against central differences: "
+        + ", ".join(f"{k} {e:.1e}" for k, e in errors.items())
+    )
     assert all(abs(e) < tolerance for e in errors.values()), errors
 
 
@@ -218,19 +225,36 @@ def test_linear_cantilever_closed_form(tmp_path):
     L, b, t, E = 10.0, 1.0, 0.1, 1.2e6
     I, G, k = b * t**3 / 12, E / 2, 5.0 / 6.0
     P = 1e-4 * 3 * E * I / L**2
-    scene = write_scene(tmp_path, STRIP.replace('[[shell.parts]]\nregion = "root"\nE = 2.0e6\n',
-                                                ""))
+    scene = write_scene(
+        tmp_path, STRIP.replace('[[shell.parts]]\nregion = "root"\nE = 2.0e6\n', "")
+    )
     status, J, (dE, dt, dP) = run_with_gradient(
-        scene, ["mesh.divisions=[16, 1]", "shell.nu=0.0", f"load.0.value=[0.0, 0.0, {P!r}]",
-                "load.0.ramp=constant", "time.dt=1.0"],
-        tmp_path / "out", ["shell.E", "shell.thickness", "load.0.value.2"], "tip_uz@end", TIGHT)
+        scene,
+        [
+            "mesh.divisions=[16, 1]",
+            "shell.nu=0.0",
+            f"load.0.value=[0.0, 0.0, {P!r}]",
+            "load.0.ramp=constant",
+            "time.dt=1.0",
+        ],
+        tmp_path / "out",
+        ["shell.E", "shell.thickness", "load.0.value.2"],
+        "tip_uz@end",
+        TIGHT,
+    )
     assert status == 0
     w_b, w_s = P * L**3 / (3 * E * I), P * L / (k * G * b * t)
     w = w_b + w_s
-    errors = {"w": J / w - 1, "dw/dE": dE / (-w / E) - 1, "dw/dP": dP / (w / P) - 1,
-              "dw/dt": dt / (-(3 * w_b + w_s) / t) - 1}
-    print("relative errors against the closed form: "
-          + ", ".join(f"{name} {e:.2e}" for name, e in errors.items()))
+    errors = {
+        "w": J / w - 1,
+        "dw/dE": dE / (-w / E) - 1,
+        "dw/dP": dP / (w / P) - 1,
+        "dw/dt": dt / (-(3 * w_b + w_s) / t) - 1,
+    }
+    print(
+        "relative errors against the closed form: "
+        + ", ".join(f"{name} {e:.2e}" for name, e in errors.items())
+    )
     assert all(abs(e) < 2e-4 for e in errors.values()), errors
     assert dE == pytest.approx(-J / E, rel=1e-6) and dP == pytest.approx(J / P, rel=1e-6)
 
@@ -243,38 +267,50 @@ def test_outputs_and_statuses_as_run_here(tmp_path):
 
     scene = write_scene(tmp_path, STRIP)
     assert run_here(scene, [], tmp_path / "plain") == 0
-    status, J, grad = run_with_gradient(scene, [], tmp_path / "adjoint",
-                                        ["shell.E", "load.0.value.2"], "tip_uz@end")
+    status, J, grad = run_with_gradient(
+        scene, [], tmp_path / "adjoint", ["shell.E", "load.0.value.2"], "tip_uz@end"
+    )
     assert status == 0 and len(grad) == 2
     for name in ("probes.csv", "body.csv"):
-        assert (tmp_path / "plain" / name).read_text() == \
-            (tmp_path / "adjoint" / name).read_text(), name
+        assert (tmp_path / "plain" / name).read_text() == (
+            tmp_path / "adjoint" / name
+        ).read_text(), name
     last = (tmp_path / "plain" / "probes.csv").read_text().splitlines()[-1].split(",")
     assert J == float(last[3])  # tip_uz of the last row: the same state
     saved = json.loads((tmp_path / "adjoint" / "gradient.json").read_text())
-    assert saved == {"objective": "tip_uz@end", "value": J,
-                     "gradient": {"shell.E": grad[0], "load.0.value.2": grad[1]}}
+    assert saved == {
+        "objective": "tip_uz@end",
+        "value": J,
+        "gradient": {"shell.E": grad[0], "load.0.value.2": grad[1]},
+    }
     # Newton allowed one update and no cut: the run fails numerically
     failed = ["time.max_cuts=0", "load.0.value=[0.0, 0.0, 40.0]"]
     assert run_here(scene, failed, tmp_path / "f1", ["-snes_max_it", "1"]) == 3
-    assert run_with_gradient(scene, failed, tmp_path / "f2", ["shell.E"], "tip_uz@end",
-                             ["-snes_max_it", "1"]) == (3, None, None)
+    assert run_with_gradient(
+        scene, failed, tmp_path / "f2", ["shell.E"], "tip_uz@end", ["-snes_max_it", "1"]
+    ) == (3, None, None)
     assert "run failed" in (tmp_path / "f2" / "run.log").read_text()
-    assert run_with_gradient(scene, ["shell.E=-1"], tmp_path / "f3", ["shell.E"],
-                             "tip_uz@end") == (2, None, None)
+    assert run_with_gradient(scene, ["shell.E=-1"], tmp_path / "f3", ["shell.E"], "tip_uz@end") == (
+        2,
+        None,
+        None,
+    )
 
 
-@pytest.mark.parametrize("key, objective, said", [
-    ("shell.axis", "tip_uz@end", "gradient key 'shell.axis': expected one of shell.E"),
-    ("load.0.value", "tip_uz@end", "give its component"),
-    ("load.3.value.0", "tip_uz@end", "index 3 out of range"),
-    ("shell.parts.1.E", "tip_uz@end", "index 1 out of range"),
-    ("magnetic.field.strength", "tip_uz@end", "the scene has no [magnetic]"),
-    ("shell.E", "tip_uz@0.5", "objective 'tip_uz@0.5': expected one of PROBE_ux@end"),
-    ("shell.E", "max(tip_uz)", "expected one of PROBE_ux@end"),
-    ("shell.E", "nose_uz@end", "(probes: tip)"),
-    ("shell.E", "drag_power@end", "elastic_energy@end"),
-])
+@pytest.mark.parametrize(
+    "key, objective, said",
+    [
+        ("shell.axis", "tip_uz@end", "gradient key 'shell.axis': expected one of shell.E"),
+        ("load.0.value", "tip_uz@end", "give its component"),
+        ("load.3.value.0", "tip_uz@end", "index 3 out of range"),
+        ("shell.parts.1.E", "tip_uz@end", "index 1 out of range"),
+        ("magnetic.field.strength", "tip_uz@end", "the scene has no [magnetic]"),
+        ("shell.E", "tip_uz@0.5", "objective 'tip_uz@0.5': expected one of PROBE_ux@end"),
+        ("shell.E", "max(tip_uz)", "expected one of PROBE_ux@end"),
+        ("shell.E", "nose_uz@end", "(probes: tip)"),
+        ("shell.E", "drag_power@end", "elastic_energy@end"),
+    ],
+)
 def test_refused_keys_and_objectives(tmp_path, key, objective, said):
     """What cannot be differentiated is a SceneError of one line naming what can, before
     any run; so is a scene that is not static."""
@@ -306,5 +342,4 @@ def test_refused_scheme_and_supports(tmp_path):
     assert supports(["shell.parts.0.thickness"], "elastic_energy@end", static)
     assert not supports(["shell.axis"], "tip_uz@end")
     assert not supports(["shell.E"], "mean(tip_uz)")
-    assert supports(["shell.E"], "nose_uz@end") and not supports(["shell.E"], "nose_uz@end",
-                                                                   static)
+    assert supports(["shell.E"], "nose_uz@end") and not supports(["shell.E"], "nose_uz@end", static)

@@ -6,7 +6,6 @@ Each test prints the figure it reached, so `pytest -s` (or -rA) shows the margin
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, rows_at, run_scene
 
 # --- A. Cantilever under end shear (Sze, Liu & Lo 2004, 3.1) -----------------
@@ -29,11 +28,14 @@ def test_end_shear_matches_sze_at_every_row(tmp_path):
     for p, (ux, _, uz) in zip(loads, tip):
         ref_u, ref_w = SZE_SHEAR[p]
         err = abs(uz - ref_w) / ref_w
-        print(f"P/Pmax = {p:4.2f}: -u = {-ux:.4f} ({ref_u}), w = {uz:.4f} ({ref_w}), "
-              f"w error {100 * err:.3f} %")
+        print(
+            f"P/Pmax = {p:4.2f}: -u = {-ux:.4f} ({ref_u}), w = {uz:.4f} ({ref_w}), "
+            f"w error {100 * err:.3f} %"
+        )
         assert err < 0.01, f"P/Pmax = {p}: w = {uz:.4f}, reference {ref_w}"
-        assert abs(-ux - ref_u) <= max(0.01 * ref_u, 1e-3), \
+        assert abs(-ux - ref_u) <= max(0.01 * ref_u, 1e-3), (
             f"P/Pmax = {p}: -u = {-ux:.4f}, reference {ref_u}"
+        )
     assert sim.summary["counts"]["dt_cuts"] == 0
 
 
@@ -76,21 +78,33 @@ def test_rollup_two_full_turns_on_a_finer_mesh(tmp_path):
 
 # --- C. Elastica (exact), tip load ----------------------------------------------
 
-ELASTICA = {1: (0.30172, 0.05643), 2: (0.49346, 0.16064), 5: (0.71379, 0.38763),
-            10: (0.81061, 0.55500)}
+ELASTICA = {
+    1: (0.30172, 0.05643),
+    2: (0.49346, 0.16064),
+    5: (0.71379, 0.38763),
+    10: (0.81061, 0.55500),
+}
 
 
 def test_elastica_tip_load(tmp_path):
     """(w/L, 1 - x/L) within 0.15 % for PL²/EI = 1, 2, 5, 10 (EI = 100, L = 10: P = PL²/EI),
     32x1 quadrilaterals; reached ≤ 0.015 % (the table's five digits alone are up to
     0.009 % of 1 - x/L at PL²/EI = 1). Case C publishes 0.5 %."""
-    sim = run_scene(DEMOS / "end_shear.toml", "load.0.value=[0.0, 0.0, 10.0]", "time.end=10.0",
-                    "time.dt=0.25", "mesh.divisions=[32, 1]", out_dir=tmp_path)
+    sim = run_scene(
+        DEMOS / "end_shear.toml",
+        "load.0.value=[0.0, 0.0, 10.0]",
+        "time.end=10.0",
+        "time.dt=0.25",
+        "mesh.divisions=[32, 1]",
+        out_dir=tmp_path,
+    )
     for k, (ux, _, uz) in zip(ELASTICA, rows_at(sim, list(ELASTICA))):
         w_ref, u_ref = ELASTICA[k]
         ew, eu = abs(uz / 10 - w_ref) / w_ref, abs(-ux / 10 - u_ref) / u_ref
-        print(f"PL²/EI = {k}: w/L = {uz / 10:.5f} ({w_ref}), 1 - x/L = {-ux / 10:.5f} ({u_ref}); "
-              f"errors {100 * ew:.4f} %, {100 * eu:.4f} %")
+        print(
+            f"PL²/EI = {k}: w/L = {uz / 10:.5f} ({w_ref}), 1 - x/L = {-ux / 10:.5f} ({u_ref}); "
+            f"errors {100 * ew:.4f} %, {100 * eu:.4f} %"
+        )
         assert ew < 0.0015 and eu < 0.0015
 
 
@@ -105,8 +119,15 @@ def test_no_shear_or_membrane_locking(tmp_path, slenderness):
     t = L / slenderness
     EI = E * w * t**3 / 12
     P = 1e-4 * 3 * EI / L**2  # deflection 1e-4 L: linear regime
-    sim = run_scene(DEMOS / "end_shear.toml", f"shell.thickness={t}", f"load.0.value=[0, 0, {P}]",
-                    "load.0.ramp=constant", "time.end=1.0", "time.dt=1.0", out_dir=tmp_path)
+    sim = run_scene(
+        DEMOS / "end_shear.toml",
+        f"shell.thickness={t}",
+        f"load.0.value=[0, 0, {P}]",
+        "load.0.ramp=constant",
+        "time.end=1.0",
+        "time.dt=1.0",
+        out_dir=tmp_path,
+    )
     uz = sim.history[-1][1][0][2]
     exact = P * L**3 / (3 * EI)
     err = abs(uz - exact) / exact
@@ -131,11 +152,14 @@ def test_small_twist_rate_matches_saint_venant_torsion(tmp_path):
     with k_s = 5/6 (its free-edge shear layer), is 0.03 % from it. Rate from the
     sections at X = 4 and 8 (the clamped end stiffens the first width or so, and the
     end rotation is 2.3 % below T L/(G J)): within 0.5 %, reached 0.11 % (20x4)."""
-    text = (DEMOS / "twist.toml").read_text() + "".join(f"""
+    text = (DEMOS / "twist.toml").read_text() + "".join(
+        f"""
 [[output.probes]]
 name = "{name}"
 at = [{x}, {y}, 0.0]
-""" for name, x, y in (("a0", 4.0, 0.0), ("a1", 4.0, 1.0), ("b0", 8.0, 0.0), ("b1", 8.0, 1.0)))
+"""
+        for name, x, y in (("a0", 4.0, 0.0), ("a1", 4.0, 1.0), ("b0", 8.0, 0.0), ("b1", 8.0, 1.0))
+    )
     scene = tmp_path / "twist.toml"
     scene.write_text(text)
     torque = 1.0
@@ -194,8 +218,13 @@ def _rollup_until(fraction):
 def test_rollup_on_triangles_to_three_quarters(tmp_path):
     """Sze 3.2 on 32x1 P2 triangles: the tip on the exact circle within 0.5 % of L up
     to M/Mmax = 0.75 (reached ≤ 0.03 %)."""
-    sim = run_scene(DEMOS / "rollup.toml", "mesh.cell=triangle", "mesh.divisions=[32, 1]",
-                    *_rollup_until(0.75), out_dir=tmp_path)
+    sim = run_scene(
+        DEMOS / "rollup.toml",
+        "mesh.cell=triangle",
+        "mesh.divisions=[32, 1]",
+        *_rollup_until(0.75),
+        out_dir=tmp_path,
+    )
     errors = _rollup_errors(sim, [0.25, 0.5, 0.75])
     assert max(errors) < 0.005
 
@@ -219,9 +248,13 @@ def test_rollup_leaves_its_plane_near_closure_once_symmetry_is_broken(tmp_path):
     for cell in ("triangle", "quadrilateral"):
         for side in (0.0, 1e-3):
             tips[cell, side] = run_scene(
-                DEMOS / "rollup.toml", f"mesh.cell={cell}", "mesh.divisions=[32, 1]", end,
+                DEMOS / "rollup.toml",
+                f"mesh.cell={cell}",
+                "mesh.divisions=[32, 1]",
+                end,
                 f"load.0.value=[{side * m!r}, {m!r}, {side * m!r}]",
-                out_dir=tmp_path / f"{cell}-{side}").history[-1][1][0]
+                out_dir=tmp_path / f"{cell}-{side}",
+            ).history[-1][1][0]
             print(f"tip at Mmax, {cell}, side moment {side:g} M: {tips[cell, side]}")
     tri, quad = tips["triangle", 1e-3], tips["quadrilateral", 1e-3]
     travel = np.linalg.norm(tri)

@@ -8,7 +8,6 @@ import json
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 SINKING = """
@@ -62,8 +61,8 @@ def test_a_sideways_wobble_is_judged_against_the_swim():
 
     n, per = 24, 20
     t = np.linspace(0.0, n, n * per + 1)
-    jitter = 2e-4 * np.sin(7.3 * np.floor(t))              # a period's drift jitters
-    x = t + 0.5 ** t / np.log(0.5)                          # x' = 1 − 0.5^t (+ a constant)
+    jitter = 2e-4 * np.sin(7.3 * np.floor(t))  # a period's drift jitters
+    x = t + 0.5**t / np.log(0.5)  # x' = 1 − 0.5^t (+ a constant)
     y = 0.005 * np.sin(2 * np.pi * t) + np.cumsum(np.r_[0, np.diff(jitter)])
     rows = np.stack([x, y], axis=1)
     watch = SteadyWatch(1.0, 1e-3, ["centroid_x", "centroid_y"])
@@ -84,27 +83,44 @@ def test_sinking_strip_stops_once_steady_at_the_terminal_speed(tmp_path):
     sim = run_scene(write_scene(tmp_path, SINKING), out_dir=tmp_path / "out")
     steady = json.loads((tmp_path / "out" / "summary.json").read_text())["steady"]
     rate = steady["values"]["centroid_z_rate"]
-    print(f"steady after {steady['periods']} periods: rate {rate!r} against {-TERMINAL!r}; "
-          f"estimated error {steady['estimated_errors']['centroid_z_rate']:.1e}")
+    print(
+        f"steady after {steady['periods']} periods: rate {rate!r} against {-TERMINAL!r}; "
+        f"estimated error {steady['estimated_errors']['centroid_z_rate']:.1e}"
+    )
     assert steady["reached"] and steady["periods"] <= 15
     assert sim.t < 16 * steady["period"]
     assert abs(rate / -TERMINAL - 1) < 1e-9
 
 
-@pytest.mark.parametrize("text, sets, message", [
-    (SINKING.replace("period = 2.0e-4\n", ""), [],
-     'time.until = "periodic": no period in the scene (a travelling-wave motion or a '
-     "rotating field); give time.period"),
-    (SINKING, ["time.dt=3e-5"],
-     'time.dt: expected a whole fraction of the period 0.0002 (time.until = "periodic"), '
-     "found 3e-05 (6.66667 steps a period)"),
-    (SINKING, ["time.output_every=3"],
-     "time.output_every: expected a divisor of the 10 steps of a period (time.until = "
-     '"periodic"), found 3'),
-    (SINKING, ["time.until=end"], 'time.period: only used with time.until = "periodic"'),
-    (SINKING.replace("[fluid]\ndrag = [1.0e-7, 1.0e-7, 1.0e-7]\n", ""), ["time.scheme=static"],
-     'time.until = "periodic" needs a run in time, found time.scheme = "static"'),
-])
+@pytest.mark.parametrize(
+    "text, sets, message",
+    [
+        (
+            SINKING.replace("period = 2.0e-4\n", ""),
+            [],
+            'time.until = "periodic": no period in the scene (a travelling-wave motion or a '
+            "rotating field); give time.period",
+        ),
+        (
+            SINKING,
+            ["time.dt=3e-5"],
+            'time.dt: expected a whole fraction of the period 0.0002 (time.until = "periodic"), '
+            "found 3e-05 (6.66667 steps a period)",
+        ),
+        (
+            SINKING,
+            ["time.output_every=3"],
+            "time.output_every: expected a divisor of the 10 steps of a period (time.until = "
+            '"periodic"), found 3',
+        ),
+        (SINKING, ["time.until=end"], 'time.period: only used with time.until = "periodic"'),
+        (
+            SINKING.replace("[fluid]\ndrag = [1.0e-7, 1.0e-7, 1.0e-7]\n", ""),
+            ["time.scheme=static"],
+            'time.until = "periodic" needs a run in time, found time.scheme = "static"',
+        ),
+    ],
+)
 def test_bad_periodic_settings_are_refused(tmp_path, text, sets, message):
     from rftfem.errors import SceneError
     from rftfem.scene.reading import load_scene
@@ -122,8 +138,7 @@ def test_collect_reads_the_steady_values(tmp_path):
     dirs = []
     for c3 in (1.0e-7, 2.0e-7):
         out = tmp_path / f"c{c3:g}"
-        run_scene(write_scene(tmp_path, SINKING), f"fluid.drag=[1e-7, 1e-7, {c3}]",
-                  out_dir=out)
+        run_scene(write_scene(tmp_path, SINKING), f"fluid.drag=[1e-7, 1e-7, {c3}]", out_dir=out)
         dirs.append(out)
     header, rows, _ = collect(dirs)
     speeds = [float(r[header.index("steady.centroid_z_rate")]) for r in rows]
@@ -142,8 +157,9 @@ def test_quantity_steady_reads_the_steady_values(tmp_path):
     scene = write_scene(tmp_path, SINKING)
     run_scene(scene, out_dir=tmp_path / "steady")
     assert evaluate("steady(centroid_z_rate)", tmp_path / "steady") == pytest.approx(
-        -TERMINAL, rel=1e-9)
-    run_scene(scene, "time.end=6e-4", out_dir=tmp_path / "short")   # 3 periods: too few
+        -TERMINAL, rel=1e-9
+    )
+    run_scene(scene, "time.end=6e-4", out_dir=tmp_path / "short")  # 3 periods: too few
     with pytest.raises(Unavailable, match="stopped at time.end before it was steady"):
         evaluate("steady(centroid_z_rate)", tmp_path / "short")
     from rftfem.outputs.collect import collect  # there an empty cell, though the run finished
@@ -153,8 +169,9 @@ def test_quantity_steady_reads_the_steady_values(tmp_path):
     assert rows[0][header.index("status")] == "ok" and rows[0][header.index("U")] == ""
     with pytest.raises(Exception, match="no steady value 'centroid_z' .*centroid_z_rate"):
         evaluate("steady(centroid_z)", tmp_path / "steady")
-    plain = write_scene(tmp_path, SINKING.replace('until = "periodic"\nperiod = 2.0e-4\n', ""),
-                        name="plain.toml")
+    plain = write_scene(
+        tmp_path, SINKING.replace('until = "periodic"\nperiod = 2.0e-4\n', ""), name="plain.toml"
+    )
     run_scene(plain, "time.end=2e-4", out_dir=tmp_path / "end")
     with pytest.raises(Exception, match='not a run of time.until = "periodic"'):
         evaluate("steady(centroid_z_rate)", tmp_path / "end")
@@ -165,16 +182,32 @@ def _period_scene(**parts):
     return {"time": {"period": None, **parts.pop("time", {})}, **parts}
 
 
-@pytest.mark.parametrize("parts, period", [
-    ({"motion": [{"kind": "travelling-wave", "angular_frequency": -8.0}]}, 2 * np.pi / 8.0),
-    ({"motion": [{"kind": "table", "values": [[0, 0], [1, 1]]},
-                 {"kind": "travelling-wave", "angular_frequency": 4 * np.pi}]}, 0.5),
-    ({"magnetic": {"field": {"kind": "rotating", "frequency": 4.0}}}, 0.25),
-    ({"magnetic": {"field": {"frequency": 5.0}}}, 0.2),  # rotating is the default kind
-    ({"motion": [{"kind": "travelling-wave", "angular_frequency": 8 * np.pi}],
-      "magnetic": {"field": {"kind": "rotating", "frequency": 4.0}}}, 0.25),
-    ({"time": {"period": 0.3}, "magnetic": {"field": {"frequency": 4.0}}}, 0.3),
-], ids=["wave", "wave-and-table", "field", "field-default-kind", "both-agree", "given"])
+@pytest.mark.parametrize(
+    "parts, period",
+    [
+        ({"motion": [{"kind": "travelling-wave", "angular_frequency": -8.0}]}, 2 * np.pi / 8.0),
+        (
+            {
+                "motion": [
+                    {"kind": "table", "values": [[0, 0], [1, 1]]},
+                    {"kind": "travelling-wave", "angular_frequency": 4 * np.pi},
+                ]
+            },
+            0.5,
+        ),
+        ({"magnetic": {"field": {"kind": "rotating", "frequency": 4.0}}}, 0.25),
+        ({"magnetic": {"field": {"frequency": 5.0}}}, 0.2),  # rotating is the default kind
+        (
+            {
+                "motion": [{"kind": "travelling-wave", "angular_frequency": 8 * np.pi}],
+                "magnetic": {"field": {"kind": "rotating", "frequency": 4.0}},
+            },
+            0.25,
+        ),
+        ({"time": {"period": 0.3}, "magnetic": {"field": {"frequency": 4.0}}}, 0.3),
+    ],
+    ids=["wave", "wave-and-table", "field", "field-default-kind", "both-agree", "given"],
+)
 def test_period_is_read_from_the_drivers(parts, period):
     """time.until = "periodic" finds its period: a travelling wave's 2π/|ω| (a table
     motion has none), a rotating field's 1/f, both when they agree, time.period over
@@ -190,9 +223,13 @@ def test_two_different_periods_are_refused():
     from rftfem.errors import SceneError
     from rftfem.scene.time_rules import scene_period
 
-    scene = _period_scene(motion=[{"kind": "travelling-wave", "angular_frequency": 4 * np.pi}],
-                          magnetic={"field": {"kind": "rotating", "frequency": 4.0}})
+    scene = _period_scene(
+        motion=[{"kind": "travelling-wave", "angular_frequency": 4 * np.pi}],
+        magnetic={"field": {"kind": "rotating", "frequency": 4.0}},
+    )
     with pytest.raises(SceneError) as err:
         scene_period(scene)
-    assert str(err.value) == ('time.until = "periodic": the drivers have different periods '
-                              "(motion.0: 0.5, magnetic.field: 0.25); give time.period")
+    assert str(err.value) == (
+        'time.until = "periodic": the drivers have different periods '
+        "(motion.0: 0.5, magnetic.field: 0.25); give time.period"
+    )

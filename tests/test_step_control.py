@@ -13,15 +13,26 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_command
 
 
 def _rollup(tmp_path, *sets):
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "rftfem", "run", str(DEMOS / "rollup.toml"), "--out", str(out),
-           "--quiet", "--set", "output.fields=false", "--set", "time.dt=1.0",
-           *[a for s in sets for a in ("--set", s)]]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(DEMOS / "rollup.toml"),
+        "--out",
+        str(out),
+        "--quiet",
+        "--set",
+        "output.fields=false",
+        "--set",
+        "time.dt=1.0",
+        *[a for s in sets for a in ("--set", s)],
+    ]
     done = run_command(cmd, cwd=ROOT, timeout=600)
     summary = json.loads((out / "summary.json").read_text())
     return done, summary, out

@@ -14,13 +14,13 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, write_scene
 from stokes_bodies import write_disk, write_disk_ogrid, write_ellipsoid
-from rftfem.model import stokeslets
+
 from rftfem.errors import SceneError
-from rftfem.scene.reading import load_scene
 from rftfem.integration.simulation import Simulation
+from rftfem.model import stokeslets
+from rftfem.scene.reading import load_scene
 
 MU = 1.0  # viscosity
 A = 1.0  # the disk's and the sphere's radius
@@ -60,8 +60,9 @@ def meshes(tmp_path_factory):
 
 
 def _run(tmp_path, mesh, extra, end=0.1, dt=0.1):
-    return _run_text(tmp_path, BODY.format(mesh=mesh, end=float(end), dt=float(dt),
-                                           mu=float(MU)) + extra)
+    return _run_text(
+        tmp_path, BODY.format(mesh=mesh, end=float(end), dt=float(dt), mu=float(MU)) + extra
+    )
 
 
 def _run_text(tmp_path, text):
@@ -99,8 +100,11 @@ def _rigid_rate(model, t):
     u = model.u_n.x.array.reshape(-1, 3)
     rows = []
     for x in X:  # u ≈ c + ω × x t
-        rows.append(np.hstack([np.eye(3), -np.array([[0, -x[2], x[1]], [x[2], 0, -x[0]],
-                                                     [-x[1], x[0], 0]])]))
+        rows.append(
+            np.hstack(
+                [np.eye(3), -np.array([[0, -x[2], x[1]], [x[2], 0, -x[0]], [-x[1], x[0], 0]])]
+            )
+        )
     sol = np.linalg.lstsq(np.vstack(rows), u.ravel(), rcond=None)[0]
     return sol[3:] / t
 
@@ -116,7 +120,7 @@ def test_kernel_is_a_regularized_stokeslet():
 
     def s(rho):
         f0, f1, _, _ = stokeslets.radial(np.array([rho]))
-        return f0[0] * rho, f1[0] * rho ** 3
+        return f0[0] * rho, f1[0] * rho**3
 
     assert abs(s(6.0)[0] - 1) < 1e-12 and abs(s(6.0)[1] - 1) < 1e-12
     for k in range(2):
@@ -127,8 +131,9 @@ def test_kernel_is_a_regularized_stokeslet():
         d1 = (s(rho + h)[0] - s(rho - h)[0]) / (2 * h)
         d2 = (s(rho + h)[1] - s(rho - h)[1]) / (2 * h)
         assert abs(rho * (d1 + d2) - (s(rho)[0] - s(rho)[1])) < 1e-8
-    below, above = (np.array(stokeslets.radial(np.array([0.3 + e]))).ravel()
-                    for e in (-1e-13, 1e-13))
+    below, above = (
+        np.array(stokeslets.radial(np.array([0.3 + e]))).ravel() for e in (-1e-13, 1e-13)
+    )
     assert np.allclose(below, above, rtol=1e-10)
 
 
@@ -142,13 +147,21 @@ def test_position_derivative_taylor_order_two():
     G = stokeslets.position_derivative(x, delta, MU, F)
     dx = rng.standard_normal((30, 3))
     u0 = stokeslets.velocity(x, delta, MU, F).ravel()
-    rem = [np.linalg.norm(stokeslets.velocity(x + e * dx, delta, MU, F).ravel() - u0
-                          - e * G @ dx.ravel()) for e in (4e-3, 2e-3, 1e-3)]
+    rem = [
+        np.linalg.norm(
+            stokeslets.velocity(x + e * dx, delta, MU, F).ravel() - u0 - e * G @ dx.ravel()
+        )
+        for e in (4e-3, 2e-3, 1e-3)
+    ]
     orders = np.log2(np.array(rem[:-1]) / np.array(rem[1:]))
     assert orders.min() > 1.9, orders
     M = stokeslets.mobility(x, delta, MU)
-    assert np.allclose(M @ F.ravel(), stokeslets.velocity(x, delta, MU, F).ravel(),
-                       rtol=0, atol=1e-12 * np.abs(u0).max())
+    assert np.allclose(
+        M @ F.ravel(),
+        stokeslets.velocity(x, delta, MU, F).ravel(),
+        rtol=0,
+        atol=1e-12 * np.abs(u0).max(),
+    )
 
 
 def test_fast_operator_matches_the_dense_one(monkeypatch):
@@ -178,9 +191,12 @@ def test_fast_operator_matches_the_dense_one(monkeypatch):
         return np.linalg.norm(a - b) / np.linalg.norm(b)
 
     G = stokeslets.position_derivative(x, delta, 0.7, F)
-    errors = {"M F": off(fast.apply(F), v), "solve": off(fast.solve(v), F),
-              "G dx": off(fast.position_operator(F) @ dx, G @ dx),
-              "lumped": off(fast.lumped(), dense.lumped())}
+    errors = {
+        "M F": off(fast.apply(F), v),
+        "solve": off(fast.solve(v), F),
+        "G dx": off(fast.position_operator(F) @ dx, G @ dx),
+        "lumped": off(fast.lumped(), dense.lumped()),
+    }
     print(errors, "CG iterations", fast.iterations)
     assert errors["M F"] < 3e-14 and errors["G dx"] < 5e-13
     assert errors["solve"] < 2e-10 and errors["lumped"] < 1e-9
@@ -198,8 +214,9 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch):
     runs = {}
     for operator in ("dense", "fmm"):
         text = BODY.format(mesh=tmp_path / "coarse.msh", end=0.1, dt=0.1, mu=float(MU))
-        text = text.replace('model = "stokes"',
-                            f'model = "stokes"\nmethod = "blobs"\noperator = "{operator}"')
+        text = text.replace(
+            'model = "stokes"', f'model = "stokes"\nmethod = "blobs"\noperator = "{operator}"'
+        )
         sim = _run_text(tmp_path, text + extra)
         assert sim.model["stokes"].operator == operator
         runs[operator] = (np.array(sim.body.values(sim.t)), sim.model.u_n.x.array.copy())
@@ -212,8 +229,9 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch):
 # --- rigid bodies -------------------------------------------------------------
 
 
-@pytest.mark.parametrize("component,exact", [("uz", 16.0), ("ux", 32.0 / 3.0)],
-                         ids=["broadside", "edgewise"])
+@pytest.mark.parametrize(
+    "component,exact", [("uz", 16.0), ("ux", 32.0 / 3.0)], ids=["broadside", "edgewise"]
+)
 def test_disk_translation(tmp_path, meshes, component, exact):
     """Broadside F = 16 μaU, edgewise F = 32/3 μaU, a coupled run of a stiff disk of
     225 nodes: within 3e-4 (reached 1e-5; blobs: −1.6 %, +0.2 % at 441 nodes).
@@ -233,12 +251,13 @@ def test_disk_rotation(tmp_path, meshes, axis):
     turn)."""
     force = [0.0, 1.0, 0.0] if axis == "z" else [0.0, 0.0, 1.0]
     text = BODY.format(mesh=meshes / "disk.msh", end=0.01, dt=0.01, mu=float(MU))
-    sim = _run_text(tmp_path, text.replace("E = 1.0e8", "E = 1.0e11")
-                    + _couple([0.5, 0.0, 0.0], force))
+    sim = _run_text(
+        tmp_path, text.replace("E = 1.0e8", "E = 1.0e11") + _couple([0.5, 0.0, 0.0], force)
+    )
     torque = np.cross([1.0, 0.0, 0.0], force)  # 2 × (0.5 e_x) × force
     omega = _rigid_rate(sim.model, sim.t)
     k = int(np.argmax(np.abs(torque)))
-    ratio = torque[k] / omega[k] / (MU * A ** 3)
+    ratio = torque[k] / omega[k] / (MU * A**3)
     print(f"disk {axis}: T/(μa³Ω) = {ratio:.6f} against {32 / 3:.6f}; ω = {omega}")
     assert abs(ratio / (32.0 / 3.0) - 1) < 1e-3
 
@@ -290,10 +309,12 @@ def test_sphere_translation_and_rotation(tmp_path, meshes, method, tolerance):
     sim = _run_text(tmp_path, text.replace('model = "stokes"', fluid) + _translate("ux"))
     drag = -sim.body.values(sim.t)[sim.body.header().index("fluid_Fx")]
     _, torque = _rigid_resultant(sim.model["stokes"], omega=(0.0, 1.0, 0.0))
-    print(f"sphere, {method}: F/(6πμaU) = {drag / (6 * math.pi * MU * A):.6f}, "
-          f"T/(8πμa³Ω) = {-torque[1] / (8 * math.pi * MU * A ** 3):.6f}")
+    print(
+        f"sphere, {method}: F/(6πμaU) = {drag / (6 * math.pi * MU * A):.6f}, "
+        f"T/(8πμa³Ω) = {-torque[1] / (8 * math.pi * MU * A**3):.6f}"
+    )
     assert abs(drag / (6 * math.pi * MU * A) - 1) < tolerance
-    assert abs(-torque[1] / (8 * math.pi * MU * A ** 3) - 1) < tolerance
+    assert abs(-torque[1] / (8 * math.pi * MU * A**3) - 1) < tolerance
     assert np.abs(torque[[0, 2]]).max() < 1e-3 * abs(torque[1])
 
 
@@ -303,11 +324,16 @@ def _spheroid_exact(a, b):
     spheroid, semi-axes a > b."""
     e = math.sqrt(1 - (b / a) ** 2)
     L = math.log((1 + e) / (1 - e))
-    XC = 4 / 3 * e ** 3 * (1 - e ** 2) / (2 * e - (1 - e ** 2) * L)
-    YC = 4 / 3 * e ** 3 * (2 - e ** 2) / (-2 * e + (1 + e ** 2) * L)
-    return np.array([16 * math.pi * a * e ** 3 / ((1 + e ** 2) * L - 2 * e),
-                     32 * math.pi * a * e ** 3 / (2 * e + (3 * e ** 2 - 1) * L),
-                     8 * math.pi * a ** 3 * XC, 8 * math.pi * a ** 3 * YC])
+    XC = 4 / 3 * e**3 * (1 - e**2) / (2 * e - (1 - e**2) * L)
+    YC = 4 / 3 * e**3 * (2 - e**2) / (-2 * e + (1 + e**2) * L)
+    return np.array(
+        [
+            16 * math.pi * a * e**3 / ((1 + e**2) * L - 2 * e),
+            32 * math.pi * a * e**3 / (2 * e + (3 * e**2 - 1) * L),
+            8 * math.pi * a**3 * XC,
+            8 * math.pi * a**3 * YC,
+        ]
+    )
 
 
 @pytest.mark.parametrize("ratio,size", [(4.0, 0.25), (6.0, 0.2)], ids=["4", "6"])
@@ -355,8 +381,9 @@ tangent = "exact"
 """
 
 
-@pytest.mark.parametrize("extra", ["", "regularization = 0.05", "refine = 1"],
-                         ids=["stokeslet", "blob", "refined"])
+@pytest.mark.parametrize(
+    "extra", ["", "regularization = 0.05", "refine = 1"], ids=["stokeslet", "blob", "refined"]
+)
 def test_layer_position_derivative_taylor_order_two(tmp_path, meshes, extra):
     """``G = ∂(A f)/∂x`` of the integrated layer at fixed density, from a randomly
     moved disk: |A(x + h dx) f − A(x) f − h G dx| falls as h² with ε = 0, with a
@@ -365,8 +392,9 @@ def test_layer_position_derivative_taylor_order_two(tmp_path, meshes, extra):
     from rftfem.model import stokeslets
 
     text = BODY.format(mesh=meshes / "disk.msh", end=0.1, dt=0.1, mu=float(MU)) + extra + "\n"
-    stokes = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None,
-                        quiet=True).model["stokes"]
+    stokes = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True).model[
+        "stokes"
+    ]
     layer, I = stokes.layer, stokes.interpolation
     rng = np.random.default_rng(1)
     x = I @ (stokes.X + 0.05 * rng.standard_normal(stokes.X.shape))
@@ -375,19 +403,26 @@ def test_layer_position_derivative_taylor_order_two(tmp_path, meshes, extra):
     wall = stokeslets.Wall([0.0, 0.0, -0.7], [0.0, 0.2, 1.0])
     base = layer.matrix(x, 0.7, wall) @ f.ravel()
     G = layer.position_derivative(x, f, 0.7, wall) @ dx.ravel()
-    rem = [np.linalg.norm(layer.matrix(x + h * dx, 0.7, wall) @ f.ravel() - base - h * G)
-           for h in (2e-4, 1e-4, 5e-5)]
+    rem = [
+        np.linalg.norm(layer.matrix(x + h * dx, 0.7, wall) @ f.ravel() - base - h * G)
+        for h in (2e-4, 1e-4, 5e-5)
+    ]
     orders = np.log2(np.array(rem[:-1]) / np.array(rem[1:]))
     print(f"layer derivative ({extra or 'ε = 0'}): remainders {rem}, orders {orders}")
     assert orders.min() > 1.95, orders
 
 
-@pytest.mark.parametrize("wall,operator,method", [(False, "dense", "layer"),
-                                                  (True, "dense", "layer"),
-                                                  (False, "dense", "layer refined"),
-                                                  (False, "dense", "blobs"),
-                                                  (False, "fmm", "blobs")],
-                         ids=["free", "wall", "refined", "blobs", "fmm"])
+@pytest.mark.parametrize(
+    "wall,operator,method",
+    [
+        (False, "dense", "layer"),
+        (True, "dense", "layer"),
+        (False, "dense", "layer refined"),
+        (False, "dense", "blobs"),
+        (False, "fmm", "blobs"),
+    ],
+    ids=["free", "wall", "refined", "blobs", "fmm"],
+)
 def test_coupled_residual_taylor_order_two(tmp_path, wall, operator, method):
     """|R(w + εδ) − R(w) − ε J δ| falls as ε² for the step's whole residual (shell,
     inertia, Stokes flow, a Dirichlet condition; the integrated layer with and
@@ -481,10 +516,11 @@ ramp = "constant"
 """
 
 
-@pytest.mark.parametrize("fluid, force_tol, moment_tol",
-                         [("viscosity = 0.01", 4e-15, 2e-13),
-                          ('model = "stokes"\nviscosity = 0.01', 1e-7, 6e-8)],
-                         ids=["rft", "stokes"])
+@pytest.mark.parametrize(
+    "fluid, force_tol, moment_tol",
+    [("viscosity = 0.01", 4e-15, 2e-13), ('model = "stokes"\nviscosity = 0.01', 1e-7, 6e-8)],
+    ids=["rft", "stokes"],
+)
 def test_fluid_resultant_balances_the_load(tmp_path, fluid, force_tol, moment_tol):
     """Without inertia the liquid's resultant on a free body balances the load:
     fluid_F = −P and fluid_M = −x × P about the origin, x the loaded point where it
@@ -495,8 +531,9 @@ def test_fluid_resultant_balances_the_load(tmp_path, fluid, force_tol, moment_to
     give Newton a tangent of an earlier configuration, it converges linearly and stops
     at the tolerance).  Broke: RFT's force integrated with quadrature degree 6 (the
     residual's is 4) → 1.8e-10; its moment so → 8.9e-10."""
-    sim = Simulation(load_scene(write_scene(tmp_path, STRIP.format(fluid=fluid))),
-                     out_dir=None, quiet=True)
+    sim = Simulation(
+        load_scene(write_scene(tmp_path, STRIP.format(fluid=fluid))), out_dir=None, quiet=True
+    )
     sim.run()
     row = dict(zip(sim.body.header(), sim.body.values(sim.t)))
     P, at = np.array([0.2, -0.1, 1.0]), np.array([7.0, 0.5, 0.0])
@@ -523,20 +560,30 @@ def test_rft_coefficients_from_the_viscosity(tmp_path):
     ribbon's equivalent radius w/4): 1.61853 μ and 2.57401 μ."""
     text = STRIP.format(fluid="viscosity = 2.0")
     sim = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True)
-    assert np.allclose(sim.model["drag"].C, [2 * 1.6185323, 2 * 2.5740070, 2 * 2.5740070],
-                       rtol=1e-6)
+    assert np.allclose(
+        sim.model["drag"].C, [2 * 1.6185323, 2 * 2.5740070, 2 * 2.5740070], rtol=1e-6
+    )
 
 
-@pytest.mark.parametrize("method,epsilon,message", [
-    ("blobs", 20.0, r"^fluid.regularization: the blob \(20\) is larger"),
-    ("layer", 0.4, r"^fluid.regularization: ε = 0.4 is over half the force grid's smallest "
-                   r"element \(0.7071\); .* give at most 0.354$")])
+@pytest.mark.parametrize(
+    "method,epsilon,message",
+    [
+        ("blobs", 20.0, r"^fluid.regularization: the blob \(20\) is larger"),
+        (
+            "layer",
+            0.4,
+            r"^fluid.regularization: ε = 0.4 is over half the force grid's smallest "
+            r"element \(0.7071\); .* give at most 0.354$",
+        ),
+    ],
+)
 def test_blob_too_large(tmp_path, method, epsilon, message):
     """A blob of the body's size (blobs), or over half the force grid's element (the
     layer: collocation blurs, cond(A) 4e6 at 1.3 elements against 60 at ε = 0), is
     refused in one line naming the key."""
-    text = STRIP.format(fluid=f'model = "stokes"\nviscosity = 1.0\nmethod = "{method}"\n'
-                              f"regularization = {epsilon}")
+    text = STRIP.format(
+        fluid=f'model = "stokes"\nviscosity = 1.0\nmethod = "{method}"\nregularization = {epsilon}'
+    )
     with pytest.raises(SceneError, match=message):
         Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True)
 
@@ -554,9 +601,12 @@ def test_two_processes_match_one(tmp_path, cli_run, operator, method):
 
     scene = swimming_sheet_scene(tmp_path)
     text = scene.read_text(encoding="utf-8")
-    scene.write_text(text.replace('model = "stokes"',
-                                  f'model = "stokes"\noperator = "{operator}"\n'
-                                  f'method = "{method}"'), encoding="utf-8")
+    scene.write_text(
+        text.replace(
+            'model = "stokes"', f'model = "stokes"\noperator = "{operator}"\nmethod = "{method}"'
+        ),
+        encoding="utf-8",
+    )
     one = cli_run(scene, tmp_path / "one")
     two = cli_run(scene, tmp_path / "two", np=2)
     assert_tables_agree(one, two, 1e-12, "two processes against one")
@@ -578,7 +628,7 @@ def test_wall_images_meet_no_slip():
     on_wall = wall.point + rng.standard_normal((5, 2)) @ wall.Q[:2]
     r = on_wall[:, None, :] - x[None]
     rn = np.linalg.norm(r, axis=-1)[..., None]
-    free = (F[None] / rn + r * np.einsum("ijk,jk->ij", r, F)[..., None] / rn ** 3).sum(axis=1)
+    free = (F[None] / rn + r * np.einsum("ijk,jk->ij", r, F)[..., None] / rn**3).sum(axis=1)
     total = free + wall.image_velocity(on_wall, x, F)
     assert np.abs(total).max() < 1e-13 * np.abs(free).max()
     M = wall.mobility(x, MU)
@@ -586,8 +636,10 @@ def test_wall_images_meet_no_slip():
     G = wall.position_derivative(x, MU, F)
     dx = rng.standard_normal(x.shape)
     u0 = M @ F.ravel()
-    rem = [np.linalg.norm(wall.mobility(x + e * dx, MU) @ F.ravel() - u0 - e * G @ dx.ravel())
-           for e in (1e-3, 5e-4, 2.5e-4)]
+    rem = [
+        np.linalg.norm(wall.mobility(x + e * dx, MU) @ F.ravel() - u0 - e * G @ dx.ravel())
+        for e in (1e-3, 5e-4, 2.5e-4)
+    ]
     assert np.log2(np.array(rem[:-1]) / np.array(rem[1:])).min() > 1.9, rem
 
 
@@ -608,7 +660,7 @@ def _brenner(h):
 def _faxen(h):
     """Faxén's series for a sphere moving parallel to a wall, centre at h (a = 1)."""
     lam = 1.0 / h
-    return 1.0 / (1 - 9 / 16 * lam + lam ** 3 / 8 - 45 / 256 * lam ** 4 - lam ** 5 / 16)
+    return 1.0 / (1 - 9 / 16 * lam + lam**3 / 8 - 45 / 256 * lam**4 - lam**5 / 16)
 
 
 @pytest.mark.parametrize("h", [1.5, 2.0, 3.0, 5.0])
@@ -625,8 +677,10 @@ def test_sphere_near_a_wall(tmp_path, meshes, h):
     along, _ = _rigid_resultant(stokes, velocity=(1.0, 0.0, 0.0))
     towards = normal[2] / (6 * math.pi * MU * A) / _brenner(h)
     parallel = -along[0] / (6 * math.pi * MU * A) / _faxen(h)
-    print(f"sphere at h = {h}: towards {towards:.5f} of Brenner ({_brenner(h):.4f}), "
-          f"along {parallel:.5f} of Faxén ({_faxen(h):.4f})")
+    print(
+        f"sphere at h = {h}: towards {towards:.5f} of Brenner ({_brenner(h):.4f}), "
+        f"along {parallel:.5f} of Faxén ({_faxen(h):.4f})"
+    )
     assert abs(towards - 1) < 1e-3
     if h >= 2.0:
         assert abs(parallel - 1) < 5e-3
@@ -653,8 +707,10 @@ def test_tilted_disk_sediments_sideways(tmp_path):
     tilt = math.radians(30.0)
     write_disk(tmp_path / "tilted.msh", radius=A, size=0.3, edge_size=0.05, tilt=tilt)
     text = BODY.format(mesh=tmp_path / "tilted.msh", end=0.01, dt=0.01, mu=float(MU))
-    text += ('[[load]]\nkind = "point-force"\nat = [0.0, 0.0, 0.0]\n'
-             'value = [0.0, 0.0, -1.0]\nramp = "constant"\n')
+    text += (
+        '[[load]]\nkind = "point-force"\nat = [0.0, 0.0, 0.0]\n'
+        'value = [0.0, 0.0, -1.0]\nramp = "constant"\n'
+    )
     sim = _run_text(tmp_path, text)
     n = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
     F = np.array([0.0, 0.0, -1.0])
@@ -662,8 +718,10 @@ def test_tilted_disk_sediments_sideways(tmp_path):
     u = sim.model.u_n.x.array.reshape(-1, 3).mean(axis=0) / sim.t
     angle = math.degrees(math.atan2(u[0], -u[2]))
     exact_angle = math.degrees(math.atan2(exact[0], -exact[2]))
-    print(f"tilted disk: drift {angle:.3f}° against {exact_angle:.3f}°, "
-          f"speed {np.linalg.norm(u) / np.linalg.norm(exact):.5f} of the exact")
+    print(
+        f"tilted disk: drift {angle:.3f}° against {exact_angle:.3f}°, "
+        f"speed {np.linalg.norm(u) / np.linalg.norm(exact):.5f} of the exact"
+    )
     assert abs(angle - exact_angle) < 0.2
     assert abs(np.linalg.norm(u) / np.linalg.norm(exact) - 1) < 0.02
 
@@ -673,26 +731,43 @@ def test_check_names_the_fluid_model(tmp_path):
     import subprocess
     import sys
 
-    text = STRIP.format(fluid='model = "stokes"\nviscosity = 1.0\n[fluid.wall]\n'
-                              'point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]')
+    text = STRIP.format(
+        fluid='model = "stokes"\nviscosity = 1.0\n[fluid.wall]\n'
+        "point = [0.0, 0.0, -1.0]\nnormal = [0.0, 0.0, 1.0]"
+    )
     scene = write_scene(tmp_path, text)
-    done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene)],
-                          capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-m", "rftfem", "check", str(scene)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert "fluid: stokes, wall" in lines
     assert "active effects: elasticity, stokes, stokes wall, point-force" in lines
     # the discretisation, its cost and its estimated error (stokes_report.check_lines)
-    assert any(line.startswith("fluid: integrated layer, 105 shell nodes, force grid of 105 "
-                               "nodes (fluid.refine = 0), ") and line.endswith("ε = 0")
-               for line in lines), lines
+    assert any(
+        line.startswith(
+            "fluid: integrated layer, 105 shell nodes, force grid of 105 nodes (fluid.refine = 0), "
+        )
+        and line.endswith("ε = 0")
+        for line in lines
+    ), lines
     assert any(line.startswith("fluid: dense operator, 2.38 MB; about ") for line in lines)
-    assert any(line.startswith("fluid: estimated discretisation error ") and
-               "against 1 (369 grid nodes)" in line for line in lines), lines
+    assert any(
+        line.startswith("fluid: estimated discretisation error ")
+        and "against 1 (369 grid nodes)" in line
+        for line in lines
+    ), lines
     import rftfem  # the Python API's check lists the same (it left the wall out)
 
-    assert rftfem.load_scene(scene).check() == ["elasticity", "stokes", "stokes wall",
-                                                "point-force"]
+    assert rftfem.load_scene(scene).check() == [
+        "elasticity",
+        "stokes",
+        "stokes wall",
+        "point-force",
+    ]
 
 
 def test_the_estimate_follows_the_error(tmp_path):
@@ -712,22 +787,39 @@ def test_the_estimate_follows_the_error(tmp_path):
     R = []
     for level in (0, 2):
         grid, cells, I = layer_rules.refined(stokes.X, stokes.shell_cells, stokes.cell, level)
-        res = stokes_layer.LayerResistance(stokes_layer.Layer(grid, cells, stokes.cell, 0.0),
-                                           stokes.X, 1.0, interpolation=I)
+        res = stokes_layer.LayerResistance(
+            stokes_layer.Layer(grid, cells, stokes.cell, 0.0), stokes.X, 1.0, interpolation=I
+        )
         R.append(stokes_report.rigid_resistance(res, stokes.X))
     change = stokes_report.relative_change(*R)
     print(f"estimate {estimate:.4g}, change to refine = 2 {change:.4g}")
     assert 0.5 * change < estimate < change
     out = tmp_path / "coarse"
     coarse = text.replace("divisions = [10, 2]", "divisions = [2, 1]").replace(
-        "end = 0.2", "end = 0.1")
-    done = subprocess.run([sys.executable, "-m", "rftfem", "run", str(write_scene(tmp_path, coarse)),
-                           "--out", str(out), "--quiet"], capture_output=True, text=True,
-                          timeout=600)
+        "end = 0.2", "end = 0.1"
+    )
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "run",
+            str(write_scene(tmp_path, coarse)),
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 0, done.stderr[-2000:]
     fluid = json.loads((out / "summary.json").read_text())["fluid"]
-    warned = [w for w in json.loads((out / "summary.json").read_text())["warnings"]
-              if "estimated discretisation error" in w]
+    warned = [
+        w
+        for w in json.loads((out / "summary.json").read_text())["warnings"]
+        if "estimated discretisation error" in w
+    ]
     print(fluid, warned)
     assert fluid["estimated_error"] > stokes_report.WARN_ABOVE and len(warned) == 1
     assert "estimated discretisation error" in done.stderr
@@ -739,9 +831,11 @@ def test_triangles_with_free_edges_are_warned_of(tmp_path, cell, warned):
     (the 10 × 1 strip's estimate: 9.1 % with triangles, 1.4 % with quadrilaterals).
     Broke: the warning's test on the cell kind inverted → the quadrilaterals warned."""
     text = STRIP.format(fluid='model = "stokes"\nviscosity = 1.0').replace(
-        "divisions = [10, 2]", f'divisions = [10, 2]\ncell = "{cell}"')
-    stokes = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None,
-                        quiet=True).model["stokes"]
+        "divisions = [10, 2]", f'divisions = [10, 2]\ncell = "{cell}"'
+    )
+    stokes = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True).model[
+        "stokes"
+    ]
     lines = [w for w in stokes.warnings() if "carries no edge weight" in w]
     assert bool(lines) == warned, stokes.warnings()
 
@@ -794,9 +888,20 @@ def test_a_wall_too_close_is_warned_of_or_refused(height, verdict):
     images need 2.5) and 0.4 at 0.6 (refused in one line naming the node); before,
     every one ran with exit 0."""
     scene = ROOT / "demos" / "sheet_near_wall.toml"
-    done = subprocess.run([sys.executable, "-m", "rftfem", "check", str(scene), "--set",
-                           f"fluid.wall.point=[0.0, 0.0, {-height}]"],
-                          capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "check",
+            str(scene),
+            "--set",
+            f"fluid.wall.point=[0.0, 0.0, {-height}]",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     if verdict == "refused":
         assert done.returncode == 2
         err = done.stderr.strip().splitlines()
@@ -820,13 +925,19 @@ def test_a_body_pushed_onto_the_wall_is_warned_of_then_stopped(tmp_path):
 
     write_disk(tmp_path / "disk.msh", radius=A, size=0.4)
     text = BODY.format(mesh=tmp_path / "disk.msh", end=1.0, dt=0.05, mu=float(MU))
-    text += ("[fluid.wall]\npoint = [0.0, 0.0, -0.8]\nnormal = [0.0, 0.0, 1.0]\n"
-             '[[load]]\nkind = "point-force"\nat = [0.0, 0.0, 0.0]\n'
-             'value = [0.0, 0.0, -1000.0]\nramp = "constant"\n[output]\nfields = false\n')
+    text += (
+        "[fluid.wall]\npoint = [0.0, 0.0, -0.8]\nnormal = [0.0, 0.0, 1.0]\n"
+        '[[load]]\nkind = "point-force"\nat = [0.0, 0.0, 0.0]\n'
+        'value = [0.0, 0.0, -1000.0]\nramp = "constant"\n[output]\nfields = false\n'
+    )
     scene = write_scene(tmp_path, text)
     out = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out),
-                           "--quiet"], capture_output=True, text=True, timeout=600)
+    done = subprocess.run(
+        [sys.executable, "-m", "rftfem", "run", str(scene), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert done.returncode == 3, done.stderr[-2000:]
     assert "run failed at t = 0.2 (step 4): the body came within 0.96" in done.stderr
     summary = json.loads((out / "summary.json").read_text())

@@ -11,12 +11,16 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from conftest import ROOT, run_scene
 
 SHEET = ROOT / "demos" / "swimming_sheet.toml"
-STOKES = ["--unset fluid.drag", 'fluid.model="stokes"', "fluid.viscosity=1e-9",
-          "output.fields=false", "time.output_every=1"]
+STOKES = [
+    "--unset fluid.drag",
+    'fluid.model="stokes"',
+    "fluid.viscosity=1e-9",
+    "output.fields=false",
+    "time.output_every=1",
+]
 
 
 def _speed(*overrides) -> float:
@@ -35,10 +39,10 @@ def test_swimming_sheet_converges_in_stokes_flow():
     0.16 %).  The liquid alone refined at 10 × 2 (fluid.refine = 1) moves the speed
     towards the limit by less than the shell's refinement does (reached +0.13 %
     against +0.29 %)."""
-    u = [_speed(f"mesh.divisions=[{5 * 2 ** k}, {2 ** k}]") for k in range(3)]
+    u = [_speed(f"mesh.divisions=[{5 * 2**k}, {2**k}]") for k in range(3)]
     order = math.log2((u[1] - u[0]) / (u[2] - u[1]))
-    free = u[2] + (u[2] - u[1]) / (2 ** order - 1)
-    fixed = u[2] + (u[2] - u[1]) / (2 ** 1.5 - 1)
+    free = u[2] + (u[2] - u[1]) / (2**order - 1)
+    fixed = u[2] + (u[2] - u[1]) / (2**1.5 - 1)
     print(f"sheet in Stokes flow: {u}, order {order:.3f}, limits {free:.5f} {fixed:.5f}")
     assert 1.5 <= order <= 4.0
     for limit in (free, fixed):
@@ -71,8 +75,15 @@ def test_three_link_swimmer_in_stokes_flow(tmp_path):
     coefficients: the link turned +0.494 rad)."""
     import numpy as np
 
-    run_scene(THREE_LINK, "--unset fluid.drag", 'fluid.model="stokes"', "fluid.viscosity=1e-9",
-              "output.fields=false", "time.output_every=1", out_dir=tmp_path)
+    run_scene(
+        THREE_LINK,
+        "--unset fluid.drag",
+        'fluid.model="stokes"',
+        "fluid.viscosity=1e-9",
+        "output.fields=false",
+        "time.output_every=1",
+        out_dir=tmp_path,
+    )
     p, b = _columns(tmp_path / "probes.csv"), _columns(tmp_path / "body.csv")
     t = 3.6
     centroid = float(np.interp(t, b["time"], b["centroid_y"]) - b["centroid_y"][0])
@@ -97,9 +108,18 @@ def test_bidirectional_strip_in_stokes_flow():
     Stokes flow on 10 × 2 cells: its steady speed along Z within 3 % of 20 × 4's
     (reached −4.1862 against −4.2297 mm/s), the paper's way and faster (RFT with the
     paper's coefficients: −1.55 mm/s)."""
-    sim = run_scene(STRIP, "--unset fluid.drag", 'fluid.model="stokes"', "fluid.viscosity=1.26e-8",
-                    "mesh.divisions=[10, 2]", "time.dt=0.0025", "time.end=6.1",
-                    'time.until="periodic"', "time.output_every=1", "output.fields=false")
+    sim = run_scene(
+        STRIP,
+        "--unset fluid.drag",
+        'fluid.model="stokes"',
+        "fluid.viscosity=1.26e-8",
+        "mesh.divisions=[10, 2]",
+        "time.dt=0.0025",
+        "time.end=6.1",
+        'time.until="periodic"',
+        "time.output_every=1",
+        "output.fields=false",
+    )
     steady = sim.summary["steady"]
     assert steady["reached"]
     speed = steady["values"]["centroid_z_rate"]

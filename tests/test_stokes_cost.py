@@ -7,22 +7,30 @@ import json
 import sys
 
 import pytest
-
 from conftest import DEMOS, ROOT, run_command
+
 from rftfem.errors import SceneError
 from rftfem.model import stokes_report
 
-STOKES = ["--unset", "fluid.drag", "--set", 'fluid.model="stokes"', "--set",
-          "fluid.viscosity=1e-9"]
+STOKES = ["--unset", "fluid.drag", "--set", 'fluid.model="stokes"', "--set", "fluid.viscosity=1e-9"]
 
 
 def test_a_sheet_too_large_for_the_machine_is_refused():
-    """The issue's 200 × 40 sheet (32 481 nodes, 228 GB of dense operator, factors and derivative): ``rftfem
+    """The issue's 200 × 40 sheet (32 481 nodes, 228 GB of dense operator, factors and
+    derivative): ``rftfem
     check`` exits 2 with one line giving the memory, the machine's and what to change
     (before: it passed check, then ran 10 minutes and 5 GB without a step).  Broke:
     the memory test left out (refused for its 19 h step instead, no GB said)."""
-    cmd = [sys.executable, "-m", "rftfem", "check", str(DEMOS / "swimming_sheet.toml"),
-           *STOKES, "--set", "mesh.divisions=[200,40]"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "check",
+        str(DEMOS / "swimming_sheet.toml"),
+        *STOKES,
+        "--set",
+        "mesh.divisions=[200,40]",
+    ]
     done = run_command(cmd, cwd=ROOT, timeout=600)
     assert done.returncode == 2, done.stdout[-1000:] + done.stderr[-2000:]
     lines = done.stderr.strip().splitlines()
@@ -37,13 +45,17 @@ def test_a_step_over_an_hour_is_refused(monkeypatch):
     with the hours and the split; 3000 nodes (49 s) pass, 1900 are not even timed.
     Broke: the factorisation's flops taken for 3N instead of (3N)³ (not refused)."""
     monkeypatch.setattr(stokes_report, "_MEASURED", (1e10, 4e-8))
-    monkeypatch.setattr(stokes_report, "machine_memory", lambda: 10 ** 13)
-    with pytest.raises(SceneError, match=r"would take about 1\.7\d h .* factorisation of "
-                                         r"3\.1\de\+03 s"):
+    monkeypatch.setattr(stokes_report, "machine_memory", lambda: 10**13)
+    with pytest.raises(
+        SceneError,
+        match=r"would take about 1\.7\d h .* factorisation of "
+        r"3\.1\de\+03 s",
+    ):
         stokes_report.admit(12000, 5000, 1)
     memory, step = stokes_report.admit(3000, 5000, 1)
-    assert memory == pytest.approx(8 * 9000 ** 2 * 3) and step == pytest.approx(
-        2 * ((2 / 3) * 9000 ** 3 / 1e10 + 2.5 * 3000 * 5000 * 4e-8))
+    assert memory == pytest.approx(8 * 9000**2 * 3) and step == pytest.approx(
+        2 * ((2 / 3) * 9000**3 / 1e10 + 2.5 * 3000 * 5000 * 4e-8)
+    )
     assert stokes_report.admit(1900, 5000, 1)[1] is None
 
 
@@ -66,13 +78,17 @@ def test_kept_factors_give_the_same_run(tmp_path, cli_run, wall):
     text = scene.read_text(encoding="utf-8")
     scene.write_text(text.replace("ramp_time = 0.031415926535897934\n", ""), encoding="utf-8")
     if wall:
-        scene.write_text(scene.read_text(encoding="utf-8") + "\n[fluid.wall]\n"
-                         "point = [0.0, 0.0, -2.0]\nnormal = [0.0, 0.0, 1.0]\n",
-                         encoding="utf-8")
+        scene.write_text(
+            scene.read_text(encoding="utf-8") + "\n[fluid.wall]\n"
+            "point = [0.0, 0.0, -2.0]\nnormal = [0.0, 0.0, 1.0]\n",
+            encoding="utf-8",
+        )
     kept = cli_run(scene, tmp_path / "kept")
     every = cli_run(scene, tmp_path / "every", ['fluid.factors="every-update"'])
     assert_tables_agree(every, kept, 1e-8, "kept factors against every update")
-    newton = [json.loads((d / "summary.json").read_text())["counts"]["newton_iterations"]
-              for d in (kept, every)]
+    newton = [
+        json.loads((d / "summary.json").read_text())["counts"]["newton_iterations"]
+        for d in (kept, every)
+    ]
     print(f"Newton updates: kept {newton[0]}, every update {newton[1]}")
     assert newton[0] <= newton[1] + 2, newton

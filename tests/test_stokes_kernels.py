@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import stokes_reference as ref
+
 from rftfem.model import stokes_kernels, stokes_layer, stokeslets
 
 WALL = stokeslets.Wall([0.1, -0.2, -0.6], [0.3, 0.2, 1.0])
@@ -24,9 +24,21 @@ def q2_strip(nx: int, ny: int, length: float = 3.0, width: float = 2.0):
     def node(i, j):
         return j * (2 * nx + 1) + i
 
-    cells = [[node(i, j), node(i + 2, j), node(i, j + 2), node(i + 2, j + 2), node(i + 1, j),
-              node(i, j + 1), node(i + 2, j + 1), node(i + 1, j + 2), node(i + 1, j + 1)]
-             for j in range(0, 2 * ny, 2) for i in range(0, 2 * nx, 2)]
+    cells = [
+        [
+            node(i, j),
+            node(i + 2, j),
+            node(i, j + 2),
+            node(i + 2, j + 2),
+            node(i + 1, j),
+            node(i, j + 1),
+            node(i + 2, j + 1),
+            node(i + 1, j + 2),
+            node(i + 1, j + 1),
+        ]
+        for j in range(0, 2 * ny, 2)
+        for i in range(0, 2 * nx, 2)
+    ]
     return X, np.array(cells)
 
 
@@ -68,14 +80,31 @@ def test_wall_images_and_closed_form_derivative_match_numpy():
     d_t, d_s = ref.image_derivatives(WALL, targets, sources, F)
     k, Q, p = stokes_kernels, WALL.Q, WALL.point
     W = np.zeros((7, 3, 7, 3))  # in the wall's frame, turned back
-    k.far_matrix(k.to_frame(Q, p, targets), k.to_frame(Q, p, sources), np.ones((7, 1)),
-                 np.arange(7)[:, None], 0.0, False, True, W)
+    k.far_matrix(
+        k.to_frame(Q, p, targets),
+        k.to_frame(Q, p, sources),
+        np.ones((7, 1)),
+        np.arange(7)[:, None],
+        0.0,
+        False,
+        True,
+        W,
+    )
     W = k.from_frame(Q, W)
     block = np.abs(W.transpose(0, 2, 1, 3) - W0).max() / np.abs(W0).max()
     G = np.zeros((7, 3, 14, 3))  # sources are nodes 0..6, targets 7..13
-    k.far_derivative(k.to_frame(Q, p, targets), np.arange(7, 14), k.to_frame(Q, p, sources),
-                     np.ones((7, 1)), np.arange(7)[:, None], k.to_frame(Q, None, F), 0.0,
-                     False, True, G)
+    k.far_derivative(
+        k.to_frame(Q, p, targets),
+        np.arange(7, 14),
+        k.to_frame(Q, p, sources),
+        np.ones((7, 1)),
+        np.arange(7)[:, None],
+        k.to_frame(Q, None, F),
+        0.0,
+        False,
+        True,
+        G,
+    )
     G = k.from_frame(Q, G)
     scale = max(np.abs(d_t).max(), np.abs(d_s).max())
     target = np.abs(G[np.arange(7), :, np.arange(7, 14), :] - d_t.sum(axis=1)).max() / scale

@@ -34,8 +34,9 @@ TIGHT = ["-snes_atol", "1e-13", "-snes_stol", "1e-15"]
 @contextmanager
 def _simulated(tmp_path, text, petsc_args=TIGHT):
     """The Simulation of a scene text, run; closed when the block ends."""
-    sim = Simulation(load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True,
-                     petsc_args=petsc_args)
+    sim = Simulation(
+        load_scene(write_scene(tmp_path, text)), out_dir=None, quiet=True, petsc_args=petsc_args
+    )
     try:
         sim.run()
         yield sim
@@ -67,11 +68,12 @@ def test_wall_two_processes_match_one(tmp_path, cli_run, method, tolerance):
     from running import assert_tables_agree
     from stokes_bodies import SWIMMING_SHEET
 
-    text = SWIMMING_SHEET.replace('model = "stokes"',
-                                  f'model = "stokes"\nmethod = "{method}"')
+    text = SWIMMING_SHEET.replace('model = "stokes"', f'model = "stokes"\nmethod = "{method}"')
     text = text.replace("end = 0.15707963267948966", "end = 0.03926990816987242")
-    text += ("[fluid.wall]\npoint = [0.0, 0.0, -1.6]\nnormal = [0.05, -0.03, 1.0]\n"
-             "[output]\nfields = false\n")
+    text += (
+        "[fluid.wall]\npoint = [0.0, 0.0, -1.6]\nnormal = [0.05, -0.03, 1.0]\n"
+        "[output]\nfields = false\n"
+    )
     scene = write_scene(tmp_path, text)
     one = cli_run(scene, tmp_path / "one")
     two = cli_run(scene, tmp_path / "two", np=2)
@@ -130,8 +132,10 @@ def test_magnetic_couple_balances_the_fluid_moment(tmp_path):
     size = np.linalg.norm(couple)
     Q = _vector(row, "moment_{}")
     turned = math.atan2(np.linalg.norm(Q[1:]), Q[0])
-    print(f"magnetic strip: |F|/|Q×b| {np.abs(F).max() / size:.2e}, "
-          f"|M + Q×b|/|Q×b| {np.abs(M + couple).max() / size:.2e}, turned {turned:.3f} rad")
+    print(
+        f"magnetic strip: |F|/|Q×b| {np.abs(F).max() / size:.2e}, "
+        f"|M + Q×b|/|Q×b| {np.abs(M + couple).max() / size:.2e}, turned {turned:.3f} rad"
+    )
     assert turned > 0.03
     assert np.abs(F).max() < 1.5e-13 * size
     assert np.abs(M + couple).max() < 5e-13 * size
@@ -204,11 +208,14 @@ def test_free_hinge_in_stokes_flow(tmp_path):
     centre = line.mean(axis=0)
     axis = np.linalg.svd(line - centre)[2][0]
     far = stokes.X[:, 0] > 3.0 - 1e-9
-    about = axis @ (np.cross(x[far] - centre, -nodal[far]).sum(axis=0)
-                    + np.cross(moved - centre, P))
+    about = axis @ (
+        np.cross(x[far] - centre, -nodal[far]).sum(axis=0) + np.cross(moved - centre, P)
+    )
     hinge = abs(about) / np.linalg.norm(np.cross(moved - centre, P))
-    print(f"hinged strip: force {force:.2e}, moment {moment:.2e}, fold {fold:.4f} rad, "
-          f"moment about the hinge {hinge:.2e}")
+    print(
+        f"hinged strip: force {force:.2e}, moment {moment:.2e}, fold {fold:.4f} rad, "
+        f"moment about the hinge {hinge:.2e}"
+    )
     assert force < 1.5e-13 and moment < 3e-12
     assert fold > 0.03
     assert hinge < 1e-5
@@ -268,8 +275,10 @@ def test_hht_sinking_strip_follows_the_rigid_solution(tmp_path):
         z = -U * (t - tau * (1 - math.exp(-t / tau)))
         force = R * U * (1 - math.exp(-t / tau))
         errors.append([row["centroid_z"] / z - 1, row["fluid_Fz"] / force - 1])
-        print(f"HHT dt = {dt}: τ = {tau:.5f}, centroid {row['centroid_z']:.9g} against "
-              f"{z:.9g}, force {row['fluid_Fz']:.9g} against {force:.9g}")
+        print(
+            f"HHT dt = {dt}: τ = {tau:.5f}, centroid {row['centroid_z']:.9g} against "
+            f"{z:.9g}, force {row['fluid_Fz']:.9g} against {force:.9g}"
+        )
     errors = np.abs(np.array(errors))
     orders = np.log2(errors[0] / errors[1])
     print(f"errors {errors.tolist()}, orders {orders}")

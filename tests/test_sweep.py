@@ -16,17 +16,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import CANTILEVER, run_command
 
 #: the same in drag, 400 steps: a run of a few seconds to kill a worker during
 SLOW = CANTILEVER.replace("dt = 0.25", "dt = 0.0025").replace(
-    '[[output.probes]]', '[fluid]\ndrag = [1.0e-3, 1.0e-3, 2.0e-3]\n[[output.probes]]')
+    "[[output.probes]]", "[fluid]\ndrag = [1.0e-3, 1.0e-3, 2.0e-3]\n[[output.probes]]"
+)
 
 
 def rftfem(*args, cwd, timeout=600):
-    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd,
-                       timeout=timeout)
+    return run_command([sys.executable, "-m", "rftfem", *map(str, args)], cwd=cwd, timeout=timeout)
 
 
 def read_rows(path: Path) -> list[dict]:
@@ -40,7 +39,7 @@ def tables(folder: Path) -> dict:
         rows = list(csv.reader(open(folder / name, encoding="utf-8")))
         if name == "steps.csv":
             k = rows[0].index("wall_s")
-            rows = [r[:k] + r[k + 1:] for r in rows]
+            rows = [r[:k] + r[k + 1 :] for r in rows]
         out[name] = rows
     return out
 
@@ -58,15 +57,29 @@ def test_a_sweep_equals_separate_runs_to_the_bit(scene, tmp_path, executor):
     with the same --set, bit for bit; sweep.csv has the varied keys first, then status
     and the quantity, which is the closed-form tip deflection's ratios (w ∝ 1/(E t³))."""
     options = ["--executor", executor] + (["--jobs", "2"] if executor == "dask" else [])
-    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--vary",
-                  "shell.thickness=0.1:0.2:2", "--quantity", "w=max(tip_uz)",
-                  "--out", tmp_path / "sweep", *options, cwd=tmp_path)
+    done = rftfem(
+        "sweep",
+        scene,
+        "--vary",
+        "shell.E=1e4,2e4",
+        "--vary",
+        "shell.thickness=0.1:0.2:2",
+        "--quantity",
+        "w=max(tip_uz)",
+        "--out",
+        tmp_path / "sweep",
+        *options,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     rows = read_rows(tmp_path / "sweep" / "sweep.csv")
     assert list(rows[0])[:4] == ["shell.E", "shell.thickness", "status", "w"]
     assert [(r["shell.E"], r["shell.thickness"], r["status"]) for r in rows] == [
-        ("10000.0", "0.1", "ok"), ("10000.0", "0.2", "ok"),
-        ("20000.0", "0.1", "ok"), ("20000.0", "0.2", "ok")]
+        ("10000.0", "0.1", "ok"),
+        ("10000.0", "0.2", "ok"),
+        ("20000.0", "0.1", "ok"),
+        ("20000.0", "0.2", "ok"),
+    ]
     w = {(float(r["shell.E"]), float(r["shell.thickness"])): float(r["w"]) for r in rows}
     assert w[(1e4, 0.1)] / w[(2e4, 0.1)] == pytest.approx(2.0, rel=2e-3)  # 1/E (small w)
     assert w[(1e4, 0.1)] / w[(1e4, 0.2)] == pytest.approx(8.0, rel=2e-2)  # 1/t³
@@ -74,9 +87,18 @@ def test_a_sweep_equals_separate_runs_to_the_bit(scene, tmp_path, executor):
     for r in rows[::3]:  # two of the four against their own `rftfem run`
         folder = tmp_path / "sweep" / r["folder"]
         alone = tmp_path / f"alone-{r['folder']}"
-        done = rftfem("run", scene, "--out", alone, "--quiet",
-                      "--set", f"shell.E={r['shell.E']}", "--set",
-                      f"shell.thickness={r['shell.thickness']}", cwd=tmp_path)
+        done = rftfem(
+            "run",
+            scene,
+            "--out",
+            alone,
+            "--quiet",
+            "--set",
+            f"shell.E={r['shell.E']}",
+            "--set",
+            f"shell.thickness={r['shell.thickness']}",
+            cwd=tmp_path,
+        )
         assert done.returncode == 0, done.stderr
         assert tables(folder) == tables(alone)
 
@@ -87,8 +109,7 @@ def test_a_dask_worker_runs_np_processes_under_mpirun(scene, tmp_path):
     reports two processes and its tip deflection is the serial one to round-off."""
     common = ["--vary", "shell.E=1e4", "--quantity", "w=max(tip_uz)"]
     for name, options in (("serial", []), ("mpi", ["--executor", "dask", "--np", "2"])):
-        done = rftfem("sweep", scene, *common, "--out", tmp_path / name, *options,
-                      cwd=tmp_path)
+        done = rftfem("sweep", scene, *common, "--out", tmp_path / name, *options, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
     serial, mpi = (read_rows(tmp_path / n / "sweep.csv")[0] for n in ("serial", "mpi"))
     assert mpi["status"] == "ok", mpi["reason"]
@@ -99,8 +120,16 @@ def test_a_dask_worker_runs_np_processes_under_mpirun(scene, tmp_path):
 
 def test_reuse_runs_only_what_is_missing_and_a_failed_run_is_a_row(scene, tmp_path):
     out = tmp_path / "sweep"
-    args = ["sweep", scene, "--vary", "shell.E=1e4,2e4,-1", "--quantity",
-            "w=max(tip_uz)", "--out", out]
+    args = [
+        "sweep",
+        scene,
+        "--vary",
+        "shell.E=1e4,2e4,-1",
+        "--quantity",
+        "w=max(tip_uz)",
+        "--out",
+        out,
+    ]
     # E = -1 is refused before anything runs: every combination is checked first
     done = rftfem(*args, cwd=tmp_path)
     assert done.returncode == 2 and "shell.E" in done.stderr and not out.exists()
@@ -144,7 +173,8 @@ PAIR = ["--vary", "shell.E=1e4,2e4", "--quantity", "w=max(tip_uz)"]
 
 
 def test_an_interrupted_sweep_resumed_with_reuse_equals_an_uninterrupted_one(
-        scene, tmp_path, monkeypatch, capsys):
+    scene, tmp_path, monkeypatch, capsys
+):
     """Ctrl-C as the second of three runs ends (its outputs complete, its reuse key
     not yet written; the third never started): --reuse keeps the first, runs the
     second again (a folder without reuse.json is not reused, and stderr says so) and
@@ -200,9 +230,15 @@ def test_reuse_runs_again_what_an_edited_scene_or_profile_changes(tmp_path, caps
     grid, out = PAIR, tmp_path / "sweep"
     assert sweep_here(scene, *grid, "--out", out)[0] == 0
     before = read_rows(out / "sweep.csv")
-    edits = [(scene, "value = [0.0, 0.0, 1.0e-3]", "value = [0.0, 0.0, 2.0e-3]",
-              "the completed scene changed since"),
-             (profile, ",0.1\n", ",0.2\n", "the content of shell.thickness.profile changed")]
+    edits = [
+        (
+            scene,
+            "value = [0.0, 0.0, 1.0e-3]",
+            "value = [0.0, 0.0, 2.0e-3]",
+            "the completed scene changed since",
+        ),
+        (profile, ",0.1\n", ",0.2\n", "the content of shell.thickness.profile changed"),
+    ]
     for k, (path, old, new, said) in enumerate(edits):
         path.write_text(path.read_text().replace(old, new))
         status, err = sweep_here(scene, *grid, "--out", out, "--reuse", capsys=capsys)
@@ -212,8 +248,10 @@ def test_reuse_runs_again_what_an_edited_scene_or_profile_changes(tmp_path, caps
         fresh = read_rows(tmp_path / f"fresh{k}" / "sweep.csv")
         assert [(r["status"], r["w"]) for r in rows] == [("ok", r["w"]) for r in fresh]
         assert f"2 finished run(s) run again, not reused ({said}" in err, err
-        assert all(abs(float(a["w"]) - float(b["w"])) > 1e-3 * abs(float(b["w"]))
-                   for a, b in zip(rows, before))  # the edit changed w (×2, then ×1/8)
+        assert all(
+            abs(float(a["w"]) - float(b["w"])) > 1e-3 * abs(float(b["w"]))
+            for a, b in zip(rows, before)
+        )  # the edit changed w (×2, then ×1/8)
         before = rows
     kept = stamps(out)
     assert sweep_here(scene, *grid, "--out", out, "--reuse")[0] == 0
@@ -221,8 +259,7 @@ def test_reuse_runs_again_what_an_edited_scene_or_profile_changes(tmp_path, caps
     assert stamps(out) == kept
 
 
-def test_reuse_keeps_runs_through_edits_the_completed_scene_does_not_show(
-        scene, tmp_path, capsys):
+def test_reuse_keeps_runs_through_edits_the_completed_scene_does_not_show(scene, tmp_path, capsys):
     """A comment, a value spelled otherwise (0.25 as 2.5e-1), a default written out
     (nu = 0.0), the file's shell.E (every run's --vary replaces it) and the scene
     file moved and renamed: no completed scene changes, so --reuse keeps every run
@@ -232,9 +269,11 @@ def test_reuse_keeps_runs_through_edits_the_completed_scene_does_not_show(
     grid, out = PAIR, tmp_path / "sweep"
     assert sweep_here(scene, *grid, "--out", out)[0] == 0
     kept = stamps(out)
-    edited = ("# edited: nothing a run sees\n" + CANTILEVER).replace(
-        "dt = 0.25", "dt = 2.5e-1  # the same").replace(
-        "E = 1.0e4", "E = 7.0e4\nnu = 0.0")
+    edited = (
+        ("# edited: nothing a run sees\n" + CANTILEVER)
+        .replace("dt = 0.25", "dt = 2.5e-1  # the same")
+        .replace("E = 1.0e4", "E = 7.0e4\nnu = 0.0")
+    )
     assert edited.count("2.5e-1") == edited.count("7.0e4") == edited.count("nu = 0.0") == 1
     moved = tmp_path / "elsewhere" / "renamed.toml"
     moved.parent.mkdir()
@@ -288,18 +327,20 @@ def test_the_reuse_key_covers_the_mesh_file_a_profile_and_the_petsc_options(tmp_
     run = tmp_path / "run"
     run.mkdir()
     (run / "summary.json").write_text(json.dumps({"status": "ok"}))
-    assert reuse.why_not_reused(run, key) == f"no {reuse.KEY_FILE}: a run from before " \
+    assert (
+        reuse.why_not_reused(run, key) == f"no {reuse.KEY_FILE}: a run from before "
         "--reuse compared content, or one cut short before its key was written"
+    )
     reuse.write_key(run, key)
     assert reuse.why_not_reused(run, key) is None
     for name, old, new, said in (
-            ("m.msh", "\n2 1 0 0\n", "\n2 1.5 0 0\n", "the content of mesh.file"),
-            ("m.csv", "\n2,0,0,1,", "\n2,0,0,2,", "the content of magnetic.parts.0.profile")):
+        ("m.msh", "\n2 1 0 0\n", "\n2 1.5 0 0\n", "the content of mesh.file"),
+        ("m.csv", "\n2,0,0,1,", "\n2,0,0,2,", "the content of magnetic.parts.0.profile"),
+    ):
         text = (tmp_path / name).read_text()
         assert text.count(old) == 1
         (tmp_path / name).write_text(text.replace(old, new))
-        assert reuse.why_not_reused(run, reuse.key_of(load_scene(scene))) == \
-            f"{said} changed since"
+        assert reuse.why_not_reused(run, reuse.key_of(load_scene(scene))) == f"{said} changed since"
         (tmp_path / name).write_text(text)
         assert reuse.key_of(load_scene(scene)) == key
     petsc = reuse.key_of(load_scene(scene), ["-snes_rtol", "1e-12"])
@@ -333,11 +374,26 @@ def test_a_dead_worker_costs_one_retry_then_a_failed_row_that_reuse_finishes(tmp
     scene = tmp_path / "slow.toml"
     scene.write_text(SLOW)
     out = tmp_path / "sweep"
-    args = [sys.executable, "-m", "rftfem", "sweep", str(scene), "--vary",
-            "shell.E=1e4,2e4,3e4,4e4", "--quantity", "w=max(tip_uz)", "--out", str(out),
-            "--executor", "dask", "--jobs", "4"]
-    sweep = subprocess.Popen(args, cwd=tmp_path, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+    args = [
+        sys.executable,
+        "-m",
+        "rftfem",
+        "sweep",
+        str(scene),
+        "--vary",
+        "shell.E=1e4,2e4,3e4,4e4",
+        "--quantity",
+        "w=max(tip_uz)",
+        "--out",
+        str(out),
+        "--executor",
+        "dask",
+        "--jobs",
+        "4",
+    ]
+    sweep = subprocess.Popen(
+        args, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     killed, orphans = [], []
     try:
         deadline = time.time() + 240
@@ -348,8 +404,9 @@ def test_a_dead_worker_costs_one_retry_then_a_failed_row_that_reuse_finishes(tmp
                 os.kill(worker, signal.SIGKILL)
                 killed.append(worker)
                 time.sleep(1.0)  # the run (seconds long) dies with its worker at once
-                orphans += [r.pid for r in runs if r.is_running()
-                            and r.status() != psutil.STATUS_ZOMBIE]
+                orphans += [
+                    r.pid for r in runs if r.is_running() and r.status() != psutil.STATUS_ZOMBIE
+                ]
             time.sleep(0.2)
         stdout, stderr = sweep.communicate(timeout=600)
     finally:
@@ -370,17 +427,39 @@ def test_a_dead_worker_costs_one_retry_then_a_failed_row_that_reuse_finishes(tmp
 
 def test_the_slurm_job_script_has_its_directives(scene, tmp_path):
     config = tmp_path / "cluster.toml"
-    config.write_text('[slurm]\nqueue = "short"\naccount = "soft-robots"\n'
-                      'job_extra = ["--constraint=cpu"]\n')
-    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--executor", "slurm",
-                  "--executor-config", config, "--slurm", "walltime=00:20:00",
-                  "--slurm", "memory=2GB", "--np", "2", "--print-job-script",
-                  "--out", tmp_path / "s", cwd=tmp_path)
+    config.write_text(
+        '[slurm]\nqueue = "short"\naccount = "soft-robots"\njob_extra = ["--constraint=cpu"]\n'
+    )
+    done = rftfem(
+        "sweep",
+        scene,
+        "--vary",
+        "shell.E=1e4,2e4",
+        "--executor",
+        "slurm",
+        "--executor-config",
+        config,
+        "--slurm",
+        "walltime=00:20:00",
+        "--slurm",
+        "memory=2GB",
+        "--np",
+        "2",
+        "--print-job-script",
+        "--out",
+        tmp_path / "s",
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     script = done.stdout
     directives = [ln for ln in script.splitlines() if ln.startswith("#SBATCH")]
-    for expected in ("-p short", "-A soft-robots", "-t 00:20:00", "--cpus-per-task=2",
-                     "--constraint=cpu"):
+    for expected in (
+        "-p short",
+        "-A soft-robots",
+        "-t 00:20:00",
+        "--cpus-per-task=2",
+        "--constraint=cpu",
+    ):
         assert any(expected in d for d in directives), (expected, directives)
     assert any("--mem=" in d for d in directives)
     assert script.startswith("#!/")
@@ -398,24 +477,52 @@ def _one_line(done, *words):
 
 def test_bad_options_are_one_line_and_exit_2(scene, tmp_path):
     vary = ["--vary", "shell.E=1e4,2e4"]
-    _one_line(rftfem("sweep", scene, *vary, "--executor", "spark", cwd=tmp_path),
-              "--executor spark", "dask://HOST:PORT")
+    _one_line(
+        rftfem("sweep", scene, *vary, "--executor", "spark", cwd=tmp_path),
+        "--executor spark",
+        "dask://HOST:PORT",
+    )
     t0 = time.perf_counter()
-    _one_line(rftfem("sweep", scene, *vary, "--executor", "dask://127.0.0.1:9", cwd=tmp_path),
-              "no Dask scheduler answers", "127.0.0.1:9")
+    _one_line(
+        rftfem("sweep", scene, *vary, "--executor", "dask://127.0.0.1:9", cwd=tmp_path),
+        "no Dask scheduler answers",
+        "127.0.0.1:9",
+    )
     assert time.perf_counter() - t0 < 10 + 5  # the interpreter's start included
-    _one_line(rftfem("sweep", scene, "--vary", "time.scheme=1:2:3", cwd=tmp_path),
-              "time.scheme", "numeric key")
-    _one_line(rftfem("sweep", scene, "--vary", "shell.E=a:b:3", cwd=tmp_path),
-              "--vary shell.E=a:b:3", "numbers")
-    _one_line(rftfem("sweep", scene, "--vary", "shell.E=1:2:3:log", "--vary",
-                     "shell.E=3,4", cwd=tmp_path), "a key is given twice")
-    _one_line(rftfem("sweep", scene, "--vary", "shell.EE=1,2", cwd=tmp_path),
-              "unknown key 'shell.EE'")
-    _one_line(rftfem("sweep", scene, *vary, "--slurm", "queue=x", cwd=tmp_path),
-              "--executor slurm")
-    _one_line(rftfem("sweep", scene, *vary, "--executor", "slurm", "--slurm", "nodes=3",
-                     "--print-job-script", cwd=tmp_path), "--slurm nodes=3")
+    _one_line(
+        rftfem("sweep", scene, "--vary", "time.scheme=1:2:3", cwd=tmp_path),
+        "time.scheme",
+        "numeric key",
+    )
+    _one_line(
+        rftfem("sweep", scene, "--vary", "shell.E=a:b:3", cwd=tmp_path),
+        "--vary shell.E=a:b:3",
+        "numbers",
+    )
+    _one_line(
+        rftfem(
+            "sweep", scene, "--vary", "shell.E=1:2:3:log", "--vary", "shell.E=3,4", cwd=tmp_path
+        ),
+        "a key is given twice",
+    )
+    _one_line(
+        rftfem("sweep", scene, "--vary", "shell.EE=1,2", cwd=tmp_path), "unknown key 'shell.EE'"
+    )
+    _one_line(rftfem("sweep", scene, *vary, "--slurm", "queue=x", cwd=tmp_path), "--executor slurm")
+    _one_line(
+        rftfem(
+            "sweep",
+            scene,
+            *vary,
+            "--executor",
+            "slurm",
+            "--slurm",
+            "nodes=3",
+            "--print-job-script",
+            cwd=tmp_path,
+        ),
+        "--slurm nodes=3",
+    )
     _one_line(rftfem("sweep", scene, cwd=tmp_path), "--vary")
 
 
@@ -423,15 +530,18 @@ def test_ranges_and_lists_parse_as_documented():
     from rftfem.errors import SceneError
     from rftfem.studies.sweep import parse_vary
 
-    scene = {"shell": {"E": 1.0}, "time": {"output_every": 1, "scheme": "bdf2"},
-             "mesh": {"divisions": [4, 1]}}
+    scene = {
+        "shell": {"E": 1.0},
+        "time": {"output_every": 1, "scheme": "bdf2"},
+        "mesh": {"divisions": [4, 1]},
+    }
     assert parse_vary("shell.E=1:3:3", scene).values == [1.0, 2.0, 3.0]
-    np.testing.assert_allclose(parse_vary("shell.E=1e3:1e5:3:log", scene).values,
-                               [1e3, 1e4, 1e5], rtol=1e-14)
+    np.testing.assert_allclose(
+        parse_vary("shell.E=1e3:1e5:3:log", scene).values, [1e3, 1e4, 1e5], rtol=1e-14
+    )
     assert parse_vary("time.output_every=1:4:4", scene).values == [1, 2, 3, 4]
     assert parse_vary("mesh.divisions=[4,1],[8,2]", scene).values == [[4, 1], [8, 2]]
-    assert parse_vary("time.scheme=bdf2,backward-euler", scene).values == [
-        "bdf2", "backward-euler"]
+    assert parse_vary("time.scheme=bdf2,backward-euler", scene).values == ["bdf2", "backward-euler"]
     with pytest.raises(SceneError, match="log range needs LO and HI > 0"):
         parse_vary("shell.E=0:1:3:log", scene)
 
@@ -441,8 +551,19 @@ def test_a_quantity_that_cannot_be_read_marks_its_row(scene, tmp_path):
     "ok, quantity missing" with the reason, the other quantity is there, and stderr
     says so once; before, the row read "ok" with an empty cell and nothing said."""
     out = tmp_path / "sweep"
-    done = rftfem("sweep", scene, "--vary", "shell.E=1e4,2e4", "--quantity", "w=max(tip_uz)",
-                  "--quantity", "v=max(no_such_column)", "--out", out, cwd=tmp_path)
+    done = rftfem(
+        "sweep",
+        scene,
+        "--vary",
+        "shell.E=1e4,2e4",
+        "--quantity",
+        "w=max(tip_uz)",
+        "--quantity",
+        "v=max(no_such_column)",
+        "--out",
+        out,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     rows = read_rows(out / "sweep.csv")
     assert [r["status"] for r in rows] == ["ok, quantity missing"] * 2
@@ -466,20 +587,36 @@ def test_sweep_png_gives_each_quantity_its_own_axis(tmp_path):
         out = []
         for k, values in enumerate(np.ndindex(*[len(v.values) for v in varies])):
             vals = tuple(v.values[i] for v, i in zip(varies, values))
-            out.append(Point(k, vals, tmp_path / f"p{k}", [], status="ok",
-                             quantities={"speed": 1e-3 * k, "power": 1e-9 * k * k}))
+            out.append(
+                Point(
+                    k,
+                    vals,
+                    tmp_path / f"p{k}",
+                    [],
+                    status="ok",
+                    quantities={"speed": 1e-3 * k, "power": 1e-9 * k * k},
+                )
+            )
         return out
 
     one = [Vary("shell.E", [1.0, 2.0, 3.0])]
     pts = points(one)
-    fig = sweep_report._lines(plt, pts, one, ["speed", "power"], {p.values: p for p in pts},
-                              np.array([1.0, 2.0, 3.0]), None)
+    fig = sweep_report._lines(
+        plt,
+        pts,
+        one,
+        ["speed", "power"],
+        {p.values: p for p in pts},
+        np.array([1.0, 2.0, 3.0]),
+        None,
+    )
     assert [ax.get_ylabel() for ax in fig.axes] == ["speed", "power"]
     plt.close(fig)
     two = [Vary("shell.E", [1.0, 2.0]), Vary("mesh.cell", ["quadrilateral", "triangle"])]
     pts = points(two)
-    fig = sweep_report._lines(plt, pts, two, ["speed", "power"], {p.values: p for p in pts},
-                              np.array([1.0, 2.0]), None)
+    fig = sweep_report._lines(
+        plt, pts, two, ["speed", "power"], {p.values: p for p in pts}, np.array([1.0, 2.0]), None
+    )
     assert [ax.get_ylabel() for ax in fig.axes] == ["speed", "speed", "power", "power"]
     plt.close(fig)
     assert sweep_report.plot(pts, two, ["speed", "power"], tmp_path / "s.png", "x.toml")

@@ -10,11 +10,10 @@ import tomllib
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_scene
 
 SCENE = DEMOS / "swimming_sheet.toml"
-EXACT_I = 0.49763        # docs/verification.md case F, cases I-III
+EXACT_I = 0.49763  # docs/verification.md case F, cases I-III
 _SHEET = tomllib.loads(SCENE.read_text())
 PERIOD = 2 * np.pi / _SHEET["motion"][0]["angular_frequency"]
 #: the time constant of the sheet's X velocity, ρ t / C₁
@@ -67,18 +66,31 @@ def test_drag_power_of_the_waving_sheet(tmp_path):
     c1, _, c3 = scene["fluid"]["drag"]
     period = 2 * np.pi / motion["angular_frequency"]
     powers = []
-    sim = run_scene(SCENE, f"time.end={6 * period!r}", f"time.dt={period / 48!r}",
-                    "output.fields=false", "time.until=end",
-                    observers=[lambda s: powers.append((s.t, s.model["drag"].power()))])
+    sim = run_scene(
+        SCENE,
+        f"time.end={6 * period!r}",
+        f"time.dt={period / 48!r}",
+        "output.fields=false",
+        "time.until=end",
+        observers=[lambda s: powers.append((s.t, s.model["drag"].power()))],
+    )
     t, p = np.array(powers).T
     window = (t > 2 * period + 1e-9) & (t <= 6 * period + 1e-9)
     assert window.sum() == 4 * 48
-    exact = exact_rft_power(motion["amplitude"], motion["wavenumber"],
-                            motion["angular_frequency"], EXACT_I, c1, c3,
-                            mesh["length"] * mesh["width"])
+    exact = exact_rft_power(
+        motion["amplitude"],
+        motion["wavenumber"],
+        motion["angular_frequency"],
+        EXACT_I,
+        c1,
+        c3,
+        mesh["length"] * mesh["width"],
+    )
     mean = p[window].mean()
-    print(f"mean drag power {mean:.6e} (force·length/time), exact RFT {exact:.6e} "
-          f"({100 * (mean / exact - 1):+.3f} %); {sim.summary['counts']}")
+    print(
+        f"mean drag power {mean:.6e} (force·length/time), exact RFT {exact:.6e} "
+        f"({100 * (mean / exact - 1):+.3f} %); {sim.summary['counts']}"
+    )
     assert abs(mean / exact - 1) < 0.01
 
 
@@ -87,11 +99,16 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
     """Case I on the 4×20 mesh with dt = period/48 (the demo's default for the table)
     swims at the exact RFT speed 0.49763 within 0.5 % (docs/verification.md case F: on 4×50 or
     coarser), measured over 8 whole wave periods after 10 τ (reached: +0.19 %)."""
-    sim = run_scene(SCENE, "time.output_every=1", "output.fields=false", "time.until=end",
-                    f"time.dt={PERIOD / 48!r}", out_dir=tmp_path)
+    sim = run_scene(
+        SCENE,
+        "time.output_every=1",
+        "output.fields=false",
+        "time.until=end",
+        f"time.dt={PERIOD / 48!r}",
+        out_dir=tmp_path,
+    )
     assert sim.summary["status"] == "ok"
-    assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag",
-                                             "prescribed-motion"]
+    assert sim.summary["active_effects"] == ["elasticity", "inertia", "drag", "prescribed-motion"]
     t, x = _front_x(sim)
     t0, t1 = 54 * PERIOD, 62 * PERIOD
     assert t0 >= 10 * TAU
@@ -99,9 +116,11 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
     assert abs(t[i0] - t0) < 1e-9 and abs(t[i1] - t1) < 1e-9
     velocity = (x[i1] - x[i0]) / (t1 - t0)
     paper_window = (np.interp(2.0, t, x) - np.interp(1.5, t, x)) / 0.5
-    print(f"case I 4x20: U = {velocity:.5f} ({100 * (velocity / EXACT_I - 1):+.2f} %), paper "
-          f"window {paper_window:.5f} ({100 * (paper_window / EXACT_I - 1):+.2f} %), "
-          f"{sim.summary['counts']}")
+    print(
+        f"case I 4x20: U = {velocity:.5f} ({100 * (velocity / EXACT_I - 1):+.2f} %), paper "
+        f"window {paper_window:.5f} ({100 * (paper_window / EXACT_I - 1):+.2f} %), "
+        f"{sim.summary['counts']}"
+    )
     assert abs(velocity / EXACT_I - 1) < 0.005
     assert sim.summary["director_unit_error"] < 1e-10
 
@@ -111,8 +130,12 @@ def test_swimming_sheet_case_I_on_4x20(tmp_path):
 def test_swimming_sheet_mpirun_matches_serial(tmp_path, cli_run):
     """`mpirun -n 2` on the 4×20 sheet gives the serial swimming speed to 1e-6
     (8 periods, speed over the last 4)."""
-    overrides = [f"time.end={8 * PERIOD!r}", "time.until=end", "time.output_every=1",
-                 "output.fields=false"]
+    overrides = [
+        f"time.end={8 * PERIOD!r}",
+        "time.until=end",
+        "time.output_every=1",
+        "output.fields=false",
+    ]
     speeds = {}
     for n in (1, 2):
         out = cli_run(SCENE, tmp_path / f"np{n}", overrides, np=n)
@@ -131,9 +154,13 @@ def test_swimming_sheet_demo_table(tmp_path):
     steady: every steady speed within 0.5 % of exact RFT, on every mesh including 4×20,
     ratios IV/II and V/IV within 0.5 % (the demo checks and sets its exit status; the
     test also reads its table)."""
-    done = subprocess.run([sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2",
-                           "--out", str(tmp_path)], cwd=ROOT, capture_output=True, text=True,
-                          timeout=4 * 3600)
+    done = subprocess.run(
+        [sys.executable, str(DEMOS / "swimming_sheet.py"), "--jobs", "2", "--out", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=4 * 3600,
+    )
     print(done.stdout[-4000:])
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     import csv

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import run_scene, write_scene
 
 FULL = """
@@ -56,12 +55,13 @@ def _run(tmp_path, name, **values):
 
 def test_half_model_reproduces_the_full_model(tmp_path):
     full = _run(tmp_path, "full.toml", width=1.0, across=2, symmetry="", force=FORCE)
-    half = _run(tmp_path, "half.toml", width=0.5, across=1, symmetry=SYMMETRY,
-                force=FORCE / 2)
+    half = _run(tmp_path, "half.toml", width=0.5, across=1, symmetry=SYMMETRY, force=FORCE / 2)
     a, b = full.history[-1][1], half.history[-1][1]
     scale = np.abs(a).max()
-    print(f"tip deflection {-a[0, 2]:.5f} (full) {-b[0, 2]:.5f} (half); largest difference "
-          f"{np.abs(a - b).max() / scale:.1e} of it")
+    print(
+        f"tip deflection {-a[0, 2]:.5f} (full) {-b[0, 2]:.5f} (half); largest difference "
+        f"{np.abs(a - b).max() / scale:.1e} of it"
+    )
     assert scale > 3.0
     assert np.abs(a - b).max() < 1e-8 * scale
 
@@ -70,30 +70,43 @@ def test_half_model_with_a_free_edge_differs(tmp_path):
     """The same half with only uy held on the plane: the edge is free to tilt and
     the tip moves differently by more than 1e-4 of its deflection."""
     full = _run(tmp_path, "full.toml", width=1.0, across=2, symmetry="", force=FORCE)
-    free = _run(tmp_path, "free.toml", width=0.5, across=1, force=FORCE / 2,
-                symmetry='[[boundary]]\nwhere = "y=W"\nfix = ["uy"]')
+    free = _run(
+        tmp_path,
+        "free.toml",
+        width=0.5,
+        across=1,
+        force=FORCE / 2,
+        symmetry='[[boundary]]\nwhere = "y=W"\nfix = ["uy"]',
+    )
     a, b = full.history[-1][1], free.history[-1][1]
     print(f"free edge: largest difference {np.abs(a - b).max() / np.abs(a).max():.1e}")
     assert np.abs(a - b).max() > 1e-4 * np.abs(a).max()
 
 
-@pytest.mark.parametrize("text, words", [
-    ('symmetry = [1.0, 1.0, 0.0]', "boundary.1.symmetry: expected the normal of a coordinate"),
-    ('symmetry = [0.0, 1.0, 0.0]\nfix = ["uy"]', "boundary.1: expected fix or symmetry, "
-                                                  "found both"),
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("symmetry = [1.0, 1.0, 0.0]", "boundary.1.symmetry: expected the normal of a coordinate"),
+        (
+            'symmetry = [0.0, 1.0, 0.0]\nfix = ["uy"]',
+            "boundary.1: expected fix or symmetry, found both",
+        ),
+    ],
+)
 def test_symmetry_input_errors(tmp_path, text, words):
     from rftfem.errors import SceneError
     from rftfem.scene.reading import load_scene
 
-    scene = FULL.format(width=0.5, across=1, force=1.0,
-                        symmetry=f'[[boundary]]\nwhere = "y=W"\n{text}')
+    scene = FULL.format(
+        width=0.5, across=1, force=1.0, symmetry=f'[[boundary]]\nwhere = "y=W"\n{text}'
+    )
     with pytest.raises(SceneError, match=words.replace("[", r"\[")):
         load_scene(write_scene(tmp_path, scene))
 
 
-@pytest.mark.parametrize("axis, refused", [([1.0, 0.1, 0.0], False), ([1.0, 0.2, 0.0], True),
-                                          ([1.0, 1.0, 0.0], True)])
+@pytest.mark.parametrize(
+    "axis, refused", [([1.0, 0.1, 0.0], False), ([1.0, 0.2, 0.0], True), ([1.0, 1.0, 0.0], True)]
+)
 def test_material_axis_along_or_across_the_plane(tmp_path, axis, refused):
     """The director is held in the plane through θ¹ or θ² only where a₁ or a₂ lies
     along the plane's t, within 5.7° (a coarse curved mesh's own error): an axis
@@ -106,8 +119,11 @@ def test_material_axis_along_or_across_the_plane(tmp_path, axis, refused):
     if not refused:
         assert run_scene(path, "time.dt=1.0").summary["status"] == "ok"
         return
-    with pytest.raises(SceneError, match="boundary.1.symmetry: at 41 nodes of 'y=W' the "
-                                         "body does not cross the plane at right angles"):
+    with pytest.raises(
+        SceneError,
+        match="boundary.1.symmetry: at 41 nodes of 'y=W' the "
+        "body does not cross the plane at right angles",
+    ):
         run_scene(path)
 
 
@@ -115,8 +131,9 @@ def test_material_axis_along_or_across_the_plane(tmp_path, axis, refused):
 def test_half_model_under_mpirun(tmp_path, cli_run):
     """The half model on two processes gives the serial tip (1e-10 of it): the plane's
     nodes are classified on every process from the same triads."""
-    scene = write_scene(tmp_path, FULL.format(width=0.5, across=1, symmetry=SYMMETRY,
-                                              force=FORCE / 2))
+    scene = write_scene(
+        tmp_path, FULL.format(width=0.5, across=1, symmetry=SYMMETRY, force=FORCE / 2)
+    )
     serial = run_scene(scene).history[-1][1]
     out = cli_run(scene, tmp_path / "mpi", np=2)
     # time, the probes, then the load factor of a static run

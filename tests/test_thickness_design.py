@@ -22,15 +22,15 @@ import sys
 
 import numpy as np
 import pytest
-
 from conftest import DEMOS, ROOT, run_command
-from material_references import (magnetic_strip_linear_coefficient,
-                                 magnetic_strip_piecewise_linear_optimum)
+from material_references import (
+    magnetic_strip_linear_coefficient,
+    magnetic_strip_piecewise_linear_optimum,
+)
 
 
 def _demo():
-    spec = importlib.util.spec_from_file_location("thickness_design",
-                                                  DEMOS / "thickness_design.py")
+    spec = importlib.util.spec_from_file_location("thickness_design", DEMOS / "thickness_design.py")
     demo = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(demo)
     return demo
@@ -52,15 +52,28 @@ def _large_deflection_chord(strip, t_nodes, chord, n=20001):
             break
         theta = new
     last = x >= strip.length - chord
-    return float(np.arctan2(trapezoid(np.sin(theta[last]), x[last]),
-                            trapezoid(np.cos(theta[last]), x[last])))
+    return float(
+        np.arctan2(trapezoid(np.sin(theta[last]), x[last]), trapezoid(np.cos(theta[last]), x[last]))
+    )
 
 
 @pytest.mark.slow
 def test_thickness_design_reaches_the_beam_optimum_of_its_design_space(tmp_path):
     demo = _demo()
-    done = run_command([sys.executable, "-m", "rftfem", "optimize", str(demo.SCENE),
-                        *demo.DESIGN, "--out", str(tmp_path)], cwd=ROOT, timeout=900)
+    done = run_command(
+        [
+            sys.executable,
+            "-m",
+            "rftfem",
+            "optimize",
+            str(demo.SCENE),
+            *demo.DESIGN,
+            "--out",
+            str(tmp_path),
+        ],
+        cwd=ROOT,
+        timeout=900,
+    )
     assert done.returncode == 0, done.stderr
     with open(tmp_path / "optimize.csv", newline="") as f:
         rows = list(csv.DictReader(f))
@@ -79,12 +92,14 @@ def test_thickness_design_reaches_the_beam_optimum_of_its_design_space(tmp_path)
     J_uniform = magnetic_strip_linear_coefficient(np.full(n, strip.mean), L, chord)
     theta0, theta = float(start["objective"]), float(best["objective"])
     large = _large_deflection_chord(strip, t_beam, chord)
-    print(f"thickness design: {len(rows)} runs; uniform {theta0:.7f} rad (beam "
-          f"{K * J_uniform:.7f}, {100 * (theta0 / (K * J_uniform) - 1):+.4f} %), designed "
-          f"{theta:.7f} (beam {K * J:.7f}, {100 * (theta / (K * J) - 1):+.3f} %; with cos θ "
-          f"{large:.7f}, {100 * (theta / large - 1):+.3f} %), ratio {theta / theta0:.4f} "
-          f"(beam {J / J_uniform:.4f}, {100 * (theta / theta0 / (J / J_uniform) - 1):+.3f} %); "
-          f"profiles differ by {np.abs(designed - t_beam).max():.1e} mm at most")
+    print(
+        f"thickness design: {len(rows)} runs; uniform {theta0:.7f} rad (beam "
+        f"{K * J_uniform:.7f}, {100 * (theta0 / (K * J_uniform) - 1):+.4f} %), designed "
+        f"{theta:.7f} (beam {K * J:.7f}, {100 * (theta / (K * J) - 1):+.3f} %; with cos θ "
+        f"{large:.7f}, {100 * (theta / large - 1):+.3f} %), ratio {theta / theta0:.4f} "
+        f"(beam {J / J_uniform:.4f}, {100 * (theta / theta0 / (J / J_uniform) - 1):+.3f} %); "
+        f"profiles differ by {np.abs(designed - t_beam).max():.1e} mm at most"
+    )
     assert len(rows) <= 20 and len(ok) == len(rows)
     # the same mass: the trapezoid mean of the designed profile is the uniform one
     mean = np.sum((designed[1:] + designed[:-1]) / 2 * np.diff(strip.X)) / L

@@ -11,11 +11,10 @@ cycles (docs/model.md §6.10, docs/three_link.md)."""
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
-import tomllib
-
 import rigid_links
 from conftest import DEMOS, run_scene
 
@@ -30,22 +29,33 @@ TOLERANCE = 0.005
 def _shell_measures(sim) -> dict:
     """Corner Y, centre Y and Z, and the left and middle links' angles about X of the
     last probe row (probes corner, centre, hinge_left, hinge_right)."""
-    corner, centre, left, right = (np.array(p) + v for p, v in zip(
-        ([0, 0, 0], [2.5, 0.75, 0], [2.5, 0.5, 0], [2.5, 1.0, 0]), sim.history[-1][1]))
-    return {"corner_y": corner[1], "centre_y": centre[1] - 0.75, "centre_z": centre[2],
-            "angle_middle": math.atan2(*(right - left)[[2, 1]]),
-            "angle_left": math.atan2(*(left - corner)[[2, 1]])}
+    corner, centre, left, right = (
+        np.array(p) + v
+        for p, v in zip(
+            ([0, 0, 0], [2.5, 0.75, 0], [2.5, 0.5, 0], [2.5, 1.0, 0]), sim.history[-1][1]
+        )
+    )
+    return {
+        "corner_y": corner[1],
+        "centre_y": centre[1] - 0.75,
+        "centre_z": centre[2],
+        "angle_middle": math.atan2(*(right - left)[[2, 1]]),
+        "angle_left": math.atan2(*(left - corner)[[2, 1]]),
+    }
 
 
 def _rigid(w_left, w_right, t_end) -> dict:
-    return rigid_links.simulate(w_left, w_right, t_end, density=DENSITY, thickness=THICKNESS,
-                                link_width=LINK).summary()
+    return rigid_links.simulate(
+        w_left, w_right, t_end, density=DENSITY, thickness=THICKNESS, link_width=LINK
+    ).summary()
 
 
 def _compare(ours, ref, keys):
     for key in keys:
-        print(f"{key:13s} shell {ours[key]:+.6e}  rigid links {ref[key]:+.6e}  "
-              f"({100 * (ours[key] / ref[key] - 1):+.3f} %)")
+        print(
+            f"{key:13s} shell {ours[key]:+.6e}  rigid links {ref[key]:+.6e}  "
+            f"({100 * (ours[key] / ref[key] - 1):+.3f} %)"
+        )
     for key in keys:
         assert ours[key] == pytest.approx(ref[key], rel=TOLERANCE), key
 
@@ -70,8 +80,13 @@ def test_square_loop_with_inertia_moves_as_rigid_links():
     (0,0), three cycles, with the demo's inertia and step: corner Y, centre Y and Z
     and the left link's angle within 0.5 % of the rigid links."""
     w_left, w_right = rigid_links.loop_tables("square", 0.1, 0.4, 3)
-    sim = run_scene(SCENE, "output.fields=false", "time.end=1.2",
-                    f"motion.0.values={w_left}", f"motion.1.values={w_right}")
+    sim = run_scene(
+        SCENE,
+        "output.fields=false",
+        "time.end=1.2",
+        f"motion.0.values={w_left}",
+        f"motion.1.values={w_right}",
+    )
     assert sim.summary["status"] == "ok"
     ref = _rigid(w_left, w_right, 1.2)
     _compare(_shell_measures(sim), ref, ("corner_y", "centre_y", "centre_z", "angle_left"))

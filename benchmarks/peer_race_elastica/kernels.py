@@ -7,8 +7,9 @@ import math
 if __name__ == "__main__":  # a module, not a script: --help says so, nothing else runs
     import argparse
 
-    argparse.ArgumentParser(description="numba kernels of the peer race's PyElastica side; "
-                            "imported by run.py, not run").parse_args()
+    argparse.ArgumentParser(
+        description="numba kernels of the peer race's PyElastica side; imported by run.py, not run"
+    ).parse_args()
     raise SystemExit(0)
 
 from numba import njit  # noqa: E402
@@ -53,4 +54,3 @@ def magnetic_couple(dirs, moments, bx, by, bz, ext_torque):
         tz = mx * by - my * bx
         for k in range(3):
             ext_torque[k, e] += dirs[k, 0, e] * tx + dirs[k, 1, e] * ty + dirs[k, 2, e] * tz
-

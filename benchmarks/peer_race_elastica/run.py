@@ -41,28 +41,49 @@ def parse(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("problem", choices=["swim", "elastica", "frequency"])
     p.add_argument("--elements", type=int, default=20, help="rod elements")
-    p.add_argument("--dt", type=float, default=0.0,
-                   help="time step; 0: --cfl times the explicit stability estimate")
-    p.add_argument("--cfl", type=float, default=0.75,
-                   help="fraction of the stability estimate taken when --dt is 0")
-    p.add_argument("--rotary-inertia", choices=["section", "match-axial"], default="section",
-                   help="section: the rectangle's mass moments (the physics); match-axial: "
-                        "the moments about d1, d2 scaled up until the element's shear-rotation "
-                        "oscillation is no faster than the axial wave across it, so the step "
-                        "is the axial limit (a mass-scaling trick, not the physics)")
+    p.add_argument(
+        "--dt",
+        type=float,
+        default=0.0,
+        help="time step; 0: --cfl times the explicit stability estimate",
+    )
+    p.add_argument(
+        "--cfl",
+        type=float,
+        default=0.75,
+        help="fraction of the stability estimate taken when --dt is 0",
+    )
+    p.add_argument(
+        "--rotary-inertia",
+        choices=["section", "match-axial"],
+        default="section",
+        help="section: the rectangle's mass moments (the physics); match-axial: "
+        "the moments about d1, d2 scaled up until the element's shear-rotation "
+        "oscillation is no faster than the axial wave across it, so the step "
+        "is the axial limit (a mass-scaling trick, not the physics)",
+    )
     p.add_argument("--periods", type=int, default=10, help="swim: field periods run")
-    p.add_argument("--window", type=int, default=5,
-                   help="swim: the speed is the centroid's mean over periods window..periods")
+    p.add_argument(
+        "--window",
+        type=int,
+        default=5,
+        help="swim: the speed is the centroid's mean over periods window..periods",
+    )
     p.add_argument("--frequency", type=float, default=4.0, help="swim: field frequency, Hz")
-    p.add_argument("--settle", type=float, default=1e-7,
-                   help="elastica: stop once the tip moves less than this x L per 1/10 period")
+    p.add_argument(
+        "--settle",
+        type=float,
+        default=1e-7,
+        help="elastica: stop once the tip moves less than this x L per 1/10 period",
+    )
     return p.parse_args(argv)
 
 
 def main(argv=None):
     args = parse(argv)
-    import numpy as np
     import elastica as ea
+    import numpy as np
+
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from kernels import magnetic_couple, rft_drag
 
@@ -75,11 +96,19 @@ def main(argv=None):
         A = w * t
         G = E / (2 * (1 + nu))
         rod = ea.CosseratRod.straight_rod(
-            n, np.array([x0, 0.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), L,
-            math.sqrt(A / math.pi), rho, youngs_modulus=E, shear_modulus=G)
-        I_d1 = t * w**3 / 12          # about the normal d1: in-plane bending
-        I_d2 = w * t**3 / 12          # about d2 (across the width): the soft bending
-        a, b = max(w, t), min(w, t)   # St Venant torsion constant of a thin rectangle
+            n,
+            np.array([x0, 0.0, 0.0]),
+            np.array([1.0, 0.0, 0.0]),
+            np.array([0.0, 0.0, 1.0]),
+            L,
+            math.sqrt(A / math.pi),
+            rho,
+            youngs_modulus=E,
+            shear_modulus=G,
+        )
+        I_d1 = t * w**3 / 12  # about the normal d1: in-plane bending
+        I_d2 = w * t**3 / 12  # about d2 (across the width): the soft bending
+        a, b = max(w, t), min(w, t)  # St Venant torsion constant of a thin rectangle
         J = a * b**3 * (1 / 3 - 0.21 * b / a * (1 - b**4 / (12 * a**4)))
         rod.bend_matrix[:] = 0.0
         rod.bend_matrix[0, 0, :] = E * I_d1
@@ -117,27 +146,49 @@ def main(argv=None):
             self.B0, self.omega = B0, 2 * math.pi * freq
 
         def apply_forces(self, system, time=0.0):
-            rft_drag(system.velocity_collection, system.director_collection, system.lengths,
-                     self.c[0], self.c[1], self.c[2], system.external_forces)
+            rft_drag(
+                system.velocity_collection,
+                system.director_collection,
+                system.lengths,
+                self.c[0],
+                self.c[1],
+                self.c[2],
+                system.external_forces,
+            )
 
         def apply_torques(self, system, time=0.0):
-            magnetic_couple(system.director_collection, self.moments, self.B0, 0.0,
-                            self.B0 * math.sin(self.omega * time), system.external_torques)
+            magnetic_couple(
+                system.director_collection,
+                self.moments,
+                self.B0,
+                0.0,
+                self.B0 * math.sin(self.omega * time),
+                system.external_torques,
+            )
 
     sim = Sim()
-    out = {"code": "pyelastica", "problem": args.problem, "elements": args.elements,
-           "rotary_inertia": args.rotary_inertia}
+    out = {
+        "code": "pyelastica",
+        "problem": args.problem,
+        "elements": args.elements,
+        "rotary_inertia": args.rotary_inertia,
+    }
     if args.problem == "swim":
         L, w, t, E, nu, rho = 10.0, 2.0, 0.1, 5.0, 0.0, 1.6e-9
-        rod, dt_crit = rectangular_rod(args.elements, L, w, t, E, nu, rho,
-                                       scale_inertia=args.rotary_inertia == "match-axial")
+        rod, dt_crit = rectangular_rod(
+            args.elements, L, w, t, E, nu, rho, scale_inertia=args.rotary_inertia == "match-axial"
+        )
         dl = L / args.elements
         centres = (np.arange(args.elements) + 0.5) * dl
         moments = np.where(centres < 1.0, 62.9 * w * t * dl, 0.0)
         sim.append(rod)
-        sim.add_forcing_to(rod).using(RFTMagnetic, drag_per_length=np.array(
-            [1.0e-8 * w, 1.0e-8 * w, 1.89e-8 * w]), moments=moments, B0=1.0e-5,
-            freq=args.frequency)
+        sim.add_forcing_to(rod).using(
+            RFTMagnetic,
+            drag_per_length=np.array([1.0e-8 * w, 1.0e-8 * w, 1.89e-8 * w]),
+            moments=moments,
+            B0=1.0e-5,
+            freq=args.frequency,
+        )
         period = 1.0 / args.frequency
         t_end = args.periods * period
     else:
@@ -147,22 +198,37 @@ def main(argv=None):
         # the cantilever's free length is L (clamping node 0 at x = 0 makes the beam
         # Δl/2 too short: +13 % on the frequency at 8 elements)
         dl = L / (args.elements - 0.5)
-        rod, dt_crit = rectangular_rod(args.elements, L + dl / 2, w, t, E, nu, rho, x0=-dl / 2,
-                                       scale_inertia=args.rotary_inertia == "match-axial")
+        rod, dt_crit = rectangular_rod(
+            args.elements,
+            L + dl / 2,
+            w,
+            t,
+            E,
+            nu,
+            rho,
+            x0=-dl / 2,
+            scale_inertia=args.rotary_inertia == "match-axial",
+        )
         EI = E * w * t**3 / 12
         sim.append(rod)
-        sim.constrain(rod).using(ea.OneEndFixedBC, constrained_position_idx=(0,),
-                                 constrained_director_idx=(0,))
+        sim.constrain(rod).using(
+            ea.OneEndFixedBC, constrained_position_idx=(0,), constrained_director_idx=(0,)
+        )
         omega1 = 1.87510407**2 * math.sqrt(EI / (rho * w * t * L**4))
         period = 2 * math.pi / omega1
     dt = args.dt if args.dt > 0 else args.cfl * dt_crit
     if args.problem == "elastica":
         P = 2.0 * EI / L**2
-        sim.add_forcing_to(rod).using(ea.EndpointForces, start_force=np.zeros(3),
-                                      end_force=np.array([0.0, 0.0, P]), ramp_up_time=1e-12)
+        sim.add_forcing_to(rod).using(
+            ea.EndpointForces,
+            start_force=np.zeros(3),
+            end_force=np.array([0.0, 0.0, P]),
+            ramp_up_time=1e-12,
+        )
         # about critical damping of the first mode
-        sim.dampen(rod).using(ea.AnalyticalLinearDamper, uniform_damping_constant=omega1,
-                              time_step=dt)
+        sim.dampen(rod).using(
+            ea.AnalyticalLinearDamper, uniform_damping_constant=omega1, time_step=dt
+        )
     if args.problem == "frequency":
         bl = 1.87510407
         sig = (math.cosh(bl) + math.cos(bl)) / (math.sinh(bl) + math.sin(bl))
@@ -217,8 +283,11 @@ def main(argv=None):
             marks[args.periods] = centroid_x()
             x0 = marks[args.window]
             speed = (marks[args.periods] - x0) / ((args.periods - args.window) * period)
-            out.update(value=speed, quantity="centroid x speed, mm/s",
-                       centroid=[marks[k] for k in sorted(marks)])
+            out.update(
+                value=speed,
+                quantity="centroid x speed, mm/s",
+                centroid=[marks[k] for k in sorted(marks)],
+            )
     elif args.problem == "elastica":
         check = max(1, int(round(0.1 * period / dt)))
         last = None
@@ -251,12 +320,19 @@ def main(argv=None):
             i = np.where(ws[1:-1] * ws[2:] < 0)[0] + 1
             tc = ts[i] - ws[i] * (ts[i + 1] - ts[i]) / (ws[i + 1] - ws[i])
             half = float((tc[-1] - tc[0]) / (len(tc) - 1))
-            out.update(value=1.0 / (2 * half), quantity="first frequency, Hz",
-                       exact=omega1 / (2 * math.pi))
+            out.update(
+                value=1.0 / (2 * half), quantity="first frequency, Hz", exact=omega1 / (2 * math.pi)
+            )
     t_end_wall = _time.perf_counter()
-    out.update(ok=bool(ok), steps=steps, wall_import_setup=t_setup - T0,
-               wall_first_step=t_first - t_setup, wall_loop=t_end_wall - t_first,
-               wall_inside=t_end_wall - T0, numba_cache=os.environ.get("NUMBA_CACHE_DIR", ""))
+    out.update(
+        ok=bool(ok),
+        steps=steps,
+        wall_import_setup=t_setup - T0,
+        wall_first_step=t_first - t_setup,
+        wall_loop=t_end_wall - t_first,
+        wall_inside=t_end_wall - T0,
+        numba_cache=os.environ.get("NUMBA_CACHE_DIR", ""),
+    )
     print(json.dumps(out))
     return 0 if ok else 3
 

@@ -47,8 +47,8 @@ import numpy as np
 
 from rftfem import compat
 from rftfem.errors import RunFailed, RunInterrupted
-from rftfem.integration.step_control import STATIC_TURN
 from rftfem.integration.convergence import ROTATION_RANGE
+from rftfem.integration.step_control import STATIC_TURN
 
 #: the Newton iterations an arc step should take; Δs grows or shrinks towards it
 DESIRED_ITERATIONS = 5
@@ -134,9 +134,12 @@ class PathFollowing:
             dlam = target - lam0
         else:
             if size == 0.0:
-                raise RunFailed("arc-length: the loads and motions do not move the body "
-                                "(their derivative in the load factor is zero)",
-                                self.t, self.step)
+                raise RunFailed(
+                    "arc-length: the loads and motions do not move the body "
+                    "(their derivative in the load factor is zero)",
+                    self.t,
+                    self.step,
+                )
             sign = 1.0
             if self.path_direction is not None and self._dot_u(db, self.path_direction) < 0:
                 sign = -1.0
@@ -154,8 +157,12 @@ class PathFollowing:
             if not math.isfinite(fnorm):
                 raise _StepFailed("the residual is not finite", it - 1, fnorm)
             first = fnorm if first is None else first
-            if it > 1 and (fnorm < atol or fnorm <= rtol * first or update < stol * xnorm
-                           or (fnorm <= max(s.roundoff, s.noise) and fnorm > 0.5 * last)):
+            if it > 1 and (
+                fnorm < atol
+                or fnorm <= rtol * first
+                or update < stol * xnorm
+                or (fnorm <= max(s.roundoff, s.noise) and fnorm > 0.5 * last)
+            ):
                 return lam, arc, it - 1, fnorm
             last = fnorm
             s.jacobian(x)
@@ -172,14 +179,21 @@ class PathFollowing:
             x.axpy(1.0, self._da)
             x.axpy(dl, self._db)
             lam += dl
-            update = (self._da.norm() ** 2 + 2 * dl * self._da.dot(self._db)
-                      + dl**2 * self._db.norm() ** 2) ** 0.5
+            update = (
+                self._da.norm() ** 2
+                + 2 * dl * self._da.dot(self._db)
+                + dl**2 * self._db.norm() ** 2
+            ) ** 0.5
             xnorm = x.norm()
             s.sync(x)
             turn = m.largest_rotation_increment()
             if turn >= ROTATION_RANGE:
-                raise _StepFailed(f"Newton diverged: a rotation increment reached {turn:.3g} "
-                                  f"rad >= pi at update {it}", it, fnorm)
+                raise _StepFailed(
+                    f"Newton diverged: a rotation increment reached {turn:.3g} "
+                    f"rad >= pi at update {it}",
+                    it,
+                    fnorm,
+                )
             if self.stops.immediate:
                 raise RunInterrupted(self.stops.signum, immediate=True)
         raise _StepFailed(f"no convergence in {max_it} Newton iterations", max_it, fnorm)
@@ -190,8 +204,7 @@ class PathFollowing:
         if self.path_direction is None:
             return 0.0
         d = self.model.w.x.array - _u_of(self.model)
-        norms = math.sqrt(self._dot_u(d, d) * self._dot_u(self.path_direction,
-                                                          self.path_direction))
+        norms = math.sqrt(self._dot_u(d, d) * self._dot_u(self.path_direction, self.path_direction))
         cos = self._dot_u(d, self.path_direction) / norms if norms > 0 else 1.0
         return math.acos(max(-1.0, min(1.0, cos)))
 
@@ -203,8 +216,12 @@ class PathFollowing:
         a3 = self._dot_u(e, e) - arc**2
         disc = a2 * a2 - 4.0 * a1 * a3
         if a1 == 0.0 or disc < 0.0:
-            raise _StepFailed("the arc-length constraint has no real root (the arc is too "
-                              "long for the path's curvature here)", it, math.nan)
+            raise _StepFailed(
+                "the arc-length constraint has no real root (the arc is too "
+                "long for the path's curvature here)",
+                it,
+                math.nan,
+            )
         roots = [(-a2 + sgn * math.sqrt(disc)) / (2.0 * a1) for sgn in (1.0, -1.0)]
         return max(roots, key=lambda r: self._dot_u(e + r * db, D))
 
@@ -219,8 +236,12 @@ class PathFollowing:
                 self._path_advance(logs, progress, end, max_cuts)
                 if self.step % time_["output_every"] == 0 or self.load_factor >= end * (1 - 1e-12):
                     self._write_output(logs, self.t)
-                progress.update(self.load_factor, self.step, self.counts["newton_iterations"],
-                                self.last_residual)
+                progress.update(
+                    self.load_factor,
+                    self.step,
+                    self.counts["newton_iterations"],
+                    self.last_residual,
+                )
                 self.completed = self.step
                 done = self.completed >= max_steps or self.load_factor >= end * (1 - 1e-12)
                 self._checkpoint_if_due(last=done)
@@ -229,8 +250,10 @@ class PathFollowing:
             if self.load_factor < end * (1 - 1e-12):
                 if not self.history or self.history[-1][0] != self.t:
                     self._write_output(logs, self.t)
-                progress.warn(f"arc-length: time.max_steps = {max_steps} steps reached at load "
-                              f"factor {self.load_factor:.6g}, before time.end = {end:g}")
+                progress.warn(
+                    f"arc-length: time.max_steps = {max_steps} steps reached at load "
+                    f"factor {self.load_factor:.6g}, before time.end = {end:g}"
+                )
         finally:
             self._path_destroy()
 
@@ -262,26 +285,34 @@ class PathFollowing:
                     self.model.restore()
                     cuts += 1
                     arc *= 0.5
-                    progress.log(f"step {self.step} at load factor {self.load_factor:.6g}: the "
-                                 f"path turned {turn:.2f} rad > {PATH_TURN} in one step; arc "
-                                 "halved")
+                    progress.log(
+                        f"step {self.step} at load factor {self.load_factor:.6g}: the "
+                        f"path turned {turn:.2f} rad > {PATH_TURN} in one step; arc "
+                        "halved"
+                    )
                     continue
                 break
             except _StepFailed as failed:
                 self.counts["newton_iterations"] += failed.its
                 self.model.restore()
                 if cuts >= max_cuts:
-                    raise RunFailed(f"arc-length step not resolved ({failed.reason}) after "
-                                    f"{max_cuts} halvings of the arc (time.max_cuts), arc = "
-                                    f"{(arc or 0.0):.3e}", self.t, self.step) from None
+                    raise RunFailed(
+                        f"arc-length step not resolved ({failed.reason}) after "
+                        f"{max_cuts} halvings of the arc (time.max_cuts), arc = "
+                        f"{(arc or 0.0):.3e}",
+                        self.t,
+                        self.step,
+                    ) from None
                 cuts += 1
                 self.counts["dt_cuts"] += 1
                 if arc is None:  # the first step: halve its Δλ
                     self.first_increment *= 0.5
                 else:
                     arc *= 0.5
-                progress.log(f"step {self.step} at load factor {self.load_factor:.6g}: "
-                             f"{failed.reason}; arc halved")
+                progress.log(
+                    f"step {self.step} at load factor {self.load_factor:.6g}: "
+                    f"{failed.reason}; arc halved"
+                )
         self.counts["newton_iterations"] += its
         self.counts["steps"] += 1
         m = self.model
@@ -298,13 +329,15 @@ class PathFollowing:
         self.last_residual = res
         if self.first_arc is None:  # the first step set the arc: its own length
             if step_length == 0.0:
-                raise RunFailed("arc-length: the first step (time.dt) did not move the body: "
-                                "the loads and motions do not depend on the load factor",
-                                self.t, self.step)
+                raise RunFailed(
+                    "arc-length: the first step (time.dt) did not move the body: "
+                    "the loads and motions do not depend on the load factor",
+                    self.t,
+                    self.step,
+                )
             arc = self.first_arc = step_length
         if logs.get("steps") is not None:
-            logs["steps"].row([self.t, step_length, its, res, _time.perf_counter() - wall0,
-                               lam])
+            logs["steps"].row([self.t, step_length, its, res, _time.perf_counter() - wall0, lam])
         for f in self.observers:
             f(self)
         # the next arc: towards DESIRED_ITERATIONS, within the growth bounds

@@ -71,12 +71,16 @@ class NewtonTest:
         if it == 0:
             return R.CONVERGED_ITERATING
         if self.turns[-1] >= ROTATION_RANGE:
-            self.divergence = (f"Newton diverged: a rotation increment reached "
-                               f"{self.turns[-1]:.3g} rad >= pi at update {it}")
+            self.divergence = (
+                f"Newton diverged: a rotation increment reached "
+                f"{self.turns[-1]:.3g} rad >= pi at update {it}"
+            )
             return R.DIVERGED_DTOL
         if it >= 2 and 0.0 < RESIDUAL_GROWTH * max(self._fnorms[:2]) < fnorm:
-            self.divergence = (f"Newton diverged: the residual grew to {fnorm:.3e} at update "
-                               f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start")
+            self.divergence = (
+                f"Newton diverged: the residual grew to {fnorm:.3e} at update "
+                f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start"
+            )
             return R.DIVERGED_DTOL
         if fnorm <= rtol * self._fnorms[0]:
             return R.CONVERGED_FNORM_RELATIVE
@@ -89,8 +93,7 @@ class NewtonTest:
             theta = snorm / self._snorms[-2]
             if theta < CONTRACTION and theta / (1.0 - theta) * snorm < stol * xnorm:
                 return R.CONVERGED_SNORM_RELATIVE
-        if it >= 2 and fnorm <= max(self.roundoff, self.noise) and \
-                fnorm > 0.5 * self._fnorms[-2]:
+        if it >= 2 and fnorm <= max(self.roundoff, self.noise) and fnorm > 0.5 * self._fnorms[-2]:
             return R.CONVERGED_FNORM_ABS
         return R.CONVERGED_ITERATING
 

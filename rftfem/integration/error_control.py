@@ -71,8 +71,9 @@ class ErrorControl:
                 step = left / math.ceil(left / min(h, dt_max) - 1e-9)
                 wall0 = _time.perf_counter()
                 state["err"] = None
-                ok, its, res, reason = self._attempt(self.t + step, step, self.scheme,
-                                                     error_check=check)
+                ok, its, res, reason = self._attempt(
+                    self.t + step, step, self.scheme, error_check=check
+                )
                 err = state["err"]
                 if ok:
                     self.t += step
@@ -95,8 +96,12 @@ class ErrorControl:
                     # a step cut short to land on an output says nothing against h
                     clipped = step < h * (1 - 1e-9)
                     h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
-                    progress.update(self.t, self.step, self.counts["newton_iterations"],
-                                    self.solver.snes.getFunctionNorm())
+                    progress.update(
+                        self.t,
+                        self.step,
+                        self.counts["newton_iterations"],
+                        self.solver.snes.getFunctionNorm(),
+                    )
                     if self.t < t_out - 1e-12 * max(1.0, abs(t_out)):
                         self._checkpoint_if_due(h)  # else after the output row below
                         self._stop_if_asked(logs)
@@ -108,20 +113,28 @@ class ErrorControl:
                     cuts_in_row += 1
                     self.counts["dt_cuts"] += 1
                     if cuts_in_row > time_["max_cuts"]:
-                        raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, "
-                                        f"residual {res:.3e}) after {time_['max_cuts']} step "
-                                        f"halvings in a row (time.max_cuts), dt = {step:.3e}"
-                                        + self._unresolved_hint(),
-                                        self.t + step, self.counts["steps"] + 1)
+                        raise RunFailed(
+                            f"step not resolved ({reason}, {its} Newton iterations, "
+                            f"residual {res:.3e}) after {time_['max_cuts']} step "
+                            f"halvings in a row (time.max_cuts), dt = {step:.3e}"
+                            + self._unresolved_hint(),
+                            self.t + step,
+                            self.counts["steps"] + 1,
+                        )
                     halvings = self._halvings()
                     h = step / 2**halvings
-                    progress.log(f"step {self.counts['steps'] + 1} at t = {self.t:.6g}: {reason} "
-                                 f"after {its} Newton iterations; dt to {h:.3e}"
-                                 + (f" ({halvings} halvings)" if halvings > 1 else ""))
+                    progress.log(
+                        f"step {self.counts['steps'] + 1} at t = {self.t:.6g}: {reason} "
+                        f"after {its} Newton iterations; dt to {h:.3e}"
+                        + (f" ({halvings} halvings)" if halvings > 1 else "")
+                    )
                 if h < dt_min * (1 - 1e-12):
-                    raise RunFailed(f"step not resolved ({reason}) with dt = {step:.3e}: the next "
-                                    f"try would be below time.dt_min = {dt_min:g}",
-                                    self.t + step, self.counts["steps"] + 1)
+                    raise RunFailed(
+                        f"step not resolved ({reason}) with dt = {step:.3e}: the next "
+                        f"try would be below time.dt_min = {dt_min:g}",
+                        self.t + step,
+                        self.counts["steps"] + 1,
+                    )
             self.t = t_out
             self._write_output(logs, self.t)
             self._checkpoint_if_due(h, last=k == n_out)
@@ -133,15 +146,24 @@ class ErrorControl:
         if not self.time_errors:
             return None
         e = np.array(self.time_errors)
-        return {"max": float(e.max()), "mean": float(e.mean()), "steps": int(len(e)),
-                "warning_above_mean": TIME_ERROR_WARNING}
+        return {
+            "max": float(e.max()),
+            "mean": float(e.mean()),
+            "steps": int(len(e)),
+            "warning_above_mean": TIME_ERROR_WARNING,
+        }
 
     def _warn_time_error(self, progress):
         """One line when the fixed steps' mean error estimate says dt is too long."""
         est = self._time_error_summary()
-        if est is not None and self.scene["time"].get("tolerance") is None \
-                and est["mean"] > TIME_ERROR_WARNING:
-            progress.warn(f"warning: time.dt = {self.scene['time']['dt']:g} may be too long: the "
-                          f"steps' estimated local error is {est['mean']:.2g} on average (max "
-                          f"{est['max']:.2g}) of the body's size, above {TIME_ERROR_WARNING:g}; "
-                          "see summary.json time_error")
+        if (
+            est is not None
+            and self.scene["time"].get("tolerance") is None
+            and est["mean"] > TIME_ERROR_WARNING
+        ):
+            progress.warn(
+                f"warning: time.dt = {self.scene['time']['dt']:g} may be too long: the "
+                f"steps' estimated local error is {est['mean']:.2g} on average (max "
+                f"{est['max']:.2g}) of the body's size, above {TIME_ERROR_WARNING:g}; "
+                "see summary.json time_error"
+            )

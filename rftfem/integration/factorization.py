@@ -73,8 +73,11 @@ class Factorization:
         if self.policy == "every-step" or self._every_tangent:
             fresh = self._tangents == 1 or self._every_tangent
         else:
-            fresh = (self._next_fresh or ksp.getConvergedReason() < 0
-                     or ksp.getIterationNumber() > petsc_options.REUSE_ITERATIONS)
+            fresh = (
+                self._next_fresh
+                or ksp.getConvergedReason() < 0
+                or ksp.getIterationNumber() > petsc_options.REUSE_ITERATIONS
+            )
         if fresh:
             self.made += 1
             if self.made > 1:  # (SNES makes the first factors itself)

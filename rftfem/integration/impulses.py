@@ -112,8 +112,9 @@ def initial_acceleration(model, solver) -> None:
         pc.setFactorSolverType("mumps" if compat.has_mumps() else "petsc")
         ksp.solve(F, a)
         if ksp.getConvergedReason() < 0:
-            raise RuntimeError(f"the mass matrix could not be factorised (KSP reason "
-                               f"{ksp.getConvergedReason()})")
+            raise RuntimeError(
+                f"the mass matrix could not be factorised (KSP reason {ksp.getConvergedReason()})"
+            )
         a.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         with a.localForm() as local:
             model.a_n.x.array[:] = local.array[model.u_dofs]

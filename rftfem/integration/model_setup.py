@@ -15,8 +15,7 @@ from rftfem.outputs.writers import Probes
 from rftfem.scene import scales
 
 
-def build_model(scene: dict, comm, compile_forms: bool = True,
-                tangent: str | None = None) -> Model:
+def build_model(scene: dict, comm, compile_forms: bool = True, tangent: str | None = None) -> Model:
     """The scene's body (its hinge lines cut into strip meshes) and its Model, with
     the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
     from rftfem.meshes import build_body
@@ -57,7 +56,8 @@ class _CompilerChatter(logging.Filter):
     def filter(self, record):
         where = record.pathname.replace("\\", "/")
         return record.levelno >= logging.WARNING or not any(
-            part in where for part in ("/distutils/", "/setuptools/", "/cffi/"))
+            part in where for part in ("/distutils/", "/setuptools/", "/cffi/")
+        )
 
 
 def quiet_compilers():

@@ -10,8 +10,8 @@ from __future__ import annotations
 import time as _time
 from pathlib import Path
 
-from rftfem.outputs import checkpoint
 from rftfem.errors import SceneError
+from rftfem.outputs import checkpoint
 
 
 class Restarts:
@@ -22,14 +22,17 @@ class Restarts:
         path, meta = checkpoint.latest(folder, self.comm)
         differs = checkpoint.scene_difference(meta["scene"], self.scene)
         if differs:
-            raise SceneError(f"--restart {folder}: the scene differs from the checkpointed one "
-                             f"at {differs}")
+            raise SceneError(
+                f"--restart {folder}: the scene differs from the checkpointed one at {differs}"
+            )
         reached = meta["path"]["load_factor"] if meta.get("path") else meta["time"]
         if reached >= self.scene["time"]["end"] * (1 - 1e-12):
             what = "load factor" if meta.get("path") else "t"
-            raise SceneError(f"--restart {folder}: the checkpoint is at {what} = {reached:.6g}, "
-                             f"not before time.end = {self.scene['time']['end']:g}; raise "
-                             "time.end to go on")
+            raise SceneError(
+                f"--restart {folder}: the checkpoint is at {what} = {reached:.6g}, "
+                f"not before time.end = {self.scene['time']['end']:g}; raise "
+                "time.end to go on"
+            )
         return path, meta
 
     def _load_checkpoint(self):
@@ -49,8 +52,9 @@ class Restarts:
             self.path_direction = arrays.get("path_direction")
         self.counts.update(meta["counts"])
         self.wall_before = meta["wall_s"]
-        self.restarts = meta.get("restarts", []) + [{"time": self.t, "step": self.completed,
-                                                      "checkpoint": path.name}]
+        self.restarts = meta.get("restarts", []) + [
+            {"time": self.t, "step": self.completed, "checkpoint": path.name}
+        ]
 
     def _mesh_digest(self) -> str:
         """This process's mesh digest (checkpoint.py), computed once: the mesh never moves."""
@@ -69,21 +73,31 @@ class Restarts:
         arrays["forces"] = self.solver.F_n.array.copy()
         path = None
         if self.scheme.name == "arc-length":
-            path = {"load_factor": self.load_factor, "arc": self.arc,
-                    "first_arc": self.first_arc, "first_increment": self.first_increment}
+            path = {
+                "load_factor": self.load_factor,
+                "arc": self.arc,
+                "first_arc": self.first_arc,
+                "first_increment": self.first_increment,
+            }
             if self.path_direction is not None:
                 arrays["path_direction"] = self.path_direction
-        meta = {"path": path,"time": self.t, "step": self.completed, "counts": dict(self.counts),
-                "increment_steps": increment_steps,
-                "last_step": getattr(self.scheme, "dt_prev", None), "next_step": next_step,
-                "substep_level": self.level, "last_turn": self.last_turn,
-                "wall_s": self.wall_before + _time.perf_counter() - self._wall_start
-                + self.setup_time,
-                "restarts": self.restarts,
-                # a row at this time is an output row (else one an interrupt or a
-                # failure writes after it, which a restart drops)
-                "output_row": bool(self.history) and self.history[-1][0] == self.t,
-                "scene": {k: v for k, v in self.scene.items() if not k.startswith("_")},
-                "mesh_digest": self._mesh_digest()}
+        meta = {
+            "path": path,
+            "time": self.t,
+            "step": self.completed,
+            "counts": dict(self.counts),
+            "increment_steps": increment_steps,
+            "last_step": getattr(self.scheme, "dt_prev", None),
+            "next_step": next_step,
+            "substep_level": self.level,
+            "last_turn": self.last_turn,
+            "wall_s": self.wall_before + _time.perf_counter() - self._wall_start + self.setup_time,
+            "restarts": self.restarts,
+            # a row at this time is an output row (else one an interrupt or a
+            # failure writes after it, which a restart drops)
+            "output_row": bool(self.history) and self.history[-1][0] == self.t,
+            "scene": {k: v for k, v in self.scene.items() if not k.startswith("_")},
+            "mesh_digest": self._mesh_digest(),
+        }
         checkpoint.write(self.out_dir, self.completed, arrays, meta, self.comm)
         self.wall["checkpoint"] += _time.perf_counter() - t0

@@ -13,8 +13,14 @@ import numpy as np
 
 from rftfem import __version__, compat
 from rftfem.errors import SceneError
-from rftfem.outputs.writers import (CsvLog, FieldWriter, field_segments, keep_fields_until,
-                     keep_rows_until, merge_field_segment)
+from rftfem.outputs.writers import (
+    CsvLog,
+    FieldWriter,
+    field_segments,
+    keep_fields_until,
+    keep_rows_until,
+    merge_field_segment,
+)
 from rftfem.scene.time_rules import STATIC_SCHEMES
 
 
@@ -32,14 +38,18 @@ class RunOutputs:
         discretisation and cost (as ``rftfem check`` says them)."""
         scene, m = self.scene, self.model
         im = m.W.dofmap.index_map
-        lines = [f"rftfem {__version__}: {scene['title']} — effects: "
-                 f"{', '.join(m.active_effects())}; scheme {self.scheme.name}; "
-                 f"{im.size_global * m.W.dofmap.index_map_bs} dofs on {self.comm.size} "
-                 "process(es)"]
+        lines = [
+            f"rftfem {__version__}: {scene['title']} — effects: "
+            f"{', '.join(m.active_effects())}; scheme {self.scheme.name}; "
+            f"{im.size_global * m.W.dofmap.index_map_bs} dofs on {self.comm.size} "
+            "process(es)"
+        ]
         report = m.body.report
         if report is not None and report.turned:
-            lines.append(f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
-                         f"to face as their neighbours")
+            lines.append(
+                f"mesh: turned {report.turned} cell(s) of {scene['mesh']['file']} "
+                f"to face as their neighbours"
+            )
         if m.fluid is not None:
             lines += m.fluid.opening_lines()
         return lines
@@ -56,20 +66,27 @@ class RunOutputs:
         # static runs end their rows with the load factor (time itself under load
         # control; an arc-length run's time is the path's length)
         lf = ["load_factor"] if self.static_run else []
-        logs["probes"] = CsvLog(out / "probes.csv", ["time", *self.probes.header(), *lf],
-                                self.comm, append=again)
-        logs["steps"] = CsvLog(out / "steps.csv",
-                               ["time", "dt", "newton_its", "residual", "wall_s", *lf],
-                               self.comm, append=again)
-        logs["body"] = CsvLog(out / "body.csv", ["time", *self.body.header(), *lf], self.comm,
-                              append=again)
+        logs["probes"] = CsvLog(
+            out / "probes.csv", ["time", *self.probes.header(), *lf], self.comm, append=again
+        )
+        logs["steps"] = CsvLog(
+            out / "steps.csv",
+            ["time", "dt", "newton_its", "residual", "wall_s", *lf],
+            self.comm,
+            append=again,
+        )
+        logs["body"] = CsvLog(
+            out / "body.csv", ["time", *self.body.header(), *lf], self.comm, append=again
+        )
         if fields:
-            extra = {name: f for comp in self.model.components
-                     for name, f in comp.fields().items()}
+            extra = {name: f for comp in self.model.components for name, f in comp.fields().items()}
             main = out / "fields.xdmf"
             warn = getattr(self, "progress_warn", None)
-            logs["fields"] = (FieldWriter(self.model, segment, extra, main=main, warn=warn)
-                              if again else FieldWriter(self.model, main, extra, warn=warn))
+            logs["fields"] = (
+                FieldWriter(self.model, segment, extra, main=main, warn=warn)
+                if again
+                else FieldWriter(self.model, main, extra, warn=warn)
+            )
         return logs
 
     def _continue_outputs(self, fields: bool) -> Path | None:
@@ -99,8 +116,10 @@ class RunOutputs:
         if isinstance(rows, str):
             raise SceneError(rows)
         n = len(self.probes.names)
-        self.history = [(float(r[0]), np.array([float(v) for v in r[1:1 + 3 * n]]).reshape(n, 3))
-                        for r in rows]
+        self.history = [
+            (float(r[0]), np.array([float(v) for v in r[1 : 1 + 3 * n]]).reshape(n, 3))
+            for r in rows
+        ]
         return Path(segment) if segment else None
 
     @property
@@ -127,8 +146,11 @@ class RunOutputs:
 
     def _summary(self, status: str, wall_start: float | None = None) -> dict:
         scene = {k: v for k, v in self.scene.items() if not k.startswith("_")}
-        total = ((_time.perf_counter() - wall_start if wall_start else 0.0) + self.setup_time
-                 + self.wall_before)
+        total = (
+            (_time.perf_counter() - wall_start if wall_start else 0.0)
+            + self.setup_time
+            + self.wall_before
+        )
         timings = self.solver.timings
         return {
             "status": status,
@@ -141,19 +163,33 @@ class RunOutputs:
             "mpi_size": self.comm.size,
             "dofs": self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs,
             "time_reached": self.t,
-            **({"load_factor": self.load_factor if self.scheme.name == "arc-length" else self.t}
-               if self.static_run else {}),
+            **(
+                {"load_factor": self.load_factor if self.scheme.name == "arc-length" else self.t}
+                if self.static_run
+                else {}
+            ),
             "counts": dict(self.counts),
             **({"restarts": self.restarts} if self.restarts else {}),
-            **({"steady": self.steady.result} if self.steady is not None and self.steady.result
-               else {}),
-            "factorization": {"policy": self.solver.factors.policy,
-                              "made": self.solver.factors.made, "lu": self.solver.lu},
+            **(
+                {"steady": self.steady.result}
+                if self.steady is not None and self.steady.result
+                else {}
+            ),
+            "factorization": {
+                "policy": self.solver.factors.policy,
+                "made": self.solver.factors.made,
+                "lu": self.solver.lu,
+            },
             **({"fluid": self.model.fluid.describe()} if self.model.fluid is not None else {}),
             "director_unit_error": self.model.director_unit_error(),
             **({"time_error": self._time_error_summary()} if self.time_errors else {}),
-            "wall_s": {"setup": self.setup_time, "compile": self.model.timings["compile"],
-                       "assembly": self.solver.assembly_time,
-                       "solve": timings["solve"], "output": self.wall["output"],
-                       "checkpoint": self.wall["checkpoint"], "total": total},
+            "wall_s": {
+                "setup": self.setup_time,
+                "compile": self.model.timings["compile"],
+                "assembly": self.solver.assembly_time,
+                "solve": timings["solve"],
+                "output": self.wall["output"],
+                "checkpoint": self.wall["checkpoint"],
+                "total": total,
+            },
         }

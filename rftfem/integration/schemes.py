@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
-
 @dataclass(frozen=True)
 class Coefficients:
     cv: float = 0.0
@@ -112,7 +111,7 @@ class BDF2(Scheme):
     name = "bdf2"
     has_velocity = True
     order = 2
-    error_fraction = 2 / 11    # C = −2/9
+    error_fraction = 2 / 11  # C = −2/9
 
     def __init__(self):
         #: the last accepted step (None before the first)
@@ -142,7 +141,7 @@ class GeneralizedAlpha(Scheme):
     has_inertia = True
     has_velocity = True
     order = 2
-    error_fraction = 1 / 11    # C = 1/12 of the trapezoidal rule (ρ∞ = 1)
+    error_fraction = 1 / 11  # C = 1/12 of the trapezoidal rule (ρ∞ = 1)
 
     def __init__(self, rho_inf: float = 0.9):
         r = float(rho_inf)
@@ -167,10 +166,17 @@ class GeneralizedAlpha(Scheme):
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
         am = self.alpha_m
         # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
-        return Coefficients(cv=v_u, cv_v=v_v, cv_a=v_a,
-                            ca=(1 - am) * a_u, ca_v=(1 - am) * a_v,
-                            ca_a=(1 - am) * a_a + am, alpha_f=self.alpha_f, alpha_m=am,
-                            dt=dt)
+        return Coefficients(
+            cv=v_u,
+            cv_v=v_v,
+            cv_a=v_a,
+            ca=(1 - am) * a_u,
+            ca_v=(1 - am) * a_v,
+            ca_a=(1 - am) * a_a + am,
+            alpha_f=self.alpha_f,
+            alpha_m=am,
+            dt=dt,
+        )
 
     def update(self, du, v_n, a_n, dt):
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
@@ -186,7 +192,7 @@ class HHT(GeneralizedAlpha):
     def __init__(self, alpha: float = -0.05):
         self.alpha_m = 0.0
         self.alpha_f = -float(alpha)
-        self._set_newmark()       # γ = ½ + α_f, β = ¼(1 + α_f)²
+        self._set_newmark()  # γ = ½ + α_f, β = ¼(1 + α_f)²
 
 
 def make_scheme(time_section: dict) -> Scheme:

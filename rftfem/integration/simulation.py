@@ -27,26 +27,24 @@ import numpy as np
 from mpi4py import MPI
 
 from rftfem import petsc_options
-from rftfem.scene import scales
+from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.arclength import PathFollowing
 from rftfem.integration.error_control import ErrorControl
-from rftfem.errors import RunFailed, RunInterrupted, SceneError
 from rftfem.integration.interrupts import NoStops, StopRequests
-from rftfem.integration.step_watch import StepWatch
-from rftfem.model.effects.base import NonlocalEffect
-from rftfem.outputs.progress import Progress, render_in_child
-from rftfem.outputs.writers import BodyLog, Probes, write_json
-from rftfem.model.reactions import Reactions
+from rftfem.integration.model_setup import build_model, quiet_compilers
 from rftfem.integration.restart import Restarts
 from rftfem.integration.run_outputs import RunOutputs
+from rftfem.integration.schemes import make_scheme
 from rftfem.integration.solver import StepSolver
 from rftfem.integration.steady import SteadyWatch
-from rftfem.scene.time_rules import scene_period as steady_period
 from rftfem.integration.step_control import StepControl
-from rftfem.integration.schemes import make_scheme
-from rftfem.integration.model_setup import build_model, quiet_compilers
-
-
+from rftfem.integration.step_watch import StepWatch
+from rftfem.model.effects.base import NonlocalEffect
+from rftfem.model.reactions import Reactions
+from rftfem.outputs.progress import Progress, render_in_child
+from rftfem.outputs.writers import BodyLog, Probes, write_json
+from rftfem.scene import scales
+from rftfem.scene.time_rules import scene_period as steady_period
 
 
 def _make_out_dir(out: Path | None, comm):
@@ -59,7 +57,9 @@ def _make_out_dir(out: Path | None, comm):
         try:
             out.mkdir(parents=True, exist_ok=True)
         except FileExistsError:
-            error = f"--out {out}: expected a folder (or a path where one can be made), found a file"
+            error = (
+                f"--out {out}: expected a folder (or a path where one can be made), found a file"
+            )
         except OSError as exc:
             error = f"--out {out}: cannot make this folder ({exc.strerror or exc})"
     error = comm.bcast(error, root=0)
@@ -79,19 +79,33 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
     length (arclength.py), outputs and the summary
     (run_outputs.py), checkpoints and restart (restart.py)."""
 
-    def __init__(self, scene: dict, out_dir: Path | None = None, quiet: bool = False,
-                 petsc_args: list[str] | None = None, comm=None, observers=(),
-                 signals: bool = False, restart: Path | None = None, warn=None):
+    def __init__(
+        self,
+        scene: dict,
+        out_dir: Path | None = None,
+        quiet: bool = False,
+        petsc_args: list[str] | None = None,
+        comm=None,
+        observers=(),
+        signals: bool = False,
+        restart: Path | None = None,
+        warn=None,
+    ):
         self.scene = scene
         #: a quiet run's warnings go here (a callable of the text) instead of stderr
         self.warn = warn
         self.comm = comm or MPI.COMM_WORLD
         self.stops = StopRequests(self.comm) if signals else NoStops()
         if restart is not None and out_dir is not None and Path(out_dir) != Path(restart):
-            raise SceneError(f"--out {out_dir}: a restart appends to the folder it continues "
-                             f"({restart}); leave --out out or give that folder")
-        self.out_dir = Path(restart if restart is not None else out_dir) \
-            if (restart or out_dir) is not None else None
+            raise SceneError(
+                f"--out {out_dir}: a restart appends to the folder it continues "
+                f"({restart}); leave --out out or give that folder"
+            )
+        self.out_dir = (
+            Path(restart if restart is not None else out_dir)
+            if (restart or out_dir) is not None
+            else None
+        )
         #: (checkpoint folder, its meta) a restart goes on from, checked before the set-up
         self.resume = self._checked_checkpoint(restart) if restart is not None else None
         _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
@@ -100,8 +114,9 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         quiet_compilers()
         t0 = _time.perf_counter()
         with _compile_notice(quiet or self.comm.rank != 0):
-            self.model = build_model(scene, self.comm,
-                                     tangent=petsc_options.tangent(scene.get("solver"), petsc_args))
+            self.model = build_model(
+                scene, self.comm, tangent=petsc_options.tangent(scene.get("solver"), petsc_args)
+            )
         self.probes = Probes(self.model, scene.get("output", {}).get("probes", []))
         self.scheme = make_scheme(scene["time"])
         # time steps start Newton's tangent on the converged stress resultants; static
@@ -112,13 +127,16 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         factorization = petsc_options.factorization(solver, petsc_args, unknowns)
         lu = petsc_options.lu_package(unknowns, self.comm.size)
         nonlocal_tangent = any(isinstance(c, NonlocalEffect) for c in self.model.components)
-        self.options = petsc_options.merged(self.model.reference_force(), solver, petsc_args,
-                                            factorization, lu, nonlocal_tangent)
+        self.options = petsc_options.merged(
+            self.model.reference_force(), solver, petsc_args, factorization, lu, nonlocal_tangent
+        )
         # rftfem's choice of PETSc's LU falls back on MUMPS; a user's is kept
         fallback = lu == "petsc" and not petsc_options.user_sets(
-            "pc_factor_mat_solver_type", solver, petsc_args)
-        self.solver = StepSolver(self.model, self.options, factorization,
-                                 lu_fallback="mumps" if fallback else None)
+            "pc_factor_mat_solver_type", solver, petsc_args
+        )
+        self.solver = StepSolver(
+            self.model, self.options, factorization, lu_fallback="mumps" if fallback else None
+        )
         #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
         self.reactions = Reactions(self.model)
         self.body = BodyLog(self.model, self.reactions)
@@ -126,8 +144,11 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         #: output rows (time, probes, body) it reads
         self.steady = None
         if scene["time"].get("until", "end") == "periodic":
-            self.steady = SteadyWatch(steady_period(scene), scene["time"]["steady_tolerance"],
-                                      self.probes.header() + self.body.header())
+            self.steady = SteadyWatch(
+                steady_period(scene),
+                scene["time"]["steady_tolerance"],
+                self.probes.header() + self.body.header(),
+            )
         self.rows = []
         self.setup_time = _time.perf_counter() - t0
         self.t = 0.0
@@ -192,8 +213,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             if self.steady is not None and not self.steady.result:
                 self.steady.result = {"reached": False}
             if self.steady is not None and not self.steady.result["reached"]:
-                progress.warn(f'time.until = "periodic": not steady to '
-                              f"{time_['steady_tolerance']:g} by time.end = {time_['end']:g}")
+                progress.warn(
+                    f'time.until = "periodic": not steady to '
+                    f"{time_['steady_tolerance']:g} by time.end = {time_['end']:g}"
+                )
             summary = self._summary("ok", wall_start)
             self._warn_time_error(progress)
         except RunFailed as err:
@@ -209,33 +232,45 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         finally:
             self._close_run(logs, progress, summary)
         c = self.counts
-        progress.final(f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
-                       f"{c['dt_cuts']} dt cuts"
-                       + (f", {c['rejected_steps']} steps rejected "
-                          + ("for turning the path too far" if path else "by the error control")
-                          if c["rejected_steps"] else "")
-                       + f", {summary['wall_s']['total']:.1f} s"
-                       + (f"; outputs in {out}" if out is not None else ""))
+        progress.final(
+            f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
+            f"{c['dt_cuts']} dt cuts"
+            + (
+                f", {c['rejected_steps']} steps rejected "
+                + ("for turning the path too far" if path else "by the error control")
+                if c["rejected_steps"]
+                else ""
+            )
+            + f", {summary['wall_s']['total']:.1f} s"
+            + (f"; outputs in {out}" if out is not None else "")
+        )
         return summary
 
     def _open_progress(self, path: bool) -> Progress:
         """The progress line, the watch of slow steps, the opening lines and warnings."""
-        progress = Progress(self.scene["time"]["end"], self.comm, self.quiet,
-                            label="load factor" if path else "t", warn=self.warn)
+        progress = Progress(
+            self.scene["time"]["end"],
+            self.comm,
+            self.quiet,
+            label="load factor" if path else "t",
+            warn=self.warn,
+        )
         self.progress_warn = progress.warn
         StepWatch(self.stops, self.comm, progress).attach(self.solver)
         for line in self._opening_lines():
             progress.log(line)
         for line in scales.aliasing_warnings(self.scene) + [
-                line for comp in self.model.components for line in comp.warnings()]:
+            line for comp in self.model.components for line in comp.warnings()
+        ]:
             progress.warn("warning: " + line)
         return progress
 
     def _start(self, logs: dict, progress: Progress):
         """The state at t = 0 and its output row, or the checkpoint a restart goes on from."""
         if self.resume is not None:
-            progress.log(f"restarted at t = {self.t:.6g} (step {self.completed}) from "
-                         f"{self.resume[0]}")
+            progress.log(
+                f"restarted at t = {self.t:.6g} (step {self.completed}) from {self.resume[0]}"
+            )
             return
         self._initial_equilibrium()
         compiled = self.model.timings["compile"]
@@ -251,12 +286,15 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         time_ = self.scene["time"]
         n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
         for self.step in range(self.completed + 1, n_steps + 1):
-            self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"),
-                          progress)
+            self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"), progress)
             if self.step % time_["output_every"] == 0 or self.step == n_steps:
                 self._write_output(logs, self.t)
-            progress.update(self.t, self.step, self.counts["newton_iterations"],
-                            self.solver.snes.getFunctionNorm())
+            progress.update(
+                self.t,
+                self.step,
+                self.counts["newton_iterations"],
+                self.solver.snes.getFunctionNorm(),
+            )
             self.completed = self.step
             steady = self._steady_after_step(progress)
             last = steady or self.step == n_steps
@@ -268,15 +306,23 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
     def _interrupted(self, exc: BaseException, logs: dict, wall_start: float):
         """The interrupt (a signal; a second one may surface inside a PETSc callback as
         another error) and the summary of a run it stopped."""
-        err = exc if isinstance(exc, RunInterrupted) else RunInterrupted(
-            self.stops.signum, immediate=True)
+        err = (
+            exc
+            if isinstance(exc, RunInterrupted)
+            else RunInterrupted(self.stops.signum, immediate=True)
+        )
         if err.time is None:  # stopped inside a step: where the last one ended
             err.time, err.step = self.t, self.completed
         if err.dropped:  # a slow step dropped: the last completed step's row
             self._last_row(logs)
         summary = self._summary("interrupted", wall_start)
-        summary["interrupt"] = {"signal": err.signal_name, "time": err.time, "step": err.step,
-                                "immediate": err.immediate, "dropped_step": err.dropped}
+        summary["interrupt"] = {
+            "signal": err.signal_name,
+            "time": err.time,
+            "step": err.step,
+            "immediate": err.immediate,
+            "dropped_step": err.dropped,
+        }
         return err, summary
 
     def _close_run(self, logs: dict, progress: Progress, summary: dict):
@@ -306,8 +352,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             return False
         steady = watch.add_period(rows[:, 0], rows[:, 1:])
         if steady:
-            progress.log(f"steady after {len(watch.means)} periods (t = {self.t:.6g}): "
-                         f"extrapolated values agree to {watch.tolerance:g}")
+            progress.log(
+                f"steady after {len(watch.means)} periods (t = {self.t:.6g}): "
+                f"extrapolated values agree to {watch.tolerance:g}"
+            )
         self.rows = [r for r in self.rows if r[0] >= self.t - watch.period * 1e-9]
         return steady
 
@@ -316,15 +364,22 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         self.model.destroy()
 
 
-def run(scene: dict, out_dir: Path | None = None, quiet: bool = False,
-        petsc_args: list[str] | None = None, comm=None, observers=(),
-        signals: bool = False, restart: Path | None = None, warn=None) -> dict:
+def run(
+    scene: dict,
+    out_dir: Path | None = None,
+    quiet: bool = False,
+    petsc_args: list[str] | None = None,
+    comm=None,
+    observers=(),
+    signals: bool = False,
+    restart: Path | None = None,
+    warn=None,
+) -> dict:
     """Run a validated scene; write outputs to ``out_dir``; return the summary.  With
     ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py);
     with ``restart``, go on from the last checkpoint in that folder (checkpoint.py);
     ``warn``: where a quiet run's warnings go instead of stderr."""
-    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals, restart,
-                     warn)
+    sim = Simulation(scene, out_dir, quiet, petsc_args, comm, observers, signals, restart, warn)
     try:
         return sim.run()
     finally:
@@ -349,8 +404,10 @@ def _compile_notice(quiet: bool):
     if quiet:
         yield
         return
-    timer = threading.Timer(COMPILE_NOTICE_AFTER, lambda: print(
-        "compiling forms for this scene's effects (once; about 20-50 s)", flush=True))
+    timer = threading.Timer(
+        COMPILE_NOTICE_AFTER,
+        lambda: print("compiling forms for this scene's effects (once; about 20-50 s)", flush=True),
+    )
     timer.daemon = True
     timer.start()
     try:

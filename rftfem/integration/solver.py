@@ -20,8 +20,8 @@ import time as _time
 from petsc4py import PETSc
 
 from rftfem import compat, petsc_options
-from rftfem.integration import coupled
 from rftfem.errors import SceneError
+from rftfem.integration import coupled
 from rftfem.integration.convergence import NewtonTest
 from rftfem.integration.factorization import Factorization
 from rftfem.model.effects.base import LimitsNewtonStep
@@ -37,8 +37,13 @@ class StepSolver(NewtonTest):
     """Newton solve of one step's residual with PETSc SNES (its convergence test:
     :class:`~rftfem.integration.convergence.NewtonTest`)."""
 
-    def __init__(self, model, options: dict, factorization: str = "every-iteration",
-                 lu_fallback: str | None = None):
+    def __init__(
+        self,
+        model,
+        options: dict,
+        factorization: str = "every-iteration",
+        lu_fallback: str | None = None,
+    ):
         self.model = model
         self.options = options
         #: the LU package a failed solve is made again with (then kept), or None
@@ -46,9 +51,9 @@ class StepSolver(NewtonTest):
         #: when the tangent is factorised (factorization.py)
         self.factors = Factorization(factorization)
         W = model.W
-        self.F = compat.create_vector(model.forces_form, W)    # F(w), assembled
+        self.F = compat.create_vector(model.forces_form, W)  # F(w), assembled
         self.F_n = compat.create_vector(model.forces_form, W)  # F of the last step
-        self.b = compat.create_vector(model.forces_form, W)    # the residual
+        self.b = compat.create_vector(model.forces_form, W)  # the residual
         self.work = compat.create_vector(model.forces_form, W)
         self.x = compat.create_vector(model.forces_form, W)
         self.A = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(options))
@@ -68,8 +73,7 @@ class StepSolver(NewtonTest):
         self.snes = PETSc.SNES().create(model.comm)
         self.snes.setOptionsPrefix(petsc_options.PREFIX)
         self.snes.setFunction(self._residual, self.b)
-        self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A,
-                              self.A)
+        self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A, self.A)
         self.snes.setConvergenceTest(self._converged)
         #: effects that shorten a Newton update (contact: keeps the lower face off the
         #: far side of its barrier, docs/contact.md §3)
@@ -91,8 +95,10 @@ class StepSolver(NewtonTest):
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
         except PETSc.Error as exc:
-            raise SceneError(f"solver: PETSc rejected an option of [solver] or the command "
-                             f"line: {petsc_options.petsc_message(exc)}") from None
+            raise SceneError(
+                f"solver: PETSc rejected an option of [solver] or the command "
+                f"line: {petsc_options.petsc_message(exc)}"
+            ) from None
         if self._step_limits:  # after setFromOptions, which makes the line search anew
             self.snes.setLineSearchPreCheck(self._limit_update)
         self.watch = None  # a slow step's reports and stops (step_watch.StepWatch.attach)
@@ -100,9 +106,18 @@ class StepSolver(NewtonTest):
 
     def destroy(self):
         petsc_options.clear(self.options)
-        for obj in (self.snes, self.F, self.F_n, self.b, self.work, self.x, self.A,
-                    self.coupled.J if self.coupled is not None else None,
-                    self._x_of_F, self._start):
+        for obj in (
+            self.snes,
+            self.F,
+            self.F_n,
+            self.b,
+            self.work,
+            self.x,
+            self.A,
+            self.coupled.J if self.coupled is not None else None,
+            self._x_of_F,
+            self._start,
+        ):
             if obj is not None:
                 obj.destroy()
 
@@ -299,9 +314,16 @@ class StepSolver(NewtonTest):
             return False, its, norm, self.divergence
         if name in compat.SNES_NOT_FINITE:
             # PETSc keeps the last finite norm (0 before the first): say what it was
-            return False, its, math.nan, (f"the residual is not finite ({name}): a load, motion "
-                                          "or coefficient too large for double precision, or "
-                                          "a state that left the physical range")
+            return (
+                False,
+                its,
+                math.nan,
+                (
+                    f"the residual is not finite ({name}): a load, motion "
+                    "or coefficient too large for double precision, or "
+                    "a state that left the physical range"
+                ),
+            )
         return reason > 0, its, norm, name
 
     def _again(self, reason: int) -> bool | None:
@@ -318,8 +340,11 @@ class StepSolver(NewtonTest):
             if petsc_options.grow_factor_workspace(ksp, self.options):
                 return False
         pc = ksp.getPC()
-        if (reason <= 0 or self.divergence is not None) and self.lu_fallback \
-                and pc.getType() == "lu":
+        if (
+            (reason <= 0 or self.divergence is not None)
+            and self.lu_fallback
+            and pc.getType() == "lu"
+        ):
             pc.reset()  # (the package cannot change under existing factors)
             pc.setFactorSolverType(self.lu_fallback)
             self.options["pc_factor_mat_solver_type"] = self.lu_fallback
@@ -397,4 +422,3 @@ class StepSolver(NewtonTest):
                 self.F.copy(self.F_n)
                 return
         self.assemble_forces(self.F_n)
-

@@ -104,7 +104,7 @@ def shanks(v: np.ndarray) -> np.ndarray:
             eps = v[-5:, j].astype(float)
             for _ in range(4):  # ε_1 … ε_4 of the five terms
                 diff = np.diff(eps)
-                nxt = eps_prev[1:len(eps)] + 1.0 / diff
+                nxt = eps_prev[1 : len(eps)] + 1.0 / diff
                 eps_prev, eps = eps, nxt
             e2 = eps[0]
             bound = max(abs(v[-1, j] - v[-5, j]), abs(out[j] - v[-1, j]))
@@ -116,8 +116,7 @@ def shanks(v: np.ndarray) -> np.ndarray:
 class SteadyWatch:
     """Period by period, the watched values of the output columns and the test."""
 
-    def __init__(self, period: float, tolerance: float, columns: list[str],
-                 method: str = "shanks"):
+    def __init__(self, period: float, tolerance: float, columns: list[str], method: str = "shanks"):
         """``method``: "shanks" (rftfem's), "aitken", or "none" (the watched values
         themselves: the transient run out), the last two for benchmarks/steady_state.py."""
         self.period, self.tolerance, self.columns = period, tolerance, columns
@@ -139,8 +138,11 @@ class SteadyWatch:
         means = np.array(self.means)
         watched = np.where(self.position, np.diff(means, axis=0, prepend=np.nan), means)
         if len(means) >= 3:
-            extrapolate = {"shanks": shanks, "aitken": lambda v: aitken(v[-3:]),
-                           "none": lambda v: v[-1]}[self.method]
+            extrapolate = {
+                "shanks": shanks,
+                "aitken": lambda v: aitken(v[-3:]),
+                "none": lambda v: v[-1],
+            }[self.method]
             self.estimates.append(extrapolate(watched[-5:]))
         if len(means) < MIN_PERIODS or len(self.estimates) < 2:
             return False
@@ -164,8 +166,9 @@ class SteadyWatch:
         energies, with the drag power times the period; each other column alone):
         below it a column is round-off about zero."""
         groups = [group_of(c) for c in self.columns]
-        factor = np.array([self.period if c in ("drag_power", "fluid_power") else 1.0
-                           for c in self.columns])
+        factor = np.array(
+            [self.period if c in ("drag_power", "fluid_power") else 1.0 for c in self.columns]
+        )
         sized = size * factor
         out = np.empty_like(size)
         for g in set(groups):
@@ -180,6 +183,12 @@ class SteadyWatch:
             factor = 1 / self.period if pos else 1.0
             out[key] = float(v * factor) if math.isfinite(v) else float(w * factor)
             err[key] = float(e * factor) if math.isfinite(e) else None
-        self.result = {"reached": steady, "period": self.period, "periods": len(self.means),
-                       "tolerance": self.tolerance, "method": self.method,
-                       "values": out, "estimated_errors": err}
+        self.result = {
+            "reached": steady,
+            "period": self.period,
+            "periods": len(self.means),
+            "tolerance": self.tolerance,
+            "method": self.method,
+            "values": out,
+            "estimated_errors": err,
+        }

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 import time as _time
 
-from rftfem.integration import impulses
 from rftfem.errors import RunFailed, RunInterrupted
+from rftfem.integration import impulses
 from rftfem.integration.schemes import BackwardEuler, Static
 
 #: static load steps: the most a sub-step should turn a director (rad).  A converged
@@ -33,8 +33,9 @@ LIMIT_POINT_STIFFNESS = 0.1
 class StepControl:
     """Step methods of a Simulation."""
 
-    def _attempt(self, t_new: float, dt: float, scheme, limit_rotation: bool = True,
-                 error_check=None):
+    def _attempt(
+        self, t_new: float, dt: float, scheme, limit_rotation: bool = True, error_check=None
+    ):
         m = self.model
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
@@ -77,8 +78,10 @@ class StepControl:
             # step reached beyond what Newton can take
             self.overreach = self.solver.turns[0] / limit
         if ok and limit_rotation and scheme.has_velocity and self.last_turn > limit:
-            ok, reason = False, (f"a director turned {self.last_turn:.3g} rad > "
-                                 f"time.max_rotation = {limit:g}")
+            ok, reason = (
+                False,
+                (f"a director turned {self.last_turn:.3g} rad > time.max_rotation = {limit:g}"),
+            )
             self.overreach = self.last_turn / limit
         self.rejected = False
         if ok and error_check is not None:
@@ -128,8 +131,10 @@ class StepControl:
         """What to change when a step is not resolved and nothing holds the body: without
         mass either its stiffness is singular for every step size."""
         if self._free() and self.model.inertia_form is None:
-            return ("; nothing holds this body: without a [[boundary]], a [[motion]], a "
-                    "[fluid] or mass its rigid motions are free and every step is singular")
+            return (
+                "; nothing holds this body: without a [[boundary]], a [[motion]], a "
+                "[fluid] or mass its rigid motions are free and every step is singular"
+            )
         return ""
 
     def _initial_equilibrium(self):
@@ -165,10 +170,19 @@ class StepControl:
             m.loads_on = True
         if not ok:
             what = "the t = 0 loads and motions" if loaded else "the t = 0 motions"
-            hint = ("; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
-                    "no load may be on at t = 0" if self._free() and loaded else "")
-            raise RunFailed(f"no static equilibrium with {what} ({reason})" + hint
-                            + (self._ramp_hint() if loaded else ""), 0.0, 0)
+            hint = (
+                "; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
+                "no load may be on at t = 0"
+                if self._free() and loaded
+                else ""
+            )
+            raise RunFailed(
+                f"no static equilibrium with {what} ({reason})"
+                + hint
+                + (self._ramp_hint() if loaded else ""),
+                0.0,
+                0,
+            )
         m.v_n.x.array[:] = 0.0
         m.a_n.x.array[:] = 0.0
         m.increments = []  # reaching t = 0 is no rate to go on at
@@ -234,10 +248,12 @@ class StepControl:
         stiffness = along / first if along is not None else None
         if stiffness is None or stiffness >= LIMIT_POINT_STIFFNESS:
             return ""
-        return (f"; a limit point: the loads stall at t = {self.t:.6g} and the tangent's "
-                f"stiffness along the last step fell to {stiffness:.2g} of the first's, so "
-                f"load control cannot go on; follow the path past it with time.scheme = "
-                f'"arc-length"')
+        return (
+            f"; a limit point: the loads stall at t = {self.t:.6g} and the tangent's "
+            f"stiffness along the last step fell to {stiffness:.2g} of the first's, so "
+            f"load control cannot go on; follow the path past it with time.scheme = "
+            f'"arc-length"'
+        )
 
     def _ramp_hint(self) -> str:
         """For a run that failed in static equilibrium: the loads already on at t = 0,
@@ -245,9 +261,11 @@ class StepControl:
         keys = self.model.loads_at_start()
         if not keys:
             return ""
-        return (f"; {', '.join(keys)} {'is' if len(keys) == 1 else 'are'} already on at "
-                f"t = 0: ramp {'it' if len(keys) == 1 else 'them'} from 0 with t (ramp = "
-                '"linear", or a table or field that starts at 0)')
+        return (
+            f"; {', '.join(keys)} {'is' if len(keys) == 1 else 'are'} already on at "
+            f"t = 0: ramp {'it' if len(keys) == 1 else 'them'} from 0 with t (ramp = "
+            '"linear", or a table or field that starts at 0)'
+        )
 
     def _after_step(self, progress):
         """Each component's look at the accepted state (``after_step``): a state it
@@ -284,34 +302,47 @@ class StepControl:
                 if not self.scheme.has_velocity:
                     self._path_stiffness(dt)
                 if steps_log is not None:
-                    steps_log.row([self.t, dt, its, res, _time.perf_counter() - wall0]
-                                  + ([self.t] if self.static_run else []))
+                    steps_log.row(
+                        [self.t, dt, its, res, _time.perf_counter() - wall0]
+                        + ([self.t] if self.static_run else [])
+                    )
                 for f in self.observers:
                     f(self)
                 self._after_step(progress)
                 good += 1
-                if not self.scheme.has_velocity and self.last_turn > STATIC_TURN \
-                        and level < max_cuts:
+                if (
+                    not self.scheme.has_velocity
+                    and self.last_turn > STATIC_TURN
+                    and level < max_cuts
+                ):
                     # a load step that turned too far: the next ones shorter (no failure)
-                    halvings = min(MOST_HALVINGS, max_cuts - level,
-                                   math.ceil(math.log2(self.last_turn / STATIC_TURN)))
+                    halvings = min(
+                        MOST_HALVINGS,
+                        max_cuts - level,
+                        math.ceil(math.log2(self.last_turn / STATIC_TURN)),
+                    )
                     dt, level, good = dt / 2**halvings, level + halvings, 0
                 elif level > 0 and good >= 2 and self._may_double(self.scheme):
                     dt, level, good = 2 * dt, level - 1, 0
                 continue
             if level >= max_cuts:
-                raise RunFailed(f"step not resolved ({reason}, {its} Newton iterations, residual "
-                                f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
-                                f"dt = {dt:.3e}" + self._unresolved_hint()
-                                + self._limit_point_hint()
-                                + ("" if self.scheme.has_velocity else self._ramp_hint()),
-                                self.t + dt, self.step)
+                raise RunFailed(
+                    f"step not resolved ({reason}, {its} Newton iterations, residual "
+                    f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
+                    f"dt = {dt:.3e}"
+                    + self._unresolved_hint()
+                    + self._limit_point_hint()
+                    + ("" if self.scheme.has_velocity else self._ramp_hint()),
+                    self.t + dt,
+                    self.step,
+                )
             halvings = min(self._halvings(), max_cuts - level)
             self.counts["dt_cuts"] += 1
             level, good = level + halvings, 0
             dt /= 2**halvings
-            progress.log(f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
-                         f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)"
-                                                          if halvings > 1 else ""))
+            progress.log(
+                f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
+                f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)" if halvings > 1 else "")
+            )
         self.level = level
         self.t = t_end  # exact nominal time, free of round-off from the sub-steps

@@ -95,8 +95,13 @@ class StepWatch:
         progress = self.progress
         if progress is not None and now - self.last_line >= progress.interval:
             self.last_line = now
-            krylov = ("" if krylov_residual is None else
-                      f", Krylov iteration {self.krylov_its} (residual {krylov_residual:.3e})")
-            progress.log(f"  step {self.step} towards t = {self.t:.6g}: {elapsed:.0f} s in, "
-                         f"Newton update {self.newton_its + 1} (residual {self.residual:.3e})"
-                         f"{krylov}")
+            krylov = (
+                ""
+                if krylov_residual is None
+                else f", Krylov iteration {self.krylov_its} (residual {krylov_residual:.3e})"
+            )
+            progress.log(
+                f"  step {self.step} towards t = {self.t:.6g}: {elapsed:.0f} s in, "
+                f"Newton update {self.newton_its + 1} (residual {self.residual:.3e})"
+                f"{krylov}"
+            )

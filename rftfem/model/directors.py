@@ -59,8 +59,9 @@ def _coefficients(s: np.ndarray):
     return c, f, f1, f2
 
 
-def nodal_directors(q: np.ndarray, a1: np.ndarray, a2: np.ndarray, dn: np.ndarray,
-                    derivatives: bool = False):
+def nodal_directors(
+    q: np.ndarray, a1: np.ndarray, a2: np.ndarray, dn: np.ndarray, derivatives: bool = False
+):
     """The directors ``d_I`` (rows) of the rotation components ``q`` (n, 2) in the
     nodal bases ``a1, a2`` about the last directors ``dn`` (each (n, 3)); with
     ``derivatives``, also ``B = ∂d/∂q`` (n, 3, 2)."""
@@ -74,8 +75,11 @@ def nodal_directors(q: np.ndarray, a1: np.ndarray, a2: np.ndarray, dn: np.ndarra
     B = np.empty((len(q), 3, 2))
     for alpha, a in enumerate((a1, a2)):
         t_a = np.sum(theta * a, axis=1)  # ∂s/∂q_α = 2 θ·a_α
-        B[:, :, alpha] = (2 * t_a * (-f / 2))[:, None] * dn + (2 * t_a * f1)[:, None] * cross \
+        B[:, :, alpha] = (
+            (2 * t_a * (-f / 2))[:, None] * dn
+            + (2 * t_a * f1)[:, None] * cross
             + f[:, None] * np.cross(a, dn)
+        )
     return d, B
 
 
@@ -95,9 +99,11 @@ def director_curvature(q, a1, a2, dn, r) -> np.ndarray:
         for be in range(2):
             ab = np.sum(basis[al] * basis[be], axis=1)
             # d = c(s) dn + f(s) θ×dn, s = θ·θ, ∂s/∂q_α = 2 t_α, ∂²s = 2 (a_α·a_β)
-            G[:, al, be] = (r_dn * (-f1 / 2 * 4 * t[al] * t[be] + (-f / 2) * 2 * ab)
-                            + r_x * (f2 * 4 * t[al] * t[be] + f1 * 2 * ab)
-                            + 2 * f1 * (t[be] * r_ax[al] + t[al] * r_ax[be]))
+            G[:, al, be] = (
+                r_dn * (-f1 / 2 * 4 * t[al] * t[be] + (-f / 2) * 2 * ab)
+                + r_x * (f2 * 4 * t[al] * t[be] + f1 * 2 * ab)
+                + 2 * f1 * (t[be] * r_ax[al] + t[al] * r_ax[be])
+            )
     return G
 
 
@@ -122,8 +128,10 @@ class DirectorMap:
         self.Z = compat.function_space(m.mesh, "Lagrange", 2, (self.bz,))
         self.z = fem.Function(self.Z, name="z")
         im = m.W.dofmap.index_map
-        if (self.Z.dofmap.index_map.size_local != im.size_local
-                or self.Z.dofmap.index_map.num_ghosts != im.num_ghosts):
+        if (
+            self.Z.dofmap.index_map.size_local != im.size_local
+            or self.Z.dofmap.index_map.num_ghosts != im.num_ghosts
+        ):
             raise RuntimeError("the directors' nodes are not numbered as the unknowns'")
         self.nodes, self.owned = im.size_local + im.num_ghosts, im.size_local
         n = np.arange(self.nodes)
@@ -140,13 +148,17 @@ class DirectorMap:
         counts = np.array([len(p) for p in pattern])
         local_cols = np.concatenate(pattern)
         self._P_indptr = np.concatenate([[0], np.cumsum(np.tile(counts, self.owned))]).astype(
-            PETSc.IntType)
+            PETSc.IntType
+        )
         self._P_cols = (self.bw * g[:, None] + local_cols[None, :]).ravel().astype(PETSc.IntType)
         size_z = (self.owned * self.bz, PETSc.DETERMINE)
         size_w = (self.owned * self.bw, PETSc.DETERMINE)
-        self.P = PETSc.Mat().createAIJ((size_z, size_w), bsize=(self.bz, self.bw), comm=m.comm,
-                                       csr=(self._P_indptr, self._P_cols,
-                                            np.zeros(len(self._P_cols))))
+        self.P = PETSc.Mat().createAIJ(
+            (size_z, size_w),
+            bsize=(self.bz, self.bw),
+            comm=m.comm,
+            csr=(self._P_indptr, self._P_cols, np.zeros(len(self._P_cols))),
+        )
         self.P.assemble()
         self._P_values = np.zeros(len(self._P_cols))
         # the u rows: value 1, always
@@ -156,12 +168,15 @@ class DirectorMap:
         g_counts = np.zeros(self.bw, dtype=np.int64)
         g_counts[3:] = 2
         self._G_indptr = np.concatenate([[0], np.cumsum(np.tile(g_counts, self.owned))]).astype(
-            PETSc.IntType)
+            PETSc.IntType
+        )
         pair_cols = np.concatenate([[3 + 2 * k, 4 + 2 * k] * 2 for k in range(c)])
         self._G_cols = (self.bw * g[:, None] + pair_cols[None, :]).ravel().astype(PETSc.IntType)
-        self.G = PETSc.Mat().createAIJ((size_w, size_w), comm=m.comm,
-                                       csr=(self._G_indptr, self._G_cols,
-                                            np.zeros(len(self._G_cols))))
+        self.G = PETSc.Mat().createAIJ(
+            (size_w, size_w),
+            comm=m.comm,
+            csr=(self._G_indptr, self._G_cols, np.zeros(len(self._G_cols))),
+        )
         self.G.assemble()
         self._B = None  # the last map's derivatives, per colour (nodes, 3, 2)
         self._last = None  # (w, triads, with B) of the last sync
@@ -200,8 +215,12 @@ class DirectorMap:
         w = self.model.w.x.array
         frames = [f.x.array for frame in self.model.triads for f in frame]
         last = self._last
-        if (last is not None and (last[2] or not derivatives) and np.array_equal(last[0], w)
-                and all(np.array_equal(a, b) for a, b in zip(last[1], frames))):
+        if (
+            last is not None
+            and (last[2] or not derivatives)
+            and np.array_equal(last[0], w)
+            and all(np.array_equal(a, b) for a, b in zip(last[1], frames))
+        ):
             return
         self.map(w, derivatives=derivatives)
         self._last = (w.copy(), [f.copy() for f in frames], derivatives)
@@ -225,7 +244,7 @@ class DirectorMap:
         """``P``'s values from the last ``B``."""
         values = self._P_values.reshape(self.owned, -1)
         for k, B in enumerate(self._B):
-            values[:, 3 + 6 * k: 9 + 6 * k] = B[:self.owned].reshape(self.owned, 6)
+            values[:, 3 + 6 * k : 9 + 6 * k] = B[: self.owned].reshape(self.owned, 6)
         self.P.setValuesCSR(self._P_indptr, self._P_cols, self._P_values)
         self.P.assemble()
 
@@ -234,10 +253,10 @@ class DirectorMap:
         w = self.model.w.x.array
         values = np.zeros((self.owned, len(self._G_cols) // self.owned))
         for k, (d_dofs, q_dofs) in enumerate(zip(self.d_z, self.q_w)):
-            a1, a2, dn = (f[:self.owned] for f in self.frames(k))
+            a1, a2, dn = (f[: self.owned] for f in self.frames(k))
             own = slice(0, self.owned)
             Gk = director_curvature(w[q_dofs[own]], a1, a2, dn, r_z_local[d_dofs[own]])
-            values[:, 4 * k: 4 * k + 4] = scale * Gk.reshape(self.owned, 4)
+            values[:, 4 * k : 4 * k + 4] = scale * Gk.reshape(self.owned, 4)
         self.G.setValuesCSR(self._G_indptr, self._G_cols, values.ravel())
         self.G.assemble()
 
@@ -246,7 +265,7 @@ class DirectorMap:
         P = np.zeros((self.nodes, self.bz, self.bw))
         P[:, 0, 0] = P[:, 1, 1] = P[:, 2, 2] = 1.0
         for k, B in enumerate(self._B):
-            P[:, 3 + 3 * k: 6 + 3 * k, 3 + 2 * k: 5 + 2 * k] = B
+            P[:, 3 + 3 * k : 6 + 3 * k, 3 + 2 * k : 5 + 2 * k] = B
         return P
 
     def node_curvatures(self, r_z_local: np.ndarray) -> np.ndarray:
@@ -257,8 +276,9 @@ class DirectorMap:
         own = slice(0, self.owned)
         for k, (d_dofs, q_dofs) in enumerate(zip(self.d_z, self.q_w)):
             a1, a2, dn = (f[own] for f in self.frames(k))
-            G[:, 3 + 2 * k: 5 + 2 * k, 3 + 2 * k: 5 + 2 * k] = director_curvature(
-                w[q_dofs[own]], a1, a2, dn, r_z_local[d_dofs[own]])
+            G[:, 3 + 2 * k : 5 + 2 * k, 3 + 2 * k : 5 + 2 * k] = director_curvature(
+                w[q_dofs[own]], a1, a2, dn, r_z_local[d_dofs[own]]
+            )
         return G
 
     def destroy(self):

@@ -45,8 +45,10 @@ def hinge_specs(scene: dict, body) -> list[tuple[str, str, float]]:
     own = getattr(body, "hinges", []) or []
     k_own = scene["mesh"].get("hinge_stiffness") or 0.0
     specs = [("mesh.kind", name, float(k_own)) for name in own]
-    specs += [(f"hinge.{i}.where", h["where"], float(h["stiffness"]))
-              for i, h in enumerate(scene.get("hinge") or [])]
+    specs += [
+        (f"hinge.{i}.where", h["where"], float(h["stiffness"]))
+        for i, h in enumerate(scene.get("hinge") or [])
+    ]
     return specs
 
 
@@ -62,12 +64,16 @@ def resolve(model, scene: dict) -> list[Hinge]:
         facets = facets_of(model.body, where, key, line=True)
         on_boundary = model.comm.allreduce(int(np.isin(facets, boundary).sum()))
         if on_boundary:
-            raise SceneError(f"{key}: '{where}' lies on the body's boundary ({on_boundary} "
-                             "edges); a hinge joins two sides, so it must be an interior line")
+            raise SceneError(
+                f"{key}: '{where}' lies on the body's boundary ({on_boundary} "
+                "edges); a hinge joins two sides, so it must be an interior line"
+            )
         for other_key, other in owner.items():
             if model.comm.allreduce(int(np.isin(facets, other).sum())):
-                raise SceneError(f"{key}: two hinges on one line ('{where}' and {other_key}); "
-                                 "give each line one hinge")
+                raise SceneError(
+                    f"{key}: two hinges on one line ('{where}' and {other_key}); "
+                    "give each line one hinge"
+                )
         owner[key] = facets
         hinges.append(Hinge(key, where, k, facets))
     return hinges
@@ -97,8 +103,9 @@ def panel_labels(mesh, hinge_facets: np.ndarray) -> np.ndarray:
     facets = np.asarray(c2f.array, dtype=np.int64).reshape(n_cells, -1)
     open_ = ~np.isin(facets, hinge_facets)  # (cell, local facet) not on a hinge
 
-    label = np.asarray(cell_map.local_to_global(np.arange(n_cells, dtype=np.int32)),
-                       dtype=np.float64)
+    label = np.asarray(
+        cell_map.local_to_global(np.arange(n_cells, dtype=np.int32)), dtype=np.float64
+    )
     # the panels of this process's own cells, found at once (a label spreads one cell
     # per exchange below: a 4000-cell-long panel took 4000 of them, 20 s); the
     # exchanges then only carry labels across process boundaries
@@ -180,9 +187,11 @@ def colour_panels(mesh, label: np.ndarray, hinge_facets: np.ndarray, hinges: lis
         glob = imap.local_to_global(np.asarray(facet_dof_of[c, s], dtype=np.int32))
         single = int(sum(len(touching.get(int(g), ())) < 2 for g in np.unique(glob)))
         if mesh.comm.allreduce(single):
-            raise SceneError(f"{hinge.key}: '{hinge.where}' does not cut the body into two "
-                             "panels (the sides are joined around the line's end); a hinge "
-                             "line must run from edge to edge or close on itself")
+            raise SceneError(
+                f"{hinge.key}: '{hinge.where}' does not cut the body into two "
+                "panels (the sides are joined around the line's end); a hinge "
+                "line must run from edge to edge or close on itself"
+            )
 
     neighbours: dict[int, set[int]] = {p: set() for s in touching.values() for p in s}
     for panels in touching.values():
@@ -215,8 +224,7 @@ def facet_measure(mesh, hinges: list[Hinge]):
     facets = np.concatenate([h.facets for h in hinges]).astype(np.int32)
     tags = np.concatenate([np.full(len(h.facets), i + 1) for i, h in enumerate(hinges)])
     ft = compat.create_meshtags(mesh, tdim - 1, facets, tags)
-    return ufl.Measure("dS", domain=mesh, subdomain_data=ft,
-                       metadata={"quadrature_degree": 4})
+    return ufl.Measure("dS", domain=mesh, subdomain_data=ft, metadata={"quadrature_degree": 4})
 
 
 def cells_of_colour(colours: np.ndarray, c: int) -> np.ndarray:
@@ -233,8 +241,9 @@ def entities_of_colour(model, dim: int, entities: np.ndarray, c: int) -> np.ndar
         return entities[model.colours[entities] == c]
     model.mesh.topology.create_connectivity(dim, tdim)
     f2c = model.mesh.topology.connectivity(dim, tdim)
-    return np.asarray([f for f in entities if (model.colours[f2c.links(f)] == c).any()],
-                      dtype=np.int32)
+    return np.asarray(
+        [f for f in entities if (model.colours[f2c.links(f)] == c).any()], dtype=np.int32
+    )
 
 
 def inactive_rotation_bcs(model) -> list:
@@ -249,7 +258,8 @@ def inactive_rotation_bcs(model) -> list:
             V, zero = model.dirichlet.space(sub, f"theta{i + 1}_{c}")
             own = fem.locate_dofs_topological((sub, V), tdim, cells_of_colour(model.colours, c))
             other = fem.locate_dofs_topological(
-                (sub, V), tdim, np.nonzero(model.colours != c)[0].astype(np.int32))
+                (sub, V), tdim, np.nonzero(model.colours != c)[0].astype(np.int32)
+            )
             keep = ~np.isin(other[0], own[0])
             dofs = [np.asarray(other[0])[keep], np.asarray(other[1])[keep]]
             bcs.append(fem.dirichletbc(zero, dofs, sub))

@@ -36,14 +36,16 @@ class ReferenceElement:
 
         quad = cell == "quadrilateral"
         kind = basix.CellType.quadrilateral if quad else basix.CellType.triangle
-        self._element = basix.create_element(basix.ElementFamily.P, kind, 2,
-                                             basix.LagrangeVariant.equispaced)
+        self._element = basix.create_element(
+            basix.ElementFamily.P, kind, 2, basix.LagrangeVariant.equispaced
+        )
         self.cell = cell
         #: the nodes' reference coordinates (nd, 2), in the dofmap's order
         self.nodes = np.asarray(self._element.points, dtype=float)
         #: the reference cell's corners, counter-clockwise
-        self.corners = np.array([[0, 0], [1, 0], [1, 1], [0, 1]] if quad
-                                else [[0, 0], [1, 0], [0, 1]], dtype=float)
+        self.corners = np.array(
+            [[0, 0], [1, 0], [1, 1], [0, 1]] if quad else [[0, 0], [1, 0], [0, 1]], dtype=float
+        )
         points, weights = basix.make_quadrature(kind, FAR_DEGREE)
         self._rule = (np.asarray(points, dtype=float), np.asarray(weights, dtype=float))
 
@@ -104,8 +106,9 @@ class ReferenceElement:
                 ws.append(w * abs(e1[0] * e2[1] - e1[1] * e2[0]))
         return np.concatenate(xs), np.concatenate(ws)
 
-    def singular_rule(self, apex: np.ndarray, scale: float, refine: int = 0,
-                      weighted: bool = False):
+    def singular_rule(
+        self, apex: np.ndarray, scale: float, refine: int = 0, weighted: bool = False
+    ):
         """Points and weights of Duffy triangles with their apex at ``apex`` (a node's
         reference coordinates); ``scale`` is ε over the element's size (rays cut
         geometrically from about ``scale`` of their length).  ``weighted``: the
@@ -128,8 +131,8 @@ class ReferenceElement:
                 cuts.append(cuts[-1] / 4)
             cuts = np.array([0.0] + cuts[::-1])
             for lo, hi in zip(cuts[:-1], cuts[1:]):
-                s, ds = (_cluster(gs, True, True) if weighted else (gs, 1.0))
-                t, dt = (_cluster(gt, True, True) if weighted else (gt, 1.0))
+                s, ds = _cluster(gs, True, True) if weighted else (gs, 1.0)
+                t, dt = _cluster(gt, True, True) if weighted else (gt, 1.0)
                 s = lo + (hi - lo) * s
                 S, T = np.meshgrid(s, t, indexing="ij")
                 W = np.outer(gws * ds * (hi - lo), gwt * dt)
@@ -144,9 +147,9 @@ def _cluster(eta: np.ndarray, low: bool, high: bool):
     ``ξ′``: an inverse square root of the distance to such an end times ``ξ′`` is
     smooth in η (η², 1 − (1 − η)², or 3η² − 2η³ for both ends)."""
     if low and high:
-        return 3 * eta ** 2 - 2 * eta ** 3, 6 * eta * (1 - eta)
+        return 3 * eta**2 - 2 * eta**3, 6 * eta * (1 - eta)
     if low:
-        return eta ** 2, 2 * eta
+        return eta**2, 2 * eta
     if high:
         return 1 - (1 - eta) ** 2, 2 * (1 - eta)
     return eta, np.ones_like(eta)
@@ -205,8 +208,7 @@ class EdgeWeight:
             return
         nodes = element.nodes
         on_side = [np.flatnonzero(np.isclose(nodes[:, d], end)) for d, end in self.SIDES]
-        ends = [[a for a in idx if np.isclose(nodes[a], nodes[a].round()).all()]
-                for idx in on_side]
+        ends = [[a for a in idx if np.isclose(nodes[a], nodes[a].round()).all()] for idx in on_side]
         keys = {}
         for e in range(n_el):
             for k in range(4):
@@ -218,12 +220,16 @@ class EdgeWeight:
             self.sides[e] = free
             for k in free:
                 free_nodes.update(cells[e, on_side[k]].tolist())
-        corner_nodes = [a for a in range(len(nodes))
-                        if np.isclose(nodes[a], nodes[a].round()).all()]
+        corner_nodes = [
+            a for a in range(len(nodes)) if np.isclose(nodes[a], nodes[a].round()).all()
+        ]
         for e in range(n_el):
             on_free_side = {a for k in self.sides[e] for a in ends[k]}
-            self.corners[e] = tuple(tuple(nodes[a]) for a in corner_nodes
-                                    if cells[e, a] in free_nodes and a not in on_free_side)
+            self.corners[e] = tuple(
+                tuple(nodes[a])
+                for a in corner_nodes
+                if cells[e, a] in free_nodes and a not in on_free_side
+            )
         self._edge_segments()
 
     def _edge_segments(self):
@@ -262,12 +268,17 @@ class EdgeWeight:
         near = near.reshape(len(y), k)
         a, b = self._a[near], self._b[near]  # (P, k, 3)
         ab = b - a
-        s = np.clip(np.einsum("pkj,pkj->pk", y[:, None] - a, ab)
-                    / np.maximum(np.einsum("pkj,pkj->pk", ab, ab), 1e-300), 0.0, 1.0)
+        s = np.clip(
+            np.einsum("pkj,pkj->pk", y[:, None] - a, ab)
+            / np.maximum(np.einsum("pkj,pkj->pk", ab, ab), 1e-300),
+            0.0,
+            1.0,
+        )
         t0, step = self._chord_t
         t = t0[near] + s * step
-        return stokes_kernels.edge_distance(np.ascontiguousarray(y, dtype=float),
-                                            self._curves[self._owner[near]], t)
+        return stokes_kernels.edge_distance(
+            np.ascontiguousarray(y, dtype=float), self._curves[self._owner[near]], t
+        )
 
     def set_reach(self, y: np.ndarray):
         """ℓ: the largest distance to a free edge among the points ``y`` (the far rule)."""
@@ -282,10 +293,12 @@ class EdgeWeight:
         """Per direction, whether the rule's points gather at its low and high end."""
         out = []
         for d in range(2):
-            low = any(self.SIDES[k] == (d, 0.0) for k in self.sides[e]) or \
-                any(c[d] == 0.0 for c in self.corners[e])
-            high = any(self.SIDES[k] == (d, 1.0) for k in self.sides[e]) or \
-                any(c[d] == 1.0 for c in self.corners[e])
+            low = any(self.SIDES[k] == (d, 0.0) for k in self.sides[e]) or any(
+                c[d] == 0.0 for c in self.corners[e]
+            )
+            high = any(self.SIDES[k] == (d, 1.0) for k in self.sides[e]) or any(
+                c[d] == 1.0 for c in self.corners[e]
+            )
             out.append((low, high))
         return tuple(out)
 
@@ -336,7 +349,7 @@ def refined(X, cells, cell: str, level: int):
     el = ReferenceElement(cell)
     if level == 0:
         return X, cells, sp.identity(len(X), format="csr")
-    m = 2 ** level
+    m = 2**level
     quad = cell == "quadrilateral"
     # the sub-elements' nodes on a grid of step 1/(2m) in the reference cell
     sub_cells, grid = [], {}
@@ -349,8 +362,10 @@ def refined(X, cells, cell: str, level: int):
         e1 = np.rint((piece[1] - piece[0]) * 2 * m).astype(int)
         e2 = np.rint((piece[-1] - piece[0]) * 2 * m).astype(int)
         if quad:  # corners (0,0), (1,0), (1,1), (0,1): local axes e1 (x) and e2 (y)
-            e1, e2 = np.rint((piece[1] - piece[0]) * 2 * m).astype(int), \
-                np.rint((piece[3] - piece[0]) * 2 * m).astype(int)
+            e1, e2 = (
+                np.rint((piece[1] - piece[0]) * 2 * m).astype(int),
+                np.rint((piece[3] - piece[0]) * 2 * m).astype(int),
+            )
         local = np.rint(el.nodes * 2).astype(int)  # (nd, 2) in half-steps
         sub_cells.append([node(*(origin + (a * e1 + b * e2) // 2)) for a, b in local])
     ref = np.array(sorted(grid, key=grid.get), dtype=float) / (2 * m)

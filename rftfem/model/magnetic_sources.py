@@ -18,9 +18,9 @@ import math
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.model.triad import rotate
 from rftfem.scene.expressions import parse
 from rftfem.scene.schema import fmt, unit_vector
-from rftfem.model.triad import rotate
 
 #: μ₀/(4π) in N/A²: with lengths in mm, moments in A·mm² give B in N/(A·mm)
 MU0_OVER_4PI = 1e-7
@@ -35,8 +35,13 @@ FIELD_KINDS = {
     "table": ("values", "interpolation"),
     "dipole": ("moment", "position", "path"),
 }
-_ROTATING_DEFAULTS = {"strength": 0.0, "ramp_time": 0.0, "direction": [1.0, 0.0, 0.0],
-                      "frequency": 0.0, "rotation_axis": [0.0, 0.0, 1.0]}
+_ROTATING_DEFAULTS = {
+    "strength": 0.0,
+    "ramp_time": 0.0,
+    "direction": [1.0, 0.0, 0.0],
+    "frequency": 0.0,
+    "rotation_axis": [0.0, 0.0, 1.0],
+}
 
 
 def check_field(field: dict) -> None:
@@ -47,43 +52,59 @@ def check_field(field: dict) -> None:
         for key in keys:
             if other != kind and key not in FIELD_KINDS[kind] and field[key] is not None:
                 users = [k for k, ks in FIELD_KINDS.items() if key in ks]
-                raise SceneError(f"magnetic.field.{key}: only used with kind = "
-                                 + " or ".join(f'"{k}"' for k in users)
-                                 + f", found kind = {fmt(kind)}")
+                raise SceneError(
+                    f"magnetic.field.{key}: only used with kind = "
+                    + " or ".join(f'"{k}"' for k in users)
+                    + f", found kind = {fmt(kind)}"
+                )
     if kind == "rotating":
         for key, value in _ROTATING_DEFAULTS.items():
             if field[key] is None:
                 field[key] = list(value) if isinstance(value, list) else value
         if field["frequency"] != 0.0:  # a rotating field needs an axis across it
             b, a = unit_vector(field["direction"]), unit_vector(field["rotation_axis"])
-            cross = (b[1] * a[2] - b[2] * a[1], b[2] * a[0] - b[0] * a[2],
-                     b[0] * a[1] - b[1] * a[0])
+            cross = (
+                b[1] * a[2] - b[2] * a[1],
+                b[2] * a[0] - b[0] * a[2],
+                b[0] * a[1] - b[1] * a[0],
+            )
             if math.hypot(*cross) <= 1e-9:
                 raise SceneError(
                     f"magnetic.field.rotation_axis: expected an axis not parallel to "
                     f"magnetic.field.direction = {fmt(field['direction'])} (the field "
                     f"would not rotate at frequency = {fmt(field['frequency'])}), found "
-                    f"{fmt(field['rotation_axis'])}")
+                    f"{fmt(field['rotation_axis'])}"
+                )
     elif kind == "expression" and field["B"] is None:
-        raise SceneError('missing required key \'magnetic.field.B\' (three numbers or '
-                         'formulas of x, y, z, t, because magnetic.field.kind = '
-                         '"expression")')
+        raise SceneError(
+            "missing required key 'magnetic.field.B' (three numbers or "
+            "formulas of x, y, z, t, because magnetic.field.kind = "
+            '"expression")'
+        )
     elif kind == "table":
         if field["values"] is None:
-            raise SceneError("missing required key 'magnetic.field.values' (rows [t, Bx, "
-                             'By, Bz], because magnetic.field.kind = "table")')
+            raise SceneError(
+                "missing required key 'magnetic.field.values' (rows [t, Bx, "
+                'By, Bz], because magnetic.field.kind = "table")'
+            )
         field["interpolation"] = field["interpolation"] or "linear"
         if field["interpolation"] == "cubic" and len(field["values"]) < 4:
-            raise SceneError(f"magnetic.field.values: a cubic table needs four rows at "
-                             f"least, found {len(field['values'])}")
+            raise SceneError(
+                f"magnetic.field.values: a cubic table needs four rows at "
+                f"least, found {len(field['values'])}"
+            )
     elif kind == "dipole":
         if field["moment"] is None:
-            raise SceneError("missing required key 'magnetic.field.moment' (the source's "
-                             'dipole moment, because magnetic.field.kind = "dipole")')
+            raise SceneError(
+                "missing required key 'magnetic.field.moment' (the source's "
+                'dipole moment, because magnetic.field.kind = "dipole")'
+            )
         if (field["position"] is None) == (field["path"] is None):
-            raise SceneError("magnetic.field: a dipole takes one of 'position' (fixed) and "
-                             "'path' (rows [t, x, y, z]), found "
-                             + ("both" if field["position"] is not None else "neither"))
+            raise SceneError(
+                "magnetic.field: a dipole takes one of 'position' (fixed) and "
+                "'path' (rows [t, x, y, z]), found "
+                + ("both" if field["position"] is not None else "neither")
+            )
 
 
 def is_uniform(field: dict) -> bool:
@@ -91,8 +112,10 @@ def is_uniform(field: dict) -> bool:
     if field["kind"] == "dipole":
         return False
     if field["kind"] == "expression":
-        return not any(parse(b, f"{FIELD_KEY}.B", ("x", "y", "z", "t")).names & {"x", "y", "z"}
-                       for b in field["B"])
+        return not any(
+            parse(b, f"{FIELD_KEY}.B", ("x", "y", "z", "t")).names & {"x", "y", "z"}
+            for b in field["B"]
+        )
     return True
 
 
@@ -106,8 +129,9 @@ class UniformField:
         self.field = field
         kind = field["kind"]
         if kind == "expression":
-            self.formulas = [parse(b, f"{FIELD_KEY}.B.{i}", ("t",))
-                             for i, b in enumerate(field["B"])]
+            self.formulas = [
+                parse(b, f"{FIELD_KEY}.B.{i}", ("t",)) for i, b in enumerate(field["B"])
+            ]
         elif kind == "table":
             rows = np.array(field["values"], dtype=float)
             self.table = TimeTable(rows[:, 0], rows[:, 1:], field["interpolation"])
@@ -157,7 +181,7 @@ class TimeTable:
         out = a * vs[i] + b * vs[i + 1]
         if self.cubic:
             M = self.second
-            out = out + ((a ** 3 - a) * M[i] + (b ** 3 - b) * M[i + 1]) * h * h / 6.0
+            out = out + ((a**3 - a) * M[i] + (b**3 - b) * M[i + 1]) * h * h / 6.0
         return out
 
 
@@ -170,7 +194,7 @@ def _not_a_knot_second_derivatives(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     A = np.zeros((n, n))
     r = np.zeros((n, y.shape[1]))
     for i in range(1, n - 1):
-        A[i, i - 1:i + 2] = h[i - 1], 2 * (h[i - 1] + h[i]), h[i]
+        A[i, i - 1 : i + 2] = h[i - 1], 2 * (h[i - 1] + h[i]), h[i]
         r[i] = 6 * ((y[i + 1] - y[i]) / h[i] - (y[i] - y[i - 1]) / h[i - 1])
     A[0, :3] = 1 / h[0], -(1 / h[0] + 1 / h[1]), 1 / h[1]
     A[-1, -3:] = 1 / h[-2], -(1 / h[-2] + 1 / h[-1]), 1 / h[-1]
@@ -194,8 +218,10 @@ class NonuniformField:
             rows = np.array(path, dtype=float)
             self.path = TimeTable(rows[:, 0], rows[:, 1:], "linear")
         else:
-            self.formulas = [parse(b, f"{FIELD_KEY}.B.{i}", ("x", "y", "z", "t"))
-                             for i, b in enumerate(field["B"])]
+            self.formulas = [
+                parse(b, f"{FIELD_KEY}.B.{i}", ("x", "y", "z", "t"))
+                for i, b in enumerate(field["B"])
+            ]
         self._time = self.position_constant = self.moment_constant = None
 
     def position(self, t: float) -> np.ndarray:
@@ -212,14 +238,16 @@ class NonuniformField:
         if self.dipole:
             self.position_constant = fem.Constant(mesh, np.zeros(3, dtype=PETSc.ScalarType))
             self.moment_constant = m = fem.Constant(
-                mesh, np.asarray(self.moment, dtype=PETSc.ScalarType))
+                mesh, np.asarray(self.moment, dtype=PETSc.ScalarType)
+            )
             r = x - self.position_constant
             rr = ufl.sqrt(ufl.dot(r, r))
-            return MU0_OVER_4PI * (3 * r * ufl.dot(m, r) / rr ** 5 - m / rr ** 3)
+            return MU0_OVER_4PI * (3 * r * ufl.dot(m, r) / rr**5 - m / rr**3)
         self._time = fem.Constant(mesh, PETSc.ScalarType(0.0))
         env = {"x": x[0], "y": x[1], "z": x[2], "t": self._time}
-        return ufl.as_vector([_as_ufl(b.ufl(env, number=constant_maker(mesh)))
-                              for b in self.formulas])
+        return ufl.as_vector(
+            [_as_ufl(b.ufl(env, number=constant_maker(mesh))) for b in self.formulas]
+        )
 
     def set_time(self, t: float) -> None:
         if self.position_constant is not None:
@@ -234,10 +262,11 @@ class NonuniformField:
             r = points - self.position(t)
             rr = np.linalg.norm(r, axis=1)[:, None]
             m = self.moment[None, :]
-            return MU0_OVER_4PI * (3 * r * (r @ self.moment)[:, None] / rr ** 5 - m / rr ** 3)
+            return MU0_OVER_4PI * (3 * r * (r @ self.moment)[:, None] / rr**5 - m / rr**3)
         env = {"x": points[:, 0], "y": points[:, 1], "z": points[:, 2], "t": t}
-        return np.stack([np.broadcast_to(b.numbers(env), len(points)) for b in self.formulas],
-                        axis=1)
+        return np.stack(
+            [np.broadcast_to(b.numbers(env), len(points)) for b in self.formulas], axis=1
+        )
 
     def check_outside(self, nodes: np.ndarray, size: float, comm) -> None:
         """A dipole must start outside the body: farther than half a cell (``size``)
@@ -250,15 +279,22 @@ class NonuniformField:
         near = comm.allreduce(near, op=_min_op())
         if near < 0.5 * size:
             key = "path" if self.field["path"] is not None else "position"
-            raise SceneError(f"{FIELD_KEY}.{key}: the dipole at {fmt([float(v) for v in p])} "
-                             f"(t = 0) is inside the body ({near:.3g} from its nearest node, "
-                             f"less than half a cell, {0.5 * size:.3g}); place it outside")
+            raise SceneError(
+                f"{FIELD_KEY}.{key}: the dipole at {fmt([float(v) for v in p])} "
+                f"(t = 0) is inside the body ({near:.3g} from its nearest node, "
+                f"less than half a cell, {0.5 * size:.3g}); place it outside"
+            )
 
     def scale(self, nodes: np.ndarray, end: float, comm) -> float:
         """The largest |B| on the reference body over the run (sampled), for tolerances."""
         times = [0.0] if self.dipole else np.linspace(0.0, end, 11)
-        local = max((float(np.linalg.norm(self.at(nodes, t), axis=1).max()) for t in times),
-                    default=0.0) if len(nodes) else 0.0
+        local = (
+            max(
+                (float(np.linalg.norm(self.at(nodes, t), axis=1).max()) for t in times), default=0.0
+            )
+            if len(nodes)
+            else 0.0
+        )
         return comm.allreduce(local, op=_max_op())
 
 

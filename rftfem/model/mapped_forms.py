@@ -28,8 +28,12 @@ def step_residual_z(model) -> np.ndarray:
     with total.localForm() as local:
         local.set(0.0)
     af = 1.0 - float(m.coef["alpha_f"].value)
-    weights = [(m.forces_form, af), (m.inertia_form, 1.0),
-               (m.end_form, float(m.coef["end_weight"].value)), (m.correction_form, af)]
+    weights = [
+        (m.forces_form, af),
+        (m.inertia_form, 1.0),
+        (m.end_form, float(m.coef["end_weight"].value)),
+        (m.correction_form, af),
+    ]
     for form, weight in weights:
         if form is None or weight == 0.0:
             continue
@@ -144,13 +148,15 @@ class MappedForm:
         _, _, values = self._Az.getValuesCSR()
         P = dm.node_matrices()
         blocks = values[bp.positions]  # (blocks, bz, bz)
-        out = np.matmul(np.transpose(P[bp.row_nodes], (0, 2, 1)),
-                        np.matmul(blocks, P[bp.col_nodes]))
+        out = np.matmul(
+            np.transpose(P[bp.row_nodes], (0, 2, 1)), np.matmul(blocks, P[bp.col_nodes])
+        )
         if self.residual is not None:
             out[bp.diagonal] += dm.node_curvatures(self.residual())
         A.assemble()
-        A.setValuesBlockedCSR(bp.indptr, bp.col_global, out.ravel(),
-                              addv=PETSc.InsertMode.ADD_VALUES)
+        A.setValuesBlockedCSR(
+            bp.indptr, bp.col_global, out.ravel(), addv=PETSc.InsertMode.ADD_VALUES
+        )
         A.assemble()
         A.zeroRowsColumns(self._owned_rows(bcs), diag=1.0)
 
@@ -166,7 +172,7 @@ class MappedForm:
         y = K.createVecLeft()
         K.mult(v, y)
         with b.localForm() as bl:
-            bl.array[:len(y.array_r)] -= scale * y.array_r
+            bl.array[: len(y.array_r)] -= scale * y.array_r
         for obj in (v, y):
             obj.destroy()
 
@@ -213,17 +219,22 @@ class _BlockPattern:
         # a node's bz rows hold bz × (its neighbour nodes × bz) entries
         neighbours = (np.asarray(indptr[bz::bz]) - np.asarray(indptr[0:-1:bz])) // bz**2
         self.row_nodes = np.repeat(np.arange(owned), neighbours)
-        k = np.arange(int(neighbours.sum())) - np.repeat(np.cumsum(neighbours) - neighbours,
-                                                         neighbours)
+        k = np.arange(int(neighbours.sum())) - np.repeat(
+            np.cumsum(neighbours) - neighbours, neighbours
+        )
         #: positions in the values of each block's entries, (blocks, bz, bz)
-        self.positions = (starts[self.row_nodes][:, :, None] + (k * bz)[:, None, None]
-                          + np.arange(bz)[None, None, :])
+        self.positions = (
+            starts[self.row_nodes][:, :, None]
+            + (k * bz)[:, None, None]
+            + np.arange(bz)[None, None, :]
+        )
         col_global = np.asarray(cols)[starts[self.row_nodes, 0] + k * bz] // bz
         im = dm.model.W.dofmap.index_map
         first = im.local_range[0]
         ghosts = compat.local_to_global(im, np.arange(owned, dm.nodes))
-        local = np.where((col_global >= first) & (col_global < first + owned),
-                         col_global - first, -1)
+        local = np.where(
+            (col_global >= first) & (col_global < first + owned), col_global - first, -1
+        )
         off = local < 0
         #: whether every column node is on this process (owned or ghost); a node of a
         #: cell of another process only, coupled to an owned one, is not, and its ``B``

@@ -25,18 +25,32 @@ from rftfem.scene.material_keys import material_keys
 from rftfem.scene.schema import fmt
 
 #: scene key -> the name of its field in the forms
-FORM_NAMES = {"E": "E", "nu": "nu", "thickness": "t", "density": "rho", "E1": "E1",
-              "E2": "E2", "G12": "G12", "nu12": "nu12", "G13": "G13", "G23": "G23"}
+FORM_NAMES = {
+    "E": "E",
+    "nu": "nu",
+    "thickness": "t",
+    "density": "rho",
+    "E1": "E1",
+    "E2": "E2",
+    "G12": "G12",
+    "nu12": "nu12",
+    "G13": "G13",
+    "G23": "G23",
+}
 #: the degree of a field given by formulas or profiles (that of the displacement)
 FIELD_DEGREE = 2
 #: what each key must be at every node, for the message: (test, words)
 _ADMISSIBLE = {
-    "E": (lambda v: v > 0, "> 0"), "thickness": (lambda v: v > 0, "> 0"),
-    "density": (lambda v: v >= 0, ">= 0"), "nu": (lambda v: (v > -1) & (v < 0.5),
-                                                  "within (-1, 0.5)"),
-    "E1": (lambda v: v > 0, "> 0"), "E2": (lambda v: v > 0, "> 0"),
-    "G12": (lambda v: v > 0, "> 0"), "G13": (lambda v: v > 0, "> 0"),
-    "G23": (lambda v: v > 0, "> 0"), "nu12": (lambda v: v > -1, "> -1"),
+    "E": (lambda v: v > 0, "> 0"),
+    "thickness": (lambda v: v > 0, "> 0"),
+    "density": (lambda v: v >= 0, ">= 0"),
+    "nu": (lambda v: (v > -1) & (v < 0.5), "within (-1, 0.5)"),
+    "E1": (lambda v: v > 0, "> 0"),
+    "E2": (lambda v: v > 0, "> 0"),
+    "G12": (lambda v: v > 0, "> 0"),
+    "G13": (lambda v: v > 0, "> 0"),
+    "G23": (lambda v: v > 0, "> 0"),
+    "nu12": (lambda v: v > -1, "> -1"),
     # E1 − ν12² E2 at the nodes (_check_poisson_field)
     "ν12² < E1/E2": (lambda v: v > 0, "> 0 (ν12² < E1/E2)"),
 }
@@ -111,9 +125,11 @@ def _check_admissible(comm, key, where, value, values, at, what=None):
         line = None
         if comm.rank == first:
             i = int(np.argmax(bad))
-            line = (f"{where}: {what or describe(value)} is {values[i]:.4g} at "
-                    f"{fmt([round(float(v), 9) + 0.0 for v in at[i]])} on the body; "
-                    f"expected {words} everywhere")
+            line = (
+                f"{where}: {what or describe(value)} is {values[i]:.4g} at "
+                f"{fmt([round(float(v), 9) + 0.0 for v in at[i]])} on the body; "
+                f"expected {words} everywhere"
+            )
         raise SceneError(comm.bcast(line, root=first))
 
 
@@ -139,8 +155,6 @@ def _fibre(model):
     on the surface and normalised in the forms (forms.elasticity.fibre_frame)."""
     from dolfinx import fem
 
-    from rftfem import compat
-
     fibre = model.scene["shell"]["fibre"]
     varies = any(isinstance(v, str) for v in fibre)
     V = field_space(model.mesh, varies, (3,))
@@ -148,8 +162,10 @@ def _fibre(model):
     if varies:
         scalar = field_space(model.mesh, True)
         at = scalar.tabulate_dof_coordinates()
-        values = np.stack([field_values(model.scene, v, at, f"shell.fibre.{i}")
-                           for i, v in enumerate(fibre)], axis=1)
+        values = np.stack(
+            [field_values(model.scene, v, at, f"shell.fibre.{i}") for i, v in enumerate(fibre)],
+            axis=1,
+        )
     else:
         values = np.broadcast_to(np.asarray(fibre, dtype=float), (len(f.x.array) // 3, 3))
     f.x.array[:] = np.asarray(values).ravel()
@@ -174,16 +190,18 @@ def _check_fibre(model, f):
     along = np.abs(np.einsum("cnj,cj->cn", values, normals))
     zero = size <= 1e-12 * max(float(size.max()) if size.size else 0.0, 1e-300)
     bad = zero | (along > np.sqrt(1 - 0.01) * size)
-    first = model.comm.allreduce(model.comm.rank if bad.any() else model.comm.size,
-                                 op=_mpi_min())
+    first = model.comm.allreduce(model.comm.rank if bad.any() else model.comm.size, op=_mpi_min())
     if first < model.comm.size:
         line = None
         if model.comm.rank == first:
             c, n = np.unravel_index(int(np.argmax(bad)), bad.shape)
             at = f.function_space.tabulate_dof_coordinates()[dofs[c, n]]
             point = fmt([round(float(v), 9) + 0.0 for v in at])
-            line = (f"shell.fibre: the fibre is zero at {point}" if zero[c, n] else
-                    f"shell.fibre: the fibre is along the surface's normal at {point}")
+            line = (
+                f"shell.fibre: the fibre is zero at {point}"
+                if zero[c, n]
+                else f"shell.fibre: the fibre is along the surface's normal at {point}"
+            )
             line += " (it must lie in the surface, where it is projected)"
         raise SceneError(model.comm.bcast(line, root=first))
 
@@ -196,8 +214,15 @@ def _check_poisson_field(model):
         return
     V = field_space(model.mesh, True)
     E1, E2, nu12 = (nodal_values(model, k, V) for k in keys)
-    _check_admissible(model.comm, "ν12² < E1/E2", "shell.nu12", None,
-                      E1 - nu12 ** 2 * E2, V.tabulate_dof_coordinates(), what="E1 − ν12² E2")
+    _check_admissible(
+        model.comm,
+        "ν12² < E1/E2",
+        "shell.nu12",
+        None,
+        E1 - nu12**2 * E2,
+        V.tabulate_dof_coordinates(),
+        what="E1 − ν12² E2",
+    )
 
 
 def material_value(model, key: str, how: str = "max", value=None) -> float:

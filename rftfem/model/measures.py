@@ -25,8 +25,13 @@ class BodyMeasures:
         body moved by its supports alone). The elastic forces answer the drivers:
         where they dwarf them (a free link turning in drag) a tolerance in their
         units would accept states whose driving balance is not met at all."""
-        drivers = [s for comp in self.components if comp.name != "elasticity"
-                   for s in comp.force_scales() if s > 0]
+        drivers = [
+            s
+            for comp in self.components
+            if comp.name != "elasticity"
+            for s in comp.force_scales()
+            if s > 0
+        ]
         return max(drivers) if drivers else self.elastic_force()
 
     def elastic_force(self) -> float:
@@ -65,8 +70,9 @@ class BodyMeasures:
             return self._area
         n = self.mesh.topology.index_map(self.mesh.topology.dim).size_local
         cells = np.asarray(cells)[np.asarray(cells) < n].astype(np.int32)  # owned only
-        tags = compat.create_meshtags(self.mesh, self.mesh.topology.dim, cells,
-                                      np.ones(len(cells), dtype=np.int32))
+        tags = compat.create_meshtags(
+            self.mesh, self.mesh.topology.dim, cells, np.ones(len(cells), dtype=np.int32)
+        )
         dx = ufl.Measure("dx", domain=self.mesh, subdomain_data=tags)
         return self.assemble_scalar(self.compile(one * dx(1)))
 

@@ -13,6 +13,5 @@ def gather_rows(local: np.ndarray, comm) -> np.ndarray:
     counts = comm.allgather(local.shape[0])
     width = int(np.prod(local.shape[1:], dtype=int))
     out = np.empty((sum(counts),) + local.shape[1:])
-    comm.Allgatherv(np.ascontiguousarray(local, dtype=float),
-                    [out, [c * width for c in counts]])
+    comm.Allgatherv(np.ascontiguousarray(local, dtype=float), [out, [c * width for c in counts]])
     return out

@@ -72,8 +72,9 @@ class Reactions:
             dofs = dofs[(dofs < n_owned) & ~claimed[dofs]]  # counted once, by its owner
             claimed[dofs] = True
             on_u = u_node[dofs] >= 0
-            self.entries.append((dofs[on_u], u_node[dofs[on_u]],
-                                 dofs[~on_u], theta_of[dofs[~on_u]]))
+            self.entries.append(
+                (dofs[on_u], u_node[dofs[on_u]], dofs[~on_u], theta_of[dofs[~on_u]])
+            )
         #: the last values computed (one row of 6 per entry), written by the outputs
         self.last = np.zeros((len(self.names), 6))
 
@@ -96,8 +97,9 @@ class Reactions:
             out[e, 3:] = np.cross(x, f).sum(axis=0)
             for c in np.unique(tinfo[:, 0]) if len(tdofs) else []:
                 mine = tinfo[:, 0] == c
-                out[e, 3:] += self._couples(c, tinfo[mine, 1], tinfo[mine, 2],
-                                            residual[tdofs[mine]])
+                out[e, 3:] += self._couples(
+                    c, tinfo[mine, 1], tinfo[mine, 2], residual[tdofs[mine]]
+                )
         out = m.comm.allreduce(out)
         self.last = out
         return out
@@ -121,7 +123,10 @@ class Reactions:
             # m in the plane of the turns with m·turn_α = row_α for the held α
             # (a held θ¹ alone: m along turn₁'s dual direction in that plane)
             gram = turns @ turns.T
-            coef = np.linalg.solve(gram, rows) if held.all() else \
-                np.where(held, rows / np.diag(gram), 0.0)
+            coef = (
+                np.linalg.solve(gram, rows)
+                if held.all()
+                else np.where(held, rows / np.diag(gram), 0.0)
+            )
             total += coef @ turns
         return total

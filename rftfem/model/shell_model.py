@@ -30,29 +30,26 @@ import ufl
 from dolfinx import fem
 from petsc4py import PETSc
 
-from rftfem.forms import hinge, kinematics
-
 from rftfem import compat
-from rftfem.model import effects, hinges
+from rftfem.errors import SceneError
+from rftfem.forms import hinge, kinematics
+from rftfem.model import effects, hinges, terms
+from rftfem.model.directors import DirectorMap
 from rftfem.model.dirichlet import DirichletSpaces
 from rftfem.model.effects.base import FluidModel
+from rftfem.model.mapped_forms import MappedForm
 from rftfem.model.measures import BodyMeasures
 from rftfem.model.rates import scheme_velocity
 from rftfem.model.step_state import StepStart
-from rftfem.errors import SceneError
-from rftfem.scene.schema import unit_vector
-from rftfem.model.directors import DirectorMap
-from rftfem.model import terms
-from rftfem.model.mapped_forms import MappedForm
 from rftfem.model.triad import Triads
+from rftfem.scene.schema import unit_vector
 
 
 class Model(StepStart, BodyMeasures):
     """Function spaces, state, material fields and the active effects of one scene;
     what a step starts from is step_state.py's, the whole-body measures measures.py's."""
 
-    def __init__(self, scene: dict, body, compile_forms: bool = True,
-                 tangent: str = "mixed-point"):
+    def __init__(self, scene: dict, body, compile_forms: bool = True, tangent: str = "mixed-point"):
         self.scene, self.body, self.compile_forms = scene, body, compile_forms
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -69,8 +66,9 @@ class Model(StepStart, BodyMeasures):
         # hinges cut the body into panels; panels that touch get different colours,
         # and each colour has its own rotation field and triad (forms/hinge.py)
         self.hinges = hinges.resolve(self, scene)
-        self.colours, self.n_colours, self.colour_indicators = hinges.colouring(self.mesh,
-                                                                                self.hinges)
+        self.colours, self.n_colours, self.colour_indicators = hinges.colouring(
+            self.mesh, self.hinges
+        )
 
         # unknowns: u, then one θ per colour, node by node; the state of the last step
         self.block = 3 + 2 * self.n_colours
@@ -78,13 +76,15 @@ class Model(StepStart, BodyMeasures):
         self.Vu = compat.function_space(self.mesh, "Lagrange", 2, (3,))
         self.u_dofs = self._block_dofs(range(3))
         #: per colour, its rotation dofs of ``w`` in (θ¹, θ²) pairs, node by node
-        self.theta_dofs_of = [self._block_dofs((3 + 2 * c, 4 + 2 * c))
-                              for c in range(self.n_colours)]
+        self.theta_dofs_of = [
+            self._block_dofs((3 + 2 * c, 4 + 2 * c)) for c in range(self.n_colours)
+        ]
         #: every rotation dof of ``w``, in (θ¹, θ²) pairs
         self.theta_dofs = np.concatenate(self.theta_dofs_of)
         self.w = fem.Function(self.W, name="w")
-        self.u_n, self.v_n, self.a_n = (fem.Function(self.Vu, name=n)
-                                        for n in ("u_n", "v_n", "a_n"))
+        self.u_n, self.v_n, self.a_n = (
+            fem.Function(self.Vu, name=n) for n in ("u_n", "v_n", "a_n")
+        )
         #: the last two accepted steps' (Δu, θ, dt), newest first: the next step's prediction
         self.increments = []
         #: the largest displacement increment of the last prediction (0: none made)
@@ -105,7 +105,8 @@ class Model(StepStart, BodyMeasures):
         #: the previous and the current Newton iterate and their difference, as z: the
         #: data of the mixed-integration-point tangent (docs/model.md §7.4), set by the solver
         self.newton_previous, self.newton_current, self.newton_update = (
-            fem.Function(self.Z, name=n) for n in ("z_previous", "z_current", "z_update"))
+            fem.Function(self.Z, name=n) for n in ("z_previous", "z_current", "z_update")
+        )
         for f in (self.newton_previous, self.newton_current):  # unit directors: no 0/0
             self.directors.map(self.w.x.array, out=f.x.array)
         self.mixed_point = tangent == "mixed-point"
@@ -117,16 +118,19 @@ class Model(StepStart, BodyMeasures):
 
         self._init_materials()
         #: the time scheme's coefficients of velocity and acceleration (integration/schemes.py)
-        self.coef = {k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
-                     for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f",
-                               "end_weight")}
+        self.coef = {
+            k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
+            for k in ("cv", "cv_v", "cv_a", "ca", "ca_v", "ca_a", "alpha_f", "end_weight")
+        }
         self.coefficients = None  # the last ones set (timeint.Coefficients)
         #: prescribed motions in a second-order scheme: corrections to the velocity and
         #: acceleration that make them the motion's own on the driven dofs (motion.py)
         self.drive = None
         if effects.Motions.active(scene) and effects.Inertia.active(scene):
-            self.drive = (fem.Function(self.Vu, name="v_drive"),
-                          fem.Function(self.Vu, name="a_drive"))
+            self.drive = (
+                fem.Function(self.Vu, name="v_drive"),
+                fem.Function(self.Vu, name="a_drive"),
+            )
 
         # the effects, then their sum; Dirichlet values are kept per component space
         self.dirichlet = DirichletSpaces()
@@ -143,9 +147,11 @@ class Model(StepStart, BodyMeasures):
         if not getattr(self, "_nodes_checked", False):
             x_w, x_u = (V.tabulate_dof_coordinates() for V in (self.W, self.Vu))
             size = float(np.abs(x_u).max()) if x_u.size else 0.0
-            same = (self.W.dofmap.index_map.size_local == self.Vu.dofmap.index_map.size_local
-                    and x_w.shape == x_u.shape and np.allclose(x_w, x_u, rtol=0.0,
-                                                                atol=1e-9 * size))
+            same = (
+                self.W.dofmap.index_map.size_local == self.Vu.dofmap.index_map.size_local
+                and x_w.shape == x_u.shape
+                and np.allclose(x_w, x_u, rtol=0.0, atol=1e-9 * size)
+            )
             if not same:
                 raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
             self._nodes_checked = True
@@ -164,8 +170,9 @@ class Model(StepStart, BodyMeasures):
     def split(self, z):
         """``(u, [d of each colour])`` of a field or test function of ``Z``."""
         u = ufl.as_vector([z[i] for i in range(3)])
-        directors = [ufl.as_vector([z[3 + 3 * c + i] for i in range(3)])
-                     for c in range(self.n_colours)]
+        directors = [
+            ufl.as_vector([z[3 + 3 * c + i] for i in range(3)]) for c in range(self.n_colours)
+        ]
         return u, directors
 
     def get(self, name: str):
@@ -196,9 +203,11 @@ class Model(StepStart, BodyMeasures):
     def axis_error(self, why: str) -> SceneError:
         """The error of a ``shell.axis`` along the normal, for an effect that needs it."""
         at = ", ".join(f"{v:.6g}" for v in self.triad.axis_normal_point)
-        return SceneError(f"shell.axis: expected a direction not along the shell normal ({why}),"
-                          f" found {self.scene['shell']['axis']}, along the normal at "
-                          f"{self.triad.axis_along_normal} node(s), the first at ({at})")
+        return SceneError(
+            f"shell.axis: expected a direction not along the shell normal ({why}),"
+            f" found {self.scene['shell']['axis']}, along the normal at "
+            f"{self.triad.axis_along_normal} node(s), the first at ({at})"
+        )
 
     def _init_materials(self):
         """The material fields (rftfem/model/materials.py): cellwise (DG0) where every
@@ -245,11 +254,15 @@ class Model(StepStart, BodyMeasures):
         u, nodal = self.split(z)
         G1, G2 = kinematics.covariant_basis(self.mesh)
         directors = [kinematics.interpolated_director(d) for d in nodal]
-        d = (hinge.panel_director(self.colour_indicators, directors) if self.n_colours > 1
-             else directors[0])
+        d = (
+            hinge.panel_director(self.colour_indicators, directors)
+            if self.n_colours > 1
+            else directors[0]
+        )
         g1, g2 = kinematics.surface_basis(u, G1, G2)
-        return SimpleNamespace(u=u, d=d, g1=g1, g2=g2, G1=G1, G2=G2,
-                               F_s=kinematics.surface_deformation_gradient(u))
+        return SimpleNamespace(
+            u=u, d=d, g1=g1, g2=g2, G1=G1, G2=G2, F_s=kinematics.surface_deformation_gradient(u)
+        )
 
     def velocity(self, u):
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
@@ -290,7 +303,8 @@ class Model(StepStart, BodyMeasures):
             comp.set_time(t)
         if self.drive:
             self["prescribed-motion"].drive_step(
-                t if scheme is not None and scheme.has_inertia else None, self.coefficients)
+                t if scheme is not None and scheme.has_inertia else None, self.coefficients
+            )
 
     def drive_state(self, t: float, scheme) -> None:
         """With a second-order scheme (None: the model's own), the driven dofs' stored

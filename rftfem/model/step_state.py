@@ -40,8 +40,10 @@ class StepStart:
             # extrapolations, whose error constants its estimate assumes (§6.9)
             du, theta, dt_1 = self.increments[0]
             polynomial = self._extrapolated_rates(dt, turn=False)
-            self.prediction = {1: (u_n + dt * du / dt_1, dt * theta / dt_1),
-                               len(self.increments): (u_n + dt * polynomial[0], dt * qt)}
+            self.prediction = {
+                1: (u_n + dt * du / dt_1, dt * theta / dt_1),
+                len(self.increments): (u_n + dt * polynomial[0], dt * qt),
+            }
         fraction = self._prediction_fraction(u_n, dt * qu)
         self.w.x.array[self.u_dofs] = u_n + fraction * dt * qu
         self.w.x.array[self.theta_dofs] = fraction * dt * qt
@@ -84,6 +86,7 @@ class StepStart:
             v3 = v.reshape(-1, 3).copy()
             v3[idx] = triad_rotate(v3[idx], scale * rot)
             return v3.ravel()
+
         du = turned(du, dt / dt_1)
         qu, qt = du / dt_1, theta / dt_1
         if len(self.increments) == 2:
@@ -106,8 +109,10 @@ class StepStart:
         u_p, theta_p = self.prediction[min(past_steps, max(self.prediction))]
         du = self.w.x.array[self.u_dofs] - u_p
         dth = (self.w.x.array[self.theta_dofs] - theta_p).reshape(-1, 2)
-        local = (float(np.abs(du).max()) if len(du) else 0.0,
-                 float(np.sqrt((dth**2).sum(axis=1)).max()) if len(dth) else 0.0)
+        local = (
+            float(np.abs(du).max()) if len(du) else 0.0,
+            float(np.sqrt((dth**2).sum(axis=1)).max()) if len(dth) else 0.0,
+        )
         both = np.array(local)
         self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.MAX)
         return float(both[0]), float(both[1])
@@ -158,8 +163,12 @@ class StepStart:
         """What a checkpoint keeps of the model (checkpoint.py): this process's arrays
         of the iterate, the last state, every colour's triad and the last increments,
         and the increments' steps."""
-        arrays = {"w": self.w.x.array, "u_n": self.u_n.x.array, "v_n": self.v_n.x.array,
-                  "a_n": self.a_n.x.array}
+        arrays = {
+            "w": self.w.x.array,
+            "u_n": self.u_n.x.array,
+            "v_n": self.v_n.x.array,
+            "a_n": self.a_n.x.array,
+        }
         for c, frame in enumerate(self.triads):
             for k, f in enumerate(frame):
                 arrays[f"triad_{c}_{k}"] = f.x.array
@@ -174,5 +183,7 @@ class StepStart:
         for c, frame in enumerate(self.triads):
             for k, f in enumerate(frame):
                 f.x.array[:] = arrays[f"triad_{c}_{k}"]
-        self.increments = [(arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"], dt)
-                           for i, dt in enumerate(increment_steps)]
+        self.increments = [
+            (arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"], dt)
+            for i, dt in enumerate(increment_steps)
+        ]

@@ -33,8 +33,9 @@ def node_spacing(model) -> np.ndarray:
     """Each local node's spacing: the mean over the cells around it of the cell's size
     over 2 (√area on quadrilaterals, the equilateral side on triangles), halved on
     the body's free edges."""
-    from dolfinx import fem, mesh as dmesh
     import ufl
+    from dolfinx import fem
+    from dolfinx import mesh as dmesh
 
     from rftfem import compat
 
@@ -64,16 +65,19 @@ def free_edge_warnings(cell: str, cells: np.ndarray) -> list[str]:
     elements' nodes, corners first)."""
     if cell != "triangle" or not has_free_edges(cells[:, :3]):
         return []
-    return ["fluid: the body is meshed with triangles and has free edges, where the layer "
-            "carries no edge weight in this version: expect first order there "
-            "(docs/stokes.md §Free edges); mesh it with quadrilaterals, or refine towards "
-            "the edges"]
+    return [
+        "fluid: the body is meshed with triangles and has free edges, where the layer "
+        "carries no edge weight in this version: expect first order there "
+        "(docs/stokes.md §Free edges); mesh it with quadrilaterals, or refine towards "
+        "the edges"
+    ]
 
 
 def has_free_edges(corners: np.ndarray) -> bool:
     """Whether the triangles ``corners`` (C, 3) have a side that only one of them holds."""
-    sides = np.sort(np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]],
-                                    corners[:, [2, 0]]]), axis=1)
+    sides = np.sort(
+        np.concatenate([corners[:, [0, 1]], corners[:, [1, 2]], corners[:, [2, 0]]]), axis=1
+    )
     _, counts = np.unique(sides, axis=0, return_counts=True)
     return bool((counts == 1).any())
 

@@ -96,10 +96,14 @@ class FastResistance:
         self._near_pairs()
         self.correction = self._near_blocks()
         self.clusters = _clusters(self.x, CLUSTER_NODES)
-        self._factors = [sl.cho_factor(stokeslets.mobility(self.x[c], self.delta[c],
-                                                           self.viscosity),
-                                       lower=True, check_finite=False)
-                         for c in self.clusters]
+        self._factors = [
+            sl.cho_factor(
+                stokeslets.mobility(self.x[c], self.delta[c], self.viscosity),
+                lower=True,
+                check_finite=False,
+            )
+            for c in self.clusters
+        ]
         #: conjugate-gradient iterations of every solve so far
         self.iterations: list[int] = []
         self._lumped = None
@@ -124,23 +128,28 @@ class FastResistance:
         """``(S_δ − S)/(8πμ)`` on the near pairs and ``S_δ(0)/(8πμ)`` on the diagonal."""
         f0, f1, _, _ = stokeslets.radial(self.dist / self.d)
         da = f0 / self.d - 1.0 / self.dist
-        db = f1 / self.d ** 3 - 1.0 / self.dist ** 3
+        db = f1 / self.d**3 - 1.0 / self.dist**3
         r = self.r
         blocks = da[:, None, None] * np.eye(3) + db[:, None, None] * r[:, :, None] * r[:, None, :]
         a0 = stokeslets.radial(np.zeros(1))[0][0] / self.delta
         own = a0[:, None, None] * np.eye(3)
         nodes = np.arange(self.n)
         rows, cols = np.r_[self.i, nodes], np.r_[self.j, nodes]
-        return _block_matrix(rows, cols, np.concatenate([blocks, own]), self.n) \
-            / (8 * pi * self.viscosity)
+        return _block_matrix(rows, cols, np.concatenate([blocks, own]), self.n) / (
+            8 * pi * self.viscosity
+        )
 
     def _fmm(self, **sources):
         import fmm3dpy
 
-        flat = {k: np.ascontiguousarray(np.reshape(v, (-1, 3)).T) for k, v in sources.items()
-                if k != "ifppreg"}
-        return fmm3dpy.stfmm3d(eps=FMM_PRECISION, sources=self._sources,
-                               ifppreg=sources.get("ifppreg", 1), **flat)
+        flat = {
+            k: np.ascontiguousarray(np.reshape(v, (-1, 3)).T)
+            for k, v in sources.items()
+            if k != "ifppreg"
+        }
+        return fmm3dpy.stfmm3d(
+            eps=FMM_PRECISION, sources=self._sources, ifppreg=sources.get("ifppreg", 1), **flat
+        )
 
     def apply(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` for forces of length 3N."""
@@ -217,9 +226,9 @@ class PositionDerivative:
         res, F = self.res, self.F
         r, dist, d = res.r, res.dist, res.d
         _, f1, f2, f3 = stokeslets.radial(dist / d)
-        b = f1 / d ** 3 - 1.0 / dist ** 3
-        da = f2 / d ** 3 + 1.0 / dist ** 3
-        db = f3 / d ** 5 + 3.0 / dist ** 5
+        b = f1 / d**3 - 1.0 / dist**3
+        da = f2 / d**3 + 1.0 / dist**3
+        db = f3 / d**5 + 3.0 / dist**5
         Fj = F[res.j]
         rF = np.einsum("pk,pk->p", r, Fj)
         T = da[:, None, None] * Fj[:, :, None] * r[:, None, :]
@@ -229,8 +238,9 @@ class PositionDerivative:
         diag = np.zeros((res.n, 3, 3))
         np.add.at(diag, res.i, T)
         nodes = np.arange(res.n)
-        return _block_matrix(np.r_[res.i, nodes], np.r_[res.j, nodes],
-                             np.concatenate([-T, diag]), res.n) / (8 * pi * res.viscosity)
+        return _block_matrix(
+            np.r_[res.i, nodes], np.r_[res.j, nodes], np.concatenate([-T, diag]), res.n
+        ) / (8 * pi * res.viscosity)
 
     def __matmul__(self, dx: np.ndarray) -> np.ndarray:
         res = self.res
@@ -260,8 +270,7 @@ class OnFirst:
         return self._first(self.res.lumped if self.res is not None else None)
 
     def position_operator(self, forces):
-        return _FirstProduct(self, None if self.res is None
-                             else self.res.position_operator(forces))
+        return _FirstProduct(self, None if self.res is None else self.res.position_operator(forces))
 
 
 class _FirstProduct:

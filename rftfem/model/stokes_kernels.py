@@ -66,10 +66,10 @@ def radial(d, eps):
         e = erf(r)
         s1 = e + _C * r * (3 - 2 * r * r) * E
         s2 = e - _C * r * (1 - 2 * r * r) * E
-        ds1 = _C * E * (4 - 12 * r * r + 4 * r ** 4)
-        ds2 = _C * E * (8 * r * r - 4 * r ** 4)
-        f0, f1 = s1 / r, s2 / r ** 3
-        f2, f3 = (r * ds1 - s1) / r ** 3, (r * ds2 - 3 * s2) / r ** 5
+        ds1 = _C * E * (4 - 12 * r * r + 4 * r**4)
+        ds2 = _C * E * (8 * r * r - 4 * r**4)
+        f0, f1 = s1 / r, s2 / r**3
+        f2, f3 = (r * ds1 - s1) / r**3, (r * ds2 - 3 * s2) / r**5
     e3 = eps * eps * eps
     return f0 / eps, f1 / e3, f2 / e3, f3 / (e3 * eps * eps)
 
@@ -148,8 +148,13 @@ def image_gradient(xi, eta, f, d_xi, d_eta):
     s = R[0] * f[0] + R[1] * f[1] + R[2] * f[2]
     q = R[0] * g[0] + R[1] * g[1] + R[2] * g[2]
     for i in range(3):
-        dh = 2 * (h * g[i] * i3 - 3 * h * R[i] * q * i5 - g[i] * R3 * i3 - R[i] * g3 * i3
-                  + 3 * R[i] * R3 * q * i5) + 2 * h * (g[i] * i3 - 3 * R[i] * q * i5)
+        dh = 2 * (
+            h * g[i] * i3
+            - 3 * h * R[i] * q * i5
+            - g[i] * R3 * i3
+            - R[i] * g3 * i3
+            + 3 * R[i] * R3 * q * i5
+        ) + 2 * h * (g[i] * i3 - 3 * R[i] * q * i5)
         if i == 2:
             dh += 2 * q * i3
         for m in range(3):
@@ -157,13 +162,20 @@ def image_gradient(xi, eta, f, d_xi, d_eta):
             dm3 = 1.0 if m == 2 else 0.0
             di3 = 1.0 if i == 2 else 0.0
             v = f[i] * R[m] * i3 - dim * s * i3 - R[i] * f[m] * i3 + 3 * R[i] * s * R[m] * i5
-            w = (-3 * h * g[i] * R[m] * i5
-                 - 3 * h * (dim * q * i5 + R[i] * g[m] * i5 - 5 * R[i] * q * R[m] * i7)
-                 + di3 * (g[m] * i3 - 3 * q * R[m] * i5)
-                 - g[i] * (dm3 * i3 - 3 * R3 * R[m] * i5)
-                 - g3 * (dim * i3 - 3 * R[i] * R[m] * i5)
-                 + 3 * (dim * R3 * q * i5 + R[i] * dm3 * q * i5 + R[i] * R3 * g[m] * i5
-                        - 5 * R[i] * R3 * q * R[m] * i7))
+            w = (
+                -3 * h * g[i] * R[m] * i5
+                - 3 * h * (dim * q * i5 + R[i] * g[m] * i5 - 5 * R[i] * q * R[m] * i7)
+                + di3 * (g[m] * i3 - 3 * q * R[m] * i5)
+                - g[i] * (dm3 * i3 - 3 * R3 * R[m] * i5)
+                - g3 * (dim * i3 - 3 * R[i] * R[m] * i5)
+                + 3
+                * (
+                    dim * R3 * q * i5
+                    + R[i] * dm3 * q * i5
+                    + R[i] * R3 * g[m] * i5
+                    - 5 * R[i] * R3 * q * R[m] * i7
+                )
+            )
             d_xi[i, m] = v + 2 * h * w
         d_eta[i, 0], d_eta[i, 1] = -d_xi[i, 0], -d_xi[i, 1]
         d_eta[i, 2] = d_xi[i, 2] + dh
@@ -186,7 +198,7 @@ def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
     target and point (``out``: (k, 3, N, 3)); ``K`` is the free kernel if ``free``,
     plus the images of the wall if ``wall``, the wall the plane z = 0 (the callers
     work in its frame: :func:`to_frame`, :func:`from_frame`)."""
-    k, q, nd = len(targets), len(y), nodes.shape[1]
+    k, q = len(targets), len(y)
     for t in nb.prange(k):
         K = np.empty((3, 3))
         W = np.empty((3, 3))
@@ -209,7 +221,7 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out
     """The far rule's ``G`` at the weighted point densities ``F`` (q, 3), added to
     ``out`` (k, 3, N, 3); ``target_nodes[t]`` is the node whose position ``targets[t]``
     is; the wall as for :func:`far_matrix`."""
-    k, q, nd = len(targets), len(y), nodes.shape[1]
+    k, q = len(targets), len(y)
     for t in nb.prange(k):
         T = np.empty((3, 3))
         own = np.zeros((3, 3))
@@ -230,7 +242,7 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out
                 own += dxi
                 src += deta
             _scatter(out[t], nodes[p], psi[p], 1.0, src)
-        _scatter(out[t], target_nodes[t:t + 1], _ONE, 1.0, own)
+        _scatter(out[t], target_nodes[t : t + 1], _ONE, 1.0, own)
 
 
 def to_frame(Q, point, x):
@@ -290,7 +302,7 @@ def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
             free_gradient(r, F, eps, T)
             own += T
             _scatter(out[row], nodes[p], psi[p], -1.0, T)
-        _scatter(out[row], x_index[t:t + 1], _ONE, 1.0, own)
+        _scatter(out[row], x_index[t : t + 1], _ONE, 1.0, own)
 
 
 def warm():
@@ -344,8 +356,11 @@ def edge_distance(y, P, t):
                     d2 += r * r
                     if it == 4:
                         continue
-                    dc = ((4 * s - 3) * P[p, c, 0, j] + (4 - 8 * s) * P[p, c, 1, j]
-                          + (4 * s - 1) * P[p, c, 2, j])
+                    dc = (
+                        (4 * s - 3) * P[p, c, 0, j]
+                        + (4 - 8 * s) * P[p, c, 1, j]
+                        + (4 * s - 1) * P[p, c, 2, j]
+                    )
                     ddc = 4 * P[p, c, 0, j] - 8 * P[p, c, 1, j] + 4 * P[p, c, 2, j]
                     g += r * dc
                     h += dc * dc + r * ddc

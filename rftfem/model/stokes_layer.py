@@ -41,9 +41,9 @@ import scipy.sparse as sp
 
 from rftfem.model import stokes_kernels as kernels
 from rftfem.model import stokeslets
+from rftfem.model.layer_rules import NEAR, NEAR_FACTOR, EdgeWeight, ReferenceElement, RulePoints
 from rftfem.model.ranks import gather_rows
-from rftfem.model.layer_rules import (NEAR, NEAR_FACTOR, EdgeWeight, ReferenceElement,
-                                      RulePoints)
+
 
 class Layer:
     """The layer's rules for one body (set up once, from the reference positions ``X``).
@@ -52,8 +52,16 @@ class Layer:
     element's order; ``rows`` the target nodes this process evaluates (a slice,
     default all)."""
 
-    def __init__(self, X, cells, cell: str, epsilon: float, refine: int = 0,
-                 rows: slice | None = None, edge_weight: bool = True):
+    def __init__(
+        self,
+        X,
+        cells,
+        cell: str,
+        epsilon: float,
+        refine: int = 0,
+        rows: slice | None = None,
+        edge_weight: bool = True,
+    ):
         self.X = np.asarray(X, dtype=float)
         self.cells = np.asarray(cells, dtype=np.int64)
         self.element = ReferenceElement(cell)
@@ -61,39 +69,51 @@ class Layer:
         n = len(self.X)
         self.rows = slice(0, n) if rows is None else rows
         #: the density's edge weight (``ω = 1`` everywhere without ``edge_weight``)
-        self.weight = EdgeWeight(self.element, self.cells if edge_weight else self.cells[:0],
-                                 self.X)
+        self.weight = EdgeWeight(
+            self.element, self.cells if edge_weight else self.cells[:0], self.X
+        )
         if not edge_weight:
             self.weight.sides = self.weight.corners = [()] * len(self.cells)
         else:  # ℓ from the plain far rule's points
             xi1, _ = self.element.rule(1)
-            self.weight.set_reach(np.concatenate(
-                [self.element.basis(xi1) @ self.X[c] for c in self.cells]))
-        self._m = 2 ** self.refine
+            self.weight.set_reach(
+                np.concatenate([self.element.basis(xi1) @ self.X[c] for c in self.cells])
+            )
+        self._m = 2**self.refine
         C = len(self.cells)
         rules = [self.rule(e, self._m) for e in range(C)]
         q = len(rules[0][1])
         elem = np.repeat(np.arange(C), q)
         #: the far rule: every element's Gauss points
         self._far_xi = np.concatenate([r[0] for r in rules])
-        self.far = RulePoints(self.cells, self.element, elem, self._far_xi,
-                           self._weights(elem, self._far_xi, np.concatenate([r[1] for r in rules])))
+        self.far = RulePoints(
+            self.cells,
+            self.element,
+            elem,
+            self._far_xi,
+            self._weights(elem, self._far_xi, np.concatenate([r[1] for r in rules])),
+        )
         self._P = self.far.scatter(n)
         #: the far rule's weight × basis (points × nodes of an element)
         self._far_wpsi = self.far.psi * self.far.weight[:, None]
         #: each element's size: √ of its reference area
         plain_xi, plain_w = self.element.rule(1)
         elem1 = np.repeat(np.arange(C), len(plain_w))
-        area = np.bincount(elem1, weights=np.tile(plain_w, C) * self._reference_jacobian(
-            elem1, np.tile(plain_xi, (C, 1))), minlength=C)
+        area = np.bincount(
+            elem1,
+            weights=np.tile(plain_w, C)
+            * self._reference_jacobian(elem1, np.tile(plain_xi, (C, 1))),
+            minlength=C,
+        )
         self.size = np.sqrt(area)
         self.special = self._special_points()
         #: the special points ordered by target: row t's are ``_starts[t]:_starts[t + 1]``
         order = np.argsort(self.special.target, kind="stable")
         for name in ("elem", "nodes", "psi", "weight", "target"):
             setattr(self.special, name, np.ascontiguousarray(getattr(self.special, name)[order]))
-        self._starts = np.searchsorted(self.special.target,
-                                       np.arange(self.rows.start, self.rows.stop + 1))
+        self._starts = np.searchsorted(
+            self.special.target, np.arange(self.rows.start, self.rows.stop + 1)
+        )
 
     def _reference_jacobian(self, elem, xi) -> np.ndarray:
         """``|∂X/∂ξ₁ × ∂X/∂ξ₂|`` at the points ``xi`` of the elements ``elem``."""
@@ -134,10 +154,14 @@ class Layer:
         # every element's near rule, weighted in one call
         rules = [self.rule(e, self._m * NEAR_FACTOR) for e in range(len(cells))]
         counts = [len(w) for _, w in rules]
-        weights = np.split(self._weights(np.repeat(np.arange(len(cells)), counts),
-                                         np.concatenate([xi for xi, _ in rules]),
-                                         np.concatenate([w for _, w in rules])),
-                           np.cumsum(counts)[:-1])
+        weights = np.split(
+            self._weights(
+                np.repeat(np.arange(len(cells)), counts),
+                np.concatenate([xi for xi, _ in rules]),
+                np.concatenate([w for _, w in rules]),
+            ),
+            np.cumsum(counts)[:-1],
+        )
         for e in range(len(cells)):
             d = np.linalg.norm(self.X[targets, None, :] - y[e][None], axis=-1).min(axis=1)
             near = targets[d < NEAR * self.size[e]]
@@ -155,8 +179,9 @@ class Layer:
                     add(ready, e, rules[e][0], weights[e], t)
                 add(ready, e, far_xi, -far_w, t)
         if not ready[0]:
-            return RulePoints(cells, el, np.zeros(0, int), np.zeros((0, 2)), np.zeros(0),
-                           np.zeros(0, int))
+            return RulePoints(
+                cells, el, np.zeros(0, int), np.zeros((0, 2)), np.zeros(0), np.zeros(0, int)
+            )
         if raw[0]:
             elem, xi, w, t = (np.concatenate(v) for v in raw)
             ready[0].append(elem), ready[1].append(xi), ready[3].append(t)
@@ -166,7 +191,7 @@ class Layer:
     def _far_of(self, e: int):
         """Element ``e``'s far points (reference coordinates) and weights."""
         q = len(self.far.weight) // len(self.cells)
-        return self._far_xi[e * q:(e + 1) * q], self.far.weight[e * q:(e + 1) * q]
+        return self._far_xi[e * q : (e + 1) * q], self.far.weight[e * q : (e + 1) * q]
 
     # --- the operator ---------------------------------------------------------
 
@@ -180,8 +205,16 @@ class Layer:
         lo, hi = self.rows.start, self.rows.stop
         A = np.zeros((hi - lo, 3, n, 3))
         far, s = self.far, self.special
-        kernels.far_matrix(x[lo:hi], far.positions(x), self._far_wpsi, far.nodes, self.epsilon,
-                           True, wall is not None, A)
+        kernels.far_matrix(
+            x[lo:hi],
+            far.positions(x),
+            self._far_wpsi,
+            far.nodes,
+            self.epsilon,
+            True,
+            wall is not None,
+            A,
+        )
         kernels.pairs_matrix(x, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, A)
         if wall is not None:
             A = kernels.from_frame(wall.Q, A)
@@ -197,9 +230,18 @@ class Layer:
         lo, hi = self.rows.start, self.rows.stop
         G = np.zeros((hi - lo, 3, n, 3))
         far, s = self.far, self.special
-        kernels.far_derivative(x[lo:hi], np.arange(lo, hi), far.positions(x), far.psi,
-                               far.nodes, far.density(f), self.epsilon, True, wall is not None,
-                               G)
+        kernels.far_derivative(
+            x[lo:hi],
+            np.arange(lo, hi),
+            far.positions(x),
+            far.psi,
+            far.nodes,
+            far.density(f),
+            self.epsilon,
+            True,
+            wall is not None,
+            G,
+        )
         kernels.pairs_derivative(x, f, lo, self._starts, s.psi, s.weight, s.nodes, self.epsilon, G)
         if wall is not None:
             G = kernels.from_frame(wall.Q, G)
@@ -214,8 +256,9 @@ class Layer:
     def _basis_matrix(self) -> sp.csr_matrix:
         n = len(self.X)
         rows = np.repeat(np.arange(len(self.far.weight)), self.far.nodes.shape[1])
-        return sp.csr_matrix((self.far.psi.ravel(), (rows, self.far.nodes.ravel())),
-                             shape=(len(self.far.weight), n))
+        return sp.csr_matrix(
+            (self.far.psi.ravel(), (rows, self.far.nodes.ravel())), shape=(len(self.far.weight), n)
+        )
 
     def mass_factors(self):
         """``B`` and its sparse LU (kept: ``B`` does not move)."""
@@ -255,12 +298,21 @@ class LayerResistance:
     tangent of the earlier configuration, which the Stokes effect refreshes when
     GMRES slows: ``iterations``)."""
 
-    def __init__(self, layer: Layer, x, viscosity: float, wall=None, comm=None,
-                 interpolation=None, kept: "LayerResistance | None" = None):
+    def __init__(
+        self,
+        layer: Layer,
+        x,
+        viscosity: float,
+        wall=None,
+        comm=None,
+        interpolation=None,
+        kept: "LayerResistance | None" = None,
+    ):
         self.x = np.array(x, dtype=float)
         self.layer, self.viscosity, self.wall = layer, viscosity, wall
-        self.I = interpolation if interpolation is not None else \
-            sp.identity(len(self.x), format="csr")
+        self.I = (
+            interpolation if interpolation is not None else sp.identity(len(self.x), format="csr")
+        )
         #: the force grid's positions
         self.grid = self.I @ self.x
         self.comm = comm if comm is not None and comm.size > 1 else None
@@ -309,8 +361,13 @@ class LayerResistance:
         columns = rhs.reshape(len(rhs), -1)
         out = np.empty_like(columns)
         for k in range(columns.shape[1]):
-            out[:, k], its = _gmres(self._product, columns[:, k], lambda r: sl.lu_solve(
-                self._lu, r, check_finite=False), KEPT_RTOL, KEPT_MOST)
+            out[:, k], its = _gmres(
+                self._product,
+                columns[:, k],
+                lambda r: sl.lu_solve(self._lu, r, check_finite=False),
+                KEPT_RTOL,
+                KEPT_MOST,
+            )
             if out[:, k][0] != out[:, k][0]:  # (NaN: not converged) factorise, solve
                 self.factorise()
                 return self.densities(rhs)
@@ -350,8 +407,7 @@ class LayerResistance:
                 break
         else:
             raise RuntimeError("the layer's derivative is taken at loads it did not solve for")
-        G = self.layer.position_derivative(self.grid, f.reshape(-1, 3), self.viscosity,
-                                           self.wall)
+        G = self.layer.position_derivative(self.grid, f.reshape(-1, 3), self.viscosity, self.wall)
         return G if self.comm is None else stokeslets.RowBlocks(G, self.comm)
 
     def tangent(self, du: np.ndarray, cv: float, G) -> np.ndarray:
@@ -359,7 +415,6 @@ class LayerResistance:
         change ``du`` (velocities ``c_v du``), ``G`` from :meth:`position_operator`."""
         dg = self._to_grid(np.asarray(du, dtype=float))
         return self._to_shell(self._loads(self.densities(cv * dg - G @ dg, exact=False)))
-
 
 
 def _gmres(product, b, precondition, rtol: float, most: int):
@@ -380,9 +435,9 @@ def _gmres(product, b, precondition, rtol: float, most: int):
         H[j + 1, j] = np.linalg.norm(w)
         e1 = np.zeros(j + 2)
         e1[0] = beta
-        y = np.linalg.lstsq(H[:j + 2, :j + 1], e1, rcond=None)[0]
-        left = np.linalg.norm(e1 - H[:j + 2, :j + 1] @ y)
+        y = np.linalg.lstsq(H[: j + 2, : j + 1], e1, rcond=None)[0]
+        left = np.linalg.norm(e1 - H[: j + 2, : j + 1] @ y)
         if left <= rtol * beta or H[j + 1, j] == 0.0:
-            return precondition(V[:j + 1].T @ y), j + 1
+            return precondition(V[: j + 1].T @ y), j + 1
         V[j + 1] = w / H[j + 1, j]
     return np.full_like(b, np.nan), most

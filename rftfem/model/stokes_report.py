@@ -57,7 +57,7 @@ def _rates() -> tuple[float, float]:
         a = np.random.default_rng(0).random((1000, 1000)) + 1000 * np.eye(1000)
         t0 = time.perf_counter()
         sl.lu_factor(a, overwrite_a=True, check_finite=False)
-        lu = (2 / 3) * 1000 ** 3 / max(time.perf_counter() - t0, 1e-6)
+        lu = (2 / 3) * 1000**3 / max(time.perf_counter() - t0, 1e-6)
         pair = stokes_kernels.pair_seconds()
         _MEASURED = (lu, pair)
     return _MEASURED
@@ -76,21 +76,28 @@ def admit(rows: int, points_a_row: float, processes: int, method: str = "layer")
     # share of rows
     memory = 8 * n3 * n3 * ((2 if method == "layer" else 1) + 1 / processes)
     have = machine_memory()
-    change = ("a coarser mesh" + (" or a lower fluid.refine" if method == "layer" else "")
-              + ', or fluid.method = "blobs" with operator = "fmm" (matrix-free, no wall)')
+    change = (
+        "a coarser mesh"
+        + (" or a lower fluid.refine" if method == "layer" else "")
+        + ', or fluid.method = "blobs" with operator = "fmm" (matrix-free, no wall)'
+    )
     if have and memory > have:
-        raise SceneError(f"fluid: the dense Stokes operator of {rows} nodes needs "
-                         f"{memory / 1e9:.3g} GB on each process, over this machine's "
-                         f"{have / 1e9:.3g} GB: use {change}")
+        raise SceneError(
+            f"fluid: the dense Stokes operator of {rows} nodes needs "
+            f"{memory / 1e9:.3g} GB on each process, over this machine's "
+            f"{have / 1e9:.3g} GB: use {change}"
+        )
     if n3 < 6000:  # (at most seconds a step on any machine: not measured)
         return memory, None
     factor, kernel = update_cost(rows, points_a_row, processes, method)
     step = UPDATES_A_STEP * (factor + kernel)
     if step > LONGEST_STEP:
-        raise SceneError(f"fluid: a step of the dense Stokes operator of {rows} nodes would "
-                         f"take about {step / 3600:.3g} h on this machine (a factorisation of "
-                         f"{factor:.3g} s and kernels of {kernel:.3g} s a Newton update, "
-                         f"{UPDATES_A_STEP} updates a step): use {change}")
+        raise SceneError(
+            f"fluid: a step of the dense Stokes operator of {rows} nodes would "
+            f"take about {step / 3600:.3g} h on this machine (a factorisation of "
+            f"{factor:.3g} s and kernels of {kernel:.3g} s a Newton update, "
+            f"{UPDATES_A_STEP} updates a step): use {change}"
+        )
     return memory, step
 
 
@@ -132,24 +139,39 @@ def describe(stokes) -> dict:
     """The discretisation of a Stokes component: sizes, cost and estimated error."""
     if getattr(stokes, "_description", None) is not None:
         return stokes._description
-    out = {"model": "stokes", "method": stokes.method, "operator": stokes.operator,
-           "nodes": int(len(stokes.X))}
+    out = {
+        "model": "stokes",
+        "method": stokes.method,
+        "operator": stokes.operator,
+        "nodes": int(len(stokes.X)),
+    }
     if stokes.method == "blobs":
         uniform = stokes.settings.regularization is not None
-        out.update({"regularization": float(stokes.delta[0]) if uniform else "node spacing",
-            "estimated_error": None,
-            "estimate_from": 'not estimated for method = "blobs" (first order in the '
-                             "spacing: refine the mesh; docs/stokes.md)"})
+        out.update(
+            {
+                "regularization": float(stokes.delta[0]) if uniform else "node spacing",
+                "estimated_error": None,
+                "estimate_from": 'not estimated for method = "blobs" (first order in the '
+                "spacing: refine the mesh; docs/stokes.md)",
+            }
+        )
         stokes._description = out
         return out
     comm = stokes.model.comm
     grid = len(stokes.layer.X)
-    points = comm.allreduce(stokes.layer.quadrature_points) - \
-        (comm.size - 1) * len(stokes.layer.far.weight)
-    out.update({"refine": stokes.refine, "grid_nodes": grid, "quadrature_points": int(points),
-                "epsilon": stokes.epsilon,
-                # the operator, its factors (kept: beside the next operator), derivative
-                "memory_bytes": int(72 * grid ** 2 * (3 if stokes.keep_factors else 2))})
+    points = comm.allreduce(stokes.layer.quadrature_points) - (comm.size - 1) * len(
+        stokes.layer.far.weight
+    )
+    out.update(
+        {
+            "refine": stokes.refine,
+            "grid_nodes": grid,
+            "quadrature_points": int(points),
+            "epsilon": stokes.epsilon,
+            # the operator, its factors (kept: beside the next operator), derivative
+            "memory_bytes": int(72 * grid**2 * (3 if stokes.keep_factors else 2)),
+        }
+    )
     value = None
     if comm.rank == 0:
         value = _estimate(stokes)
@@ -172,12 +194,20 @@ def _estimate(stokes) -> dict:
         layer = stokes.layer
         points = len(layer.far.weight) + SPECIAL_POINTS
         factor, kernel = update_cost(len(layer.X), points, stokes.model.comm.size)
-        return {"seconds_per_update": factor + kernel, "estimated_error": None,
-                "estimate_from": f"not estimated: fluid.refine = {level} would have "
-                                 f"{nodes} grid nodes (over {ESTIMATE_NODES})"}
+        return {
+            "seconds_per_update": factor + kernel,
+            "estimated_error": None,
+            "estimate_from": f"not estimated: fluid.refine = {level} would have "
+            f"{nodes} grid nodes (over {ESTIMATE_NODES})",
+        }
     t0 = time.perf_counter()
-    res = stokes_layer.LayerResistance(stokes._serial_layer(stokes.refine), X, stokes.viscosity,
-                                       stokes.wall, interpolation=stokes.interpolation)
+    res = stokes_layer.LayerResistance(
+        stokes._serial_layer(stokes.refine),
+        X,
+        stokes.viscosity,
+        stokes.wall,
+        interpolation=stokes.interpolation,
+    )
     t1 = time.perf_counter()
     R = rigid_resistance(res, X)
     F = res.solve(rigid_motions(X)[0].ravel())
@@ -193,30 +223,40 @@ def _estimate(stokes) -> dict:
     out = {"seconds_per_update": update}
     fine_layer = stokes._serial_layer(level)
     _, _, I = layer_rules.refined(X, stokes.shell_cells, stokes.cell, level)
-    fine = stokes_layer.LayerResistance(fine_layer, X, stokes.viscosity, stokes.wall,
-                                        interpolation=I)
-    out.update({"estimated_error": relative_change(R, rigid_resistance(fine, X)),
-                "estimate_from": f"the rigid resistance at fluid.refine = {stokes.refine} "
-                                 f"against {level} ({nodes} grid nodes)"})
+    fine = stokes_layer.LayerResistance(
+        fine_layer, X, stokes.viscosity, stokes.wall, interpolation=I
+    )
+    out.update(
+        {
+            "estimated_error": relative_change(R, rigid_resistance(fine, X)),
+            "estimate_from": f"the rigid resistance at fluid.refine = {stokes.refine} "
+            f"against {level} ({nodes} grid nodes)",
+        }
+    )
     return out
 
 
 def check_lines(d: dict) -> list[str]:
     """``rftfem check``'s lines for a Stokes description."""
     if d["method"] == "blobs":
-        return [f"fluid: blobs at {d['nodes']} nodes, {d['operator']} operator; "
-                f"{d['estimate_from']}"]
-    lines = [f"fluid: integrated layer, {d['nodes']} shell nodes, force grid of "
-             f"{d['grid_nodes']} nodes (fluid.refine = {d['refine']}), "
-             f"{d['quadrature_points']} quadrature points, ε = {d['epsilon']:.3g}",
-             f"fluid: {d['operator']} operator, {d['memory_bytes'] / 1e6:.3g} MB; about "
-             f"{d['seconds_per_update']:.2g} s of liquid a Newton update that factorises "
-             "(a step takes 1–3 updates; kept factors make most of them cheaper)"]
+        return [
+            f"fluid: blobs at {d['nodes']} nodes, {d['operator']} operator; {d['estimate_from']}"
+        ]
+    lines = [
+        f"fluid: integrated layer, {d['nodes']} shell nodes, force grid of "
+        f"{d['grid_nodes']} nodes (fluid.refine = {d['refine']}), "
+        f"{d['quadrature_points']} quadrature points, ε = {d['epsilon']:.3g}",
+        f"fluid: {d['operator']} operator, {d['memory_bytes'] / 1e6:.3g} MB; about "
+        f"{d['seconds_per_update']:.2g} s of liquid a Newton update that factorises "
+        "(a step takes 1–3 updates; kept factors make most of them cheaper)",
+    ]
     if d["estimated_error"] is None:
         lines.append(f"fluid: {d['estimate_from']}")
     else:
-        lines.append(f"fluid: estimated discretisation error {100 * d['estimated_error']:.2g} % "
-                     f"({d['estimate_from']})")
+        lines.append(
+            f"fluid: estimated discretisation error {100 * d['estimated_error']:.2g} % "
+            f"({d['estimate_from']})"
+        )
     return lines
 
 
@@ -225,6 +265,8 @@ def warnings(d: dict) -> list[str]:
     e = d.get("estimated_error")
     if e is None or e <= WARN_ABOVE:
         return []
-    return [f"fluid: the liquid's estimated discretisation error is {100 * e:.3g} % (over "
-            f"{100 * WARN_ABOVE:g} %, {d['estimate_from']}): raise fluid.refine or refine "
-            "the mesh"]
+    return [
+        f"fluid: the liquid's estimated discretisation error is {100 * e:.3g} % (over "
+        f"{100 * WARN_ABOVE:g} %, {d['estimate_from']}): raise fluid.refine or refine "
+        "the mesh"
+    ]

@@ -26,7 +26,6 @@ from __future__ import annotations
 from math import factorial, pi, sqrt
 
 import numpy as np
-
 from numpy.polynomial import polynomial as P
 from scipy.special import erf
 
@@ -62,8 +61,12 @@ def _series():
         assert np.allclose(p[:k], 0.0, atol=1e-14)
         return p[k:]
 
-    return (shift(s1, 1), shift(s2, 3), shift(P.polysub(mul(rho, ds1), s1), 3),
-            shift(P.polysub(mul(rho, ds2), 3 * s2), 5))
+    return (
+        shift(s1, 1),
+        shift(s2, 3),
+        shift(P.polysub(mul(rho, ds1), s1), 3),
+        shift(P.polysub(mul(rho, ds2), 3 * s2), 5),
+    )
 
 
 _COEFFS = _series()
@@ -96,12 +99,12 @@ def radial(rho: np.ndarray):
         erf_r = erf(r)
         s1 = erf_r + _C * r * (3 - 2 * r * r) * E
         s2 = erf_r - _C * r * (1 - 2 * r * r) * E
-        ds1 = _C * E * (4 - 12 * r * r + 4 * r ** 4)
-        ds2 = _C * E * (8 * r * r - 4 * r ** 4)
+        ds1 = _C * E * (4 - 12 * r * r + 4 * r**4)
+        ds2 = _C * E * (8 * r * r - 4 * r**4)
         out[0][big] = s1 / r
-        out[1][big] = s2 / r ** 3
-        out[2][big] = (r * ds1 - s1) / r ** 3
-        out[3][big] = (r * ds2 - 3 * s2) / r ** 5
+        out[1][big] = s2 / r**3
+        out[2][big] = (r * ds1 - s1) / r**3
+        out[3][big] = (r * ds2 - 3 * s2) / r**5
     return out
 
 
@@ -118,8 +121,9 @@ def _pairs(x, delta, rows):
     return r, dist / d, d
 
 
-def mobility(x: np.ndarray, delta: np.ndarray, viscosity: float, rows: slice | None = None
-             ) -> np.ndarray:
+def mobility(
+    x: np.ndarray, delta: np.ndarray, viscosity: float, rows: slice | None = None
+) -> np.ndarray:
     """The dense ``3N × 3N`` matrix ``M`` with ``u = M F`` (node by node, xyz), or
     its rows of the target nodes ``rows`` (``3 len(rows) × 3N``)."""
     x = np.asarray(x, dtype=float)
@@ -129,7 +133,7 @@ def mobility(x: np.ndarray, delta: np.ndarray, viscosity: float, rows: slice | N
     for chunk in _chunks(hi - lo, total=n):
         r, rho, d = _pairs(x, delta, _shift(chunk, lo))
         f0, f1, _, _ = radial(rho)
-        a, b = f0 / d, f1 / d ** 3
+        a, b = f0 / d, f1 / d**3
         block = b[:, :, None, None] * r[:, :, :, None] * r[:, :, None, :]
         block += a[:, :, None, None] * np.eye(3)
         M[chunk] = block.transpose(0, 2, 1, 3)
@@ -155,8 +159,7 @@ def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
         r, rho, d = _pairs(x, delta, idx[rows])
         f0, f1, _, _ = radial(rho)
         rF = np.einsum("ijk,jk->ij", r, F)
-        out[rows] = (np.einsum("ij,jk->ik", f0 / d, F)
-                     + np.einsum("ij,ijk->ik", f1 / d ** 3 * rF, r))
+        out[rows] = np.einsum("ij,jk->ik", f0 / d, F) + np.einsum("ij,ijk->ik", f1 / d**3 * rF, r)
     return out / (8 * pi * viscosity)
 
 
@@ -177,7 +180,7 @@ def position_derivative(x, delta, viscosity, forces, rows: slice | None = None) 
         targets = _shift(chunk, lo)
         r, rho, d = _pairs(x, delta, targets)
         _, f1, f2, f3 = radial(rho)
-        b, da, db = f1 / d ** 3, f2 / d ** 3, f3 / d ** 5
+        b, da, db = f1 / d**3, f2 / d**3, f3 / d**5
         rF = np.einsum("ijk,jk->ij", r, F)
         T = da[:, :, None, None] * F[None, :, :, None] * r[:, :, None, :]
         T += (db * rF)[:, :, None, None] * r[:, :, :, None] * r[:, :, None, :]
@@ -233,9 +236,16 @@ class Wall:
         k = _kernels()
         n = len(sources)
         W = np.zeros((len(targets), 3, n, 3))
-        k.far_matrix(k.to_frame(self.Q, self.point, targets),
-                     k.to_frame(self.Q, self.point, sources), np.ones((n, 1)),
-                     np.arange(n)[:, None], 0.0, False, True, W)
+        k.far_matrix(
+            k.to_frame(self.Q, self.point, targets),
+            k.to_frame(self.Q, self.point, sources),
+            np.ones((n, 1)),
+            np.arange(n)[:, None],
+            0.0,
+            False,
+            True,
+            W,
+        )
         return k.from_frame(self.Q, W)
 
     def image_velocity(self, targets, sources, forces):
@@ -259,8 +269,18 @@ class Wall:
         n = len(x)
         lo, hi = _bounds(rows, n)
         G = np.zeros((hi - lo, 3, n, 3))
-        k.far_derivative(x[lo:hi], np.arange(lo, hi), x, np.ones((n, 1)),
-                         np.arange(n)[:, None], F, 0.0, False, True, G)
+        k.far_derivative(
+            x[lo:hi],
+            np.arange(lo, hi),
+            x,
+            np.ones((n, 1)),
+            np.arange(n)[:, None],
+            F,
+            0.0,
+            False,
+            True,
+            G,
+        )
         G = k.from_frame(self.Q, G)
         return G.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
@@ -289,8 +309,9 @@ class Resistance:
     and every process factorises the same matrix; the position derivative stays
     distributed by rows."""
 
-    def __init__(self, x, delta, viscosity, wall: Wall | None = None, comm=None,
-                 rows: slice | None = None):
+    def __init__(
+        self, x, delta, viscosity, wall: Wall | None = None, comm=None, rows: slice | None = None
+    ):
         import scipy.linalg as sl
 
         self.x = np.array(x, dtype=float)
@@ -299,8 +320,9 @@ class Resistance:
         self.comm = comm if parallel else None
         self.rows = rows if parallel else None
         try:
-            self._cho = sl.cho_factor(self._matrix(), lower=True, overwrite_a=True,
-                                      check_finite=False)
+            self._cho = sl.cho_factor(
+                self._matrix(), lower=True, overwrite_a=True, check_finite=False
+            )
             self._lu = None
         except np.linalg.LinAlgError:
             self._cho = None

@@ -37,15 +37,12 @@ def sum_terms(model) -> None:
         residual += model.coef["end_weight"] * model.end_forces
     trial = ufl.TrialFunction(model.Z)
     model.jacobian_ufl = ufl.derivative(residual, model.z, trial)
-    corrections = [c.tangent_correction() for c in model.components] if model.mixed_point \
-        else []
+    corrections = [c.tangent_correction() for c in model.components] if model.mixed_point else []
     #: the corrections' gradient: the mixed-point tangent in w is its Hessian in z
     #: mapped by P plus this gradient on the directors' curvature (directors.py G)
-    gradients = [ufl.derivative(corr, model.z, w_test) for corr in corrections
-                 if corr is not None]
+    gradients = [ufl.derivative(corr, model.z, w_test) for corr in corrections if corr is not None]
     for gradient in gradients:
-        model.jacobian_ufl += (1 - model.coef["alpha_f"]) * ufl.derivative(
-            gradient, model.z, trial)
+        model.jacobian_ufl += (1 - model.coef["alpha_f"]) * ufl.derivative(gradient, model.z, trial)
     model.correction_ufl = sum(gradients[1:], gradients[0]) if gradients else None
     model.correction_form = None
     model.forces_form = model.inertia_form = model.jacobian_form = model.end_form = None
@@ -56,7 +53,10 @@ def sum_terms(model) -> None:
             model.inertia_form = model.mapped(model.inertia)
         if model.end_forces is not None:
             model.end_form = model.mapped(model.end_forces)
-        model.jacobian_form = MappedForm(model.compile(model.jacobian_ufl), model.directors,
-                                         residual=lambda: step_residual_z(model))
+        model.jacobian_form = MappedForm(
+            model.compile(model.jacobian_ufl),
+            model.directors,
+            residual=lambda: step_residual_z(model),
+        )
         if model.correction_ufl is not None:
             model.correction_form = model.compile(model.correction_ufl)

@@ -50,8 +50,6 @@ class Triads:
         from dolfinx import fem
         from petsc4py import PETSc
 
-        from rftfem import compat
-
         self.model, self.comm = model, model.comm
         Vu = model.Vu
         #: per colour: for each θ node (Model.theta_dofs_of, in pairs), its node of the
@@ -60,9 +58,13 @@ class Triads:
         self.node_maps = [np.arange(nodes) for _ in range(model.n_colours)]
         #: the reference director D, and (a1, a2, dn) per colour
         self.D = fem.Function(Vu, name="reference_director")
-        self.frames = [tuple(fem.Function(Vu, name=f"{n}{'' if c == 0 else f'_{c}'}")
-                             for n in ("a1", "a2", "director"))
-                       for c in range(model.n_colours)]
+        self.frames = [
+            tuple(
+                fem.Function(Vu, name=f"{n}{'' if c == 0 else f'_{c}'}")
+                for n in ("a1", "a2", "director")
+            )
+            for c in range(model.n_colours)
+        ]
         #: E₁* as a Constant: the convected axis the frames follow (and the drag frame)
         self.material_axis = fem.Constant(model.mesh, axis.astype(PETSc.ScalarType))
         self.nodal = NodalProjection(Vu, model.compile)
@@ -73,8 +75,11 @@ class Triads:
     def _start(self, axis: np.ndarray):
         """D: L2 projection of the cell normal, normalised; a₁: the axis in the plane."""
         G1, G2 = kinematics.covariant_basis(self.model.mesh)
-        D = self.nodal.project(self.model.compile(ufl.inner(kinematics.unit_normal(G1, G2),
-                                                            self.nodal.test) * self.nodal.dx))
+        D = self.nodal.project(
+            self.model.compile(
+                ufl.inner(kinematics.unit_normal(G1, G2), self.nodal.test) * self.nodal.dx
+            )
+        )
         D /= np.linalg.norm(D, axis=1)[:, None]
         self.D.x.array[:] = D.ravel()
         a1 = axis[None, :] - (D @ axis)[:, None] * D
@@ -105,8 +110,10 @@ class Triads:
         G1, G2 = kinematics.covariant_basis(m.mesh)
         F_s = kinematics.surface_deformation_gradient(m.u_n)
         t = kinematics.convected_axis(F_s, self.material_axis, G1, G2)
-        return [m.compile(ufl.inner(chi * t, self.nodal.test) * self.nodal.dx)
-                for chi in m.colour_indicators or [1]]
+        return [
+            m.compile(ufl.inner(chi * t, self.nodal.test) * self.nodal.dx)
+            for chi in m.colour_indicators or [1]
+        ]
 
     def update(self, w: np.ndarray, theta_dofs_of: list):
         """Rotate every triad by the exact Rodrigues rotation of its θ (read from the
@@ -124,8 +131,9 @@ class Triads:
         Done on owned and ghost nodes alike from ghost-updated values, so every
         copy of a node gets the identical triad without further communication.
         """
-        for c, (dofs, idx, (t1, t2, tn)) in enumerate(zip(theta_dofs_of, self.node_maps,
-                                                           self.frames)):
+        for c, (dofs, idx, (t1, t2, tn)) in enumerate(
+            zip(theta_dofs_of, self.node_maps, self.frames)
+        ):
             theta = w[dofs].reshape(-1, 2)
             a1, a2, dn = (f.x.array.reshape(-1, 3) for f in (t1, t2, tn))
             rot = theta[:, 0:1] * a1[idx] + theta[:, 1:2] * a2[idx]
@@ -158,8 +166,9 @@ class Triads:
         if self._director_out is None:
             self._director_out = fem.Function(m.Vu, name="director")
             dofs = compat.cell_dofs(m.Vu)
-            self._colour_nodes = [np.unique(dofs[hinges.cells_of_colour(m.colours, c)])
-                                  for c in range(m.n_colours)]
+            self._colour_nodes = [
+                np.unique(dofs[hinges.cells_of_colour(m.colours, c)]) for c in range(m.n_colours)
+            ]
         out = self._director_out.x.array.reshape(-1, 3)
         for (_, _, dn), nodes in zip(self.frames, self._colour_nodes):
             out[nodes] = dn.x.array.reshape(-1, 3)[nodes]

@@ -39,8 +39,15 @@ FORMAT = 2
 
 #: scene keys a restart may change: they do not change the physics of the steps
 #: already taken (time.end extends a run; the rest are how it is watched or solved)
-MAY_DIFFER = ("title", "time.end", "time.max_steps", "time.max_cuts", "time.output_every",
-              "output.checkpoint_every", "output.render")
+MAY_DIFFER = (
+    "title",
+    "time.end",
+    "time.max_steps",
+    "time.max_cuts",
+    "time.output_every",
+    "output.checkpoint_every",
+    "output.render",
+)
 
 
 def _name(step: int) -> str:
@@ -71,8 +78,9 @@ def write(out_dir: Path, step: int, arrays: dict, meta: dict, comm) -> Path:
     digests = comm.gather(meta.pop("mesh_digest"), root=0)
     comm.Barrier()
     if comm.rank == 0:
-        meta = dict(meta, format=FORMAT, rftfem=__version__, mpi_size=comm.size,
-                    mesh_digests=digests)
+        meta = dict(
+            meta, format=FORMAT, rftfem=__version__, mpi_size=comm.size, mesh_digests=digests
+        )
         with open(tmp / "meta.json", "w", encoding="utf-8") as f:
             json.dump(meta, f, indent=1, default=json_default)
             f.flush()
@@ -91,9 +99,14 @@ def complete(root: Path) -> list[Path]:
     """The complete checkpoints under ``root``, oldest first."""
     if not root.is_dir():
         return []
-    found = [p for p in root.iterdir()
-             if p.is_dir() and p.name.startswith("step-") and not p.name.endswith(".tmp")
-             and (p / "meta.json").is_file()]
+    found = [
+        p
+        for p in root.iterdir()
+        if p.is_dir()
+        and p.name.startswith("step-")
+        and not p.name.endswith(".tmp")
+        and (p / "meta.json").is_file()
+    ]
     return sorted(found, key=lambda p: p.name)
 
 
@@ -111,20 +124,27 @@ def latest(out_dir: Path, comm) -> tuple[Path, dict]:
                 found = ("", f"{done[-1] / 'meta.json'} unreadable ({exc})")
     found = comm.bcast(found, root=0)
     if found is None:
-        raise SceneError(f"--restart {where}: no complete checkpoint in {where / FOLDER} "
-                         "(output.checkpoint_every writes them)")
+        raise SceneError(
+            f"--restart {where}: no complete checkpoint in {where / FOLDER} "
+            "(output.checkpoint_every writes them)"
+        )
     path, meta = found
     if not path:
         raise SceneError(f"--restart {where}: {meta}")
     if meta.get("format") != FORMAT:
-        raise SceneError(f"--restart {where}: checkpoint format {meta.get('format')!r}, "
-                         f"this rftfem reads {FORMAT}")
+        raise SceneError(
+            f"--restart {where}: checkpoint format {meta.get('format')!r}, "
+            f"this rftfem reads {FORMAT}"
+        )
     if meta["mpi_size"] != comm.size:
-        raise SceneError(f"--restart {where}: the checkpoint was written by {meta['mpi_size']} "
-                         f"process(es) and this run has {comm.size}; restart it with "
-                         f"mpirun -n {meta['mpi_size']}" if meta["mpi_size"] > 1 else
-                         f"--restart {where}: the checkpoint was written by one process and "
-                         f"this run has {comm.size}; restart it without mpirun")
+        raise SceneError(
+            f"--restart {where}: the checkpoint was written by {meta['mpi_size']} "
+            f"process(es) and this run has {comm.size}; restart it with "
+            f"mpirun -n {meta['mpi_size']}"
+            if meta["mpi_size"] > 1
+            else f"--restart {where}: the checkpoint was written by one process and "
+            f"this run has {comm.size}; restart it without mpirun"
+        )
     return Path(path), meta
 
 
@@ -132,8 +152,10 @@ def read_arrays(path: Path, comm, digest: str, meta: dict) -> dict:
     """This process's arrays of a checkpoint, after checking that its mesh is the
     one they were written on."""
     if meta["mesh_digests"][comm.rank] != digest:
-        raise SceneError(f"--restart {path.parent.parent}: the mesh of process {comm.rank} "
-                         "differs from the checkpoint's (another mesh, or another partition)")
+        raise SceneError(
+            f"--restart {path.parent.parent}: the mesh of process {comm.rank} "
+            "differs from the checkpoint's (another mesh, or another partition)"
+        )
     with np.load(path / f"rank-{comm.rank}.npz") as data:
         return {k: data[k].copy() for k in data.files}
 

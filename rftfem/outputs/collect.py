@@ -45,8 +45,18 @@ import json
 from pathlib import Path
 
 from rftfem.errors import SceneError
-from rftfem.outputs.quantities import (NotSteady, Quantity, RunFolder, Unavailable, evaluate, extreme,
-                               mean, parse, rate, value_at)
+from rftfem.outputs.quantities import (
+    NotSteady,
+    Quantity,
+    RunFolder,
+    Unavailable,
+    evaluate,
+    extreme,
+    mean,
+    parse,
+    rate,
+    value_at,
+)
 
 DESCRIPTION = """\
 Tabulate run folders of a parameter study (CSV, one row per folder): status and
@@ -83,8 +93,15 @@ quantity"""
 
 #: columns of every row, before the distinguishing keys and after them
 LEAD_COLUMNS = ("folder", "status", "failure")
-COUNT_COLUMNS = ("steps", "newton_iterations", "dt_cuts", "time_reached", "wall_total_s",
-                 "dofs", "mpi_size")
+COUNT_COLUMNS = (
+    "steps",
+    "newton_iterations",
+    "dt_cuts",
+    "time_reached",
+    "wall_total_s",
+    "dofs",
+    "mpi_size",
+)
 
 
 # --- the table ---------------------------------------------------------------------
@@ -122,8 +139,11 @@ def _cell(value) -> str:
 def differing_keys(runs: list[RunFolder]) -> list[str]:
     """Scene key paths (and ``scene_file``) whose cells differ across the runs that
     have a summary, in the order of the scenes (``scene_file`` last)."""
-    flat = [{k: _cell(v) for k, v in _flatten(run.summary.get("scene", {})).items()}
-            for run in runs if run.summary is not None]
+    flat = [
+        {k: _cell(v) for k, v in _flatten(run.summary.get("scene", {})).items()}
+        for run in runs
+        if run.summary is not None
+    ]
     files = [_cell(run.summary.get("scene_file")) for run in runs if run.summary is not None]
     order: dict[str, None] = {}
     for keys in flat:
@@ -139,8 +159,11 @@ def steady_columns(runs: list[RunFolder]) -> list[str]:
     for run in runs:
         found = (run.summary or {}).get("steady")
         if found:
-            order.update(dict.fromkeys(["steady.reached"] + [
-                f"steady.{k}" for k in (found.get("values") or {})]))
+            order.update(
+                dict.fromkeys(
+                    ["steady.reached"] + [f"steady.{k}" for k in (found.get("values") or {})]
+                )
+            )
     return list(order)
 
 
@@ -152,8 +175,9 @@ def _number(value) -> str:
     return str(value)
 
 
-def collect(dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | None = None
-            ) -> tuple[list[str], list[list[str]], list[RunFolder]]:
+def collect(
+    dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | None = None
+) -> tuple[list[str], list[list[str]], list[RunFolder]]:
     """The table: header, rows of strings (one per run folder), and the RunFolders.
     ``quantities`` is a list of (column name, Quantity).  Paths that are not run
     folders are left out, and a quantity a run has no data for (a window past its
@@ -175,8 +199,10 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | Non
     names = [n for n, _ in quantities]
     for name in names:
         if names.count(name) > 1 or name in fixed:
-            raise SceneError(f"--quantity: the name '{name}' is "
-                             + ("given twice" if name not in fixed else "already a column"))
+            raise SceneError(
+                f"--quantity: the name '{name}' is "
+                + ("given twice" if name not in fixed else "already a column")
+            )
     header = [*fixed, *names]
     rows = []
     for d, run in zip(dirs, runs):
@@ -188,13 +214,22 @@ def collect(dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | Non
         row = [str(d), run.status, str(failure.get("reason", "") or "")]
         row += [flat.get(k, "") for k in keys]
         row.append(";".join(s.get("overrides", []) or []))
-        row += [_number(counts.get("steps")), _number(counts.get("newton_iterations")),
-                _number(counts.get("dt_cuts")), _number(s.get("time_reached")),
-                _number(wall.get("total")), _number(s.get("dofs")), _number(s.get("mpi_size"))]
+        row += [
+            _number(counts.get("steps")),
+            _number(counts.get("newton_iterations")),
+            _number(counts.get("dt_cuts")),
+            _number(s.get("time_reached")),
+            _number(wall.get("total")),
+            _number(s.get("dofs")),
+            _number(s.get("mpi_size")),
+        ]
         found = s.get("steady") or {}
-        row += [_cell(found.get("reached")) if c == "steady.reached" else
-                _number((found.get("values") or {}).get(c[len("steady."):]))
-                for c in steady]
+        row += [
+            _cell(found.get("reached"))
+            if c == "steady.reached"
+            else _number((found.get("values") or {}).get(c[len("steady.") :]))
+            for c in steady
+        ]
         for _, q in quantities:
             try:
                 row.append(repr(q.evaluate(run)))
@@ -233,9 +268,13 @@ def summary_line(runs: list[RunFolder], dirs) -> str:
     for d, run in zip(dirs, runs):
         by_status.setdefault(run.status, []).append(str(d))
     parts = []
-    for status in ("ok", "failed", "running-or-interrupted", "missing-summary",
-                   *sorted(set(by_status) - {"ok", "failed", "running-or-interrupted",
-                                             "missing-summary"})):
+    for status in (
+        "ok",
+        "failed",
+        "running-or-interrupted",
+        "missing-summary",
+        *sorted(set(by_status) - {"ok", "failed", "running-or-interrupted", "missing-summary"}),
+    ):
         if status in by_status:
             names = "" if status == "ok" else f" ({', '.join(by_status[status])})"
             parts.append(f"{len(by_status[status])} {status}{names}")
@@ -252,11 +291,21 @@ def add_arguments(parser):
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
     parser.add_argument("dirs", nargs="+", metavar="DIR", help="run folders (rftfem run --out DIR)")
-    parser.add_argument("--out", metavar="TABLE.csv", type=Path, default=None,
-                        help="write the table there (default: print it)")
-    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
-                        dest="quantities", help="a column computed from probes.csv or "
-                        "body.csv (grammar below); repeatable")
+    parser.add_argument(
+        "--out",
+        metavar="TABLE.csv",
+        type=Path,
+        default=None,
+        help="write the table there (default: print it)",
+    )
+    parser.add_argument(
+        "--quantity",
+        metavar="NAME=EXPR",
+        action="append",
+        default=[],
+        dest="quantities",
+        help="a column computed from probes.csv or body.csv (grammar below); repeatable",
+    )
 
 
 def main(args, console) -> int:
@@ -275,13 +324,33 @@ def main(args, console) -> int:
             args.out.write_text(text, encoding="utf-8")
         except OSError as exc:
             raise SceneError(f"--out {args.out}: {exc.strerror or exc}") from None
-    console.err(summary_line(runs, [run.dir for run in runs])
-                + (f"; table in {args.out}" if args.out is not None else ""))
+    console.err(
+        summary_line(runs, [run.dir for run in runs])
+        + (f"; table in {args.out}" if args.out is not None else "")
+    )
     return 0
 
 
-__all__ = ["collect", "differing_keys", "to_csv", "parse_option", "summary_line",
-           "add_arguments", "main", "DESCRIPTION", "EPILOG", "LEAD_COLUMNS", "COUNT_COLUMNS",
-           # re-exported from rftfem.outputs.quantities
-           "Quantity", "RunFolder", "Unavailable", "parse", "evaluate", "value_at", "rate",
-           "mean", "extreme"]
+__all__ = [
+    "collect",
+    "differing_keys",
+    "to_csv",
+    "parse_option",
+    "summary_line",
+    "add_arguments",
+    "main",
+    "DESCRIPTION",
+    "EPILOG",
+    "LEAD_COLUMNS",
+    "COUNT_COLUMNS",
+    # re-exported from rftfem.outputs.quantities
+    "Quantity",
+    "RunFolder",
+    "Unavailable",
+    "parse",
+    "evaluate",
+    "value_at",
+    "rate",
+    "mean",
+    "extreme",
+]

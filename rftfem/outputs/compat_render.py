@@ -31,18 +31,24 @@ def _vtk_loaded() -> bool:
 
 def import_pyvista():
     """Import and return pyvista, configured for off-screen rendering."""
-    if not _vtk_loaded() and "dolfinx" in sys.modules and \
-            sys.getdlopenflags() & getattr(os, "RTLD_GLOBAL", 0):
+    if (
+        not _vtk_loaded()
+        and "dolfinx" in sys.modules
+        and sys.getdlopenflags() & getattr(os, "RTLD_GLOBAL", 0)
+    ):
         raise RuntimeError(
             "pyvista must be imported before dolfinx on this FEniCSx stack (dolfinx loaded "
-            "its libraries with RTLD_GLOBAL and VTK would abort): import rftfem.outputs.render first, "
-            "or render in a separate process (`rftfem render RESULTS_DIR`)")
+            "its libraries with RTLD_GLOBAL and VTK would abort): import "
+            "rftfem.outputs.render first, "
+            "or render in a separate process (`rftfem render RESULTS_DIR`)"
+        )
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     try:
         import pyvista
     except ImportError as exc:
-        raise RuntimeError(f"rendering needs pyvista ({exc}); scripts/setup.sh installs it") \
-            from None
+        raise RuntimeError(
+            f"rendering needs pyvista ({exc}); scripts/setup.sh installs it"
+        ) from None
     pyvista.OFF_SCREEN = True
     return pyvista
 

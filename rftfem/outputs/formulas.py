@@ -106,11 +106,12 @@ def parse(text: str, what: str = "--objective") -> Objective:
         span = None
         if name == "scene" and after < len(text) and text[after] == "(":
             span = (m.start(), _closing(text, after, what))
-            key = text[after + 1:span[1] - 1].strip()
+            key = text[after + 1 : span[1] - 1].strip()
             if not re.fullmatch(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*", key):
-                raise SceneError(f"{what} '{text}': expected a dotted scene key in "
-                                 f"scene(...), found '{key}'")
-            found.append(SceneValue(text[span[0]:span[1]], key))
+                raise SceneError(
+                    f"{what} '{text}': expected a dotted scene key in scene(...), found '{key}'"
+                )
+            found.append(SceneValue(text[span[0] : span[1]], key))
             pieces.append((span, f"q{len(found) - 1}"))
             pos = span[1]
             continue
@@ -119,13 +120,14 @@ def parse(text: str, what: str = "--objective") -> Objective:
         elif after < len(text) and text[after] == "@":
             t = _TIME.match(text, after + 1)
             if t is None:
-                raise SceneError(f"{what} '{text}': expected a time (a number, 'start' or "
-                                 f"'end') after '{name}@'")
+                raise SceneError(
+                    f"{what} '{text}': expected a time (a number, 'start' or 'end') after '{name}@'"
+                )
             span = (m.start(), t.end())
         if span is None:
             pos = end
             continue
-        piece = text[span[0]:span[1]]
+        piece = text[span[0] : span[1]]
         try:
             found.append(quantities.parse(piece))
         except SceneError as exc:
@@ -138,8 +140,10 @@ def parse(text: str, what: str = "--objective") -> Objective:
         except SceneError as exc:
             raise SceneError(f"{what}: {exc}") from None
     if not found:
-        raise SceneError(f"{what} '{text}': no quantity in it (e.g. tip_uz@end, "
-                         f"rate(centroid_x, 1, 2), steady(front_ux_rate))")
+        raise SceneError(
+            f"{what} '{text}': no quantity in it (e.g. tip_uz@end, "
+            f"rate(centroid_x, 1, 2), steady(front_ux_rate))"
+        )
     formula_text, last = "", 0
     for (a, b), name in pieces:
         formula_text += text[last:a] + f" {name} "

@@ -25,8 +25,16 @@ class Progress:
     same on both stacks and under MPI (one rank prints), and needs no package.
     """
 
-    def __init__(self, end: float, comm, quiet: bool = False, stream=None,
-                 interval: float | None = None, label: str = "t", warn=None):
+    def __init__(
+        self,
+        end: float,
+        comm,
+        quiet: bool = False,
+        stream=None,
+        interval: float | None = None,
+        label: str = "t",
+        warn=None,
+    ):
         self.end, self.label = end, label
         #: where a quiet run's warnings go instead of stderr (the Python API's
         #: ``warnings.warn``)
@@ -84,14 +92,18 @@ class Progress:
         if self.bar:
             width = 30
             done = int(width * min(t / self.end, 1.0))
-            self.stream.write(f"\r[{'#' * done}{'.' * (width - done)}] {self.label} = "
-                              f"{t:.4g}/{self.end:.4g}"
-                              f"  step {step}  newton {newton}  eta {eta:.0f} s\033[K")
+            self.stream.write(
+                f"\r[{'#' * done}{'.' * (width - done)}] {self.label} = "
+                f"{t:.4g}/{self.end:.4g}"
+                f"  step {step}  newton {newton}  eta {eta:.0f} s\033[K"
+            )
             self.stream.flush()
         elif now - self.last_line >= self.interval:
             self.last_line = now
-            self._write(f"{self.label} = {t:.6g}/{self.end:.6g}  step {step}  newton {newton}  "
-                        f"residual {residual:.3e}  elapsed {elapsed:.1f} s  eta {eta:.0f} s")
+            self._write(
+                f"{self.label} = {t:.6g}/{self.end:.6g}  step {step}  newton {newton}  "
+                f"residual {residual:.3e}  elapsed {elapsed:.1f} s  eta {eta:.0f} s"
+            )
 
     def close(self):
         if self.bar:
@@ -115,6 +127,9 @@ def render_in_child(folder: Path, kind: str, comm, progress: Progress) -> None:
         else:
             lines = (proc.stderr or proc.stdout).strip().splitlines()
             why = lines[-1] if lines else f"exit status {proc.returncode}"
-            print(f"rftfem: warning: output.render: {out} not drawn: {why}", file=sys.stderr,
-                  flush=True)
+            print(
+                f"rftfem: warning: output.render: {out} not drawn: {why}",
+                file=sys.stderr,
+                flush=True,
+            )
     comm.Barrier()

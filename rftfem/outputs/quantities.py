@@ -68,8 +68,10 @@ class NotSteady(Unavailable):
 
 # --- the quantity language --------------------------------------------------------
 
-_TOKEN = re.compile(r"\s*(?:(?P<num>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
-                    r"|(?P<name>[A-Za-z_][A-Za-z0-9_-]*)|(?P<op>[(),@])|(?P<bad>\S))")
+_TOKEN = re.compile(
+    r"\s*(?:(?P<num>[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)"
+    r"|(?P<name>[A-Za-z_][A-Za-z0-9_-]*)|(?P<op>[(),@])|(?P<bad>\S))"
+)
 
 
 def _tokens(text: str) -> list[tuple[str, str]]:
@@ -107,8 +109,9 @@ class Quantity:
         else:
             t, x = run.series(self.column, self.text)
         if len(t) == 0:
-            raise Unavailable(f"quantity '{self.text}': {run.dir}: no rows in "
-                              f"{run.file_of(self.column)}")
+            raise Unavailable(
+                f"quantity '{self.text}': {run.dir}: no rows in {run.file_of(self.column)}"
+            )
         if self.func == "at":
             return value_at(t, x, _time(self.a, t, self.text, run))
         a, b = _time(self.a, t, self.text, run), _time(self.b, t, self.text, run)
@@ -149,8 +152,9 @@ def parse(text: str) -> Quantity:
     head = take("name", what="a column name or one of " + ", ".join(FUNCTIONS))
     if pos < len(toks) and toks[pos][1] == "(":
         if head not in FUNCTIONS:
-            raise SceneError(f"quantity '{text}': unknown function '{head}' "
-                             f"(known: {', '.join(FUNCTIONS)})")
+            raise SceneError(
+                f"quantity '{text}': unknown function '{head}' (known: {', '.join(FUNCTIONS)})"
+            )
         take(value="(", what="'('")
         other = axis = ""
         if head == "spin":
@@ -162,13 +166,18 @@ def parse(text: str) -> Quantity:
             if axis not in SPIN_AXES:
                 raise SceneError(f"quantity '{text}': expected an axis x, y or z, found '{axis}'")
         else:
-            column = take("name", what="a column name" if head != "steady" else
-                          "a steady value's name (e.g. centroid_x_rate)")
+            column = take(
+                "name",
+                what="a column name"
+                if head != "steady"
+                else "a steady value's name (e.g. centroid_x_rate)",
+            )
         if head == "steady":
             take(value=")", what="')' (steady() takes a name and no times)")
             if pos < len(toks):
-                raise SceneError(f"quantity '{text}': unexpected '{toks[pos][1]}' after "
-                                 "the expression")
+                raise SceneError(
+                    f"quantity '{text}': unexpected '{toks[pos][1]}' after the expression"
+                )
             return Quantity(text, head, column)
         bounds = []
         while pos < len(toks) and toks[pos][1] == "," and len(bounds) < 2:
@@ -180,8 +189,10 @@ def parse(text: str) -> Quantity:
     elif head in FUNCTIONS and pos >= len(toks):
         raise SceneError(f"quantity '{text}': expected '(' after '{head}'")
     else:
-        take(value="@", what="'@' and a time (e.g. tip_uz@end) or a function "
-                            f"({', '.join(FUNCTIONS)})")
+        take(
+            value="@",
+            what=f"'@' and a time (e.g. tip_uz@end) or a function ({', '.join(FUNCTIONS)})",
+        )
         q = Quantity(text, "at", head, time_value(), "end")
     if pos < len(toks):
         raise SceneError(f"quantity '{text}': unexpected '{toks[pos][1]}' after the expression")
@@ -208,8 +219,10 @@ def _time(bound, t: np.ndarray, text: str, run: "RunFolder") -> float:
     tol = 1e-9 * max(1.0, abs(t[0]), abs(t[-1]))
     if bound < t[0] - tol or bound > t[-1] + tol:
         cls = Unavailable if bound > t[-1] else SceneError
-        raise cls(f"quantity '{text}': time {bound:g} is outside the run {run.dir} "
-                  f"(rows from {t[0]:g} to {t[-1]:g})")
+        raise cls(
+            f"quantity '{text}': time {bound:g} is outside the run {run.dir} "
+            f"(rows from {t[0]:g} to {t[-1]:g})"
+        )
     return float(min(max(bound, t[0]), t[-1]))
 
 
@@ -255,25 +268,32 @@ def extreme(t, x, a: float, b: float, which: str = "max") -> float:
     return float(xw.max() if which == "max" else xw.min())
 
 
-def spin_angle(run: "RunFolder", first: str, second: str, axis: str,
-               text: str = "") -> tuple[np.ndarray, np.ndarray]:
+def spin_angle(
+    run: "RunFolder", first: str, second: str, axis: str, text: str = ""
+) -> tuple[np.ndarray, np.ndarray]:
     """(time, angle): the angle about ``axis`` of the line from probe ``first`` to
     probe ``second`` (current positions: the scene's ``at`` plus the displacement
     columns), unwrapped so that whole turns add up."""
     if run.summary is None:
-        raise Unavailable(f"quantity '{text}': {run.dir} has no summary.json with the "
-                          "probes' positions")
-    probes = {p.get("name"): p.get("at")
-              for p in (run.summary.get("scene", {}).get("output", {}).get("probes") or [])}
+        raise Unavailable(
+            f"quantity '{text}': {run.dir} has no summary.json with the probes' positions"
+        )
+    probes = {
+        p.get("name"): p.get("at")
+        for p in (run.summary.get("scene", {}).get("output", {}).get("probes") or [])
+    }
     positions = []
     for name in (first, second):
         if name not in probes:
-            raise SceneError(f"quantity '{text}': no probe '{name}' in {run.dir} "
-                             f"(probes: {', '.join(map(str, probes)) or 'none'})")
+            raise SceneError(
+                f"quantity '{text}': no probe '{name}' in {run.dir} "
+                f"(probes: {', '.join(map(str, probes)) or 'none'})"
+            )
         cols = [run.series(f"{name}_{c}", text) for c in ("ux", "uy", "uz")]
         t = cols[0][0]
-        positions.append(np.asarray(probes[name], dtype=float)
-                         + np.stack([c[1] for c in cols], axis=1))
+        positions.append(
+            np.asarray(probes[name], dtype=float) + np.stack([c[1] for c in cols], axis=1)
+        )
     p, q = SPIN_AXES[axis]
     line = positions[1] - positions[0]
     return t, np.unwrap(np.arctan2(line[:, q], line[:, p]))
@@ -285,15 +305,21 @@ def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
     if run.summary is None:
         raise Unavailable(f"quantity '{text}': {run.dir} has no summary.json")
     if not found:
-        raise SceneError(f"quantity '{text}': {run.dir} is not a run of time.until = "
-                         "\"periodic\" (summary.json has no steady values)")
+        raise SceneError(
+            f"quantity '{text}': {run.dir} is not a run of time.until = "
+            '"periodic" (summary.json has no steady values)'
+        )
     values = found.get("values") or {}
     if name not in values and (values or found.get("reached")):
-        raise SceneError(f"quantity '{text}': no steady value '{name}' in {run.dir} "
-                         f"(there: {', '.join(values) or 'none'})")
+        raise SceneError(
+            f"quantity '{text}': no steady value '{name}' in {run.dir} "
+            f"(there: {', '.join(values) or 'none'})"
+        )
     if not found.get("reached"):  # (too few periods for any value: the name is unchecked)
-        raise NotSteady(f"quantity '{text}': {run.dir} stopped at time.end before it "
-                        f"was steady (after {found.get('periods')} periods)")
+        raise NotSteady(
+            f"quantity '{text}': {run.dir} stopped at time.end before it "
+            f"was steady (after {found.get('periods')} periods)"
+        )
     return float(values[name])
 
 
@@ -307,8 +333,11 @@ class RunFolder:
     def __init__(self, path):
         self.dir = Path(path)
         if not self.dir.is_dir():
-            raise SceneError(f"{self.dir}: no such folder" if not self.dir.exists()
-                             else f"{self.dir}: not a folder")
+            raise SceneError(
+                f"{self.dir}: no such folder"
+                if not self.dir.exists()
+                else f"{self.dir}: not a folder"
+            )
         summary_file = self.dir / "summary.json"
         self.summary = None
         if summary_file.is_file():
@@ -319,8 +348,9 @@ class RunFolder:
             if not isinstance(self.summary, dict) or "status" not in self.summary:
                 raise SceneError(f"{summary_file}: not a summary of rftfem run (no status)")
         elif not any((self.dir / f).is_file() for f in RUN_FILES):
-            raise SceneError(f"{self.dir}: not a run folder (no summary.json, "
-                             f"{', '.join(RUN_FILES)})")
+            raise SceneError(
+                f"{self.dir}: not a run folder (no summary.json, {', '.join(RUN_FILES)})"
+            )
         #: summary.json of an older run: a newer one writes (or wrote) the CSV files
         self.stale = self.summary is not None and self._stale_summary()
         if self.stale:
@@ -337,9 +367,10 @@ class RunFolder:
 
     def _stale_summary(self) -> bool:
         written = (self.dir / "summary.json").stat().st_mtime
-        return any((self.dir / f).is_file()
-                   and (self.dir / f).stat().st_mtime > written + STALE_SUMMARY_S
-                   for f in RUN_FILES)
+        return any(
+            (self.dir / f).is_file() and (self.dir / f).stat().st_mtime > written + STALE_SUMMARY_S
+            for f in RUN_FILES
+        )
 
     def _table(self, name: str):
         if name not in self._tables:
@@ -352,8 +383,11 @@ class RunFolder:
 
     def columns(self) -> dict[str, list[str]]:
         """The columns of each series file present (without ``time``)."""
-        return {name: [c for c in table[0] if c != "time"]
-                for name in SERIES_FILES if (table := self._table(name)) is not None}
+        return {
+            name: [c for c in table[0] if c != "time"]
+            for name in SERIES_FILES
+            if (table := self._table(name)) is not None
+        }
 
     def file_of(self, column: str) -> str | None:
         for name, cols in self.columns().items():
@@ -368,12 +402,14 @@ class RunFolder:
         name = self.file_of(column)
         if name is None:
             if not columns:
-                raise Unavailable(f"quantity '{text}': {self.dir} has no "
-                                  f"{' or '.join(SERIES_FILES)}")
+                raise Unavailable(
+                    f"quantity '{text}': {self.dir} has no {' or '.join(SERIES_FILES)}"
+                )
             # probes.csv and body.csv of a static run both end with load_factor
             valid = ", ".join(dict.fromkeys(c for cols in columns.values() for c in cols))
-            raise SceneError(f"quantity '{text}': unknown column '{column}' in {self.dir} "
-                             f"(valid: {valid})")
+            raise SceneError(
+                f"quantity '{text}': unknown column '{column}' in {self.dir} (valid: {valid})"
+            )
         header, data = self._table(name)
         return data[:, header.index("time")], data[:, header.index(column)]
 

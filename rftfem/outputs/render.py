@@ -27,12 +27,22 @@ from pathlib import Path
 
 import numpy as np
 
-from rftfem.outputs.compat_render import import_pyvista
 from rftfem.errors import SceneError
+from rftfem.outputs.compat_render import import_pyvista
 from rftfem.outputs.render_body import BodyDrawing
-from rftfem.outputs.render_view import (MAX_FILM_FRAMES, MAX_GIF_FRAMES, RunFields, Survey,
-                                 color_fields, color_limits, color_values, film_plan,
-                                 pixel_of, place_camera, survey_frames)
+from rftfem.outputs.render_view import (
+    MAX_FILM_FRAMES,
+    MAX_GIF_FRAMES,
+    RunFields,
+    Survey,
+    color_fields,
+    color_limits,
+    color_values,
+    film_plan,
+    pixel_of,
+    place_camera,
+    survey_frames,
+)
 
 pv = import_pyvista()
 
@@ -68,11 +78,13 @@ class Rendered:
     magnified: str = ""
 
     def describe(self) -> str:
-        magnified = ("" if self.scale == 1.0 else f", {self.magnified}")
+        magnified = "" if self.scale == 1.0 else f", {self.magnified}"
         if self.fps is None:
             return f"t = {self.times[-1]:.6g}, colour {self.color}{magnified}"
-        return (f"{self.frames} frames, t = {self.times[0]:.6g} to {self.times[-1]:.6g}, "
-                f"{self.fps:g} frames/s, colour {self.color}{magnified}")
+        return (
+            f"{self.frames} frames, t = {self.times[0]:.6g} to {self.times[-1]:.6g}, "
+            f"{self.fps:g} frames/s, colour {self.color}{magnified}"
+        )
 
 
 def _tick_format(clim) -> str:
@@ -83,10 +95,18 @@ def _tick_format(clim) -> str:
     return f"%.{digits}g"
 
 
-
-def render(results, out, color: str | None = None, time: float | None = None,
-           view: str = "iso", trail: str | None = None, fps: float | None = None,
-           every: int | None = None, size=(1024, 768), scale: float = 1.0) -> Rendered:
+def render(
+    results,
+    out,
+    color: str | None = None,
+    time: float | None = None,
+    view: str = "iso",
+    trail: str | None = None,
+    fps: float | None = None,
+    every: int | None = None,
+    size=(1024, 768),
+    scale: float = 1.0,
+) -> Rendered:
     """Draw the run in ``results`` to ``out`` (.png: one frame; .mp4/.gif: a film),
     its displacements magnified ``scale`` times (ParaView's warp by vector: the
     body, the probes and the trail; colours keep the true values)."""
@@ -99,8 +119,9 @@ def render(results, out, color: str | None = None, time: float | None = None,
     if color is None:
         color = "magnetization" if "magnetization" in run.fields else "displacement"
     if color not in color_fields(run):
-        raise SceneError(f"--color {color}: not a field of this run "
-                         f"(choose from {', '.join(color_fields(run))})")
+        raise SceneError(
+            f"--color {color}: not a field of this run (choose from {', '.join(color_fields(run))})"
+        )
     if trail is None and view == "follow":
         trail = "centroid" if (run.folder / "body.csv").is_file() else None
     path = run.path_of(trail) if trail and trail != "none" else None
@@ -139,8 +160,9 @@ def render(results, out, color: str | None = None, time: float | None = None,
         plotter.close()
 
 
-def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, path,
-          size) -> Rendered:
+def _draw(
+    plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, path, size
+) -> Rendered:
     stamp = _add_setting(plotter, run, survey)
     first = run.frame(idx[0])
     picture = _Picture(plotter, run, color, clim, survey, path, first)
@@ -172,13 +194,25 @@ def _draw(plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, 
     if not film:
         plotter.render()
         plotter.screenshot(str(out))
-    probe_pixels = {name: pixel_of(plotter, x)
-                    for name, x in run.probe_positions(times[-1]).items()}
-    reference_pixels = {p["name"]: pixel_of(plotter, p["at"])
-                        for p in (run.scene.get("output") or {}).get("probes", [])}
-    return Rendered(out=out, frames=len(times), times=times, color=color, size=tuple(size),
-                    fps=fps, probe_pixels=probe_pixels, reference_pixels=reference_pixels,
-                    scale=run.scale, magnified=_magnified(run))
+    probe_pixels = {
+        name: pixel_of(plotter, x) for name, x in run.probe_positions(times[-1]).items()
+    }
+    reference_pixels = {
+        p["name"]: pixel_of(plotter, p["at"])
+        for p in (run.scene.get("output") or {}).get("probes", [])
+    }
+    return Rendered(
+        out=out,
+        frames=len(times),
+        times=times,
+        color=color,
+        size=tuple(size),
+        fps=fps,
+        probe_pixels=probe_pixels,
+        reference_pixels=reference_pixels,
+        scale=run.scale,
+        magnified=_magnified(run),
+    )
 
 
 def _add_setting(plotter, run, survey: Survey):
@@ -189,10 +223,10 @@ def _add_setting(plotter, run, survey: Survey):
     plotter.add_text(title, position="upper_edge", font_size=9, color="black")
     stamp = plotter.add_text("", position="lower_right", font_size=12, color="black")
     if run.scale != 1.0:
-        plotter.add_text(_magnified(run), position="lower_edge", font_size=10,
-                         color="#b22222")
+        plotter.add_text(_magnified(run), position="lower_edge", font_size=10, color="#b22222")
     reference_edges = run.reference.extract_feature_edges(
-        boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False)
+        boundary_edges=True, feature_edges=False, manifold_edges=False, non_manifold_edges=False
+    )
     plotter.add_mesh(reference_edges, color=REFERENCE_COLOR, line_width=1, opacity=0.5)
     for plane, arrow in _planes(run, survey):
         plotter.add_mesh(plane, color=WALL_COLOR, opacity=0.35, show_edges=False)
@@ -211,19 +245,28 @@ class _Picture:
         s = color_values(color, first, run)
         self.body = drawing.surface(run.shown(first), None if s is None else {color: s})
         if s is None:
-            surface = plotter.add_mesh(self.body, color="#4a7fb5", smooth_shading=True,
-                                       **_LIGHTING)
+            surface = plotter.add_mesh(self.body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
             edge_color = "#2a4f75"
         else:
             cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
-            surface = plotter.add_mesh(self.body, scalars=color, clim=clim, cmap=cmap,
-                                       smooth_shading=True, **_LIGHTING,
-                                       scalar_bar_args={"title": _LABELS.get(color, color),
-                                                        "color": "black",
-                                                        "fmt": _tick_format(clim),
-                                                        "vertical": True, "position_x": 0.86,
-                                                        "position_y": 0.25, "height": 0.5,
-                                                        "width": 0.06})
+            surface = plotter.add_mesh(
+                self.body,
+                scalars=color,
+                clim=clim,
+                cmap=cmap,
+                smooth_shading=True,
+                **_LIGHTING,
+                scalar_bar_args={
+                    "title": _LABELS.get(color, color),
+                    "color": "black",
+                    "fmt": _tick_format(clim),
+                    "vertical": True,
+                    "position_x": 0.86,
+                    "position_y": 0.25,
+                    "height": 0.5,
+                    "width": 0.06,
+                },
+            )
             edge_color = "#303030"
         # the cells' edges, curved as the cells are (the surface pushed back a little in
         # depth so that the lines on it are not hidden), and the body's outline as lines:
@@ -238,9 +281,12 @@ class _Picture:
             self.magnetized = strength > 0.0
             # the strongest magnetization's arrow is 5 % of the body's size
             self.arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
-            self.arrows = plotter.add_mesh(_arrows(run.points(first), first["magnetization"],
-                                                   self.magnetized, self.arrow_length),
-                                           color="black")
+            self.arrows = plotter.add_mesh(
+                _arrows(
+                    run.points(first), first["magnetization"], self.magnetized, self.arrow_length
+                ),
+                color="black",
+            )
         self.trail = self.here = None
         if path is not None:
             self._add_trail(path[1][:1])
@@ -249,14 +295,27 @@ class _Picture:
     def _add_trail(self, start):
         plotter = self.plotter
         self.trail, self.here = pv.PolyData(start.copy()), pv.PolyData(start.copy())
-        _on_top(plotter, [
-            plotter.add_mesh(self.trail, color=TRAIL_COLOR, line_width=4),
-            plotter.add_mesh(pv.PolyData(start.copy()), color="white", point_size=11,
-                             render_points_as_spheres=True),
-            plotter.add_mesh(pv.PolyData(start.copy()), color=TRAIL_COLOR,
-                             point_size=7, render_points_as_spheres=True),
-            plotter.add_mesh(self.here, color=TRAIL_COLOR, point_size=11,
-                             render_points_as_spheres=True)])
+        _on_top(
+            plotter,
+            [
+                plotter.add_mesh(self.trail, color=TRAIL_COLOR, line_width=4),
+                plotter.add_mesh(
+                    pv.PolyData(start.copy()),
+                    color="white",
+                    point_size=11,
+                    render_points_as_spheres=True,
+                ),
+                plotter.add_mesh(
+                    pv.PolyData(start.copy()),
+                    color=TRAIL_COLOR,
+                    point_size=7,
+                    render_points_as_spheres=True,
+                ),
+                plotter.add_mesh(
+                    self.here, color=TRAIL_COLOR, point_size=11, render_points_as_spheres=True
+                ),
+            ],
+        )
 
     def show(self, frame, t: float):
         """Move everything to ``frame`` (at time ``t``)."""
@@ -272,8 +331,12 @@ class _Picture:
         if self.arrows is not None:
             self.plotter.remove_actor(self.arrows, render=False)
             self.arrows = self.plotter.add_mesh(
-                _arrows(run.points(frame), frame["magnetization"], self.magnetized,
-                        self.arrow_length), color="black", render=False)
+                _arrows(
+                    run.points(frame), frame["magnetization"], self.magnetized, self.arrow_length
+                ),
+                color="black",
+                render=False,
+            )
         if self.trail is not None:
             path = self.path
             keep = path[0] <= t + 1e-12 * max(1.0, abs(t))
@@ -298,8 +361,10 @@ def _planes(run, survey: Survey) -> list:
     given = [(run.scene.get("fluid") or {}).get("wall")]
     given += [c for c in (run.scene.get("contact") or []) if c.get("kind", "plane") == "plane"]
     middle = 0.5 * (np.asarray(survey.lo) + np.asarray(survey.hi))
-    size = 1.2 * float(np.linalg.norm(np.asarray(survey.hi) - np.asarray(survey.lo))) \
+    size = (
+        1.2 * float(np.linalg.norm(np.asarray(survey.hi) - np.asarray(survey.lo)))
         + survey.body_size
+    )
     out = []
     for plane in given:
         if not plane:
@@ -308,9 +373,14 @@ def _planes(run, survey: Survey) -> list:
         normal /= np.linalg.norm(normal)
         point = np.asarray(plane["point"], dtype=float)
         centre = middle - np.dot(middle - point, normal) * normal
-        out.append((pv.Plane(center=centre, direction=normal, i_size=size, j_size=size),
-                    pv.Arrow(start=centre + 0.4 * size * _across(normal), direction=normal,
-                             scale=0.12 * size)))
+        out.append(
+            (
+                pv.Plane(center=centre, direction=normal, i_size=size, j_size=size),
+                pv.Arrow(
+                    start=centre + 0.4 * size * _across(normal), direction=normal, scale=0.12 * size
+                ),
+            )
+        )
     return out
 
 
@@ -358,5 +428,4 @@ def render_after_run(folder: Path, kind: str) -> Path:
     return out
 
 
-__all__ = ["render", "RunFields", "Rendered", "render_after_run", "color_fields",
-           "MAX_FILM_FRAMES"]
+__all__ = ["render", "RunFields", "Rendered", "render_after_run", "color_fields", "MAX_FILM_FRAMES"]

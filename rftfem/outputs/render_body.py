@@ -31,11 +31,11 @@ EDGE_POINTS = 9
 
 #: VTK cell type -> its edges as (corner, corner[, midside node]) in VTK's node order
 _EDGES = {
-    9: ((0, 1), (1, 2), (2, 3), (3, 0)),                           # quad
-    5: ((0, 1), (1, 2), (2, 0)),                                   # triangle
-    28: ((0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)),              # biquadratic quad
-    23: ((0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)),              # quadratic quad
-    22: ((0, 1, 3), (1, 2, 4), (2, 0, 5)),                         # quadratic triangle
+    9: ((0, 1), (1, 2), (2, 3), (3, 0)),  # quad
+    5: ((0, 1), (1, 2), (2, 0)),  # triangle
+    28: ((0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)),  # biquadratic quad
+    23: ((0, 1, 4), (1, 2, 5), (2, 3, 6), (3, 0, 7)),  # quadratic quad
+    22: ((0, 1, 3), (1, 2, 4), (2, 0, 5)),  # quadratic triangle
 }
 
 
@@ -44,19 +44,24 @@ def _edge_weights(edges: list[tuple[int, ...]], k: int) -> tuple[np.ndarray, np.
     Lagrange shape functions (linear through two nodes, quadratic through three);
     point i is ``sum_j weights[i, j] * x[nodes[i, j]]``."""
     s = np.linspace(0.0, 1.0, k)
-    shapes = {2: np.stack([1 - s, s, 0 * s], axis=1),
-              3: np.stack([(1 - s) * (1 - 2 * s), s * (2 * s - 1), 4 * s * (1 - s)], axis=1)}
+    shapes = {
+        2: np.stack([1 - s, s, 0 * s], axis=1),
+        3: np.stack([(1 - s) * (1 - 2 * s), s * (2 * s - 1), 4 * s * (1 - s)], axis=1),
+    }
     nodes = np.zeros((len(edges) * k, 3), dtype=np.int64)
     weights = np.zeros((len(edges) * k, 3))
     for e, ids in enumerate(edges):
-        nodes[e * k:(e + 1) * k] = (list(ids) + [ids[0]])[:3]
-        weights[e * k:(e + 1) * k] = shapes[len(ids)]
+        nodes[e * k : (e + 1) * k] = (list(ids) + [ids[0]])[:3]
+        weights[e * k : (e + 1) * k] = shapes[len(ids)]
     return nodes, weights
 
 
 def _polylines(n_edges: int, k: int) -> pv.PolyData:
-    lines = np.hstack([np.r_[k, e * k + np.arange(k)] for e in range(n_edges)]) \
-        if n_edges else np.zeros(0, dtype=int)
+    lines = (
+        np.hstack([np.r_[k, e * k + np.arange(k)] for e in range(n_edges)])
+        if n_edges
+        else np.zeros(0, dtype=int)
+    )
     return pv.PolyData(np.zeros((n_edges * k, 3)), lines=lines)
 
 

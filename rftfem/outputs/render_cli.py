@@ -17,57 +17,102 @@ DESCRIPTION = (
     "body coloured by a field, the reference body faintly, axes and the time. A .png "
     "shows one frame (the last by default); a .mp4 or .gif film shows every output "
     "frame (every Nth when there are many). Works the same on results of serial and "
-    "mpirun runs. Renders off-screen: no display needed.")
+    "mpirun runs. Renders off-screen: no display needed."
+)
 
 VIEWS = ("iso", "xy", "xz", "yz", "follow")
 FORMATS = (".png", ".mp4", ".gif")
 
 
 def add_arguments(parser: argparse.ArgumentParser):
-    parser.add_argument("results", metavar="RESULTS_DIR",
-                        help="a run's output folder (with fields.xdmf and summary.json)")
-    parser.add_argument("--out", metavar="FILE", type=Path, default=None,
-                        help="picture or film to write: .png, .mp4 or .gif "
-                             "(default: RESULTS_DIR/render.png)")
-    parser.add_argument("--color", metavar="FIELD", default=None,
-                        help="colour by: displacement (magnitude), ux, uy, uz, director_x, "
-                             "director_y, director_z, magnetization (component along "
-                             "shell.axis, with arrows; magnetic runs only) or none "
-                             "(default: magnetization on magnetic runs, else displacement)")
-    parser.add_argument("--time", metavar="T", type=float, default=None,
-                        help="for a .png: the output time to draw (the nearest written "
-                             "frame; default: the last)")
-    parser.add_argument("--view", choices=VIEWS, default="iso",
-                        help="camera: iso (default), xy (from +z), xz (from -y), yz (from +x), "
-                             "or follow (iso, moving with the centroid)")
-    parser.add_argument("--trail", metavar="PROBE", default=None,
-                        help="draw the path of the centroid (--trail centroid) or of a probe "
-                             "up to the frame's time, or none (default: the centroid with "
-                             "--view follow, none otherwise)")
-    parser.add_argument("--fps", metavar="N", type=float, default=None,
-                        help="film frame rate (default: so that the film lasts 4-12 s)")
-    parser.add_argument("--every", metavar="N", type=int, default=None,
-                        help="film: use every Nth output frame (default: at most 360 frames in "
-                             "an MP4, 120 in a GIF)")
-    parser.add_argument("--scale", metavar="S", type=float, default=1.0,
-                        help="draw the displacements magnified S times (the body, probes and "
-                             "trail, as ParaView's warp by vector; the picture says so), so "
-                             "that a small deflection shows (default 1)")
-    parser.add_argument("--size", metavar="WxH", default="1024x768",
-                        help="picture size in pixels (default 1024x768)")
+    parser.add_argument(
+        "results",
+        metavar="RESULTS_DIR",
+        help="a run's output folder (with fields.xdmf and summary.json)",
+    )
+    parser.add_argument(
+        "--out",
+        metavar="FILE",
+        type=Path,
+        default=None,
+        help="picture or film to write: .png, .mp4 or .gif (default: RESULTS_DIR/render.png)",
+    )
+    parser.add_argument(
+        "--color",
+        metavar="FIELD",
+        default=None,
+        help="colour by: displacement (magnitude), ux, uy, uz, director_x, "
+        "director_y, director_z, magnetization (component along "
+        "shell.axis, with arrows; magnetic runs only) or none "
+        "(default: magnetization on magnetic runs, else displacement)",
+    )
+    parser.add_argument(
+        "--time",
+        metavar="T",
+        type=float,
+        default=None,
+        help="for a .png: the output time to draw (the nearest written frame; default: the last)",
+    )
+    parser.add_argument(
+        "--view",
+        choices=VIEWS,
+        default="iso",
+        help="camera: iso (default), xy (from +z), xz (from -y), yz (from +x), "
+        "or follow (iso, moving with the centroid)",
+    )
+    parser.add_argument(
+        "--trail",
+        metavar="PROBE",
+        default=None,
+        help="draw the path of the centroid (--trail centroid) or of a probe "
+        "up to the frame's time, or none (default: the centroid with "
+        "--view follow, none otherwise)",
+    )
+    parser.add_argument(
+        "--fps",
+        metavar="N",
+        type=float,
+        default=None,
+        help="film frame rate (default: so that the film lasts 4-12 s)",
+    )
+    parser.add_argument(
+        "--every",
+        metavar="N",
+        type=int,
+        default=None,
+        help="film: use every Nth output frame (default: at most 360 frames in "
+        "an MP4, 120 in a GIF)",
+    )
+    parser.add_argument(
+        "--scale",
+        metavar="S",
+        type=float,
+        default=1.0,
+        help="draw the displacements magnified S times (the body, probes and "
+        "trail, as ParaView's warp by vector; the picture says so), so "
+        "that a small deflection shows (default 1)",
+    )
+    parser.add_argument(
+        "--size",
+        metavar="WxH",
+        default="1024x768",
+        help="picture size in pixels (default 1024x768)",
+    )
 
 
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise SceneError(f"--size: expected WIDTHxHEIGHT in pixels (e.g. 1024x768), "
-                         f"found '{text}'") from None
+        raise SceneError(
+            f"--size: expected WIDTHxHEIGHT in pixels (e.g. 1024x768), found '{text}'"
+        ) from None
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
         raise SceneError(f"--size: expected 16 to 8192 pixels each way, found '{text}'")
     if w % 2 or h % 2:
-        raise SceneError(f"--size: expected even numbers of pixels (films need them), "
-                         f"found '{text}'")
+        raise SceneError(
+            f"--size: expected even numbers of pixels (films need them), found '{text}'"
+        )
     return w, h
 
 
@@ -94,16 +139,34 @@ def main(args, console) -> int:
 
     from rftfem.outputs.render import render  # pyvista and VTK: only now
 
-    done = render(results, out, color=args.color, time=args.time, view=args.view,
-                  trail=args.trail, fps=args.fps, every=args.every, size=size,
-                  scale=args.scale)
+    done = render(
+        results,
+        out,
+        color=args.color,
+        time=args.time,
+        view=args.view,
+        trail=args.trail,
+        fps=args.fps,
+        every=args.every,
+        size=size,
+        scale=args.scale,
+    )
     console.out(f"rftfem render: wrote {out} ({done.describe()})")
     return 0
 
 
 #: environment variables by which MPI launchers tell a process it is one of a job's ranks
-_MPI_ENV_PREFIXES = ("OMPI_COMM_WORLD", "OMPI_MCA_orte", "OMPI_MCA_ess", "OMPI_FILE_LOCATION",
-                     "PMIX_", "PMI_", "HYDRA_", "MPI_LOCAL", "SLURM_PROCID")
+_MPI_ENV_PREFIXES = (
+    "OMPI_COMM_WORLD",
+    "OMPI_MCA_orte",
+    "OMPI_MCA_ess",
+    "OMPI_FILE_LOCATION",
+    "PMIX_",
+    "PMI_",
+    "HYDRA_",
+    "MPI_LOCAL",
+    "SLURM_PROCID",
+)
 
 
 def draw_in_child(results, out, *options: str) -> subprocess.CompletedProcess:

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rftfem.outputs.compat_render import import_pyvista
 from rftfem.errors import SceneError
+from rftfem.outputs.compat_render import import_pyvista
 from rftfem.outputs.quantities import read_csv
 from rftfem.outputs.rigid_fit import magnified
 
@@ -57,8 +57,10 @@ class RunFields:
         self._fit = (np.eye(3), np.zeros(3), np.zeros(3))
         xdmf = self.folder / "fields.xdmf"
         if not xdmf.is_file():
-            raise SceneError(f"{self.folder}: no fields.xdmf here (not a results folder, "
-                             "or the run had output.fields = false)")
+            raise SceneError(
+                f"{self.folder}: no fields.xdmf here (not a results folder, "
+                "or the run had output.fields = false)"
+            )
         if not (self.folder / "fields.h5").is_file():
             raise SceneError(f"{self.folder}: fields.xdmf is here but fields.h5 is missing")
         summary = self.folder / "summary.json"
@@ -74,8 +76,9 @@ class RunFields:
             self.reader = pv.get_reader(str(xdmf))
             self.times = np.array(self.reader.time_values, dtype=float)
         except Exception as exc:  # VTK says little; keep it to one line
-            raise SceneError(f"{xdmf}: cannot be read as XDMF ({' '.join(str(exc).split())})") \
-                from None
+            raise SceneError(
+                f"{xdmf}: cannot be read as XDMF ({' '.join(str(exc).split())})"
+            ) from None
         if len(self.times) == 0:
             raise SceneError(f"{xdmf}: no time steps written yet")
         self.reader.set_active_time_point(0)
@@ -105,8 +108,10 @@ class RunFields:
         import re
 
         text = xdmf.read_text(encoding="utf-8", errors="replace")
-        undeclared = re.compile(r'<DataItem(?![^>]*Precision=)(?![^>]*NumberType="(?:U?Int|Char))'
-                                r'([^>]*Format="HDF"[^>]*)>')
+        undeclared = re.compile(
+            r'<DataItem(?![^>]*Precision=)(?![^>]*NumberType="(?:U?Int|Char))'
+            r'([^>]*Format="HDF"[^>]*)>'
+        )
         if _BAD_XINCLUDE not in text and not undeclared.search(text):
             return xdmf
         import tempfile
@@ -159,8 +164,7 @@ class RunFields:
         lo, hi = self.times[0], self.times[-1]
         tol = 1e-9 * max(1.0, abs(hi))
         if not lo - tol <= t <= hi + tol:
-            raise SceneError(f"--time {t:g}: outside the run's output times "
-                             f"[{lo:g}, {hi:g}]")
+            raise SceneError(f"--time {t:g}: outside the run's output times [{lo:g}, {hi:g}]")
         return int(np.argmin(np.abs(self.times - t)))
 
     def _log(self, name: str, why: str) -> tuple[list[str], np.ndarray]:
@@ -245,8 +249,9 @@ def color_values(name: str, frame: dict, run: RunFields) -> np.ndarray | None:
 # ---------------------------------------------------------- frames and survey
 
 
-def film_plan(n: int, every: int | None, fps: float | None,
-              most: int = MAX_FILM_FRAMES) -> tuple[np.ndarray, float]:
+def film_plan(
+    n: int, every: int | None, fps: float | None, most: int = MAX_FILM_FRAMES
+) -> tuple[np.ndarray, float]:
     """The frames a film of a run with ``n`` output frames shows (every ``every``th,
     else at most about ``most``; always the last) and its frame rate."""
     stride = every or max(1, math.ceil(n / most))
@@ -262,9 +267,9 @@ def film_plan(n: int, every: int | None, fps: float | None,
 class Survey:
     """What a pass over the frames finds, before anything is drawn."""
 
-    lo: np.ndarray          # box of everything drawn: reference, deformed body, trail
+    lo: np.ndarray  # box of everything drawn: reference, deformed body, trail
     hi: np.ndarray
-    body_size: float        # largest diagonal of the deformed body (the follow camera)
+    body_size: float  # largest diagonal of the deformed body (the follow camera)
     srange: tuple[float, float]  # range of the colour field over the run
 
 
@@ -327,8 +332,12 @@ def place_camera(plotter, view: str, lo, hi, center=None, size: float | None = N
     up = np.cross(d, right)
     if center is None:
         center = (np.asarray(lo) + np.asarray(hi)) / 2
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                            for z in (lo[2], hi[2])]) - center
+        corners = (
+            np.array(
+                [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+            )
+            - center
+        )
         half_w = float(np.abs(corners @ right).max())
         half_h = float(np.abs(corners @ up).max())
         depth = float(np.abs(corners @ d).max())
@@ -350,8 +359,10 @@ def place_camera(plotter, view: str, lo, hi, center=None, size: float | None = N
     cam.up = tuple(up)
     # the body drawn left of centre, clear of the colour bar on the right
     cam.SetWindowCenter(1.0 - _USABLE_WIDTH, 0.0)
-    cam.clipping_range = (max(distance - 2 * depth - half, 1e-6 * distance),
-                          distance + 2 * depth + half)
+    cam.clipping_range = (
+        max(distance - 2 * depth - half, 1e-6 * distance),
+        distance + 2 * depth + half,
+    )
 
 
 def pixel_of(plotter, point) -> tuple[float, float]:

@@ -30,8 +30,9 @@ class Probes:
         self.cells, on_body = owned_cells(model.mesh, self.points)
         for i, (p, inside) in enumerate(zip(probes, on_body)):
             if not inside:
-                raise SceneError(f"output.probes.{i}.at: probe '{p['name']}' at {p['at']} "
-                                 "is outside the body")
+                raise SceneError(
+                    f"output.probes.{i}.at: probe '{p['name']}' at {p['at']} is outside the body"
+                )
 
     def header(self) -> list[str]:
         return [f"{n}_{c}" for n in self.names for c in ("ux", "uy", "uz")]
@@ -42,7 +43,9 @@ class Probes:
         out = np.zeros((len(self.names), 3))
         for i, cell in enumerate(self.cells):
             if cell is not None:
-                out[i] = self.model.displacement.eval(self.points[i], np.array([cell], dtype=np.int32))
+                out[i] = self.model.displacement.eval(
+                    self.points[i], np.array([cell], dtype=np.int32)
+                )
         return comm.allreduce(out)
 
 
@@ -78,8 +81,7 @@ class CsvLog:
 
     def __init__(self, path: Path, header: list[str], comm, append: bool = False):
         self.rank = comm.rank
-        self.file = (open(path, "a" if append else "w", encoding="utf-8")
-                     if self.rank == 0 else None)
+        self.file = open(path, "a" if append else "w", encoding="utf-8") if self.rank == 0 else None
         if not append:
             self.row(header)
 
@@ -113,8 +115,9 @@ class FieldWriter:
     down) is unreadable as a whole, closed after every write it keeps every
     time step written before."""
 
-    def __init__(self, model, path: Path, extra: dict | None = None, main: Path | None = None,
-                 warn=None):
+    def __init__(
+        self, model, path: Path, extra: dict | None = None, main: Path | None = None, warn=None
+    ):
         from mpi4py import MPI
 
         from rftfem.outputs.field_mesh import FieldMesh
@@ -156,10 +159,12 @@ class FieldWriter:
                         file.write_function(target, t)
             except RuntimeError as error:  # dolfinx 0.5 on strongly curved coarse cells
                 self.failed = True
-                self.warn(f"warning: {self.path.name}: no fields written from t = {t:.6g} on "
-                          f"(dolfinx {compat.versions()['dolfinx']} could not write them on "
-                          f"this mesh: {error}); the tables go on. Refine the mesh or run "
-                          "on the current stack for fields")
+                self.warn(
+                    f"warning: {self.path.name}: no fields written from t = {t:.6g} on "
+                    f"(dolfinx {compat.versions()['dolfinx']} could not write them on "
+                    f"this mesh: {error}); the tables go on. Refine the mesh or run "
+                    "on the current stack for fields"
+                )
 
     def close(self):
         if self.model.comm.rank == 0:
@@ -187,6 +192,7 @@ def json_default(obj):
 
 
 # --- continuing the outputs of a restarted run (checkpoint.py) ---------------------
+
 
 def keep_rows_until(path: Path, t: float, at_t: bool = True) -> list[list[str]]:
     """Cut a CSV table of this module to its header and the rows up to time ``t``
@@ -238,8 +244,11 @@ def _declare_doubles(tree) -> bool:
     """Set ``Precision="8"`` on the HDF real data items that lack it; whether any did."""
     changed = False
     for item in tree.iter("DataItem"):
-        if item.get("Format") == "HDF" and item.get("NumberType", "Float") == "Float" \
-                and item.get("Precision") is None:
+        if (
+            item.get("Format") == "HDF"
+            and item.get("NumberType", "Float") == "Float"
+            and item.get("Precision") is None
+        ):
             item.set("NumberType", "Float")
             item.set("Precision", "8")
             changed = True
@@ -247,8 +256,11 @@ def _declare_doubles(tree) -> bool:
 
 
 def _collections(tree) -> dict:
-    return {g.get("Name"): g for g in tree.getroot().find("Domain").findall("Grid")
-            if g.get("GridType") == "Collection"}
+    return {
+        g.get("Name"): g
+        for g in tree.getroot().find("Domain").findall("Grid")
+        if g.get("GridType") == "Collection"
+    }
 
 
 def _write_xdmf(tree, path: Path):
@@ -261,8 +273,10 @@ def field_segments(main: Path) -> list[Path]:
     """The field files of a run's restarts (``fields-1.xdmf``, ...), in order."""
     main = Path(main)
     found = main.parent.glob(f"{main.stem}-*.xdmf")
-    return sorted((p for p in found if p.stem.rsplit("-", 1)[1].isdigit()),
-                  key=lambda p: int(p.stem.rsplit("-", 1)[1]))
+    return sorted(
+        (p for p in found if p.stem.rsplit("-", 1)[1].isdigit()),
+        key=lambda p: int(p.stem.rsplit("-", 1)[1]),
+    )
 
 
 def merge_field_segment(main: Path, segment: Path):

@@ -23,12 +23,27 @@ import numpy as np
 from rftfem.errors import SceneError
 
 #: function name -> number of arguments (None: two or more)
-FUNCTIONS = {"sin": 1, "cos": 1, "tan": 1, "asin": 1, "acos": 1, "atan": 1, "atan2": 2,
-             "exp": 1, "log": 1, "sqrt": 1, "abs": 1, "min": None, "max": None}
+FUNCTIONS = {
+    "sin": 1,
+    "cos": 1,
+    "tan": 1,
+    "asin": 1,
+    "acos": 1,
+    "atan": 1,
+    "atan2": 2,
+    "exp": 1,
+    "log": 1,
+    "sqrt": 1,
+    "abs": 1,
+    "min": None,
+    "max": None,
+}
 CONSTANTS = {"pi": math.pi}
 
-_TOKEN = re.compile(r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
-                    r"|(?P<op>[-+*/^(),]))")
+_TOKEN = re.compile(
+    r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
+    r"|(?P<op>[-+*/^(),]))"
+)
 
 
 @dataclass(frozen=True)
@@ -58,8 +73,10 @@ class Formula:
             return _evaluate(self.tree, env, _NUMPY)
         except (ZeroDivisionError, OverflowError) as exc:
             at = ", ".join(f"{k} = {v:g}" for k, v in env.items() if isinstance(v, (int, float)))
-            raise SceneError(f"{self.key or 'formula'}: '{self.text}' has no value"
-                             f"{' at ' + at if at else ''} ({exc})") from None
+            raise SceneError(
+                f"{self.key or 'formula'}: '{self.text}' has no value"
+                f"{' at ' + at if at else ''} ({exc})"
+            ) from None
 
     def ufl(self, env: dict, number=None):
         """The formula as a UFL expression of ``env`` (variable -> UFL expression).
@@ -135,8 +152,9 @@ def _check_constant_parts(tree, text: str, key: str) -> bool:
     if kind not in ("neg", "call") and tree[1] == "/" and constant[1]:
         with np.errstate(all="ignore"):
             if _evaluate(tree[3], {}, _NUMPY) == 0:
-                raise SceneError(f"{key}: '{text}' divides by zero ({_show(tree)}); "
-                                 f"is a parameter 0?")
+                raise SceneError(
+                    f"{key}: '{text}' divides by zero ({_show(tree)}); is a parameter 0?"
+                )
     return False
 
 
@@ -146,14 +164,21 @@ def _require_finite(part, text: str, key: str) -> None:
     if _finite(part):
         return
     while True:
-        children = ([part[1]] if part[0] == "neg" else list(part[2]) if part[0] == "call"
-                    else [part[2], part[3]])
+        children = (
+            [part[1]]
+            if part[0] == "neg"
+            else list(part[2])
+            if part[0] == "call"
+            else [part[2], part[3]]
+        )
         bad = [c for c in children if not _finite(c)]
         if not bad:
             break
         part = bad[0]
-    raise SceneError(f"{key}: '{text}' has a part without a finite value "
-                     f"({_show(part)}); is a parameter 0 or out of range?")
+    raise SceneError(
+        f"{key}: '{text}' has a part without a finite value "
+        f"({_show(part)}); is a parameter 0 or out of range?"
+    )
 
 
 def _finite(part) -> bool:
@@ -202,8 +227,10 @@ class _Parser:
 
     def _raise(self, what: str, where: int):
         allowed = ", ".join(self.variables) if self.variables else "none"
-        raise SceneError(f"{self.key}: {what} at position {where + 1} in formula "
-                         f"'{self.text}' (variables allowed here: {allowed})")
+        raise SceneError(
+            f"{self.key}: {what} at position {where + 1} in formula "
+            f"'{self.text}' (variables allowed here: {allowed})"
+        )
 
     def fail(self, what: str):
         tok = self.peek()
@@ -264,8 +291,7 @@ class _Parser:
             self.take()
             if self.peek() and self.peek()[1] == "(":
                 if text not in FUNCTIONS:
-                    self._raise(f"unknown function '{text}' (known: {', '.join(FUNCTIONS)})",
-                                where)
+                    self._raise(f"unknown function '{text}' (known: {', '.join(FUNCTIONS)})", where)
                 self.take("(")
                 args = [self.expression()]
                 while self.peek() and self.peek()[1] == ",":
@@ -295,18 +321,42 @@ class _Parser:
         self._raise(f"unexpected '{text}'", where)
 
 
-_NUMPY = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
-          "atan": np.arctan, "atan2": np.arctan2, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
-          "abs": np.abs, "min": np.minimum, "max": np.maximum}
+_NUMPY = {
+    "sin": np.sin,
+    "cos": np.cos,
+    "tan": np.tan,
+    "asin": np.arcsin,
+    "acos": np.arccos,
+    "atan": np.arctan,
+    "atan2": np.arctan2,
+    "exp": np.exp,
+    "log": np.log,
+    "sqrt": np.sqrt,
+    "abs": np.abs,
+    "min": np.minimum,
+    "max": np.maximum,
+}
 
 
 def _ufl_functions() -> dict:
     import ufl
 
     atan2 = getattr(ufl, "atan2", None) or getattr(ufl, "atan_2")  # UFL 2022 names it atan_2
-    return {"sin": ufl.sin, "cos": ufl.cos, "tan": ufl.tan, "asin": ufl.asin, "acos": ufl.acos,
-            "atan": ufl.atan, "atan2": atan2, "exp": ufl.exp, "log": ufl.ln, "sqrt": ufl.sqrt,
-            "abs": abs, "min": ufl.min_value, "max": ufl.max_value}
+    return {
+        "sin": ufl.sin,
+        "cos": ufl.cos,
+        "tan": ufl.tan,
+        "asin": ufl.asin,
+        "acos": ufl.acos,
+        "atan": ufl.atan,
+        "atan2": atan2,
+        "exp": ufl.exp,
+        "log": ufl.ln,
+        "sqrt": ufl.sqrt,
+        "abs": abs,
+        "min": ufl.min_value,
+        "max": ufl.max_value,
+    }
 
 
 def _evaluate(tree, env, functions, literal=False):
@@ -338,7 +388,7 @@ def _evaluate(tree, env, functions, literal=False):
         return a * b
     if op == "/":
         return a / b
-    return a ** b
+    return a**b
 
 
 #: the functions whose argument sets a period: sin and cos repeat every 2π, tan every π
@@ -359,13 +409,15 @@ def periods_in_time(formula: Formula) -> list[float]:
                 env = {name: 0.0 for name in formula.names}
                 try:
                     with np.errstate(all="ignore"):
-                        values = [float(_evaluate(arg, {**env, "t": t}, _NUMPY))
-                                  for t in (0.0, 1.0, 2.0)]
+                        values = [
+                            float(_evaluate(arg, {**env, "t": t}, _NUMPY)) for t in (0.0, 1.0, 2.0)
+                        ]
                 except (KeyError, ValueError, ZeroDivisionError):
                     values = [math.nan] * 3
                 rate = values[1] - values[0]
                 linear = abs(values[2] - 2 * values[1] + values[0]) <= 1e-9 * max(
-                    1.0, *map(abs, values))
+                    1.0, *map(abs, values)
+                )
                 if all(map(math.isfinite, values)) and linear and rate != 0.0:
                     found.append(_PERIODIC[tree[1]] / abs(rate))
             for a in tree[2]:

@@ -34,15 +34,23 @@ class MaterialField(Validator):
     def __init__(self, number: Validator | None = None):
         self.formula = Formula(REFERENCE, number or Num())
         self.number = self.formula.number
-        self.expected = (f"{self.number.expected}, a formula of X, Y, Z (a string) or a "
-                         'profile file ({ profile = "file.csv" }, rows X,Y,Z,value)')
+        self.expected = (
+            f"{self.number.expected}, a formula of X, Y, Z (a string) or a "
+            'profile file ({ profile = "file.csv" }, rows X,Y,Z,value)'
+        )
 
     def __call__(self, value, path):
         if isinstance(value, dict):
             unknown = sorted(set(value) - {"profile"})
             if unknown or "profile" not in value:
-                raise err(path, self.expected, value,
-                          f" (a table here has one key, profile{', not ' + unknown[0] if unknown else ''})")
+                raise err(
+                    path,
+                    self.expected,
+                    value,
+                    " (a table here has one key, profile"
+                    + (f", not {unknown[0]}" if unknown else "")
+                    + ")",
+                )
             name = value["profile"]
             if not isinstance(name, str) or not name.strip():
                 raise err(f"{path}.profile", "a CSV file name (a string)", name)
@@ -57,14 +65,18 @@ class MaterialField(Validator):
                 parse(substitute(value, _PARAMETERS.get()), path, REFERENCE)
             except SceneError as exc:  # say what the key takes, then what is wrong
                 why = str(exc).removeprefix(f"{path}: ")
-                raise SceneError(f"{path}: expected {self.number.expected}, a formula of "
-                                 f"X, Y, Z or a profile file; found {found(value)} "
-                                 f"({why})") from None
+                raise SceneError(
+                    f"{path}: expected {self.number.expected}, a formula of "
+                    f"X, Y, Z or a profile file; found {found(value)} "
+                    f"({why})"
+                ) from None
         return self.formula(value, path)
 
     def describe(self, name: str) -> str:
-        return (f"{self.number.describe(name)}, a formula of X, Y, Z (a string) or a profile "
-                '(`{ profile = "file.csv" }`, rows X,Y,Z,value)')
+        return (
+            f"{self.number.describe(name)}, a formula of X, Y, Z (a string) or a profile "
+            '(`{ profile = "file.csv" }`, rows X,Y,Z,value)'
+        )
 
 
 def is_field(value) -> bool:
@@ -74,34 +86,42 @@ def is_field(value) -> bool:
 
 def profile_file(scene: dict, name: str) -> Path:
     """A profile's path: relative to the scene file's folder."""
-    folder = scene.get("_folder") or (Path(scene["_path"]).parent if scene.get("_path")
-                                      else Path("."))
+    folder = scene.get("_folder") or (
+        Path(scene["_path"]).parent if scene.get("_path") else Path(".")
+    )
     return Path(folder) / Path(name).expanduser()
 
 
 def field_values(scene: dict, value, at: np.ndarray, key: str) -> np.ndarray:
     """A validated material value at the points ``at`` (n, 3): (n,) floats.  A formula
     or profile that is not finite somewhere is a one-line SceneError naming the point."""
-    from rftfem.scene.profiles import profile_values, read_profile
     from rftfem.scene.expressions import parse
+    from rftfem.scene.profiles import profile_values, read_profile
 
     at = np.asarray(at, dtype=float).reshape(-1, 3)
     if not is_field(value):
         return np.full(len(at), float(value))
     if isinstance(value, dict):
-        points, values = read_profile(profile_file(scene, value["profile"]),
-                                      f"{key}.profile", columns=1, names="value")
+        points, values = read_profile(
+            profile_file(scene, value["profile"]), f"{key}.profile", columns=1, names="value"
+        )
         out = profile_values(points, values, at, f"{key}.profile")[:, 0]
     else:
         formula = parse(value, key, REFERENCE)
         with np.errstate(all="ignore"):
-            out = np.broadcast_to(np.asarray(formula.numbers(
-                {"X": at[:, 0], "Y": at[:, 1], "Z": at[:, 2]}), dtype=float), len(at)).copy()
+            out = np.broadcast_to(
+                np.asarray(
+                    formula.numbers({"X": at[:, 0], "Y": at[:, 1], "Z": at[:, 2]}), dtype=float
+                ),
+                len(at),
+            ).copy()
     bad = ~np.isfinite(out)
     if bad.any():
         p = at[np.argmax(bad)]
-        raise SceneError(f"{key}: {describe(value)} is not a finite number at "
-                         f"{fmt([round(float(v), 9) + 0.0 for v in p])} on the body")
+        raise SceneError(
+            f"{key}: {describe(value)} is not a finite number at "
+            f"{fmt([round(float(v), 9) + 0.0 for v in p])} on the body"
+        )
     return out
 
 

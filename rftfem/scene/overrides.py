@@ -15,22 +15,32 @@ from rftfem.scene.reading import UNSET, unset_text
 
 def add_override_arguments(parser: argparse.ArgumentParser) -> None:
     """``--set`` and ``--unset`` on a command that reads a scene."""
-    parser.add_argument("--set", metavar="KEY=VALUE", action="append", default=[],
-                        dest="overrides",
-                        help="override one scene key, VALUE in TOML syntax "
-                             "(e.g. --set load.0.value=[0,52.36,0]); repeatable")
-    parser.add_argument("--unset", metavar="KEY", action="append", dest="overrides",
-                        type=unset_text,
-                        help="remove one scene key, so that its default (or nothing) "
-                             "applies (e.g. --unset fluid.drag to switch to "
-                             "fluid.model=stokes); repeatable")
+    parser.add_argument(
+        "--set",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        dest="overrides",
+        help="override one scene key, VALUE in TOML syntax "
+        "(e.g. --set load.0.value=[0,52.36,0]); repeatable",
+    )
+    parser.add_argument(
+        "--unset",
+        metavar="KEY",
+        action="append",
+        dest="overrides",
+        type=unset_text,
+        help="remove one scene key, so that its default (or nothing) "
+        "applies (e.g. --unset fluid.drag to switch to "
+        "fluid.model=stokes); repeatable",
+    )
 
 
 def as_arguments(texts: list[str]) -> list[str]:
     """The override texts as command-line arguments (``--set T`` / ``--unset KEY``)."""
     out = []
     for text in texts:
-        out += ["--unset", text[len(UNSET):]] if text.startswith(UNSET) else ["--set", text]
+        out += ["--unset", text[len(UNSET) :]] if text.startswith(UNSET) else ["--set", text]
     return out
 
 

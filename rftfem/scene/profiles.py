@@ -21,8 +21,9 @@ from rftfem.scene.validators import fmt
 __all__ = ["read_profile", "profile_values", "profile_weights", "Grid"]
 
 
-def read_profile(path: Path, key: str, columns: int = 3,
-                 names: str = "mx,my,mz") -> tuple[np.ndarray, np.ndarray]:
+def read_profile(
+    path: Path, key: str, columns: int = 3, names: str = "mx,my,mz"
+) -> tuple[np.ndarray, np.ndarray]:
     """Rows ``X, Y, Z`` and ``columns`` values (``names`` for messages) of a profile
     file; a header line and ``#`` comments are allowed.  ``(points, values)``."""
     want = 3 + columns
@@ -30,8 +31,9 @@ def read_profile(path: Path, key: str, columns: int = 3,
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise SceneError(f"{key}: cannot read the profile file '{path}' "
-                         f"({exc.strerror or exc})") from None
+        raise SceneError(
+            f"{key}: cannot read the profile file '{path}' ({exc.strerror or exc})"
+        ) from None
     rows = []
     for n, row in enumerate(csv.reader(text.splitlines()), start=1):
         if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
@@ -41,11 +43,14 @@ def read_profile(path: Path, key: str, columns: int = 3,
         except ValueError:
             if not rows and n == 1:
                 continue  # a header
-            raise SceneError(f"{key}: line {n} of '{path}' is not {want} numbers "
-                             f"{what}: {','.join(row)[:60]}") from None
+            raise SceneError(
+                f"{key}: line {n} of '{path}' is not {want} numbers {what}: {','.join(row)[:60]}"
+            ) from None
         if len(values) != want or not all(math.isfinite(v) for v in values):
-            raise SceneError(f"{key}: line {n} of '{path}' is not {want} finite numbers "
-                             f"{what}: {','.join(row)[:60]}")
+            raise SceneError(
+                f"{key}: line {n} of '{path}' is not {want} finite numbers "
+                f"{what}: {','.join(row)[:60]}"
+            )
         rows.append(values)
     if not rows:
         raise SceneError(f"{key}: the profile file '{path}' has no rows {what}")
@@ -72,7 +77,8 @@ class Grid:
                 f"{key}: the profile's {len(points)} points are not a complete grid "
                 f"({' x '.join(map(str, self.shape)) or '1'} = {int(np.prod(self.shape))} "
                 f"points expected from its distinct {first} values): points are missing "
-                "or repeated")
+                "or repeated"
+            )
         index = tuple(np.searchsorted(a, points[:, c]) for a, c in zip(self.axes, self.where))
         #: the grid position (flat) -> the row of the file
         self.row = np.full(self.shape, -1, dtype=np.int64)
@@ -80,12 +86,13 @@ class Grid:
         if (self.row < 0).any():
             missing = np.argwhere(self.row < 0)[0]
             point = [float(self.axes[k][i]) for k, i in enumerate(missing)]
-            raise SceneError(f"{key}: the profile has no row at {fmt(point)} "
-                             f"({'/'.join('XYZ'[c] for c in self.where)}): its grid has a hole")
+            raise SceneError(
+                f"{key}: the profile has no row at {fmt(point)} "
+                f"({'/'.join('XYZ'[c] for c in self.where)}): its grid has a hole"
+            )
 
 
-def profile_weights(points: np.ndarray, at: np.ndarray, key: str
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def profile_weights(points: np.ndarray, at: np.ndarray, key: str) -> tuple[np.ndarray, np.ndarray]:
     """``(rows, weights)``, each (n, 2^d): the value at ``at[i]`` is
     ``Σ_k weights[i, k] · values[rows[i, k]]`` (multilinear).  The grid must be
     complete and cover every point asked for (a one-line SceneError)."""
@@ -96,9 +103,11 @@ def profile_weights(points: np.ndarray, at: np.ndarray, key: str
         outside = (at[:, c] < a[0] - tol) | (at[:, c] > a[-1] + tol)
         if outside.any():
             p = at[np.argmax(outside)]
-            raise SceneError(f"{key}: the profile does not cover the body: the point "
-                             f"{fmt([round(float(v), 9) + 0.0 for v in p])} lies outside its "
-                             f"{'XYZ'[c]} range [{fmt(float(a[0]))}, {fmt(float(a[-1]))}]")
+            raise SceneError(
+                f"{key}: the profile does not cover the body: the point "
+                f"{fmt([round(float(v), 9) + 0.0 for v in p])} lies outside its "
+                f"{'XYZ'[c]} range [{fmt(float(a[0]))}, {fmt(float(a[-1]))}]"
+            )
     lo, frac = [], []
     for a, c in zip(grid.axes, grid.where):
         i = np.clip(np.searchsorted(a, at[:, c], side="right") - 1, 0, len(a) - 2)
@@ -117,8 +126,7 @@ def profile_weights(points: np.ndarray, at: np.ndarray, key: str
     return rows, weights
 
 
-def profile_values(points: np.ndarray, values: np.ndarray, at: np.ndarray,
-                   key: str) -> np.ndarray:
+def profile_values(points: np.ndarray, values: np.ndarray, at: np.ndarray, key: str) -> np.ndarray:
     """The profile's values at the points ``at`` (n, 3): (n, columns)."""
     rows, weights = profile_weights(points, at, key)
     values = np.asarray(values, dtype=float).reshape(len(points), -1)

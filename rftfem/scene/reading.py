@@ -46,16 +46,38 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from rftfem.errors import SceneError
-from rftfem.scene.time_rules import resolved_scheme
 from rftfem.model import effects
 from rftfem.scene.keys import SCHEMA, cross_check
-from rftfem.scene.schema import Array, Free, Leaf, Table, err, join, section, suggest, validate_table
+from rftfem.scene.schema import (
+    Array,
+    Free,
+    Leaf,
+    Table,
+    err,
+    join,
+    section,
+    suggest,
+    validate_table,
+)
 from rftfem.scene.selectors import hinge_line
+from rftfem.scene.time_rules import resolved_scheme
 from rftfem.scene.validators import scene_parameters
 
-__all__ = ["load_scene", "apply_override", "set_key", "unset_key", "unset_text", "read_scene_file",
-           "parse_scene_text", "complete_scene", "with_overrides",
-           "active_effects", "resolved_scheme", "hinge_line", "SCHEMA"]
+__all__ = [
+    "load_scene",
+    "apply_override",
+    "set_key",
+    "unset_key",
+    "unset_text",
+    "read_scene_file",
+    "parse_scene_text",
+    "complete_scene",
+    "with_overrides",
+    "active_effects",
+    "resolved_scheme",
+    "hinge_line",
+    "SCHEMA",
+]
 
 _BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
 
@@ -84,7 +106,7 @@ def apply_override(data: dict, text: str) -> None:
     tables on the way are created (``--set fluid.drag=[1,1,2]``).
     """
     if text.startswith(UNSET):
-        unset_key(data, text[len(UNSET):].strip())
+        unset_key(data, text[len(UNSET) :].strip())
         return
     key, sep, raw_value = text.partition("=")
     key = key.strip()
@@ -105,8 +127,9 @@ def unset_key(data: dict, key: str) -> list:
         set_key(data, key, _REMOVE, removed)
     except SceneError as exc:
         text = str(exc)
-        raise SceneError("--unset" + text[len("--set"):] if text.startswith("--set")
-                         else text) from None
+        raise SceneError(
+            "--unset" + text[len("--set") :] if text.startswith("--set") else text
+        ) from None
     return removed
 
 
@@ -116,8 +139,10 @@ def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> N
     that the Python API's messages are the command line's."""
     parts = key.split(".")
     if any(not p for p in parts):
-        raise SceneError(f"--set {key}: expected a dotted key path like shell.thickness, "
-                         f"found an empty component")
+        raise SceneError(
+            f"--set {key}: expected a dotted key path like shell.thickness, "
+            f"found an empty component"
+        )
 
     spec: Any = SCHEMA
     node: Any = data
@@ -127,10 +152,14 @@ def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> N
         here = join(path, part)
         if isinstance(spec, Table):
             if part not in spec.fields:
-                raise SceneError(f"--set: unknown key '{here}'"
-                                 + (suggest(part, spec.fields, path + "." if path else "")
-                                    or f" (valid keys{' in ' + section(path) if path else ''}:"
-                                       f" {', '.join(spec.fields)})"))
+                raise SceneError(
+                    f"--set: unknown key '{here}'"
+                    + (
+                        suggest(part, spec.fields, path + "." if path else "")
+                        or f" (valid keys{' in ' + section(path) if path else ''}:"
+                        f" {', '.join(spec.fields)})"
+                    )
+                )
             sub = spec.fields[part]
             if last:
                 if value is _REMOVE:
@@ -141,9 +170,10 @@ def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> N
                 return
             if isinstance(sub, Leaf):
                 if value is _REMOVE:
-                    raise SceneError(f"--unset {key}: '{here}' is a value: unset it "
-                                     f"whole, not one component")
-                _set_component(node, part, parts[n + 1:], key, here, value)
+                    raise SceneError(
+                        f"--unset {key}: '{here}' is a value: unset it whole, not one component"
+                    )
+                _set_component(node, part, parts[n + 1 :], key, here, value)
                 return
             if part not in node:
                 if value is _REMOVE:
@@ -158,12 +188,15 @@ def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> N
             spec, node, path = sub, child, here
         elif isinstance(spec, Array):
             if not re.fullmatch(r"\d+", part):
-                raise SceneError(f"--set {key}: expected an index into [[{path}]] after "
-                                 f"'{path}', found '{part}'")
+                raise SceneError(
+                    f"--set {key}: expected an index into [[{path}]] after '{path}', found '{part}'"
+                )
             index = int(part)
             if index >= len(node):
-                raise SceneError(f"--set {key}: index {index} out of range, the scene has "
-                                 f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}")
+                raise SceneError(
+                    f"--set {key}: index {index} out of range, the scene has "
+                    f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}"
+                )
             if last:
                 if value is _REMOVE:
                     _removed.append(node.pop(index))
@@ -184,23 +217,25 @@ def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> N
             return
 
 
-def _set_component(node: dict, part: str, rest: list[str], key: str, here: str,
-                   value: Any) -> None:
+def _set_component(node: dict, part: str, rest: list[str], key: str, here: str, value: Any) -> None:
     """``--set load.0.value.2=3``: one component of the vector at ``here`` (the same
     addresses as ``rftfem optimize --vary`` and the quantities' ``scene(KEY)``)."""
     if len(rest) != 1 or not re.fullmatch(r"\d+", rest[0]):
-        raise SceneError(f"--set {key}: '{here}' is a value, not a table, so "
-                         f"'{key}' does not exist")
+        raise SceneError(
+            f"--set {key}: '{here}' is a value, not a table, so '{key}' does not exist"
+        )
     vector = node.get(part)
     if not isinstance(vector, list):
-        raise SceneError(f"--set {key}: '{here}' is "
-                         + ("not set in the scene" if vector is None else
-                            f"{vector!r}, not a vector")
-                         + f", so it has no component {rest[0]}; set the whole value")
+        raise SceneError(
+            f"--set {key}: '{here}' is "
+            + ("not set in the scene" if vector is None else f"{vector!r}, not a vector")
+            + f", so it has no component {rest[0]}; set the whole value"
+        )
     index = int(rest[0])
     if index >= len(vector):
-        raise SceneError(f"--set {key}: index {index} out of range, '{here}' has "
-                         f"{len(vector)} components")
+        raise SceneError(
+            f"--set {key}: index {index} out of range, '{here}' has {len(vector)} components"
+        )
     vector[index] = value
 
 
@@ -214,8 +249,10 @@ def _parse_value(key: str, text: str) -> Any:
             return parsed["v"]
     if _BARE_WORD_RE.match(text):
         return text
-    raise SceneError(f"--set {key}: expected a TOML value (a number, true/false, "
-                     f"\"string\", [array] or bare word), found '{text}'")
+    raise SceneError(
+        f"--set {key}: expected a TOML value (a number, true/false, "
+        f"\"string\", [array] or bare word), found '{text}'"
+    )
 
 
 def read_scene_file(path: str | os.PathLike) -> dict:
@@ -226,15 +263,15 @@ def read_scene_file(path: str | os.PathLike) -> dict:
     except FileNotFoundError:
         raise SceneError(f"scene file '{shown}' not found") from None
     except IsADirectoryError:
-        raise SceneError(f"scene file '{shown}': expected a TOML file, found a directory") \
-            from None
+        raise SceneError(f"scene file '{shown}': expected a TOML file, found a directory") from None
     except OSError as exc:
         raise SceneError(f"cannot read scene file '{shown}': {exc.strerror or exc}") from None
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
-        raise SceneError(f"scene file '{shown}': expected a UTF-8 TOML file, found "
-                         "binary or non-UTF-8 data") from None
+        raise SceneError(
+            f"scene file '{shown}': expected a UTF-8 TOML file, found binary or non-UTF-8 data"
+        ) from None
     return parse_scene_text(text, f"scene file '{shown}'")
 
 
@@ -257,8 +294,12 @@ def load_scene(path: str | os.PathLike, overrides: Iterable[str] = ()) -> dict:
     return complete_scene(raw, scene_path.parent, scene_path, overrides)
 
 
-def complete_scene(raw: dict, folder: str | os.PathLike, path: str | os.PathLike | None = None,
-                   overrides: Iterable[str] = ()) -> dict:
+def complete_scene(
+    raw: dict,
+    folder: str | os.PathLike,
+    path: str | os.PathLike | None = None,
+    overrides: Iterable[str] = (),
+) -> dict:
     """Validate and complete the raw scene table ``raw`` (left as it is): relative
     files (``mesh.file``, profiles) are read from ``folder``; ``path`` is the scene
     file, if there is one, and ``overrides`` the ``--set`` texts already applied,
@@ -279,18 +320,24 @@ def complete_scene(raw: dict, folder: str | os.PathLike, path: str | os.PathLike
     if mesh["kind"] == "gmsh":
         mesh_file = (folder / Path(mesh["file"]).expanduser()).resolve()
         if not mesh_file.exists():
-            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
-                             f"'{mesh['file']}' which does not exist ({mesh_file})")
+            raise SceneError(
+                f"mesh.file: expected a readable gmsh mesh file, found "
+                f"'{mesh['file']}' which does not exist ({mesh_file})"
+            )
         if not mesh_file.is_file():
-            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
-                             f"'{mesh['file']}' which is not a regular file ({mesh_file})")
+            raise SceneError(
+                f"mesh.file: expected a readable gmsh mesh file, found "
+                f"'{mesh['file']}' which is not a regular file ({mesh_file})"
+            )
         try:
             with open(mesh_file, "rb") as fh:
                 fh.read(1)
         except OSError as exc:
-            raise SceneError(f"mesh.file: expected a readable gmsh mesh file, found "
-                             f"'{mesh['file']}' which cannot be read "
-                             f"({exc.strerror or exc})") from None
+            raise SceneError(
+                f"mesh.file: expected a readable gmsh mesh file, found "
+                f"'{mesh['file']}' which cannot be read "
+                f"({exc.strerror or exc})"
+            ) from None
         mesh["file"] = str(mesh_file)
     scene["_path"] = None if path is None else str(path)
     scene["_folder"] = str(folder)
@@ -308,8 +355,9 @@ def with_overrides(scene: dict, overrides: Iterable[str]) -> dict:
     overrides = list(overrides)
     for text in overrides:
         apply_override(raw, text)
-    return complete_scene(raw, scene["_folder"], scene["_path"],
-                          [*scene.get("_overrides", []), *overrides])
+    return complete_scene(
+        raw, scene["_folder"], scene["_path"], [*scene.get("_overrides", []), *overrides]
+    )
 
 
 def active_effects(scene: dict) -> list[str]:

@@ -50,8 +50,7 @@ def _table_drive(key: str, rows, end: float) -> Drive | None:
     if not inside.any():
         return None
     shortest = float(gaps[inside].min())
-    return Drive(key, shortest / STEP_SHARE, f"the table's shortest interval, {shortest:.6g}",
-                 True)
+    return Drive(key, shortest / STEP_SHARE, f"the table's shortest interval, {shortest:.6g}", True)
 
 
 def drive_periods(scene: dict) -> list[Drive]:
@@ -72,14 +71,23 @@ def drive_periods(scene: dict) -> list[Drive]:
     field = (scene.get("magnetic") or {}).get("field") or {}
     kind = field.get("kind", "rotating")
     if kind == "rotating" and field.get("frequency"):
-        found.append(Drive("magnetic.field.frequency", 1.0 / abs(field["frequency"]),
-                           f"the field's rotation period at {fmt(float(field['frequency']))} Hz"))
+        found.append(
+            Drive(
+                "magnetic.field.frequency",
+                1.0 / abs(field["frequency"]),
+                f"the field's rotation period at {fmt(float(field['frequency']))} Hz",
+            )
+        )
     elif kind == "expression":
-        periods = [p for i, b in enumerate(field.get("B") or [])
-                   for p in periods_in_time(parse(b, f"magnetic.field.B.{i}",
-                                                  ("x", "y", "z", "t")))]
+        periods = [
+            p
+            for i, b in enumerate(field.get("B") or [])
+            for p in periods_in_time(parse(b, f"magnetic.field.B.{i}", ("x", "y", "z", "t")))
+        ]
         if periods:
-            found.append(Drive("magnetic.field.B", min(periods), "the period of the field's sin or cos of t"))
+            found.append(
+                Drive("magnetic.field.B", min(periods), "the period of the field's sin or cos of t")
+            )
     elif kind == "table" and field.get("values"):
         found.append(_table_drive("magnetic.field.values", field["values"], end))
     elif kind == "dipole" and field.get("path"):
@@ -99,9 +107,11 @@ def aliasing_warnings(scene: dict) -> list[str]:
         most = STEP_SHARE * d.period
         if dt > most * (1 + 1e-9):
             scale = d.what if d.table else f"a quarter of {d.what}, {d.period:.6g}"
-            lines.append(f"time.dt = {fmt(dt)} is longer than {scale} ({d.key}): the "
-                         f"steps cannot follow it and the answer is aliased; take time.dt "
-                         f"<= {most:.3g}")
+            lines.append(
+                f"time.dt = {fmt(dt)} is longer than {scale} ({d.key}): the "
+                f"steps cannot follow it and the answer is aliased; take time.dt "
+                f"<= {most:.3g}"
+            )
     return lines
 
 
@@ -110,55 +120,78 @@ def _bending_stiffness(model) -> float:
     mean), at least the smallest normal float (a thickness of 1e-290 makes t³ zero; the
     groups that divide by D are then huge, not a division by zero)."""
     E, t, nu = (model.material_value(k, "shell") for k in ("E", "thickness", "nu"))
-    return max(E * t ** 3 / (12 * (1 - nu ** 2)), sys.float_info.min)
+    return max(E * t**3 / (12 * (1 - nu**2)), sys.float_info.min)
 
 
 def groups(scene: dict, model) -> list[tuple[str, float, str]]:
     """``(name, value, meaning)`` of the scene's dimensionless groups (serial or
     collective: every rank returns the same)."""
-    shell, time_ = scene["shell"], scene["time"]
+    time_ = scene["time"]
     L = model.body.length
     width = model.area() / L
     t = model.material_value("thickness", "shell")
     D = _bending_stiffness(model)
     slender = "slenderness: length over thickness"
     if L / t < 5:
-        slender += ("; below 5 the body is no thin shell: the thickness's units may be off "
-                    "(µm for mm?)")
+        slender += (
+            "; below 5 the body is no thin shell: the thickness's units may be off (µm for mm?)"
+        )
     out = [("L/t", L / t, slender)]
     drives = drive_periods(scene)
     period = min((d.period for d in drives if not d.table), default=None)
     if drives and time_.get("scheme") != "arc-length":
         d = min(drives, key=lambda d: d.period)
-        out.append(("steps per drive period", d.period / time_["dt"],
-                    f"{d.key}; fewer than 4 alias the drive"))
+        out.append(
+            (
+                "steps per drive period",
+                d.period / time_["dt"],
+                f"{d.key}; fewer than 4 alias the drive",
+            )
+        )
     magnetic = model.get("magnetic")
     if magnetic is not None:
         end = time_["end"]
-        B = (magnetic.source.scale(end) if magnetic.uniform else magnetic.source.scale(
-            model.Vu.tabulate_dof_coordinates(), end, model.comm))
+        B = (
+            magnetic.source.scale(end)
+            if magnetic.uniform
+            else magnetic.source.scale(model.Vu.tabulate_dof_coordinates(), end, model.comm)
+        )
         m = max(magnetic._largest_magnetization(i) for i in range(len(magnetic.parts)))
-        out.append(("magneto-elastic number", t * m * B * L ** 2 / D,
-                    "t m B L² / D: the field's couple against bending over the length "
-                    "(about 1 bends the body by a radian)"))
+        out.append(
+            (
+                "magneto-elastic number",
+                t * m * B * L**2 / D,
+                "t m B L² / D: the field's couple against bending over the length "
+                "(about 1 bends the body by a radian)",
+            )
+        )
     fluid = model.fluid
     if fluid is not None:
         C = max(fluid.C)  # (Stokes flow: the slender-body drag of its viscosity)
-        tau = C * L ** 4 / D
-        out.append(("relaxation time / drive period" if period else "relaxation time",
-                    tau / period if period else tau,
-                    "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
-                    + (_units_note(tau / period) if period else
-                       " (time units; no periodic drive)")))
+        tau = C * L**4 / D
+        out.append(
+            (
+                "relaxation time / drive period" if period else "relaxation time",
+                tau / period if period else tau,
+                "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
+                + (_units_note(tau / period) if period else " (time units; no periodic drive)"),
+            )
+        )
         if period:
             sperm = (2 * math.pi * tau / period) ** 0.25
-            out.append(("sperm number", sperm,
-                        "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
-                        "fluid confines the bending near the driven end" + _units_note(sperm)))
-    force = max((f for comp in model.components for f in comp.force_scales()
-                 if comp.is_load), default=0.0)
+            out.append(
+                (
+                    "sperm number",
+                    sperm,
+                    "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
+                    "fluid confines the bending near the driven end" + _units_note(sperm),
+                )
+            )
+    force = max(
+        (f for comp in model.components for f in comp.force_scales() if comp.is_load), default=0.0
+    )
     if force > 0.0:
-        deflection = force * L ** 2 / (3 * D * width)
+        deflection = force * L**2 / (3 * D * width)
         note = "P L² / (3 D W) of the loads' largest force P: a cantilever's tip"
         if deflection < 1e-5:
             note += "; so small that the units of E or of the loads may be off"
@@ -167,17 +200,30 @@ def groups(scene: dict, model) -> list[tuple[str, float, str]]:
         out.append(("deflection / length", deflection, note))
     for key, (lo, hi, mean) in getattr(model, "material_ranges", {}).items():
         if hi > lo:  # a field, or parts that differ
-            out.append((f"shell.{key} max/min", hi / lo if lo > 0 else math.inf,
-                        f"over the body: {lo:.4g} … {hi:.4g}, mean over its nodes {mean:.4g}"))
+            out.append(
+                (
+                    f"shell.{key} max/min",
+                    hi / lo if lo > 0 else math.inf,
+                    f"over the body: {lo:.4g} … {hi:.4g}, mean over its nodes {mean:.4g}",
+                )
+            )
     contact = model.get("contact")
     for i, plane in enumerate(contact.planes if contact is not None else []):
-        out.append((f"contact.{i} reach / t", plane.reach / t,
-                    "the barrier's reach δ over the thickness: no point of the lower face "
-                    "goes deeper than δ below the plane"))
-        out.append((f"contact.{i} slip velocity × end / L",
-                    plane.slip_velocity * time_["end"] / L,
-                    "ε_v time.end / L: how far a sticking body may creep in the run, over "
-                    "its length"))
+        out.append(
+            (
+                f"contact.{i} reach / t",
+                plane.reach / t,
+                "the barrier's reach δ over the thickness: no point of the lower face "
+                "goes deeper than δ below the plane",
+            )
+        )
+        out.append(
+            (
+                f"contact.{i} slip velocity × end / L",
+                plane.slip_velocity * time_["end"] / L,
+                "ε_v time.end / L: how far a sticking body may creep in the run, over its length",
+            )
+        )
     return out
 
 
@@ -190,8 +236,14 @@ def _units_note(value: float) -> str:
     lo, hi = FLUID_RANGE
     if lo <= value <= hi:
         return ""
-    return (f"; outside {lo:.0e} … {hi:.0e}: units? (the viscosity or drag, or E; "
-            "1 mPa·s = 1e-9 N·s/mm²)").replace("e-0", "e-").replace("e+0", "e")
+    return (
+        (
+            f"; outside {lo:.0e} … {hi:.0e}: units? (the viscosity or drag, or E; "
+            "1 mPa·s = 1e-9 N·s/mm²)"
+        )
+        .replace("e-0", "e-")
+        .replace("e+0", "e")
+    )
 
 
 def format_groups(rows) -> list[str]:

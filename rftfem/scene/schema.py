@@ -19,15 +19,64 @@ import re
 from typing import Any
 
 from rftfem.errors import SceneError
-from rftfem.scene.validators import (NONNEGATIVE, POSITIVE, Bool, Divisions, Fix, Formula, Formulas,
-                               Int, Num, Pairs, Rows, Str, Validator, Vec, Where, err, fmt, join,
-                               one_of, suggest)
+from rftfem.scene.validators import (
+    NONNEGATIVE,
+    POSITIVE,
+    Bool,
+    Divisions,
+    Fix,
+    Formula,
+    Formulas,
+    Int,
+    Num,
+    Pairs,
+    Rows,
+    Str,
+    Validator,
+    Vec,
+    Where,
+    err,
+    fmt,
+    join,
+    one_of,
+    suggest,
+)
 
 __all__ = [  # the validators and message helpers too: a table is written with one import
-    "Leaf", "Table", "Array", "Kinds", "Free", "Parameters", "validate_table", "check_unique", "table_iff",
-    "unit_vector", "copy_value", "section", "MAX_STEPS", "NONNEGATIVE", "POSITIVE", "Bool",
-    "Divisions", "Fix", "Formula", "Formulas", "Int", "Num", "Pairs", "Rows", "Str", "Validator",
-    "Vec", "Where", "err", "fmt", "join", "one_of", "suggest"]
+    "Leaf",
+    "Table",
+    "Array",
+    "Kinds",
+    "Free",
+    "Parameters",
+    "validate_table",
+    "check_unique",
+    "table_iff",
+    "unit_vector",
+    "copy_value",
+    "section",
+    "MAX_STEPS",
+    "NONNEGATIVE",
+    "POSITIVE",
+    "Bool",
+    "Divisions",
+    "Fix",
+    "Formula",
+    "Formulas",
+    "Int",
+    "Num",
+    "Pairs",
+    "Rows",
+    "Str",
+    "Validator",
+    "Vec",
+    "Where",
+    "err",
+    "fmt",
+    "join",
+    "one_of",
+    "suggest",
+]
 
 _PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -41,8 +90,16 @@ _PETSC_KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 
 
 class Leaf:
-    def __init__(self, check: Validator, default: Any = None, required: bool = False, *,
-                 doc: str = "", unit: str = "", default_doc: str | None = None):
+    def __init__(
+        self,
+        check: Validator,
+        default: Any = None,
+        required: bool = False,
+        *,
+        doc: str = "",
+        unit: str = "",
+        default_doc: str | None = None,
+    ):
         self.check, self.default, self.required = check, default, required
         self.doc, self.unit, self.default_doc = doc, unit, default_doc
 
@@ -50,8 +107,14 @@ class Leaf:
 class Table:
     """A TOML table with known keys. ``optional``: absent -> None (not filled)."""
 
-    def __init__(self, fields: dict[str, Any], required: bool = False, optional: bool = False,
-                 *, doc: str = ""):
+    def __init__(
+        self,
+        fields: dict[str, Any],
+        required: bool = False,
+        optional: bool = False,
+        *,
+        doc: str = "",
+    ):
         self.fields, self.required, self.optional = fields, required, optional
         self.doc = doc
 
@@ -74,8 +137,14 @@ class Kinds(Array):
     message that names the kinds that use it.
     """
 
-    def __init__(self, common: dict[str, Leaf], kinds: dict[str, dict[str, Leaf]],
-                 kind_docs: dict[str, str], *, doc: str = ""):
+    def __init__(
+        self,
+        common: dict[str, Leaf],
+        kinds: dict[str, dict[str, Leaf]],
+        kind_docs: dict[str, str],
+        *,
+        doc: str = "",
+    ):
         self.common, self.kinds, self.kind_docs = common, kinds, kind_docs
         first = dict(list(common.items())[:1])
         union = dict(first)
@@ -93,8 +162,10 @@ class Kinds(Array):
 class Free:
     """A table of PETSc options: any lowercase key, scalar values."""
 
-    expected = ("any PETSc option name without prefix or dash (lowercase letters, digits, "
-                "'_'); a string, number or boolean")
+    expected = (
+        "any PETSc option name without prefix or dash (lowercase letters, digits, "
+        "'_'); a string, number or boolean"
+    )
     #: the reference's row for its keys: default and meaning (``{path}`` is its path)
     entry_default = "none: rftfem's own solver options apply"
     entry_doc = "Any PETSc option of the solve, e.g. `{path}.snes_rtol = 1e-10`."
@@ -109,12 +180,16 @@ class Free:
 class Parameters(Free):
     """A table of named numbers that the scene's formulas may use."""
 
-    expected = ("a name (letters, digits, '_', not starting with a digit, not a function, "
-                "pi or a coordinate) = a finite number")
+    expected = (
+        "a name (letters, digits, '_', not starting with a digit, not a function, "
+        "pi or a coordinate) = a finite number"
+    )
     entry_default = "none"
-    entry_doc = ("A number the scene's formulas may use by its name, e.g. `{path}.wavelength "
-                 "= 3.7` with `direction = [\"cos(2*pi*X/wavelength)\", ...]`; "
-                 "`--set {path}.wavelength=5` changes it everywhere.")
+    entry_doc = (
+        "A number the scene's formulas may use by its name, e.g. `{path}.wavelength "
+        '= 3.7` with `direction = ["cos(2*pi*X/wavelength)", ...]`; '
+        "`--set {path}.wavelength=5` changes it everywhere."
+    )
 
     def validate(self, raw: Any, path: str) -> dict:
         from rftfem.scene.expressions import RESERVED
@@ -125,11 +200,16 @@ class Parameters(Free):
         for key, value in raw.items():
             kp = join(path, key)
             if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key) or key in RESERVED:
-                raise SceneError(f"{kp}: expected a parameter name (letters, digits, '_', "
-                                 f"not starting with a digit, not one of the formulas' own "
-                                 f"names), found '{key}'")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value):
+                raise SceneError(
+                    f"{kp}: expected a parameter name (letters, digits, '_', "
+                    f"not starting with a digit, not one of the formulas' own "
+                    f"names), found '{key}'"
+                )
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not math.isfinite(value)
+            ):
                 raise err(kp, "a finite number", value)
             out[key] = float(value) if isinstance(value, float) else value
         return out
@@ -157,10 +237,14 @@ def validate_table(spec: Table, raw: Any, path: str) -> dict:
     for key in raw:
         if key not in spec.fields:
             where = f"'{join(path, key)}'"
-            raise SceneError(f"unknown key {where}"
-                             + (suggest(key, spec.fields, path + "." if path else "")
-                                or f" (valid keys{' in ' + section(path) if path else ''}: "
-                                   f"{', '.join(spec.fields)})"))
+            raise SceneError(
+                f"unknown key {where}"
+                + (
+                    suggest(key, spec.fields, path + "." if path else "")
+                    or f" (valid keys{' in ' + section(path) if path else ''}: "
+                    f"{', '.join(spec.fields)})"
+                )
+            )
     out: dict[str, Any] = {}
     for key, sub in spec.fields.items():
         sub_path = join(path, key)
@@ -169,8 +253,9 @@ def validate_table(spec: Table, raw: Any, path: str) -> dict:
         if isinstance(sub, Leaf):
             if not present:
                 if sub.required:
-                    raise SceneError(f"missing required key '{sub_path}' "
-                                     f"(expected {sub.check.expected})")
+                    raise SceneError(
+                        f"missing required key '{sub_path}' (expected {sub.check.expected})"
+                    )
                 out[key] = copy_value(sub.default)
             else:
                 out[key] = sub.check(value, sub_path)
@@ -203,22 +288,25 @@ def _validate_kinds(spec: Kinds, raw: Any, path: str) -> list:
         for key in item:
             users = [k for k, fields in spec.kinds.items() if key in fields]
             if key not in table.fields and users:
-                raise SceneError(f"{join(here, key)}: only used with kind = "
-                                 + " or ".join(f'"{k}"' for k in users)
-                                 + f", found kind = {fmt(kind)}")
+                raise SceneError(
+                    f"{join(here, key)}: only used with kind = "
+                    + " or ".join(f'"{k}"' for k in users)
+                    + f", found kind = {fmt(kind)}"
+                )
         out.append(validate_table(table, item, here))
     return out
 
 
 def _check_array(spec: Array, raw: Any, path: str) -> None:
     if isinstance(raw, dict):
-        raise err(path, f"an array of tables [[{path}]]", raw,
-                  f" (write [[{path}]], not [{path}])")
+        raise err(path, f"an array of tables [[{path}]]", raw, f" (write [[{path}]], not [{path}])")
     if not isinstance(raw, list) or any(not isinstance(v, dict) for v in raw):
         raise err(path, f"an array of tables [[{path}]]", raw)
     if len(raw) < spec.min_items:
-        raise SceneError(f"{path}: expected at least {spec.min_items} [[{path}]] "
-                         f"entr{'y' if spec.min_items == 1 else 'ies'}, found {len(raw)}")
+        raise SceneError(
+            f"{path}: expected at least {spec.min_items} [[{path}]] "
+            f"entr{'y' if spec.min_items == 1 else 'ies'}, found {len(raw)}"
+        )
 
 
 def _validate_array(spec: Array, raw: Any, path: str) -> list:
@@ -233,8 +321,10 @@ def _validate_free(raw: Any, path: str) -> dict:
     for key, value in raw.items():
         kp = join(path, key)
         if not _PETSC_KEY_RE.match(key):
-            raise SceneError(f"{kp}: expected a PETSc option name without prefix or dash "
-                             f"(lowercase letters, digits, '_'), found '{key}'")
+            raise SceneError(
+                f"{kp}: expected a PETSc option name without prefix or dash "
+                f"(lowercase letters, digits, '_'), found '{key}'"
+            )
         if isinstance(value, float) and not math.isfinite(value):
             raise err(kp, "a finite number", value)
         if not isinstance(value, (str, int, float, bool)):
@@ -256,19 +346,24 @@ def check_unique(items: list[dict], key: str, path: str, what: str) -> None:
     for i, item in enumerate(items):
         name = item[key]
         if name in seen:
-            raise SceneError(f"{path}.{i}.{key}: expected a unique {what} name, "
-                             f"found '{name}' a second time")
+            raise SceneError(
+                f"{path}.{i}.{key}: expected a unique {what} name, found '{name}' a second time"
+            )
         seen.add(name)
 
 
 def table_iff(entry: dict, path: str, switch: str, key: str, what: str):
     """``entry[key]`` is required when ``entry[switch] == "table"`` and refused otherwise."""
     if entry[switch] == "table" and entry[key] is None:
-        raise SceneError(f"missing required key '{path}.{key}' (expected a list of {what}, "
-                         f"because {path}.{switch} = \"table\")")
+        raise SceneError(
+            f"missing required key '{path}.{key}' (expected a list of {what}, "
+            f'because {path}.{switch} = "table")'
+        )
     if entry[switch] != "table" and entry[key] is not None:
-        raise SceneError(f"{path}.{key}: only used with {switch} = \"table\", found "
-                         f"{path}.{switch} = {fmt(entry[switch])}")
+        raise SceneError(
+            f'{path}.{key}: only used with {switch} = "table", found '
+            f"{path}.{switch} = {fmt(entry[switch])}"
+        )
 
 
 #: rftfem's own key of ``[solver]`` (not given to PETSc): the Newton tangent
@@ -303,6 +398,7 @@ def check_matrix_type(value, where: str = "solver.mat_type") -> str:
 
 def _check_choice(value, choices, where: str) -> str:
     if value not in choices:
-        raise SceneError(f"{where}: expected one of {', '.join(map(repr, choices))}, "
-                         f"found {value!r}")
+        raise SceneError(
+            f"{where}: expected one of {', '.join(map(repr, choices))}, found {value!r}"
+        )
     return value

@@ -5,7 +5,8 @@ strip-like body, the lines ``"x=c"`` / ``"y=c"`` of hinges, region names
 (``[[mesh.regions]]``, the three-link's built-in links, gmsh physical surfaces),
 gmsh physical curves and gmsh physical points.  The first half of this module
 checks selectors in a scene before any mesh exists; the second half finds the
-cells, facets and vertices they select on a built body (dolfinx is imported there only, so checking a scene
+cells, facets and vertices they select on a built body (dolfinx is imported there only, so
+checking a scene
 stays light).
 """
 
@@ -57,10 +58,14 @@ def check_region_ref(name: str, path: str, scene: dict) -> None:
     if name in names or name == "all":
         return
     if not names:
-        raise SceneError(f"{path}: unknown region '{name}'; expected a name defined in "
-                         "[[mesh.regions]], but the scene defines none")
-    raise SceneError(f"{path}: unknown region '{name}'; expected one of: {', '.join(names)}"
-                     + suggest(name, names))
+        raise SceneError(
+            f"{path}: unknown region '{name}'; expected a name defined in "
+            "[[mesh.regions]], but the scene defines none"
+        )
+    raise SceneError(
+        f"{path}: unknown region '{name}'; expected one of: {', '.join(names)}"
+        + suggest(name, names)
+    )
 
 
 def scene_selectors(scene: dict) -> list[str]:
@@ -78,8 +83,10 @@ def check_where(value: str, path: str, scene: dict) -> None:
         return
     valid = scene_selectors(scene)
     if value not in valid:
-        raise SceneError(f"{path}: unknown selector '{value}'; expected one of: "
-                         f"{', '.join(valid)}" + suggest(value, valid))
+        raise SceneError(
+            f"{path}: unknown selector '{value}'; expected one of: "
+            f"{', '.join(valid)}" + suggest(value, valid)
+        )
 
 
 def check_on_body(point, path: str, what: str, scene: dict) -> None:
@@ -92,9 +99,11 @@ def check_on_body(point, path: str, what: str, scene: dict) -> None:
     tol = 1e-9 * length
     x, y, z = point
     if not (-tol <= x <= length + tol and -tol <= y <= width + tol and abs(z) <= tol):
-        raise SceneError(f"{path}: {what} outside the body: expected a point on the "
-                         f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(length)}, "
-                         f"0 <= y <= {fmt(width)}, z = 0), found {fmt(point)}")
+        raise SceneError(
+            f"{path}: {what} outside the body: expected a point on the "
+            f"{BODY_NAME[mesh['kind']]} (0 <= x <= {fmt(length)}, "
+            f"0 <= y <= {fmt(width)}, z = 0), found {fmt(point)}"
+        )
 
 
 # ------------------------------------------------------------------ on a mesh
@@ -134,23 +143,28 @@ def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
         axis, at = "xy".index(at_line[0]), at_line[1]
         facets = dmesh.locate_entities(mesh, tdim - 1, lambda x: np.abs(x[axis] - at) < tol)
         if mesh.comm.allreduce(len(facets)) == 0:
-            raise SceneError(f"{key}: '{where}' is not a line of the mesh (no cell edge "
-                             "lies on it)")
+            raise SceneError(
+                f"{key}: '{where}' is not a line of the mesh (no cell edge lies on it)"
+            )
     elif where in EDGE_SELECTORS:
         axis = 0 if where[0] == "x" else 1
         at = 0.0 if where[2] == "0" else (body.length if axis == 0 else body.width)
-        facets = dmesh.locate_entities_boundary(mesh, tdim - 1,
-                                                lambda x: np.abs(x[axis] - at) < tol)
+        facets = dmesh.locate_entities_boundary(
+            mesh, tdim - 1, lambda x: np.abs(x[axis] - at) < tol
+        )
     elif where in body.edges:
         ft = body.facet_tags
         facets = ft.indices[np.isin(ft.values, body.edges[where])]
     elif where in body.regions or where == "all" or where in body.points:
         what = "a point" if where in body.points else "a surface region"
-        raise SceneError(f"{key}: '{where}' is {what}; this needs an edge "
-                         f"({', '.join(EDGE_SELECTORS + tuple(body.edges))})")
+        raise SceneError(
+            f"{key}: '{where}' is {what}; this needs an edge "
+            f"({', '.join(EDGE_SELECTORS + tuple(body.edges))})"
+        )
     else:
-        raise SceneError(f"{key}: unknown selector '{where}'; expected one of "
-                         f"{', '.join(mesh_selectors(body))}")
+        raise SceneError(
+            f"{key}: unknown selector '{where}'; expected one of {', '.join(mesh_selectors(body))}"
+        )
     facets = np.unique(np.asarray(facets, dtype=np.int32))
     if mesh.comm.allreduce(len(facets)) == 0:
         raise SceneError(f"{key}: '{where}' selects no edge of the body")
@@ -175,8 +189,9 @@ def vertices_of(body, where: str, key: str) -> np.ndarray:
     everywhere = body.mesh.comm.allreduce(found.astype(int))
     missing = points[np.asarray(everywhere) == 0]
     if len(missing):
-        raise SceneError(f"{key}: point '{where}' at {fmt(list(missing[0]))} is not a "
-                         "vertex of the body")
+        raise SceneError(
+            f"{key}: point '{where}' at {fmt(list(missing[0]))} is not a vertex of the body"
+        )
     return np.unique(np.asarray(vertices, dtype=np.int32))
 
 
@@ -222,7 +237,7 @@ def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
         local = [c for c in candidates if c < n_owned]
         owner = comm.allreduce(comm.rank if local else comm.size, op=MPI.MIN)
         if owner == comm.size:  # off the discrete surface: the nearest cell, if near
-            near, dist, size = compat.nearest_cells(mesh, points[i:i + 1])
+            near, dist, size = compat.nearest_cells(mesh, points[i : i + 1])
             ok = near[0] >= 0 and near[0] < n_owned and dist[0] <= OFF_SURFACE * size[0]
             best = comm.allreduce((dist[0] if ok else np.inf, comm.rank), op=MPI.MIN)
             if np.isfinite(best[0]):

@@ -23,8 +23,9 @@ def has_density(scene: dict) -> bool:
     def positive(value) -> bool:  # a formula or profile (>= 0, checked): somewhere > 0
         return isinstance(value, (str, dict)) or (value or 0.0) > 0.0
 
-    return positive(shell.get("density")) or any(positive(part.get("density"))
-                                                 for part in shell.get("parts") or [])
+    return positive(shell.get("density")) or any(
+        positive(part.get("density")) for part in shell.get("parts") or []
+    )
 
 
 def resolved_scheme(scene: dict) -> str:
@@ -37,18 +38,24 @@ def resolved_scheme(scene: dict) -> str:
             return "generalized-alpha"
         return "backward-euler" if scene.get("fluid") else "static"
     if scheme == "static" and scene.get("fluid"):
-        raise SceneError("time.scheme: \"static\" has no velocity, so the [fluid] drag would "
-                         "do nothing; use \"backward-euler\", \"generalized-alpha\" (with "
-                         "density) or \"auto\", or remove [fluid]")
+        raise SceneError(
+            'time.scheme: "static" has no velocity, so the [fluid] drag would '
+            'do nothing; use "backward-euler", "generalized-alpha" (with '
+            'density) or "auto", or remove [fluid]'
+        )
     if scheme == "arc-length" and scene.get("fluid"):
-        raise SceneError('time.scheme: "arc-length" follows a static equilibrium path, '
-                         "and the [fluid] drag is a force of motion; remove [fluid] or use "
-                         "a scheme in time")
+        raise SceneError(
+            'time.scheme: "arc-length" follows a static equilibrium path, '
+            "and the [fluid] drag is a force of motion; remove [fluid] or use "
+            "a scheme in time"
+        )
     if scheme in ("generalized-alpha", "hht") and not inertia:
-        raise SceneError(f"time.scheme: \"{scheme}\" needs inertia (shell.density > 0 or a "
-                         "shell.parts density > 0), found shell.density = "
-                         f"{fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
-                         "\"backward-euler\", \"static\" or \"auto\"")
+        raise SceneError(
+            f'time.scheme: "{scheme}" needs inertia (shell.density > 0 or a '
+            "shell.parts density > 0), found shell.density = "
+            f"{fmt((scene.get('shell') or {}).get('density', 0.0))}; use "
+            '"backward-euler", "static" or "auto"'
+        )
     return scheme
 
 
@@ -67,13 +74,17 @@ def scene_period(scene: dict) -> float:
     if field.get("kind", "rotating") == "rotating" and (field.get("frequency") or 0.0) != 0.0:
         found["magnetic.field"] = 1.0 / abs(field["frequency"])
     if not found:
-        raise SceneError('time.until = "periodic": no period in the scene (a travelling-wave '
-                         "motion or a rotating field); give time.period")
+        raise SceneError(
+            'time.until = "periodic": no period in the scene (a travelling-wave '
+            "motion or a rotating field); give time.period"
+        )
     periods = list(found.values())
     if max(periods) > min(periods) * (1 + 1e-9):
-        raise SceneError('time.until = "periodic": the drivers have different periods ('
-                         + ", ".join(f"{k}: {fmt(v)}" for k, v in found.items())
-                         + "); give time.period")
+        raise SceneError(
+            'time.until = "periodic": the drivers have different periods ('
+            + ", ".join(f"{k}: {fmt(v)}" for k, v in found.items())
+            + "); give time.period"
+        )
     return periods[0]
 
 
@@ -90,14 +101,19 @@ def check_periodic(scene: dict) -> None:
         raise SceneError('time.until = "periodic" takes fixed steps; remove time.tolerance')
     scheme = resolved_scheme(scene)
     if scheme in ("static", "arc-length"):
-        raise SceneError(f'time.until = "periodic" needs a run in time, found time.scheme = '
-                         f'"{scheme}"')
+        raise SceneError(
+            f'time.until = "periodic" needs a run in time, found time.scheme = "{scheme}"'
+        )
     period = scene_period(scene)
     steps = period / time_["dt"]
     if abs(steps - round(steps)) > 1e-6 * steps or round(steps) < 1:
-        raise SceneError(f"time.dt: expected a whole fraction of the period {fmt(period)} "
-                         f'(time.until = "periodic"), found {fmt(time_["dt"])} '
-                         f"({steps:.6g} steps a period)")
+        raise SceneError(
+            f"time.dt: expected a whole fraction of the period {fmt(period)} "
+            f'(time.until = "periodic"), found {fmt(time_["dt"])} '
+            f"({steps:.6g} steps a period)"
+        )
     if round(steps) % time_["output_every"]:
-        raise SceneError(f"time.output_every: expected a divisor of the {round(steps)} steps "
-                         f'of a period (time.until = "periodic"), found {time_["output_every"]}')
+        raise SceneError(
+            f"time.output_every: expected a divisor of the {round(steps)} steps "
+            f'of a period (time.until = "periodic"), found {time_["output_every"]}'
+        )

@@ -57,8 +57,7 @@ def document(data: dict, header: str = "") -> str:
 
 
 def _table(data: dict, path: list[str], lines: list[str]) -> None:
-    plain = {k: v for k, v in data.items()
-             if not isinstance(v, dict) and not _is_table_array(v)}
+    plain = {k: v for k, v in data.items() if not isinstance(v, dict) and not _is_table_array(v)}
     for k, v in plain.items():
         lines.append(f"{key(k)} = {value(v)}")
     for k, v in data.items():

@@ -106,8 +106,12 @@ class Validator:
 
 
 class Str(Validator):
-    def __init__(self, choices: tuple[str, ...] | None = None, name: bool = False,
-                 unavailable: dict[str, str] | None = None):
+    def __init__(
+        self,
+        choices: tuple[str, ...] | None = None,
+        name: bool = False,
+        unavailable: dict[str, str] | None = None,
+    ):
         self.choices, self.name, self.unavailable = choices, name, unavailable or {}
         if choices:
             self.expected = one_of(choices)
@@ -120,8 +124,9 @@ class Str(Validator):
         if not isinstance(value, str):
             raise err(path, self.expected, value)
         if value in self.unavailable:
-            raise SceneError(f"{path}: {fmt(value)} {self.unavailable[value]}; "
-                             f"expected {self.expected}")
+            raise SceneError(
+                f"{path}: {fmt(value)} {self.unavailable[value]}; expected {self.expected}"
+            )
         if self.choices and value not in self.choices:
             hint = difflib.get_close_matches(value, self.choices, n=1, cutoff=0.6)
             extra = f' (did you mean "{hint[0]}"?)' if hint else ""
@@ -136,8 +141,14 @@ class Str(Validator):
 class Num(Validator):
     """A finite float in a range; ints are accepted, bools are not numbers."""
 
-    def __init__(self, lo: float | None = None, hi: float | None = None,
-                 lo_open: bool = False, hi_open: bool = False, name: str | None = None):
+    def __init__(
+        self,
+        lo: float | None = None,
+        hi: float | None = None,
+        lo_open: bool = False,
+        hi_open: bool = False,
+        name: str | None = None,
+    ):
         self.lo, self.hi, self.lo_open, self.hi_open, self.name = lo, hi, lo_open, hi_open, name
         self.expected = self._text("x")
 
@@ -175,7 +186,7 @@ class Num(Validator):
 
 def _whole(v):
     """A whole float (``20.0``, as Python and numpy give) as the integer it is."""
-    return int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2 ** 53 else v
+    return int(v) if isinstance(v, float) and v.is_integer() and abs(v) < 2**53 else v
 
 
 class Int(Validator):
@@ -204,12 +215,21 @@ class Bool(Validator):
 class Vec(Validator):
     """A fixed-length list of floats."""
 
-    def __init__(self, n: int = 3, item: Validator | None = None, nonzero: bool = False,
-                 some_positive: bool = False, expected: str | None = None):
+    def __init__(
+        self,
+        n: int = 3,
+        item: Validator | None = None,
+        nonzero: bool = False,
+        some_positive: bool = False,
+        expected: str | None = None,
+    ):
         self.n, self.item = n, item or Num()
         self.nonzero, self.some_positive = nonzero, some_positive
-        self.expected = expected or (f"{'a nonzero vector of ' if nonzero else ''}"
-                                     f"{n} numbers [x, y, z]" if n == 3 else f"{n} numbers")
+        self.expected = expected or (
+            f"{'a nonzero vector of ' if nonzero else ''}{n} numbers [x, y, z]"
+            if n == 3
+            else f"{n} numbers"
+        )
 
     def __call__(self, value, path):
         if not isinstance(value, list) or len(value) != self.n:
@@ -226,8 +246,11 @@ class Vec(Validator):
             raise err(path, self.expected, value)
         if self.nonzero and not 1e-100 < max(abs(x) for x in out) < 1e100:
             # a direction: its length must survive squaring in double precision
-            raise err(path, "a direction of moderate length (largest entry between 1e-100 "
-                             "and 1e100)", value)
+            raise err(
+                path,
+                "a direction of moderate length (largest entry between 1e-100 and 1e100)",
+                value,
+            )
         if self.some_positive and not any(x > 0.0 for x in out):
             raise err(path, self.expected, value)
         return out
@@ -244,12 +267,17 @@ class Divisions(Validator):
 
     def __call__(self, value, path):
         given, value = value, [_whole(v) for v in value] if isinstance(value, list) else value
-        if (not isinstance(value, list) or len(value) != 2
-                or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)):
+        if (
+            not isinstance(value, list)
+            or len(value) != 2
+            or any(isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in value)
+        ):
             raise err(path, self.expected, given)
         if value[0] * value[1] > MAX_CELLS:
-            raise SceneError(f"{path}: {value[0]} x {value[1]} = {value[0] * value[1]:.3g} cells, "
-                             f"more than the {MAX_CELLS:.0e} a run can be made of (a typo?)")
+            raise SceneError(
+                f"{path}: {value[0]} x {value[1]} = {value[0] * value[1]:.3g} cells, "
+                f"more than the {MAX_CELLS:.0e} a run can be made of (a typo?)"
+            )
         return list(value)
 
 
@@ -265,14 +293,21 @@ class Pairs(Validator):
             raise err(path, self.expected, value)
         out = []
         for i, pair in enumerate(value):
-            if (not isinstance(pair, list) or len(pair) != 2
-                    or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                           or not math.isfinite(v) for v in pair)):
+            if (
+                not isinstance(pair, list)
+                or len(pair) != 2
+                or any(
+                    isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                    for v in pair
+                )
+            ):
                 raise err(join(path, i), self.pair, pair)
             t, s = float(pair[0]), float(pair[1])
             if out and t <= out[-1][0]:
-                raise SceneError(f"{path}: expected strictly increasing times, found "
-                                 f"t = {fmt(t)} after t = {fmt(out[-1][0])} (entry {i})")
+                raise SceneError(
+                    f"{path}: expected strictly increasing times, found "
+                    f"t = {fmt(t)} after t = {fmt(out[-1][0])} (entry {i})"
+                )
             out.append([t, s])
         return out
 
@@ -284,8 +319,10 @@ class Rows(Validator):
     def __init__(self, columns: tuple[str, ...], min_rows: int = 1):
         self.columns, self.min_rows = columns, min_rows
         names = ", ".join(columns)
-        self.expected = (f"a list of [{names}] rows of numbers with strictly increasing "
-                         f"{columns[0]}" + (f", {min_rows} rows at least" if min_rows > 1 else ""))
+        self.expected = (
+            f"a list of [{names}] rows of numbers with strictly increasing "
+            f"{columns[0]}" + (f", {min_rows} rows at least" if min_rows > 1 else "")
+        )
         self.row = f"a [{names}] row of {len(columns)} numbers"
 
     def __call__(self, value, path):
@@ -293,15 +330,22 @@ class Rows(Validator):
             raise err(path, self.expected, value)
         out = []
         for i, row in enumerate(value):
-            if (not isinstance(row, list) or len(row) != len(self.columns)
-                    or any(isinstance(v, bool) or not isinstance(v, (int, float))
-                           or not math.isfinite(v) for v in row)):
+            if (
+                not isinstance(row, list)
+                or len(row) != len(self.columns)
+                or any(
+                    isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                    for v in row
+                )
+            ):
                 raise err(join(path, i), self.row, row)
             row = [float(v) for v in row]
             if out and row[0] <= out[-1][0]:
-                raise SceneError(f"{path}: expected strictly increasing {self.columns[0]}, "
-                                 f"found {self.columns[0]} = {fmt(row[0])} after "
-                                 f"{fmt(out[-1][0])} (row {i})")
+                raise SceneError(
+                    f"{path}: expected strictly increasing {self.columns[0]}, "
+                    f"found {self.columns[0]} = {fmt(row[0])} after "
+                    f"{fmt(out[-1][0])} (row {i})"
+                )
             out.append(row)
         return out
 
@@ -329,8 +373,11 @@ class Formula(Validator):
     def __init__(self, variables: tuple[str, ...], number: Validator | None = None):
         self.variables, self.number = tuple(variables), number or Num()
         names = ", ".join(self.variables)
-        self.expected = (f"{self.number.expected} or a formula of {names} (a string)"
-                         if self.variables else self.number.expected)
+        self.expected = (
+            f"{self.number.expected} or a formula of {names} (a string)"
+            if self.variables
+            else self.number.expected
+        )
 
     def __call__(self, value, path):
         from rftfem.scene.expressions import parse, substitute
@@ -352,8 +399,10 @@ class Formulas(Validator):
         self.item = Formula(variables)
         self.vec = Vec(n, nonzero=nonzero)
         self.n = n
-        self.expected = f"{n} entries [x, y, z], each a number or a formula of " \
-                        f"{', '.join(variables)} (a string)"
+        self.expected = (
+            f"{n} entries [x, y, z], each a number or a formula of "
+            f"{', '.join(variables)} (a string)"
+        )
 
     def __call__(self, value, path):
         if not isinstance(value, list) or len(value) != self.n:
@@ -382,8 +431,10 @@ class Fix(Validator):
 
 
 class Where(Validator):
-    expected = ('a selector: "all", "x=0", "x=L", "y=0", "y=W", a [[hinge]] line, '
-                "or a region / physical-group name")
+    expected = (
+        'a selector: "all", "x=0", "x=L", "y=0", "y=W", a [[hinge]] line, '
+        "or a region / physical-group name"
+    )
 
     def __init__(self, expected: str | None = None):
         if expected:

@@ -30,21 +30,29 @@ from pathlib import Path
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
 
 
-def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
-             petsc_args: list[str] | None = None, simulate=None) -> int:
+def run_here(
+    scene_file: str | Path,
+    overrides: list[str],
+    folder: Path,
+    petsc_args: list[str] | None = None,
+    simulate=None,
+) -> int:
     """Run ``scene_file`` with ``overrides`` into ``folder`` in this process (serial);
     its messages go to ``folder/run.log``; return the exit status of ``rftfem run``.
     ``simulate(scene, out_dir=, quiet=, petsc_args=)`` replaces the plain run (a run
     that also takes its gradient, rftfem/studies/sensitivity.py)."""
-    from rftfem.scene.reading import load_scene
     from rftfem.integration.simulation import run as run_simulation
+    from rftfem.scene.reading import load_scene
 
     simulate = simulate or run_simulation
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / "run.log", "w", encoding="utf-8") as log, \
-            contextlib.redirect_stdout(log), contextlib.redirect_stderr(log):
+    with (
+        open(folder / "run.log", "w", encoding="utf-8") as log,
+        contextlib.redirect_stdout(log),
+        contextlib.redirect_stderr(log),
+    ):
         t0 = time.perf_counter()
         try:
             scene = load_scene(str(scene_file), list(overrides))
@@ -61,21 +69,36 @@ def run_here(scene_file: str | Path, overrides: list[str], folder: Path,
         except Exception:  # a bug: as `rftfem run` would, a traceback and exit 1
             traceback.print_exc()
             return 1
-        print(f"rftfem: done in this process ({time.perf_counter() - t0:.2f} s), "
-              f"outputs in {folder}")
+        print(
+            f"rftfem: done in this process ({time.perf_counter() - t0:.2f} s), outputs in {folder}"
+        )
         return 0
 
 
-def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
-              launcher: list[str] = (), petsc_args: list[str] | None = None,
-              die_with_parent: bool = False) -> int:
+def run_child(
+    scene_file: str | Path,
+    overrides: list[str],
+    folder: Path,
+    launcher: list[str] = (),
+    petsc_args: list[str] | None = None,
+    die_with_parent: bool = False,
+) -> int:
     """The same run as a child ``rftfem run`` (under ``launcher``, e.g. ``mpirun -n 2``),
     its output in ``folder/run.log``; its exit status.  ``die_with_parent``: the child
     is killed when this process dies (Linux), as a Dask worker's run must be."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    cmd = [*launcher, sys.executable, "-m", "rftfem", "run", str(scene_file), "--out",
-           str(folder), "--quiet"]
+    cmd = [
+        *launcher,
+        sys.executable,
+        "-m",
+        "rftfem",
+        "run",
+        str(scene_file),
+        "--out",
+        str(folder),
+        "--quiet",
+    ]
     from rftfem.scene.overrides import as_arguments
 
     cmd += as_arguments(list(overrides))
@@ -83,8 +106,13 @@ def run_child(scene_file: str | Path, overrides: list[str], folder: Path,
     env = child_environment(bool(launcher))
     for _ in range(2):
         with open(folder / "run.log", "w", encoding="utf-8") as log:
-            status = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
-                                     preexec_fn=_die_with_parent if die_with_parent else None)
+            status = subprocess.call(
+                cmd,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=env,
+                preexec_fn=_die_with_parent if die_with_parent else None,
+            )
         # a launch that ends in failure having said nothing at all (gmsh 4.8's start
         # now and then: tests/conftest.py run_command) is made once more; every real
         # failure says why
@@ -108,9 +136,21 @@ def _die_with_parent():
 #: children: a launch that inherits them takes itself for a part of that job, and
 #: Open MPI's mpirun then exits 1 without a word
 #: (a user's own OMPI_MCA_ settings are kept)
-_MPI_JOB_VARIABLES = ("PMIX_", "PMI_", "HYDRA_", "ORTE_", "OMPI_COMM_WORLD_", "OMPI_APP_CTX_",
-                      "OMPI_UNIVERSE_", "OMPI_FIRST_", "OMPI_NUM_APP_CTX", "OMPI_FILE_LOCATION",
-                      "OMPI_MCA_ess", "OMPI_MCA_orte_", "OMPI_MCA_pmix")
+_MPI_JOB_VARIABLES = (
+    "PMIX_",
+    "PMI_",
+    "HYDRA_",
+    "ORTE_",
+    "OMPI_COMM_WORLD_",
+    "OMPI_APP_CTX_",
+    "OMPI_UNIVERSE_",
+    "OMPI_FIRST_",
+    "OMPI_NUM_APP_CTX",
+    "OMPI_FILE_LOCATION",
+    "OMPI_MCA_ess",
+    "OMPI_MCA_orte_",
+    "OMPI_MCA_pmix",
+)
 
 
 def child_environment(mpirun: bool) -> dict:
@@ -127,8 +167,11 @@ def failure_reason(log: Path, status: int) -> str:
     """The line of a run's log that says why it ended without a summary: rftfem's own
     one-line error, else a traceback's last line, else the launcher's first words."""
     try:
-        lines = [ln.strip() for ln in log.read_text(encoding="utf-8", errors="replace")
-                 .splitlines() if any(c.isalnum() for c in ln)]
+        lines = [
+            ln.strip()
+            for ln in log.read_text(encoding="utf-8", errors="replace").splitlines()
+            if any(c.isalnum() for c in ln)
+        ]
     except OSError:
         lines = []
     own = [ln for ln in lines if ln.startswith("rftfem")]
@@ -148,8 +191,9 @@ def check_jobs(jobs: int, np: int, what: str) -> None:
     if jobs < 1 or np < 1:
         raise SceneError("--jobs and --np: expected at least 1")
     if jobs > 1 and np > 1:
-        raise SceneError(f"--jobs and --np: give one of them ({what} side by side, or each "
-                         f"on several processes)")
+        raise SceneError(
+            f"--jobs and --np: give one of them ({what} side by side, or each on several processes)"
+        )
 
 
 def launcher(np: int) -> list[str]:

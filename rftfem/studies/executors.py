@@ -37,17 +37,26 @@ from rftfem.errors import SceneError
 #: seconds to wait for a Dask scheduler given by address before saying it is unreachable
 CONNECT_TIMEOUT = 8.0
 #: the options of ``--slurm KEY=VALUE`` and their dask-jobqueue names
-SLURM_KEYS = {"queue": "queue", "account": "account", "walltime": "walltime",
-              "memory": "memory", "cores": "cores", "job_extra": "job_extra_directives",
-              "prologue": "job_script_prologue", "interface": "interface",
-              "local_directory": "local_directory", "log_directory": "log_directory"}
+SLURM_KEYS = {
+    "queue": "queue",
+    "account": "account",
+    "walltime": "walltime",
+    "memory": "memory",
+    "cores": "cores",
+    "job_extra": "job_extra_directives",
+    "prologue": "job_script_prologue",
+    "interface": "interface",
+    "local_directory": "local_directory",
+    "log_directory": "log_directory",
+}
 SLURM_DEFAULTS = {"memory": "4GB", "walltime": "01:00:00"}
 #: exit status of a run whose worker died twice (not one of rftfem run's own)
 WORKER_DIED = 137
 
 
-def add_arguments(parser, command: str, runs: str = "runs", jobs_note: str = "",
-                  reuse_note: str = "") -> None:
+def add_arguments(
+    parser, command: str, runs: str = "runs", jobs_note: str = "", reuse_note: str = ""
+) -> None:
     """The options that sweep, study and optimize share: ``--set`` and ``--unset`` (for
     every run), ``--out``, ``--jobs``, ``--np``, ``--reuse``, ``--executor`` and its
     options. ``command`` names the default folder (results/<command>-<scene file
@@ -56,35 +65,67 @@ def add_arguments(parser, command: str, runs: str = "runs", jobs_note: str = "",
     from rftfem.scene.overrides import add_override_arguments
 
     add_override_arguments(parser)
-    parser.add_argument("--out", metavar="DIR", type=Path, default=None,
-                        help=f"the folder of the {runs} and tables (default "
-                             f"results/{command}-<scene file stem>)")
-    parser.add_argument("--jobs", metavar="J", type=int, default=1,
-                        help=f"{runs} side by side (local processes, or Dask workers; "
-                             f"default 1){jobs_note}")
-    parser.add_argument("--np", metavar="P", type=int, default=1,
-                        help=f"each {runs[:-1]} under mpirun -n P (with the local executor, one "
-                             "at a time)")
-    parser.add_argument("--reuse", action="store_true",
-                        help=f"keep the {runs} --out already holds finished from the same "
-                             "content (the completed scene, the files it names, the PETSc "
-                             f"options); run only the others{reuse_note}")
-    parser.add_argument("--executor", metavar="E", default="local",
-                        help="where the runs happen: local (this machine's processes, the "
-                             "default), dask (a local Dask cluster of --jobs workers), "
-                             "dask://HOST:PORT (a running Dask scheduler), slurm "
-                             "(dask-jobqueue's SLURMCluster, --jobs batch jobs)")
-    parser.add_argument("--slurm", metavar="KEY=VALUE", action="append", default=[],
-                        help="with --executor slurm: a SLURMCluster option, one of "
-                             + ", ".join(SLURM_KEYS) + " (job_extra repeatable: an "
-                             "#SBATCH line's option, e.g. job_extra=--constraint=cpu); "
-                             "repeatable")
-    parser.add_argument("--executor-config", metavar="FILE", type=Path, default=None,
-                        help="with --executor slurm: a TOML file whose [slurm] table holds "
-                             "the same options (the command line's win)")
-    parser.add_argument("--print-job-script", action="store_true",
-                        help="with --executor slurm: print the batch job script and stop "
-                             "(nothing is submitted)")
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        type=Path,
+        default=None,
+        help=f"the folder of the {runs} and tables (default results/{command}-<scene file stem>)",
+    )
+    parser.add_argument(
+        "--jobs",
+        metavar="J",
+        type=int,
+        default=1,
+        help=f"{runs} side by side (local processes, or Dask workers; default 1){jobs_note}",
+    )
+    parser.add_argument(
+        "--np",
+        metavar="P",
+        type=int,
+        default=1,
+        help=f"each {runs[:-1]} under mpirun -n P (with the local executor, one at a time)",
+    )
+    parser.add_argument(
+        "--reuse",
+        action="store_true",
+        help=f"keep the {runs} --out already holds finished from the same "
+        "content (the completed scene, the files it names, the PETSc "
+        f"options); run only the others{reuse_note}",
+    )
+    parser.add_argument(
+        "--executor",
+        metavar="E",
+        default="local",
+        help="where the runs happen: local (this machine's processes, the "
+        "default), dask (a local Dask cluster of --jobs workers), "
+        "dask://HOST:PORT (a running Dask scheduler), slurm "
+        "(dask-jobqueue's SLURMCluster, --jobs batch jobs)",
+    )
+    parser.add_argument(
+        "--slurm",
+        metavar="KEY=VALUE",
+        action="append",
+        default=[],
+        help="with --executor slurm: a SLURMCluster option, one of "
+        + ", ".join(SLURM_KEYS)
+        + " (job_extra repeatable: an "
+        "#SBATCH line's option, e.g. job_extra=--constraint=cpu); "
+        "repeatable",
+    )
+    parser.add_argument(
+        "--executor-config",
+        metavar="FILE",
+        type=Path,
+        default=None,
+        help="with --executor slurm: a TOML file whose [slurm] table holds "
+        "the same options (the command line's win)",
+    )
+    parser.add_argument(
+        "--print-job-script",
+        action="store_true",
+        help="with --executor slurm: print the batch job script and stop (nothing is submitted)",
+    )
 
 
 class Executor:
@@ -92,8 +133,9 @@ class Executor:
 
     name = "local"
 
-    def run(self, scene_file, overrides: list[str], folder: Path,
-            petsc_args: list[str] | None = None) -> int:
+    def run(
+        self, scene_file, overrides: list[str], folder: Path, petsc_args: list[str] | None = None
+    ) -> int:
         raise NotImplementedError
 
     def close(self) -> None:
@@ -125,8 +167,9 @@ class LocalExecutor(Executor):
         return f"local ({how}" + (f", each on {self.np}" if self.np > 1 else "") + ")"
 
 
-def remote_run(scene_file: str, overrides: list[str], folder: str, np: int,
-               petsc_args: list[str]) -> int:
+def remote_run(
+    scene_file: str, overrides: list[str], folder: str, np: int, petsc_args: list[str]
+) -> int:
     """What a Dask worker does for one run: a fresh folder, then a child ``rftfem
     run`` (under mpirun with ``np`` > 1) that dies if the worker dies."""
     from rftfem.studies.batch import launcher, run_child
@@ -134,8 +177,7 @@ def remote_run(scene_file: str, overrides: list[str], folder: str, np: int,
     folder = Path(folder)
     if folder.exists():  # a run whose first worker died left its partial outputs
         shutil.rmtree(folder)
-    return run_child(scene_file, overrides, folder, launcher(np), petsc_args,
-                     die_with_parent=True)
+    return run_child(scene_file, overrides, folder, launcher(np), petsc_args, die_with_parent=True)
 
 
 class DaskExecutor(Executor):
@@ -147,9 +189,15 @@ class DaskExecutor(Executor):
     def run(self, scene_file, overrides, folder, petsc_args=None) -> int:
         from distributed import KilledWorker
 
-        future = self.client.submit(remote_run, str(Path(scene_file).resolve()),
-                                    list(overrides), str(Path(folder).resolve()), self.np,
-                                    list(petsc_args or []), pure=False)
+        future = self.client.submit(
+            remote_run,
+            str(Path(scene_file).resolve()),
+            list(overrides),
+            str(Path(folder).resolve()),
+            self.np,
+            list(petsc_args or []),
+            pure=False,
+        )
         try:
             return int(future.result())
         except KilledWorker as exc:
@@ -157,7 +205,9 @@ class DaskExecutor(Executor):
             folder.mkdir(parents=True, exist_ok=True)
             (folder / "run.log").write_text(
                 f"rftfem: the Dask worker running this died, and so did the one it was "
-                f"given to next ({exc.__class__.__name__})\n", encoding="utf-8")
+                f"given to next ({exc.__class__.__name__})\n",
+                encoding="utf-8",
+            )
             return WORKER_DIED
 
     def close(self) -> None:
@@ -175,11 +225,14 @@ def _dask():
         import dask
         import distributed
     except ImportError as exc:
-        raise SceneError(f"--executor: Dask is not installed here ({exc}); scripts/setup.sh "
-                         "installs dask, distributed and dask-jobqueue") from None
+        raise SceneError(
+            f"--executor: Dask is not installed here ({exc}); scripts/setup.sh "
+            "installs dask, distributed and dask-jobqueue"
+        ) from None
     # a run whose worker dies is given to another worker once, then is a failure
-    dask.config.set({"distributed.scheduler.allowed-failures": 1,
-                     "distributed.worker.daemon": False})
+    dask.config.set(
+        {"distributed.scheduler.allowed-failures": 1, "distributed.worker.daemon": False}
+    )
     return distributed
 
 
@@ -193,14 +246,17 @@ def slurm_options(options: list[str], config: Path | None) -> dict:
         try:
             table = tomllib.loads(Path(config).read_text(encoding="utf-8")).get("slurm", {})
         except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise SceneError(f"--executor-config {config}: cannot be read as TOML "
-                             f"({' '.join(str(exc).split())})") from None
+            raise SceneError(
+                f"--executor-config {config}: cannot be read as TOML ({' '.join(str(exc).split())})"
+            ) from None
         if not isinstance(table, dict):
             raise SceneError(f"--executor-config {config}: [slurm] must be a table")
         for key, value in table.items():
             if key not in SLURM_KEYS:
-                raise SceneError(f"--executor-config {config}: unknown [slurm] key '{key}' "
-                                 f"(known: {', '.join(SLURM_KEYS)})")
+                raise SceneError(
+                    f"--executor-config {config}: unknown [slurm] key '{key}' "
+                    f"(known: {', '.join(SLURM_KEYS)})"
+                )
             if key == "job_extra":
                 extra += [str(v) for v in (value if isinstance(value, list) else [value])]
             else:
@@ -208,8 +264,9 @@ def slurm_options(options: list[str], config: Path | None) -> dict:
     for text in options:
         key, sep, value = text.partition("=")
         if not sep or key not in SLURM_KEYS:
-            raise SceneError(f"--slurm {text}: expected KEY=VALUE with KEY one of "
-                             f"{', '.join(SLURM_KEYS)}")
+            raise SceneError(
+                f"--slurm {text}: expected KEY=VALUE with KEY one of {', '.join(SLURM_KEYS)}"
+            )
         if key == "job_extra":
             extra.append(value)
         else:
@@ -219,32 +276,42 @@ def slurm_options(options: list[str], config: Path | None) -> dict:
         try:
             kwargs["cores"] = int(kwargs["cores"])
         except (TypeError, ValueError):
-            raise SceneError(f"--slurm cores={kwargs['cores']}: expected a whole number") \
-                from None
+            raise SceneError(f"--slurm cores={kwargs['cores']}: expected a whole number") from None
     if extra:
         kwargs["job_extra_directives"] = extra
     return kwargs
 
 
-def make_executor(spec: str, jobs: int = 1, np: int = 1, slurm: list[str] = (),
-                  config: Path | None = None, print_job_script: bool = False,
-                  in_process: bool | None = None) -> Executor | None:
+def make_executor(
+    spec: str,
+    jobs: int = 1,
+    np: int = 1,
+    slurm: list[str] = (),
+    config: Path | None = None,
+    print_job_script: bool = False,
+    in_process: bool | None = None,
+) -> Executor | None:
     """The executor ``--executor spec`` names (None after ``--print-job-script``, which
     prints the job script instead). Bad options and unreachable schedulers are
     SceneErrors."""
     spec = (spec or "local").strip()
     if spec != "slurm" and (slurm or config is not None or print_job_script):
-        raise SceneError("--slurm, --executor-config and --print-job-script go with "
-                         "--executor slurm")
+        raise SceneError(
+            "--slurm, --executor-config and --print-job-script go with --executor slurm"
+        )
     if spec == "local":
         return LocalExecutor(jobs, np, in_process)
     if spec == "dask":
         distributed = _dask()
         import logging
 
-        cluster = distributed.LocalCluster(n_workers=jobs, threads_per_worker=1,
-                                           processes=True, dashboard_address=":0",
-                                           silence_logs=logging.ERROR)
+        cluster = distributed.LocalCluster(
+            n_workers=jobs,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )
         return DaskExecutor(distributed.Client(cluster), np, cluster)
     match = re.fullmatch(r"dask://([^:/\s]+):(\d+)", spec)
     if match:
@@ -253,17 +320,19 @@ def make_executor(spec: str, jobs: int = 1, np: int = 1, slurm: list[str] = (),
         try:
             client = distributed.Client(address, timeout=CONNECT_TIMEOUT)
         except (OSError, TimeoutError) as exc:
-            raise SceneError(f"--executor {spec}: no Dask scheduler answers at {address} "
-                             f"within {CONNECT_TIMEOUT:g} s ({exc.__class__.__name__})") \
-                from None
+            raise SceneError(
+                f"--executor {spec}: no Dask scheduler answers at {address} "
+                f"within {CONNECT_TIMEOUT:g} s ({exc.__class__.__name__})"
+            ) from None
         return DaskExecutor(client, np, None, name=spec)
     if spec == "slurm":
         _dask()
         try:
             from dask_jobqueue import SLURMCluster
         except ImportError as exc:
-            raise SceneError(f"--executor slurm: dask-jobqueue is not installed here ({exc})") \
-                from None
+            raise SceneError(
+                f"--executor slurm: dask-jobqueue is not installed here ({exc})"
+            ) from None
         kwargs = slurm_options(list(slurm), config)
         kwargs.setdefault("cores", max(1, np))
         kwargs.setdefault("processes", 1)
@@ -278,8 +347,10 @@ def make_executor(spec: str, jobs: int = 1, np: int = 1, slurm: list[str] = (),
             return None
         if shutil.which(cluster.job_cls.submit_command.split()[0]) is None:
             cluster.close()
-            raise SceneError("--executor slurm: sbatch is not on PATH (not a SLURM login "
-                             "node); --print-job-script shows the job script")
+            raise SceneError(
+                "--executor slurm: sbatch is not on PATH (not a SLURM login "
+                "node); --print-job-script shows the job script"
+            )
         cluster.scale(jobs=jobs)
         distributed = _dask()
         return DaskExecutor(distributed.Client(cluster), np, cluster, name="slurm")
@@ -297,6 +368,14 @@ def check_executor_options(jobs: int, np: int, executor: str, what: str = "runs"
         raise SceneError("--jobs and --np: expected at least 1")
 
 
-__all__ = ["add_arguments", "make_executor", "Executor", "LocalExecutor", "DaskExecutor",
-           "remote_run", "slurm_options", "check_executor_options", "WORKER_DIED"]
-
+__all__ = [
+    "add_arguments",
+    "make_executor",
+    "Executor",
+    "LocalExecutor",
+    "DaskExecutor",
+    "remote_run",
+    "slurm_options",
+    "check_executor_options",
+    "WORKER_DIED",
+]

@@ -59,28 +59,38 @@ def check_field_keys(scene: dict, keys: list[str]) -> None:
         if m:
             parts = (scene.get("magnetic") or {}).get("parts") or []
             if int(m[1]) >= len(parts):
-                raise SceneError(f"field gradient '{key}': the scene has {len(parts)} "
-                                 "[[magnetic.parts]]")
+                raise SceneError(
+                    f"field gradient '{key}': the scene has {len(parts)} [[magnetic.parts]]"
+                )
             part = parts[int(m[1])]
             if part.get("profile") is None and (
-                    not isinstance(part["magnetization"], (int, float))
-                    or any(isinstance(v, str) for v in part["direction"])):
-                raise SceneError(f"field gradient '{key}': the part is magnetized by a "
-                                 "formula; a gradient is by the values of a number (per "
-                                 "cell) or of a profile (per grid point)")
+                not isinstance(part["magnetization"], (int, float))
+                or any(isinstance(v, str) for v in part["direction"])
+            ):
+                raise SceneError(
+                    f"field gradient '{key}': the part is magnetized by a "
+                    "formula; a gradient is by the values of a number (per "
+                    "cell) or of a profile (per grid point)"
+                )
             if part.get("profile") is None and any(
-                    p.get("profile") is not None or not isinstance(p["magnetization"],
-                                                                    (int, float))
-                    or any(isinstance(v, str) for v in p["direction"]) for p in parts):
-                raise SceneError(f"field gradient '{key}': another part is magnetized by a "
-                                 "formula or profile; a cellwise gradient needs every part "
-                                 "magnetized by numbers")
+                p.get("profile") is not None
+                or not isinstance(p["magnetization"], (int, float))
+                or any(isinstance(v, str) for v in p["direction"])
+                for p in parts
+            ):
+                raise SceneError(
+                    f"field gradient '{key}': another part is magnetized by a "
+                    "formula or profile; a cellwise gradient needs every part "
+                    "magnetized by numbers"
+                )
             continue
         if key not in FIELD_KEYS:
             raise SceneError(f"field gradient '{key}': expected one of {FIELDS_SUPPORTED}")
         if scene["shell"]["material"] == "orthotropic" and key in ("shell.E", "shell.nu"):
-            raise SceneError(f"field gradient '{key}': the shell is orthotropic (E1, E2, "
-                             "G12, nu12); its thickness and density are fields to vary")
+            raise SceneError(
+                f"field gradient '{key}': the shell is orthotropic (E1, E2, "
+                "G12, nu12); its thickness and density are fields to vary"
+            )
 
 
 def field_gradients(adj, lam, J_form, keys: list[str]) -> list[FieldGradient]:
@@ -155,16 +165,17 @@ def _material_gradient(m, key, f, nodal) -> FieldGradient:
     from mpi4py import MPI
 
     from rftfem import compat
-    from rftfem.scene.profiles import profile_weights, read_profile
     from rftfem.scene.fields import is_field, profile_file
+    from rftfem.scene.profiles import profile_weights, read_profile
 
     V = f.function_space
     grad = FieldGradient(key, _per_cell(m, V, nodal), nodal)
     totals = _totals(m, f)
     grad.extra = {name: value for name, (value, _) in totals.items()}
     sources = owners(m, key.split(".")[-1])
-    profiles = [i for i, (_, value, _) in enumerate(sources)
-                if is_field(value) and isinstance(value, dict)]
+    profiles = [
+        i for i, (_, value, _) in enumerate(sources) if is_field(value) and isinstance(value, dict)
+    ]
     if not profiles:
         return grad
     # the source that sets each node: the last one that covers it
@@ -174,12 +185,12 @@ def _material_gradient(m, key, f, nodal) -> FieldGradient:
         owner[np.unique(dofs if cells is None else dofs[cells])] = i
     i = profiles[-1]
     where, value, _ = sources[i]
-    points, _ = read_profile(profile_file(m.scene, value["profile"]), f"{where}.profile",
-                             columns=1, names="value")
+    points, _ = read_profile(
+        profile_file(m.scene, value["profile"]), f"{where}.profile", columns=1, names="value"
+    )
     n_owned = V.dofmap.index_map.size_local
     nodes = np.nonzero(owner[:n_owned] == i)[0]
-    rows, weights = profile_weights(points, V.tabulate_dof_coordinates()[nodes],
-                                    f"{where}.profile")
+    rows, weights = profile_weights(points, V.tabulate_dof_coordinates()[nodes], f"{where}.profile")
 
     def on_profile(vector):
         local = np.zeros(len(points))
@@ -203,8 +214,11 @@ def _totals(m, f) -> dict:
     for name, integrand in (("mass", rho * t), ("volume", t)):
         form = integrand * m.dx
         value = m.assemble_scalar(m.compile(form))
-        d = (_assemble(m, ufl.derivative(form, f, v), f.function_space)
-             if f in (rho, t) else np.zeros(len(f.x.array)))
+        d = (
+            _assemble(m, ufl.derivative(form, f, v), f.function_space)
+            if f in (rho, t)
+            else np.zeros(len(f.x.array))
+        )
         out[name] = (value, d)
     return out
 
@@ -223,8 +237,9 @@ def _magnetization_profile_gradient(m, key, index, Mp, nodal) -> FieldGradient:
     n_owned = V.dofmap.index_map.size_local
     nodes = np.unique(compat.cell_dofs(V)[m["magnetic"].part_cells[index]])
     nodes = nodes[nodes < n_owned]
-    rows, weights = profile_weights(points, V.tabulate_dof_coordinates()[nodes],
-                                    f"{key.rsplit('.', 1)[0]}.profile")
+    rows, weights = profile_weights(
+        points, V.tabulate_dof_coordinates()[nodes], f"{key.rsplit('.', 1)[0]}.profile"
+    )
     per_node = nodal.reshape(-1, 3)[nodes]
     local = np.zeros((len(points), 3))
     for k in range(rows.shape[1]):

@@ -17,9 +17,9 @@ from rftfem.studies.sensitivity import gradient as adjoint_gradient
 __all__ = ["run_with_gradient", "run_with_field_gradients", "gradient", "Gradient"]
 
 
-def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
-                      objective: str, petsc_args=None
-                      ) -> tuple[int, float | None, list[float] | None]:
+def run_with_gradient(
+    scene_file, overrides: list[str], folder, keys: list[str], objective: str, petsc_args=None
+) -> tuple[int, float | None, list[float] | None]:
     """Run the static scene (time.scheme resolves to "static") in this process into
     ``folder`` as ``rftfem.studies.batch.run_here`` does (same outputs, exit statuses, messages
     to folder/run.log); if it succeeded return ``(0, J, [dJ/dkey for key in keys])``, J
@@ -33,17 +33,22 @@ def run_with_gradient(scene_file, overrides: list[str], folder, keys: list[str],
     return 0, result["value"], result["gradient"]
 
 
-def run_with_field_gradients(scene_file, overrides: list[str], folder, fields: list[str],
-                             objective, petsc_args=None, combine=None
-                             ) -> tuple[int, float | None, dict | None]:
+def run_with_field_gradients(
+    scene_file,
+    overrides: list[str],
+    folder,
+    fields: list[str],
+    objective,
+    petsc_args=None,
+    combine=None,
+) -> tuple[int, float | None, dict | None]:
     """As ``run_with_gradient`` for field keys (``shell.thickness``, ...,
     rftfem/studies/field_gradients.py): ``(0, J, {key: FieldGradient})``.  Each key's
     per-cell gradient is written to folder/gradient-KEY.xdmf (a cell field for
     ParaView), a profile's to folder/gradient-KEY.csv (rows X,Y,Z,dJ/dvalue).  With
     ``combine``, ``objective`` is a list of quantities and J = f(them) (``combine``
     as in sensitivity.gradient)."""
-    status, result = _run(scene_file, overrides, folder, [], fields, objective, petsc_args,
-                          combine)
+    status, result = _run(scene_file, overrides, folder, [], fields, objective, petsc_args, combine)
     if status != 0:
         return status, None, None
     return 0, result["value"], result["fields"]
@@ -51,12 +56,14 @@ def run_with_field_gradients(scene_file, overrides: list[str], folder, fields: l
 
 def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, combine=None):
     if not isinstance(scene_file, (str, os.PathLike)):  # a Scene object, a dict ...
-        raise SceneError(f"expected the scene's file, found {type(scene_file).__name__}; for "
-                         "a rftfem.Scene use rftfem.gradient(scene, objective, keys, fields)")
-    from rftfem.studies.batch import run_here
+        raise SceneError(
+            f"expected the scene's file, found {type(scene_file).__name__}; for "
+            "a rftfem.Scene use rftfem.gradient(scene, objective, keys, fields)"
+        )
+    from rftfem.integration.simulation import Simulation
     from rftfem.outputs.writers import write_json
     from rftfem.scene.reading import load_scene
-    from rftfem.integration.simulation import Simulation
+    from rftfem.studies.batch import run_here
     from rftfem.studies.field_gradients import check_field_keys
 
     try:
@@ -65,7 +72,7 @@ def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, com
         scene = None  # run_here says why, in run.log, and returns exit status 2
     if scene is not None:
         try:
-            for text in (objective if combine else [objective]):
+            for text in objective if combine else [objective]:
                 check_request(scene, list(keys), text)
             check_field_keys(scene, list(fields))
         except SceneError as exc:  # said in run.log too, as run_here says a bad scene
@@ -91,8 +98,7 @@ def _run(scene_file, overrides, folder, keys, fields, objective, petsc_args, com
             print(f"rftfem: the gradient by the adjoint in {time.perf_counter() - t1:.2f} s")
             data = {"objective": objective, "value": J, "gradient": dict(zip(keys, grad))}
             if fields:
-                data["fields"] = {g.key: _write_field(sim.model, g, Path(out_dir))
-                                  for g in got[2]}
+                data["fields"] = {g.key: _write_field(sim.model, g, Path(out_dir)) for g in got[2]}
                 result["fields"] = {g.key: g for g in got[2]}
             write_json(Path(out_dir) / "gradient.json", data, sim.comm)
             result.update(value=J, gradient=grad)
@@ -125,13 +131,13 @@ def _write_field(model, g, out_dir: Path) -> dict:
         values = np.asarray(values).reshape(len(points), -1)
         names = ("mx", "my", "mz") if values.shape[1] == 3 else ("value",)
         if model.comm.rank == 0:
-            rows = "\n".join(",".join(repr(float(v)) for v in (*p, *d))
-                             for p, d in zip(points, values))
+            rows = "\n".join(
+                ",".join(repr(float(v)) for v in (*p, *d)) for p, d in zip(points, values)
+            )
             header = ",".join(["X", "Y", "Z"] + [f"dJ/d{n}" for n in names])
             (out_dir / f"{stem}.csv").write_text(f"{header}\n{rows}\n", encoding="utf-8")
         out["profile"] = f"{stem}.csv"
     return out
-
 
 
 @dataclass
@@ -147,8 +153,13 @@ class Gradient:
     folder: Path
 
 
-def gradient(scene, objective: str, keys: Iterable[str] = (), fields: Iterable[str] = (),
-             out: str | os.PathLike | None = None) -> Gradient:
+def gradient(
+    scene,
+    objective: str,
+    keys: Iterable[str] = (),
+    fields: Iterable[str] = (),
+    out: str | os.PathLike | None = None,
+) -> Gradient:
     """Run the static ``scene`` (a Scene, a file or a dict) into ``out`` and return
     the derivatives of ``objective`` (a quantity of the last state, ``tip_uz@end``)
     by scalar ``keys`` (``shell.E``, ``load.0.value.2``) and by material ``fields``
@@ -179,8 +190,10 @@ def gradient(scene, objective: str, keys: Iterable[str] = (), fields: Iterable[s
             source.unlink(missing_ok=True)
     if status != 0:
         log = (out / "run.log").read_text(encoding="utf-8", errors="replace")
-        line = next((ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
-                    f"the run ended with exit status {status}")
+        line = next(
+            (ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
+            f"the run ended with exit status {status}",
+        )
         text = line.removeprefix("rftfem: ").removeprefix("error: ")
         if status == SceneError.exit_status:
             raise SceneError(text)
@@ -193,8 +206,12 @@ def gradient(scene, objective: str, keys: Iterable[str] = (), fields: Iterable[s
             continue
         x = g.cells.function_space.tabulate_dof_coordinates()
         n = g.cells.function_space.dofmap.index_map.size_local
-        tables[key] = pd.DataFrame({"x": x[:n, 0], "y": x[:n, 1], "z": x[:n, 2],
-                                    f"d/d{key}": g.cells.x.array[:n]})
-    return Gradient(float(result["value"]),
-                    pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
-                    tables, out)
+        tables[key] = pd.DataFrame(
+            {"x": x[:n, 0], "y": x[:n, 1], "z": x[:n, 2], f"d/d{key}": g.cells.x.array[:n]}
+        )
+    return Gradient(
+        float(result["value"]),
+        pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
+        tables,
+        out,
+    )

@@ -33,16 +33,23 @@ class Constraint:
 
 def parse_constraint(text: str) -> Constraint:
     """``EXPR <= V`` or ``EXPR >= V`` (V a finite number)."""
-    m = re.fullmatch(r"(.+?)(<=|>=)\s*([^<>=]+)", text.strip(), re.S) if isinstance(text, str) \
+    m = (
+        re.fullmatch(r"(.+?)(<=|>=)\s*([^<>=]+)", text.strip(), re.S)
+        if isinstance(text, str)
         else None
+    )
     if m is None:
-        raise SceneError(f"--constraint '{text}': expected EXPR<=V or EXPR>=V "
-                         f"(e.g. 'mean(drag_power, 1, 2)<=2e-6')")
+        raise SceneError(
+            f"--constraint '{text}': expected EXPR<=V or EXPR>=V "
+            f"(e.g. 'mean(drag_power, 1, 2)<=2e-6')"
+        )
     try:
         bound = float(m.group(3))
     except ValueError:
-        raise SceneError(f"--constraint '{text}': expected a number after "
-                         f"'{m.group(2)}', found '{m.group(3).strip()}'") from None
+        raise SceneError(
+            f"--constraint '{text}': expected a number after "
+            f"'{m.group(2)}', found '{m.group(3).strip()}'"
+        ) from None
     if not math.isfinite(bound):
         raise SceneError(f"--constraint '{text}': the bound must be finite")
     return Constraint(text, parse(m.group(1), "--constraint"), m.group(2), bound)

@@ -52,13 +52,13 @@ import shutil
 import time
 from pathlib import Path
 
-from rftfem.studies import objective as objectives
-from rftfem.studies import executors
-from rftfem.studies.executors import check_executor_options, make_executor
-from rftfem.studies.reuse import report
 from rftfem.errors import SceneError
+from rftfem.studies import executors
+from rftfem.studies import objective as objectives
+from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.studies.optimize_evaluations import BudgetSpent, Evaluator, parse_vary
 from rftfem.studies.optimize_report import plot, write_best
+from rftfem.studies.reuse import report
 
 METHODS = ("cobyla", "nelder-mead", "powell", "l-bfgs-b", "grid")
 DEFAULT_METHOD = "cobyla"
@@ -100,7 +100,6 @@ profile, or a strip's node lines) are the variables, with exact gradients
 exit status: 0 optimisation written (also when runs failed), 2 bad option or scene"""
 
 
-
 # --- the methods -------------------------------------------------------------------
 
 
@@ -120,39 +119,66 @@ def search(method: str, ev: Evaluator, z0, budget: int) -> str:
             ev.merits(list(grid))
             return f"grid of {m}^{n} points evaluated"
         if method == "nelder-mead":
-            simplex = [z0] + [z0 + np.eye(n)[j] * (FIRST_STEP if z0[j] + FIRST_STEP <= 1
-                                                   else -FIRST_STEP) for j in range(n)]
-            res = optimize.minimize(ev.merit, z0, method="Nelder-Mead", bounds=bounds,
-                                    options={"initial_simplex": np.array(simplex),
-                                             "xatol": X_TOLERANCE, "fatol": math.inf,
-                                             "maxfev": 10 * budget})
+            simplex = [z0] + [
+                z0 + np.eye(n)[j] * (FIRST_STEP if z0[j] + FIRST_STEP <= 1 else -FIRST_STEP)
+                for j in range(n)
+            ]
+            res = optimize.minimize(
+                ev.merit,
+                z0,
+                method="Nelder-Mead",
+                bounds=bounds,
+                options={
+                    "initial_simplex": np.array(simplex),
+                    "xatol": X_TOLERANCE,
+                    "fatol": math.inf,
+                    "maxfev": 10 * budget,
+                },
+            )
         elif method == "powell":
-            res = optimize.minimize(ev.merit, z0, method="Powell", bounds=bounds,
-                                    options={"xtol": X_TOLERANCE, "ftol": 1e-9,
-                                             "direc": np.eye(n) * FIRST_STEP,
-                                             "maxfev": 10 * budget})
+            res = optimize.minimize(
+                ev.merit,
+                z0,
+                method="Powell",
+                bounds=bounds,
+                options={
+                    "xtol": X_TOLERANCE,
+                    "ftol": 1e-9,
+                    "direc": np.eye(n) * FIRST_STEP,
+                    "maxfev": 10 * budget,
+                },
+            )
         elif method == "cobyla":
             cons = [{"type": "ineq", "fun": lambda z, j=j: z[j]} for j in range(n)]
             cons += [{"type": "ineq", "fun": lambda z, j=j: 1.0 - z[j]} for j in range(n)]
             if ev.constraints:
                 cons.append({"type": "ineq", "fun": ev.constraint_margins})
-            objective = (lambda z: ev.sign * _value_or_merit(ev, z)) if ev.constraints \
-                else ev.merit
+            objective = (lambda z: ev.sign * _value_or_merit(ev, z)) if ev.constraints else ev.merit
             # scipy's Fortran COBYLA calls back into Python and prints two lines of its
             # own when a callback raises: the stop (budget spent, a bad objective) is
             # kept instead, later calls return at once, and it is raised afterwards
             stop = _Stop()
-            cons = [dict(c, fun=stop.guard(c["fun"], lambda z, k=k: [0.0] * k))
-                    for c, k in zip(cons, [1] * (2 * n) + [len(ev.constraints)])]
-            res = optimize.minimize(stop.guard(objective, lambda z: 0.0), z0, method="COBYLA",
-                                    constraints=cons,
-                                    options={"rhobeg": FIRST_STEP, "tol": X_TOLERANCE,
-                                             "maxiter": 10 * budget})
+            cons = [
+                dict(c, fun=stop.guard(c["fun"], lambda z, k=k: [0.0] * k))
+                for c, k in zip(cons, [1] * (2 * n) + [len(ev.constraints)])
+            ]
+            res = optimize.minimize(
+                stop.guard(objective, lambda z: 0.0),
+                z0,
+                method="COBYLA",
+                constraints=cons,
+                options={"rhobeg": FIRST_STEP, "tol": X_TOLERANCE, "maxiter": 10 * budget},
+            )
             stop.raise_kept()
         elif method == "l-bfgs-b":
-            res = optimize.minimize(ev.merit_and_gradient, z0, jac=True, method="L-BFGS-B",
-                                    bounds=bounds, options={"maxfun": 10 * budget,
-                                                            "ftol": 1e-12, "gtol": 1e-10})
+            res = optimize.minimize(
+                ev.merit_and_gradient,
+                z0,
+                jac=True,
+                method="L-BFGS-B",
+                bounds=bounds,
+                options={"maxfun": 10 * budget, "ftol": 1e-12, "gtol": 1e-10},
+            )
         else:  # guarded by the option check
             raise SceneError(f"--method: unknown method '{method}'")
     except BudgetSpent:
@@ -174,6 +200,7 @@ class _Stop:
                 except (BudgetSpent, SceneError) as exc:
                     self.kept = exc
             return fallback(z)
+
         return guarded
 
     def raise_kept(self):
@@ -197,39 +224,74 @@ def add_arguments(parser):
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
     parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
-    parser.add_argument("--vary", metavar="KEY=LO:HI", action="append", default=[],
-                        help="a scalar scene key and its interval (LO:HI:log for a log "
-                             "scale; load.0.value.1 for a component); repeatable")
-    parser.add_argument("--vary-field", metavar="KEY=LO:HI", default=None, dest="vary_field",
-                        help="instead of --vary: the values of a material field (shell."
-                             "thickness, shell.E, shell.nu, shell.density) on its profile grid, "
-                             "each in [LO, HI], with exact gradients (static scenes); "
-                             "constraints 'mass=start', 'volume<=V'")
-    parser.add_argument("--objective", metavar="EXPR", default=None,
-                        help="what to optimise: a formula of collect's quantities")
+    parser.add_argument(
+        "--vary",
+        metavar="KEY=LO:HI",
+        action="append",
+        default=[],
+        help="a scalar scene key and its interval (LO:HI:log for a log "
+        "scale; load.0.value.1 for a component); repeatable",
+    )
+    parser.add_argument(
+        "--vary-field",
+        metavar="KEY=LO:HI",
+        default=None,
+        dest="vary_field",
+        help="instead of --vary: the values of a material field (shell."
+        "thickness, shell.E, shell.nu, shell.density) on its profile grid, "
+        "each in [LO, HI], with exact gradients (static scenes); "
+        "constraints 'mass=start', 'volume<=V'",
+    )
+    parser.add_argument(
+        "--objective",
+        metavar="EXPR",
+        default=None,
+        help="what to optimise: a formula of collect's quantities",
+    )
     sense = parser.add_mutually_exclusive_group()
     sense.add_argument("--maximize", action="store_true", help="seek the largest objective")
-    sense.add_argument("--minimize", action="store_true",
-                       help="seek the smallest objective (the default)")
-    parser.add_argument("--constraint", metavar="EXPR<=V", action="append", default=[],
-                        help="EXPR<=V or EXPR>=V, EXPR as the objective; repeatable")
-    parser.add_argument("--method", metavar="NAME", default=None,
-                        help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD}; with "
-                             "--vary-field l-bfgs-b, or slsqp with constraints)")
-    parser.add_argument("--budget", metavar="N", type=int, default=DEFAULT_BUDGET,
-                        help=f"at most N runs (default {DEFAULT_BUDGET})")
+    sense.add_argument(
+        "--minimize", action="store_true", help="seek the smallest objective (the default)"
+    )
+    parser.add_argument(
+        "--constraint",
+        metavar="EXPR<=V",
+        action="append",
+        default=[],
+        help="EXPR<=V or EXPR>=V, EXPR as the objective; repeatable",
+    )
+    parser.add_argument(
+        "--method",
+        metavar="NAME",
+        default=None,
+        help=f"{', '.join(METHODS)} (default {DEFAULT_METHOD}; with "
+        "--vary-field l-bfgs-b, or slsqp with constraints)",
+    )
+    parser.add_argument(
+        "--budget",
+        metavar="N",
+        type=int,
+        default=DEFAULT_BUDGET,
+        help=f"at most N runs (default {DEFAULT_BUDGET})",
+    )
     # --set, --out, --jobs, --np, --reuse, --executor...
-    executors.add_arguments(parser, "optimize", "evaluations",
-                            jobs_note=", where the method has several to make (grid; "
-                                      "l-bfgs-b's differences)",
-                            reuse_note="; failed runs count as finished (resumes an "
-                                       "optimisation)")
+    executors.add_arguments(
+        parser,
+        "optimize",
+        "evaluations",
+        jobs_note=", where the method has several to make (grid; l-bfgs-b's differences)",
+        reuse_note="; failed runs count as finished (resumes an optimisation)",
+    )
 
 
 def _method(name: str) -> str:
     m = name.strip().lower().replace("_", "-")
-    m = {"nelder-mead": "nelder-mead", "neldermead": "nelder-mead", "lbfgsb": "l-bfgs-b",
-         "brute": "grid"}.get(m, m)
+    m = {
+        "nelder-mead": "nelder-mead",
+        "neldermead": "nelder-mead",
+        "lbfgsb": "l-bfgs-b",
+        "brute": "grid",
+    }.get(m, m)
     if m not in METHODS:
         raise SceneError(f"--method: unknown method '{name}' (expected {', '.join(METHODS)})")
     return m
@@ -245,8 +307,9 @@ def main(args, petsc_args: list[str], console) -> int:
     if not args.vary:
         raise SceneError("--vary: give at least one KEY=LO:HI to search")
     if args.objective is None:
-        raise SceneError("--objective: give the quantity to optimise (e.g. "
-                         "--objective 'steady(front_ux_rate)')")
+        raise SceneError(
+            "--objective: give the quantity to optimise (e.g. --objective 'steady(front_ux_rate)')"
+        )
     method = _method(args.method or DEFAULT_METHOD)
     if args.budget < 1:
         raise SceneError(f"--budget: expected at least 1 run, found {args.budget}")
@@ -254,8 +317,10 @@ def main(args, petsc_args: list[str], console) -> int:
     objective = objectives.parse(args.objective)
     constraints = [objectives.parse_constraint(c) for c in args.constraint]
     if method == "l-bfgs-b" and constraints:
-        raise SceneError("--constraint: l-bfgs-b takes bounds only; use --method cobyla "
-                         "(or nelder-mead, powell with a penalty)")
+        raise SceneError(
+            "--constraint: l-bfgs-b takes bounds only; use --method cobyla "
+            "(or nelder-mead, powell with a penalty)"
+        )
     scene = load_scene(args.scene, args.overrides)
     params = [parse_vary(v, scene) for v in args.vary]
     keys = [p.key for p in params]
@@ -269,13 +334,22 @@ def main(args, petsc_args: list[str], console) -> int:
                 raise SceneError(f"--vary {p.key}={p.lo:g}:{p.hi:g}: at {x:g}: {exc}") from None
     static = resolved_scheme(scene) == "static"
     # gradients by the adjoint are taken in this process: with the local executor only
-    gradients = (method == "l-bfgs-b" and static and args.np == 1 and args.jobs == 1
-                 and args.executor == "local" and _differentiable(keys, objective, scene))
-    executor = make_executor(args.executor, args.jobs, args.np, args.slurm,
-                             args.executor_config, args.print_job_script)
+    gradients = (
+        method == "l-bfgs-b"
+        and static
+        and args.np == 1
+        and args.jobs == 1
+        and args.executor == "local"
+        and _differentiable(keys, objective, scene)
+    )
+    executor = make_executor(
+        args.executor, args.jobs, args.np, args.slurm, args.executor_config, args.print_job_script
+    )
     if executor is None:  # --print-job-script
         return 0
-    out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
+    out = (
+        args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
+    )
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -285,21 +359,45 @@ def main(args, petsc_args: list[str], console) -> int:
         for old in out.glob("eval-[0-9]*"):
             shutil.rmtree(old, ignore_errors=True)
     sign = -1.0 if args.maximize else 1.0
-    command = " ".join(["rftfem optimize", _quote(args.scene),
-                        *[f"--vary {_quote(v)}" for v in args.vary],
-                        f"--objective {_quote(args.objective)}",
-                        *(["--maximize"] if args.maximize else []),
-                        *[f"--constraint {_quote(c)}" for c in args.constraint],
-                        f"--method {method}", f"--budget {args.budget}",
-                        *[f"--set {_quote(o)}" for o in args.overrides]])
-    console.out(f"rftfem optimize: {method} over {', '.join(keys)} "
-                f"({'maximise' if sign < 0 else 'minimise'} {args.objective}; at most "
-                f"{args.budget} runs{'; gradients by the adjoint' if gradients else ''}) in {out}")
+    command = " ".join(
+        [
+            "rftfem optimize",
+            _quote(args.scene),
+            *[f"--vary {_quote(v)}" for v in args.vary],
+            f"--objective {_quote(args.objective)}",
+            *(["--maximize"] if args.maximize else []),
+            *[f"--constraint {_quote(c)}" for c in args.constraint],
+            f"--method {method}",
+            f"--budget {args.budget}",
+            *[f"--set {_quote(o)}" for o in args.overrides],
+        ]
+    )
+    console.out(
+        f"rftfem optimize: {method} over {', '.join(keys)} "
+        f"({'maximise' if sign < 0 else 'minimise'} {args.objective}; at most "
+        f"{args.budget} runs{'; gradients by the adjoint' if gradients else ''}) in {out}"
+    )
     if args.jobs > 1 and method in ("nelder-mead", "powell", "cobyla"):
-        console.err(f"rftfem optimize: note: {method} makes one run at a time; --jobs "
-                    f"{args.jobs} has nothing to run side by side (grid and l-bfgs-b do)")
-    ev = Evaluator(args.scene, args.overrides, params, objective, constraints, sign, out,
-                   args.budget, args.jobs, executor, args.reuse, petsc_args, console, gradients)
+        console.err(
+            f"rftfem optimize: note: {method} makes one run at a time; --jobs "
+            f"{args.jobs} has nothing to run side by side (grid and l-bfgs-b do)"
+        )
+    ev = Evaluator(
+        args.scene,
+        args.overrides,
+        params,
+        objective,
+        constraints,
+        sign,
+        out,
+        args.budget,
+        args.jobs,
+        executor,
+        args.reuse,
+        petsc_args,
+        console,
+        gradients,
+    )
     t0 = time.perf_counter()
     try:
         why = search(method, ev, [p.to_unit(p.start) for p in params], args.budget)
@@ -309,23 +407,32 @@ def main(args, petsc_args: list[str], console) -> int:
         best = ev.best()
         if best is not None:
             write_best(ev, best, out / "best.toml", command)
-        drawn = plot(ev, out / "optimize.png", command if len(command) < 110
-                     else command[:107] + "...")
+        drawn = plot(
+            ev, out / "optimize.png", command if len(command) < 110 else command[:107] + "..."
+        )
     report([(e.note, e.folder.name) for e in ev.evaluations], console, "optimize")
     n_failed = sum(e.status == "failed" for e in ev.evaluations)
     n_reused = sum(e.reused for e in ev.evaluations)
-    console.out(f"rftfem optimize: {why}; {len(ev.evaluations)} runs"
-                + (f" ({n_failed} failed)" if n_failed else "")
-                + (f" ({n_reused} reused)" if n_reused else "")
-                + f" in {time.perf_counter() - t0:.0f} s")
+    console.out(
+        f"rftfem optimize: {why}; {len(ev.evaluations)} runs"
+        + (f" ({n_failed} failed)" if n_failed else "")
+        + (f" ({n_reused} reused)" if n_reused else "")
+        + f" in {time.perf_counter() - t0:.0f} s"
+    )
     if best is None:
         console.err(f"rftfem optimize: no run succeeded; optimize.csv in {out}")
         return 0
-    console.out(f"best: {best.folder.name}, objective {best.objective:.8g}"
-                + ("" if best.status == "ok" else " (no evaluation met the constraints)")
-                + "; " + ", ".join(f"{p.key} = {v:.8g}" for p, v in zip(params, best.x)))
-    console.err("rftfem optimize: optimize.csv, best.toml"
-                + (", optimize.png" if drawn else "") + f" in {out}")
+    console.out(
+        f"best: {best.folder.name}, objective {best.objective:.8g}"
+        + ("" if best.status == "ok" else " (no evaluation met the constraints)")
+        + "; "
+        + ", ".join(f"{p.key} = {v:.8g}" for p, v in zip(params, best.x))
+    )
+    console.err(
+        "rftfem optimize: optimize.csv, best.toml"
+        + (", optimize.png" if drawn else "")
+        + f" in {out}"
+    )
     return 0
 
 
@@ -345,5 +452,4 @@ def _quote(arg: str) -> str:
     return shlex.quote(arg)
 
 
-__all__ = ["main", "add_arguments", "search",
-           "METHODS", "DEFAULT_METHOD", "DESCRIPTION", "EPILOG"]
+__all__ = ["main", "add_arguments", "search", "METHODS", "DEFAULT_METHOD", "DESCRIPTION", "EPILOG"]

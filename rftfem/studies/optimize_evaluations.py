@@ -22,11 +22,11 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from rftfem.errors import SceneError
 from rftfem.scene import toml_writer
 from rftfem.scene.overrides import lookup
 from rftfem.studies.batch import failure_reason
 from rftfem.studies.reuse import keep_key, key_of, reused, status_of
-from rftfem.errors import SceneError
 
 #: forward-difference step of l-bfgs-b without an adjoint, a fraction of each interval
 FD_STEP = 1e-3
@@ -34,7 +34,6 @@ FD_STEP = 1e-3
 
 class BudgetSpent(Exception):
     """The budget of runs is used up: the method stops with the best so far."""
-
 
 
 # --- the parameters ----------------------------------------------------------------
@@ -48,9 +47,9 @@ class Parameter:
     lo: float
     hi: float
     log: bool
-    set_key: str            # the key of --set (the vector's for a component)
-    index: int | None       # the component, or None
-    vector: list | None     # the scene's vector (for a component)
+    set_key: str  # the key of --set (the vector's for a component)
+    index: int | None  # the component, or None
+    vector: list | None  # the scene's vector (for a component)
     start: float
 
     def from_unit(self, z: float) -> float:
@@ -83,13 +82,15 @@ def parse_vary(text: str, scene: dict) -> Parameter:
     key = key.strip()
     bits = [b.strip() for b in rng.split(":")]
     if not sep or not key or len(bits) not in (2, 3) or (len(bits) == 3 and bits[2] != "log"):
-        raise SceneError(f"--vary '{text}': expected KEY=LO:HI or KEY=LO:HI:log "
-                         f"(e.g. shell.E=1e5:1e7:log)")
+        raise SceneError(
+            f"--vary '{text}': expected KEY=LO:HI or KEY=LO:HI:log (e.g. shell.E=1e5:1e7:log)"
+        )
     try:
         lo, hi = float(bits[0]), float(bits[1])
     except ValueError:
-        raise SceneError(f"--vary '{text}': expected numbers LO and HI, found "
-                         f"'{bits[0]}' and '{bits[1]}'") from None
+        raise SceneError(
+            f"--vary '{text}': expected numbers LO and HI, found '{bits[0]}' and '{bits[1]}'"
+        ) from None
     log = len(bits) == 3
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise SceneError(f"--vary '{text}': expected finite LO < HI, found {lo:g} and {hi:g}")
@@ -97,12 +98,17 @@ def parse_vary(text: str, scene: dict) -> Parameter:
         raise SceneError(f"--vary '{text}': a log scale needs LO > 0, found {lo:g}")
     head, _, last = key.rpartition(".")
     value, set_key, index, vector = lookup(scene, key), key, None, None
-    if isinstance(lookup(scene, head), list) and re.fullmatch(r"\d+", last) \
-            and not isinstance(value, dict):
+    if (
+        isinstance(lookup(scene, head), list)
+        and re.fullmatch(r"\d+", last)
+        and not isinstance(value, dict)
+    ):
         vector, set_key, index = list(lookup(scene, head)), head, int(last)
     if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-        raise SceneError(f"--vary {key}: expected a key with a number value, found "
-                         f"{toml_writer.value(value) if not isinstance(value, dict) else 'a table'}")
+        raise SceneError(
+            f"--vary {key}: expected a key with a number value, found "
+            f"{toml_writer.value(value) if not isinstance(value, dict) else 'a table'}"
+        )
     start = float(value) if value is not None and lo <= value <= hi else None
     p = Parameter(key, lo, hi, log, set_key, index, vector, math.nan)
     p.start = start if start is not None else p.from_unit(0.5)
@@ -125,15 +131,30 @@ class Evaluation:
     wall: float | None = None
     reused: bool = False
     note: str = ""  # why a finished run was not reused, or not keyed (reuse.report)
-    gradient: list | None = None   # d objective / d x (the adjoint's), if computed
+    gradient: list | None = None  # d objective / d x (the adjoint's), if computed
 
 
 class Evaluator:
     """Runs evaluations (a folder each), reads their objective and constraints, writes
     the CSV rows, keeps the best; ``merit(z)`` is what a method minimises."""
 
-    def __init__(self, scene_file, overrides, params, objective, constraints, sign, out,
-                 budget, jobs, executor, reuse, petsc_args, console, gradients=False):
+    def __init__(
+        self,
+        scene_file,
+        overrides,
+        params,
+        objective,
+        constraints,
+        sign,
+        out,
+        budget,
+        jobs,
+        executor,
+        reuse,
+        petsc_args,
+        console,
+        gradients=False,
+    ):
         self.scene_file, self.overrides, self.params = scene_file, list(overrides), params
         self.objective, self.constraints, self.sign = objective, constraints, sign
         self.out, self.budget, self.jobs, self.reuse = out, budget, jobs, reuse
@@ -145,9 +166,20 @@ class Evaluator:
         self._cache: dict[tuple, Evaluation] = {}
         self._csv = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
         self._writer = csv.writer(self._csv, lineterminator="\n")
-        self._writer.writerow(["evaluation", "folder", "status", *[p.key for p in params],
-                               "objective", *[c.text for c in constraints], "merit",
-                               "wall_s", "reused", "failure"])
+        self._writer.writerow(
+            [
+                "evaluation",
+                "folder",
+                "status",
+                *[p.key for p in params],
+                "objective",
+                *[c.text for c in constraints],
+                "merit",
+                "wall_s",
+                "reused",
+                "failure",
+            ]
+        )
         self._csv.flush()
 
     def close(self):
@@ -174,8 +206,9 @@ class Evaluator:
             if ev is None:
                 if len(self.evaluations) >= self.budget:
                     break
-                ev = Evaluation(len(self.evaluations) + 1,
-                                self.out / f"eval-{len(self.evaluations) + 1:04d}", x)
+                ev = Evaluation(
+                    len(self.evaluations) + 1, self.out / f"eval-{len(self.evaluations) + 1:04d}", x
+                )
                 self.evaluations.append(ev)
                 self._cache[self._key(x)] = ev
                 todo.append(ev)
@@ -189,7 +222,7 @@ class Evaluator:
             # then does not depend on which run ended first)
             with ThreadPoolExecutor(max_workers=self.jobs) as pool:
                 for k in range(0, len(todo), self.jobs):
-                    chunk = todo[k:k + self.jobs]
+                    chunk = todo[k : k + self.jobs]
                     list(pool.map(self._run, chunk))
                     for ev in chunk:
                         self._score(ev)
@@ -214,14 +247,22 @@ class Evaluator:
                 from rftfem.studies.gradient_runs import run_with_gradient
 
                 status, _, _ = run_with_gradient(
-                    self.scene_file, overrides, ev.folder, [p.key for p in self.params],
-                    adjoint_quantity(self.objective).text, self.petsc_args)
+                    self.scene_file,
+                    overrides,
+                    ev.folder,
+                    [p.key for p in self.params],
+                    adjoint_quantity(self.objective).text,
+                    self.petsc_args,
+                )
             else:
-                status = self.executor.run(self.scene_file, overrides, ev.folder,
-                                           self.petsc_args)
+                status = self.executor.run(self.scene_file, overrides, ev.folder, self.petsc_args)
             if status_of(ev.folder) in FINISHED:  # a run to read again: key it
-                ev.note = keep_key(ev.folder, key, self.scene_file, overrides,
-                                   self.petsc_args, "optimisation") or ev.note
+                ev.note = (
+                    keep_key(
+                        ev.folder, key, self.scene_file, overrides, self.petsc_args, "optimisation"
+                    )
+                    or ev.note
+                )
         ev.wall = time.perf_counter() - t0
         self._read(ev, status)
 
@@ -246,8 +287,9 @@ class Evaluator:
             ev.status, ev.failure = "failed", failure_reason(ev.folder / "run.log", status)
             return
         if status != 0 or run.status != "ok":
-            reason = (run.summary.get("failure") or {}).get("reason") or \
-                failure_reason(ev.folder / "run.log", status)
+            reason = (run.summary.get("failure") or {}).get("reason") or failure_reason(
+                ev.folder / "run.log", status
+            )
             ev.status, ev.failure = "failed", str(reason)
             return
         try:
@@ -262,11 +304,16 @@ class Evaluator:
             ev.gradient = _read_gradient(run, self.objective, self.params)
 
     def _score(self, ev: Evaluation) -> None:
-        ok = [e for e in self.evaluations if e.status in ("ok", "infeasible")
-              and e is not ev and not math.isnan(e.merit)]
+        ok = [
+            e
+            for e in self.evaluations
+            if e.status in ("ok", "infeasible") and e is not ev and not math.isnan(e.merit)
+        ]
         if ev.status == "ok":
-            violation = sum(c.violation(v) / max(abs(c.bound), 1e-300)
-                            for c, v in zip(self.constraints, ev.constraints))
+            violation = sum(
+                c.violation(v) / max(abs(c.bound), 1e-300)
+                for c, v in zip(self.constraints, ev.constraints)
+            )
             scale = max([abs(e.objective) for e in ok] + [abs(ev.objective), 1e-300])
             ev.merit = self.sign * ev.objective + 10.0 * scale * violation
             if violation > 0:
@@ -285,13 +332,25 @@ class Evaluator:
             + "  ".join(f"{p.key}={v:.6g}" for p, v in zip(self.params, ev.x))
             + (f"  objective {ev.objective:.6g}" if ev.objective is not None else "")
             + (f"; {ev.failure}" if ev.failure else "")
-            + (f"  (best {best.objective:.6g}, {best.folder.name})" if best else ""))
+            + (f"  (best {best.objective:.6g}, {best.folder.name})" if best else "")
+        )
 
     def _write(self, ev: Evaluation) -> None:
         cons = ev.constraints or [None] * len(self.constraints)
-        self._writer.writerow([ev.index, ev.folder.name, ev.status, *[repr(v) for v in ev.x],
-                               _num(ev.objective), *[_num(v) for v in cons], _num(ev.merit),
-                               _num(ev.wall, ".3f"), int(ev.reused), ev.failure])
+        self._writer.writerow(
+            [
+                ev.index,
+                ev.folder.name,
+                ev.status,
+                *[repr(v) for v in ev.x],
+                _num(ev.objective),
+                *[_num(v) for v in cons],
+                _num(ev.merit),
+                _num(ev.wall, ".3f"),
+                int(ev.reused),
+                ev.failure,
+            ]
+        )
         self._csv.flush()
 
     def best(self) -> Evaluation | None:
@@ -316,8 +375,10 @@ class Evaluator:
         ev = self.evaluate([z])[0]
         if ev.status not in ("ok", "infeasible"):
             return [-1.0] * len(self.constraints)
-        return [((c.bound - v) if c.sense == "<=" else (v - c.bound)) / max(abs(c.bound), 1e-300)
-                for c, v in zip(self.constraints, ev.constraints)]
+        return [
+            ((c.bound - v) if c.sense == "<=" else (v - c.bound)) / max(abs(c.bound), 1e-300)
+            for c, v in zip(self.constraints, ev.constraints)
+        ]
 
     def merit_and_gradient(self, z):
         """The merit and its gradient in the unit box: the adjoint's when the runs give
@@ -371,10 +432,14 @@ def _read_gradient(run, objective, params) -> list | None:
         name, v = f"q{i}", env[f"q{i}"]
         h = 1e-6 * max(abs(v), 1e-300)
         up, down = dict(env, **{name: v + h}), dict(env, **{name: v - h})
-        dfdq = (float(objective.formula.numbers(up)) - float(objective.formula.numbers(down))) \
-            / (2 * h)
-        dq = ([1.0 if q.key == p.key else 0.0 for p in params] if isinstance(q, SceneValue)
-              else dq_run)
+        dfdq = (float(objective.formula.numbers(up)) - float(objective.formula.numbers(down))) / (
+            2 * h
+        )
+        dq = (
+            [1.0 if q.key == p.key else 0.0 for p in params]
+            if isinstance(q, SceneValue)
+            else dq_run
+        )
         total = [t + dfdq * d for t, d in zip(total, dq)]
     return total
 
@@ -383,6 +448,12 @@ def _num(v, fmt: str = ".10g") -> str:
     return "" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, fmt)
 
 
-
-__all__ = ["Parameter", "parse_vary", "Evaluation", "Evaluator", "BudgetSpent", "FD_STEP",
-           "adjoint_quantity"]
+__all__ = [
+    "Parameter",
+    "parse_vary",
+    "Evaluation",
+    "Evaluator",
+    "BudgetSpent",
+    "FD_STEP",
+    "adjoint_quantity",
+]

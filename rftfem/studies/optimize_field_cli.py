@@ -12,8 +12,12 @@ import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.studies import objective as objectives
-from rftfem.studies.optimize_fields import (optimize_field, parse_field_constraint,
-                                            parse_vary_field, run_quantities)
+from rftfem.studies.optimize_fields import (
+    optimize_field,
+    parse_field_constraint,
+    parse_vary_field,
+    run_quantities,
+)
 
 __all__ = ["main"]
 
@@ -25,42 +29,55 @@ def main(args, petsc_args, console) -> int:
     if args.vary:
         raise SceneError("--vary-field: not with --vary (one search over a field's values)")
     if args.objective is None:
-        raise SceneError("--objective: give the quantity to optimise (e.g. --objective "
-                         "'tip_uz@end')")
+        raise SceneError(
+            "--objective: give the quantity to optimise (e.g. --objective 'tip_uz@end')"
+        )
     if args.budget < 1:
         raise SceneError(f"--budget: expected at least 1 run, found {args.budget}")
     if args.np != 1 or args.jobs != 1 or args.executor != "local":
-        raise SceneError("--vary-field: the runs and their gradients are taken in this "
-                         "process, one at a time (no --np, --jobs or --executor)")
+        raise SceneError(
+            "--vary-field: the runs and their gradients are taken in this "
+            "process, one at a time (no --np, --jobs or --executor)"
+        )
     if args.reuse:
-        raise SceneError("--reuse: not with --vary-field (each search runs its evaluations "
-                         "afresh)")
+        raise SceneError("--reuse: not with --vary-field (each search runs its evaluations afresh)")
     constraints = [parse_field_constraint(c) for c in args.constraint]
     method = (args.method or ("slsqp" if constraints else "l-bfgs-b")).strip().lower()
     method = method.replace("_", "-").replace("lbfgsb", "l-bfgs-b")
     if method not in ("l-bfgs-b", "slsqp"):
-        raise SceneError(f"--method {args.method}: --vary-field searches with l-bfgs-b "
-                         "(bounds) or slsqp (bounds and constraints)")
+        raise SceneError(
+            f"--method {args.method}: --vary-field searches with l-bfgs-b "
+            "(bounds) or slsqp (bounds and constraints)"
+        )
     if method == "l-bfgs-b" and constraints:
-        raise SceneError("--constraint: l-bfgs-b takes bounds only; with --vary-field and a "
-                         "constraint the method is slsqp (the default)")
+        raise SceneError(
+            "--constraint: l-bfgs-b takes bounds only; with --vary-field and a "
+            "constraint the method is slsqp (the default)"
+        )
     args.method = method
     scene = load_scene(args.scene, args.overrides)
     if resolved_scheme(scene) != "static":
-        raise SceneError("--vary-field: field gradients are for static scenes (time.scheme "
-                         '= "static")')
+        raise SceneError(
+            '--vary-field: field gradients are for static scenes (time.scheme = "static")'
+        )
     objective = objectives.parse(args.objective)
     texts, _ = run_quantities(objective)
     if not texts or not all(supports([], text, scene) for text in texts):
-        raise SceneError(f"--objective '{args.objective}': --vary-field needs a formula of "
-                         "quantities the adjoint differentiates (probes' displacements at "
-                         "end, centroid_x|y|z@end, elastic_energy@end)")
+        raise SceneError(
+            f"--objective '{args.objective}': --vary-field needs a formula of "
+            "quantities the adjoint differentiates (probes' displacements at "
+            "end, centroid_x|y|z@end, elastic_energy@end)"
+        )
     design = parse_vary_field(args.vary_field, scene)
     if isinstance(scene["shell"][design.name], str):  # a formula becomes a profile
-        console.err(f"rftfem optimize: note: {design.key}'s formula is sampled at the "
-                    f"{len(design.start)} grid points, linear between them: the search "
-                    "starts from that profile, not from the formula itself")
-    out = args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
+        console.err(
+            f"rftfem optimize: note: {design.key}'s formula is sampled at the "
+            f"{len(design.start)} grid points, linear between them: the search "
+            "starts from that profile, not from the formula itself"
+        )
+    out = (
+        args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
+    )
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -68,16 +85,20 @@ def main(args, petsc_args, console) -> int:
     for old in out.glob("eval-[0-9]*"):
         shutil.rmtree(old, ignore_errors=True)
     sign = -1.0 if args.maximize else 1.0
-    console.out(f"rftfem optimize: {method} over the "
-                f"{len(design.start)} values of {design.key} in [{design.lo:g}, {design.hi:g}] "
-                f"({'maximise' if sign < 0 else 'minimise'} {args.objective}"
-                + "".join(f"; {c.text}" for c in constraints)
-                + f"; at most {args.budget} runs; gradients by the adjoint) in {out}")
+    console.out(
+        f"rftfem optimize: {method} over the "
+        f"{len(design.start)} values of {design.key} in [{design.lo:g}, {design.hi:g}] "
+        f"({'maximise' if sign < 0 else 'minimise'} {args.objective}"
+        + "".join(f"; {c.text}" for c in constraints)
+        + f"; at most {args.budget} runs; gradients by the adjoint) in {out}"
+    )
     t0 = time.perf_counter()
-    best, why, evaluations = optimize_field(args, design, objective, constraints, sign, out,
-                                            petsc_args, console)
-    console.out(f"rftfem optimize: {why}; {len(evaluations)} runs in "
-                f"{time.perf_counter() - t0:.0f} s")
+    best, why, evaluations = optimize_field(
+        args, design, objective, constraints, sign, out, petsc_args, console
+    )
+    console.out(
+        f"rftfem optimize: {why}; {len(evaluations)} runs in {time.perf_counter() - t0:.0f} s"
+    )
     drawn = _plot(design, evaluations, best, sign, out / "optimize.png", args.objective)
     if best is None:
         console.err(f"rftfem optimize: no run met the constraints; optimize.csv in {out}")
@@ -85,11 +106,16 @@ def main(args, petsc_args, console) -> int:
     design.write(best.values, out / f"best-{design.name}.csv")
     _write_best(args, design, best, out)
     start = evaluations[0]
-    console.out(f"best: {best.folder.name}, objective {best.objective:.8g} (start "
-                f"{start.objective:.8g}); mass {best.totals['mass']:.6g}, volume "
-                f"{best.totals['volume']:.6g}")
-    console.err(f"rftfem optimize: optimize.csv, best-{design.name}.csv, best.toml"
-                + (", optimize.png" if drawn else "") + f" in {out}")
+    console.out(
+        f"best: {best.folder.name}, objective {best.objective:.8g} (start "
+        f"{start.objective:.8g}); mass {best.totals['mass']:.6g}, volume "
+        f"{best.totals['volume']:.6g}"
+    )
+    console.err(
+        f"rftfem optimize: optimize.csv, best-{design.name}.csv, best.toml"
+        + (", optimize.png" if drawn else "")
+        + f" in {out}"
+    )
     return 0
 
 
@@ -106,14 +132,17 @@ def _write_best(args, design, best, out: Path) -> None:
     for table, key in _file_keys(raw):
         table[key] = str((folder / Path(table[key]).expanduser()).resolve())
     raw.setdefault("shell", {})[design.name] = {"profile": f"best-{design.name}.csv"}
-    header = (f"The best evaluation of rftfem optimize --vary-field {args.vary_field}: "
-              f"{best.folder.name}, objective {best.objective!r}")
+    header = (
+        f"The best evaluation of rftfem optimize --vary-field {args.vary_field}: "
+        f"{best.folder.name}, objective {best.objective!r}"
+    )
     (out / "best.toml").write_text(toml_writer.document(raw, header), encoding="utf-8")
 
 
 def _plot(design, evaluations, best, sign, path: Path, title: str) -> bool:
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:

@@ -54,34 +54,41 @@ class FieldDesign:
         return self.key.split(".")[-1]
 
     def write(self, values: np.ndarray, path: Path) -> None:
-        rows = "\n".join(f"{p[0]!r},{p[1]!r},{p[2]!r},{float(v)!r}"
-                         for p, v in zip(self.points.tolist(), values))
+        rows = "\n".join(
+            f"{p[0]!r},{p[1]!r},{p[2]!r},{float(v)!r}" for p, v in zip(self.points.tolist(), values)
+        )
         path.write_text(f"X,Y,Z,{self.name}\n{rows}\n", encoding="utf-8")
 
 
 @dataclass
 class FieldConstraint:
     text: str
-    name: str       # mass or volume
-    sense: str      # <=, >= or =
+    name: str  # mass or volume
+    sense: str  # <=, >= or =
     bound: float | None  # None: the start's value
 
 
 def parse_vary_field(text: str, scene: dict) -> FieldDesign:
-    from rftfem.scene.profiles import read_profile
     from rftfem.scene.fields import field_values, profile_file
+    from rftfem.scene.profiles import read_profile
     from rftfem.studies.field_gradients import FIELD_KEYS
 
     key, sep, rng = text.partition("=")
     key = key.strip()
     bits = [b.strip() for b in rng.split(":")]
     if not sep or len(bits) != 2:
-        raise SceneError(f"--vary-field '{text}': expected KEY=LO:HI "
-                         "(e.g. shell.thickness=0.05:0.2)")
-    if key not in FIELD_KEYS or key in ("shell.E", "shell.nu") and \
-            scene["shell"]["material"] == "orthotropic":
-        raise SceneError(f"--vary-field '{text}': expected one of {', '.join(FIELD_KEYS)} "
-                         "(E and nu of an isotropic shell)")
+        raise SceneError(
+            f"--vary-field '{text}': expected KEY=LO:HI (e.g. shell.thickness=0.05:0.2)"
+        )
+    if (
+        key not in FIELD_KEYS
+        or key in ("shell.E", "shell.nu")
+        and scene["shell"]["material"] == "orthotropic"
+    ):
+        raise SceneError(
+            f"--vary-field '{text}': expected one of {', '.join(FIELD_KEYS)} "
+            "(E and nu of an isotropic shell)"
+        )
     try:
         lo, hi = float(bits[0]), float(bits[1])
     except ValueError:
@@ -90,15 +97,18 @@ def parse_vary_field(text: str, scene: dict) -> FieldDesign:
         raise SceneError(f"--vary-field '{text}': expected finite LO < HI")
     value = scene["shell"][key.split(".")[-1]]
     if isinstance(value, dict):
-        points, values = read_profile(profile_file(scene, value["profile"]),
-                                      f"{key}.profile", columns=1, names="value")
+        points, values = read_profile(
+            profile_file(scene, value["profile"]), f"{key}.profile", columns=1, names="value"
+        )
         start = values[:, 0]
     else:
         mesh = scene["mesh"]
         if mesh["kind"] != "strip":
-            raise SceneError(f"--vary-field {key}: the mesh is not a strip; give {key} as a "
-                             'profile ({ profile = "file.csv" }): its grid values are the '
-                             "design's variables")
+            raise SceneError(
+                f"--vary-field {key}: the mesh is not a strip; give {key} as a "
+                'profile ({ profile = "file.csv" }): its grid values are the '
+                "design's variables"
+            )
         nx, ny = mesh["divisions"]
         X, Y = np.linspace(0.0, mesh["length"], nx + 1), np.linspace(0.0, mesh["width"], ny + 1)
         points = np.array([[x, y, 0.0] for y in Y for x in X])
@@ -109,15 +119,18 @@ def parse_vary_field(text: str, scene: dict) -> FieldDesign:
 def parse_field_constraint(text: str) -> FieldConstraint:
     m = re.fullmatch(r"\s*(mass|volume)\s*(<=|>=|==|=)\s*(\S+)\s*", text)
     if m is None:
-        raise SceneError(f"--constraint '{text}': with --vary-field expected mass or volume, "
-                         "=, <= or >=, and a number or 'start' (e.g. 'mass=start')")
+        raise SceneError(
+            f"--constraint '{text}': with --vary-field expected mass or volume, "
+            "=, <= or >=, and a number or 'start' (e.g. 'mass=start')"
+        )
     bound = None
     if m[3] != "start":
         try:
             bound = float(m[3])
         except ValueError:
-            raise SceneError(f"--constraint '{text}': expected a number or 'start' after "
-                             f"'{m[2]}'") from None
+            raise SceneError(
+                f"--constraint '{text}': expected a number or 'start' after '{m[2]}'"
+            ) from None
     return FieldConstraint(text, m[1], "=" if m[2] in ("=", "==") else m[2], bound)
 
 
@@ -138,8 +151,9 @@ class _Budget(Exception):
     pass
 
 
-def optimize_field(args, design: FieldDesign, objective, constraints, sign, out: Path,
-                   petsc_args, console) -> tuple[_Evaluation | None, str, list]:
+def optimize_field(
+    args, design: FieldDesign, objective, constraints, sign, out: Path, petsc_args, console
+) -> tuple[_Evaluation | None, str, list]:
     """Run the search; the best feasible evaluation, why it stopped, all evaluations."""
     from scipy import optimize
 
@@ -151,8 +165,19 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
     span = design.hi - design.lo
     handle = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
     writer = csv.writer(handle, lineterminator="\n")
-    writer.writerow(["evaluation", "folder", "status", "objective", "mass", "volume",
-                     "gradient_norm", "wall_s", "failure"])
+    writer.writerow(
+        [
+            "evaluation",
+            "folder",
+            "status",
+            "objective",
+            "mass",
+            "volume",
+            "gradient_norm",
+            "wall_s",
+            "failure",
+        ]
+    )
 
     def run(z) -> _Evaluation:
         values = design.lo + span * np.clip(np.asarray(z, float), 0.0, 1.0)
@@ -169,8 +194,14 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
         design.write(values, csv_file)
         t0 = time.perf_counter()
         status, J, grads = run_with_field_gradients(
-            args.scene, [*args.overrides, f'{design.key}="{csv_file}"'], ev.folder,
-            [design.key], texts, petsc_args, combine)
+            args.scene,
+            [*args.overrides, f'{design.key}="{csv_file}"'],
+            ev.folder,
+            [design.key],
+            texts,
+            petsc_args,
+            combine,
+        )
         ev.wall = time.perf_counter() - t0
         if status == 0:
             g = grads[design.key]
@@ -180,15 +211,29 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
                 ev.status = "infeasible"  # asked for by the method on its way
         else:
             ev.failure = f"exit status {status} (see {ev.folder.name}/run.log)"
-        writer.writerow([ev.index, ev.folder.name, ev.status, _num(ev.objective),
-                         _num(ev.totals.get("mass")), _num(ev.totals.get("volume")),
-                         _num(None if ev.gradient is None else float(np.linalg.norm(ev.gradient))),
-                         f"{ev.wall:.3f}", ev.failure])
+        writer.writerow(
+            [
+                ev.index,
+                ev.folder.name,
+                ev.status,
+                _num(ev.objective),
+                _num(ev.totals.get("mass")),
+                _num(ev.totals.get("volume")),
+                _num(None if ev.gradient is None else float(np.linalg.norm(ev.gradient))),
+                f"{ev.wall:.3f}",
+                ev.failure,
+            ]
+        )
         handle.flush()
-        console.out(f"  {ev.folder.name}: {ev.status}"
-                    + (f"  objective {ev.objective:.8g}  mass {ev.totals['mass']:.6g}  "
-                       f"volume {ev.totals['volume']:.6g}" if ev.objective is not None else
-                       f"; {ev.failure}"))
+        console.out(
+            f"  {ev.folder.name}: {ev.status}"
+            + (
+                f"  objective {ev.objective:.8g}  mass {ev.totals['mass']:.6g}  "
+                f"volume {ev.totals['volume']:.6g}"
+                if ev.objective is not None
+                else f"; {ev.failure}"
+            )
+        )
         return ev
 
     z0 = (design.start - design.lo) / span
@@ -201,8 +246,7 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
     def merit(z):
         ev = run(z)
         if ev.objective is None:  # a failed run: worse than any seen, the search steps back
-            worst = max(sign * e.objective for e in evaluations
-                        if e.objective is not None) / scale
+            worst = max(sign * e.objective for e in evaluations if e.objective is not None) / scale
             return worst + max(abs(worst), 1.0), np.zeros(len(z))
         return sign * ev.objective / scale, sign * ev.gradient * span / scale
 
@@ -213,9 +257,10 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
         slope = _linear_slope(first, c.name, span)  # linear: value(z0) + slope·(z − z0)
         if not np.any(slope):
             handle.close()
-            raise SceneError(f"--constraint '{c.text}': the body's {c.name} does not depend "
-                             f"on {design.key}" + (" (its density is 0)" if c.name == "mass"
-                                                   else ""))
+            raise SceneError(
+                f"--constraint '{c.text}': the body's {c.name} does not depend "
+                f"on {design.key}" + (" (its density is 0)" if c.name == "mass" else "")
+            )
 
         def fun(z, c=c, bound=bound, start=start, slope=slope):
             value = start + slope @ (np.asarray(z) - z0)
@@ -229,13 +274,24 @@ def optimize_field(args, design: FieldDesign, objective, constraints, sign, out:
     bounds = [(0.0, 1.0)] * len(z0)
     try:
         if method == "SLSQP":
-            res = optimize.minimize(merit, z0, jac=True, method=method, bounds=bounds,
-                                    constraints=cons,
-                                    options={"maxiter": args.budget, "ftol": F_TOLERANCE})
+            res = optimize.minimize(
+                merit,
+                z0,
+                jac=True,
+                method=method,
+                bounds=bounds,
+                constraints=cons,
+                options={"maxiter": args.budget, "ftol": F_TOLERANCE},
+            )
         else:
-            res = optimize.minimize(merit, z0, jac=True, method=method, bounds=bounds,
-                                    options={"maxiter": args.budget, "ftol": F_TOLERANCE,
-                                             "gtol": 1e-10})
+            res = optimize.minimize(
+                merit,
+                z0,
+                jac=True,
+                method=method,
+                bounds=bounds,
+                options={"maxiter": args.budget, "ftol": F_TOLERANCE, "gtol": 1e-10},
+            )
         why = f"{method}: {res.message}"
     except _Budget:
         why = f"{method}: the budget of {args.budget} runs is spent"
@@ -255,8 +311,11 @@ def _feasible(ev, constraints, first, rtol: float = 1e-6) -> bool:
     for c in constraints:
         bound = first.totals[c.name] if c.bound is None else c.bound
         value, tol = ev.totals[c.name], rtol * max(abs(bound), 1e-300)
-        if (c.sense == "<=" and value > bound + tol) or (c.sense == ">=" and value < bound - tol) \
-                or (c.sense == "=" and abs(value - bound) > tol):
+        if (
+            (c.sense == "<=" and value > bound + tol)
+            or (c.sense == ">=" and value < bound - tol)
+            or (c.sense == "=" and abs(value - bound) > tol)
+        ):
             return False
     return True
 
@@ -269,8 +328,9 @@ def run_quantities(objective) -> tuple[list[str], object]:
 
     run = [i for i, q in enumerate(objective.quantities) if not isinstance(q, SceneValue)]
     if any(isinstance(q, SceneValue) for q in objective.quantities):
-        raise SceneError(f"--objective '{objective.text}': with --vary-field write numbers, "
-                         "not scene(KEY)")
+        raise SceneError(
+            f"--objective '{objective.text}': with --vary-field write numbers, not scene(KEY)"
+        )
 
     def combine(values):
         env = {f"q{i}": float(v) for i, v in zip(run, values)}

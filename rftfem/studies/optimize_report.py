@@ -9,6 +9,7 @@ from pathlib import Path
 from rftfem.scene import toml_writer
 from rftfem.studies.optimize_evaluations import Evaluation, Evaluator
 
+
 def write_best(ev: Evaluator, best: Evaluation, path: Path, command: str) -> None:
     """The best evaluation's scene (the scene file with its overrides) as TOML."""
     from rftfem.scene.reading import apply_override
@@ -19,9 +20,11 @@ def write_best(ev: Evaluator, best: Evaluation, path: Path, command: str) -> Non
     folder = Path(ev.scene_file).resolve().parent
     for table, key in _file_keys(raw):  # relative to the scene file: keep them found
         table[key] = str((folder / Path(table[key]).expanduser()).resolve())
-    header = (f"The best evaluation of: {command}\n"
-              f"{best.folder.name}: objective {best.objective!r} ({best.status}); "
-              + ", ".join(f"{p.key} = {v!r}" for p, v in zip(ev.params, best.x)))
+    header = (
+        f"The best evaluation of: {command}\n"
+        f"{best.folder.name}: objective {best.objective!r} ({best.status}); "
+        + ", ".join(f"{p.key} = {v!r}" for p, v in zip(ev.params, best.x))
+    )
     path.write_text(toml_writer.document(raw, header), encoding="utf-8")
 
 
@@ -29,8 +32,11 @@ def _file_keys(raw: dict) -> list[tuple[dict, str]]:
     """``(table, key)`` of every file a scene names (read relative to its folder):
     ``mesh.file`` and each ``magnetic.parts`` entry's ``profile``."""
     tables = [(raw.get("mesh") or {}, "file")]
-    tables += [(part, "profile") for part in (raw.get("magnetic") or {}).get("parts") or []
-               if isinstance(part, dict)]
+    tables += [
+        (part, "profile")
+        for part in (raw.get("magnetic") or {}).get("parts") or []
+        if isinstance(part, dict)
+    ]
     return [(table, key) for table, key in tables if isinstance(table.get(key), str)]
 
 
@@ -39,6 +45,7 @@ def plot(ev: Evaluator, path: Path, title: str) -> bool:
     parameter's trace; False without matplotlib or evaluations."""
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -52,21 +59,39 @@ def plot(ev: Evaluator, path: Path, title: str) -> bool:
     ok = [e for e in evs if e.objective is not None]
     feasible = [e for e in ok if e.status == "ok"]
     if feasible:
-        ax.plot([e.index for e in feasible], [e.objective for e in feasible], "o",
-                color="C0", label="evaluation")
+        ax.plot(
+            [e.index for e in feasible],
+            [e.objective for e in feasible],
+            "o",
+            color="C0",
+            label="evaluation",
+        )
     bad = [e for e in ok if e.status == "infeasible"]
     if bad:
-        ax.plot([e.index for e in bad], [e.objective for e in bad], "s", mfc="none",
-                color="C1", label="violates a constraint")
+        ax.plot(
+            [e.index for e in bad],
+            [e.objective for e in bad],
+            "s",
+            mfc="none",
+            color="C1",
+            label="violates a constraint",
+        )
     best_so_far, line = None, []
     for e in evs:
-        if e.status == "ok" and (best_so_far is None
-                                 or ev.sign * e.objective < ev.sign * best_so_far):
+        if e.status == "ok" and (
+            best_so_far is None or ev.sign * e.objective < ev.sign * best_so_far
+        ):
             best_so_far = e.objective
         line.append(best_so_far)
     if best_so_far is not None:
-        ax.step([e.index for e in evs], [math.nan if v is None else v for v in line],
-                where="post", color="k", lw=1, label="best so far")
+        ax.step(
+            [e.index for e in evs],
+            [math.nan if v is None else v for v in line],
+            where="post",
+            color="k",
+            lw=1,
+            label="best so far",
+        )
     failed = [e for e in evs if e.objective is None]
     for e in failed:
         ax.axvline(e.index, color="C3", lw=0.8, ls=":")
@@ -88,7 +113,6 @@ def plot(ev: Evaluator, path: Path, title: str) -> bool:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return True
-
 
 
 __all__ = ["write_best", "plot"]

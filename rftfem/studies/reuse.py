@@ -78,8 +78,7 @@ def _digest(path: Path) -> str:
     were)."""
     try:
         st = os.stat(path)
-        stamp = (str(Path(path).resolve()), st.st_size, st.st_mtime_ns, st.st_ctime_ns,
-                 st.st_ino)
+        stamp = (str(Path(path).resolve()), st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino)
         if stamp in _DIGESTS:
             return _DIGESTS[stamp]
         digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
@@ -106,8 +105,11 @@ def key_of(scene: dict, petsc_args=()) -> dict:
         for part in path:
             node = node[int(part)] if isinstance(node, list) else node[part]
         node[last] = "a file: its digest in files"
-    parts = {"scene": hashlib.sha256(_text(values).encode()).hexdigest(), "files": files,
-             "petsc": hashlib.sha256(_text(list(petsc_args)).encode()).hexdigest()}
+    parts = {
+        "scene": hashlib.sha256(_text(values).encode()).hexdigest(),
+        "files": files,
+        "petsc": hashlib.sha256(_text(list(petsc_args)).encode()).hexdigest(),
+    }
     return {"key": hashlib.sha256(_text(parts).encode()).hexdigest(), **parts}
 
 
@@ -146,12 +148,17 @@ def why_not_reused(folder: Path, key: dict, finished=("ok",)) -> str | None:
     try:
         kept = json.loads((folder / KEY_FILE).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return (f"no {KEY_FILE}: a run from before --reuse compared content, or one cut "
-                "short before its key was written")
+        return (
+            f"no {KEY_FILE}: a run from before --reuse compared content, or one cut "
+            "short before its key was written"
+        )
     if kept.get("key") == key["key"]:
         return None
-    what = [f"the content of {name}" for name in sorted(set(key["files"]) | set(kept.get("files", {})))
-            if kept.get("files", {}).get(name) != key["files"].get(name)]
+    what = [
+        f"the content of {name}"
+        for name in sorted(set(key["files"]) | set(kept.get("files", {})))
+        if kept.get("files", {}).get(name) != key["files"].get(name)
+    ]
     if kept.get("scene") != key["scene"]:
         what.insert(0, "the completed scene")
     if kept.get("petsc") != key["petsc"]:
@@ -168,15 +175,18 @@ def reused(folder: Path, key: dict | None, reuse: bool, finished=("ok",)) -> tup
     return False, f"finished run(s) run again, not reused ({why})" if why else ""
 
 
-def keep_key(folder: Path, key: dict | None, scene_file, overrides, petsc_args,
-             command: str) -> str:
+def keep_key(
+    folder: Path, key: dict | None, scene_file, overrides, petsc_args, command: str
+) -> str:
     """After a run in ``folder`` ended well: write ``key`` there if the scene (and the
     files it names) still has it; else the note to report."""
     if key is not None and unchanged(key, scene_file, overrides, petsc_args):
         write_key(folder, key)
         return ""
-    return ("run(s) not keyed for --reuse, the scene or a file it names changed while "
-            f"the {command} ran")
+    return (
+        "run(s) not keyed for --reuse, the scene or a file it names changed while "
+        f"the {command} ran"
+    )
 
 
 def report(notes, console, command: str) -> None:
@@ -188,5 +198,15 @@ def report(notes, console, command: str) -> None:
         console.err(f"rftfem {command}: {len(which)} {note}; the first: {which[0]}")
 
 
-__all__ = ["KEY_FILE", "files_read", "key_of", "unchanged", "write_key", "why_not_reused",
-           "status_of", "reused", "keep_key", "report"]
+__all__ = [
+    "KEY_FILE",
+    "files_read",
+    "key_of",
+    "unchanged",
+    "write_key",
+    "why_not_reused",
+    "status_of",
+    "reused",
+    "keep_key",
+    "report",
+]

@@ -66,12 +66,21 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rftfem.errors import RunFailed, SceneError
+from rftfem.errors import RunFailed
+
 # the request (keys and objective) is checked there; re-exported for callers
-from rftfem.studies.sensitivity_request import (KEYS_SUPPORTED, MATERIAL_FIELDS,  # noqa: F401
-                                        OBJECTIVES_SUPPORTED, PROBE_VALUES, Key, Objective,
-                                        check_request, combined_objective, parse_key,
-                                        supports)
+from rftfem.studies.sensitivity_request import (  # noqa: F401
+    KEYS_SUPPORTED,
+    MATERIAL_FIELDS,
+    OBJECTIVES_SUPPORTED,
+    PROBE_VALUES,
+    Key,
+    Objective,
+    check_request,
+    combined_objective,
+    parse_key,
+    supports,
+)
 
 # --- the state the last step converged to -------------------------------------------
 
@@ -147,8 +156,12 @@ class _Adjoint:
         scene, m = self.model.scene, self.model
         fields = []
         for value in PROBE_VALUES:
-            probe = SimpleNamespace(scene=with_overrides(scene, [f"{key.text}={value!r}"]),
-                                    mesh=m.mesh, body=m.body, comm=m.comm)
+            probe = SimpleNamespace(
+                scene=with_overrides(scene, [f"{key.text}={value!r}"]),
+                mesh=m.mesh,
+                body=m.body,
+                comm=m.comm,
+            )
             Model._init_materials(probe)
             fields.append(probe.material[MATERIAL_FIELDS[key.name]])
         high, low = fields
@@ -334,8 +347,7 @@ class _Adjoint:
         try:
             ksp.solveTranspose(dJdw, lam)
             if ksp.getConvergedReason() < 0:
-                raise RunFailed(f"the adjoint solve failed (KSP reason "
-                                f"{ksp.getConvergedReason()})")
+                raise RunFailed(f"the adjoint solve failed (KSP reason {ksp.getConvergedReason()})")
         finally:
             ksp.destroy()
         lam.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -389,5 +401,12 @@ def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
     return (float(J), out, by_field) if fields else (float(J), out)
 
 
-__all__ = ["gradient", "keep_last_step", "check_request", "supports",
-           "parse_key", "KEYS_SUPPORTED", "OBJECTIVES_SUPPORTED"]
+__all__ = [
+    "gradient",
+    "keep_last_step",
+    "check_request",
+    "supports",
+    "parse_key",
+    "KEYS_SUPPORTED",
+    "OBJECTIVES_SUPPORTED",
+]

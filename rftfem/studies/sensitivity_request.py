@@ -12,12 +12,16 @@ from rftfem.errors import SceneError
 #: the material keys and the Model's field each one sets (Model._init_materials)
 MATERIAL_FIELDS = {"E": "E", "nu": "nu", "thickness": "t", "density": "rho"}
 #: what can be differentiated, for the messages
-KEYS_SUPPORTED = ("shell.E, shell.nu, shell.thickness, shell.density, the same of "
-                  "shell.parts.N, load.N.value.I (component I of a vector load), load.N.value "
-                  "(a pressure), magnetic.parts.N.magnetization or magnetic.field.strength")
-OBJECTIVES_SUPPORTED = ("PROBE_ux@end, PROBE_uy@end, PROBE_uz@end (PROBE one of "
-                        "output.probes), centroid_x@end, centroid_y@end, centroid_z@end or "
-                        "elastic_energy@end")
+KEYS_SUPPORTED = (
+    "shell.E, shell.nu, shell.thickness, shell.density, the same of "
+    "shell.parts.N, load.N.value.I (component I of a vector load), load.N.value "
+    "(a pressure), magnetic.parts.N.magnetization or magnetic.field.strength"
+)
+OBJECTIVES_SUPPORTED = (
+    "PROBE_ux@end, PROBE_uy@end, PROBE_uz@end (PROBE one of "
+    "output.probes), centroid_x@end, centroid_y@end, centroid_z@end or "
+    "elastic_energy@end"
+)
 BODY_OBJECTIVES = ("centroid_x", "centroid_y", "centroid_z", "elastic_energy")
 #: the two values a material key is set to, to find the cells it decides: exact in
 #: binary, admissible for every material key (ν < 1/2)
@@ -65,21 +69,27 @@ def _entries(scene: dict, path: str) -> list:
 
 def _check_key(scene: dict, key: Key) -> None:
     """The key against the scene: the entry exists and its value is differentiable."""
+
     def fail(why: str):
         raise SceneError(f"gradient key '{key.text}': {why}")
 
     if key.kind in ("material", "load", "magnetization") and key.index is not None:
-        table = {"material": "shell.parts", "load": "load",
-                 "magnetization": "magnetic.parts"}[key.kind]
+        table = {"material": "shell.parts", "load": "load", "magnetization": "magnetic.parts"}[
+            key.kind
+        ]
         n = len(_entries(scene, table))
         if key.index >= n:
-            fail(f"index {key.index} out of range, the scene has {n} [[{table}]] "
-                 f"entr{'y' if n == 1 else 'ies'}")
+            fail(
+                f"index {key.index} out of range, the scene has {n} [[{table}]] "
+                f"entr{'y' if n == 1 else 'ies'}"
+            )
     if key.kind == "material":
         holder = scene["shell"] if key.index is None else scene["shell"]["parts"][key.index]
         if isinstance(holder.get(key.name), (str, dict)):
-            fail("the value is a field (a formula or profile); its gradient is one value "
-                 "per cell or profile point (rftfem optimize --vary-field)")
+            fail(
+                "the value is a field (a formula or profile); its gradient is one value "
+                "per cell or profile point (rftfem optimize --vary-field)"
+            )
         if key.name in ("E", "nu") and scene["shell"]["material"] == "orthotropic":
             fail("the shell is orthotropic; E and nu are not used")
     if key.kind == "load":
@@ -88,21 +98,26 @@ def _check_key(scene: dict, key: Key) -> None:
         if "value" not in load:
             fail(f"a load of kind '{load['kind']}' has no value")
         if vector and key.component is None:
-            fail(f"the value of a '{load['kind']}' load is a vector; give its component "
-                 f"(load.{key.index}.value.0, .1 or .2)")
+            fail(
+                f"the value of a '{load['kind']}' load is a vector; give its component "
+                f"(load.{key.index}.value.0, .1 or .2)"
+            )
         if not vector and key.component is not None:
-            fail(f"the value of a '{load['kind']}' load is a number; the key is "
-                 f"load.{key.index}.value")
+            fail(
+                f"the value of a '{load['kind']}' load is a number; the key is "
+                f"load.{key.index}.value"
+            )
     if key.kind in ("magnetization", "strength") and not scene.get("magnetic"):
         fail("the scene has no [magnetic]")
     if key.kind == "magnetization":
         part = scene["magnetic"]["parts"][key.index]
         if not isinstance(part["magnetization"], (int, float)):
-            fail("only a part magnetized by a plain number (no formula, no profile) is "
-                 "supported")
+            fail("only a part magnetized by a plain number (no formula, no profile) is supported")
         if part["magnetization"] <= 0 or any(isinstance(v, str) for v in part["direction"]):
-            fail("the magnetization must be a number > 0 (a part at 0 is left out of the "
-                 "forms) with a direction of numbers")
+            fail(
+                "the magnetization must be a number > 0 (a part at 0 is left out of the "
+                "forms) with a direction of numbers"
+            )
     if key.kind == "strength" and scene["magnetic"]["field"]["kind"] != "rotating":
         fail('the strength is a value of the field of kind "rotating" only')
 
@@ -113,7 +128,7 @@ class Objective:
 
     text: str
     column: str
-    probe: int | None = None   # the probe's index in output.probes
+    probe: int | None = None  # the probe's index in output.probes
     component: int | None = None
 
 
@@ -123,13 +138,17 @@ def check_request(scene: dict, keys: list[str], objective: str) -> tuple[list[Ke
     from rftfem.outputs.quantities import parse
 
     if scene["time"]["scheme"] != "static":
-        raise SceneError(f"gradients: time.scheme resolves to '{scene['time']['scheme']}'; "
-                         'adjoint sensitivities are for static runs (time.scheme = "static") '
-                         "only (docs/model.md §7.6)")
+        raise SceneError(
+            f"gradients: time.scheme resolves to '{scene['time']['scheme']}'; "
+            'adjoint sensitivities are for static runs (time.scheme = "static") '
+            "only (docs/model.md §7.6)"
+        )
     if scene.get("contact"):
-        raise SceneError("gradients: the scene has [[contact]], whose friction depends on the "
-                         "path of the load steps; adjoint sensitivities are for scenes "
-                         "without contact (use finite differences: rftfem study)")
+        raise SceneError(
+            "gradients: the scene has [[contact]], whose friction depends on the "
+            "path of the load steps; adjoint sensitivities are for scenes "
+            "without contact (use finite differences: rftfem study)"
+        )
     parsed = [parse_key(k) for k in keys]
     for key in parsed:
         _check_key(scene, key)
@@ -145,8 +164,10 @@ def check_request(scene: dict, keys: list[str], objective: str) -> tuple[list[Ke
     names = [p["name"] for p in scene["output"]["probes"]]
     m = re.fullmatch(r"(.+)_u([xyz])", q.column)
     if m is None or m[1] not in names:
-        raise SceneError(f"objective '{objective}': expected one of {OBJECTIVES_SUPPORTED}"
-                         f" (probes: {', '.join(names) or 'none'})")
+        raise SceneError(
+            f"objective '{objective}': expected one of {OBJECTIVES_SUPPORTED}"
+            f" (probes: {', '.join(names) or 'none'})"
+        )
     return parsed, Objective(objective, q.column, names.index(m[1]), "xyz".index(m[2]))
 
 
@@ -164,8 +185,11 @@ def supports(keys: list[str], objective: str, scene: dict | None = None) -> bool
         q = parse(objective)
     except SceneError:
         return False
-    return q.func == "at" and q.a == "end" and (
-        q.column in BODY_OBJECTIVES or re.fullmatch(r".+_u[xyz]", q.column) is not None)
+    return (
+        q.func == "at"
+        and q.a == "end"
+        and (q.column in BODY_OBJECTIVES or re.fullmatch(r".+_u[xyz]", q.column) is not None)
+    )
 
 
 def combined_objective(adj, objectives, combine):
@@ -180,4 +204,3 @@ def combined_objective(adj, objectives, combine):
         g.destroy()
     forms = [w * form for (_, _, form), w in zip(parts, weights) if form is not None]
     return J, dJdw, (sum(forms[1:], forms[0]) if forms else None)
-

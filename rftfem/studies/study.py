@@ -60,11 +60,11 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from rftfem.errors import SceneError
 from rftfem.studies import executors
 from rftfem.studies.batch import failure_reason
-from rftfem.studies.reuse import keep_key, key_of, report, reused
 from rftfem.studies.executors import check_executor_options, make_executor
-from rftfem.errors import SceneError
+from rftfem.studies.reuse import keep_key, key_of, report, reused
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
 KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both", "fluid")
@@ -97,7 +97,7 @@ exit status: 0 study written (also with failed levels), 2 bad option or scene"""
 class Level:
     """One run of the study."""
 
-    kind: str              # "dt", "mesh", "both" (level 0: "base")
+    kind: str  # "dt", "mesh", "both" (level 0: "base")
     k: int
     overrides: list[str]
     folder: Path
@@ -127,8 +127,9 @@ def _toml(value) -> str:
     return repr(value)
 
 
-def plan(scene: dict, kinds: list[str], levels: int, out: Path,
-         factor: float = 2.0) -> dict[str, list[Level]]:
+def plan(
+    scene: dict, kinds: list[str], levels: int, out: Path, factor: float = 2.0
+) -> dict[str, list[Level]]:
     """The levels of each kind (level 0 is the same object in every kind), each
     ``factor`` times finer than the one before (divisions rounded to whole cells)."""
     time_ = scene["time"]
@@ -136,27 +137,44 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path,
     mesh = scene.get("mesh") or {}
     div0 = mesh.get("divisions") if mesh.get("kind", "strip") != "gmsh" else None
     if any(k in _DIVIDED for k in kinds) and not div0:
-        raise SceneError("--refine mesh: the scene's [mesh] has no divisions to double "
-                         "(a mesh read from a file is refined in gmsh, not here)")
+        raise SceneError(
+            "--refine mesh: the scene's [mesh] has no divisions to double "
+            "(a mesh read from a file is refined in gmsh, not here)"
+        )
     if scene["time"]["scheme"] == "static" and any(k in ("dt", "both") for k in kinds):
-        raise SceneError("--refine dt: the scene is static (time.scheme resolves to "
-                         "\"static\"): its steps are load steps with no time error to refine")
+        raise SceneError(
+            "--refine dt: the scene is static (time.scheme resolves to "
+            '"static"): its steps are load steps with no time error to refine'
+        )
     if any(k in ("dt", "both") for k in kinds) and not float(factor).is_integer():
-        raise SceneError(f"--factor {factor:g} with --refine dt: the levels would write "
-                         "their rows at different times (time.output_every is scaled by "
-                         "the factor); use a whole factor for dt")
+        raise SceneError(
+            f"--factor {factor:g} with --refine dt: the levels would write "
+            "their rows at different times (time.output_every is scaled by "
+            "the factor); use a whole factor for dt"
+        )
     fluid = scene.get("fluid") or {}
     refine0 = int(fluid.get("refine") or 0)
     if "fluid" in kinds:
         if fluid.get("model") != "stokes" or fluid.get("method", "layer") != "layer":
-            raise SceneError('--refine fluid: the scene\'s liquid is not the Stokes layer '
-                             '(fluid.model = "stokes", fluid.method = "layer"): nothing of '
-                             "its own to refine")
+            raise SceneError(
+                "--refine fluid: the scene's liquid is not the Stokes layer "
+                '(fluid.model = "stokes", fluid.method = "layer"): nothing of '
+                "its own to refine"
+            )
         if factor != 2.0:
-            raise SceneError(f"--factor {factor:g} with --refine fluid: each fluid.refine "
-                             "level halves the force grid; use the factor 2")
-    base = Level("base", 0, [], out / "level-0", dt=dt0, divisions=list(div0) if div0 else None,
-                 fluid_refine=refine0 if "fluid" in kinds else None)
+            raise SceneError(
+                f"--factor {factor:g} with --refine fluid: each fluid.refine "
+                "level halves the force grid; use the factor 2"
+            )
+    base = Level(
+        "base",
+        0,
+        [],
+        out / "level-0",
+        dt=dt0,
+        divisions=list(div0) if div0 else None,
+        fluid_refine=refine0 if "fluid" in kinds else None,
+    )
     plans = {}
     for kind in kinds:
         series = [base]
@@ -167,21 +185,37 @@ def plan(scene: dict, kinds: list[str], levels: int, out: Path,
                 dt = dt0 / f
                 sets += [f"time.dt={dt!r}", f"time.output_every={every0 * round(f)}"]
             if kind in _DIVIDED:
-                div = [max(1, round(n * f)) if i in _DIVIDED[kind] else n
-                       for i, n in enumerate(div0)]
+                div = [
+                    max(1, round(n * f)) if i in _DIVIDED[kind] else n for i, n in enumerate(div0)
+                ]
                 sets.append(f"mesh.divisions={_toml(div)}")
             refine = None
             if kind == "fluid":  # the liquid's own grid, the shell untouched
                 refine = refine0 + k
                 sets.append(f"fluid.refine={refine}")
-            series.append(Level(kind, k, sets, out / f"{kind}-{k}", dt=dt, divisions=div,
-                                fluid_refine=refine if kind == "fluid" else base.fluid_refine))
+            series.append(
+                Level(
+                    kind,
+                    k,
+                    sets,
+                    out / f"{kind}-{k}",
+                    dt=dt,
+                    divisions=div,
+                    fluid_refine=refine if kind == "fluid" else base.fluid_refine,
+                )
+            )
         plans[kind] = series
     return plans
 
 
-def run_level(level: Level, scene_file: str, overrides: list[str], executor,
-              petsc_args: list[str], reuse: bool = False) -> None:
+def run_level(
+    level: Level,
+    scene_file: str,
+    overrides: list[str],
+    executor,
+    petsc_args: list[str],
+    reuse: bool = False,
+) -> None:
     """Run one level (a fresh folder) and read its summary into ``level``; with
     ``reuse``, a finished run of the same content (``level.key``,
     rftfem/studies/reuse.py) is read instead.  The run is the ``executor``'s
@@ -197,8 +231,10 @@ def run_level(level: Level, scene_file: str, overrides: list[str], executor,
         level.folder.mkdir(parents=True)
         level.exit_status = executor.run(scene_file, overrides, level.folder, petsc_args)
         if level.exit_status == 0:
-            level.note = keep_key(level.folder, level.key, scene_file, overrides,
-                                  petsc_args, "study") or level.note
+            level.note = (
+                keep_key(level.folder, level.key, scene_file, overrides, petsc_args, "study")
+                or level.note
+            )
     _read_summary(level)
 
 
@@ -249,26 +285,50 @@ def add_arguments(parser):
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
     parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
-    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
-                        dest="quantities", help="what to converge (grammar below); repeatable")
-    parser.add_argument("--refine", metavar="KIND", action="append", default=[],
-                        help="dt, mesh, mesh.x or mesh.y (the strip's divisions along X "
-                             "or Y only), both, or fluid (the Stokes layer's own force grid, "
-                             "fluid.refine + 1 a level; the shell untouched) (repeatable, or "
-                             "comma-separated: --refine dt,mesh); default dt")
-    parser.add_argument("--factor", metavar="F", type=float, default=2.0,
-                        help="refinement from one level to the next (default 2; a mesh "
-                             "takes any F > 1, its divisions rounded; dt a whole F)")
-    parser.add_argument("--levels", metavar="N", type=int, default=3,
-                        help="levels per kind, the scene itself included (default 3; "
-                             "3 give one observed order)")
+    parser.add_argument(
+        "--quantity",
+        metavar="NAME=EXPR",
+        action="append",
+        default=[],
+        dest="quantities",
+        help="what to converge (grammar below); repeatable",
+    )
+    parser.add_argument(
+        "--refine",
+        metavar="KIND",
+        action="append",
+        default=[],
+        help="dt, mesh, mesh.x or mesh.y (the strip's divisions along X "
+        "or Y only), both, or fluid (the Stokes layer's own force grid, "
+        "fluid.refine + 1 a level; the shell untouched) (repeatable, or "
+        "comma-separated: --refine dt,mesh); default dt",
+    )
+    parser.add_argument(
+        "--factor",
+        metavar="F",
+        type=float,
+        default=2.0,
+        help="refinement from one level to the next (default 2; a mesh "
+        "takes any F > 1, its divisions rounded; dt a whole F)",
+    )
+    parser.add_argument(
+        "--levels",
+        metavar="N",
+        type=int,
+        default=3,
+        help="levels per kind, the scene itself included (default 3; 3 give one observed order)",
+    )
     # --set, --out, --jobs, --np, --reuse, --executor...
-    executors.add_arguments(parser, "study", "levels",
-                            reuse_note=" (a study extended or re-analysed)")
-    parser.add_argument("--processes", action="store_true",
-                        help="run each level as its own `rftfem run` process, also with "
-                             "--jobs 1 (by default one-at-a-time levels run in the study's "
-                             "own process, which pays the imports and form loading once)")
+    executors.add_arguments(
+        parser, "study", "levels", reuse_note=" (a study extended or re-analysed)"
+    )
+    parser.add_argument(
+        "--processes",
+        action="store_true",
+        help="run each level as its own `rftfem run` process, also with "
+        "--jobs 1 (by default one-at-a-time levels run in the study's "
+        "own process, which pays the imports and form loading once)",
+    )
 
 
 def _kinds(options: list[str]) -> list[str]:
@@ -285,8 +345,9 @@ def main(args, petsc_args: list[str], console) -> int:
     from rftfem.scene.reading import load_scene, resolved_scheme
 
     if not args.quantities:
-        raise SceneError("--quantity: give at least one quantity to converge "
-                         "(e.g. --quantity 'tip=tip_uz@end')")
+        raise SceneError(
+            "--quantity: give at least one quantity to converge (e.g. --quantity 'tip=tip_uz@end')"
+        )
     quantities = [parse_option(q) for q in args.quantities]
     names = [n for n, _ in quantities]
     if len(set(names)) < len(names):
@@ -305,8 +366,7 @@ def main(args, petsc_args: list[str], console) -> int:
     # every level's scene must be valid before anything runs; its key for --reuse
     for lv in levels:
         try:
-            lv.key = key_of(load_scene(args.scene, [*args.overrides, *lv.overrides]),
-                            petsc_args)
+            lv.key = key_of(load_scene(args.scene, [*args.overrides, *lv.overrides]), petsc_args)
         except SceneError as exc:
             raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
     try:
@@ -315,23 +375,34 @@ def main(args, petsc_args: list[str], console) -> int:
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
     # one run at a time on one process: all in this process, paying the imports and
     # loading the compiled forms once (rftfem/studies/batch.py); else each its own process
-    in_process = (args.executor == "local" and args.jobs == 1 and args.np == 1
-                  and not args.processes)
-    executor = make_executor(args.executor, args.jobs, args.np, args.slurm,
-                             args.executor_config, args.print_job_script, in_process)
+    in_process = args.executor == "local" and args.jobs == 1 and args.np == 1 and not args.processes
+    executor = make_executor(
+        args.executor,
+        args.jobs,
+        args.np,
+        args.slurm,
+        args.executor_config,
+        args.print_job_script,
+        in_process,
+    )
     if executor is None:  # --print-job-script
         return 0
-    console.out(f"rftfem study: {len(levels)} runs of {args.scene} "
-                f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}")
+    console.out(
+        f"rftfem study: {len(levels)} runs of {args.scene} "
+        f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}"
+    )
     t0 = time.perf_counter()
 
     def one(lv: Level):
         run_level(lv, args.scene, args.overrides, executor, petsc_args, args.reuse)
         evaluate_level(lv, quantities)
         what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
-        console.out(f"  {lv.folder.name}: {lv.status} ({what}"
-                    + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
-                    + (f"; {lv.failure}" if lv.failure else "") + ")")
+        console.out(
+            f"  {lv.folder.name}: {lv.status} ({what}"
+            + (f", {lv.wall:.1f} s" if lv.wall is not None else "")
+            + (f"; {lv.failure}" if lv.failure else "")
+            + ")"
+        )
 
     try:
         if in_process:  # in the main thread: gmsh and PETSc want it
@@ -345,12 +416,19 @@ def main(args, petsc_args: list[str], console) -> int:
     fluid = scene.get("fluid") or {}
     stokes = fluid.get("method", "layer") if fluid.get("model") == "stokes" else None
     rows = table_rows(plans, quantities, scene["time"]["scheme"], args.factor, stokes)
-    command = " ".join(["rftfem study", _quote(args.scene),
-                        *[f"--refine {k}" for k in kinds], f"--levels {args.levels}",
-                        *([f"--factor {args.factor:g}"] if args.factor != 2.0 else []),
-                        *[f"--quantity {_quote(q)}" for q in args.quantities],
-                        *map(_quote, as_arguments(args.overrides))]
-                       + ([f"--np {args.np}"] if args.np > 1 else []) + petsc_args)
+    command = " ".join(
+        [
+            "rftfem study",
+            _quote(args.scene),
+            *[f"--refine {k}" for k in kinds],
+            f"--levels {args.levels}",
+            *([f"--factor {args.factor:g}"] if args.factor != 2.0 else []),
+            *[f"--quantity {_quote(q)}" for q in args.quantities],
+            *map(_quote, as_arguments(args.overrides)),
+        ]
+        + ([f"--np {args.np}"] if args.np > 1 else [])
+        + petsc_args
+    )
     write_csv(rows, out / "study.csv")
     md = markdown(rows, command)
     (out / "study.md").write_text(md + "\n", encoding="utf-8")
@@ -358,9 +436,12 @@ def main(args, petsc_args: list[str], console) -> int:
     console.out(md)
     report([(lv.note, lv.folder.name) for lv in levels], console, "study")
     failed = sum(lv.status != "ok" for lv in levels)
-    console.err(f"rftfem study: {len(levels) - failed} of {len(levels)} runs ok in "
-                f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"
-                + (", study.png" if drawn else "") + f" in {out}")
+    console.err(
+        f"rftfem study: {len(levels) - failed} of {len(levels)} runs ok in "
+        f"{time.perf_counter() - t0:.0f} s; study.csv, study.md"
+        + (", study.png" if drawn else "")
+        + f" in {out}"
+    )
     return 0
 
 
@@ -370,5 +451,14 @@ def _quote(arg: str) -> str:
     return shlex.quote(arg)
 
 
-__all__ = ["main", "add_arguments", "plan", "analyse", "Level", "DESCRIPTION", "EPILOG",
-           "KINDS", "SCHEME_ORDER"]
+__all__ = [
+    "main",
+    "add_arguments",
+    "plan",
+    "analyse",
+    "Level",
+    "DESCRIPTION",
+    "EPILOG",
+    "KINDS",
+    "SCHEME_ORDER",
+]

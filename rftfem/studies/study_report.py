@@ -33,8 +33,13 @@ def analyse(values: list[float | None], nominal: int, ratio: float = 2.0) -> lis
     refinement factor from one level to the next."""
     rows = []
     for k, q in enumerate(values):
-        row = {"change": None, "order": None, "order_used": None, "error_estimate": None,
-               "extrapolated": None}
+        row = {
+            "change": None,
+            "order": None,
+            "order_used": None,
+            "error_estimate": None,
+            "extrapolated": None,
+        }
         prev = values[k - 1] if k >= 1 else None
         if q is not None and prev is not None:
             row["change"] = q - prev
@@ -44,8 +49,11 @@ def analyse(values: list[float | None], nominal: int, ratio: float = 2.0) -> lis
             # an observed order above the nominal one means the levels are not yet in
             # the asymptotic range (the change fell faster than the scheme can make it
             # fall): taken as it is, it would understate the error
-            p = min(row["order"], nominal) if row["order"] is not None and row["order"] > 0.1 \
+            p = (
+                min(row["order"], nominal)
+                if row["order"] is not None and row["order"] > 0.1
                 else nominal
+            )
             row["order_used"] = p
             row["error_estimate"] = abs(q - prev) / (ratio**p - 1)
             row["extrapolated"] = q + (q - prev) / (ratio**p - 1)
@@ -62,23 +70,41 @@ def _fmt(x, spec=".6g") -> str:
     return format(x, spec)
 
 
-def table_rows(plans, quantities, scheme: str, ratio: float = 2.0,
-               stokes: str | None = None) -> list[dict]:
+def table_rows(
+    plans, quantities, scheme: str, ratio: float = 2.0, stokes: str | None = None
+) -> list[dict]:
     rows = []
     for kind, series in plans.items():
         for name, _ in quantities:
-            stats = analyse([lv.values.get(name) for lv in series],
-                            nominal_order(kind, scheme, stokes), ratio)
+            stats = analyse(
+                [lv.values.get(name) for lv in series], nominal_order(kind, scheme, stokes), ratio
+            )
             for lv, st in zip(series, stats):
-                rows.append({
-                    "kind": kind, "level": lv.k, "quantity": name, "folder": str(lv.folder),
-                    "status": lv.status, "failure": lv.failure, "dt": lv.dt,
-                    "divisions": ("x".join(map(str, lv.divisions)) if lv.divisions else "")
-                    + (f", fluid.refine {lv.fluid_refine}" if lv.fluid_refine is not None
-                       else ""),
-                    "dofs": lv.dofs, "steps": lv.steps, "newton_iterations": lv.newton,
-                    "dt_cuts": lv.cuts, "wall_s": lv.wall, "compile_s": lv.compile,
-                    "value": lv.values.get(name), **st})
+                rows.append(
+                    {
+                        "kind": kind,
+                        "level": lv.k,
+                        "quantity": name,
+                        "folder": str(lv.folder),
+                        "status": lv.status,
+                        "failure": lv.failure,
+                        "dt": lv.dt,
+                        "divisions": ("x".join(map(str, lv.divisions)) if lv.divisions else "")
+                        + (
+                            f", fluid.refine {lv.fluid_refine}"
+                            if lv.fluid_refine is not None
+                            else ""
+                        ),
+                        "dofs": lv.dofs,
+                        "steps": lv.steps,
+                        "newton_iterations": lv.newton,
+                        "dt_cuts": lv.cuts,
+                        "wall_s": lv.wall,
+                        "compile_s": lv.compile,
+                        "value": lv.values.get(name),
+                        **st,
+                    }
+                )
     return rows
 
 
@@ -87,8 +113,12 @@ def write_csv(rows: list[dict], path: Path) -> None:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: ("" if v is None else repr(v) if isinstance(v, float) else v)
-                             for k, v in row.items()})
+            writer.writerow(
+                {
+                    k: ("" if v is None else repr(v) if isinstance(v, float) else v)
+                    for k, v in row.items()
+                }
+            )
 
 
 def markdown(rows: list[dict], command: str) -> str:
@@ -96,24 +126,33 @@ def markdown(rows: list[dict], command: str) -> str:
     for kind in dict.fromkeys(r["kind"] for r in rows):
         for name in dict.fromkeys(r["quantity"] for r in rows):
             sel = [r for r in rows if r["kind"] == kind and r["quantity"] == name]
-            lines += [f"## {name}, refining {kind}", "",
-                      "| level | dt | divisions | unknowns | steps | Newton its | dt cuts | "
-                      "wall (s) | value | change | observed order | error estimate (order) |",
-                      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+            lines += [
+                f"## {name}, refining {kind}",
+                "",
+                "| level | dt | divisions | unknowns | steps | Newton its | dt cuts | "
+                "wall (s) | value | change | observed order | error estimate (order) |",
+                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+            ]
             for r in sel:
                 if r["status"] != "ok":
-                    lines.append(f"| {r['level']} | {_fmt(r['dt'], '.4g')} | {r['divisions']} | "
-                                 f"{_fmt(r['dofs'], 'd')} | | | | | failed: {r['failure']} "
-                                 "| | | |")
+                    lines.append(
+                        f"| {r['level']} | {_fmt(r['dt'], '.4g')} | {r['divisions']} | "
+                        f"{_fmt(r['dofs'], 'd')} | | | | | failed: {r['failure']} "
+                        "| | | |"
+                    )
                     continue
-                est = (f"{_fmt(r['error_estimate'], '.3g')} ({_fmt(r['order_used'], '.2f')})"
-                       if r["error_estimate"] is not None else "")
+                est = (
+                    f"{_fmt(r['error_estimate'], '.3g')} ({_fmt(r['order_used'], '.2f')})"
+                    if r["error_estimate"] is not None
+                    else ""
+                )
                 lines.append(
                     f"| {r['level']} | {_fmt(r['dt'], '.4g')} | {r['divisions']} | "
                     f"{_fmt(r['dofs'], 'd')} | {_fmt(r['steps'], 'd')} | "
                     f"{_fmt(r['newton_iterations'], 'd')} | {_fmt(r['dt_cuts'], 'd')} | "
                     f"{_fmt(r['wall_s'], '.1f')} | {_fmt(r['value'], '.8g')} | "
-                    f"{_fmt(r['change'], '.3g')} | {_fmt(r['order'], '.2f')} | {est} |")
+                    f"{_fmt(r['change'], '.3g')} | {_fmt(r['order'], '.2f')} | {est} |"
+                )
             lines.append("")
     return "\n".join(lines)
 
@@ -123,6 +162,7 @@ def plot(rows: list[dict], path: Path) -> bool:
     or there is nothing to draw."""
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -132,9 +172,15 @@ def plot(rows: list[dict], path: Path) -> bool:
     drawn = False
     for ax, name in zip(axes[0], names):
         for kind in dict.fromkeys(r["kind"] for r in rows):
-            pts = [(r["wall_s"], r["error_estimate"]) for r in rows
-                   if r["quantity"] == name and r["kind"] == kind and r["status"] == "ok"
-                   and r["error_estimate"] and r["wall_s"]]
+            pts = [
+                (r["wall_s"], r["error_estimate"])
+                for r in rows
+                if r["quantity"] == name
+                and r["kind"] == kind
+                and r["status"] == "ok"
+                and r["error_estimate"]
+                and r["wall_s"]
+            ]
             if pts:
                 ax.loglog(*zip(*pts), "o-", label=f"refine {kind}")
                 drawn = True

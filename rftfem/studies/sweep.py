@@ -39,9 +39,11 @@ from rftfem.errors import SceneError
 from rftfem.scene.overrides import lookup
 from rftfem.studies import executors
 
-DESCRIPTION = ("Run a scene over a grid of values of any keys (every combination of the "
-               "--vary lists and ranges, each an ordinary run folder); write sweep.csv "
-               "(the varied keys, status, the quantities) and sweep.png.")
+DESCRIPTION = (
+    "Run a scene over a grid of values of any keys (every combination of the "
+    "--vary lists and ranges, each an ordinary run folder); write sweep.csv "
+    "(the varied keys, status, the quantities) and sweep.png."
+)
 EPILOG = """examples:
   rftfem sweep demos/swimming_sheet.toml --vary motion.0.amplitude=0.05,0.1,0.15 \\
       --quantity 'U=steady(front_ux_rate)'
@@ -83,14 +85,24 @@ def add_arguments(parser) -> None:
     parser.epilog = EPILOG
     parser.formatter_class = __import__("argparse").RawDescriptionHelpFormatter
     parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
-    parser.add_argument("--vary", metavar="KEY=VALUES", action="append", default=[],
-                        help="a key and its values: v1,v2,... (TOML values) or LO:HI:N "
-                             "(N numbers from LO to HI, evenly; LO:HI:N:log, geometrically); "
-                             "repeatable: every combination runs")
-    parser.add_argument("--quantity", metavar="NAME=EXPR", action="append", default=[],
-                        dest="quantities",
-                        help="a column of sweep.csv from each run (collect's quantity "
-                             "language, e.g. 'U=steady(front_ux_rate)'); repeatable")
+    parser.add_argument(
+        "--vary",
+        metavar="KEY=VALUES",
+        action="append",
+        default=[],
+        help="a key and its values: v1,v2,... (TOML values) or LO:HI:N "
+        "(N numbers from LO to HI, evenly; LO:HI:N:log, geometrically); "
+        "repeatable: every combination runs",
+    )
+    parser.add_argument(
+        "--quantity",
+        metavar="NAME=EXPR",
+        action="append",
+        default=[],
+        dest="quantities",
+        help="a column of sweep.csv from each run (collect's quantity "
+        "language, e.g. 'U=steady(front_ux_rate)'); repeatable",
+    )
     executors.add_arguments(parser, "sweep")  # --set, --out, --jobs, --reuse, ...
 
 
@@ -103,8 +115,9 @@ def _toml_value(text: str, what: str):
     except tomllib.TOMLDecodeError:
         if re.fullmatch(r"[A-Za-z_][\w.\-]*", text):
             return text  # a bare word, as --set takes it
-        raise SceneError(f"{what}: '{text}' is not a value (a number, true/false, "
-                         "\"text\" or [array])") from None
+        raise SceneError(
+            f"{what}: '{text}' is not a value (a number, true/false, \"text\" or [array])"
+        ) from None
 
 
 def parse_vary(text: str, scene: dict) -> Vary:
@@ -121,8 +134,10 @@ def parse_vary(text: str, scene: dict) -> Vary:
         current = lookup(scene, key)
         if isinstance(current, bool) or not isinstance(current, (int, float)):
             found = "absent" if current is None else repr(current)
-            raise SceneError(f"{what}: a range LO:HI:N needs a numeric key; {key} is "
-                             f"{found} in the scene (give its values as a list)")
+            raise SceneError(
+                f"{what}: a range LO:HI:N needs a numeric key; {key} is "
+                f"{found} in the scene (give its values as a list)"
+            )
         try:
             lo, hi = float(lo_text), float(hi_text)
             n = int(n_text)
@@ -133,8 +148,10 @@ def parse_vary(text: str, scene: dict) -> Vary:
         if scale == "log":
             if lo <= 0 or hi <= 0:
                 raise SceneError(f"{what}: a log range needs LO and HI > 0")
-            values = [math.exp(math.log(lo) + k * (math.log(hi) - math.log(lo)) / (n - 1))
-                      for k in range(n)]
+            values = [
+                math.exp(math.log(lo) + k * (math.log(hi) - math.log(lo)) / (n - 1))
+                for k in range(n)
+            ]
         else:
             values = [lo + k * (hi - lo) / (n - 1) for k in range(n)]
         values[0], values[-1] = lo, hi
@@ -184,8 +201,7 @@ def grid(varies: list[Vary], out: Path, overrides: list[str]) -> list[Point]:
     for i, values in enumerate(itertools.product(*[v.values for v in varies])):
         label = "_".join(f"{v.key.split('.')[-1]}={_name(x)}" for v, x in zip(varies, values))
         sets = [f"{v.key}={_text(x)}" for v, x in zip(varies, values)]
-        points.append(Point(i, values, out / f"{i + 1:04d}_{label}"[:120],
-                            [*overrides, *sets]))
+        points.append(Point(i, values, out / f"{i + 1:04d}_{label}"[:120], [*overrides, *sets]))
     return points
 
 
@@ -207,10 +223,12 @@ class _Progress:
             self.done += 1
             self.failed += point.status == "failed"
             self.reused += point.status.startswith("reused")
-            line = (f"rftfem sweep: {self.done}/{self.total} runs done"
-                    + (f", {self.failed} failed" if self.failed else "")
-                    + (f", {self.reused} reused" if self.reused else "")
-                    + f", {time.perf_counter() - self.t0:.0f} s")
+            line = (
+                f"rftfem sweep: {self.done}/{self.total} runs done"
+                + (f", {self.failed} failed" if self.failed else "")
+                + (f", {self.reused} reused" if self.reused else "")
+                + f", {time.perf_counter() - self.t0:.0f} s"
+            )
             now = time.perf_counter()
             if self.tty:
                 sys.stdout.write("\r\033[K" + line + ("\n" if self.done == self.total else ""))
@@ -220,8 +238,7 @@ class _Progress:
                 self.last = now
 
 
-def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
-              quantities) -> None:
+def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool, quantities) -> None:
     from rftfem.studies.batch import failure_reason
     from rftfem.studies.reuse import keep_key, reused
 
@@ -238,8 +255,10 @@ def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool,
         if point.exit_status != 0:
             point.reason = failure_reason(point.folder / "run.log", point.exit_status)
         else:
-            point.note = keep_key(point.folder, point.key, scene_file, point.overrides,
-                                  petsc_args, "sweep") or point.note
+            point.note = (
+                keep_key(point.folder, point.key, scene_file, point.overrides, petsc_args, "sweep")
+                or point.note
+            )
     point.wall = time.perf_counter() - t0
     if point.status != "failed":
         _read_quantities(point, quantities)
@@ -264,19 +283,23 @@ def _read_quantities(point: Point, quantities) -> None:
 def write_csv(points: list[Point], varies: list[Vary], names: list[str], path: Path) -> None:
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow([v.key for v in varies] + ["status", *names, "folder", "wall_s",
-                                                   "reason"])
+        writer.writerow([v.key for v in varies] + ["status", *names, "folder", "wall_s", "reason"])
         for p in points:
-            q = [("" if p.quantities.get(n) is None else repr(float(p.quantities[n])))
-                 for n in names]
-            writer.writerow([_cell(x) for x in p.values]
-                            + [p.status, *q, p.folder.name,
-                               "" if p.wall is None else f"{p.wall:.2f}", p.reason])
+            q = [
+                ("" if p.quantities.get(n) is None else repr(float(p.quantities[n]))) for n in names
+            ]
+            writer.writerow(
+                [_cell(x) for x in p.values]
+                + [p.status, *q, p.folder.name, "" if p.wall is None else f"{p.wall:.2f}", p.reason]
+            )
 
 
 def _cell(value) -> str:
-    return repr(value) if isinstance(value, float) else (
-        _text(value) if not isinstance(value, str) else value)
+    return (
+        repr(value)
+        if isinstance(value, float)
+        else (_text(value) if not isinstance(value, str) else value)
+    )
 
 
 def main(args, petsc_args: list[str], console) -> int:
@@ -308,8 +331,8 @@ def main(args, petsc_args: list[str], console) -> int:
         except SceneError as exc:
             raise SceneError(f"run {p.folder.name}: {exc}") from None
     executor = executors.make_executor(
-        args.executor, args.jobs, args.np, args.slurm, args.executor_config,
-        args.print_job_script)
+        args.executor, args.jobs, args.np, args.slurm, args.executor_config, args.print_job_script
+    )
     if executor is None:  # --print-job-script
         return 0
     try:
@@ -317,8 +340,9 @@ def main(args, petsc_args: list[str], console) -> int:
     except OSError as exc:
         executor.close()
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
-    console.out(f"rftfem sweep: {len(points)} runs of {args.scene} in {out}, "
-                f"executor {executor.describe()}")
+    console.out(
+        f"rftfem sweep: {len(points)} runs of {args.scene} in {out}, executor {executor.describe()}"
+    )
     progress = _Progress(len(points), console)
 
     def one(p: Point):
@@ -344,21 +368,31 @@ def main(args, petsc_args: list[str], console) -> int:
     drawn = sweep_report.plot(points, varies, names, out / "sweep.png", args.scene)
     from rftfem.scene.overrides import as_arguments
 
-    command = " ".join(["rftfem sweep", shlex.quote(args.scene),
-                        *[f"--vary {shlex.quote(v)}" for v in args.vary],
-                        *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
-                        *map(shlex.quote, as_arguments(args.overrides))])
+    command = " ".join(
+        [
+            "rftfem sweep",
+            shlex.quote(args.scene),
+            *[f"--vary {shlex.quote(v)}" for v in args.vary],
+            *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
+            *map(shlex.quote, as_arguments(args.overrides)),
+        ]
+    )
     (out / "command.txt").write_text(command + "\n", encoding="utf-8")
     failed = sum(p.status == "failed" for p in points)
     report([(p.note, p.folder.name) for p in points], console, "sweep")
     missing = [p for p in points if p.status.endswith("quantity missing")]
     if missing:
-        console.err(f"rftfem sweep: {len(missing)} run(s) ok without every quantity "
-                    f"(status 'quantity missing'), the first in {missing[0].folder.name}: "
-                    f"{missing[0].reason}")
-    console.err(f"rftfem sweep: {len(points) - failed} of {len(points)} runs ok in "
-                f"{time.perf_counter() - t0:.0f} s; sweep.csv"
-                + (", sweep.png" if drawn else "") + f" in {out}")
+        console.err(
+            f"rftfem sweep: {len(missing)} run(s) ok without every quantity "
+            f"(status 'quantity missing'), the first in {missing[0].folder.name}: "
+            f"{missing[0].reason}"
+        )
+    console.err(
+        f"rftfem sweep: {len(points) - failed} of {len(points)} runs ok in "
+        f"{time.perf_counter() - t0:.0f} s; sweep.csv"
+        + (", sweep.png" if drawn else "")
+        + f" in {out}"
+    )
     return 0
 
 

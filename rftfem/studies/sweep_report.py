@@ -41,9 +41,10 @@ def _lines(plt, points, varies, names, by_values, x, labels):
     combos = [()] if not rest else list(np.ndindex(*[len(v.values) for v in rest]))
     combos = combos[:MAX_PANELS]
     cols = min(4, len(combos))
-    block = (len(combos) + cols - 1) // cols        # rows of panels per quantity
-    fig, axes = plt.subplots(block * len(names), cols, figsize=(4.5 * cols, 3.2 * block
-                                                                * len(names)), squeeze=False)
+    block = (len(combos) + cols - 1) // cols  # rows of panels per quantity
+    fig, axes = plt.subplots(
+        block * len(names), cols, figsize=(4.5 * cols, 3.2 * block * len(names)), squeeze=False
+    )
     for r, name in enumerate(names):
         for k, combo in enumerate(combos):
             ax = axes[r * block + k // cols][k % cols]
@@ -55,9 +56,15 @@ def _lines(plt, points, varies, names, by_values, x, labels):
             ax.set_xlabel(first.key)
             ax.set_ylabel(name)
             if rest:
-                ax.set_title(", ".join(f"{v.key.split('.')[-1]} = {o:.4g}"
-                                       if isinstance(o, float) else f"{v.key.split('.')[-1]} = {o}"
-                                       for v, o in zip(rest, others)), fontsize=9)
+                ax.set_title(
+                    ", ".join(
+                        f"{v.key.split('.')[-1]} = {o:.4g}"
+                        if isinstance(o, float)
+                        else f"{v.key.split('.')[-1]} = {o}"
+                        for v, o in zip(rest, others)
+                    ),
+                    fontsize=9,
+                )
         for k in range(len(combos), block * cols):
             axes[r * block + k // cols][k % cols].axis("off")
     return fig
@@ -79,20 +86,34 @@ def plot(points, varies, names, path: Path, title: str) -> bool:
         fig, axes = plt.subplots(1, len(names), figsize=(5 * len(names), 4), squeeze=False)
         second = varies[1]
         for ax, name in zip(axes[0], names):
-            z = np.array([[_value(by_values[(a, b)], name) for a in first.values]
-                          for b in second.values])
-            mesh = ax.pcolormesh(np.arange(len(first.values) + 1) - 0.5,
-                                 np.arange(len(second.values) + 1) - 0.5, z, shading="flat")
+            z = np.array(
+                [[_value(by_values[(a, b)], name) for a in first.values] for b in second.values]
+            )
+            mesh = ax.pcolormesh(
+                np.arange(len(first.values) + 1) - 0.5,
+                np.arange(len(second.values) + 1) - 0.5,
+                z,
+                shading="flat",
+            )
             ax.set_xticks(range(len(first.values)), [f"{v:.4g}" for v in first.values])
             ax.set_yticks(range(len(second.values)), [f"{v:.4g}" for v in second.values])
-            lo, hi = np.nanmin(z) if np.isfinite(z).any() else 0, np.nanmax(z) if \
-                np.isfinite(z).any() else 1
+            lo, hi = (
+                np.nanmin(z) if np.isfinite(z).any() else 0,
+                np.nanmax(z) if np.isfinite(z).any() else 1,
+            )
             for j, b in enumerate(second.values):
                 for i, a in enumerate(first.values):
                     if np.isfinite(z[j, i]):
                         bright = hi > lo and (z[j, i] - lo) / (hi - lo) > 0.6
-                        ax.text(i, j, f"{z[j, i]:.3g}", ha="center", va="center", fontsize=8,
-                                color="black" if bright else "white")
+                        ax.text(
+                            i,
+                            j,
+                            f"{z[j, i]:.3g}",
+                            ha="center",
+                            va="center",
+                            fontsize=8,
+                            color="black" if bright else "white",
+                        )
             ax.set_xlabel(first.key)
             ax.set_ylabel(second.key)
             ax.set_title(name)

@@ -14,18 +14,18 @@ from __future__ import annotations
 
 from rftfem.model.effects.base import LOAD_KIND_DOC, RAMP, TABLE, Effect
 from rftfem.model.effects.boundary import Boundaries, check_reaction_names
+from rftfem.model.effects.contact import Contact
 from rftfem.model.effects.drag import Drag
-from rftfem.model.effects.stokes import Stokes
 from rftfem.model.effects.edge_loads import EdgeLoads
 from rftfem.model.effects.elasticity import Elasticity
+from rftfem.model.effects.gravity import Gravity
 from rftfem.model.effects.hinge import Hinges
 from rftfem.model.effects.inertia import Inertia
 from rftfem.model.effects.magnetic import Magnetic
 from rftfem.model.effects.motion import Motions
 from rftfem.model.effects.point_force import PointForce
 from rftfem.model.effects.pressure import Pressure
-from rftfem.model.effects.gravity import Gravity
-from rftfem.model.effects.contact import Contact
+from rftfem.model.effects.stokes import Stokes
 
 REGISTRY: tuple[type[Effect], ...] = (
     Elasticity,
@@ -55,10 +55,18 @@ def load_schema():
 
     kinds = {kind: fields for effect in REGISTRY for kind, fields in effect.load_kinds.items()}
     docs = {kind: text for effect in REGISTRY for kind, text in effect.kind_docs.items()}
-    common = {"kind": Leaf(Str(tuple(kinds)), required=True, doc=LOAD_KIND_DOC),
-              "ramp": RAMP, "table": TABLE}
-    return Kinds(common, kinds, docs, doc="Loads given in the scene, each with a ramp in "
-                                          "time; the kind decides where and how it acts.")
+    common = {
+        "kind": Leaf(Str(tuple(kinds)), required=True, doc=LOAD_KIND_DOC),
+        "ramp": RAMP,
+        "table": TABLE,
+    }
+    return Kinds(
+        common,
+        kinds,
+        docs,
+        doc="Loads given in the scene, each with a ramp in "
+        "time; the kind decides where and how it acts.",
+    )
 
 
 def active_effects(scene: dict) -> list[str]:

@@ -199,13 +199,18 @@ class LimitsNewtonStep:
 
 LOAD_KIND_DOC = "What the load is; its kind decides its other keys (below)."
 #: the keys every ``[[load]]`` has besides ``kind``, whatever its kind
-RAMP = Leaf(Str(("linear", "constant", "table")), "linear",
-            doc='The scale in time: "linear" t / time.end, "constant" 1, "table" '
-                "interpolated in `table`.")
-TABLE = Leaf(Pairs("scale"), unit="[time, 1]",
-             default_doc='none: required only with ramp = "table"',
-             doc="The scale, piecewise linear in time; before the first and after the last "
-                 "time it keeps the end value.")
+RAMP = Leaf(
+    Str(("linear", "constant", "table")),
+    "linear",
+    doc='The scale in time: "linear" t / time.end, "constant" 1, "table" interpolated in `table`.',
+)
+TABLE = Leaf(
+    Pairs("scale"),
+    unit="[time, 1]",
+    default_doc='none: required only with ramp = "table"',
+    doc="The scale, piecewise linear in time; before the first and after the last "
+    "time it keeps the end value.",
+)
 
 
 class Load(Effect):
@@ -241,8 +246,11 @@ class Load(Effect):
 
     def loads_at_start(self) -> list[str]:
         end = self.scene["time"]["end"]
-        return [f"load.{i}" for i, ld in self.entries
-                if ramp_scale(ld, 0.0, end) != 0.0 and np.any(np.asarray(ld["value"]) != 0.0)]
+        return [
+            f"load.{i}"
+            for i, ld in self.entries
+            if ramp_scale(ld, 0.0, end) != 0.0 and np.any(np.asarray(ld["value"]) != 0.0)
+        ]
 
 
 def loads_of(scene: dict, kinds: dict) -> list[tuple[int, dict]]:

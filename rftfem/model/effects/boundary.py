@@ -19,10 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.model.effects.base import Effect
 from rftfem.scene.schema import Array, Fix, Leaf, Str, Table, Vec, Where, fmt
 from rftfem.scene.selectors import check_where, entities_of
-
-from rftfem.model.effects.base import Effect
 
 #: the displacement components a scene names, and their index
 DISPLACEMENT_COMPONENTS = {"ux": 0, "uy": 1, "uz": 2}
@@ -35,34 +34,54 @@ SQUARE = 5e-3
 
 
 #: the ``name`` of a ``[[boundary]]`` or ``[[motion]]`` entry (reactions.py)
-NAME = Leaf(Str(name=True), None, default_doc="none: no reaction written",
-            doc="With a name, the force and moment the entry carries go to body.csv as "
-                "NAME_Fx, NAME_Fy, NAME_Fz, NAME_Mx, NAME_My, NAME_Mz (the moment about "
-                "the origin; the sign of a load on the body). Names are unique across "
-                "[[boundary]] and [[motion]].")
+NAME = Leaf(
+    Str(name=True),
+    None,
+    default_doc="none: no reaction written",
+    doc="With a name, the force and moment the entry carries go to body.csv as "
+    "NAME_Fx, NAME_Fy, NAME_Fz, NAME_Mx, NAME_My, NAME_Mz (the moment about "
+    "the origin; the sign of a load on the body). Names are unique across "
+    "[[boundary]] and [[motion]].",
+)
 
 
 class Boundaries(Effect):
     keys = {
-        "boundary": Array(Table({
-            "where": Leaf(Where(), required=True,
-                          doc="Where: all, an edge (x=0, x=L, y=0, y=W, a gmsh physical "
-                              "curve), a hinge line, a region or a gmsh physical point (to "
-                              "hold a rigid motion); an edge for symmetry."),
-            "name": NAME,
-            "fix": Leaf(Fix(), None, default_doc=_EITHER,
+        "boundary": Array(
+            Table(
+                {
+                    "where": Leaf(
+                        Where(),
+                        required=True,
+                        doc="Where: all, an edge (x=0, x=L, y=0, y=W, a gmsh physical "
+                        "curve), a hinge line, a region or a gmsh physical point (to "
+                        "hold a rigid motion); an edge for symmetry.",
+                    ),
+                    "name": NAME,
+                    "fix": Leaf(
+                        Fix(),
+                        None,
+                        default_doc=_EITHER,
                         doc="What is held at zero: the displacement components ux, uy, uz "
-                            '(global axes) and "rotation" (the director keeps its reference '
-                            'direction); "clamped" is all four.'),
-            "symmetry": Leaf(Vec(nonzero=True), None, default_doc=_EITHER,
-                             doc="The normal n of the coordinate plane the edge lies in "
-                                 "([1, 0, 0], [0, 1, 0] or [0, 0, 1], either sign): u·n = 0 "
-                                 "and the director stays in the plane, so the body modelled "
-                                 "is one half of a body symmetric about it. The material "
-                                 "axis (shell.axis) must lie along or across the plane at "
-                                 "the edge."),
-        }), doc="Conditions on the body's edges for the whole run: degrees of freedom held "
-                "at zero, or a plane of symmetry."),
+                        '(global axes) and "rotation" (the director keeps its reference '
+                        'direction); "clamped" is all four.',
+                    ),
+                    "symmetry": Leaf(
+                        Vec(nonzero=True),
+                        None,
+                        default_doc=_EITHER,
+                        doc="The normal n of the coordinate plane the edge lies in "
+                        "([1, 0, 0], [0, 1, 0] or [0, 0, 1], either sign): u·n = 0 "
+                        "and the director stays in the plane, so the body modelled "
+                        "is one half of a body symmetric about it. The material "
+                        "axis (shell.axis) must lie along or across the plane at "
+                        "the edge.",
+                    ),
+                }
+            ),
+            doc="Conditions on the body's edges for the whole run: degrees of freedom held "
+            "at zero, or a plane of symmetry.",
+        ),
     }
 
     @classmethod
@@ -74,16 +93,22 @@ class Boundaries(Effect):
         for i, item in enumerate(scene["boundary"]):
             check_where(item["where"], f"boundary.{i}.where", scene)
             if item["fix"] is None and item["symmetry"] is None:
-                raise SceneError(f"missing required key 'boundary.{i}.fix' (expected "
-                                 f"{Fix.expected}, or symmetry = [nx, ny, nz])")
+                raise SceneError(
+                    f"missing required key 'boundary.{i}.fix' (expected "
+                    f"{Fix.expected}, or symmetry = [nx, ny, nz])"
+                )
             if item["fix"] is not None and item["symmetry"] is not None:
-                raise SceneError(f"boundary.{i}: expected fix or symmetry, found both; give "
-                                 "each its own [[boundary]]")
+                raise SceneError(
+                    f"boundary.{i}: expected fix or symmetry, found both; give "
+                    "each its own [[boundary]]"
+                )
             n = item["symmetry"]
             if n is not None and sorted(abs(x) > 0 for x in n) != [False, False, True]:
-                raise SceneError(f"boundary.{i}.symmetry: expected the normal of a coordinate "
-                                 "plane ([1, 0, 0], [0, 1, 0] or [0, 0, 1], either sign), "
-                                 f"found {fmt(n)}")
+                raise SceneError(
+                    f"boundary.{i}.symmetry: expected the normal of a coordinate "
+                    "plane ([1, 0, 0], [0, 1, 0] or [0, 0, 1], either sign), "
+                    f"found {fmt(n)}"
+                )
 
     def __init__(self, model):
         super().__init__(model)
@@ -106,13 +131,18 @@ class Boundaries(Effect):
         if "clamped" in fix:
             fix = {"ux", "uy", "uz", "rotation"}
         # (component, sub-space, its name, entities)
-        subs = [(c, model.displacement_space(DISPLACEMENT_COMPONENTS[c]), c, entities)
-                for c in sorted(fix) if c in DISPLACEMENT_COMPONENTS]
+        subs = [
+            (c, model.displacement_space(DISPLACEMENT_COMPONENTS[c]), c, entities)
+            for c in sorted(fix)
+            if c in DISPLACEMENT_COMPONENTS
+        ]
         if "rotation" in fix:
             for c in range(model.n_colours):
                 own = hinges.entities_of_colour(model, dim, entities, c)
-                subs += [(f"theta{i + 1}", model.rotation_space(c, i), f"theta{i + 1}_{c}",
-                          own) for i in range(2)]
+                subs += [
+                    (f"theta{i + 1}", model.rotation_space(c, i), f"theta{i + 1}_{c}", own)
+                    for i in range(2)
+                ]
         counts = {}
         for component, sub, name, ents in subs:
             bc, dofs = model.dirichlet.zero(sub, dim, ents, name, "a [[boundary]]")
@@ -135,12 +165,18 @@ class Boundaries(Effect):
         dim, entities = entities_of(model.body, bnd["where"], f"{key}.where")
         if dim != model.mesh.topology.dim - 1:
             what = "a point" if dim == 0 else "a surface region"
-            raise SceneError(f"{key}.where: '{bnd['where']}' is {what}; a plane of "
-                             "symmetry is an edge")
+            raise SceneError(
+                f"{key}.where: '{bnd['where']}' is {what}; a plane of symmetry is an edge"
+            )
         axis = int(np.argmax(np.abs(bnd["symmetry"])))
         n = np.eye(3)[axis]
-        bc, dofs = model.dirichlet.zero(model.displacement_space(axis), dim, entities,
-                                        ("ux", "uy", "uz")[axis], "a [[boundary]]")
+        bc, dofs = model.dirichlet.zero(
+            model.displacement_space(axis),
+            dim,
+            entities,
+            ("ux", "uy", "uz")[axis],
+            "a [[boundary]]",
+        )
         self._held[k].append(dofs)
         if model.comm.allreduce(len(dofs)) == 0:
             raise SceneError(f"{key}.where: '{bnd['where']}' matches no degree of freedom")
@@ -170,18 +206,22 @@ class Boundaries(Effect):
                 self._held[k].append(picked[0])
                 self._bcs.append(fem.dirichletbc(zero, picked, sub))
         if model.comm.allreduce(bad):
-            raise SceneError(f"{key}.symmetry: at {model.comm.allreduce(bad)} nodes of "
-                             f"'{bnd['where']}' the body does not cross the plane at right "
-                             "angles, or the material axis (shell.axis) lies neither along "
-                             "nor across it; the director could not be held in the plane")
+            raise SceneError(
+                f"{key}.symmetry: at {model.comm.allreduce(bad)} nodes of "
+                f"'{bnd['where']}' the body does not cross the plane at right "
+                "angles, or the material axis (shell.axis) lies neither along "
+                "nor across it; the director could not be held in the plane"
+            )
 
     def bcs(self):
         return self._bcs
 
     def reaction_dofs(self):
-        return [(bnd["name"], np.concatenate(held) if held else np.empty(0, dtype=np.int64))
-                for bnd, held in zip(self.scene["boundary"], self._held)
-                if bnd["name"] is not None]
+        return [
+            (bnd["name"], np.concatenate(held) if held else np.empty(0, dtype=np.int64))
+            for bnd, held in zip(self.scene["boundary"], self._held)
+            if bnd["name"] is not None
+        ]
 
 
 def check_reaction_names(scene: dict) -> None:
@@ -193,6 +233,8 @@ def check_reaction_names(scene: dict) -> None:
             if name is None:
                 continue
             if name in seen:
-                raise SceneError(f"{table}.{i}.name: expected a unique reaction name, found "
-                                 f"'{name}' a second time (also {seen[name]}.name)")
+                raise SceneError(
+                    f"{table}.{i}.name: expected a unique reaction name, found "
+                    f"'{name}' a second time (also {seen[name]}.name)"
+                )
             seen[name] = f"{table}.{i}"

@@ -16,7 +16,6 @@ the step that ended.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,11 +25,10 @@ from rftfem.errors import SceneError
 from rftfem.forms import contact as forms
 from rftfem.forms.hinge import panel_director
 from rftfem.forms.kinematics import area_ratio, unit
-from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fmt, join
-from rftfem.scene.validators import POSITIVE
-
 from rftfem.model.effects.base import Effect
 from rftfem.model.effects.contact_updates import UpdateLimits, cell_thickness
+from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fmt
+from rftfem.scene.validators import POSITIVE
 
 #: the barrier's reach δ as a share of the thinnest shell thickness
 REACH_OF_THICKNESS = 0.1
@@ -41,8 +39,14 @@ SLIP_OF_SPEED = 1.0e-3
 CREEP_WARNING = 0.05
 #: how far below the plane (a share of δ) a node's lower face may start: round-off
 START_DEPTH = 1.0e-3
-COLUMNS = ["contact_Fx", "contact_Fy", "contact_Fz", "contact_area", "contact_energy",
-           "friction_power"]
+COLUMNS = [
+    "contact_Fx",
+    "contact_Fy",
+    "contact_Fz",
+    "contact_area",
+    "contact_energy",
+    "friction_power",
+]
 
 
 @dataclass
@@ -72,14 +76,21 @@ class Coefficient(Validator):
                 raise err(path, self.expected, value)
             out = []
             for i, v in enumerate(value):
-                if isinstance(v, bool) or not isinstance(v, (int, float)) \
-                        or not math.isfinite(float(v)) or v < 0:
-                    raise err(path, self.expected, value,
-                              f" (entry {i}: {fmt(v)})")
+                if (
+                    isinstance(v, bool)
+                    or not isinstance(v, (int, float))
+                    or not math.isfinite(float(v))
+                    or v < 0
+                ):
+                    raise err(path, self.expected, value, f" (entry {i}: {fmt(v)})")
                 out.append(float(v))
             return out
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or not math.isfinite(float(value)) or value < 0:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(float(value))
+            or value < 0
+        ):
             raise err(path, self.expected, value)
         return float(value)
 
@@ -88,48 +99,77 @@ def _triple(mu) -> list[float]:
     return list(mu) if isinstance(mu, list) else [float(mu)] * 3
 
 
-SCHEMA = Array(Table({
-    "kind": Leaf(Str(("plane",)), required=True,
-                 doc='What the body touches: "plane", an infinite plane.'),
-    "point": Leaf(Vec(), required=True, unit="length", doc="A point of the plane."),
-    "normal": Leaf(Vec(nonzero=True), required=True,
-                   doc="The plane's normal, pointing to the side the body stays on "
-                       "(any length; normalised)."),
-    "friction": Leaf(Coefficient(), 0.0,
-                     doc="The kinetic Coulomb coefficient μ_k: one number, or [forward, "
-                         "backward, sideways] for slip along +shell.axis, along −shell.axis "
-                         "and across it (the axis as the body carries it, projected on "
-                         "the plane). 0: frictionless."),
-    "static_friction": Leaf(Coefficient(), None,
-                            default_doc="equal to `friction`",
-                            doc="The static coefficient μ_s (same shapes as `friction`): "
-                                "the friction force reaches μ_s times the pressure at slip "
-                                "speed `slip_velocity`, and falls to μ_k beyond it "
-                                "(docs/contact.md §2)."),
-    "distance": Leaf(POSITIVE, None, unit="length",
-                     default_doc="0.1 × the thinnest shell thickness",
-                     doc="The barrier's reach δ: it pushes on the lower face within δ "
-                         "of the plane, on either side; a face pressed with the reference "
-                         "pressure rests on the plane, a lighter one floats less than δ "
-                         "above it, and none goes deeper than δ below it (while the "
-                         "pressure stays under ~850 times the reference)."),
-    "stiffness": Leaf(POSITIVE, None, unit="force/length³",
-                      default_doc="the reference pressure / ((2 ln 2 + 1) δ)",
-                      doc="The barrier's stiffness κ in the pressure −κ b′(g + δ). The "
-                          "default makes the reference pressure (the body's weight along the "
-                          "plane's normal over the area of its lower face within reach at the "
-                          "start; without gravity the bending pressure D t / L⁴) rest the face "
-                          "on the plane (docs/contact.md §1)."),
-    "slip_velocity": Leaf(POSITIVE, None, unit="length/time",
-                          default_doc="1e-3 × the body's diagonal / the shortest drive "
-                                      "period (time.end without a periodic drive)",
-                          doc="The velocity scale ε_v of the smoothed stick–slip law: below "
-                              "it the friction force grows from 0 to μ_s times the pressure "
-                              "(a sticking body creeps slower than ε_v); above it it falls "
-                              "to μ_k within a few ε_v."),
-}), doc="Planes the body touches with its lower face (the mid-surface less half the "
-        "thickness along the director): a barrier keeps it from crossing them, Coulomb "
-        "friction resists its slip (docs/contact.md).")
+SCHEMA = Array(
+    Table(
+        {
+            "kind": Leaf(
+                Str(("plane",)),
+                required=True,
+                doc='What the body touches: "plane", an infinite plane.',
+            ),
+            "point": Leaf(Vec(), required=True, unit="length", doc="A point of the plane."),
+            "normal": Leaf(
+                Vec(nonzero=True),
+                required=True,
+                doc="The plane's normal, pointing to the side the body stays on "
+                "(any length; normalised).",
+            ),
+            "friction": Leaf(
+                Coefficient(),
+                0.0,
+                doc="The kinetic Coulomb coefficient μ_k: one number, or [forward, "
+                "backward, sideways] for slip along +shell.axis, along −shell.axis "
+                "and across it (the axis as the body carries it, projected on "
+                "the plane). 0: frictionless.",
+            ),
+            "static_friction": Leaf(
+                Coefficient(),
+                None,
+                default_doc="equal to `friction`",
+                doc="The static coefficient μ_s (same shapes as `friction`): "
+                "the friction force reaches μ_s times the pressure at slip "
+                "speed `slip_velocity`, and falls to μ_k beyond it "
+                "(docs/contact.md §2).",
+            ),
+            "distance": Leaf(
+                POSITIVE,
+                None,
+                unit="length",
+                default_doc="0.1 × the thinnest shell thickness",
+                doc="The barrier's reach δ: it pushes on the lower face within δ "
+                "of the plane, on either side; a face pressed with the reference "
+                "pressure rests on the plane, a lighter one floats less than δ "
+                "above it, and none goes deeper than δ below it (while the "
+                "pressure stays under ~850 times the reference).",
+            ),
+            "stiffness": Leaf(
+                POSITIVE,
+                None,
+                unit="force/length³",
+                default_doc="the reference pressure / ((2 ln 2 + 1) δ)",
+                doc="The barrier's stiffness κ in the pressure −κ b′(g + δ). The "
+                "default makes the reference pressure (the body's weight along the "
+                "plane's normal over the area of its lower face within reach at the "
+                "start; without gravity the bending pressure D t / L⁴) rest the face "
+                "on the plane (docs/contact.md §1).",
+            ),
+            "slip_velocity": Leaf(
+                POSITIVE,
+                None,
+                unit="length/time",
+                default_doc="1e-3 × the body's diagonal / the shortest drive "
+                "period (time.end without a periodic drive)",
+                doc="The velocity scale ε_v of the smoothed stick–slip law: below "
+                "it the friction force grows from 0 to μ_s times the pressure "
+                "(a sticking body creeps slower than ε_v); above it it falls "
+                "to μ_k within a few ε_v.",
+            ),
+        }
+    ),
+    doc="Planes the body touches with its lower face (the mid-surface less half the "
+    "thickness along the director): a barrier keeps it from crossing them, Coulomb "
+    "friction resists its slip (docs/contact.md).",
+)
 
 
 class Contact(UpdateLimits, Effect):
@@ -151,16 +191,23 @@ class Contact(UpdateLimits, Effect):
             kinetic, static = _triple(plane["friction"]), _triple(plane["static_friction"])
             for j, (k, s) in enumerate(zip(kinetic, static)):
                 if s < k:
-                    raise SceneError(f"contact.{i}.static_friction: expected at least "
-                                     f"contact.{i}.friction ({fmt(plane['friction'])}), found "
-                                     f"{fmt(plane['static_friction'])}"
-                                     + (f" (entry {j})" if isinstance(plane["friction"], list)
-                                        or isinstance(plane["static_friction"], list) else ""))
-        if scene.get("contact") and scene.get("time") and \
-                resolved_scheme(scene) == "arc-length":
-            raise SceneError('contact: not with time.scheme = "arc-length" (friction depends '
-                             "on the path a body takes, not on a load factor); use "
-                             '"static" load steps or a scheme in time')
+                    raise SceneError(
+                        f"contact.{i}.static_friction: expected at least "
+                        f"contact.{i}.friction ({fmt(plane['friction'])}), found "
+                        f"{fmt(plane['static_friction'])}"
+                        + (
+                            f" (entry {j})"
+                            if isinstance(plane["friction"], list)
+                            or isinstance(plane["static_friction"], list)
+                            else ""
+                        )
+                    )
+        if scene.get("contact") and scene.get("time") and resolved_scheme(scene) == "arc-length":
+            raise SceneError(
+                'contact: not with time.scheme = "arc-length" (friction depends '
+                "on the path a body takes, not on a load factor); use "
+                '"static" load steps or a scheme in time'
+            )
 
     def __init__(self, model):
         from dolfinx import fem
@@ -185,15 +232,20 @@ class Contact(UpdateLimits, Effect):
         thinnest, span = m.material_value("thickness", "min"), self._time_scale()
         self.planes = [self._resolved(entry, thinnest, span) for entry in self.entries]
         faces = self._faces()
-        terms = [self._plane_terms(entry, plane, faces)
-                 for entry, plane in zip(self.entries, self.planes)]
+        terms = [
+            self._plane_terms(entry, plane, faces)
+            for entry, plane in zip(self.entries, self.planes)
+        ]
         self._work = sum((t["work"] for t in terms[1:]), terms[0]["work"])
-        self._outputs = {name: sum((t[name] for t in terms[1:]), terms[0][name])
-                         for name in ("force", "area", "energy", "power")}
+        self._outputs = {
+            name: sum((t[name] for t in terms[1:]), terms[0][name])
+            for name in ("force", "area", "energy", "power")
+        }
         for plane, t in zip(self.planes, terms):
             if plane.stiffness is None:
-                plane.stiffness = (self._reference_pressure(self.size, plane.normal, t["area"])
-                                   / (forms.SLOPE_ON_PLANE * plane.reach))
+                plane.stiffness = self._reference_pressure(self.size, plane.normal, t["area"]) / (
+                    forms.SLOPE_ON_PLANE * plane.reach
+                )
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane.stiffness
         self._compiled = None
@@ -205,10 +257,14 @@ class Contact(UpdateLimits, Effect):
         the thinnest thickness, the slip velocity from the size and the drive's time."""
         normal = np.asarray(entry["normal"], dtype=float)
         normal /= np.linalg.norm(normal)
-        return Plane(normal, np.asarray(entry["point"], float),
-                     entry["distance"] or REACH_OF_THICKNESS * thinnest, entry["stiffness"],
-                     entry["slip_velocity"] or SLIP_OF_SPEED * self.size / span,
-                     max(_triple(entry["static_friction"])) > 0.0)
+        return Plane(
+            normal,
+            np.asarray(entry["point"], float),
+            entry["distance"] or REACH_OF_THICKNESS * thinnest,
+            entry["stiffness"],
+            entry["slip_velocity"] or SLIP_OF_SPEED * self.size / span,
+            max(_triple(entry["static_friction"])) > 0.0,
+        )
 
     def _faces(self):
         """The lower face now and at the step's start (its director held), and its
@@ -230,22 +286,32 @@ class Contact(UpdateLimits, Effect):
 
         m, k = self.model, self.model.kinematics()
         face, face_start, face_virtual = faces
-        const = {name: fem.Constant(m.mesh, PETSc.ScalarType(value)) for name, value in
-                 (("reach", plane.reach), ("stiffness", 0.0), ("v_scale", plane.slip_velocity))}
+        const = {
+            name: fem.Constant(m.mesh, PETSc.ScalarType(value))
+            for name, value in (
+                ("reach", plane.reach),
+                ("stiffness", 0.0),
+                ("v_scale", plane.slip_velocity),
+            )
+        }
         self.stiffnesses.append(const["stiffness"])
         n = fem.Constant(m.mesh, plane.normal.astype(PETSc.ScalarType))
         p = fem.Constant(m.mesh, np.asarray(entry["point"], dtype=PETSc.ScalarType))
         g, g_start = forms.gap(face, p, n), forms.gap(face_start, p, n)
-        pressure = forms.step_pressure(const["stiffness"], g, g_start, const["reach"],
-                                       m.coef["alpha_f"], self.in_time)
+        pressure = forms.step_pressure(
+            const["stiffness"], g, g_start, const["reach"], m.coef["alpha_f"], self.in_time
+        )
         v_slip = forms.slip_velocity(face, face_start, n, self.inv_dt)
         traction = self._friction(entry, pressure, v_slip, const["v_scale"], n)
         J = area_ratio(k.g1, k.g2, k.G1, k.G2)
         within = ufl.conditional(ufl.lt(g, const["reach"]), J, 0 * J)
-        return {"work": forms.contact_work(pressure, traction, n, face_virtual, self.dx),
-                "force": pressure * n + traction, "area": within,
-                "energy": const["stiffness"] * forms.barrier(g, const["reach"]),
-                "power": -ufl.dot(traction, v_slip)}
+        return {
+            "work": forms.contact_work(pressure, traction, n, face_virtual, self.dx),
+            "force": pressure * n + traction,
+            "area": within,
+            "energy": const["stiffness"] * forms.barrier(g, const["reach"]),
+            "power": -ufl.dot(traction, v_slip),
+        }
 
     def _friction(self, plane, pressure, v_slip, v_scale, n):
         """The friction traction of one plane's entry (forms.friction_traction), its
@@ -259,12 +325,19 @@ class Contact(UpdateLimits, Effect):
             return 0 * v_slip
         anisotropic = isinstance(kinetic, list) or isinstance(static, list)
         if anisotropic:
-            mu = [fem.Constant(m.mesh, np.asarray(_triple(c), dtype=PETSc.ScalarType))
-                  for c in (kinetic, static)]
+            mu = [
+                fem.Constant(m.mesh, np.asarray(_triple(c), dtype=PETSc.ScalarType))
+                for c in (kinetic, static)
+            ]
             frame = forms.friction_frame(m.kinematics().F_s * m.material_axis, n)
-            return forms.friction_traction(pressure, v_slip, v_scale,
-                                           [mu[0][i] for i in range(3)],
-                                           [mu[1][i] for i in range(3)], frame)
+            return forms.friction_traction(
+                pressure,
+                v_slip,
+                v_scale,
+                [mu[0][i] for i in range(3)],
+                [mu[1][i] for i in range(3)],
+                frame,
+            )
         mu = [fem.Constant(m.mesh, PETSc.ScalarType(c)) for c in (kinetic, static)]
         return forms.friction_traction(pressure, v_slip, v_scale, mu[0], mu[1])
 
@@ -285,17 +358,21 @@ class Contact(UpdateLimits, Effect):
         UFL area density), or over its whole area if none is; all of the weight if
         gravity lies in the plane.  Without gravity the pressure D t / L⁴ that bends
         the body by its thickness."""
-        m, shell = self.model, self.scene["shell"]
+        m = self.model
         gravity = [ld for ld in self.scene.get("load") or [] if ld["kind"] == "gravity"]
         if gravity:
             rho, t = m.material["rho"], m.material["t"]
             mass = m.assemble_scalar(m.compile(rho * t * self.dx))
             volume = m.assemble_scalar(m.compile(t * self.dx))
-            along = max(abs(mass - ld["fluid_density"] * volume)
-                        * abs(float(np.asarray(ld["value"], dtype=float) @ normal))
-                        for ld in gravity)
-            whole = max(abs(mass - ld["fluid_density"] * volume)
-                        * float(np.linalg.norm(ld["value"])) for ld in gravity)
+            along = max(
+                abs(mass - ld["fluid_density"] * volume)
+                * abs(float(np.asarray(ld["value"], dtype=float) @ normal))
+                for ld in gravity
+            )
+            whole = max(
+                abs(mass - ld["fluid_density"] * volume) * float(np.linalg.norm(ld["value"]))
+                for ld in gravity
+            )
             weight = along or whole
             if weight > 0.0:
                 touching = m.assemble_scalar(m.compile(within * self.dx))
@@ -313,15 +390,20 @@ class Contact(UpdateLimits, Effect):
         for i, plane in enumerate(self.planes):
             g = (faces.reshape(-1, 3) - plane.point) @ plane.normal
             low = float(g.min()) if len(g) else np.inf
-            low, where = min(m.comm.allgather(
-                (low, faces.reshape(-1, 3)[int(np.argmin(g))].tolist() if len(g) else None)),
-                key=lambda pair: pair[0])
+            low, where = min(
+                m.comm.allgather(
+                    (low, faces.reshape(-1, 3)[int(np.argmin(g))].tolist() if len(g) else None)
+                ),
+                key=lambda pair: pair[0],
+            )
             if low < -START_DEPTH * plane.reach:
                 at = ", ".join(f"{c:.4g}" for c in where)
-                raise SceneError(f"contact.{i}: the body starts through the plane: its lower "
-                                 f"face is {-low:.4g} below it at ({at}) (the normal points to "
-                                 "the side the body stays on; the lower face is the mid-surface "
-                                 "less half the thickness along the director)")
+                raise SceneError(
+                    f"contact.{i}: the body starts through the plane: its lower "
+                    f"face is {-low:.4g} below it at ({at}) (the normal points to "
+                    "the side the body stays on; the lower face is the mid-surface "
+                    "less half the thickness along the director)"
+                )
 
     # --- the effect ----------------------------------------------------------------
 
@@ -346,9 +428,9 @@ class Contact(UpdateLimits, Effect):
         m = self.model
         if self._compiled is None:
             out = self._outputs
-            self._compiled = ([m.compile(out["force"][i] * self.dx) for i in range(3)]
-                              + [m.compile(out[name] * self.dx)
-                                 for name in ("area", "energy", "power")])
+            self._compiled = [m.compile(out["force"][i] * self.dx) for i in range(3)] + [
+                m.compile(out[name] * self.dx) for name in ("area", "energy", "power")
+            ]
         return [m.assemble_scalar(f) for f in self._compiled]
 
     def _contact_area(self) -> float:
@@ -359,12 +441,14 @@ class Contact(UpdateLimits, Effect):
         """A slip velocity so large that a sticking body creeps more than 5 % of its size
         in a drive period (or the run) does not model sticking: a warning."""
         size, span = self.size, self._time_scale()
-        return [f"contact.{i}.slip_velocity = {plane.slip_velocity:.3g}: a body that "
-                f"sticks may creep {plane.slip_velocity * span / size:.2g} of its size "
-                f"in {span:.3g} (a drive period, or time.end), so friction acts as a drag, "
-                f"not as static friction; give a smaller slip_velocity (docs/contact.md §2)"
-                for i, plane in enumerate(self.planes)
-                if plane.slip_velocity * span > CREEP_WARNING * size]
+        return [
+            f"contact.{i}.slip_velocity = {plane.slip_velocity:.3g}: a body that "
+            f"sticks may creep {plane.slip_velocity * span / size:.2g} of its size "
+            f"in {span:.3g} (a drive period, or time.end), so friction acts as a drag, "
+            f"not as static friction; give a smaller slip_velocity (docs/contact.md §2)"
+            for i, plane in enumerate(self.planes)
+            if plane.slip_velocity * span > CREEP_WARNING * size
+        ]
 
     def holds_at_rest(self) -> bool:
         """Whether friction may hold the body at the current state: a plane with friction

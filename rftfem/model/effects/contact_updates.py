@@ -65,8 +65,7 @@ class UpdateLimits(LimitsNewtonStep):
             # logarithmic part (there the Taylor polynomial holds it, and Newton walks out)
             closing = (ds < 0.0) & (s < 2.0 * reach - ds) & (s > forms.CLAMP * 2.0 * reach)
             if np.any(closing):
-                fraction = min(fraction, float(np.min((1.0 - keep) * s[closing]
-                                                      / -ds[closing])))
+                fraction = min(fraction, float(np.min((1.0 - keep) * s[closing] / -ds[closing])))
             fraction = min(fraction, self._slip_fraction(plane, s, u, du, owned))
         return self.model.comm.allreduce(min(fraction, 1.0), op=_mpi_min())
 
@@ -78,7 +77,7 @@ class UpdateLimits(LimitsNewtonStep):
         # and the band's stiffness at zero slip holds it back by itself)
         if inv_dt == 0.0 or not plane.rubs or not self.model.increments:
             return 1.0
-        n, eps2 = plane.normal, plane.slip_velocity ** 2
+        n, eps2 = plane.normal, plane.slip_velocity**2
         tangential = lambda a: a - np.outer(a @ n, n)  # noqa: E731
         v = tangential((u - self.u_start.x.array.reshape(-1, 3)[owned]) * inv_dt)
         dv = tangential(du * inv_dt)
@@ -92,7 +91,6 @@ class UpdateLimits(LimitsNewtonStep):
         return float(np.min(0.5 * speed2[turning] / -along[turning]))
 
 
-
 def cell_thickness(model):
     """Each cell's nodes of ``Vu`` (cells × nodes) and its thickness (DG0)."""
     from rftfem import compat
@@ -103,4 +101,5 @@ def cell_thickness(model):
 
 def _mpi_min():
     from mpi4py import MPI
+
     return MPI.MIN

@@ -11,9 +11,8 @@ from __future__ import annotations
 import numpy as np
 import ufl
 
-from rftfem.forms import drag
 from rftfem.errors import SceneError
-
+from rftfem.forms import drag
 from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel
 from rftfem.model.ranks import gather_rows
@@ -43,9 +42,11 @@ class Drag(FluidModel):
         #: no material axis (forms.drag.transverse_drag_tensor): a closed body can have it
         self.axis_free = self.C[0] == self.C[1]
         if model.triad.axis_along_normal and not self.axis_free:
-            raise model.axis_error("the drag frame needs a tangent axis where C1 and C2 "
-                                   "differ; give fluid.drag with C1 = C2 for a body "
-                                   "without one")
+            raise model.axis_error(
+                "the drag frame needs a tangent axis where C1 and C2 "
+                "differ; give fluid.drag with C1 = C2 for a body "
+                "without one"
+            )
         C = np.asarray(self.C, dtype=PETSc.ScalarType)
         self.coefficients = fem.Constant(model.mesh, C)
         self._forms = {}
@@ -55,16 +56,25 @@ class Drag(FluidModel):
         """The coefficients the run uses and where they came from (``rftfem check``,
         summary.json's ``fluid``)."""
         given = fluid.settings(self.scene)
-        source = ("fluid.drag" if given.drag is not None else
-                  f"fluid.viscosity = {given.viscosity:g} (slender-body drag of the "
-                  f"body's length and width along shell.axis)")
-        return {"model": "rft", "drag": [float(c) for c in self.C], "from": source,
-                "axis_free": bool(self.axis_free)}
+        source = (
+            "fluid.drag"
+            if given.drag is not None
+            else f"fluid.viscosity = {given.viscosity:g} (slender-body drag of the "
+            f"body's length and width along shell.axis)"
+        )
+        return {
+            "model": "rft",
+            "drag": [float(c) for c in self.C],
+            "from": source,
+            "axis_free": bool(self.axis_free),
+        }
 
     def check_lines(self) -> list[str]:
         d = self.describe()
-        return [f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}] "
-                f"from {d['from']}"]
+        return [
+            f"fluid: drag coefficients [{', '.join(f'{c:.4g}' for c in d['drag'])}] "
+            f"from {d['from']}"
+        ]
 
     def _coefficients(self) -> list[float]:
         given = fluid.settings(self.scene)
@@ -75,8 +85,10 @@ class Drag(FluidModel):
         x = gather_rows(m.Vu.tabulate_dof_coordinates()[:owned], m.comm)
         length, width = fluid.body_extents(x, self.scene["shell"]["axis"])
         if width <= 0.0:
-            raise SceneError("fluid.viscosity: the body has no width across shell.axis, so "
-                             "the slender-body drag is undefined; give fluid.drag")
+            raise SceneError(
+                "fluid.viscosity: the body has no width across shell.axis, so "
+                "the slender-body drag is undefined; give fluid.drag"
+            )
         return fluid.slender_body_drag(given.viscosity, length, width)
 
     def _term(self, term, *args):
@@ -84,8 +96,17 @@ class Drag(FluidModel):
         m, C = self.model, self.coefficients
         k = m.kinematics()
         axis = None if self.axis_free else m.material_axis
-        return term([C[0], C[1], C[2]], k.F_s, axis, *args, k.g1, k.g2, k.G1, k.G2,
-                    m.dx(metadata={"quadrature_degree": 4}))
+        return term(
+            [C[0], C[1], C[2]],
+            k.F_s,
+            axis,
+            *args,
+            k.g1,
+            k.g2,
+            k.G1,
+            k.G2,
+            m.dx(metadata={"quadrature_degree": 4}),
+        )
 
     def forces(self):
         k = self.model.kinematics()
@@ -98,15 +119,17 @@ class Drag(FluidModel):
         m = self.model
         if name not in self._forms:
             form = build()
-            self._forms[name] = ([m.compile(f) for f in form] if isinstance(form, list)
-                                 else m.compile(form))
+            self._forms[name] = (
+                [m.compile(f) for f in form] if isinstance(form, list) else m.compile(form)
+            )
         return self._forms[name]
 
     def power(self) -> float:
         """Power dissipated by the drag, ``∫ (C̃ v)·v J dA₀`` (global), in the current
         configuration with the stored velocity ``v_n`` (after a step: its end state)."""
         return self.model.assemble_scalar(
-            self._assembled("power", lambda: self._term(drag.drag_power, self.model.v_n)))
+            self._assembled("power", lambda: self._term(drag.drag_power, self.model.v_n))
+        )
 
     def force(self) -> np.ndarray:
         """Total drag force on the body ``∫ C̃ v J dA₀`` (global), in the current
@@ -123,8 +146,9 @@ class Drag(FluidModel):
 
         m = self.model
         if self._spin is None:
-            axis_c, centre = (fem.Constant(m.mesh, np.zeros(3, dtype=PETSc.ScalarType))
-                              for _ in range(2))
+            axis_c, centre = (
+                fem.Constant(m.mesh, np.zeros(3, dtype=PETSc.ScalarType)) for _ in range(2)
+            )
             x = ufl.SpatialCoordinate(m.mesh) + m.kinematics().u
             v = ufl.cross(axis_c, x - centre)
             self._spin = (axis_c, centre, m.compile(self._term(drag.drag_power, v)))
@@ -138,8 +162,12 @@ class Drag(FluidModel):
         """The liquid's force and moment about the origin on the body,
         ``−∫ C̃ v J dA₀`` and ``−∫ x × C̃ v J dA₀`` (global), with the stored velocity."""
         m = self.model
-        forms = self._assembled("moment", lambda: self._term(
-            drag.drag_moment, m.v_n, ufl.SpatialCoordinate(m.mesh) + m.kinematics().u))
+        forms = self._assembled(
+            "moment",
+            lambda: self._term(
+                drag.drag_moment, m.v_n, ufl.SpatialCoordinate(m.mesh) + m.kinematics().u
+            ),
+        )
         moment = np.array([m.assemble_scalar(f) for f in forms])
         return -np.concatenate([self.force(), moment])
 

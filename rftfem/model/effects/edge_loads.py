@@ -13,32 +13,39 @@ import ufl
 
 from rftfem.errors import SceneError
 from rftfem.forms import loads
+from rftfem.model.effects.base import Load, loads_of
 from rftfem.scene.schema import Leaf, Vec, Where
 from rftfem.scene.selectors import check_where, facets_of
 
-from rftfem.model.effects.base import Load, loads_of
-
-_WHERE = Leaf(Where(), required=True,
-              doc="The boundary edge: x=0, x=L, y=0, y=W or a gmsh physical curve (not a "
-                  "hinge or another line inside the body).")
-_VALUE_DOC = ("The total over the edge in global axes, spread evenly along the edge's "
-              "reference length and multiplied by the ramp's scale. The load keeps its "
-              "direction as the body moves (dead load).")
+_WHERE = Leaf(
+    Where(),
+    required=True,
+    doc="The boundary edge: x=0, x=L, y=0, y=W or a gmsh physical curve (not a "
+    "hinge or another line inside the body).",
+)
+_VALUE_DOC = (
+    "The total over the edge in global axes, spread evenly along the edge's "
+    "reference length and multiplied by the ramp's scale. The load keeps its "
+    "direction as the body moves (dead load)."
+)
 KINDS = ("edge-moment", "edge-force")
 
 
 class EdgeLoads(Load):
     name = "edge-loads"
     load_kinds = {
-        "edge-moment": {"where": _WHERE,
-                        "value": Leaf(Vec(), required=True, unit="force·length",
-                                      doc=_VALUE_DOC)},
-        "edge-force": {"where": _WHERE,
-                       "value": Leaf(Vec(), required=True, unit="force", doc=_VALUE_DOC)},
+        "edge-moment": {
+            "where": _WHERE,
+            "value": Leaf(Vec(), required=True, unit="force·length", doc=_VALUE_DOC),
+        },
+        "edge-force": {
+            "where": _WHERE,
+            "value": Leaf(Vec(), required=True, unit="force", doc=_VALUE_DOC),
+        },
     }
     kind_docs = {
         "edge-moment": "A couple on the edge's directors (its part about the director does "
-                       "nothing).",
+        "nothing).",
         "edge-force": "A force on the edge.",
     }
 
@@ -69,9 +76,11 @@ class EdgeLoads(Load):
         boundary = dmesh.exterior_facet_indices(mesh.topology)
         for w, facets in facet_sets.items():
             if comm.allreduce(int((~np.isin(facets, boundary)).sum())):
-                raise SceneError(f"load.{first[w]}.where: '{w}' runs inside the body (a hinge "
-                                 "or an interior curve); edge loads act on the body's boundary "
-                                 "edges")
+                raise SceneError(
+                    f"load.{first[w]}.where: '{w}' runs inside the body (a hinge "
+                    "or an interior curve); edge loads act on the body's boundary "
+                    "edges"
+                )
         all_facets = np.concatenate(list(facet_sets.values()))
         if comm.allreduce(int(len(np.unique(all_facets)) != len(all_facets))):
             raise SceneError("load: edge loads on overlapping edges must use the same 'where'")
@@ -106,5 +115,7 @@ class EdgeLoads(Load):
     def force_scales(self):
         """Each total edge force, and each edge moment over the length."""
         L = self.model.body.length
-        return [float(np.linalg.norm(ld["value"])) / (1.0 if ld["kind"] == "edge-force" else L)
-                for ld, _, _ in self.per_length]
+        return [
+            float(np.linalg.norm(ld["value"])) / (1.0 if ld["kind"] == "edge-force" else L)
+            for ld, _, _ in self.per_length
+        ]

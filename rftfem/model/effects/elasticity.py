@@ -9,7 +9,6 @@ import numpy as np
 import ufl
 
 from rftfem.forms import elasticity, kinematics
-
 from rftfem.model.effects.base import Effect
 
 
@@ -39,8 +38,9 @@ def cell_diameter(mesh):
 def material_law(mat: dict, G1, G2):
     """The plane-stress law of the Model's material fields (forms.elasticity)."""
     if "fibre" in mat:
-        return elasticity.Orthotropic(*(mat[k] for k in ("E1", "E2", "G12", "nu12", "G13",
-                                                         "G23", "fibre")), G1, G2)
+        return elasticity.Orthotropic(
+            *(mat[k] for k in ("E1", "E2", "G12", "nu12", "G13", "G23", "fibre")), G1, G2
+        )
     return elasticity.Isotropic(mat["E"], mat["nu"])
 
 
@@ -57,15 +57,18 @@ class Elasticity(Effect):
         self.h = cell_diameter(model.mesh)
         k = model.kinematics()
         self.law = material_law(mat, k.G1, k.G2)
-        self._energy = elasticity.stored_energy(self.strains(k), k.G1, k.G2, self.law,
-                                                mat["t"], model.dx, self.h)
+        self._energy = elasticity.stored_energy(
+            self.strains(k), k.G1, k.G2, self.law, mat["t"], model.dx, self.h
+        )
 
     def strains(self, k):
         """``(ε, κ, γ)`` of the kinematics ``k`` (Model.kinematics_of)."""
         D = kinematics.unit(self.model.D)
-        return (kinematics.membrane_strain(k.g1, k.g2, k.G1, k.G2),
-                kinematics.bending_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
-                kinematics.shear_strain(k.g1, k.g2, k.d, k.G1, k.G2, D))
+        return (
+            kinematics.membrane_strain(k.g1, k.g2, k.G1, k.G2),
+            kinematics.bending_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
+            kinematics.shear_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
+        )
 
     def energy(self):
         return self._energy
@@ -79,19 +82,23 @@ class Elasticity(Effect):
         current = self.strains(m.kinematics_of(m.newton_current))
         # bending is left exact: its linearized moments made Newton slower (the strip
         # at 50 steps per period: 7.9 iterations a step against 4.9 without)
-        defects = [current[i] - previous[i]
-                   - ufl.derivative(previous[i], m.newton_previous, m.newton_update)
-                   for i in (0, 2)]
+        defects = [
+            current[i]
+            - previous[i]
+            - ufl.derivative(previous[i], m.newton_previous, m.newton_update)
+            for i in (0, 2)
+        ]
         k = m.kinematics()
-        return elasticity.mixed_point_tangent(self.strains(k), defects, k.G1, k.G2, self.law,
-                                              mat["t"], m.dx, self.h)
+        return elasticity.mixed_point_tangent(
+            self.strains(k), defects, k.G1, k.G2, self.law, mat["t"], m.dx, self.h
+        )
 
     def force_scales(self):
         """The bending force ``D W / L²`` that bends the body by order one (the largest
         modulus, the mean thickness and ν)."""
         m, body = self.model, self.model.body
         t, nu = m.material_value("thickness", "shell"), m.material_value("nu", "shell")
-        D = m.material_value("E") * t ** 3 / (12 * (1 - nu ** 2))
+        D = m.material_value("E") * t**3 / (12 * (1 - nu**2))
         return [D * max(body.width, 1e-300) / body.length**2]
 
     def membrane_force(self) -> float:

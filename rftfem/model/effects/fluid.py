@@ -22,30 +22,41 @@ OPERATORS = ("auto", "dense", "fmm")
 METHODS = ("layer", "blobs")
 FACTORS = ("kept", "every-update")
 
+
 def _check_rft(fluid: dict) -> None:
     if (fluid.get("drag") is None) == (fluid.get("viscosity") is None):
-        raise SceneError('fluid: give either fluid.drag or fluid.viscosity with model = '
-                         '"rft"' + (", not both" if fluid.get("drag") is not None else ""))
+        raise SceneError(
+            "fluid: give either fluid.drag or fluid.viscosity with model = "
+            '"rft"' + (", not both" if fluid.get("drag") is not None else "")
+        )
 
 
 def _check_stokes(fluid: dict) -> None:
     if fluid.get("drag") is not None:
-        raise SceneError('fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
-                         "has no drag coefficients); give fluid.viscosity only: drop "
-                         "the drag with --unset fluid.drag (Python: del "
-                         "scene[\"fluid.drag\"])")
+        raise SceneError(
+            'fluid.drag: not used with fluid.model = "stokes" (the Stokes flow '
+            "has no drag coefficients); give fluid.viscosity only: drop "
+            "the drag with --unset fluid.drag (Python: del "
+            'scene["fluid.drag"])'
+        )
     if fluid.get("viscosity") is None:
         raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
     if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
-        raise SceneError('fluid.operator: "fmm" has no wall images; use operator = '
-                         '"dense" (or "auto") with fluid.wall')
+        raise SceneError(
+            'fluid.operator: "fmm" has no wall images; use operator = '
+            '"dense" (or "auto") with fluid.wall'
+        )
     if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
-        raise SceneError('fluid.operator: "fmm" needs fluid.method = "blobs" in this '
-                         'version (the integrated layer is dense); use operator = '
-                         '"dense" (or "auto"), or method = "blobs"')
+        raise SceneError(
+            'fluid.operator: "fmm" needs fluid.method = "blobs" in this '
+            "version (the integrated layer is dense); use operator = "
+            '"dense" (or "auto"), or method = "blobs"'
+        )
     if fluid.get("refine") and fluid.get("method", "layer") != "layer":
-        raise SceneError('fluid.refine: only with fluid.method = "layer" (the blobs sit '
-                         "at the nodes: refine the mesh)")
+        raise SceneError(
+            'fluid.refine: only with fluid.method = "layer" (the blobs sit '
+            "at the nodes: refine the mesh)"
+        )
 
 
 @dataclass(frozen=True)
@@ -63,12 +74,18 @@ class FluidModelEntry:
 #: component that a model builds says ``fluid.model_of(scene) == name`` in ``active``)
 MODELS = {
     "rft": FluidModelEntry({"drag": ("drag coefficients", None)}, "local drag", _check_rft),
-    "stokes": FluidModelEntry({"regularization": ("blob", None), "wall": ("wall", None),
-                               "method": ("discretised layer", "layer"),
-                               "refine": ("discretised layer", 0),
-                               "factors": ("discretised layer", "kept"),
-                               "operator": ("nonlocal operator", "auto")},
-                              "the Stokes flow", _check_stokes),
+    "stokes": FluidModelEntry(
+        {
+            "regularization": ("blob", None),
+            "wall": ("wall", None),
+            "method": ("discretised layer", "layer"),
+            "refine": ("discretised layer", 0),
+            "factors": ("discretised layer", "kept"),
+            "operator": ("nonlocal operator", "auto"),
+        },
+        "the Stokes flow",
+        _check_stokes,
+    ),
 }
 
 
@@ -105,7 +122,8 @@ def settings(scene: dict) -> FluidSettings | None:
         refine=int(given.get("refine") or 0),
         operator=given.get("operator") or "auto",
         factors=given.get("factors") or "kept",
-        wall=(tuple(wall["point"]), tuple(wall["normal"])) if wall else None)
+        wall=(tuple(wall["point"]), tuple(wall["normal"])) if wall else None,
+    )
 
 
 def check(scene: dict) -> None:
@@ -120,72 +138,111 @@ def check(scene: dict) -> None:
     for other, owner in MODELS.items():
         for key, (what, default) in owner.keys.items():
             if other != name and key not in entry.keys and fluid.get(key) not in (None, default):
-                raise SceneError(f'fluid.{key}: only with fluid.model = "{other}" '
-                                 f"({entry.called} has no {what})")
+                raise SceneError(
+                    f'fluid.{key}: only with fluid.model = "{other}" ({entry.called} has no {what})'
+                )
 
 
-SCHEMA = Table({
-    "model": Leaf(Str(tuple(MODELS)), "rft",
-                  doc='The liquid: "rft" local resistive-force drag, "stokes" the nonlocal '
-                      "Stokes flow of regularized Stokeslets on the mid-surface (sees every "
-                      "part of the body and a wall; docs/stokes.md)."),
-    "drag": Leaf(Vec(item=NONNEGATIVE, some_positive=True,
-                     expected="3 numbers >= 0 [along axis, across, normal], at least one > 0"),
-                 unit="force·time/length³",
-                 default_doc='none: with model = "rft" give `drag` or `viscosity`',
-                 doc="The drag coefficients [C1, C2, C3] (model = \"rft\"): along the "
-                     "material axis (`shell.axis`) as the body carries it, across it in the "
-                     "surface, and along the current normal. The traction per current area "
-                     "is the sum of Ci (ei·v) ei over the three directions. With C1 = C2 "
-                     "no material axis is needed (a closed body can have such drag)."),
-    "viscosity": Leaf(POSITIVE, unit="force·time/length²",
-                      default_doc='none: required with model = "stokes"',
-                      doc="The liquid's dynamic viscosity μ. With model = \"rft\" (instead of "
-                          "`drag`) the three coefficients come from slender-body theory for "
-                          "the body's length and width (docs/stokes.md §RFT from the "
-                          "viscosity)."),
-    "method": Leaf(Str(METHODS), "layer",
-                   doc='How the Stokes single layer is discretised (model = "stokes"): '
-                       '"layer" a force density on the shell\'s own elements, the kernel '
-                       "integrated over each element (singular and near-singular rules), "
-                       'no slip at the nodes; "blobs" point forces at the nodes with blobs '
-                       "of the node spacing (first order; the fast multipole operator "
-                       "needs it); docs/stokes.md §Two discretisations."),
-    "regularization": Leaf(POSITIVE, unit="length",
-                           default_doc='method "layer": 0, the Stokeslet itself (integrated '
-                                       'exactly); method "blobs": the local node spacing, '
-                                       "half of it on free edges",
-                           doc='The blob size ε of the regularized Stokeslets (model = '
-                               '"stokes"), the same everywhere.'),
-    "refine": Leaf(Int(0), 0,
-                   doc='The liquid\'s own resolution (method "layer"): the force density '
-                       "lives on the shell's elements each cut into 2^refine × 2^refine on "
-                       "the shell's own surface (the shell mesh untouched; the dense "
-                       "operator grows 16× a level). `rftfem study --refine fluid` makes the "
-                       "liquid's convergence table; `rftfem check` estimates its error."),
-    "operator": Leaf(Str(OPERATORS), "auto",
-                     doc='How the Stokes operator is applied (model = "stokes"): "dense" '
-                         "assembles and factorises the mobility (exact, memory 144 N² bytes "
-                         'for N nodes); "fmm" is matrix-free, fast multipoles (fmm3dpy) with '
-                         "a local blob correction and preconditioned conjugate gradients (no "
-                         'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
-                         "(docs/stokes.md §Cost and scale)."),
-    "factors": Leaf(Str(FACTORS), "kept",
-                    doc='When the layer\'s dense operator is factorised (method "layer"): '
-                        '"kept" (default) keeps a configuration\'s LU factors across residuals '
-                        "and steps, solving each residual's no slip by GMRES on the current "
-                        "operator preconditioned by them (to 1e-13) and taking them and their "
-                        "derivative as the Newton tangent, refreshed when GMRES needs more "
-                        'than 10 iterations; "every-update" factorises at every residual (the '
-                        "exact tangent; the same converged answer; docs/stokes.md §Cost)."),
-    "wall": Table({
-        "point": Leaf(Vec(), required=True, unit="length",
-                      doc="A point of the no-slip plane."),
-        "normal": Leaf(Vec(nonzero=True), required=True,
-                       doc="The plane's normal, towards the body's side."),
-    }, optional=True, doc='A no-slip plane wall (model = "stokes"), by the images of the '
-                          "Stokeslets in the plane (docs/stokes.md)."),
-}, optional=True, doc="The liquid around the body: local resistive-force drag or Stokes flow.")
+SCHEMA = Table(
+    {
+        "model": Leaf(
+            Str(tuple(MODELS)),
+            "rft",
+            doc='The liquid: "rft" local resistive-force drag, "stokes" the nonlocal '
+            "Stokes flow of regularized Stokeslets on the mid-surface (sees every "
+            "part of the body and a wall; docs/stokes.md).",
+        ),
+        "drag": Leaf(
+            Vec(
+                item=NONNEGATIVE,
+                some_positive=True,
+                expected="3 numbers >= 0 [along axis, across, normal], at least one > 0",
+            ),
+            unit="force·time/length³",
+            default_doc='none: with model = "rft" give `drag` or `viscosity`',
+            doc='The drag coefficients [C1, C2, C3] (model = "rft"): along the '
+            "material axis (`shell.axis`) as the body carries it, across it in the "
+            "surface, and along the current normal. The traction per current area "
+            "is the sum of Ci (ei·v) ei over the three directions. With C1 = C2 "
+            "no material axis is needed (a closed body can have such drag).",
+        ),
+        "viscosity": Leaf(
+            POSITIVE,
+            unit="force·time/length²",
+            default_doc='none: required with model = "stokes"',
+            doc='The liquid\'s dynamic viscosity μ. With model = "rft" (instead of '
+            "`drag`) the three coefficients come from slender-body theory for "
+            "the body's length and width (docs/stokes.md §RFT from the "
+            "viscosity).",
+        ),
+        "method": Leaf(
+            Str(METHODS),
+            "layer",
+            doc='How the Stokes single layer is discretised (model = "stokes"): '
+            '"layer" a force density on the shell\'s own elements, the kernel '
+            "integrated over each element (singular and near-singular rules), "
+            'no slip at the nodes; "blobs" point forces at the nodes with blobs '
+            "of the node spacing (first order; the fast multipole operator "
+            "needs it); docs/stokes.md §Two discretisations.",
+        ),
+        "regularization": Leaf(
+            POSITIVE,
+            unit="length",
+            default_doc='method "layer": 0, the Stokeslet itself (integrated '
+            'exactly); method "blobs": the local node spacing, '
+            "half of it on free edges",
+            doc="The blob size ε of the regularized Stokeslets (model = "
+            '"stokes"), the same everywhere.',
+        ),
+        "refine": Leaf(
+            Int(0),
+            0,
+            doc='The liquid\'s own resolution (method "layer"): the force density '
+            "lives on the shell's elements each cut into 2^refine × 2^refine on "
+            "the shell's own surface (the shell mesh untouched; the dense "
+            "operator grows 16× a level). `rftfem study --refine fluid` makes the "
+            "liquid's convergence table; `rftfem check` estimates its error.",
+        ),
+        "operator": Leaf(
+            Str(OPERATORS),
+            "auto",
+            doc='How the Stokes operator is applied (model = "stokes"): "dense" '
+            "assembles and factorises the mobility (exact, memory 144 N² bytes "
+            'for N nodes); "fmm" is matrix-free, fast multipoles (fmm3dpy) with '
+            "a local blob correction and preconditioned conjugate gradients (no "
+            'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
+            "(docs/stokes.md §Cost and scale).",
+        ),
+        "factors": Leaf(
+            Str(FACTORS),
+            "kept",
+            doc='When the layer\'s dense operator is factorised (method "layer"): '
+            '"kept" (default) keeps a configuration\'s LU factors across residuals '
+            "and steps, solving each residual's no slip by GMRES on the current "
+            "operator preconditioned by them (to 1e-13) and taking them and their "
+            "derivative as the Newton tangent, refreshed when GMRES needs more "
+            'than 10 iterations; "every-update" factorises at every residual (the '
+            "exact tangent; the same converged answer; docs/stokes.md §Cost).",
+        ),
+        "wall": Table(
+            {
+                "point": Leaf(
+                    Vec(), required=True, unit="length", doc="A point of the no-slip plane."
+                ),
+                "normal": Leaf(
+                    Vec(nonzero=True),
+                    required=True,
+                    doc="The plane's normal, towards the body's side.",
+                ),
+            },
+            optional=True,
+            doc='A no-slip plane wall (model = "stokes"), by the images of the '
+            "Stokeslets in the plane (docs/stokes.md).",
+        ),
+    },
+    optional=True,
+    doc="The liquid around the body: local resistive-force drag or Stokes flow.",
+)
 
 
 def model_of(scene: dict) -> str | None:

@@ -11,25 +11,36 @@ from __future__ import annotations
 import numpy as np
 
 from rftfem.forms.gravity import body_force_work
-from rftfem.scene.schema import NONNEGATIVE, Leaf, Vec
-
 from rftfem.model.effects.base import Load
+from rftfem.scene.schema import NONNEGATIVE, Leaf, Vec
 
 KIND = "gravity"
 
 
 class Gravity(Load):
     name = KIND
-    load_kinds = {KIND: {
-        "value": Leaf(Vec(), required=True, unit="length/time²",
-                      doc="The acceleration of gravity g in global axes (e.g. [0, 0, -9810] "
-                          "in mm/s²), multiplied by the ramp's scale."),
-        "fluid_density": Leaf(NONNEGATIVE, 0.0, unit="mass/length³",
-                              doc="The density ρ_f of the fluid around the body: the body "
-                                  "force is (ρ − ρ_f) t g (buoyancy); 0 in vacuum."),
-    }}
-    kind_docs = {KIND: "The weight of the shell, less its buoyancy: a body force "
-                       "(ρ − ρ_f) t g per reference area."}
+    load_kinds = {
+        KIND: {
+            "value": Leaf(
+                Vec(),
+                required=True,
+                unit="length/time²",
+                doc="The acceleration of gravity g in global axes (e.g. [0, 0, -9810] "
+                "in mm/s²), multiplied by the ramp's scale.",
+            ),
+            "fluid_density": Leaf(
+                NONNEGATIVE,
+                0.0,
+                unit="mass/length³",
+                doc="The density ρ_f of the fluid around the body: the body "
+                "force is (ρ − ρ_f) t g (buoyancy); 0 in vacuum.",
+            ),
+        }
+    }
+    kind_docs = {
+        KIND: "The weight of the shell, less its buoyancy: a body force "
+        "(ρ − ρ_f) t g per reference area."
+    }
 
     def __init__(self, model):
         from dolfinx import fem
@@ -37,11 +48,19 @@ class Gravity(Load):
 
         super().__init__(model)
         mat, k = model.material, model.kinematics()
-        self.accelerations = [fem.Constant(model.mesh, np.zeros(3, dtype=PETSc.ScalarType))
-                       for _ in self.entries]
-        terms = [body_force_work(mat["rho"] - ld["fluid_density"], mat["t"], g, k.du,
-                                 model.dx(metadata={"quadrature_degree": 2}))
-                 for (_, ld), g in zip(self.entries, self.accelerations)]
+        self.accelerations = [
+            fem.Constant(model.mesh, np.zeros(3, dtype=PETSc.ScalarType)) for _ in self.entries
+        ]
+        terms = [
+            body_force_work(
+                mat["rho"] - ld["fluid_density"],
+                mat["t"],
+                g,
+                k.du,
+                model.dx(metadata={"quadrature_degree": 2}),
+            )
+            for (_, ld), g in zip(self.entries, self.accelerations)
+        ]
         self._work = -sum(terms[1:], terms[0])
 
     def forces(self):
@@ -57,9 +76,13 @@ class Gravity(Load):
 
         def net(p, ld):  # a field's extremes of density, its largest thickness
             rho = {m.material_value("density", how, p["density"]) for how in ("min", "max")}
-            return (max(abs(r - ld["fluid_density"]) for r in rho)
-                    * m.material_value("thickness", "max", p["thickness"]))
+            return max(abs(r - ld["fluid_density"]) for r in rho) * m.material_value(
+                "thickness", "max", p["thickness"]
+            )
 
-        return [max(net(p, ld) for p in [shell, *shell["parts"]])
-                * float(np.linalg.norm(ld["value"])) * self.model.area()
-                for _, ld in self.entries]
+        return [
+            max(net(p, ld) for p in [shell, *shell["parts"]])
+            * float(np.linalg.norm(ld["value"]))
+            * self.model.area()
+            for _, ld in self.entries
+        ]

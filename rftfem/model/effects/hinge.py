@@ -17,29 +17,41 @@ import ufl
 from rftfem.errors import SceneError
 from rftfem.forms import hinge as hinge_forms
 from rftfem.forms import kinematics
-from rftfem.scene.schema import NONNEGATIVE, Array, Leaf, Table, Where, err, fmt
-from rftfem.scene.mesh_keys import MOMENT_PER_LENGTH_RAD
-from rftfem.scene.selectors import LINED_KINDS, THREE_LINK_HINGES, hinge_line
-
 from rftfem.model.effects.base import Effect
+from rftfem.scene.mesh_keys import MOMENT_PER_LENGTH_RAD
+from rftfem.scene.schema import NONNEGATIVE, Array, Leaf, Table, Where, err, fmt
+from rftfem.scene.selectors import LINED_KINDS, THREE_LINK_HINGES, hinge_line
 
 
 class Hinges(Effect):
     name = "hinge-spring"
     keys = {
-    "hinge": Array(Table({
-        "where": Leaf(Where('a hinge line: "x=c" or "y=c" (c a number), '
-                              "or a physical curve name"), required=True,
-                       doc='The line: "x=c" or "y=c" strictly inside a strip or three-link '
-                           "body (the mesh is cut there), or a named physical curve of a "
-                           "gmsh mesh, straight or curved. One hinge per line."),
-        "stiffness": Leaf(NONNEGATIVE, 0.0, unit=MOMENT_PER_LENGTH_RAD,
-                           doc="Rotational spring on the fold angle, per unit length of the "
-                               "line; 0 is a free hinge."),
-    }), doc="Lines along which the body folds: the displacement stays continuous, each side "
+        "hinge": Array(
+            Table(
+                {
+                    "where": Leaf(
+                        Where(
+                            'a hinge line: "x=c" or "y=c" (c a number), or a physical curve name'
+                        ),
+                        required=True,
+                        doc='The line: "x=c" or "y=c" strictly inside a strip or three-link '
+                        "body (the mesh is cut there), or a named physical curve of a "
+                        "gmsh mesh, straight or curved. One hinge per line.",
+                    ),
+                    "stiffness": Leaf(
+                        NONNEGATIVE,
+                        0.0,
+                        unit=MOMENT_PER_LENGTH_RAD,
+                        doc="Rotational spring on the fold angle, per unit length of the "
+                        "line; 0 is a free hinge.",
+                    ),
+                }
+            ),
+            doc="Lines along which the body folds: the displacement stays continuous, each side "
             "has its own director, so the line passes forces but no moment about itself "
             "(unless it has a spring). The name of the line (its `where`) is then a `where` "
-            "selector as well."),
+            "selector as well.",
+        ),
     }
 
     @classmethod
@@ -47,8 +59,9 @@ class Hinges(Effect):
         hinges = scene.get("hinge") or []
         mesh = scene.get("mesh") or {}
         three = mesh.get("kind") == "three-link"
-        return (["hinge"] if hinges or three else []) + (["hinge-spring"] if cls.active(scene)
-                                                          else [])
+        return (["hinge"] if hinges or three else []) + (
+            ["hinge-spring"] if cls.active(scene) else []
+        )
 
     @classmethod
     def active(cls, scene):
@@ -68,32 +81,47 @@ class Hinges(Effect):
         hinged: list[tuple[str, float, str]] = []  # (axis, c, description) of each hinge line
         if three:
             w = mesh["link_width"]
-            hinged += [("y", w, f"the built-in hinge-left at y = {fmt(w)}"),
-                       ("y", 2.0 * w, f"the built-in hinge-right at y = {fmt(2.0 * w)}")]
+            hinged += [
+                ("y", w, f"the built-in hinge-left at y = {fmt(w)}"),
+                ("y", 2.0 * w, f"the built-in hinge-right at y = {fmt(2.0 * w)}"),
+            ]
         named: dict[str, int] = {}  # gmsh physical curve names
-        builtin_hint = "; the three-link mesh hinges it already: set mesh.hinge_stiffness for " \
-                       "its built-in hinges"
+        builtin_hint = (
+            "; the three-link mesh hinges it already: set mesh.hinge_stiffness for "
+            "its built-in hinges"
+        )
         for i, hinge in enumerate(scene["hinge"]):
             where = hinge["where"]
             path = f"hinge.{i}.where"
             if three and where in THREE_LINK_HINGES:
                 w = mesh["link_width"] * (1.0 if where == "hinge-left" else 2.0)
-                raise SceneError(f"{path}: two hinges on one line ({fmt(where)} and the built-in "
-                                 f"{where} at y = {fmt(w)}){builtin_hint}")
-            on_boundary = (f"{path}: {fmt(where)} lies on the body's boundary; a hinge joins two "
-                           "sides")
+                raise SceneError(
+                    f"{path}: two hinges on one line ({fmt(where)} and the built-in "
+                    f"{where} at y = {fmt(w)}){builtin_hint}"
+                )
+            on_boundary = (
+                f"{path}: {fmt(where)} lies on the body's boundary; a hinge joins two sides"
+            )
             if where in ("x=L", "y=W"):
                 axis = where[0]
-                raise SceneError(on_boundary + (f" (expected {axis}=c with 0 < c < "
-                                                f"{fmt(extent[axis])})" if lined else ""))
+                raise SceneError(
+                    on_boundary
+                    + (f" (expected {axis}=c with 0 < c < {fmt(extent[axis])})" if lined else "")
+                )
             line = hinge_line(where)
             if line is None:
                 if lined or re.match(r"^[xy]\s*=", where):
-                    raise err(path, 'a hinge line "x=c" or "y=c" with c a number (like "y=0.5")'
-                               + ("" if lined else " or a physical curve name"), where)
+                    raise err(
+                        path,
+                        'a hinge line "x=c" or "y=c" with c a number (like "y=0.5")'
+                        + ("" if lined else " or a physical curve name"),
+                        where,
+                    )
                 if where in named:  # a gmsh physical curve, checked against the file later
-                    raise SceneError(f"{path}: two hinges on one line ({fmt(where)} and "
-                                     f"hinge.{named[where]}.where = {fmt(where)})")
+                    raise SceneError(
+                        f"{path}: two hinges on one line ({fmt(where)} and "
+                        f"hinge.{named[where]}.where = {fmt(where)})"
+                    )
                 named[where] = i
                 continue
             axis, c = line
@@ -102,15 +130,22 @@ class Hinges(Effect):
                 size = extent[axis]
                 tol = 1e-9 * size
                 if c < -tol or c > size + tol:
-                    raise SceneError(f"{path}: {fmt(where)} is not a line of the mesh: the body "
-                                     f"spans {axis} in [0, {fmt(size)}]")
+                    raise SceneError(
+                        f"{path}: {fmt(where)} is not a line of the mesh: the body "
+                        f"spans {axis} in [0, {fmt(size)}]"
+                    )
                 if c <= tol or c >= size - tol:
                     raise SceneError(on_boundary + f" (expected {axis}=c with 0 < c < {fmt(size)})")
             for other_axis, other, text in hinged:
                 if other_axis == axis and abs(c - other) <= tol:
-                    raise SceneError(f"{path}: two hinges on one line ({fmt(where)} and {text})"
-                                     + (builtin_hint if text.startswith("the built-in") else
-                                        "; expected one [[hinge]] per line"))
+                    raise SceneError(
+                        f"{path}: two hinges on one line ({fmt(where)} and {text})"
+                        + (
+                            builtin_hint
+                            if text.startswith("the built-in")
+                            else "; expected one [[hinge]] per line"
+                        )
+                    )
             hinged.append((axis, c, f"hinge.{i}.where = {fmt(where)}"))
 
     def __init__(self, model):
@@ -127,11 +162,14 @@ class Hinges(Effect):
         angle = hinge_forms.fold_angle(k.d("-"), k.d("+"), tangent)
         #: the fold angle along the hinge lines, and their measure (hinge i is dS(i + 1))
         self.fold_angle = (angle, dS)
-        self.stiffness = [fem.Constant(model.mesh, PETSc.ScalarType(h.stiffness))
-                          for h in model.hinges]
-        self._energy = sum(hinge_forms.hinge_spring_energy(s, angle, dS(i + 1))
-                           for i, (h, s) in enumerate(zip(model.hinges, self.stiffness))
-                           if h.stiffness > 0)
+        self.stiffness = [
+            fem.Constant(model.mesh, PETSc.ScalarType(h.stiffness)) for h in model.hinges
+        ]
+        self._energy = sum(
+            hinge_forms.hinge_spring_energy(s, angle, dS(i + 1))
+            for i, (h, s) in enumerate(zip(model.hinges, self.stiffness))
+            if h.stiffness > 0
+        )
 
     def energy(self):
         return self._energy

@@ -7,9 +7,8 @@ order (generalized-alpha or HHT); it adds the kinetic energy to body.csv.
 from __future__ import annotations
 
 from rftfem.forms import inertia
-from rftfem.scene.time_rules import has_density, resolved_scheme
-
 from rftfem.model.effects.base import Effect
+from rftfem.scene.time_rules import has_density, resolved_scheme
 
 
 class Inertia(Effect):
@@ -23,10 +22,13 @@ class Inertia(Effect):
     def __init__(self, model):
         super().__init__(model)
         mat = model.material
-        self._work = inertia.inertia_work(mat["rho"], mat["t"],
-                                          model.acceleration(model.kinematics().u),
-                                          model.kinematics().du,
-                                          model.dx(metadata={"quadrature_degree": 4}))
+        self._work = inertia.inertia_work(
+            mat["rho"],
+            mat["t"],
+            model.acceleration(model.kinematics().u),
+            model.kinematics().du,
+            model.dx(metadata={"quadrature_degree": 4}),
+        )
         self._kinetic_form = None
 
     def inertia(self):
@@ -36,8 +38,9 @@ class Inertia(Effect):
         """``½ ∫ ρ t v·v dA₀`` of the stored velocity ``v_n``."""
         m = self.model
         if self._kinetic_form is None:
-            self._kinetic_form = m.compile(inertia.kinetic_energy(
-                m.material["rho"], m.material["t"], m.v_n, m.dx))
+            self._kinetic_form = m.compile(
+                inertia.kinetic_energy(m.material["rho"], m.material["t"], m.v_n, m.dx)
+            )
         return m.assemble_scalar(self._kinetic_form)
 
     def values(self, t):

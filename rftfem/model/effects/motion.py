@@ -22,64 +22,101 @@ import math
 
 import numpy as np
 
-from rftfem.model.rates import scheme_velocity
 from rftfem.errors import SceneError
-from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
-from rftfem.scene.selectors import check_where, entities_of
-
 from rftfem.model.effects.base import Effect
 from rftfem.model.effects.boundary import DISPLACEMENT_COMPONENTS, NAME
+from rftfem.model.rates import scheme_velocity
+from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
+from rftfem.scene.selectors import check_where, entities_of
 
 
 class Motions(Effect):
     name = "prescribed-motion"
     moving = True
     keys = {
-    "motion": Array(Table({
-        "where": Leaf(Where(), "all",
-                       doc="Where, as for `[[boundary]].where`."),
-        "name": NAME,
-        "component": Leaf(Str(("ux", "uy", "uz")), required=True,
-                           doc="The displacement component prescribed (global axes)."),
-        "kind": Leaf(Str(("travelling-wave", "table", "rotation")), "travelling-wave",
-                      doc='"travelling-wave": u = amplitude sin(wavenumber (X − origin) + '
-                          "angular_frequency t + phase), with X each node's reference X "
-                          "coordinate; "
-                          '"table": one value on the whole selection, interpolated in '
-                          "`values`; "
-                          '"rotation": the component of a rigid turn, u = (R(φ) − I)(X − '
-                          "centre) with R(φ) the turn by φ = angular_frequency t + phase "
-                          "about rotation_axis (one entry per component: three turn the "
-                          "selection rigidly)."),
-        "amplitude": Leaf(Num(), 0.0, unit="length",
-                           doc="The wave's amplitude (travelling-wave)."),
-        "wavenumber": Leaf(Num(), 0.0, unit="rad/length",
-                            doc="The wave number (travelling-wave); with a positive "
-                                "angular_frequency the wave runs towards −X."),
-        "angular_frequency": Leaf(Num(), 0.0, unit="rad/time",
-                                   doc="The angular frequency (travelling-wave)."),
-        "origin": Leaf(Num(), 0.0, unit="length",
+        "motion": Array(
+            Table(
+                {
+                    "where": Leaf(Where(), "all", doc="Where, as for `[[boundary]].where`."),
+                    "name": NAME,
+                    "component": Leaf(
+                        Str(("ux", "uy", "uz")),
+                        required=True,
+                        doc="The displacement component prescribed (global axes).",
+                    ),
+                    "kind": Leaf(
+                        Str(("travelling-wave", "table", "rotation")),
+                        "travelling-wave",
+                        doc='"travelling-wave": u = amplitude sin(wavenumber (X − origin) + '
+                        "angular_frequency t + phase), with X each node's reference X "
+                        "coordinate; "
+                        '"table": one value on the whole selection, interpolated in '
+                        "`values`; "
+                        '"rotation": the component of a rigid turn, u = (R(φ) − I)(X − '
+                        "centre) with R(φ) the turn by φ = angular_frequency t + phase "
+                        "about rotation_axis (one entry per component: three turn the "
+                        "selection rigidly).",
+                    ),
+                    "amplitude": Leaf(
+                        Num(), 0.0, unit="length", doc="The wave's amplitude (travelling-wave)."
+                    ),
+                    "wavenumber": Leaf(
+                        Num(),
+                        0.0,
+                        unit="rad/length",
+                        doc="The wave number (travelling-wave); with a positive "
+                        "angular_frequency the wave runs towards −X.",
+                    ),
+                    "angular_frequency": Leaf(
+                        Num(), 0.0, unit="rad/time", doc="The angular frequency (travelling-wave)."
+                    ),
+                    "origin": Leaf(
+                        Num(),
+                        0.0,
+                        unit="length",
                         doc="The reference X where the wave's phase is zero at t = 0 "
-                            "(travelling-wave)."),
-        "ramp_time": Leaf(Num(lo=0.0), 0.0, unit="time",
-                           doc="A smooth start (travelling-wave): the amplitude grows as "
-                               "(1 − cos(π t / ramp_time)) / 2 up to ramp_time, so the body "
-                               "starts at rest from its reference shape; 0: no ramp."),
-        "rotation_axis": Leaf(Vec(nonzero=True), [0.0, 0.0, 1.0],
-                               doc="The axis of the turn (rotation), right-handed."),
-        "centre": Leaf(Vec(), [0.0, 0.0, 0.0], unit="length",
-                        doc="A point of the axis of the turn (rotation)."),
-        "phase": Leaf(Num(), 0.0, unit="rad",
-                       doc="The phase added to the wave's (travelling-wave): with "
-                           "wavenumber = 0, a sinusoidal motion of the whole selection "
-                           "lagging another by the difference of their phases."),
-        "values": Leaf(Pairs("u"), unit="[time, length]",
+                        "(travelling-wave).",
+                    ),
+                    "ramp_time": Leaf(
+                        Num(lo=0.0),
+                        0.0,
+                        unit="time",
+                        doc="A smooth start (travelling-wave): the amplitude grows as "
+                        "(1 − cos(π t / ramp_time)) / 2 up to ramp_time, so the body "
+                        "starts at rest from its reference shape; 0: no ramp.",
+                    ),
+                    "rotation_axis": Leaf(
+                        Vec(nonzero=True),
+                        [0.0, 0.0, 1.0],
+                        doc="The axis of the turn (rotation), right-handed.",
+                    ),
+                    "centre": Leaf(
+                        Vec(),
+                        [0.0, 0.0, 0.0],
+                        unit="length",
+                        doc="A point of the axis of the turn (rotation).",
+                    ),
+                    "phase": Leaf(
+                        Num(),
+                        0.0,
+                        unit="rad",
+                        doc="The phase added to the wave's (travelling-wave): with "
+                        "wavenumber = 0, a sinusoidal motion of the whole selection "
+                        "lagging another by the difference of their phases.",
+                    ),
+                    "values": Leaf(
+                        Pairs("u"),
+                        unit="[time, length]",
                         default_doc='none: required only with kind = "table"',
                         doc="The displacement, piecewise linear in time; before the first "
-                            "and after the last time it keeps the end value."),
-    }), doc="A displacement component prescribed in time on a selection (a moving "
+                        "and after the last time it keeps the end value.",
+                    ),
+                }
+            ),
+            doc="A displacement component prescribed in time on a selection (a moving "
             "Dirichlet condition). A degree of freedom takes one condition: a motion where a "
-            "`[[boundary]]` or another motion already holds the component is refused."),
+            "`[[boundary]]` or another motion already holds the component is refused.",
+        ),
     }
 
     @classmethod
@@ -110,8 +147,10 @@ class Motions(Effect):
                 clash = model.comm.allreduce(int(np.isin(dofs[0], other).sum()))
                 if clash:
                     how = "fixed by" if holder.startswith("a ") else "already prescribed by"
-                    raise SceneError(f"{key}: {component} is both prescribed here and {how} "
-                                     f"{holder} at {clash} dofs; a dof takes one condition")
+                    raise SceneError(
+                        f"{key}: {component} is both prescribed here and {how} "
+                        f"{holder} at {clash} dofs; a dof takes one condition"
+                    )
             model.dirichlet.hold(component, key, dofs[0])
             value = fem.Function(V, name=f"motion_{k}")
             X = V.tabulate_dof_coordinates()[np.asarray(dofs[1])]
@@ -143,7 +182,6 @@ class Motions(Effect):
         """The fastest prescribed speed (for the drag's force scale)."""
         return max(m.speed_scale() for m in self.motions)
 
-
     def drive_step(self, t, coefficients) -> None:
         """The corrections ``model.drive`` that make the velocity ``v_{n+1}`` and the
         blended acceleration ``a_{n+1−α_m}`` of the step ending at ``t`` exact on the
@@ -162,8 +200,9 @@ class Motions(Effect):
             v_n, a_n = m.v_n.x.array[i], m.a_n.x.array[i]
             v, a = motion.rates(t, side=-1)
             v_fix[i] = v - scheme_velocity(du, v_n, a_n, c.cv, c.cv_v, c.cv_a)
-            a_fix[i] = ((1 - c.alpha_m) * a + c.alpha_m * a_n
-                        - (c.ca * du + c.ca_v * v_n + c.ca_a * a_n))
+            a_fix[i] = (
+                (1 - c.alpha_m) * a + c.alpha_m * a_n - (c.ca * du + c.ca_v * v_n + c.ca_a * a_n)
+            )
 
     def drive_state(self, t) -> None:
         """The stored velocity and acceleration of the driven dofs at ``t``: the
@@ -217,8 +256,11 @@ class Motion:
         """The turned arms ``R(φ(t)) (X − centre)`` (rotation), by Rodrigues."""
         phi = self.spec["angular_frequency"] * t + self.spec["phase"]
         k, r = self.axis, self.arm
-        return (r * math.cos(phi) + np.cross(k, r) * math.sin(phi)
-                + np.outer(r @ k, k) * (1 - math.cos(phi)))
+        return (
+            r * math.cos(phi)
+            + np.cross(k, r) * math.sin(phi)
+            + np.outer(r @ k, k) * (1 - math.cos(phi))
+        )
 
     def at(self, t: float, X):
         s = self.spec
@@ -227,8 +269,11 @@ class Motion:
         if s["kind"] == "table":
             return np.full_like(X, np.interp(t, self.table[:, 0], self.table[:, 1]))
         ramp = self.ramp(t)[0]
-        return ramp * s["amplitude"] * np.sin(s["wavenumber"] * (X - s["origin"])
-                                              + s["angular_frequency"] * t + s["phase"])
+        return (
+            ramp
+            * s["amplitude"]
+            * np.sin(s["wavenumber"] * (X - s["origin"]) + s["angular_frequency"] * t + s["phase"])
+        )
 
     def ramp(self, t: float) -> tuple[float, float, float]:
         """The amplitude's factor ``s(t)`` and its first two derivatives."""
@@ -238,8 +283,7 @@ class Motion:
         if t <= 0.0:
             return 0.0, 0.0, 0.0
         k = np.pi / tau
-        return (0.5 * (1 - np.cos(k * t)), 0.5 * k * np.sin(k * t),
-                0.5 * k**2 * np.cos(k * t))
+        return (0.5 * (1 - np.cos(k * t)), 0.5 * k * np.sin(k * t), 0.5 * k**2 * np.cos(k * t))
 
     def set(self, t: float):
         self.value.x.array[self.value_dofs] = self.at(t, self.X)
@@ -261,13 +305,15 @@ class Motion:
                 # the segment containing t, the one after a corner for side +1; before
                 # the first and after the last time the value is constant
                 tol = 1e-12 * max(1.0, float(np.abs(times).max()))
-                k = (np.searchsorted(times, t + tol, side="right") if side > 0
-                     else np.searchsorted(times, t - tol, side="left"))
+                k = (
+                    np.searchsorted(times, t + tol, side="right")
+                    if side > 0
+                    else np.searchsorted(times, t - tol, side="left")
+                )
                 if 0 < k < len(times):
                     slope = (values[k] - values[k - 1]) / (times[k] - times[k - 1])
             return np.full_like(self.X, slope), np.zeros_like(self.X)
-        phase = (s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t
-                 + s["phase"])
+        phase = s["wavenumber"] * (self.X - s["origin"]) + s["angular_frequency"] * t + s["phase"]
         w, b = s["angular_frequency"], s["amplitude"]
         r, dr, ddr = self.ramp(t)
         u, du, ddu = b * np.sin(phase), b * w * np.cos(phase), -b * w**2 * np.sin(phase)
@@ -277,8 +323,9 @@ class Motion:
         """The largest speed this motion prescribes."""
         s = self.spec
         if s["kind"] == "rotation":
-            return abs(s["angular_frequency"]) * float(np.linalg.norm(self.arm, axis=1).max(
-                initial=0.0))
+            return abs(s["angular_frequency"]) * float(
+                np.linalg.norm(self.arm, axis=1).max(initial=0.0)
+            )
         if s["kind"] == "table":
             table = self.table
             if len(table) < 2:

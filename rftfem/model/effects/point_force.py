@@ -14,28 +14,39 @@ from __future__ import annotations
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.model.effects.base import Load
 from rftfem.scene.schema import Leaf, Vec, fmt
 from rftfem.scene.selectors import check_on_body, owned_cells
-
-from rftfem.model.effects.base import Load
 
 KIND = "point-force"
 
 
 class PointForce(Load):
     name = KIND
-    load_kinds = {KIND: {
-        "at": Leaf(Vec(), required=True, unit="length",
-                   doc="The material point, in reference coordinates (like a probe); on a "
-                       "strip or three-link body it must lie on the body (z = 0); on a gmsh "
-                       "body within 5 % of a cell's size of its surface (the nearest point "
-                       "is taken)."),
-        "value": Leaf(Vec(), required=True, unit="force",
-                      doc="The force in global axes, multiplied by the ramp's scale; it keeps "
-                          "its direction as the body moves (dead load)."),
-    }}
-    kind_docs = {KIND: "A force at a material point (the pinched cylinder and hemisphere "
-                       "benchmarks); the displacement right under it depends on the mesh."}
+    load_kinds = {
+        KIND: {
+            "at": Leaf(
+                Vec(),
+                required=True,
+                unit="length",
+                doc="The material point, in reference coordinates (like a probe); on a "
+                "strip or three-link body it must lie on the body (z = 0); on a gmsh "
+                "body within 5 % of a cell's size of its surface (the nearest point "
+                "is taken).",
+            ),
+            "value": Leaf(
+                Vec(),
+                required=True,
+                unit="force",
+                doc="The force in global axes, multiplied by the ramp's scale; it keeps "
+                "its direction as the body moves (dead load).",
+            ),
+        }
+    }
+    kind_docs = {
+        KIND: "A force at a material point (the pinched cylinder and hemisphere "
+        "benchmarks); the displacement right under it depends on the mesh."
+    }
 
     @classmethod
     def check_entry(cls, load, path, scene):

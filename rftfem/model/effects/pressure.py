@@ -11,26 +11,36 @@ from __future__ import annotations
 
 from rftfem.errors import SceneError
 from rftfem.forms.pressure import follower_pressure_work
+from rftfem.model.effects.base import Load
 from rftfem.scene.schema import Leaf, Num, Where
 from rftfem.scene.selectors import check_where, entities_of, indicator
-
-from rftfem.model.effects.base import Load
 
 KIND = "pressure"
 
 
 class Pressure(Load):
     name = KIND
-    load_kinds = {KIND: {
-        "where": Leaf(Where('"all" or a region name'), "all",
-                      doc="The surface it acts on: all of it, or a region."),
-        "value": Leaf(Num(), required=True, unit="force/length²",
-                      doc="The pressure, multiplied by the ramp's scale; positive pushes "
-                          "along the current normal (the side the reference normal points "
-                          "to)."),
-    }}
-    kind_docs = {KIND: "A pressure on a surface region, normal to the current surface and "
-                       "acting on its current area (a follower load)."}
+    load_kinds = {
+        KIND: {
+            "where": Leaf(
+                Where('"all" or a region name'),
+                "all",
+                doc="The surface it acts on: all of it, or a region.",
+            ),
+            "value": Leaf(
+                Num(),
+                required=True,
+                unit="force/length²",
+                doc="The pressure, multiplied by the ramp's scale; positive pushes "
+                "along the current normal (the side the reference normal points "
+                "to).",
+            ),
+        }
+    }
+    kind_docs = {
+        KIND: "A pressure on a surface region, normal to the current surface and "
+        "acting on its current area (a follower load)."
+    }
 
     @classmethod
     def check_entry(cls, load, path, scene):
@@ -49,8 +59,10 @@ class Pressure(Load):
             dim, cells = entities_of(model.body, ld["where"], f"load.{i}.where")
             if dim != tdim:
                 what = "a point" if dim == 0 else "an edge"
-                raise SceneError(f"load.{i}.where: '{ld['where']}' is {what}; a pressure "
-                                 'acts on a surface: "all" or a region')
+                raise SceneError(
+                    f"load.{i}.where: '{ld['where']}' is {what}; a pressure "
+                    'acts on a surface: "all" or a region'
+                )
             # the region as a 0/1 field, so that every load (and the magnetic parts' own
             # measure) can share one form
             region = indicator(model.mesh, cells, f"pressure_{i}_region")

@@ -32,10 +32,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rftfem.model import (layer_rules, stokes_body, stokes_fmm, stokes_layer, stokes_report,
-                          stokeslets)
 from rftfem.errors import SceneError
-
+from rftfem.model import (
+    layer_rules,
+    stokes_body,
+    stokes_fmm,
+    stokes_layer,
+    stokes_report,
+    stokeslets,
+)
 from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel, NonlocalEffect
 from rftfem.model.ranks import gather_rows
@@ -70,7 +75,7 @@ class Stokes(FluidModel, NonlocalEffect):
 
     @classmethod
     def names(cls, scene):
-        """"stokes", and "stokes wall" when the liquid has a plane wall (its images):
+        """ "stokes", and "stokes wall" when the liquid has a plane wall (its images):
         what `rftfem check`, ``Scene.check()`` and summary.json list alike."""
         if not cls.active(scene):
             return []
@@ -143,26 +148,28 @@ class Stokes(FluidModel, NonlocalEffect):
         spacing = self._gather(self._node_blobs(None))
         #: ε, the blob size (a length of its own); 0, the default: the Stokeslet itself
         self.epsilon = 0.0 if eps is None else float(eps)
-        grid, grid_cells, self.interpolation = layer_rules.refined(self.X, cells, cell,
-                                                                    self.refine)
+        grid, grid_cells, self.interpolation = layer_rules.refined(self.X, cells, cell, self.refine)
         # refused before its rules are made if too large (16 far points an element)
-        stokes_report.admit(len(grid), 16 * len(grid_cells) + stokes_report.SPECIAL_POINTS,
-                            m.comm.size)
+        stokes_report.admit(
+            len(grid), 16 * len(grid_cells) + stokes_report.SPECIAL_POINTS, m.comm.size
+        )
         size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
         counts = [len(grid) // size + (r < len(grid) % size) for r in range(size)]
         start = int(sum(counts[:rank]))
         #: the integrated layer on the force grid (its rows: this process's share)
-        self.layer = stokes_layer.Layer(grid, grid_cells, cell, self.epsilon,
-                                        rows=slice(start, start + counts[rank]))
+        self.layer = stokes_layer.Layer(
+            grid, grid_cells, cell, self.epsilon, rows=slice(start, start + counts[rank])
+        )
         smallest = float(self.layer.size.min())
         if self.epsilon > 0.5 * smallest:
             raise SceneError(
                 f"fluid.regularization: ε = {self.epsilon:.4g} is over half the force grid's "
                 f"smallest element ({smallest:.4g}); collocation then blurs the layer and its "
                 "matrix is ill-conditioned: leave the key out (ε = 0, the most accurate) or "
-                f"give at most {0.5 * smallest:.3g}" + (" (fluid.refine shrinks the grid)"
-                                                        if self.refine else ""))
-        self.delta = np.maximum(self.epsilon, spacing / 2 ** self.refine)
+                f"give at most {0.5 * smallest:.3g}"
+                + (" (fluid.refine shrinks the grid)" if self.refine else "")
+            )
+        self.delta = np.maximum(self.epsilon, spacing / 2**self.refine)
 
     def _serial_layer(self, level: int) -> stokes_layer.Layer:
         """The layer of ``fluid.refine = level`` with every row (one process's estimate)."""
@@ -186,18 +193,22 @@ class Stokes(FluidModel, NonlocalEffect):
         extent = self.model.size()
         largest = float(self.delta.max())
         if largest >= 0.5 * extent:
-            raise SceneError(f"fluid.regularization: the blob ({largest:.4g}) is larger than "
-                             f"the body (its diagonal is {extent:.4g}); give a blob of about "
-                             "the node spacing, or leave the key out")
+            raise SceneError(
+                f"fluid.regularization: the blob ({largest:.4g}) is larger than "
+                f"the body (its diagonal is {extent:.4g}); give a blob of about "
+                "the node spacing, or leave the key out"
+            )
 
     def _check_wall(self):
         heights = self.wall.heights(self.X)
         behind = int(np.sum(heights <= 0.0))
         if behind:
-            raise SceneError(f"fluid.wall: the body crosses the wall: {behind} of its "
-                             f"{len(heights)} nodes are on or behind the plane (lowest at "
-                             f"{heights.min():.4g} along the normal); the normal points "
-                             "towards the body's side")
+            raise SceneError(
+                f"fluid.wall: the body crosses the wall: {behind} of its "
+                f"{len(heights)} nodes are on or behind the plane (lowest at "
+                f"{heights.min():.4g} along the normal); the normal points "
+                "towards the body's side"
+            )
         from rftfem.model.effects import motion
 
         reach = motion.reach(self.scene, self.wall.Q[2])
@@ -211,18 +222,21 @@ class Stokes(FluidModel, NonlocalEffect):
                 f"(at the node {_point(self.X[i])}, {heights[i]:.4g} above it"
                 + (f", {reach:.4g} of which the motions take" if reach else "")
                 + f", blob {self.delta[i]:.3g}); the wall's images need "
-                f"{WALL_GAP_WARNED} blobs: move the wall away or refine the mesh")
+                f"{WALL_GAP_WARNED} blobs: move the wall away or refine the mesh"
+            )
 
     def _choose_operator(self, asked: str) -> str:
-        """"dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
+        """ "dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
         nodes of blobs without a wall, when fmm3dpy is installed; the layer is dense)."""
         if asked == "auto":
             big = len(self.X) > DENSE_NODES and self.wall is None and self.method == "blobs"
             return "fmm" if big and stokes_fmm.available() else "dense"
         if asked == "fmm" and not stokes_fmm.available():
-            raise SceneError('fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
-                             "is not installed; run the README's set-up, or use "
-                             'operator = "dense"')
+            raise SceneError(
+                'fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
+                "is not installed; run the README's set-up, or use "
+                'operator = "dense"'
+            )
         return asked
 
     def warnings(self) -> list[str]:
@@ -230,10 +244,12 @@ class Stokes(FluidModel, NonlocalEffect):
         closer than WALL_GAP_WARNED blobs."""
         out = []
         if self.wall is not None and self.wall_gap < WALL_GAP_WARNED:
-            out.append(f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the "
-                       f"wall (with the motions' reach); under {WALL_GAP_WARNED} the "
-                       f"images leak and the speeds near the wall are off: move the wall "
-                       f"away or refine the mesh")
+            out.append(
+                f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the "
+                f"wall (with the motions' reach); under {WALL_GAP_WARNED} the "
+                f"images leak and the speeds near the wall are off: move the wall "
+                f"away or refine the mesh"
+            )
         if self.method == "layer":
             out += stokes_report.warnings(self.describe())
             out += stokes_body.free_edge_warnings(self.cell, self.shell_cells)
@@ -241,9 +257,11 @@ class Stokes(FluidModel, NonlocalEffect):
         if n <= DENSE_NODES or self.operator == "fmm":
             return out
         gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
-        return out + [f'fluid.model = "stokes": {n} nodes make a dense operator of '
-                      f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
-                      f"meant for up to {DENSE_NODES} nodes in this version"]
+        return out + [
+            f'fluid.model = "stokes": {n} nodes make a dense operator of '
+            f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
+            f"meant for up to {DENSE_NODES} nodes in this version"
+        ]
 
     # --- state ------------------------------------------------------------
 
@@ -252,12 +270,15 @@ class Stokes(FluidModel, NonlocalEffect):
         m, c = self.model, self.model.coef
         n = self.n_owned
         u = m.w.x.array[self.owned_u]
-        v = scheme_velocity(u - m.u_n.x.array.reshape(-1, 3)[:n],
-                            m.v_n.x.array.reshape(-1, 3)[:n], m.a_n.x.array.reshape(-1, 3)[:n],
-                            *(float(c[k].value) for k in ("cv", "cv_v", "cv_a")))
+        v = scheme_velocity(
+            u - m.u_n.x.array.reshape(-1, 3)[:n],
+            m.v_n.x.array.reshape(-1, 3)[:n],
+            m.a_n.x.array.reshape(-1, 3)[:n],
+            *(float(c[k].value) for k in ("cv", "cv_v", "cv_a")),
+        )
         if m.drive:
             v = v + m.drive[0].x.array.reshape(-1, 3)[:n]
-        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        both = self._gather(np.hstack([self.X[self.offset : self.offset + n] + u, v]))
         return both[:, :3], both[:, 3:]
 
     def resistance(self, x: np.ndarray) -> stokeslets.Resistance:
@@ -269,25 +290,40 @@ class Stokes(FluidModel, NonlocalEffect):
                 self._resistance = stokes_body.Crossed(x)
             elif self.method == "layer":
                 self._resistance = stokes_layer.LayerResistance(
-                    self.layer, x, self.viscosity, self.wall, comm=self.model.comm,
+                    self.layer,
+                    x,
+                    self.viscosity,
+                    self.wall,
+                    comm=self.model.comm,
                     interpolation=self.interpolation,
-                    kept=self._factored if self.keep_factors else None)
+                    kept=self._factored if self.keep_factors else None,
+                )
                 self._factored = self._resistance.factored
             elif self.operator == "fmm":
                 self._resistance = stokes_fmm.OnFirst(
-                    self.model.comm, x,
-                    lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity))
+                    self.model.comm,
+                    x,
+                    lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity),
+                )
             else:
                 self._resistance = stokeslets.Resistance(
-                    x, self.delta, self.viscosity, self.wall, comm=self.model.comm,
-                    rows=slice(self.offset, self.offset + self.n_owned))
+                    x,
+                    self.delta,
+                    self.viscosity,
+                    self.wall,
+                    comm=self.model.comm,
+                    rows=slice(self.offset, self.offset + self.n_owned),
+                )
         return self._resistance
 
     def nodal_forces(self) -> np.ndarray:
         """The forces (N, 3) the body exerts on the liquid at the current iterate."""
         x, v = self._state()
-        if self._last is not None and np.array_equal(self._last[0], x) \
-                and np.array_equal(self._last[1], v):
+        if (
+            self._last is not None
+            and np.array_equal(self._last[0], x)
+            and np.array_equal(self._last[1], v)
+        ):
             return self._last[2]
         F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
         self._last = (x, v, F)
@@ -295,7 +331,7 @@ class Stokes(FluidModel, NonlocalEffect):
 
     def add_nodal_forces(self, F):
         forces = self.nodal_forces()
-        F[self.owned_u] += forces[self.offset:self.offset + self.n_owned]
+        F[self.owned_u] += forces[self.offset : self.offset + self.n_owned]
 
     # --- the tangent ------------------------------------------------------
 
@@ -320,20 +356,24 @@ class Stokes(FluidModel, NonlocalEffect):
         else:
             G = res.position_operator(F)
         self._tangent = _Tangent(res, cv, G, scale, F)
-        lumped = res.lumped()[self.offset:self.offset + self.n_owned]
+        lumped = res.lumped()[self.offset : self.offset + self.n_owned]
         return scale * cv * lumped
 
     def tangent_product(self, dx: np.ndarray) -> np.ndarray:
         """``scale · M⁻¹ (c_v dx − G dx)`` for a displacement direction at every node
         (N, 3): the owned nodes' rows (n_owned, 3)."""
-        res, cv, G, scale = (self._tangent.resistance, self._tangent.cv, self._tangent.G,
-                              self._tangent.scale)
+        res, cv, G, scale = (
+            self._tangent.resistance,
+            self._tangent.cv,
+            self._tangent.G,
+            self._tangent.scale,
+        )
         du = np.ravel(dx)
         if hasattr(res, "tangent"):  # the layer: through its force grid
             out = scale * res.tangent(du, cv, G)
         else:
             out = scale * res.solve(cv * du - G @ du)
-        return out.reshape(-1, 3)[self.offset:self.offset + self.n_owned]
+        return out.reshape(-1, 3)[self.offset : self.offset + self.n_owned]
 
     # --- outputs ----------------------------------------------------------
 
@@ -349,22 +389,29 @@ class Stokes(FluidModel, NonlocalEffect):
             return []
         m, n = self.model, self.n_owned
         u = m.u_n.x.array.reshape(-1, 3)[:n]
-        x = self._gather(self.X[self.offset:self.offset + n] + u)
+        x = self._gather(self.X[self.offset : self.offset + n] + u)
         gaps = self.wall.heights(x) / self.delta
         gap = float(gaps.min())
         if gap < WALL_GAP_REFUSED:
             from rftfem.errors import RunFailed
 
             i = int(np.argmin(gaps))
-            raise RunFailed(f"the body came within {gap:.3g} blobs of the wall (the node now "
-                            f"at {_point(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
-                            "move the wall away or refine the mesh")
-        if gap < WALL_GAP_WARNED and self.wall_gap >= WALL_GAP_WARNED \
-                and not getattr(self, "_gap_warned", False):
+            raise RunFailed(
+                f"the body came within {gap:.3g} blobs of the wall (the node now "
+                f"at {_point(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
+                "move the wall away or refine the mesh"
+            )
+        if (
+            gap < WALL_GAP_WARNED
+            and self.wall_gap >= WALL_GAP_WARNED
+            and not getattr(self, "_gap_warned", False)
+        ):
             self._gap_warned = True
-            return [f"fluid.wall: at t = {t:.6g} the body came within {gap:.3g} blobs of the "
-                    f"wall; under {WALL_GAP_WARNED} the images leak (body.csv: "
-                    "wall_gap_blobs)"]
+            return [
+                f"fluid.wall: at t = {t:.6g} the body came within {gap:.3g} blobs of the "
+                f"wall; under {WALL_GAP_WARNED} the images leak (body.csv: "
+                "wall_gap_blobs)"
+            ]
         return []
 
     def _stored(self):
@@ -372,7 +419,7 @@ class Stokes(FluidModel, NonlocalEffect):
         m, n = self.model, self.n_owned
         u = m.u_n.x.array.reshape(-1, 3)[:n]
         v = m.v_n.x.array.reshape(-1, 3)[:n]
-        both = self._gather(np.hstack([self.X[self.offset:self.offset + n] + u, v]))
+        both = self._gather(np.hstack([self.X[self.offset : self.offset + n] + u, v]))
         x, v = both[:, :3], both[:, 3:]
         F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
         return x, v, F
