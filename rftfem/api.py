@@ -19,7 +19,7 @@ import copy
 import os
 import warnings
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
 from rftfem.scene import toml_writer
@@ -32,6 +32,11 @@ from rftfem.scene.reading import (
     unset_key,
     unset_text,
 )
+
+if TYPE_CHECKING:  # (the run's Result and the MPI communicator are loaded when used)
+    from mpi4py import MPI
+
+    from rftfem.result import Result
 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
@@ -268,7 +273,7 @@ class Scene:
         self._path, self._overrides = state["path"], state["overrides"]
         self._scene = complete_scene(self._raw, self._folder, self._path, self._overrides)
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: object) -> bool:
         return isinstance(other, Scene) and self.to_dict() == other.to_dict()
 
     def __repr__(self) -> str:
@@ -299,7 +304,7 @@ def scene_from_toml(text: str, folder: str | os.PathLike = ".") -> Scene:
     return Scene(parse_scene_text(text), folder)
 
 
-def _scene_of(scene) -> Scene:
+def _scene_of(scene: Scene | str | os.PathLike | Mapping) -> Scene:
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, (str, os.PathLike)):
@@ -317,13 +322,13 @@ def default_out(scene: Scene) -> Path:
 
 
 def run(
-    scene,
+    scene: Scene | str | os.PathLike | Mapping,
     out: str | os.PathLike | None = None,
     quiet: bool = True,
     petsc: Iterable[str] | Mapping[str, Any] | None = None,
     restart: str | os.PathLike | None = None,
-    comm=None,
-):
+    comm: MPI.Comm | None = None,
+) -> Result:
     """Run ``scene`` (a :class:`Scene`, a scene file or a dict) into the folder
     ``out`` and return its :class:`rftfem.Result`, as ``rftfem run`` would.
 
