@@ -164,15 +164,17 @@ def test_position_derivative_taylor_order_two():
     )
 
 
-def test_fast_operator_matches_the_dense_one(monkeypatch):
-    """The matrix-free operator (fast multipoles + the near blobs' correction) against
-    the dense one on a wavy plate of 400 nodes with free-edge blobs, four clusters
-    in the preconditioner: M F (reached 3e-15), M⁻¹ v by the conjugate gradients
-    (2e-11), G dx (6e-14), the lumped blocks (1e-10).  Broke: the correction's cutoff
-    at 3 blobs gives M F 4e-6."""
-    from rftfem.model import stokes_fmm
+@pytest.mark.parametrize("operator", ["fmm", "direct", "direct-wall"])
+def test_fast_operator_matches_the_dense_one(monkeypatch, operator):
+    """The matrix-free operators against the dense one on a wavy plate of 400 nodes
+    with free-edge blobs, four clusters in the preconditioner: M F (reached 3e-15
+    fmm, 1e-15 direct, 3e-15 with a tilted wall), M⁻¹ v by the conjugate gradients
+    (2e-11), G dx (6e-14, 2e-15, 3e-15), the lumped blocks (1e-10).  Broke: the fmm
+    correction's cutoff at 3 blobs gives M F 4e-6; the direct sums' image
+    derivative without its ``h′`` terms (``hp = 0``) gives G dx 0.05 with the wall."""
+    from rftfem.model import stokes_direct, stokes_fmm, stokes_matrix_free
 
-    monkeypatch.setattr(stokes_fmm, "CLUSTER_NODES", 100)
+    monkeypatch.setattr(stokes_matrix_free, "CLUSTER_NODES", 100)
 
     n1, side = 20, 2.0
     g = np.linspace(0.0, side, n1)
@@ -182,37 +184,49 @@ def test_fast_operator_matches_the_dense_one(monkeypatch):
     delta[(X == 0) | (X == side) | (Y == 0) | (Y == side)] *= 0.5
     rng = np.random.default_rng(0)
     F, dx = rng.standard_normal(x.size), rng.standard_normal(x.size)
-    fast = stokes_fmm.FastResistance(x, delta, 0.7)
-    dense = stokeslets.Resistance(x, delta, 0.7)
+    wall = stokeslets.Wall([0.0, 0.0, -0.4], [0.1, -0.05, 1.0]) if "wall" in operator else None
+    if operator == "fmm":
+        fast = stokes_fmm.FastResistance(x, delta, 0.7)
+    else:
+        fast = stokes_direct.DirectResistance(x, delta, 0.7, wall)
+    dense = stokeslets.Resistance(x, delta, 0.7, wall)
     M = stokeslets.mobility(x, delta, 0.7)
+    G = stokeslets.position_derivative(x, delta, 0.7, F)
+    if wall is not None:
+        M, G = M + wall.mobility(x, 0.7), G + wall.position_derivative(x, 0.7, F)
     v = M @ F
 
     def off(a, b):
         return np.linalg.norm(a - b) / np.linalg.norm(b)
 
-    G = stokeslets.position_derivative(x, delta, 0.7, F)
     errors = {
         "M F": off(fast.apply(F), v),
         "solve": off(fast.solve(v), F),
         "G dx": off(fast.position_operator(F) @ dx, G @ dx),
         "lumped": off(fast.lumped(), dense.lumped()),
     }
-    print(errors, "CG iterations", fast.iterations)
+    print(operator, errors, "CG iterations", fast.iterations)
     assert errors["M F"] < 3e-14 and errors["G dx"] < 5e-13
     assert errors["solve"] < 2e-10 and errors["lumped"] < 1e-9
 
 
-def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch):
+@pytest.mark.parametrize("wall", [False, True], ids=["free", "wall"])
+def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch, wall):
     """A coarse stiff disk translated edgewise and turned by a couple: the run's
-    fluid resultant and displacements with ``operator = "fmm"`` (clusters of 80
-    nodes) equal the dense run's to 2e-11 (reached 1.2e-12)."""
-    from rftfem.model import stokes_fmm
+    fluid resultant and displacements with ``operator = "fmm"`` and ``"direct"``
+    (clusters of 80 nodes) equal the dense run's to 5e-11 (reached 1.2e-12 and
+    2.2e-12), and with a tilted wall below it the direct sums' run the dense one's
+    (reached 7e-12; the conjugate gradients stop at 1e-11).  Broke: the direct
+    sums' rows turned back from the wall's frame by ``Qᵀ`` instead of ``Q``: 5e-3."""
+    from rftfem.model import stokes_matrix_free
 
-    monkeypatch.setattr(stokes_fmm, "CLUSTER_NODES", 80)
+    monkeypatch.setattr(stokes_matrix_free, "CLUSTER_NODES", 80)
     write_disk(tmp_path / "coarse.msh", radius=A, size=0.5)
     extra = _translate("ux") + _couple([0.5, 0.0, 0.0], [0.0, 0.0, 0.3])
+    if wall:
+        extra += "[fluid.wall]\npoint = [0.0, 0.0, -1.0]\nnormal = [0.1, 0.05, 1.0]\n"
     runs = {}
-    for operator in ("dense", "fmm"):
+    for operator in ("dense", "direct") if wall else ("dense", "fmm", "direct"):
         text = BODY.format(mesh=tmp_path / "coarse.msh", end=0.1, dt=0.1, mu=float(MU))
         text = text.replace(
             'model = "stokes"', f'model = "stokes"\nmethod = "blobs"\noperator = "{operator}"'
@@ -220,10 +234,13 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch):
         sim = _run_text(tmp_path, text + extra)
         assert sim.model["stokes"].operator == operator
         runs[operator] = (np.array(sim.body.values(sim.t)), sim.model.u_n.x.array.copy())
-    (b0, u0), (b1, u1) = runs["dense"], runs["fmm"]
-    worst = max(np.abs(b1 - b0).max() / np.abs(b0).max(), np.abs(u1 - u0).max() / np.abs(u0).max())
-    print(f"fmm against dense: {worst:.2e}")
-    assert worst < 2e-11
+    b0, u0 = runs.pop("dense")
+    for operator, (b1, u1) in runs.items():
+        worst = max(
+            np.abs(b1 - b0).max() / np.abs(b0).max(), np.abs(u1 - u0).max() / np.abs(u0).max()
+        )
+        print(f"{operator} against dense{' with a wall' if wall else ''}: {worst:.2e}")
+        assert worst < 5e-11
 
 
 # --- rigid bodies -------------------------------------------------------------

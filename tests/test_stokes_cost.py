@@ -35,7 +35,7 @@ def test_a_sheet_too_large_for_the_machine_is_refused():
     assert done.returncode == 2, done.stdout[-1000:] + done.stderr[-2000:]
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1, done.stderr
-    for words in ("32481 nodes", "228 GB", "this machine's", "coarser mesh", '"fmm"'):
+    for words in ("32481 nodes", "228 GB", "this machine's", "coarser mesh", '"direct"'):
         assert words in lines[0], (words, lines[0])
 
 

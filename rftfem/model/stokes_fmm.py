@@ -12,11 +12,8 @@ blobs need:
 Beyond ρ = 6 the Gaussian blob differs from the Stokeslet by less than 1e-13
 relatively, so the split is exact to round-off; the correction is a sparse matrix.
 
-Forces from velocities, ``F = M⁻¹ v``, are conjugate gradients on the symmetric
-positive definite ``M``, preconditioned by the exact dense inverse of ``M`` on
-spatial clusters of nodes (block Jacobi): the clusters resolve the small scales
-that make ``M`` ill-conditioned, leaving a few large eigenvalues of the body's
-long-range motion to the Krylov iteration.
+Forces from velocities, ``F = M⁻¹ v``, are the conjugate gradients of
+``rftfem.model.stokes_matrix_free`` around these products.
 
 The position derivative at fixed forces, ``G dx = ∂(M F)/∂x · dx``, is exact too:
 for the singular part, the velocity gradient at each target (from the same FMM)
@@ -31,21 +28,16 @@ from __future__ import annotations
 from math import pi
 
 import numpy as np
-import scipy.linalg as sl
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from rftfem.model import stokeslets
+from rftfem.model import stokes_matrix_free, stokeslets
 
 #: pairs farther apart than this many pair blobs use the singular Stokeslet
 CUTOFF = 6.0
 #: the fast multipole method's requested precision (fmm3d meets it with room: the
 #: product M F of a 5000-node plate is 2e-14 off the 1e-12 one, 25 % faster)
 FMM_PRECISION = 1e-10
-#: the relative residual at which the conjugate gradients stop
-SOLVE_TOLERANCE = 1e-11
-#: nodes per cluster of the block-Jacobi preconditioner
-CLUSTER_NODES = 600
 _I3 = np.arange(3)
 
 
@@ -68,24 +60,17 @@ def _block_matrix(rows, cols, blocks, n) -> sp.csr_matrix:
     return sp.coo_matrix((np.ravel(blocks), (r, c)), shape=(3 * n, 3 * n)).tocsr()
 
 
-def _clusters(x: np.ndarray, size: int) -> list[np.ndarray]:
-    """Node sets of at most ``size`` nodes by recursive bisection along the longest extent."""
-    out, todo = [], [np.arange(len(x))]
-    while todo:
-        idx = todo.pop()
-        if len(idx) <= size:
-            out.append(idx)
-            continue
-        axis = int(np.argmax(np.ptp(x[idx], axis=0)))
-        order = idx[np.argsort(x[idx, axis], kind="stable")]
-        half = len(order) // 2
-        todo += [order[:half], order[half:]]
-    return out
+def FastResistance(x, delta, viscosity) -> stokes_matrix_free.MatrixFreeResistance:
+    """The matrix-free resistance whose products are fast multipoles (:class:`FmmSums`)."""
+    sums = FmmSums(x, delta, viscosity)
+    return stokes_matrix_free.MatrixFreeResistance(
+        sums.x, sums, lambda c: stokeslets.mobility(sums.x[c], sums.delta[c], sums.viscosity)
+    )
 
 
-class FastResistance:
-    """Forces from velocities at one configuration, matrix-free (same interface as
-    ``stokeslets.Resistance``: ``x``, ``solve``, ``lumped``, ``position_operator``)."""
+class FmmSums:
+    """``M F`` and ``G dx`` by fast multipoles plus the near blobs' sparse correction,
+    at the positions ``x`` with blobs ``delta`` (no wall)."""
 
     def __init__(self, x, delta, viscosity):
         self.x = np.array(x, dtype=float)
@@ -95,18 +80,6 @@ class FastResistance:
         self._sources = np.ascontiguousarray(self.x.T)
         self._near_pairs()
         self.correction = self._near_blocks()
-        self.clusters = _clusters(self.x, CLUSTER_NODES)
-        self._factors = [
-            sl.cho_factor(
-                stokeslets.mobility(self.x[c], self.delta[c], self.viscosity),
-                lower=True,
-                check_finite=False,
-            )
-            for c in self.clusters
-        ]
-        #: conjugate-gradient iterations of every solve so far
-        self.iterations: list[int] = []
-        self._lumped = None
 
     # --- the operator -----------------------------------------------------
 
@@ -151,69 +124,20 @@ class FastResistance:
             eps=FMM_PRECISION, sources=self._sources, ifppreg=sources.get("ifppreg", 1), **flat
         )
 
-    def apply(self, forces: np.ndarray) -> np.ndarray:
+    def mobility(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` for forces of length 3N."""
         out = self._fmm(stoklet=forces).pot.reshape(3, self.n).T.ravel() / self.viscosity
         return out + self.correction @ forces
 
-    # --- forces from velocities -------------------------------------------
-
-    def _precondition(self, v):
-        v = np.reshape(v, (-1, 3))
-        out = np.empty_like(v)
-        for c, f in zip(self.clusters, self._factors):
-            out[c] = sl.cho_solve(f, v[c].ravel(), check_finite=False).reshape(-1, 3)
-        return out.ravel()
-
-    def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """``M⁻¹ rhs`` (length 3N, or 3N × k column by column) by preconditioned CG."""
-        rhs = np.asarray(rhs, dtype=float)
-        if rhs.ndim == 2:
-            return np.column_stack([self.solve(col) for col in rhs.T])
-        return self._cg(rhs)
-
-    def _cg(self, b):
-        """Conjugate gradients with the cluster preconditioner, to ``SOLVE_TOLERANCE``."""
-        norm_b = float(np.linalg.norm(b))
-        x = self._precondition(b)
-        if norm_b == 0.0:
-            self.iterations.append(0)
-            return x
-        r = b - self.apply(x)
-        z = self._precondition(r)
-        p = z.copy()
-        rz = float(r @ z)
-        for k in range(1, 3 * self.n + 1):
-            if np.linalg.norm(r) <= SOLVE_TOLERANCE * norm_b:
-                self.iterations.append(k - 1)
-                return x
-            q = self.apply(p)
-            alpha = rz / float(p @ q)
-            x += alpha * p
-            r -= alpha * q
-            z = self._precondition(r)
-            rz, rz_old = float(r @ z), rz
-            p = z + (rz / rz_old) * p
-        raise RuntimeError("fluid: the Stokes solve did not converge")
-
-    def lumped(self) -> np.ndarray:
-        """The nodal blocks ``Σ_j (M⁻¹)_ij`` (as ``stokeslets.Resistance.lumped``)."""
-        if self._lumped is None:
-            ones = np.tile(np.eye(3), (self.n, 1))
-            self._lumped = stokeslets.lumped_blocks(self.solve(ones).reshape(self.n, 3, 3))
-        return self._lumped
-
-    # --- the position derivative ------------------------------------------
-
-    def position_operator(self, forces) -> "PositionDerivative":
+    def derivative_operator(self, forces) -> "PositionDerivative":
         """``dx ↦ G dx = ∂(M F)/∂x · dx`` at the fixed ``forces``."""
         return PositionDerivative(self, np.asarray(forces, dtype=float).reshape(-1, 3))
 
 
 class PositionDerivative:
-    """``G dx`` of a :class:`FastResistance` at fixed forces, applied with ``@``."""
+    """``G dx`` of :class:`FmmSums` at fixed forces, applied with ``@``."""
 
-    def __init__(self, res: FastResistance, F: np.ndarray):
+    def __init__(self, res: FmmSums, F: np.ndarray):
         self.res, self.F = res, F
         out = res._fmm(stoklet=F, ifppreg=3)
         #: ∂u_a/∂x_k at every node, (N, k, a)

@@ -79,7 +79,7 @@ def admit(rows: int, points_a_row: float, processes: int, method: str = "layer")
     change = (
         "a coarser mesh"
         + (" or a lower fluid.refine" if method == "layer" else "")
-        + ', or fluid.method = "blobs" with operator = "fmm" (matrix-free, no wall)'
+        + ', or fluid.method = "blobs" with operator = "direct" (matrix-free, memory O(N))'
     )
     if have and memory > have:
         raise SceneError(

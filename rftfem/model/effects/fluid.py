@@ -18,7 +18,7 @@ import numpy as np
 from rftfem.errors import SceneError
 from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Int, Leaf, Str, Table, Vec
 
-OPERATORS = ("auto", "dense", "fmm")
+OPERATORS = ("auto", "dense", "direct", "fmm")
 METHODS = ("layer", "blobs")
 FACTORS = ("kept", "every-update")
 
@@ -44,11 +44,12 @@ def _check_stokes(fluid: dict) -> None:
     if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
         raise SceneError(
             'fluid.operator: "fmm" has no wall images; use operator = '
-            '"dense" (or "auto") with fluid.wall'
+            '"direct" (matrix-free, with the images) or "dense" with fluid.wall'
         )
-    if fluid.get("operator") == "fmm" and fluid.get("method", "layer") == "layer":
+    operator = fluid.get("operator")
+    if operator in ("direct", "fmm") and fluid.get("method", "layer") == "layer":
         raise SceneError(
-            'fluid.operator: "fmm" needs fluid.method = "blobs" in this '
+            f'fluid.operator: "{operator}" needs fluid.method = "blobs" in this '
             "version (the integrated layer is dense); use operator = "
             '"dense" (or "auto"), or method = "blobs"'
         )
@@ -208,10 +209,12 @@ SCHEMA = Table(
             "auto",
             doc='How the Stokes operator is applied (model = "stokes"): "dense" '
             "assembles and factorises the mobility (exact, memory 144 N² bytes "
-            'for N nodes); "fmm" is matrix-free, fast multipoles (fmm3dpy) with '
-            "a local blob correction and preconditioned conjugate gradients (no "
-            'wall); "auto" is dense up to 5000 nodes or with a wall, fmm above '
-            "(docs/stokes.md §Cost and scale).",
+            'for N nodes); "direct" is matrix-free (method "blobs"): compiled '
+            "direct sums of the kernel, with the wall's images, shared out by rows "
+            "under mpirun, inside preconditioned conjugate gradients, memory O(N); "
+            '"fmm" is matrix-free by fast multipoles (fmm3dpy; no wall, one '
+            'process; for bodies beyond some 400 000 nodes); "auto" is dense up '
+            "to 5000 nodes, direct above (docs/stokes.md §Cost and scale).",
         ),
         "factors": Leaf(
             Str(FACTORS),

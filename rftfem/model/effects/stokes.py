@@ -36,6 +36,7 @@ from rftfem.errors import SceneError
 from rftfem.model import (
     layer_rules,
     stokes_body,
+    stokes_direct,
     stokes_fmm,
     stokes_layer,
     stokes_report,
@@ -45,6 +46,7 @@ from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel, NonlocalEffect
 from rftfem.model.ranks import gather_rows
 from rftfem.model.rates import scheme_velocity
+from rftfem.model.stokes_matrix_free import MatrixFreeResistance
 
 #: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
@@ -226,16 +228,15 @@ class Stokes(FluidModel, NonlocalEffect):
             )
 
     def _choose_operator(self, asked: str) -> str:
-        """ "dense" or "fmm" for ``fluid.operator`` (``auto``: fmm above DENSE_NODES
-        nodes of blobs without a wall, when fmm3dpy is installed; the layer is dense)."""
+        """ "dense", "direct" or "fmm" for ``fluid.operator`` (``auto``: the blobs' direct
+        sums above DENSE_NODES nodes, dense below and for the layer)."""
         if asked == "auto":
-            big = len(self.X) > DENSE_NODES and self.wall is None and self.method == "blobs"
-            return "fmm" if big and stokes_fmm.available() else "dense"
+            big = len(self.X) > DENSE_NODES and self.method == "blobs"
+            return "direct" if big else "dense"
         if asked == "fmm" and not stokes_fmm.available():
             raise SceneError(
                 'fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
-                "is not installed; run the README's set-up, or use "
-                'operator = "dense"'
+                'is not installed; run the README\'s set-up, or use operator = "direct"'
             )
         return asked
 
@@ -254,7 +255,7 @@ class Stokes(FluidModel, NonlocalEffect):
             out += stokes_report.warnings(self.describe())
             out += stokes_body.free_edge_warnings(self.cell, self.shell_cells)
         n = len(self.X) if self.method == "blobs" else len(self.layer.X)
-        if n <= DENSE_NODES or self.operator == "fmm":
+        if n <= DENSE_NODES or self.operator in ("direct", "fmm"):
             return out
         gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
         return out + [
@@ -299,6 +300,10 @@ class Stokes(FluidModel, NonlocalEffect):
                     kept=self._factored if self.keep_factors else None,
                 )
                 self._factored = self._resistance.factored
+            elif self.operator == "direct":
+                self._resistance = stokes_direct.DirectResistance(
+                    x, self.delta, self.viscosity, self.wall, self.model.comm
+                )
             elif self.operator == "fmm":
                 self._resistance = stokes_fmm.OnFirst(
                     self.model.comm,
@@ -325,7 +330,13 @@ class Stokes(FluidModel, NonlocalEffect):
             and np.array_equal(self._last[1], v)
         ):
             return self._last[2]
-        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
+        res = self.resistance(x)
+        if isinstance(res, MatrixFreeResistance) and self._last is not None:
+            # conjugate gradients from the last residual's forces (a Newton iterate
+            # or a step away: close)
+            F = res.solve(v.ravel(), guess=self._last[2]).reshape(-1, 3)
+        else:
+            F = res.solve(v.ravel()).reshape(-1, 3)
         self._last = (x, v, F)
         return F
 
