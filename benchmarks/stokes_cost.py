@@ -8,7 +8,9 @@ factorisation (every residual at new positions), the position derivative G
 seconds of each per N, and the exponent of a power law fitted over the sizes.
 
 With ``--fast`` it times the matrix-free operator instead (``[fluid] operator =
-"fmm"``, rftfem/model/stokes_fmm.py): setting it up at new positions (near pairs and the
+"fmm"``, rftfem/model/stokes_fmm.py; with ``--direct`` the compiled direct sums of
+``operator = "direct"``, rftfem/model/stokes_direct.py, and ``--wall`` adds a plane
+wall below the plate to them): setting it up at new positions (near pairs and the
 clusters' Cholesky factors), one product M F (one fast multipole call), one solve
 M⁻¹ v by preconditioned conjugate gradients (a residual; its iterations printed),
 and the position derivative (set up once per tangent, then one product per GMRES
@@ -17,6 +19,7 @@ iteration).  A tangent product is a solve plus a G product.
     .venv/bin/python benchmarks/stokes_cost.py                 # dense, 500 … 3000 nodes
     .venv/bin/python benchmarks/stokes_cost.py --nodes 500 1000 2000
     .venv/bin/python benchmarks/stokes_cost.py --fast          # 500 … 20 000 nodes
+    .venv/bin/python benchmarks/stokes_cost.py --direct --wall # the same, direct sums
     mpirun -n 2 .venv/bin/python benchmarks/stokes_cost.py     # the dense kernel by rows
 
 The fast multipole library runs threaded: set OMP_NUM_THREADS to fix the threads.
@@ -70,9 +73,14 @@ def main(argv=None) -> int:
         action="store_true",
         help="the matrix-free operator (fast multipoles) instead of the dense one",
     )
+    parser.add_argument(
+        "--direct", action="store_true", help="the matrix-free direct sums (operator = direct)"
+    )
+    parser.add_argument("--wall", action="store_true", help="with --direct: a wall below")
     args = parser.parse_args(argv)
-    if args.fast:
-        return fast(args.nodes or [500, 1000, 2000, 5000, 10000, 20000])
+    if args.fast or args.direct:
+        sizes = args.nodes or [500, 1000, 2000, 5000, 10000, 20000]
+        return fast(sizes, direct=args.direct, wall=args.wall)
     args.nodes = args.nodes or [500, 1000, 2000, 3000]
     from mpi4py import MPI
 
@@ -120,9 +128,14 @@ def exponents(rows, names):
         print(f"exponent of {name}: {slope:.2f}")
 
 
-def fast(sizes) -> int:
-    """The matrix-free operator's pieces per N (the plate's free edges keep half blobs)."""
-    from rftfem.model import stokes_fmm
+def fast(sizes, direct: bool = False, wall: bool = False) -> int:
+    """The matrix-free operator's pieces per N (the plate's free edges keep half blobs):
+    fast multipoles, or the direct sums (with a wall 0.3 below the plate if ``wall``)."""
+    from rftfem.model import stokes_direct, stokes_fmm
+
+    plane = stokeslets.Wall([0.0, 0.0, -0.3], [0.0, 0.0, 1.0]) if wall else None
+    if direct:
+        stokes_direct.warm()  # compiled (or loaded) before the clock starts
 
     rng = np.random.default_rng(0)
     rows = []
@@ -138,7 +151,10 @@ def fast(sizes) -> int:
         delta[edge] *= 0.5
         v = rng.standard_normal(3 * len(x))
         t0 = time.perf_counter()
-        res = stokes_fmm.FastResistance(x, delta, 1.0)
+        if direct:
+            res = stokes_direct.DirectResistance(x, delta, 1.0, plane)
+        else:
+            res = stokes_fmm.FastResistance(x, delta, 1.0)
         t_setup = time.perf_counter() - t0
         t_apply = best(lambda: res.apply(v), repeat=1)
         t0 = time.perf_counter()
@@ -150,7 +166,7 @@ def fast(sizes) -> int:
         t_g = best(lambda: G @ v, repeat=1)
         check = ""
         if len(x) <= 2100:  # against the dense Cholesky
-            dense = stokeslets.Resistance(x, delta, 1.0).solve(v)
+            dense = stokeslets.Resistance(x, delta, 1.0, plane).solve(v)
             check = f"{np.linalg.norm(F - dense) / np.linalg.norm(dense):9.1e}"
         rows.append((len(x), t_setup, t_apply, t_solve, t_gset, t_g))
         print(

@@ -26,7 +26,10 @@ steps, outputs; forms already compiled) and its ratio to the RFT run's.
     .venv/bin/python benchmarks/stokes_runs.py --cases stokes-60x12 --steps 4 --np 2
 
 ``stokes-60x12`` (3025 nodes, not in the default list) is the size at which to
-compare one process with two; the JSON lines give each step's seconds.
+compare one process with two; the JSON lines give each step's seconds.  The
+``direct-…`` cases (not in the default list) run the blobs' matrix-free direct
+sums (``fluid.operator = "direct"``): on the shipped mesh, and on 4983 nodes
+with and without the wall.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ STOKES = [
     "fluid.viscosity=1.0e-9",
 ]
 WALL = ["--set", "fluid.wall.point=[0.0,0.0,-2.0]", "--set", "fluid.wall.normal=[0.0,0.0,1.0]"]
+DIRECT = ["--set", 'fluid.method="blobs"', "--set", 'fluid.operator="direct"']
 CASES = {
     "rft": [],
     "stokes-10x2": [*STOKES, "--set", "mesh.divisions=[10,2]"],
@@ -73,6 +77,10 @@ CASES = {
     "stokes-20x4-wall": [*STOKES, *WALL],
     # 3025 nodes: what two processes share (with --np 2 against 1)
     "stokes-60x12": [*STOKES, "--set", "mesh.divisions=[60,12]"],
+    # the blobs' matrix-free direct sums: the shipped mesh, and 4983 nodes
+    "direct-20x4": [*STOKES, *DIRECT],
+    "direct-75x16": [*STOKES, *DIRECT, "--set", "mesh.divisions=[75,16]"],
+    "direct-75x16-wall": [*STOKES, *DIRECT, "--set", "mesh.divisions=[75,16]", *WALL],
 }
 
 
@@ -130,7 +138,10 @@ def _step_seconds(out: Path) -> list[float]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--cases", nargs="+", choices=list(CASES), default=[c for c in CASES if c != "stokes-60x12"]
+        "--cases",
+        nargs="+",
+        choices=list(CASES),
+        default=[c for c in CASES if c != "stokes-60x12" and not c.startswith("direct")],
     )
     parser.add_argument("--steps", type=int, help="every run takes this many steps")
     parser.add_argument("--before", help="also run the Stokes cases by this commit")

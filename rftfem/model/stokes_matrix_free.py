@@ -19,8 +19,13 @@ import scipy.linalg as sl
 
 from rftfem.model import stokeslets
 
-#: the relative residual at which the conjugate gradients stop
+#: the relative residual at which the conjugate gradients of the forces stop
 SOLVE_TOLERANCE = 1e-11
+#: the same for a product of the Newton tangent (inside GMRES): an update a little
+#: less exact leaves Newton's convergence as fast in the few iterations a step takes
+#: (an error η of the update adds η times the error to the next iterate's) and
+#: halves the iterations of each product (docs/stokes.md §Cost and scale)
+TANGENT_TOLERANCE = 1e-8
 #: nodes per cluster of the block-Jacobi preconditioner
 CLUSTER_NODES = 600
 
@@ -72,16 +77,19 @@ class MatrixFreeResistance:
             out[c] = sl.cho_solve(f, v[c].ravel(), check_finite=False).reshape(-1, 3)
         return out.ravel()
 
-    def solve(self, rhs: np.ndarray, guess: np.ndarray | None = None) -> np.ndarray:
+    def solve(
+        self, rhs: np.ndarray, guess: np.ndarray | None = None, tolerance: float | None = None
+    ) -> np.ndarray:
         """``M⁻¹ rhs`` (length 3N, or 3N × k column by column) by preconditioned CG,
-        from ``guess`` if given (one column)."""
+        from ``guess`` if given (one column), to the relative residual ``tolerance``
+        (``SOLVE_TOLERANCE``)."""
         rhs = np.asarray(rhs, dtype=float)
         if rhs.ndim == 2:
-            return np.column_stack([self.solve(col) for col in rhs.T])
-        return self._cg(rhs, guess)
+            return np.column_stack([self.solve(col, tolerance=tolerance) for col in rhs.T])
+        return self._cg(rhs, guess, SOLVE_TOLERANCE if tolerance is None else tolerance)
 
-    def _cg(self, b, guess=None):
-        """Conjugate gradients with the cluster preconditioner, to ``SOLVE_TOLERANCE``."""
+    def _cg(self, b, guess, tolerance):
+        """Conjugate gradients with the cluster preconditioner, to ``tolerance``."""
         norm_b = float(np.linalg.norm(b))
         if norm_b == 0.0:
             self.iterations.append(0)
@@ -92,7 +100,7 @@ class MatrixFreeResistance:
         p = z.copy()
         rz = float(r @ z)
         for k in range(1, 3 * self.n + 1):
-            if np.linalg.norm(r) <= SOLVE_TOLERANCE * norm_b:
+            if np.linalg.norm(r) <= tolerance * norm_b:
                 self.iterations.append(k - 1)
                 return x
             q = self.apply(p)

@@ -39,6 +39,7 @@ from rftfem.model import (
     stokes_direct,
     stokes_fmm,
     stokes_layer,
+    stokes_matrix_free,
     stokes_report,
     stokeslets,
 )
@@ -382,6 +383,9 @@ class Stokes(FluidModel, NonlocalEffect):
         du = np.ravel(dx)
         if hasattr(res, "tangent"):  # the layer: through its force grid
             out = scale * res.tangent(du, cv, G)
+        elif isinstance(res, MatrixFreeResistance):  # (an update a little less exact)
+            loose = stokes_matrix_free.TANGENT_TOLERANCE
+            out = scale * res.solve(cv * du - G @ du, tolerance=loose)
         else:
             out = scale * res.solve(cv * du - G @ du)
         return out.reshape(-1, 3)[self.offset : self.offset + self.n_owned]
