@@ -450,8 +450,8 @@ def test_coupled_residual_taylor_order_two(tmp_path, wall, operator, method):
     doublet term halved gives order 1.0; the layer's source term of G dropped
     (``_add_special``'s ``-=`` made ``+= 0``) gives order 1.0; the direct sums' free
     derivative dropped gives order 0.96 (their wall part is too small here to show:
-    test_fast_operator_matches_the_dense_one holds it to the dense derivative).  "layer refined": its
-    force grid cut once (``fluid.refine = 1``)."""
+    test_fast_operator_matches_the_dense_one holds it to the dense derivative).
+    "layer refined": its force grid cut once (``fluid.refine = 1``)."""
     from rftfem.integration.schemes import make_scheme
 
     write_disk(tmp_path / "coarse.msh", radius=A, size=0.5)
