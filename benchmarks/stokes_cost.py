@@ -171,7 +171,7 @@ def fast(sizes, direct: bool = False, wall: bool = False) -> int:
         rows.append((len(x), t_setup, t_apply, t_solve, t_gset, t_g))
         print(
             f"{len(x):6d} {t_setup:9.2f} {t_apply:7.3f} {t_solve:8.2f} "
-            f"{res.iterations[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}",
+            f"{res.history[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}",
             flush=True,
         )
     exponents(rows, ["set-up", "M F", "solve", "G set-up", "G dx"])

@@ -191,6 +191,7 @@ def warm():
     for wall in (False, True):
         _mobility_product(x, d, F, 0, 2, wall, out)
         _derivative_product(x, d, F, F, 0, 2, wall, out)
+        _mobility_matrix(x, d, wall, np.eye(3), np.empty((2, 3, 2, 3)))
 
 
 class DirectSums:
@@ -242,6 +243,14 @@ class DirectSums:
         """``G dx`` (3N): ``∂(M F)/∂x · dx`` at the fixed ``forces``."""
         return self.derivative_operator(forces) @ dx
 
+    def matrix(self, nodes: np.ndarray) -> np.ndarray:
+        """The dense mobility of the ``nodes`` alone (3k × 3k, the wall's images in)."""
+        x, d = self.x[nodes], self.delta[nodes]
+        Q = np.eye(3) if self.wall is None else self.wall.Q
+        out = np.empty((len(nodes), 3, len(nodes), 3))
+        _mobility_matrix(x, d, self.wall is not None, Q, out)
+        return out.reshape(3 * len(nodes), -1) * self.scale
+
     def derivative_operator(self, forces) -> "_Derivative":
         """``dx ↦ G dx`` at the fixed ``forces``, applied with ``@``."""
         return _Derivative(self, self._in_frame(forces))
@@ -260,17 +269,42 @@ class _Derivative:
         return s._gathered(out)
 
 
-def DirectResistance(x, delta, viscosity, wall=None, comm=None):
-    """The matrix-free resistance whose products are direct sums (every process
-    sums its rows; the clusters' mobilities, with the wall's images, on each)."""
-    from rftfem.model import stokes_matrix_free, stokeslets
+def DirectResistance(x, delta, viscosity, wall=None, comm=None, kept=None):
+    """The matrix-free resistance whose products are direct sums (every process sums
+    its rows); its clusters' mobilities compiled the same way (the wall's images
+    in); ``kept``: an earlier configuration's, whose factors it keeps (one cluster)."""
+    from rftfem.model import stokes_matrix_free
 
     sums = DirectSums(x, delta, viscosity, wall, comm)
-    x = np.asarray(x, dtype=float)
-    delta = np.asarray(delta, dtype=float)
+    return stokes_matrix_free.MatrixFreeResistance(x, sums, sums.matrix, kept=kept)
 
-    def cluster_mobility(c):
-        M = stokeslets.mobility(x[c], delta[c], viscosity)
-        return M if wall is None else M + wall.mobility(x[c], viscosity)
 
-    return stokes_matrix_free.MatrixFreeResistance(x, sums, cluster_mobility)
+@nb.njit(parallel=True, **_JIT)
+def _mobility_matrix(x, delta, wall, Q, out):
+    """``out[t, :, j, :]``: the 3 × 3 blocks of ``M`` (no 1/8πμ) of every pair; with a
+    ``wall`` the positions are in its frame and each block is turned back, ``Qᵀ B Q``."""
+    n = len(x)
+    for t in nb.prange(n):
+        B = np.empty((3, 3))
+        W = np.empty((3, 3))
+        r = np.empty(3)
+        dt2 = delta[t] * delta[t]
+        for j in range(n):
+            for c in range(3):
+                r[c] = x[t, c] - x[j, c]
+            kernels.free_block(r, sqrt(0.5 * (dt2 + delta[j] * delta[j])), B)
+            if wall:
+                kernels.image_block(x[t], x[j], W)
+                for i in range(3):
+                    for k in range(3):
+                        W[i, k] += B[i, k]
+                for i in range(3):  # B = W Q, then out = Qᵀ B
+                    for k in range(3):
+                        B[i, k] = W[i, 0] * Q[0, k] + W[i, 1] * Q[1, k] + W[i, 2] * Q[2, k]
+                for i in range(3):
+                    for k in range(3):
+                        out[t, i, j, k] = Q[0, i] * B[0, k] + Q[1, i] * B[1, k] + Q[2, i] * B[2, k]
+            else:
+                for i in range(3):
+                    for k in range(3):
+                        out[t, i, j, k] = B[i, k]

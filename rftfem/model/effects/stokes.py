@@ -39,7 +39,6 @@ from rftfem.model import (
     stokes_direct,
     stokes_fmm,
     stokes_layer,
-    stokes_matrix_free,
     stokes_report,
     stokeslets,
 )
@@ -303,8 +302,14 @@ class Stokes(FluidModel, NonlocalEffect):
                 self._factored = self._resistance.factored
             elif self.operator == "direct":
                 self._resistance = stokes_direct.DirectResistance(
-                    x, self.delta, self.viscosity, self.wall, self.model.comm
+                    x,
+                    self.delta,
+                    self.viscosity,
+                    self.wall,
+                    self.model.comm,
+                    kept=self._factored if self.keep_factors else None,
                 )
+                self._factored = self._resistance.factored
             elif self.operator == "fmm":
                 self._resistance = stokes_fmm.OnFirst(
                     self.model.comm,
@@ -357,13 +362,14 @@ class Stokes(FluidModel, NonlocalEffect):
         res = self.resistance(x)
         cv = float(self.model.coef["cv"].value)
         kept = self._tangent
-        layer_kept = self.method == "layer" and not res.fresh
-        if layer_kept and (exact or res.iterations > REUSE_ITERATIONS):
-            res.factorise()  # GMRES slowed on the kept factors: this iterate's own
-            self._factored, layer_kept = res, False
+        on_kept = not getattr(res, "fresh", True)  # the layer's or one cluster's factors
+        if on_kept and (exact or res.iterations > REUSE_ITERATIONS):
+            res.factorise()  # the solve slowed on the kept factors: this iterate's own
+            self._factored, on_kept = res, False
+        layer_kept = on_kept and self.method == "layer"
         if kept is not None and (kept.resistance is res and kept.forces is F or layer_kept):
             # the same iterate (a lifting made it: G depends on x and F only), or the
-            # kept factors' tangent
+            # layer's kept factors' tangent (the blobs' direct G is cheap: this one's)
             G = kept.G
         else:
             G = res.position_operator(F)
@@ -381,11 +387,8 @@ class Stokes(FluidModel, NonlocalEffect):
             self._tangent.scale,
         )
         du = np.ravel(dx)
-        if hasattr(res, "tangent"):  # the layer: through its force grid
+        if hasattr(res, "tangent"):  # the layer's force grid; the matrix-free's factors
             out = scale * res.tangent(du, cv, G)
-        elif isinstance(res, MatrixFreeResistance):  # (an update a little less exact)
-            loose = stokes_matrix_free.TANGENT_TOLERANCE
-            out = scale * res.solve(cv * du - G @ du, tolerance=loose)
         else:
             out = scale * res.solve(cv * du - G @ du)
         return out.reshape(-1, 3)[self.offset : self.offset + self.n_owned]
