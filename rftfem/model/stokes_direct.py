@@ -191,7 +191,7 @@ def warm():
     for wall in (False, True):
         _mobility_product(x, d, F, 0, 2, wall, out)
         _derivative_product(x, d, F, F, 0, 2, wall, out)
-        _mobility_matrix(x, d, wall, np.eye(3), np.empty((2, 3, 2, 3)))
+        _mobility_matrix(x, d, wall, np.eye(3), 0, 2, np.empty((2, 3, 2, 3)))
 
 
 class DirectSums:
@@ -244,12 +244,19 @@ class DirectSums:
         return self.derivative_operator(forces) @ dx
 
     def matrix(self, nodes: np.ndarray) -> np.ndarray:
-        """The dense mobility of the ``nodes`` alone (3k × 3k, the wall's images in)."""
+        """The dense mobility of the ``nodes`` alone (3k × 3k, the wall's images in);
+        the whole body's is made by rows on every process and gathered."""
+        from rftfem.model.ranks import gather_rows
+
         x, d = self.x[nodes], self.delta[nodes]
         Q = np.eye(3) if self.wall is None else self.wall.Q
-        out = np.empty((len(nodes), 3, len(nodes), 3))
-        _mobility_matrix(x, d, self.wall is not None, Q, out)
-        return out.reshape(3 * len(nodes), -1) * self.scale
+        whole = self.comm is not None and len(nodes) == self.n
+        lo, hi = (self.lo, self.hi) if whole else (0, len(nodes))
+        out = np.empty((hi - lo, 3, len(nodes), 3))
+        _mobility_matrix(x, d, self.wall is not None, Q, lo, hi, out)
+        out = out.reshape(3 * (hi - lo), -1)
+        out *= self.scale
+        return gather_rows(out, self.comm) if whole else out
 
     def derivative_operator(self, forces) -> "_Derivative":
         """``dx ↦ G dx`` at the fixed ``forces``, applied with ``@``."""
@@ -280,11 +287,12 @@ def DirectResistance(x, delta, viscosity, wall=None, comm=None, kept=None):
 
 
 @nb.njit(parallel=True, **_JIT)
-def _mobility_matrix(x, delta, wall, Q, out):
-    """``out[t, :, j, :]``: the 3 × 3 blocks of ``M`` (no 1/8πμ) of every pair; with a
-    ``wall`` the positions are in its frame and each block is turned back, ``Qᵀ B Q``."""
+def _mobility_matrix(x, delta, wall, Q, lo, hi, out):
+    """``out[t − lo, :, j, :]``: the 3 × 3 blocks of ``M`` (no 1/8πμ) of the targets
+    ``lo ≤ t < hi`` and every source; with a ``wall`` the positions are in its frame
+    and each block is turned back, ``Qᵀ B Q``."""
     n = len(x)
-    for t in nb.prange(n):
+    for t in nb.prange(lo, hi):
         B = np.empty((3, 3))
         W = np.empty((3, 3))
         r = np.empty(3)
@@ -303,8 +311,9 @@ def _mobility_matrix(x, delta, wall, Q, out):
                         B[i, k] = W[i, 0] * Q[0, k] + W[i, 1] * Q[1, k] + W[i, 2] * Q[2, k]
                 for i in range(3):
                     for k in range(3):
-                        out[t, i, j, k] = Q[0, i] * B[0, k] + Q[1, i] * B[1, k] + Q[2, i] * B[2, k]
+                        turned = Q[0, i] * B[0, k] + Q[1, i] * B[1, k] + Q[2, i] * B[2, k]
+                        out[t - lo, i, j, k] = turned
             else:
                 for i in range(3):
                     for k in range(3):
-                        out[t, i, j, k] = B[i, k]
+                        out[t - lo, i, j, k] = B[i, k]

@@ -153,6 +153,8 @@ class MatrixFreeResistance:
     def lumped(self) -> np.ndarray:
         """The nodal blocks ``Σ_j (M⁻¹)_ij`` (as ``stokeslets.Resistance.lumped``; with
         one cluster those of the factored configuration)."""
+        if self.whole and not self.fresh:
+            return self.factored.lumped()
         if self._lumped is None:
             ones = np.tile(np.eye(3), (self.n, 1))
             if self.whole:

@@ -149,6 +149,7 @@ def describe(stokes) -> dict:
         uniform = stokes.settings.regularization is not None
         out.update(
             {
+                "memory_bytes": blob_memory(stokes.operator, len(stokes.X)),
                 "regularization": float(stokes.delta[0]) if uniform else "node spacing",
                 "estimated_error": None,
                 "estimate_from": 'not estimated for method = "blobs" (first order in the '
@@ -236,11 +237,24 @@ def _estimate(stokes) -> dict:
     return out
 
 
+def blob_memory(operator: str, nodes: int) -> int:
+    """Bytes the blobs' operator holds: dense, the mobility's factors and the position
+    derivative (72 N² each); matrix-free, the clusters' factors (one of the whole body
+    up to ``stokes_matrix_free.WHOLE_UP_TO`` nodes)."""
+    from rftfem.model import stokes_matrix_free as mf
+
+    if operator == "dense":
+        return 144 * nodes**2
+    largest = nodes if nodes <= mf.WHOLE_UP_TO else min(nodes, mf.CLUSTER_NODES)
+    return 72 * largest * nodes
+
+
 def check_lines(d: dict) -> list[str]:
     """``rftfem check``'s lines for a Stokes description."""
     if d["method"] == "blobs":
         return [
-            f"fluid: blobs at {d['nodes']} nodes, {d['operator']} operator; {d['estimate_from']}"
+            f"fluid: blobs at {d['nodes']} nodes, {d['operator']} operator, "
+            f"{d['memory_bytes'] / 1e6:.3g} MB; {d['estimate_from']}"
         ]
     lines = [
         f"fluid: integrated layer, {d['nodes']} shell nodes, force grid of "

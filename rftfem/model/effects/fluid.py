@@ -225,7 +225,10 @@ SCHEMA = Table(
             "operator preconditioned by them (to 1e-13) and taking them and their "
             "derivative as the Newton tangent, refreshed when GMRES needs more "
             'than 10 iterations; "every-update" factorises at every residual (the '
-            "exact tangent; the same converged answer; docs/stokes.md §Cost).",
+            "exact tangent; the same converged answer; docs/stokes.md §Cost). "
+            'The same for the blobs\' direct sums (operator = "direct") up to 6000 '
+            "nodes, whose preconditioner is then the whole mobility's Cholesky "
+            "factors (conjugate gradients to 1e-11 on kept factors).",
         ),
         "wall": Table(
             {
