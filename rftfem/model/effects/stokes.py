@@ -330,21 +330,21 @@ class Stokes(FluidModel, NonlocalEffect):
     def nodal_forces(self) -> np.ndarray:
         """The forces (N, 3) the body exerts on the liquid at the current iterate."""
         x, v = self._state()
-        if (
-            self._last is not None
-            and np.array_equal(self._last[0], x)
-            and np.array_equal(self._last[1], v)
-        ):
-            return self._last[2]
-        res = self.resistance(x)
-        if isinstance(res, MatrixFreeResistance) and self._last is not None:
-            # conjugate gradients from the last residual's forces (a Newton iterate
-            # or a step away: close)
-            F = res.solve(v.ravel(), guess=self._last[2]).reshape(-1, 3)
-        else:
-            F = res.solve(v.ravel()).reshape(-1, 3)
+        F = self._forces(x, v)
         self._last = (x, v, F)
         return F
+
+    def _forces(self, x, v) -> np.ndarray:
+        """``R(x) v`` (N, 3); the last residual's forces if they are these, and the
+        start of a matrix-free solve (a Newton iterate, a step or the stored state
+        away: close)."""
+        last = self._last
+        if last is not None and np.array_equal(last[0], x) and np.array_equal(last[1], v):
+            return last[2]
+        res = self.resistance(x)
+        if isinstance(res, MatrixFreeResistance) and last is not None:
+            return res.solve(v.ravel(), guess=last[2]).reshape(-1, 3)
+        return res.solve(v.ravel()).reshape(-1, 3)
 
     def add_nodal_forces(self, F):
         forces = self.nodal_forces()
@@ -439,8 +439,7 @@ class Stokes(FluidModel, NonlocalEffect):
         v = m.v_n.x.array.reshape(-1, 3)[:n]
         both = self._gather(np.hstack([self.X[self.offset : self.offset + n] + u, v]))
         x, v = both[:, :3], both[:, 3:]
-        F = self.resistance(x).solve(v.ravel()).reshape(-1, 3)
-        return x, v, F
+        return x, v, self._forces(x, v)
 
     def values(self, t):
         x, v, F = self._stored()
