@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import sys
 import tomllib
 from pathlib import Path
@@ -310,6 +311,33 @@ def test_objective_formulas():
     c = objective.parse_constraint("tip_uz@end + scene(shell.thickness) >= 2")
     assert (c.sense, c.bound, c.violation(1.5), c.violation(3.0)) == (">=", 2.0, 0.5, 0.0)
     assert math.isclose(objective.parse("-tip_uz@0.5*2").formula.numbers({"q0": 1.0}), -2.0)
+
+
+def test_scene_values_in_an_objective():
+    """``scene(KEY)`` reads the run's scene by the scene's own dotted-key walk (tables
+    by name, arrays by index): a number, and one line for a missing key, a key of
+    no value, a table and a private entry.  Broke: ``absent`` left at None (a
+    missing key then reads as a key of no value): the message test fails."""
+    from types import SimpleNamespace
+
+    from rftfem.errors import SceneError
+    from rftfem.outputs.formulas import SceneValue
+
+    scene = {"shell": {"E": 2.0e5}, "load": [{"value": [0.0, 0.0, -3.0]}], "fluid": {"wall": None}}
+    scene["_private"] = 1.0
+    run = SimpleNamespace(summary={"scene": scene}, dir="a run")
+    assert SceneValue("scene(load.0.value.2)", "load.0.value.2").evaluate(run) == -3.0
+    assert SceneValue("scene(shell.E)", "shell.E").evaluate(run) == 2.0e5
+    for key, words in [
+        ("shell.nu", "has no key 'shell.nu'"),
+        ("load.3.value", "has no key"),
+        ("_private", "has no key"),
+        ("fluid.wall", "is not a number (the scene has none)"),
+        ("fluid.wall.point", "is not a number (the scene has none)"),
+        ("shell", "'shell' is not a number"),
+    ]:
+        with pytest.raises(SceneError, match=re.escape(words)):
+            SceneValue(f"scene({key})", key).evaluate(run)
 
 
 @pytest.mark.parametrize("executor, jobs", [("local", 1), ("local", 2), ("dask", 2)])

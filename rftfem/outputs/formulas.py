@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from rftfem.errors import SceneError
 from rftfem.outputs import quantities
 from rftfem.scene import expressions
+from rftfem.scene.overrides import lookup
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*")
 _TIME = re.compile(r"\s*(?:start|end|[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)")
@@ -60,13 +61,12 @@ class SceneValue:
         node = (run.summary or {}).get("scene")
         if node is None:
             raise quantities.Unavailable(f"'{self.text}': {run.dir} has no summary.json")
-        for part in self.key.split("."):
-            if isinstance(node, list) and part.isdigit() and int(part) < len(node):
-                node = node[int(part)]
-            elif isinstance(node, dict) and part in node:
-                node = node[part]
-            else:
-                raise SceneError(f"'{self.text}': the scene has no key '{self.key}'")
+        missing = object()
+        node = lookup(node, self.key, absent=missing)
+        if node is missing:
+            raise SceneError(f"'{self.text}': the scene has no key '{self.key}'")
+        if node is None:
+            raise SceneError(f"'{self.text}': '{self.key}' is not a number (the scene has none)")
         if isinstance(node, bool) or not isinstance(node, (int, float)):
             raise SceneError(f"'{self.text}': '{self.key}' is not a number")
         return float(node)
