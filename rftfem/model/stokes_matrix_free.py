@@ -71,6 +71,11 @@ class MatrixFreeResistance:
         self._cluster_mobility = cluster_mobility
         #: one cluster: the whole mobility factorised (factors that may be kept)
         self.whole = self.n <= WHOLE_UP_TO
+        #: whether :meth:`tangent` must be this configuration's: on an earlier one's
+        #: factors its first product is conjugate gradients (a lifting needs one),
+        #: a second makes this configuration's factors (a Newton solve needs many)
+        self.exact_tangent = False
+        self._exact_products = 0
         #: conjugate-gradient iterations of every solve so far
         self.history: list[int] = []
         #: those of the last solve of a residual (the forces from velocities)
@@ -99,7 +104,7 @@ class MatrixFreeResistance:
             )
             for c in self.clusters
         ]
-        self.factored, self._lumped = self, None
+        self.factored, self._lumped, self._exact_products = self, None, 0
 
     def apply(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` for forces of length 3N."""
@@ -170,9 +175,13 @@ class MatrixFreeResistance:
 
     def tangent(self, du: np.ndarray, cv: float, G) -> np.ndarray:
         """``dF = M⁻¹ (c_v du − G du)``: with one cluster by the factored configuration's
-        factors (exact when fresh), else by conjugate gradients to
-        ``TANGENT_TOLERANCE``."""
+        factors (exact when fresh; unless ``exact_tangent`` asks for this one's),
+        else by conjugate gradients to ``TANGENT_TOLERANCE``."""
         w = cv * np.asarray(du, dtype=float) - G @ du
-        if self.whole:
+        if self.whole and not self.fresh and self.exact_tangent:
+            if self._exact_products:  # a second product: this configuration's factors
+                self.factorise()
+            self._exact_products += 1
+        if self.whole and (self.fresh or not self.exact_tangent):
             return self._precondition(w)
         return self.solve(w, tolerance=TANGENT_TOLERANCE)

@@ -285,6 +285,9 @@ class Stokes(FluidModel, NonlocalEffect):
     def resistance(self, x: np.ndarray) -> stokeslets.Resistance:
         """The factorised mobility at the positions ``x`` (kept for the same ``x``)."""
         if self._resistance is None or not np.array_equal(self._resistance.x, x):
+            if isinstance(self._resistance, MatrixFreeResistance):
+                # the factors it ended with (a second exact product makes its own)
+                self._factored = self._resistance.factored
             if self.wall is not None and self.wall.heights(x).min() <= 0.0:
                 # the body has reached the wall: no flow state exists; a residual of
                 # NaN makes the step fail and be cut (the solver says it is not finite)
@@ -363,6 +366,10 @@ class Stokes(FluidModel, NonlocalEffect):
         cv = float(self.model.coef["cv"].value)
         kept = self._tangent
         on_kept = not getattr(res, "fresh", True)  # the layer's or one cluster's factors
+        if isinstance(res, MatrixFreeResistance):
+            # an exact tangent on kept factors: conjugate gradients preconditioned by
+            # them for its first product, new factors at its second (tangent())
+            res.exact_tangent, res._exact_products, exact = exact, 0, False
         if on_kept and (exact or res.iterations > REUSE_ITERATIONS):
             res.factorise()  # the solve slowed on the kept factors: this iterate's own
             self._factored, on_kept = res, False
