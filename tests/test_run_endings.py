@@ -85,6 +85,33 @@ def test_second_signal_stops_at_once(tmp_path):
     assert summary["interrupt"]["signal"] == "SIGINT"
 
 
+_SIGNALS_AFTER_A_STEP_MOVED = """
+import os, signal, sys
+from rftfem import cli
+from rftfem.outputs.progress import Progress
+real = Progress.update
+def update(self, t, step, *args):
+    if step == 5:  # step 5 has moved the time; it counts as done after this call
+        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGTERM)
+    return real(self, t, step, *args)
+Progress.update = update
+sys.exit(cli.main(sys.argv[1:]))
+"""
+
+
+def test_second_signal_after_a_step_moved_the_time(tmp_path):
+    """The two signals land between a step's end and its count (the race the test
+    above can meet): the interrupt reports the last step counted and its time."""
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-c", _SIGNALS_AFTER_A_STEP_MOVED, "run", str(SHEET)]
+    cmd += ["--out", str(out), "--quiet", *[a for s in SETS for a in ("--set", s)]]
+    done = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 130, done.stderr[-2000:]
+    summary = _check_outputs(out, immediate=True)
+    assert summary["interrupt"]["step"] == 4, summary["interrupt"]
+
+
 @pytest.mark.mpi
 def test_signal_to_one_rank_stops_all(tmp_path, mpirun):
     """Under mpirun -n 2, SIGTERM to one rank only (the others never see it): every

@@ -162,7 +162,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         self.arc = self.first_arc = self.path_direction = None
         self.first_increment = scene["time"]["dt"]
         self.step = 0
-        self.completed = 0  # steps done (self.step may be the one under way)
+        self.completed = 0
         self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
         #: halvings of the nominal step the next one starts with (_advance)
         self.level = 0
@@ -182,6 +182,17 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             self._load_checkpoint()
 
     # --- the run -------------------------------------------------------------
+
+    @property
+    def completed(self) -> int:
+        """Steps done (``self.step`` may be the one under way)."""
+        return self._completed
+
+    @completed.setter
+    def completed(self, step: int):
+        # the time they reached goes with them: a second signal may stop the run after
+        # a step has moved ``self.t`` and before it counts as done
+        self._completed, self.completed_time = step, self.t
 
     def run(self) -> dict:
         with self.stops:
@@ -312,7 +323,8 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             else RunInterrupted(self.stops.signum, immediate=True)
         )
         if err.time is None:  # stopped inside a step: where the last one ended
-            err.time, err.step = self.t, self.completed
+            err.time, err.step = self.completed_time, self.completed
+            self.t = err.time  # what the outputs reached (the state may be further)
         if err.dropped:  # a slow step dropped: the last completed step's row
             self._last_row(logs)
         summary = self._summary("interrupted", wall_start)
