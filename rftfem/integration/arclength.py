@@ -161,7 +161,7 @@ class PathFollowing:
                 fnorm < atol
                 or fnorm <= rtol * first
                 or update < stol * xnorm
-                or (fnorm <= max(s.roundoff, s.noise) and fnorm > 0.5 * last)
+                or (fnorm <= s.floor() and fnorm > 0.5 * last)
             ):
                 return lam, arc, it - 1, fnorm
             last = fnorm

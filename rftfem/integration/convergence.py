@@ -32,7 +32,8 @@ class NewtonTest:
         - from the second update on, a residual below the elastic round-off floor
           that the last update did not halve is converged (a stiff membrane under a
           small load: its residual stalls at 1e-9 of E t however small the load, far
-          above a tolerance in the load's units).
+          above a tolerance in the load's units; the matrix-free Stokes forces,
+          known to their conjugate gradients' tolerance, add theirs: ``floor``).
           The floor is the larger of that and the round-off of the membrane forces
           (``self.noise``, 100 ε E t W): the roll-up at L/t = 1e5 and the sheet with
           drag ×1e-6 stalled there, 5e3 and 30 times above ``snes_atol``.  (Taken as
@@ -93,9 +94,18 @@ class NewtonTest:
             theta = snorm / self._snorms[-2]
             if theta < CONTRACTION and theta / (1.0 - theta) * snorm < stol * xnorm:
                 return R.CONVERGED_SNORM_RELATIVE
-        if it >= 2 and fnorm <= max(self.roundoff, self.noise) and fnorm > 0.5 * self._fnorms[-2]:
+        if it >= 2 and fnorm <= self.floor() and fnorm > 0.5 * self._fnorms[-2]:
             return R.CONVERGED_FNORM_ABS
         return R.CONVERGED_ITERATING
+
+    def floor(self) -> float:
+        """The residual below which a stall is round-off or solver noise: the elastic
+        and membrane forces' floors, and the error of nonlocal forces that an
+        iterative solve gave (the Stokes conjugate gradients')."""
+        floors = [self.roundoff, self.noise]
+        if self.coupled is not None:
+            floors += [c.residual_floor() for c in self.coupled.components]
+        return max(floors)
 
     def force_iteration(self, on: bool | None = None):
         """Whether a solve must take a Newton update even from a residual within

@@ -80,6 +80,8 @@ class MatrixFreeResistance:
         self.history: list[int] = []
         #: those of the last solve of a residual (the forces from velocities)
         self.iterations = 0
+        #: how far the last forces may be off: ‖M⁻¹ r‖ for the residual r CG stopped at
+        self.force_error = 0.0
         self._lumped = None
         if kept is None or not self.whole:
             self.factorise()
@@ -128,7 +130,7 @@ class MatrixFreeResistance:
             return np.column_stack([self.solve(col, tolerance=tolerance) for col in rhs.T])
         out = self._cg(rhs, guess, SOLVE_TOLERANCE if tolerance is None else tolerance)
         if tolerance is None:
-            self.iterations = self.history[-1]
+            self.iterations, self.force_error = self.history[-1], self._error
         return out
 
     def _cg(self, b, guess, tolerance):
@@ -136,6 +138,7 @@ class MatrixFreeResistance:
         norm_b = float(np.linalg.norm(b))
         if norm_b == 0.0:
             self.history.append(0)
+            self._error = 0.0
             return np.zeros_like(b)
         x = self._precondition(b) if guess is None else np.array(guess, dtype=float).ravel()
         r = b - self.apply(x)
@@ -145,6 +148,7 @@ class MatrixFreeResistance:
         for k in range(1, 3 * self.n + 1):
             if np.linalg.norm(r) <= tolerance * norm_b:
                 self.history.append(k - 1)
+                self._error = float(np.linalg.norm(z))  # M⁻¹ r, as the preconditioner sees it
                 return x
             q = self.apply(p)
             alpha = rz / float(p @ q)

@@ -184,6 +184,12 @@ class NonlocalEffect(Effect):
         process (in rank order), as the owned nodes' rows (n_owned, k)."""
         raise NotImplementedError
 
+    def residual_floor(self) -> float:
+        """How far its last forces may be off (the norm over every node): an
+        iterative solve's error, below which a Newton residual that stalls is
+        converged (0: forces exact to round-off)."""
+        return 0.0
+
 
 class LimitsNewtonStep:
     """An effect that shortens a Newton update (or a step's prediction) that would

@@ -56,6 +56,10 @@ DENSE_NODES = 5000
 #: the layer's Newton tangents keep the liquid's factors and derivative while GMRES
 #: on them solves a residual in at most this many iterations (docs/stokes.md §Cost)
 REUSE_ITERATIONS = 10
+#: a Newton residual within this many times the matrix-free forces' error is their
+#: noise (a soft sphere over a wall, whose estimated errors were 2e-12 to 4e-11,
+#: stalled at 3e-11 and then wandered up to 1.4e-10 while its steps were cut)
+FLOOR_MARGIN = 10.0
 
 #: the closest gap between body and wall, in blobs, under which a run is refused, and
 #: under which it is warned of (the wall's images are singular, the body's own
@@ -348,6 +352,11 @@ class Stokes(FluidModel, NonlocalEffect):
         if isinstance(res, MatrixFreeResistance) and last is not None:
             return res.solve(v.ravel(), guess=last[2]).reshape(-1, 3)
         return res.solve(v.ravel()).reshape(-1, 3)
+
+    def residual_floor(self) -> float:
+        """``FLOOR_MARGIN`` times the conjugate gradients' error in the last forces
+        (the matrix-free operators; 0 for the factorised ones)."""
+        return FLOOR_MARGIN * getattr(self._resistance, "force_error", 0.0)
 
     def add_nodal_forces(self, F):
         forces = self.nodal_forces()
