@@ -21,8 +21,12 @@ velocity scale ``ε_v`` (docs/contact.md §2).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import ufl
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 #: where the logarithmic barrier is continued by its Taylor polynomial, as a share of
 #: ŝ = 2δ: there the contact pressure is ≈ 850 times that on the plane
@@ -31,12 +35,16 @@ CLAMP = 1.0e-3
 SLOPE_ON_PLANE = 2 * math.log(2.0) + 1
 
 
-def lower_face(x, d, t):
+def lower_face(
+    x: ufl.core.expr.Expr, d: ufl.core.expr.Expr, t: ufl.core.expr.Expr | float
+) -> ufl.core.expr.Expr:
     """``x⁻ = x − (t/2) d``: the point of the lower face under the mid-surface point ``x``."""
     return x - 0.5 * t * d
 
 
-def gap(x_face, point, normal):
+def gap(
+    x_face: ufl.core.expr.Expr, point: ufl.core.expr.Expr, normal: ufl.core.expr.Expr
+) -> ufl.core.expr.Expr:
     """``g = (x⁻ − p)·n``: the height of the lower face over the plane (negative below)."""
     return ufl.dot(x_face - point, normal)
 
@@ -45,7 +53,7 @@ def _log_barrier(s, s_hat):
     return -((s - s_hat) ** 2) * ufl.ln(s / s_hat)
 
 
-def barrier(g, reach):
+def barrier(g: ufl.core.expr.Expr, reach: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:
     """``b(g + δ)`` of the module docstring, per unit stiffness (units length²): 0 for
     ``g ≥ δ``, the IPC barrier for ``−δ + s_c < g < δ``, its Taylor polynomial below."""
     s, s_hat = g + reach, 2 * reach
@@ -59,19 +67,26 @@ def barrier(g, reach):
     return ufl.conditional(ufl.lt(g, reach), inside, 0 * g)
 
 
-def barrier_energy(stiffness, g, reach, dx):
+def barrier_energy(
+    stiffness: ufl.core.expr.Expr | float,
+    g: ufl.core.expr.Expr,
+    reach: ufl.core.expr.Expr | float,
+    dx: ufl.Measure,
+) -> ufl.Form:
     """``∫ κ b(g + δ) dA₀``: the stored energy of the normal contact (its derivative is
     the pressure ``κ |b′|`` along ``n`` on the lower face)."""
     return stiffness * barrier(g, reach) * dx
 
 
-def barrier_slope(g, reach):
+def barrier_slope(g: ufl.core.expr.Expr, reach: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:
     """``b′(g + δ)`` (≤ 0), by UFL's differentiation of :func:`barrier`."""
     gv = ufl.variable(g)
     return ufl.diff(barrier(gv, reach), gv)
 
 
-def contact_pressure(stiffness, g, reach):
+def contact_pressure(
+    stiffness: ufl.core.expr.Expr | float, g: ufl.core.expr.Expr, reach: ufl.core.expr.Expr | float
+) -> ufl.core.expr.Expr:
     """``λ = −κ b′(g + δ)`` (force per reference area, ≥ 0): the normal pressure."""
     return -stiffness * barrier_slope(g, reach)
 
@@ -81,7 +96,14 @@ def contact_pressure(stiffness, g, reach):
 SECANT_FLOOR = 1.0e-4
 
 
-def step_pressure(stiffness, g, g_start, reach, alpha_f, weighted):
+def step_pressure(
+    stiffness: ufl.core.expr.Expr | float,
+    g: ufl.core.expr.Expr,
+    g_start: ufl.core.expr.Expr,
+    reach: ufl.core.expr.Expr | float,
+    alpha_f: ufl.core.expr.Expr | float,
+    weighted: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """The barrier's pressure over a step from the gap ``g_start`` to ``g`` (docs/contact.md §1):
 
         λ = −κ [ (b(g) − b(g_start))/(g − g_start) + (½ − α_f)(b′(g) − b′(g_start)) ]
@@ -104,7 +126,12 @@ def step_pressure(stiffness, g, g_start, reach, alpha_f, weighted):
     return -stiffness * (weighted * stepped + (1 - weighted) * slope)
 
 
-def slip_velocity(x_face, x_face_start, normal, inv_dt):
+def slip_velocity(
+    x_face: ufl.core.expr.Expr,
+    x_face_start: ufl.core.expr.Expr,
+    normal: ufl.core.expr.Expr,
+    inv_dt: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """``v_T = (I − n⊗n)(x⁻ − x⁻ₙ)/Δt``: the tangential velocity of the lower face over
     the step (its mean over the step, whatever the time scheme)."""
     dx_face = (x_face - x_face_start) * inv_dt
@@ -116,14 +143,19 @@ def _speed(v, v_scale):
     return ufl.sqrt(ufl.dot(v, v) + (1e-9 * v_scale) ** 2)
 
 
-def friction_coefficient(mu_kinetic, mu_static, speed, v_scale):
+def friction_coefficient(
+    mu_kinetic: ufl.core.expr.Expr | float,
+    mu_static: ufl.core.expr.Expr | float,
+    speed: ufl.core.expr.Expr,
+    v_scale: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """``μ(y)``: ``μ_s`` up to ``y = ε_v``, then ``μ_k + (μ_s − μ_k) exp(−((y − ε_v)/ε_v)²)``
     (C¹; below 1e-4 of the step by y = 4 ε_v)."""
     over = ufl.max_value(speed - v_scale, 0 * speed) / v_scale
     return mu_kinetic + (mu_static - mu_kinetic) * ufl.exp(-(over**2))
 
 
-def mollifier(speed, v_scale):
+def mollifier(speed: ufl.core.expr.Expr, v_scale: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:
     """``f₁(y)/y``: ``(2 − y/ε_v)/ε_v`` below ``ε_v``, ``1/y`` above (IPC's C¹ smoothing
     of the direction ``v/|v|``; finite at zero slip)."""
     return ufl.conditional(
@@ -131,7 +163,14 @@ def mollifier(speed, v_scale):
     )
 
 
-def friction_traction(pressure, v_slip, v_scale, mu_kinetic, mu_static, frame=None):
+def friction_traction(
+    pressure: ufl.core.expr.Expr,
+    v_slip: ufl.core.expr.Expr,
+    v_scale: ufl.core.expr.Expr | float,
+    mu_kinetic: ufl.core.expr.Expr | float | Sequence[ufl.core.expr.Expr | float],
+    mu_static: ufl.core.expr.Expr | float | Sequence[ufl.core.expr.Expr | float],
+    frame: tuple[ufl.core.expr.Expr, ufl.core.expr.Expr] | None = None,
+) -> ufl.core.expr.Expr:
     """The friction force per reference area on the body, ``−λ Σ μᵢ(y) (v·eᵢ) eᵢ f₁(y)/y``.
 
     Isotropic (``frame`` None): ``μ_k``, ``μ_s`` are numbers (UFL scalars) and the
@@ -155,7 +194,9 @@ def friction_traction(pressure, v_slip, v_scale, mu_kinetic, mu_static, frame=No
     return -pressure * smooth * (mu_along * va * e_a + mu_across * vc * e_c)
 
 
-def friction_frame(axis, normal):
+def friction_frame(
+    axis: ufl.core.expr.Expr, normal: ufl.core.expr.Expr
+) -> tuple[ufl.core.expr.Expr, ufl.core.expr.Expr]:
     """``(e_a, e_c)``: the unit projection of the (current) material axis on the plane
     and ``n × e_a``.  Where the axis is along ``n`` the frame is undefined; it is kept
     finite (a tiny offset), and the check of the scene refuses such starts."""
@@ -164,7 +205,13 @@ def friction_frame(axis, normal):
     return e_a, ufl.cross(normal, e_a)
 
 
-def contact_work(pressure, traction, normal, dx_virtual, dx):
+def contact_work(
+    pressure: ufl.core.expr.Expr,
+    traction: ufl.core.expr.Expr,
+    normal: ufl.core.expr.Expr,
+    dx_virtual: ufl.core.expr.Expr,
+    dx: ufl.Measure,
+) -> ufl.Form:
     """``−∫ (λ n + τ)·δx⁻ dA₀``: the virtual work of the plane's force on the lower face
     (internal-minus-external sign, as the other loads)."""
     return -ufl.dot(pressure * normal + traction, dx_virtual) * dx

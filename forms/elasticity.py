@@ -38,15 +38,15 @@ REDUCED_DEGREE = 2
 class Isotropic:
     """The isotropic plane-stress law of modulus ``E`` and Poisson's ratio ``nu``."""
 
-    def __init__(self, E, nu):
+    def __init__(self, E: ufl.core.expr.Expr | float, nu: ufl.core.expr.Expr | float):
         self.E, self.nu = E, nu
 
-    def stress(self, e, A_inv):
+    def stress(self, e: ufl.core.expr.Expr, A_inv: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """Contravariant stress resultant density ``C(e)`` of covariant strain ``e``."""
         E, nu = self.E, self.nu
         return E / (1 - nu**2) * (nu * ufl.tr(A_inv * e) * A_inv + (1 - nu) * A_inv * e * A_inv)
 
-    def shear(self, gamma, A_inv):
+    def shear(self, gamma: ufl.core.expr.Expr, A_inv: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """Contravariant shear force density ``H γ`` (over t k_s) of covariant ``γ``."""
         return self.E / (2 * (1 + self.nu)) * A_inv * gamma
 
@@ -55,11 +55,22 @@ class Orthotropic:
     """The orthotropic plane-stress law along the fibre field ``fibre`` (projected on
     the reference surface spanned by ``G1, G2`` and normalised)."""
 
-    def __init__(self, E1, E2, G12, nu12, G13, G23, fibre, G1, G2):
+    def __init__(
+        self,
+        E1: ufl.core.expr.Expr | float,
+        E2: ufl.core.expr.Expr | float,
+        G12: ufl.core.expr.Expr | float,
+        nu12: ufl.core.expr.Expr | float,
+        G13: ufl.core.expr.Expr | float,
+        G23: ufl.core.expr.Expr | float,
+        fibre: ufl.core.expr.Expr,
+        G1: ufl.core.expr.Expr,
+        G2: ufl.core.expr.Expr,
+    ):
         self.moduli = (E1, E2, G12, nu12, G13, G23)
         self.T = fibre_frame(fibre, G1, G2)
 
-    def stress(self, e, A_inv):
+    def stress(self, e: ufl.core.expr.Expr, A_inv: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         E1, E2, G12, nu12, _, _ = self.moduli
         nu21 = nu12 * E2 / E1
         T = self.T
@@ -70,14 +81,16 @@ class Orthotropic:
         s12 = G12 * 2 * local[0, 1]
         return T.T * ufl.as_matrix([[s11, s12], [s12, s22]]) * T
 
-    def shear(self, gamma, A_inv):
+    def shear(self, gamma: ufl.core.expr.Expr, A_inv: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         _, _, _, _, G13, G23 = self.moduli
         T = self.T
         local = T * gamma
         return T.T * ufl.as_vector([G13 * local[0], G23 * local[1]])
 
 
-def fibre_frame(fibre, G1, G2):
+def fibre_frame(
+    fibre: ufl.core.expr.Expr, G1: ufl.core.expr.Expr, G2: ufl.core.expr.Expr
+) -> ufl.core.expr.Expr:
     """``T``: the rows are the contravariant components (in the basis G₁, G₂) of the
     unit fibre ``a`` (``fibre`` projected on the surface) and of ``b = N × a``."""
     N = unit_normal(G1, G2)
@@ -89,27 +102,50 @@ def fibre_frame(fibre, G1, G2):
     return ufl.as_matrix([[ca[0], ca[1]], [cb[0], cb[1]]])
 
 
-def membrane_energy(eps, A_inv, law, t):
+def membrane_energy(
+    eps: ufl.core.expr.Expr,
+    A_inv: ufl.core.expr.Expr,
+    law: Isotropic | Orthotropic,
+    t: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """``½ t ε:C(ε)`` per reference area."""
     return 0.5 * t * ufl.inner(eps, law.stress(eps, A_inv))
 
 
-def bending_energy(kappa, A_inv, law, t):
+def bending_energy(
+    kappa: ufl.core.expr.Expr,
+    A_inv: ufl.core.expr.Expr,
+    law: Isotropic | Orthotropic,
+    t: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """``½ (t³/12) κ:C(κ)`` per reference area."""
     return 0.5 * t**3 / 12 * ufl.inner(kappa, law.stress(kappa, A_inv))
 
 
-def shear_energy(gamma, A_inv, law, t):
+def shear_energy(
+    gamma: ufl.core.expr.Expr,
+    A_inv: ufl.core.expr.Expr,
+    law: Isotropic | Orthotropic,
+    t: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr:
     """``½ t k_s γ·H γ`` per reference area."""
     return 0.5 * t * SHEAR_CORRECTION * ufl.dot(gamma, law.shear(gamma, A_inv))
 
 
-def psri_weight(t, h):
+def psri_weight(t: ufl.core.expr.Expr | float, h: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:
     """Full-integration share ``α = min(t²/h², 1)`` of the membrane and shear energies."""
     return ufl.min_value(t**2 / h**2, 1.0)
 
 
-def stored_energy(strains, G1, G2, law, t, dx, h):
+def stored_energy(
+    strains: tuple[ufl.core.expr.Expr, ufl.core.expr.Expr, ufl.core.expr.Expr],
+    G1: ufl.core.expr.Expr,
+    G2: ufl.core.expr.Expr,
+    law: Isotropic | Orthotropic,
+    t: ufl.core.expr.Expr | float,
+    dx: ufl.Measure,
+    h: ufl.core.expr.Expr | float,
+) -> ufl.Form:
     """Total stored energy ``Π = ∫ ψ dA₀`` with PSRI (a UFL 0-form).
 
     ``strains = (ε, κ, γ)``; ``law`` an :class:`Isotropic` or :class:`Orthotropic`;
@@ -126,7 +162,16 @@ def stored_energy(strains, G1, G2, law, t, dx, h):
     return (psi_b + alpha * psi_ms) * dx_full + (1 - alpha) * psi_ms * dx_reduced
 
 
-def mixed_point_tangent(strains, defects, G1, G2, law, t, dx, h):
+def mixed_point_tangent(
+    strains: tuple[ufl.core.expr.Expr, ufl.core.expr.Expr, ufl.core.expr.Expr],
+    defects: tuple[ufl.core.expr.Expr, ufl.core.expr.Expr],
+    G1: ufl.core.expr.Expr,
+    G2: ufl.core.expr.Expr,
+    law: Isotropic | Orthotropic,
+    t: ufl.core.expr.Expr | float,
+    dx: ufl.Measure,
+    h: ufl.core.expr.Expr | float,
+) -> ufl.Form:
     """The 0-form ``−∫ [n(R_ε):ε + q(R_γ)·γ] dA₀`` whose second derivative, added to the
     exact tangent, gives the tangent of the mixed-integration-point Newton method
     (docs/model.md §7.4).

@@ -21,12 +21,19 @@ nothing: it carries force but no moment about its line.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import ufl
 
 from .kinematics import unit
 
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
-def panel_director(indicators, directors):
+
+def panel_director(
+    indicators: Sequence[ufl.core.expr.Expr], directors: Sequence[ufl.core.expr.Expr]
+) -> ufl.core.expr.Expr:
     """``d = Σ_c χ_c d_c``: the director of the colour each cell belongs to (the
     indicators are 1 on their own cells and 0 elsewhere, so on every cell one term is
     left).  A sum, not a ``conditional``: FFCx 0.5 cannot factorise a conditional
@@ -37,14 +44,18 @@ def panel_director(indicators, directors):
     return d
 
 
-def hinge_tangent(F_s, N, n):
+def hinge_tangent(
+    F_s: ufl.core.expr.Expr, N: ufl.core.expr.Expr, n: ufl.core.expr.Expr
+) -> ufl.core.expr.Expr:
     """Current unit tangent of a line of the mid-surface, ``F_s T / |F_s T|``, with
     the reference tangent ``T = N × n`` from the cell normal ``N`` and the in-surface
     facet normal ``n`` (restrict all three to one side)."""
     return unit(F_s * ufl.cross(N, n))
 
 
-def fold_angle(d_minus, d_plus, tangent):
+def fold_angle(
+    d_minus: ufl.core.expr.Expr, d_plus: ufl.core.expr.Expr, tangent: ufl.core.expr.Expr
+) -> ufl.core.expr.Expr:
     """Signed angle ``φ`` from ``d⁻`` to ``d⁺`` about ``tangent``.
 
     For unit directors turning about the line, ``s = (d⁻ × d⁺)·τ = sin φ`` and
@@ -56,6 +67,8 @@ def fold_angle(d_minus, d_plus, tangent):
     return 2 * ufl.atan(s / (1 + c))
 
 
-def hinge_spring_energy(stiffness, angle, dS):
+def hinge_spring_energy(
+    stiffness: ufl.core.expr.Expr | float, angle: ufl.core.expr.Expr, dS: ufl.Measure
+) -> ufl.Form:
     """``½ k ∫ φ² ds`` over the hinge line(s) of ``dS`` (interior facets)."""
     return 0.5 * stiffness * angle**2 * dS

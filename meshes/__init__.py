@@ -21,8 +21,15 @@ every rank.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    import os
+    from collections.abc import Sequence
+
+    from mpi4py import MPI
 
 
 @dataclass
@@ -97,7 +104,12 @@ def _regions(raw) -> list:
     return regions
 
 
-def build_body(comm, mesh_section: dict, scene_dir=None, hinges=()) -> Body:
+def build_body(
+    comm: MPI.Comm,
+    mesh_section: dict,
+    scene_dir: str | os.PathLike[str] | None = None,
+    hinges: Sequence[str] = (),
+) -> Body:
     """The scene's ``[mesh]`` table (docs/scenes.md) as a Body; collective on ``comm``.
 
     ``kind`` (default ``"strip"``):

@@ -11,11 +11,17 @@ import math
 import os
 import sys
 from contextlib import contextmanager, nullcontext
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem.compat import create_meshtags, gmsh_model_to_mesh
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from . import Body
 
 # gmsh element types rftfem reads as surface cells: 3-node and 6-node
 # triangles, 4-node and 9-node quadrilaterals (geometry degree 1 or 2).
@@ -330,7 +336,7 @@ def _extents(comm, mesh) -> tuple[float, float]:
     return out[0], out[1]
 
 
-def read_gmsh(comm, path):
+def read_gmsh(comm: MPI.Comm, path: str | os.PathLike[str]) -> Body:
     """Read a gmsh ``.msh`` surface mesh (2D elements in 3D) into a Body.
 
     The file may hold a curved surface and second-order geometry (6-node

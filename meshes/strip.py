@@ -11,10 +11,23 @@ import bisect
 import math
 import re
 from numbers import Integral, Real
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 
 from .gmsh_file import _model_to_body
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from mpi4py import MPI
+
+    from . import Body
+
+    #: a band ``(a, b)`` of x or y
+    Band = tuple[float, float]
+    #: a region ``(name, xband, yband)`` (a band may be None), or the older ``(name, xband)``
+    Region = tuple[str, Band | None, Band | None] | tuple[str, Band]
 
 EDGE_TAGS = {"x=0": 1, "x=L": 2, "y=0": 3, "y=W": 4}
 CELLS = ("quadrilateral", "triangle")
@@ -30,7 +43,7 @@ _OPTIONS = {
 _HINGE = re.compile(r"\s*([xy])\s*=\s*(\S+)\s*")
 
 
-def share_divisions(lengths, nx: int) -> list[int]:
+def share_divisions(lengths: Sequence[float], nx: int) -> list[int]:
     """Split ``nx`` elements among segments of the given lengths.
 
     Each segment gets its proportional share ``nx * l_i / sum(l)`` rounded by
@@ -70,7 +83,7 @@ def _is_number(v) -> bool:
 MAX_SIZE = 1e100
 
 
-def check_size(key: str, v) -> float:
+def check_size(key: str, v: object) -> float:
     """``v`` as a positive finite float below ``MAX_SIZE``; ``SceneError("mesh.<key>:
     ...")`` otherwise."""
     if not _is_number(v) or not (math.isfinite(v) and v > 0):
@@ -83,7 +96,7 @@ def check_size(key: str, v) -> float:
     return float(v)
 
 
-def check_divisions(divisions, names: str) -> tuple[int, int]:
+def check_divisions(divisions: object, names: str) -> tuple[int, int]:
     """``divisions`` as two positive ints; ``names`` (e.g. ``"[nx, ny]"``) for the message."""
     try:
         a, b = divisions
@@ -97,7 +110,7 @@ def check_divisions(divisions, names: str) -> tuple[int, int]:
     return int(a), int(b)
 
 
-def check_cell(cell) -> None:
+def check_cell(cell: object) -> None:
     if cell not in CELLS:
         raise SceneError(f'mesh.cell: expected "quadrilateral" or "triangle", found {cell!r}')
 
@@ -237,7 +250,7 @@ def _share(cuts, groups) -> list[int]:
     return out
 
 
-def graded(v: float, cuts, grading: float) -> float:
+def graded(v: float, cuts: Sequence[float], grading: float) -> float:
     """A coordinate ``v`` moved so that cells are graded towards both ends of its
     segment between ``cuts``: sizes ∝ 1 − g cos 2πs over the segment (s ∈ [0, 1]),
     g = (grading − 1)/(grading + 1), the ratio of the largest to the smallest;
@@ -316,18 +329,18 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
 
 
 def grid_body(
-    comm,
-    length,
-    width,
-    nx,
-    ygroups,
-    cell,
-    regions,
-    hinges,
-    grading=1.0,
-    builtin_lines=(),
-    builtin_regions=(),
-):
+    comm: MPI.Comm,
+    length: float,
+    width: float,
+    nx: int,
+    ygroups: Sequence[tuple[float, float, int]],
+    cell: str,
+    regions: Sequence[Region],
+    hinges: Sequence[str],
+    grading: float = 1.0,
+    builtin_lines: Sequence[tuple[str, float, str]] = (),
+    builtin_regions: Sequence[Region] = (),
+) -> Body:
     """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles.
 
     Checked arguments except ``regions`` and ``hinges`` (user input, checked
@@ -373,15 +386,15 @@ def grid_body(
 
 
 def build_strip(
-    comm,
-    length,
-    width,
-    divisions,
-    cell="quadrilateral",
-    regions=(),
-    hinges=(),
+    comm: MPI.Comm,
+    length: float,
+    width: float,
+    divisions: Sequence[int],
+    cell: str = "quadrilateral",
+    regions: Sequence[Region] = (),
+    hinges: Sequence[str] = (),
     grading: float = 1.0,
-):
+) -> Body:
     """A structured strip ``x in [0, L], y in [0, W]`` at Z = 0 as a Body.
 
     ``divisions = [nx, ny]``: elements along X and Y; ``cell`` is

@@ -2,22 +2,32 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .strip import check_cell, check_divisions, check_size, grid_body
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from mpi4py import MPI
+
+    from . import Body
+    from .strip import Region
 
 LINKS = ("left", "middle", "right")
 HINGES = ("hinge-left", "hinge-right")
 
 
 def build_three_link(
-    comm,
-    length,
-    link_width,
-    divisions,
-    cell="quadrilateral",
-    regions=(),
-    hinges=(),
+    comm: MPI.Comm,
+    length: float,
+    link_width: float,
+    divisions: Sequence[int],
+    cell: str = "quadrilateral",
+    regions: Sequence[Region] = (),
+    hinges: Sequence[str] = (),
     grading: float = 1.0,
-):
+) -> Body:
     """Three equal links ``[0, L] x [k w, (k+1) w]`` (k = 0, 1, 2) at Z = 0 as a Body.
 
     The body is the strip ``[0, L] x [0, 3 w]`` of :func:`.strip.build_strip`

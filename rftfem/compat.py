@@ -12,6 +12,7 @@ touches ``Function.vector`` / ``x.petsc_vec``.
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,6 +36,11 @@ try:
 except ImportError:  # dolfinx 0.5: elements come from UFL
     _basix_ufl = None
     _HAS_BASIX_UFL = False
+
+if TYPE_CHECKING:
+    import dolfinx.common
+    import gmsh
+    from mpi4py import MPI
 
 ScalarType = PETSc.ScalarType
 
@@ -65,12 +71,14 @@ def _functionspace(mesh, element):
     return dolfinx.fem.FunctionSpace(mesh, element)
 
 
-def function_space(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
+def function_space(
+    mesh: dolfinx.mesh.Mesh, family: str, degree: int, shape: tuple[int, ...] = ()
+) -> dolfinx.fem.FunctionSpace:
     """``family``/``degree`` space with value ``shape`` (``()`` scalar, ``(3,)`` vector)."""
     return _functionspace(mesh, _element(mesh, family, degree, shape))
 
 
-def geometry_cells(mesh) -> tuple[np.ndarray, int]:
+def geometry_cells(mesh: dolfinx.mesh.Mesh) -> tuple[np.ndarray, int]:
     """The geometry nodes of every cell as a (num_cells, nodes) array, and the
     geometry's degree (1: straight cells, 2: curved ones from a second-order gmsh
     file); dolfinx 0.5 gives an AdjacencyList, 0.11 an array (one per cell type,
@@ -85,14 +93,14 @@ def geometry_cells(mesh) -> tuple[np.ndarray, int]:
     return cells, int(cmap.degree)
 
 
-def collapse(sub):
+def collapse(sub: dolfinx.fem.FunctionSpace) -> tuple[dolfinx.fem.FunctionSpace, np.ndarray]:
     """``sub.collapse()`` as (space, the sub-space's dofs in the parent as one flat int64
     array): dolfinx 0.5 gives a list of ints, 0.11 a list holding one array."""
     V, dofs = sub.collapse()
     return V, np.asarray(dofs, dtype=np.int64).reshape(-1)
 
 
-def cell_dofs(V) -> np.ndarray:
+def cell_dofs(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """Cell-to-(blocked)-dof table of ``V`` as a (num_cells, dofs_per_cell) array."""
     dm = V.dofmap.list
     if isinstance(dm, np.ndarray):
@@ -100,12 +108,12 @@ def cell_dofs(V) -> np.ndarray:
     return dm.array.reshape(-1, V.dofmap.dof_layout.num_dofs)  # AdjacencyList (0.5)
 
 
-def interpolation_points(V):
+def interpolation_points(V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     pts = V.element.interpolation_points
     return pts() if callable(pts) else pts
 
 
-def expression(expr, V):
+def expression(expr: ufl.core.expr.Expr, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Expression:
     """A compiled expression evaluated at ``V``'s interpolation points."""
     return dolfinx.fem.Expression(expr, interpolation_points(V))
 
@@ -172,7 +180,9 @@ COMPILE_WAIT = 300
 SNES_NOT_FINITE = ("DIVERGED_FNORM_NAN", "DIVERGED_FUNCTION_NANORINF")
 
 
-def form(ufl_form, jit_options: dict | None = None):
+def form(
+    ufl_form: ufl.Form | list[ufl.Form], jit_options: dict | None = None
+) -> dolfinx.fem.Form | list[dolfinx.fem.Form]:
     """Compile a UFL form (list of forms allowed) to a dolfinx Form, with
     ``COMPILE_FLAGS`` and ``COMPILE_WAIT`` unless ``jit_options`` gives its own."""
     options = {
@@ -195,7 +205,7 @@ def form(ufl_form, jit_options: dict | None = None):
         raise
 
 
-def petsc_vec(f) -> PETSc.Vec:
+def petsc_vec(f: dolfinx.fem.Function) -> PETSc.Vec:
     """The PETSc vector wrapping a Function's (owned + ghost) values."""
     x = f.x
     if hasattr(x, "petsc_vec"):
@@ -203,7 +213,7 @@ def petsc_vec(f) -> PETSc.Vec:
     return f.vector
 
 
-def scatter_add(f) -> None:
+def scatter_add(f: dolfinx.fem.Function) -> None:
     """Sum a Function's ghost entries into their owners, then copy the sums back to
     the ghosts (a nodal sum over cells of several processes)."""
     vec = petsc_vec(f)
@@ -211,7 +221,7 @@ def scatter_add(f) -> None:
     vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
 
-def create_vector(L, V) -> PETSc.Vec:
+def create_vector(L: Any, V: dolfinx.fem.FunctionSpace) -> PETSc.Vec:
     """A ghosted PETSc vector for the linear form ``L`` on space ``V``.
 
     Here and in the assembly calls below, a form that maps its own unknowns
@@ -224,7 +234,7 @@ def create_vector(L, V) -> PETSc.Vec:
         return dolfinx.fem.petsc.create_vector(L)
 
 
-def create_matrix(a, kind: str | None = None) -> PETSc.Mat:
+def create_matrix(a: Any, kind: str | None = None) -> PETSc.Mat:
     """A PETSc matrix for the bilinear form ``a``; ``kind`` a PETSc matrix type
     (``"baij"``, ...; None: dolfinx's default), named ``mat_type`` in dolfinx 0.5."""
     if hasattr(a, "create_matrix"):
@@ -235,33 +245,40 @@ def create_matrix(a, kind: str | None = None) -> PETSc.Mat:
     return create(a, **{_keyword(create, "kind", "mat_type"): kind})
 
 
-def assemble_vector(b, L):
+def assemble_vector(b: PETSc.Vec, L: Any) -> None:
     if hasattr(L, "assemble_vector"):
         return L.assemble_vector(b)
     dolfinx.fem.petsc.assemble_vector(b, L)
 
 
-def assemble_matrix(A, a, bcs):
+def assemble_matrix(A: PETSc.Mat, a: Any, bcs: list[dolfinx.fem.DirichletBC]) -> None:
     if hasattr(a, "assemble_matrix"):
         return a.assemble_matrix(A, bcs)
     dolfinx.fem.petsc.assemble_matrix(A, a, bcs=bcs)
 
 
-def apply_lifting(b, a, bcs, x0, scale):
+def apply_lifting(
+    b: PETSc.Vec, a: Any, bcs: list[dolfinx.fem.DirichletBC], x0: PETSc.Vec, scale: float
+) -> None:
     """``b -= scale * A (g - x0)`` on the rows coupled to Dirichlet dofs."""
     if hasattr(a, "apply_lifting"):
         return a.apply_lifting(b, bcs, x0, scale)
     dolfinx.fem.petsc.apply_lifting(b, [a], bcs=[bcs], x0=[x0], **{_LIFTING_KEY: scale})
 
 
-def set_bc(b, bcs, x0=None, scale=1.0):
+def set_bc(
+    b: PETSc.Vec,
+    bcs: list[dolfinx.fem.DirichletBC],
+    x0: PETSc.Vec | None = None,
+    scale: float = 1.0,
+) -> None:
     dolfinx.fem.petsc.set_bc(b, bcs, x0, scale)
 
 
 # --- geometry ---------------------------------------------------------------
 
 
-def colliding_cells(mesh, points: np.ndarray) -> list[np.ndarray]:
+def colliding_cells(mesh: dolfinx.mesh.Mesh, points: np.ndarray) -> list[np.ndarray]:
     """For each row of ``points`` (N, 3): the local cells that contain it."""
     tdim = mesh.topology.dim
     geom = dolfinx.geometry
@@ -275,7 +292,9 @@ def colliding_cells(mesh, points: np.ndarray) -> list[np.ndarray]:
     return [np.asarray(cells.links(i)) for i in range(points.shape[0])]
 
 
-def nearest_cells(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def nearest_cells(
+    mesh: dolfinx.mesh.Mesh, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each row of ``points``: the local cell nearest to it (among the cells of its
     nearest geometry node), the distance to that cell and the cell's size (its largest
     node-to-node distance); -1, inf, 0 on a process without cells."""
@@ -301,7 +320,9 @@ def nearest_cells(mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 # --- meshes -----------------------------------------------------------------
 
 
-def gmsh_model_to_mesh(model, comm, rank: int = 0, gdim: int = 3):
+def gmsh_model_to_mesh(
+    model: type[gmsh.model] | None, comm: MPI.Comm, rank: int = 0, gdim: int = 3
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
     """(mesh, cell_tags, facet_tags) from a gmsh model built on ``rank``."""
     try:
         from dolfinx.io import gmsh as _gmshio  # dolfinx >= 0.10
@@ -330,7 +351,9 @@ def _shared_facet_partitioner() -> dict:
     return {}
 
 
-def serial_lagrange_mesh(cell: str, degree: int, cells: np.ndarray, x: np.ndarray):
+def serial_lagrange_mesh(
+    cell: str, degree: int, cells: np.ndarray, x: np.ndarray
+) -> dolfinx.mesh.Mesh:
     """A mesh on this process alone (``COMM_SELF``) with Lagrange geometry of
     ``degree`` on ``cell`` ("quadrilateral"/"triangle") in 3D, from nodes ``x``
     and ``cells`` in dolfinx's node order.  0.5 takes ``(comm, cells, x, domain)``
@@ -344,12 +367,14 @@ def serial_lagrange_mesh(cell: str, degree: int, cells: np.ndarray, x: np.ndarra
     return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, x, domain)
 
 
-def local_to_global(index_map, local: np.ndarray) -> np.ndarray:
+def local_to_global(index_map: dolfinx.common.IndexMap, local: np.ndarray) -> np.ndarray:
     """Global numbers of the local indices ``local`` of ``index_map``."""
     return np.asarray(index_map.local_to_global(np.asarray(local, dtype=np.int32)), dtype=np.int64)
 
 
-def create_meshtags(mesh, dim: int, entities: np.ndarray, values: np.ndarray):
+def create_meshtags(
+    mesh: dolfinx.mesh.Mesh, dim: int, entities: np.ndarray, values: np.ndarray
+) -> dolfinx.mesh.MeshTags:
     order = np.argsort(entities)
     return dolfinx.mesh.meshtags(
         mesh, dim, entities[order].astype(np.int32), values[order].astype(np.int32)
@@ -393,7 +418,7 @@ _LIFTING_KEY = _keyword(dolfinx.fem.petsc.apply_lifting, "alpha", "scale")
 # --- output files ------------------------------------------------------------
 
 
-def repair_xdmf_namespace(path) -> None:
+def repair_xdmf_namespace(path: str | os.PathLike[str]) -> None:
     """Give an XDMF file written by ``dolfinx.io.XDMFFile`` the XInclude namespace
     that XML parsers know.
 

@@ -291,7 +291,7 @@ def reason_name(reason: int) -> str:
     return names.get(reason, str(reason))
 
 
-def petsc_message(exc) -> str:
+def petsc_message(exc: Exception) -> str:
     """The last line of PETSc's own error text (what went wrong), else the error code."""
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
     text = lines[-1] if lines else ""

@@ -153,7 +153,7 @@ class Result:
         mesh.field_data["time"] = [float(run.times[i])]
         return mesh
 
-    def render(self, out: str | os.PathLike | None = None, **options) -> Path:
+    def render(self, out: str | os.PathLike | None = None, **options: str | float | None) -> Path:
         """Draw the run as ``rftfem render`` does and return the file: ``out``
         ending in .png is a picture (default render.png in the folder), .mp4 or .gif
         a film; ``options`` are render's, by their command-line names (``color``,

@@ -308,3 +308,49 @@ def test_meshes_import_only_gmsh_numpy_errors_and_compat():
         "rftfem.compat.gmsh_model_to_mesh",
         "gmsh_file.read_gmsh",
     } <= seen
+
+
+# --- type hints ---------------------------------------------------------------------
+
+
+def unannotated(path: Path) -> list[str]:
+    """The public functions and methods of a module (names without a leading
+    underscore, and ``__init__``/``__call__``, outside private classes) that lack an
+    annotation of a parameter (``self``/``cls`` aside) or of the return (``__init__``
+    aside).  Functions nested in functions are not its interface."""
+    out = []
+
+    def visit(node, owner: str | None, private: bool):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef):
+                visit(child, child.name, private or child.name.startswith("_"))
+            elif isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                name = child.name
+                if private or (name.startswith("_") and name not in ("__init__", "__call__")):
+                    continue
+                a = child.args
+                params = a.posonlyargs + a.args + a.kwonlyargs
+                if owner and params and params[0].arg in ("self", "cls"):
+                    params = params[1:]
+                params += [p for p in (a.vararg, a.kwarg) if p is not None]
+                bare = [p.arg for p in params if p.annotation is None]
+                if child.returns is None and name != "__init__":
+                    bare.append("return")
+                if bare:
+                    where = f"{owner}.{name}" if owner else name
+                    out.append(f"{path.relative_to(ROOT)}:{child.lineno} {where}: {bare}")
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), None, False)
+    return out
+
+
+def test_public_functions_are_annotated():
+    """Every public function and method of rftfem/, forms/ and meshes/ has its
+    parameters and return annotated (docs/development.md, "Style").
+
+    Broke: the return annotation of ``rftfem.forms.drag.drag_traction`` removed →
+    failed, naming it."""
+    paths = [p for d in ("rftfem", "forms", "meshes") for p in sorted((ROOT / d).rglob("*.py"))]
+    assert len(paths) > 100
+    bare = [line for p in paths for line in unannotated(p)]
+    assert not bare, f"{len(bare)} public functions without annotations:\n" + "\n".join(bare)

@@ -107,7 +107,7 @@ class NewtonTest:
             floors += [c.residual_floor() for c in self.coupled.components]
         return max(floors)
 
-    def force_iteration(self, on: bool | None = None):
+    def force_iteration(self, on: bool | None = None) -> None:
         """Whether a solve must take a Newton update even from a residual within
         tolerance: ``on``, or (None) what the options say (default: yes)."""
         if on is None:

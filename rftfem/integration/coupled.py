@@ -17,16 +17,22 @@ to ``A`` (identity), as the assembly leaves them.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from petsc4py import PETSc
 
 from rftfem.model.ranks import gather_rows
 
+if TYPE_CHECKING:
+    from rftfem.model.effects.base import NonlocalEffect
+    from rftfem.model.shell_model import Model
+
 
 class CoupledTangent:
     """PETSc python-matrix context: ``J = A + Σ (T − D)`` (see the module)."""
 
-    def __init__(self, model, A, components):
+    def __init__(self, model: Model, A: PETSc.Mat, components: list[NonlocalEffect]):
         self.model, self.A, self.components = model, A, components
         self.block = model.block
         im = model.W.dofmap.index_map
@@ -45,7 +51,7 @@ class CoupledTangent:
         self.J = PETSc.Mat().createPython(sizes, self, comm=A.getComm())
         self.J.setUp()
 
-    def update(self, exact: bool = False):
+    def update(self, exact: bool = False) -> None:
         """After ``A`` is assembled: each effect's tangent at the current iterate, and
         its lumped blocks added into ``A`` (the preconditioner's matrix).  Without
         ``exact`` an effect may give an older tangent (a Newton update's: the Stokes
@@ -60,7 +66,7 @@ class CoupledTangent:
                 self.A.setValues(rows, rows, self.lumped[k][i], addv=PETSc.InsertMode.ADD)
         self.A.assemble()
 
-    def lift(self, b, x0, scale: float):
+    def lift(self, b: PETSc.Vec, x0: PETSc.Vec, scale: float) -> None:
         """``b −= scale · T (g − x0)`` on the free rows: the nonlocal tangent's part of
         the lifting of the Dirichlet values ``g`` (the assembled part is dolfinx's
         ``apply_lifting``), at the current iterate, with the exact tangent (kept
@@ -87,7 +93,7 @@ class CoupledTangent:
         """Every process's rows of ``owned`` (n_owned, k), in rank order."""
         return gather_rows(owned, self.model.comm)
 
-    def mult(self, mat, X, Y):
+    def mult(self, mat: PETSc.Mat, X: PETSc.Vec, Y: PETSc.Vec) -> None:
         self.A.mult(X, Y)
         x = X.getArray(readonly=True).reshape(-1, self.block) * self.free
         y = Y.getArray().reshape(-1, self.block)
@@ -97,7 +103,7 @@ class CoupledTangent:
             y[:, cols] += (z - np.einsum("nij,nj->ni", lumped, xk)) * self.free[:, cols]
 
 
-def tangent_for(model, A):
+def tangent_for(model: Model, A: PETSc.Mat) -> CoupledTangent | None:
     """The coupled operator of ``model``'s nonlocal effects, or None if it has none."""
     from rftfem.model.effects.base import NonlocalEffect
 

@@ -22,7 +22,12 @@ factorise once, then never); new factors are made here, in the Jacobian callback
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rftfem import petsc_options
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
 
 #: the longest spell of solves that factorise every tangent after old factors failed
 LONGEST_SPELL = 64
@@ -47,7 +52,7 @@ class Factorization:
     def keeps_factors(self) -> bool:
         return self.policy != "every-iteration"
 
-    def start_solve(self, retry: bool = False):
+    def start_solve(self, retry: bool = False) -> None:
         """A Newton solve begins (``retry``: the same solve again after GMRES failed
         on old factors; it and the next solves of a spell factorise every tangent)."""
         if retry:
@@ -57,12 +62,12 @@ class Factorization:
         self._spell_left -= self._every_tangent
         self._tangents, self._stale_used, self.stale = 0, False, False
 
-    def end_solve(self, converged: bool):
+    def end_solve(self, converged: bool) -> None:
         """The solve ended: old factors that served a converged one reset the spell."""
         if converged and self._stale_used:
             self._spell = 1
 
-    def choose(self, ksp, A) -> bool:
+    def choose(self, ksp: PETSc.KSP, A: PETSc.Mat) -> bool:
         """Whether the tangent ``A`` just assembled gets new factors (made here, for
         ``ksp``'s preconditioner); True for every tangent of the "every-iteration"
         policy, which SNES factorises itself."""

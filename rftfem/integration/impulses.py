@@ -23,11 +23,17 @@ acceleration jump is handed on the same way (the travelling wave's at t = 0).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from mpi4py import MPI
 
+if TYPE_CHECKING:
+    from rftfem.integration.solver import StepSolver
+    from rftfem.model.shell_model import Model
 
-def corner(model, solver, t: float, start: bool = False) -> bool:
+
+def corner(model: Model, solver: StepSolver, t: float, start: bool = False) -> bool:
     """Hand the driven dofs' velocity and acceleration jumps at ``t`` to the body
     (from rest with ``start``).  Returns whether there was a jump."""
     motions = model["prescribed-motion"].motions
@@ -57,7 +63,7 @@ def corner(model, solver, t: float, start: bool = False) -> bool:
     return True
 
 
-def initial_acceleration(model, solver) -> None:
+def initial_acceleration(model: Model, solver: StepSolver) -> None:
     """The acceleration the forces at t = 0 give the body at rest: ``a(0)`` from
 
         M a = −F(u₀, t = 0)   on the rows with mass,   a = 0 on the others,
@@ -123,7 +129,7 @@ def initial_acceleration(model, solver) -> None:
             obj.destroy()
 
 
-def frictional_acceleration(model, solver, dt: float) -> None:
+def frictional_acceleration(model: Model, solver: StepSolver, dt: float) -> None:
     """The acceleration at t = 0 of a body that rests on a plane with friction.
 
     A regularized Coulomb law has no force at zero slip, so :func:`initial_acceleration`

@@ -17,8 +17,12 @@ from __future__ import annotations
 
 import signal
 import threading
+from typing import TYPE_CHECKING
 
 from rftfem.errors import RunInterrupted
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -26,7 +30,7 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 class StopRequests:
     """Context manager that turns SIGINT and SIGTERM into stop requests."""
 
-    def __init__(self, comm):
+    def __init__(self, comm: MPI.Comm):
         self.comm = comm
         self.signum = 0
         self.immediate = False
@@ -51,7 +55,7 @@ class StopRequests:
             raise RunInterrupted(self.signum, immediate=True)
         self.signum = self.signum or signum
 
-    def closing(self):
+    def closing(self) -> None:
         """The run is closing its files: later signals are recorded, not raised."""
         self._closing = True
 
@@ -76,7 +80,7 @@ class NoStops:
     def __exit__(self, *exc):
         return False
 
-    def closing(self):
+    def closing(self) -> None:
         pass
 
     def requested(self) -> int:

@@ -15,7 +15,9 @@ from rftfem.outputs.writers import Probes
 from rftfem.scene import scales
 
 
-def build_model(scene: dict, comm, compile_forms: bool = True, tangent: str | None = None) -> Model:
+def build_model(
+    scene: dict, comm: MPI.Comm, compile_forms: bool = True, tangent: str | None = None
+) -> Model:
     """The scene's body (its hinge lines cut into strip meshes) and its Model, with
     the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
     from rftfem.meshes import build_body
@@ -28,12 +30,12 @@ def build_model(scene: dict, comm, compile_forms: bool = True, tangent: str | No
     return Model(scene, body, compile_forms=compile_forms, tangent=tangent)
 
 
-def check(scene: dict, comm=None) -> list[str]:
+def check(scene: dict, comm: MPI.Comm | None = None) -> list[str]:
     """Validate what needs the mesh (selectors, regions, probes); return the active effects."""
     return check_report(scene, comm)[0]
 
 
-def check_report(scene: dict, comm=None) -> tuple[list[str], list, list[str]]:
+def check_report(scene: dict, comm: MPI.Comm | None = None) -> tuple[list[str], list, list[str]]:
     """``check``, the scene's groups (scales.py) and lines on its mesh and liquid."""
     comm = comm or MPI.COMM_WORLD
     quiet_compilers()
@@ -60,7 +62,7 @@ class _CompilerChatter(logging.Filter):
         )
 
 
-def quiet_compilers():
+def quiet_compilers() -> None:
     """FFCx/cffi log every compilation at INFO on some stacks: keep the terminal readable."""
     for name in ("", "ffcx", "UFL", "cffi", "dolfinx"):
         logger = logging.getLogger(name)

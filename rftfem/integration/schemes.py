@@ -23,6 +23,10 @@ runs (``time.scheme = "auto"`` resolved) is a scene rule: rftfem.scene.time_rule
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @dataclass(frozen=True)
@@ -61,7 +65,9 @@ class Scheme:
     def coefficients(self, dt: float) -> Coefficients:
         return Coefficients(dt=dt)
 
-    def update(self, du, v_n, a_n, dt):
+    def update(
+        self, du: np.ndarray, v_n: np.ndarray, a_n: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``(v_{n+1}, a_{n+1})`` after convergence, from ``du = u_{n+1} − u_n`` (arrays)."""
         return 0.0 * v_n, 0.0 * a_n
 
@@ -87,10 +93,12 @@ class BackwardEuler(Scheme):
     error_predictor = 1
     error_fraction = 0.5
 
-    def coefficients(self, dt):
+    def coefficients(self, dt: float) -> Coefficients:
         return Coefficients(cv=1.0 / dt, dt=dt)
 
-    def update(self, du, v_n, a_n, dt):
+    def update(
+        self, du: np.ndarray, v_n: np.ndarray, a_n: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         return du / dt, 0.0 * a_n
 
 
@@ -117,13 +125,15 @@ class BDF2(Scheme):
         #: the last accepted step (None before the first)
         self.dt_prev: float | None = None
 
-    def coefficients(self, dt):
+    def coefficients(self, dt: float) -> Coefficients:
         if self.dt_prev is None:
             return Coefficients(cv=1.0 / dt, dt=dt)
         r = dt / self.dt_prev
         return Coefficients(cv=(1 + 2 * r) / ((1 + r) * dt), cv_a=-r / (1 + r), dt=dt)
 
-    def update(self, du, v_n, a_n, dt):
+    def update(
+        self, du: np.ndarray, v_n: np.ndarray, a_n: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         c = self.coefficients(dt)
         self.dt_prev = dt
         return c.cv * du + c.cv_a * a_n, du / dt
@@ -162,7 +172,7 @@ class GeneralizedAlpha(Scheme):
         v = (g * dt * a[0], 1 + g * dt * a[1], dt * (1 - g) + g * dt * a[2])
         return v, a
 
-    def coefficients(self, dt):
+    def coefficients(self, dt: float) -> Coefficients:
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
         am = self.alpha_m
         # a_{n+1−α_m} = (1 − α_m) a_{n+1} + α_m a_n
@@ -178,7 +188,9 @@ class GeneralizedAlpha(Scheme):
             dt=dt,
         )
 
-    def update(self, du, v_n, a_n, dt):
+    def update(
+        self, du: np.ndarray, v_n: np.ndarray, a_n: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         (v_u, v_v, v_a), (a_u, a_v, a_a) = self._newmark(dt)
         return v_u * du + v_v * v_n + v_a * a_n, a_u * du + a_v * v_n + a_a * a_n
 

@@ -22,6 +22,7 @@ import math
 import threading
 import time as _time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from mpi4py import MPI
@@ -45,6 +46,9 @@ from rftfem.outputs.progress import Progress, render_in_child
 from rftfem.outputs.writers import BodyLog, Probes, write_json
 from rftfem.scene import scales
 from rftfem.scene.time_rules import scene_period as steady_period
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable
 
 
 def _make_out_dir(out: Path | None, comm):
@@ -85,11 +89,11 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         out_dir: Path | None = None,
         quiet: bool = False,
         petsc_args: list[str] | None = None,
-        comm=None,
-        observers=(),
+        comm: MPI.Comm | None = None,
+        observers: Iterable[Callable[[Simulation], object]] = (),
         signals: bool = False,
         restart: Path | None = None,
-        warn=None,
+        warn: Callable[[str], object] | None = None,
     ):
         self.scene = scene
         #: a quiet run's warnings go here (a callable of the text) instead of stderr
@@ -189,7 +193,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         return self._completed
 
     @completed.setter
-    def completed(self, step: int):
+    def completed(self, step: int) -> None:
         # the time they reached goes with them: a second signal may stop the run after
         # a step has moved ``self.t`` and before it counts as done
         self._completed, self.completed_time = step, self.t
@@ -371,7 +375,7 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         self.rows = [r for r in self.rows if r[0] >= self.t - watch.period * 1e-9]
         return steady
 
-    def close(self):
+    def close(self) -> None:
         self.solver.destroy()
         self.model.destroy()
 
@@ -381,11 +385,11 @@ def run(
     out_dir: Path | None = None,
     quiet: bool = False,
     petsc_args: list[str] | None = None,
-    comm=None,
-    observers=(),
+    comm: MPI.Comm | None = None,
+    observers: Iterable[Callable[[Simulation], object]] = (),
     signals: bool = False,
     restart: Path | None = None,
-    warn=None,
+    warn: Callable[[str], object] | None = None,
 ) -> dict:
     """Run a validated scene; write outputs to ``out_dir``; return the summary.  With
     ``signals`` (the command line), SIGINT/SIGTERM stop it cleanly (interrupts.py);
@@ -396,12 +400,6 @@ def run(
         return sim.run()
     finally:
         sim.close()
-
-
-def probe_history(summary_or_sim) -> np.ndarray:
-    """(n_rows, 1 + 3 n_probes) array of the probe rows of a finished simulation."""
-    rows = summary_or_sim.history
-    return np.array([[t, *v.ravel()] for t, v in rows])
 
 
 #: seconds the set-up may take before the run says it is compiling forms (a set-up

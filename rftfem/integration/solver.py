@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
@@ -25,6 +26,11 @@ from rftfem.integration import coupled
 from rftfem.integration.convergence import NewtonTest
 from rftfem.integration.factorization import Factorization
 from rftfem.model.effects.base import LimitsNewtonStep
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from rftfem.model.shell_model import Model
 
 _INSERT, _ADD = PETSc.InsertMode.INSERT, PETSc.InsertMode.ADD
 #: a prediction that meets the prescribed values to this share of its own largest
@@ -39,7 +45,7 @@ class StepSolver(NewtonTest):
 
     def __init__(
         self,
-        model,
+        model: Model,
         options: dict,
         factorization: str = "every-iteration",
         lu_fallback: str | None = None,
@@ -104,7 +110,7 @@ class StepSolver(NewtonTest):
         self.watch = None  # a slow step's reports and stops (step_watch.StepWatch.attach)
         self.force_iteration()
 
-    def destroy(self):
+    def destroy(self) -> None:
         petsc_options.clear(self.options)
         for obj in (
             self.snes,
@@ -151,7 +157,7 @@ class StepSolver(NewtonTest):
         self.timings[kind] += _time.perf_counter() - t0
         self.calls[kind] += 1
 
-    def assemble_forces(self, out=None):
+    def assemble_forces(self, out: PETSc.Vec | None = None) -> None:
         """``F(w)`` at the model's current iterate into ``out`` (default: ``self.F``)."""
         t0 = _time.perf_counter()
         self._assemble(self.F if out is None else out, self.model.forces_form)
@@ -222,19 +228,19 @@ class StepSolver(NewtonTest):
         self.factors.choose(self.snes.getKSP(), P)
 
     # the calls of a Newton loop of rftfem's own (arclength.py)
-    def residual(self, x, b):
+    def residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
         """The step's residual at the iterate ``x`` into ``b`` (as SNES's callback)."""
         self._residual(None, x, b)
 
-    def jacobian(self, x):
+    def jacobian(self, x: PETSc.Vec) -> None:
         """The step's tangent at the iterate ``x`` into ``A`` (as SNES's callback)."""
         self._jacobian(None, x, self.A, self.A)
 
-    def sync(self, x):
+    def sync(self, x: PETSc.Vec) -> None:
         """The model's iterate set to ``x``."""
         self._sync(x)
 
-    def assemble_tangent(self, diagnostic: bool = False):
+    def assemble_tangent(self, diagnostic: bool = False) -> None:
         """The step's tangent at the model's current state into ``A`` (the exact one:
         no Newton update is under way).  A ``diagnostic`` one (a product, never
         factorised: step_control.py's limit-point check) adds its time, not a call."""
@@ -251,7 +257,7 @@ class StepSolver(NewtonTest):
         else:
             self._count("jacobian", t0)
 
-    def dirichlet_response(self):
+    def dirichlet_response(self) -> np.ndarray:
         """The local array (ghosts included) of ``Δ`` with ``A Δ = 0`` on the free rows
         and ``Δ = g`` on the Dirichlet rows, ``g`` the values the model's conditions
         hold now (``assemble_tangent`` first): the linearised step's answer to moving
@@ -277,7 +283,7 @@ class StepSolver(NewtonTest):
 
     # --- solve ----------------------------------------------------------------
 
-    def solve(self):
+    def solve(self) -> tuple[bool, int, float, str]:
         """Newton from the model's current iterate; returns (converged, its, residual, reason)."""
         t0 = _time.perf_counter()
         a0 = self.assembly_time
@@ -379,7 +385,7 @@ class StepSolver(NewtonTest):
             m.restore()
             w.copy(self.x)
 
-    def raw_residual(self):
+    def raw_residual(self) -> np.ndarray:
         """The local array (owned entries complete) of the converged step's residual
         before its Dirichlet rows are replaced: ``(1 − α_f) F + α_f F_n`` plus inertia and
         the step-end forces,
@@ -405,14 +411,14 @@ class StepSolver(NewtonTest):
             out += float(m.coef["end_weight"].value) * self.work.array
         return out
 
-    def forget_forces(self):
+    def forget_forces(self) -> None:
         """The last assembled ``F`` no longer belongs to its iterate (the loads or the
         time changed at the same state): the next ``store_forces`` assembles anew."""
         if self._x_of_F is not None:
             self._x_of_F.destroy()
             self._x_of_F = None
 
-    def store_forces(self):
+    def store_forces(self) -> None:
         """Keep ``F`` at the converged state as ``F_n`` for the next step: the last
         residual's F when SNES evaluated it there (its own convergence test, as
         newtonls with full steps does), else a new assembly."""

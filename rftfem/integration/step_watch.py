@@ -22,8 +22,16 @@ from __future__ import annotations
 
 import os
 import time as _time
+from typing import TYPE_CHECKING
 
 from rftfem.errors import RunInterrupted
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from rftfem.integration.interrupts import NoStops, StopRequests
+    from rftfem.integration.solver import StepSolver
+    from rftfem.outputs.progress import Progress
 
 #: seconds after which a step counts as slow: it reports and may be dropped
 #: (``RFTFEM_SLOW_STEP`` sets another, e.g. 0 to drop any step a signal meets)
@@ -41,7 +49,13 @@ class StepWatch:
     """The checks of one run's steps (``stops``: its StopRequests, ``progress``: its
     Progress or None)."""
 
-    def __init__(self, stops, comm, progress=None, slow: float | None = None):
+    def __init__(
+        self,
+        stops: StopRequests | NoStops,
+        comm: MPI.Comm,
+        progress: Progress | None = None,
+        slow: float | None = None,
+    ):
         self.stops, self.comm, self.progress = stops, comm, progress
         self.slow = slow_step() if slow is None else slow
         self.started = None
@@ -52,7 +66,7 @@ class StepWatch:
         self.newton_its, self.krylov_its, self.residual = 0, 0, float("nan")
         self.last_line = 0.0
 
-    def attach(self, solver):
+    def attach(self, solver: StepSolver) -> None:
         """Watch ``solver`` (a StepSolver): its Newton test calls :meth:`newton`, and
         with a nonlocal tangent (Krylov iterations that may take long) a monitor
         calls :meth:`krylov`."""
@@ -60,7 +74,7 @@ class StepWatch:
         if solver.coupled is not None:
             solver.snes.getKSP().setMonitor(lambda ksp, its, rnorm: self.krylov(its, rnorm))
 
-    def start(self, t: float, step: int):
+    def start(self, t: float, step: int) -> None:
         """A step's attempt begins (toward time ``t``)."""
         self.started = _time.perf_counter()
         self.last_line = self.started
@@ -68,11 +82,11 @@ class StepWatch:
         self.t, self.step = t, step
         self.newton_its, self.krylov_its, self.residual = 0, 0, float("nan")
 
-    def newton(self, it: int, residual: float):
+    def newton(self, it: int, residual: float) -> None:
         self.newton_its, self.krylov_its, self.residual = it, 0, residual
         self._check()
 
-    def krylov(self, it: int, residual: float):
+    def krylov(self, it: int, residual: float) -> None:
         self.krylov_its = it
         self._check(residual)
 

@@ -26,7 +26,12 @@ matrices, so that the solver is written as if the forms were on ``w``.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 #: below this ``|θ|²`` the coefficients below take their Taylor series
 SERIES_BELOW = 1e-2
@@ -61,7 +66,7 @@ def _coefficients(s: np.ndarray):
 
 def nodal_directors(
     q: np.ndarray, a1: np.ndarray, a2: np.ndarray, dn: np.ndarray, derivatives: bool = False
-):
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """The directors ``d_I`` (rows) of the rotation components ``q`` (n, 2) in the
     nodal bases ``a1, a2`` about the last directors ``dn`` (each (n, 3)); with
     ``derivatives``, also ``B = ∂d/∂q`` (n, 3, 2)."""
@@ -83,7 +88,9 @@ def nodal_directors(
     return d, B
 
 
-def director_curvature(q, a1, a2, dn, r) -> np.ndarray:
+def director_curvature(
+    q: np.ndarray, a1: np.ndarray, a2: np.ndarray, dn: np.ndarray, r: np.ndarray
+) -> np.ndarray:
     """``G_αβ = r · ∂²d/∂q_α∂q_β`` (n, 2, 2): the second derivative of each node's
     director, contracted with the residual ``r`` (n, 3) at its director."""
     theta = q[:, 0:1] * a1 + q[:, 1:2] * a2
@@ -116,7 +123,7 @@ class DirectorMap:
     alike from ghost-updated values, so every copy of a node maps the same.
     """
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -181,11 +188,13 @@ class DirectorMap:
         self._B = None  # the last map's derivatives, per colour (nodes, 3, 2)
         self._last = None  # (w, triads, with B) of the last sync
 
-    def frames(self, colour: int):
+    def frames(self, colour: int) -> tuple[np.ndarray, ...]:
         """``(a₁, a₂, dₙ)`` of a colour, as (nodes, 3) arrays."""
         return tuple(f.x.array.reshape(-1, 3) for f in self.model.triads[colour])
 
-    def map(self, w: np.ndarray, out: np.ndarray | None = None, derivatives: bool = False):
+    def map(
+        self, w: np.ndarray, out: np.ndarray | None = None, derivatives: bool = False
+    ) -> np.ndarray:
         """``z = Φ(w)`` (local arrays, ghosts included); with ``derivatives`` keeps ``B``."""
         z = self.z.x.array if out is None else out
         z[self.u_z] = w[self.model.u_dofs]
@@ -209,7 +218,7 @@ class DirectorMap:
             out[d_dofs] = np.einsum("nka,na->nk", B, dw[q_dofs])
         return out
 
-    def sync(self, derivatives: bool = False):
+    def sync(self, derivatives: bool = False) -> None:
         """The model's ``z`` from its iterate ``w`` (again only if ``w`` or a triad has
         changed since the last time, or ``B`` is asked for and was not made)."""
         w = self.model.w.x.array
@@ -225,7 +234,7 @@ class DirectorMap:
         self.map(w, derivatives=derivatives)
         self._last = (w.copy(), [f.copy() for f in frames], derivatives)
 
-    def add_transposed(self, z_local: np.ndarray, w_local: np.ndarray):
+    def add_transposed(self, z_local: np.ndarray, w_local: np.ndarray) -> None:
         """``w += Pᵀ z`` on local arrays (unsummed: ghost rows are summed by the caller),
         with the ``B`` of the last ``sync(derivatives=True)``."""
         w_local[self.model.u_dofs] += z_local[self.u_z]
@@ -240,7 +249,7 @@ class DirectorMap:
             z[d_dofs] = np.einsum("nka,na->nk", B, w_local[q_dofs])
         return z
 
-    def update_P(self):
+    def update_P(self) -> None:
         """``P``'s values from the last ``B``."""
         values = self._P_values.reshape(self.owned, -1)
         for k, B in enumerate(self._B):
@@ -248,7 +257,7 @@ class DirectorMap:
         self.P.setValuesCSR(self._P_indptr, self._P_cols, self._P_values)
         self.P.assemble()
 
-    def update_G(self, r_z_local: np.ndarray, scale: float = 1.0):
+    def update_G(self, r_z_local: np.ndarray, scale: float = 1.0) -> None:
         """``G`` from the summed z residual ``r_z`` (owned rows valid), times ``scale``."""
         w = self.model.w.x.array
         values = np.zeros((self.owned, len(self._G_cols) // self.owned))
@@ -281,6 +290,6 @@ class DirectorMap:
             )
         return G
 
-    def destroy(self):
+    def destroy(self) -> None:
         for obj in (self.P, self.G):
             obj.destroy()

@@ -18,18 +18,20 @@ class DirichletSpaces:
         #: component name -> [(who holds them, local dofs of ``w``)]
         self.held = {}
 
-    def space(self, sub, name: str):
+    def space(self, sub: fem.FunctionSpace, name: str) -> tuple[fem.FunctionSpace, fem.Function]:
         """The collapsed space of the sub-space ``sub`` and a zero Function on it."""
         if name not in self._spaces:
             V, _ = sub.collapse()
             self._spaces[name] = (V, fem.Function(V))
         return self._spaces[name]
 
-    def hold(self, name: str, holder: str, dofs) -> None:
+    def hold(self, name: str, holder: str, dofs: np.ndarray) -> None:
         """Record that ``holder`` holds these dofs of component ``name``."""
         self.held.setdefault(name, []).append((holder, np.asarray(dofs)))
 
-    def zero(self, sub, dim: int, entities, name: str, holder: str):
+    def zero(
+        self, sub: fem.FunctionSpace, dim: int, entities: np.ndarray, name: str, holder: str
+    ) -> tuple[fem.DirichletBC, np.ndarray]:
         """``sub = 0`` on the dofs of the entities, recorded as held by ``holder``.
         Returns the condition and its local dofs of ``w``."""
         V, zero = self.space(sub, name)

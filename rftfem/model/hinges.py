@@ -16,6 +16,7 @@ whose values are shared between processes by the usual ghost updates.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import ufl
@@ -26,6 +27,9 @@ from petsc4py import PETSc
 from rftfem import compat
 from rftfem.errors import SceneError
 from rftfem.scene.selectors import facets_of
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 
 @dataclass
@@ -39,7 +43,7 @@ class Hinge:
     facets: np.ndarray
 
 
-def hinge_specs(scene: dict, body) -> list[tuple[str, str, float]]:
+def hinge_specs(scene: dict, body: Any) -> list[tuple[str, str, float]]:
     """``(key, where, stiffness)`` of every hinge: the mesh kind's own lines
     (three-link: ``mesh.hinge_stiffness``) first, then the ``[[hinge]]`` tables."""
     own = getattr(body, "hinges", []) or []
@@ -52,7 +56,7 @@ def hinge_specs(scene: dict, body) -> list[tuple[str, str, float]]:
     return specs
 
 
-def resolve(model, scene: dict) -> list[Hinge]:
+def resolve(model: Model, scene: dict) -> list[Hinge]:
     """The scene's hinges with their facets; a line on the boundary of the body,
     or two hinges on one line, is a SceneError at the hinge's key."""
     mesh = model.mesh
@@ -90,7 +94,7 @@ def _facet_dofs(V) -> np.ndarray:
     return cells[:, [d[0] for d in local]]
 
 
-def panel_labels(mesh, hinge_facets: np.ndarray) -> np.ndarray:
+def panel_labels(mesh: dmesh.Mesh, hinge_facets: np.ndarray) -> np.ndarray:
     """Per local cell (owned and ghost), the smallest global index of a cell of its
     panel: cells connected across facets that are not in ``hinge_facets``."""
     tdim = mesh.topology.dim
@@ -155,7 +159,9 @@ def _local_components(n_cells: int, facets: np.ndarray, open_: np.ndarray) -> np
             parent = up
 
 
-def colour_panels(mesh, label: np.ndarray, hinge_facets: np.ndarray, hinges: list[Hinge]):
+def colour_panels(
+    mesh: dmesh.Mesh, label: np.ndarray, hinge_facets: np.ndarray, hinges: list[Hinge]
+) -> tuple[np.ndarray, int]:
     """Colour the panels (greedy, in order of their labels, the same on every
     process) so that panels sharing a point differ.  Returns the colour of every
     local cell and the number of colours.  A hinge whose two sides are one panel
@@ -206,7 +212,7 @@ def colour_panels(mesh, label: np.ndarray, hinge_facets: np.ndarray, hinges: lis
     return colours, n
 
 
-def indicators(mesh, colours: np.ndarray, n: int) -> list:
+def indicators(mesh: dmesh.Mesh, colours: np.ndarray, n: int) -> list:
     """DG0 indicator functions ``χ_c`` (1 on the cells of colour c)."""
     V0 = compat.function_space(mesh, "DG", 0)
     cell_dof = compat.cell_dofs(V0)[: len(colours), 0]
@@ -218,7 +224,7 @@ def indicators(mesh, colours: np.ndarray, n: int) -> list:
     return out
 
 
-def facet_measure(mesh, hinges: list[Hinge]):
+def facet_measure(mesh: dmesh.Mesh, hinges: list[Hinge]) -> ufl.Measure:
     """``dS`` over the hinge lines, hinge ``i`` tagged ``i + 1``."""
     tdim = mesh.topology.dim
     facets = np.concatenate([h.facets for h in hinges]).astype(np.int32)
@@ -231,7 +237,7 @@ def cells_of_colour(colours: np.ndarray, c: int) -> np.ndarray:
     return np.nonzero(colours == c)[0].astype(np.int32)
 
 
-def entities_of_colour(model, dim: int, entities: np.ndarray, c: int) -> np.ndarray:
+def entities_of_colour(model: Model, dim: int, entities: np.ndarray, c: int) -> np.ndarray:
     """The cells (``dim`` = tdim) of colour ``c`` among ``entities``, or the facets
     (vertices) among them that touch a local cell of colour ``c``."""
     if model.n_colours == 1:
@@ -246,7 +252,7 @@ def entities_of_colour(model, dim: int, entities: np.ndarray, c: int) -> np.ndar
     )
 
 
-def inactive_rotation_bcs(model) -> list:
+def inactive_rotation_bcs(model: Model) -> list:
     """θ_c = 0 away from the cells of colour c: there it does not enter any form."""
     if model.n_colours == 1:
         return []
@@ -266,7 +272,7 @@ def inactive_rotation_bcs(model) -> list:
     return bcs
 
 
-def colouring(mesh, lines) -> tuple:
+def colouring(mesh: dmesh.Mesh, lines: list[Hinge]) -> tuple:
     """The hinge ``lines`` cut the body into panels; panels that touch get different
     colours, each with its own rotation field and triad (forms/hinge.py).  Returns
     ``(colours, n_colours, indicators)``: the cells' colours (None without hinges), their

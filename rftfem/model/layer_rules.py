@@ -8,10 +8,15 @@ Everything here is in reference coordinates and made once, when a body is set up
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.sparse as sp
 
 from rftfem.model import stokes_kernels
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 #: Gauss–Legendre points across (t) and along (s, per piece) a Duffy triangle
 SINGULAR_ANGULAR, SINGULAR_RADIAL = 8, 6
@@ -78,7 +83,9 @@ class ReferenceElement:
                     out.append(np.array([[i + 1, j], [i + 1, j + 1], [i, j + 1]]) / m)
         return out
 
-    def rule(self, m: int, cluster=None) -> tuple[np.ndarray, np.ndarray]:
+    def rule(
+        self, m: int, cluster: Sequence[tuple[bool, bool]] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Gauss points and weights (on the reference cell) of ``m × m`` pieces; with
         ``cluster`` (an edge weight's ``(low, high)`` ends per direction) mapped by
         :func:`_cluster` so that the weight's inverse square roots are integrated
@@ -108,7 +115,7 @@ class ReferenceElement:
 
     def singular_rule(
         self, apex: np.ndarray, scale: float, refine: int = 0, weighted: bool = False
-    ):
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Points and weights of Duffy triangles with their apex at ``apex`` (a node's
         reference coordinates); ``scale`` is ε over the element's size (rays cut
         geometrically from about ``scale`` of their length).  ``weighted``: the
@@ -280,7 +287,7 @@ class EdgeWeight:
             np.ascontiguousarray(y, dtype=float), self._curves[self._owner[near]], t
         )
 
-    def set_reach(self, y: np.ndarray):
+    def set_reach(self, y: np.ndarray) -> None:
         """ℓ: the largest distance to a free edge among the points ``y`` (the far rule)."""
         if self._tree is not None:
             #: ℓ, the body's half-width
@@ -289,7 +296,7 @@ class EdgeWeight:
     def weighted(self, e: int) -> bool:
         return bool(self.sides[e] or self.corners[e])
 
-    def cluster(self, e: int):
+    def cluster(self, e: int) -> tuple[tuple[bool, bool], ...]:
         """Per direction, whether the rule's points gather at its low and high end."""
         out = []
         for d in range(2):
@@ -316,7 +323,15 @@ class RulePoints:
     weight (reference area included) and the basis there, and optionally the
     target node it serves (the near and singular rules)."""
 
-    def __init__(self, cells, element, elem, xi, weight, target=None):
+    def __init__(
+        self,
+        cells: np.ndarray,
+        element: ReferenceElement,
+        elem: np.ndarray,
+        xi: np.ndarray,
+        weight: np.ndarray,
+        target: np.ndarray | None = None,
+    ):
         self.elem = np.asarray(elem, dtype=np.int64)
         self.nodes = cells[self.elem]  # (P, nd)
         self.psi = element.basis(xi)  # (P, nd)
@@ -338,7 +353,9 @@ class RulePoints:
         return sp.csr_matrix((vals, (rows, self.nodes.ravel())), shape=(len(self.weight), n))
 
 
-def refined(X, cells, cell: str, level: int):
+def refined(
+    X: np.ndarray, cells: np.ndarray, cell: str, level: int
+) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix]:
     """The force grid of ``fluid.refine = level``: every element of the shell cut into
     ``2^level × 2^level`` second-order elements (``4^level`` triangles) on the shell's
     own curved surface.  Returns the grid's nodes (reference positions), its

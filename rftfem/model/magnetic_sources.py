@@ -14,6 +14,7 @@ are in :mod:`rftfem.forms.magnetic`.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,14 @@ from rftfem.errors import SceneError
 from rftfem.model.triad import rotate
 from rftfem.scene.expressions import parse
 from rftfem.scene.schema import fmt, unit_vector
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import dolfinx.fem
+    import dolfinx.mesh
+    from mpi4py import MPI
+    from ufl.core.expr import Expr
 
 #: μ₀/(4π) in N/A²: with lengths in mm, moments in A·mm² give B in N/(A·mm)
 MU0_OVER_4PI = 1e-7
@@ -228,7 +237,7 @@ class NonuniformField:
         """The dipole's position at ``t`` (held at the path's ends outside it)."""
         return self.path(t)
 
-    def ufl(self, mesh, x):
+    def ufl(self, mesh: dolfinx.mesh.Mesh, x: Expr) -> Expr:
         """``B`` at the UFL position ``x``, with the time (and the dipole's position) as
         Constants that :meth:`set_time` moves."""
         import ufl
@@ -268,7 +277,7 @@ class NonuniformField:
             [np.broadcast_to(b.numbers(env), len(points)) for b in self.formulas], axis=1
         )
 
-    def check_outside(self, nodes: np.ndarray, size: float, comm) -> None:
+    def check_outside(self, nodes: np.ndarray, size: float, comm: MPI.Comm) -> None:
         """A dipole must start outside the body: farther than half a cell (``size``)
         from every node of the reference body, where the mesh could not resolve its
         field (a one-line SceneError)."""
@@ -285,7 +294,7 @@ class NonuniformField:
                 f"less than half a cell, {0.5 * size:.3g}); place it outside"
             )
 
-    def scale(self, nodes: np.ndarray, end: float, comm) -> float:
+    def scale(self, nodes: np.ndarray, end: float, comm: MPI.Comm) -> float:
         """The largest |B| on the reference body over the run (sampled), for tolerances."""
         times = [0.0] if self.dipole else np.linspace(0.0, end, 11)
         local = (
@@ -298,7 +307,7 @@ class NonuniformField:
         return comm.allreduce(local, op=_max_op())
 
 
-def constant_maker(mesh):
+def constant_maker(mesh: dolfinx.mesh.Mesh) -> Callable[[float], dolfinx.fem.Constant]:
     """float -> ``fem.Constant`` on ``mesh``: a formula's numbers as coefficients, so that
     its compiled form serves every value of them (a sweep compiles once)."""
     from dolfinx import fem

@@ -31,12 +31,25 @@ formulas of ``t``) are Constants that :meth:`Magnet.set_time` sets.  Units: N, m
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.scene.expressions import parse
 from rftfem.scene.schema import Array, Formulas, Leaf, Str, Table, Validator, Vec, err, fmt
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    import dolfinx.mesh
+    from mpi4py import MPI
+    from ufl.core.expr import Expr
+
+    from rftfem.model.magnetic_sources import NonuniformField, UniformField
+
+    #: one component of a point, a polarization or a field: numbers (numpy) or UFL
+    Component = float | np.ndarray | Expr
 
 #: the project's field unit, N/(A·mm), per tesla
 TESLA = 1e-3
@@ -56,7 +69,7 @@ class Dimension(Validator):
 
     expected = "a list of 1 to 3 positive numbers"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[float]:
         if (
             not isinstance(value, list)
             or not 1 <= len(value) <= 3
@@ -136,7 +149,7 @@ def check_sources(sources: list) -> None:
             )
 
 
-def rotation(angles_deg) -> np.ndarray:
+def rotation(angles_deg: Sequence[float] | np.ndarray) -> np.ndarray:
     """``Rz Ry Rx``: turns about the fixed X, then Y, then Z axes (degrees)."""
     a, b, c = np.radians(np.asarray(angles_deg, dtype=float))
     Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
@@ -163,7 +176,13 @@ def _ln_v_plus_r(v, R, rho2, ops):
     return s * ops.ln(ops.abs(v) + R) + (1 - s) * 0.5 * ops.ln(rho2 + _TINY)
 
 
-def cuboid_field(x, half, J, ops=_Numpy, axes=(0, 1, 2)):
+def cuboid_field(
+    x: np.ndarray | Sequence[Component],
+    half: np.ndarray,
+    J: np.ndarray | Sequence[Component],
+    ops: type[_Numpy] | _Ufl = _Numpy,
+    axes: Sequence[int] = (0, 1, 2),
+) -> list[Component]:
     """``B`` (3 components, in J's unit) at ``x`` (3 components, the magnet's frame, its
     centre at 0) of a cuboid of half-sides ``half`` and polarization ``J``; outside
     the cuboid.  ``axes``: the components of ``J`` to take (the others are 0: the forms
@@ -214,7 +233,13 @@ def _cel(kc, pp, cc, ss, ops):
     return (math.pi / 2) * (ss + cc * em) / (em * (em + pp))
 
 
-def cylinder_field(x, diameter, height, Jz, ops=_Numpy):
+def cylinder_field(
+    x: np.ndarray | Sequence[Component],
+    diameter: float,
+    height: float,
+    Jz: Component,
+    ops: type[_Numpy] | _Ufl = _Numpy,
+) -> list[Component]:
     """``B`` outside a cylinder (its axis along Z, centre at 0) polarized ``Jz`` along
     its axis: with ``z± = z ± b``, ``D = √(z±² + (ρ + a)²)``, ``γ = (a − ρ)/(a + ρ)``,
     ``k± = √(z±² + (a − ρ)²)/D``,
@@ -235,7 +260,12 @@ def cylinder_field(x, diameter, height, Jz, ops=_Numpy):
     return [Br * x[0] / rho, Br * x[1] / rho, Jz / math.pi * a / (a + rho) * axial]
 
 
-def sphere_field(x, diameter, J, ops=_Numpy):
+def sphere_field(
+    x: np.ndarray | Sequence[Component],
+    diameter: float,
+    J: np.ndarray | Sequence[Component],
+    ops: type[_Numpy] | _Ufl = _Numpy,
+) -> list[Component]:
     """``B`` outside a sphere of polarization ``J``: the dipole ``m = J V/μ₀``,
     ``B = V/(4π) (3 r (J·r)/|r|⁵ − J/|r|³)``."""
     volume = math.pi * diameter**3 / 6
@@ -293,7 +323,7 @@ class Magnet:
             B = np.stack(self._local_field(local.T, self.J, _Numpy), axis=1)
         return B @ R.T
 
-    def ufl(self, mesh, x):
+    def ufl(self, mesh: dolfinx.mesh.Mesh, x: Expr) -> Expr:
         """``R B_local(Rᵀ (x − p))`` with ``p``, ``R`` and ``J`` Constants."""
         import ufl
         from dolfinx import fem
@@ -327,13 +357,13 @@ class SourcedField:
     a nonuniform field (the interface of :class:`~rftfem.model.magnetic_sources.NonuniformField`).
     ``base``: a NonuniformField, or a UniformField whose ``b(t)`` is then a Constant."""
 
-    def __init__(self, base, sources: list):
+    def __init__(self, base: NonuniformField | UniformField, sources: list):
         self.base = base
         self.uniform_base = not hasattr(base, "check_outside")
         self.magnets = [Magnet(s, i) for i, s in enumerate(sources)]
         self._b = None
 
-    def ufl(self, mesh, x):
+    def ufl(self, mesh: dolfinx.mesh.Mesh, x: Expr) -> Expr:
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -366,7 +396,7 @@ class SourcedField:
             total = total + magnet.at(points, t)
         return total
 
-    def check_outside(self, nodes: np.ndarray, size: float, comm) -> None:
+    def check_outside(self, nodes: np.ndarray, size: float, comm: MPI.Comm) -> None:
         """Each magnet starts outside the body, farther than half a cell (``size``)
         from every node of the reference body (a one-line SceneError)."""
         from rftfem.model.magnetic_sources import _min_op
@@ -385,7 +415,7 @@ class SourcedField:
                     f"outside"
                 )
 
-    def scale(self, nodes: np.ndarray, end: float, comm) -> float:
+    def scale(self, nodes: np.ndarray, end: float, comm: MPI.Comm) -> float:
         """The largest |B| on the reference body over the run (sampled at 11 times)."""
         from rftfem.model.magnetic_sources import _max_op
 

@@ -7,10 +7,21 @@ its own methods.  :func:`step_residual_z` is the residual ``G`` contracts.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
-def step_residual_z(model) -> np.ndarray:
+    import dolfinx.fem
+    from petsc4py import PETSc
+
+    from rftfem.model.directors import DirectorMap
+    from rftfem.model.shell_model import Model
+
+
+def step_residual_z(model: Model) -> np.ndarray:
     """The z rows of what the step's tangent differentiates, ``(1 − α_f) (F + the
     mixed-point corrections' gradient) + inertia + end forces``, summed over
     processes (local array; owned rows valid): the tangent in ``w`` contracts it with
@@ -55,18 +66,23 @@ class MappedForm:
     the residual whose tangent the form is (for ``G``); None leaves ``G`` out.
     """
 
-    def __init__(self, form, directors, residual=None):
+    def __init__(
+        self,
+        form: dolfinx.fem.Form,
+        directors: DirectorMap,
+        residual: Callable[[], np.ndarray] | None = None,
+    ):
         self.form, self.directors, self.residual = form, directors, residual
         self.rank = form.rank
         self._z_vector = self._Az = self._C = None
         self._blocks = None  # the node-block pattern of A_z (_BlockPattern)
 
-    def create_vector(self):
+    def create_vector(self) -> PETSc.Vec:
         from rftfem import compat
 
         return compat.petsc_vec(self.directors.model.w).duplicate()
 
-    def assemble_vector(self, b):
+    def assemble_vector(self, b: PETSc.Vec) -> None:
         """``b += Pᵀ b_z`` (local rows, unsummed, as dolfinx's own assembly leaves them)."""
         from rftfem import compat
 
@@ -80,7 +96,7 @@ class MappedForm:
         with zvec.localForm() as zl, b.localForm() as bl:
             self.directors.add_transposed(zl.array_r, bl.array)
 
-    def tangent(self):
+    def tangent(self) -> PETSc.Mat:
         """``Pᵀ A_z P + G`` at the model's iterate, without conditions (kept; AIJ)."""
         from petsc4py import PETSc
 
@@ -105,7 +121,7 @@ class MappedForm:
             self._C.axpy(1.0, dm.G, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         return self._C
 
-    def create_matrix(self, kind: str | None = None):
+    def create_matrix(self, kind: str | None = None) -> PETSc.Mat:
         from petsc4py import PETSc
 
         """A zero matrix of ``w`` with the tangent's pattern (as dolfinx's own)."""
@@ -117,7 +133,7 @@ class MappedForm:
         A.zeroEntries()
         return A
 
-    def assemble_matrix(self, A, bcs):
+    def assemble_matrix(self, A: PETSc.Mat, bcs: list[dolfinx.fem.DirichletBC]) -> None:
         """``A += Pᵀ A_z P + G``, then the rows and columns of ``bcs``' dofs zero with
         1 on the diagonal (as dolfinx's own assembly with conditions).
 
@@ -160,7 +176,9 @@ class MappedForm:
         A.assemble()
         A.zeroRowsColumns(self._owned_rows(bcs), diag=1.0)
 
-    def apply_lifting(self, b, bcs, x0, scale: float):
+    def apply_lifting(
+        self, b: PETSc.Vec, bcs: list[dolfinx.fem.DirichletBC], x0: PETSc.Vec, scale: float
+    ) -> None:
         """``b −= scale · K (g − x0)`` for the columns of ``bcs``' dofs (owned rows)."""
         from rftfem import compat
 
@@ -191,7 +209,7 @@ class MappedForm:
         nodes = compat.local_to_global(im, local // bw)
         return (nodes * bw + local % bw).astype(PETSc.IntType)
 
-    def destroy(self):
+    def destroy(self) -> None:
         for obj in (self._z_vector, self._Az, self._C, getattr(self, "_Az_aij", None)):
             if obj is not None:
                 obj.destroy()

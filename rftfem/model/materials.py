@@ -17,12 +17,20 @@ over the body, for scales and messages.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.scene.fields import describe, field_values, is_field
 from rftfem.scene.material_keys import material_keys
 from rftfem.scene.schema import fmt
+
+if TYPE_CHECKING:
+    import dolfinx.fem
+    import dolfinx.mesh
+
+    from rftfem.model.shell_model import Model
 
 #: scene key -> the name of its field in the forms
 FORM_NAMES = {
@@ -58,7 +66,7 @@ _ADMISSIBLE = {
 __all__ = ["build", "FORM_NAMES", "owners", "field_space"]
 
 
-def owners(model, key: str) -> list[tuple[str, object, np.ndarray | None]]:
+def owners(model: Model, key: str) -> list[tuple[str, object, np.ndarray | None]]:
     """``(scene key, value, cells)`` that set ``key``: [shell] on every cell (None),
     then each part that sets it on its own cells (later parts win, as before)."""
     from rftfem.scene.selectors import cells_of
@@ -72,14 +80,16 @@ def owners(model, key: str) -> list[tuple[str, object, np.ndarray | None]]:
     return out
 
 
-def field_space(mesh, varies: bool, shape: tuple[int, ...] = ()):
+def field_space(
+    mesh: dolfinx.mesh.Mesh, varies: bool, shape: tuple[int, ...] = ()
+) -> dolfinx.fem.FunctionSpace:
     """DG0 for a value that is constant on each cell, else DG of FIELD_DEGREE."""
     from rftfem import compat
 
     return compat.function_space(mesh, "DG", FIELD_DEGREE if varies else 0, shape)
 
 
-def build(model) -> tuple[dict, dict]:
+def build(model: Model) -> tuple[dict, dict]:
     from dolfinx import fem
 
     shell, mesh = model.scene["shell"], model.mesh
@@ -97,7 +107,7 @@ def build(model) -> tuple[dict, dict]:
     return fields, ranges
 
 
-def nodal_values(model, key: str, V) -> np.ndarray:
+def nodal_values(model: Model, key: str, V: dolfinx.fem.FunctionSpace) -> np.ndarray:
     """The key's values at the dofs of the scalar space ``V`` (each cell's from the
     number, formula or profile that owns it), checked."""
     from rftfem import compat
@@ -225,7 +235,9 @@ def _check_poisson_field(model):
     )
 
 
-def material_value(model, key: str, how: str = "max", value=None) -> float:
+def material_value(
+    model: Model, key: str, how: str = "max", value: float | str | dict[str, str] | None = None
+) -> float:
     """A material key's largest (``how = "max"``), smallest (``"min"``) or mean value
     over the body, or ``"shell"``: [shell]'s own number (its mean if a field), for
     scales and tolerances.  ``value``: a part's value, itself if a number.  ``E`` and

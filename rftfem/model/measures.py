@@ -61,7 +61,7 @@ class BodyMeasures:
         local = float(np.sqrt((theta**2).sum(axis=1)).max()) if len(theta) else 0.0
         return self.comm.allreduce(local, op=MPI.MAX)
 
-    def area(self, cells=None) -> float:
+    def area(self, cells: np.ndarray | None = None) -> float:
         """Reference area ``∫ dA₀`` of the body, or of the given local cells (global)."""
         one = fem.Constant(self.mesh, PETSc.ScalarType(1.0))
         if cells is None:
@@ -93,6 +93,6 @@ class BodyMeasures:
         """``max | |d| − 1 |`` over all nodal directors (global)."""
         return self.triad.unit_error()
 
-    def nodal_director(self):
+    def nodal_director(self) -> fem.Function:
         """The nodal directors as one [P2]³ Function (for output)."""
         return self.triad.nodal_director()

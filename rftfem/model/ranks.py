@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from mpi4py import MPI
 
-def gather_rows(local: np.ndarray, comm) -> np.ndarray:
+
+def gather_rows(local: np.ndarray, comm: MPI.Comm | None) -> np.ndarray:
     """Every process's rows of a float array stacked in rank order, on every process
     (``local`` itself on one process)."""
     if comm is None or comm.size == 1:

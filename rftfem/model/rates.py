@@ -3,8 +3,21 @@ shell's UFL velocity, the Stokes flow's nodal velocities, a motion's corrections
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 
-def scheme_velocity(du, v_n, a_n, cv, cv_v, cv_a):
+if TYPE_CHECKING:
+    import numpy as np
+    import ufl
+
+
+def scheme_velocity(
+    du: ufl.core.expr.Expr | np.ndarray,
+    v_n: ufl.core.expr.Expr | np.ndarray,
+    a_n: ufl.core.expr.Expr | np.ndarray,
+    cv: ufl.core.expr.Expr | float,
+    cv_v: ufl.core.expr.Expr | float,
+    cv_a: ufl.core.expr.Expr | float,
+) -> ufl.core.expr.Expr | np.ndarray:
     """The velocity a step's scheme gives its end, ``v = c_v Δu + c_v^v v_n + c_v^a a_n``
     (docs/model.md §6), of UFL expressions or arrays alike; the coefficients are
     numbers or constants."""

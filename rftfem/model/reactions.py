@@ -28,7 +28,12 @@ scene's order, so the named reactions add up to what all of them carry.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 COMPONENTS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
@@ -50,7 +55,7 @@ def tangent_map(phi: np.ndarray) -> np.ndarray:
 class Reactions:
     """The named entries' held dofs, sorted once into displacement and rotation dofs."""
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         self.model = model
         named = [item for comp in model.components for item in comp.reaction_dofs()]
         self.names = [name for name, _ in named]

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import time as _time
 from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import ufl
@@ -44,12 +45,17 @@ from rftfem.model.step_state import StepStart
 from rftfem.model.triad import Triads
 from rftfem.scene.schema import unit_vector
 
+if TYPE_CHECKING:
+    from rftfem.model.effects.base import Effect
+
 
 class Model(StepStart, BodyMeasures):
     """Function spaces, state, material fields and the active effects of one scene;
     what a step starts from is step_state.py's, the whole-body measures measures.py's."""
 
-    def __init__(self, scene: dict, body, compile_forms: bool = True, tangent: str = "mixed-point"):
+    def __init__(
+        self, scene: dict, body: Any, compile_forms: bool = True, tangent: str = "mixed-point"
+    ):
         self.scene, self.body, self.compile_forms = scene, body, compile_forms
         self.mesh = body.mesh
         self.comm = self.mesh.comm
@@ -159,15 +165,15 @@ class Model(StepStart, BodyMeasures):
         nodes = np.arange(im.size_local + im.num_ghosts)
         return (self.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
 
-    def displacement_space(self, i: int):
+    def displacement_space(self, i: int) -> fem.FunctionSpace:
         """The sub-space of ``w`` holding the displacement component ``i`` (0: x)."""
         return self.W.sub(i)
 
-    def rotation_space(self, colour: int, i: int):
+    def rotation_space(self, colour: int, i: int) -> fem.FunctionSpace:
         """The sub-space of ``w`` holding ``θ^(i+1)`` of the colour ``colour``."""
         return self.W.sub(3 + 2 * colour + i)
 
-    def split(self, z):
+    def split(self, z: ufl.core.expr.Expr) -> tuple[ufl.core.expr.Expr, list[ufl.core.expr.Expr]]:
         """``(u, [d of each colour])`` of a field or test function of ``Z``."""
         u = ufl.as_vector([z[i] for i in range(3)])
         directors = [
@@ -175,12 +181,12 @@ class Model(StepStart, BodyMeasures):
         ]
         return u, directors
 
-    def get(self, name: str):
+    def get(self, name: str) -> Effect | None:
         """The active component called ``name`` (``"drag"``, ``"magnetic"``, ...) or None."""
         return next((c for c in self.components if c.name == name), None)
 
     @property
-    def fluid(self):
+    def fluid(self) -> FluidModel | None:
         """The liquid's component (RFT drag or Stokes flow), or None."""
         return next((c for c in self.components if isinstance(c, FluidModel)), None)
 
@@ -217,7 +223,9 @@ class Model(StepStart, BodyMeasures):
 
         self.material, self.material_ranges = materials.build(self)
 
-    def material_value(self, key: str, how: str = "max", value=None) -> float:
+    def material_value(
+        self, key: str, how: str = "max", value: float | str | dict[str, str] | None = None
+    ) -> float:
         """A material key's largest, smallest or mean value (materials.material_value)."""
         from rftfem.model import materials
 
@@ -225,14 +233,14 @@ class Model(StepStart, BodyMeasures):
 
     # --- forms --------------------------------------------------------------
 
-    def compile(self, ufl_form):
+    def compile(self, ufl_form: ufl.Form) -> fem.Form:
         """A UFL form compiled for assembly (its time counted in ``timings``)."""
         t0 = _time.perf_counter()
         form = compat.form(ufl_form)
         self.timings["compile"] += _time.perf_counter() - t0
         return form
 
-    def assemble_scalar(self, form) -> float:
+    def assemble_scalar(self, form: fem.Form) -> float:
         """A compiled scalar form at the current iterate, summed over all processes."""
         self.directors.sync()
         return self.comm.allreduce(fem.assemble_scalar(form))
@@ -248,7 +256,7 @@ class Model(StepStart, BodyMeasures):
             self._kinematics.w_test, self._kinematics.du = w_test, self.split(w_test)[0]
         return self._kinematics
 
-    def kinematics_of(self, z) -> SimpleNamespace:
+    def kinematics_of(self, z: ufl.core.expr.Expr) -> SimpleNamespace:
         """The kinematics of ``kinematics()`` for any function ``z`` of ``Z``, without
         test functions."""
         u, nodal = self.split(z)
@@ -264,13 +272,13 @@ class Model(StepStart, BodyMeasures):
             u=u, d=d, g1=g1, g2=g2, G1=G1, G2=G2, F_s=kinematics.surface_deformation_gradient(u)
         )
 
-    def velocity(self, u):
+    def velocity(self, u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """``v_{n+1}`` (or its scheme's blend) as a function of the unknown displacement."""
         c = self.coef
         v = scheme_velocity(u - self.u_n, self.v_n, self.a_n, c["cv"], c["cv_v"], c["cv_a"])
         return v + self.drive[0] if self.drive else v
 
-    def acceleration(self, u):
+    def acceleration(self, u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
         """``a_{n+1−α_m}`` as a function of the unknown displacement."""
         c = self.coef
         a = c["ca"] * (u - self.u_n) + c["ca_v"] * self.v_n + c["ca_a"] * self.a_n
@@ -280,23 +288,23 @@ class Model(StepStart, BodyMeasures):
         """Stored energy, forces, inertia and the step's Jacobian (model/terms.py)."""
         terms.sum_terms(self)
 
-    def mapped(self, ufl_form) -> MappedForm:
+    def mapped(self, ufl_form: ufl.Form) -> MappedForm:
         """A rank-1 form on ``z`` compiled and assembled as one on ``w``."""
         return MappedForm(self.compile(ufl_form), self.directors)
 
-    def add_nodal_forces(self, F: np.ndarray):
+    def add_nodal_forces(self, F: np.ndarray) -> None:
         """Add the components' nodal forces to the local array of an assembled ``F``."""
         for comp in self.components:
             comp.add_nodal_forces(F)
 
     # --- per-step updates ---------------------------------------------------
 
-    def set_coefficients(self, c):
+    def set_coefficients(self, c: Any) -> None:
         self.coefficients = c
         for key in self.coef:
             self.coef[key].value = getattr(c, key)
 
-    def set_time(self, t: float, scheme=None):
+    def set_time(self, t: float, scheme: Any = None) -> None:
         """Loads and motions at ``t``; with a second-order ``scheme``, the driven dofs'
         exact rates of the step ending at ``t`` (after ``set_coefficients``)."""
         for comp in self.components:
@@ -306,23 +314,23 @@ class Model(StepStart, BodyMeasures):
                 t if scheme is not None and scheme.has_inertia else None, self.coefficients
             )
 
-    def drive_state(self, t: float, scheme) -> None:
+    def drive_state(self, t: float, scheme: Any) -> None:
         """With a second-order scheme (None: the model's own), the driven dofs' stored
         rates at ``t`` (motion.py)."""
         if self.drive and (scheme is None or scheme.has_inertia):
             self["prescribed-motion"].drive_state(t)
 
-    def restore(self):
+    def restore(self) -> None:
         """Reset the iterate to the last converged state (θ = 0)."""
         self.w.x.array[self.u_dofs] = self.u_n.x.array
         self.w.x.array[self.theta_dofs] = 0.0
 
-    def update_triad(self):
+    def update_triad(self) -> None:
         """Rotate the nodal triads by the converged θ and realign them (triad.py); θ = 0."""
         self.triad.update(self.w.x.array, self.theta_dofs_of)
         self.w.x.array[self.theta_dofs] = 0.0
 
-    def accept(self, scheme, dt: float, t: float | None = None):
+    def accept(self, scheme: Any, dt: float, t: float | None = None) -> None:
         """After convergence at ``t``: update the state (u_n, v_n, a_n) and the triad,
         and keep the step's increment (Δu, θ) and dt for the next steps' prediction."""
         u = self.w.x.array[self.u_dofs]
@@ -337,11 +345,11 @@ class Model(StepStart, BodyMeasures):
         self.update_triad()
 
     @property
-    def displacement(self):
+    def displacement(self) -> fem.Function:
         """The displacement of the last converged step (the Function ``u_n``)."""
         return self.u_n
 
-    def destroy(self):
+    def destroy(self) -> None:
         """Free the nodal projection's PETSc objects.  Forms and functions stay usable;
         a triad update after this rotates the triads but no longer realigns them."""
         self.triad.destroy()

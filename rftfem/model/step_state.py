@@ -16,7 +16,7 @@ from rftfem.model.triad import rotate as triad_rotate
 class StepStart:
     """Prediction, Newton start and saved state of a Model."""
 
-    def predict(self, dt: float, extrapolate: bool = True):
+    def predict(self, dt: float, extrapolate: bool = True) -> None:
         """Start a step of ``dt`` from the last state carried on at the recent rates.
 
         The rate of the last step, ``q₁ = Δ_n/Δt_n`` (Δ = Δu, or θ), belongs to the
@@ -117,13 +117,13 @@ class StepStart:
         self.comm.Allreduce(MPI.IN_PLACE, both, op=MPI.MAX)
         return float(both[0]), float(both[1])
 
-    def start_newton(self):
+    def start_newton(self) -> None:
         """A Newton solve begins: its first tangent is that of ``first_tangent_converged``,
         the next ones the mixed-point tangents of the updates Newton makes (docs/model.md
         §7.4)."""
         self._newton_last = None
 
-    def tangent_at_iterate(self):
+    def tangent_at_iterate(self) -> None:
         """Before a tangent at the iterate ``w``: the data of its correction (the last
         iterate, this one, their difference); this one is the next one's last.
 
@@ -176,7 +176,7 @@ class StepStart:
             arrays[f"increment_{i}_u"], arrays[f"increment_{i}_theta"] = du, theta
         return {k: v.copy() for k, v in arrays.items()}, [dt for *_, dt in self.increments]
 
-    def set_state(self, arrays: dict, increment_steps: list):
+    def set_state(self, arrays: dict, increment_steps: list) -> None:
         """The model as ``state`` returned it (a restart)."""
         for name, f in (("w", self.w), ("u_n", self.u_n), ("v_n", self.v_n), ("a_n", self.a_n)):
             f.x.array[:] = arrays[name]

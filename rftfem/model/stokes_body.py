@@ -8,10 +8,15 @@ scene's keys, and `rftfem render`, import the effects without dolfinx);
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
-def global_cells(model) -> tuple[np.ndarray, str]:
+
+def global_cells(model: Model) -> tuple[np.ndarray, str]:
     """Every element's displacement nodes in the global (rank-ordered) numbering, the
     reference element's order, gathered on every process; and the cell kind
     ("quadrilateral" or "triangle")."""
@@ -29,7 +34,7 @@ def global_cells(model) -> tuple[np.ndarray, str]:
     return cells, "quadrilateral" if quad else "triangle"
 
 
-def node_spacing(model) -> np.ndarray:
+def node_spacing(model: Model) -> np.ndarray:
     """Each local node's spacing: the mean over the cells around it of the cell's size
     over 2 (√area on quadrilaterals, the equilateral side on triangles), halved on
     the body's free edges."""
@@ -85,11 +90,11 @@ def has_free_edges(corners: np.ndarray) -> bool:
 class Crossed:
     """The resistance of a body that has crossed the wall: NaN forces."""
 
-    def __init__(self, x):
+    def __init__(self, x: np.ndarray):
         self.x = np.array(x)
 
-    def solve(self, rhs):
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
         return np.full(np.shape(rhs), np.nan)
 
-    def lumped(self):
+    def lumped(self) -> np.ndarray:
         return np.zeros((len(self.x), 3, 3))

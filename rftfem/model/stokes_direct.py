@@ -20,11 +20,18 @@ the rows are gathered, so every process holds the same product to round-off.
 from __future__ import annotations
 
 from math import pi, sqrt
+from typing import TYPE_CHECKING
 
 import numba as nb
 import numpy as np
 
 from rftfem.model import stokes_kernels as kernels
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from rftfem.model.stokes_matrix_free import MatrixFreeResistance
+    from rftfem.model.stokeslets import Wall
 
 _JIT = dict(cache=True)
 
@@ -184,7 +191,7 @@ def _derivative_product(x, delta, F, dx, lo, hi, wall, out):
         out[t - lo, 2] = acc2
 
 
-def warm():
+def warm() -> None:
     """Compile (or load from numba's cache) both sums on a tiny problem."""
     x = np.array([[0.0, 0.0, 1.0], [0.3, 0.1, 1.2]])
     d, F, out = np.full(2, 0.1), np.ones((2, 3)), np.empty((2, 3))
@@ -199,7 +206,14 @@ class DirectSums:
     in the liquid of ``viscosity``, with an optional plane ``wall``
     (``stokeslets.Wall``); under ``comm`` each process sums its share of the rows."""
 
-    def __init__(self, x, delta, viscosity, wall=None, comm=None):
+    def __init__(
+        self,
+        x: np.ndarray,
+        delta: np.ndarray,
+        viscosity: float,
+        wall: Wall | None = None,
+        comm: MPI.Comm | None = None,
+    ):
         self.n = len(x)
         self.wall = wall
         self.comm = comm if comm is not None and comm.size > 1 else None
@@ -231,7 +245,7 @@ class DirectSums:
         )
         return out
 
-    def mobility(self, forces) -> np.ndarray:
+    def mobility(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` (3N) for forces of length 3N."""
         out = np.empty((self.hi - self.lo, 3))
         _mobility_product(
@@ -239,7 +253,7 @@ class DirectSums:
         )
         return self._gathered(out)
 
-    def derivative(self, forces, dx) -> np.ndarray:
+    def derivative(self, forces: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """``G dx`` (3N): ``∂(M F)/∂x · dx`` at the fixed ``forces``."""
         return self.derivative_operator(forces) @ dx
 
@@ -258,7 +272,7 @@ class DirectSums:
         out *= self.scale
         return gather_rows(out, self.comm) if whole else out
 
-    def derivative_operator(self, forces) -> "_Derivative":
+    def derivative_operator(self, forces: np.ndarray) -> "_Derivative":
         """``dx ↦ G dx`` at the fixed ``forces``, applied with ``@``."""
         return _Derivative(self, self._in_frame(forces))
 
@@ -276,7 +290,14 @@ class _Derivative:
         return s._gathered(out)
 
 
-def DirectResistance(x, delta, viscosity, wall=None, comm=None, kept=None):
+def DirectResistance(
+    x: np.ndarray,
+    delta: np.ndarray,
+    viscosity: float,
+    wall: Wall | None = None,
+    comm: MPI.Comm | None = None,
+    kept: MatrixFreeResistance | None = None,
+) -> MatrixFreeResistance:
     """The matrix-free resistance whose products are direct sums (every process sums
     its rows); its clusters' mobilities compiled the same way (the wall's images
     in); ``kept``: an earlier configuration's, whose factors it keeps (one cluster)."""

@@ -26,12 +26,18 @@ restricted to the near pairs).
 from __future__ import annotations
 
 from math import pi
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from rftfem.model import stokes_matrix_free, stokeslets
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from mpi4py import MPI
 
 #: pairs farther apart than this many pair blobs use the singular Stokeslet
 CUTOFF = 6.0
@@ -60,7 +66,9 @@ def _block_matrix(rows, cols, blocks, n) -> sp.csr_matrix:
     return sp.coo_matrix((np.ravel(blocks), (r, c)), shape=(3 * n, 3 * n)).tocsr()
 
 
-def FastResistance(x, delta, viscosity) -> stokes_matrix_free.MatrixFreeResistance:
+def FastResistance(
+    x: np.ndarray, delta: np.ndarray, viscosity: float
+) -> stokes_matrix_free.MatrixFreeResistance:
     """The matrix-free resistance whose products are fast multipoles (:class:`FmmSums`)."""
     sums = FmmSums(x, delta, viscosity)
     return stokes_matrix_free.MatrixFreeResistance(
@@ -72,7 +80,7 @@ class FmmSums:
     """``M F`` and ``G dx`` by fast multipoles plus the near blobs' sparse correction,
     at the positions ``x`` with blobs ``delta`` (no wall)."""
 
-    def __init__(self, x, delta, viscosity):
+    def __init__(self, x: np.ndarray, delta: np.ndarray, viscosity: float):
         self.x = np.array(x, dtype=float)
         self.delta = np.asarray(delta, dtype=float)
         self.viscosity = float(viscosity)
@@ -129,7 +137,7 @@ class FmmSums:
         out = self._fmm(stoklet=forces).pot.reshape(3, self.n).T.ravel() / self.viscosity
         return out + self.correction @ forces
 
-    def derivative_operator(self, forces) -> "PositionDerivative":
+    def derivative_operator(self, forces: np.ndarray) -> "PositionDerivative":
         """``dx ↦ G dx = ∂(M F)/∂x · dx`` at the fixed ``forces``."""
         return PositionDerivative(self, np.asarray(forces, dtype=float).reshape(-1, 3))
 
@@ -179,7 +187,12 @@ class OnFirst:
     broadcast: the matrix-free operator is threaded, and every process must see
     the same forces to round-off."""
 
-    def __init__(self, comm, x, make):
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        x: np.ndarray,
+        make: Callable[[], stokes_matrix_free.MatrixFreeResistance],
+    ):
         self.comm, self.x = comm, np.array(x)
         self.res = make() if comm.rank == 0 else None
 
@@ -187,13 +200,13 @@ class OnFirst:
         value = compute() if self.comm.rank == 0 else None
         return self.comm.bcast(value, root=0) if self.comm.size > 1 else value
 
-    def solve(self, rhs):
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
         return self._first(lambda: self.res.solve(rhs))
 
-    def lumped(self):
+    def lumped(self) -> np.ndarray:
         return self._first(self.res.lumped if self.res is not None else None)
 
-    def position_operator(self, forces):
+    def position_operator(self, forces: np.ndarray) -> _FirstProduct:
         return _FirstProduct(self, None if self.res is None else self.res.position_operator(forces))
 
 

@@ -51,7 +51,7 @@ def _horner(c, x):
 
 
 @nb.njit(**_JIT)
-def radial(d, eps):
+def radial(d: float, eps: float) -> tuple[float, float, float, float]:
     """``(a, b, a′/r, b′/r)`` of the free kernel at the distance ``d``."""
     if eps == 0.0 or d > _STOKESLET_BEYOND * eps:
         inv = 1.0 / d
@@ -75,7 +75,7 @@ def radial(d, eps):
 
 
 @nb.njit(**_JIT)
-def free_block(r, eps, out):
+def free_block(r: np.ndarray, eps: float, out: np.ndarray) -> None:
     """``out = S_ε(r)`` (3 × 3), set (not added)."""
     d = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     a, b, _, _ = radial(d, eps)
@@ -86,7 +86,7 @@ def free_block(r, eps, out):
 
 
 @nb.njit(**_JIT)
-def free_gradient(r, F, eps, out):
+def free_gradient(r: np.ndarray, F: np.ndarray, eps: float, out: np.ndarray) -> None:
     """``out = ∂(S_ε(r) F)/∂r`` (3 × 3), set."""
     d = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     _, b, da, db = radial(d, eps)
@@ -102,7 +102,7 @@ _ONE = np.ones(1)
 
 
 @nb.njit(**_JIT)
-def image_block(xi, eta, out):
+def image_block(xi: np.ndarray, eta: np.ndarray, out: np.ndarray) -> None:
     """Blake's image block ``W`` (3 × 3, set) in the wall's frame: ``u = W f`` at
     ``xi`` for a force ``f`` at ``eta`` (heights ``xi[2]``, ``eta[2]`` > 0),
 
@@ -131,7 +131,9 @@ def image_block(xi, eta, out):
 
 
 @nb.njit(**_JIT)
-def image_gradient(xi, eta, f, d_xi, d_eta):
+def image_gradient(
+    xi: np.ndarray, eta: np.ndarray, f: np.ndarray, d_xi: np.ndarray, d_eta: np.ndarray
+) -> None:
     """The images' velocity ``W f`` (``f`` fixed, the wall's frame) differentiated:
     ``d_xi = ∂(W f)/∂xi``, ``d_eta = ∂(W f)/∂eta`` (3 × 3 each, set), in closed form
     (``∂R/∂xi = I``, ``∂R/∂eta = −D``, ``∂h/∂eta = e₃``)."""
@@ -193,7 +195,16 @@ def _scatter(row, nodes, coeffs, scale, block):
 
 
 @nb.njit(parallel=True, **_JIT)
-def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
+def far_matrix(
+    targets: np.ndarray,
+    y: np.ndarray,
+    wpsi: np.ndarray,
+    nodes: np.ndarray,
+    eps: float,
+    free: bool,
+    wall: bool,
+    out: np.ndarray,
+) -> None:
     """``out[t, :, nodes[p, a], :] += wpsi[p, a] K(targets[t], y[p])`` over every
     target and point (``out``: (k, 3, N, 3)); ``K`` is the free kernel if ``free``,
     plus the images of the wall if ``wall``, the wall the plane z = 0 (the callers
@@ -217,7 +228,18 @@ def far_matrix(targets, y, wpsi, nodes, eps, free, wall, out):
 
 
 @nb.njit(parallel=True, **_JIT)
-def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out):
+def far_derivative(
+    targets: np.ndarray,
+    target_nodes: np.ndarray,
+    y: np.ndarray,
+    psi: np.ndarray,
+    nodes: np.ndarray,
+    F: np.ndarray,
+    eps: float,
+    free: bool,
+    wall: bool,
+    out: np.ndarray,
+) -> None:
     """The far rule's ``G`` at the weighted point densities ``F`` (q, 3), added to
     ``out`` (k, 3, N, 3); ``target_nodes[t]`` is the node whose position ``targets[t]``
     is; the wall as for :func:`far_matrix`."""
@@ -245,21 +267,30 @@ def far_derivative(targets, target_nodes, y, psi, nodes, F, eps, free, wall, out
         _scatter(out[t], target_nodes[t : t + 1], _ONE, 1.0, own)
 
 
-def to_frame(Q, point, x):
+def to_frame(Q: np.ndarray, point: np.ndarray | None, x: np.ndarray) -> np.ndarray:
     """Points or forces (…, 3) in the wall's frame: ``Q (x − point)`` (``point`` None:
     vectors, rotated only)."""
     x = np.asarray(x, dtype=float)
     return np.ascontiguousarray((x if point is None else x - point) @ Q.T)
 
 
-def from_frame(Q, M):
+def from_frame(Q: np.ndarray, M: np.ndarray) -> np.ndarray:
     """Rows (k, 3, N, 3) of a matrix or derivative made in the wall's frame, in global
     coordinates: each 3 × 3 block ``Qᵀ M Q`` (velocities and positions both turn)."""
     return np.einsum("ai,tajb,bm->tijm", Q, M, Q, optimize=True)
 
 
 @nb.njit(parallel=True, **_JIT)
-def pairs_matrix(x, lo, starts, psi, weight, nodes, eps, out):
+def pairs_matrix(
+    x: np.ndarray,
+    lo: int,
+    starts: np.ndarray,
+    psi: np.ndarray,
+    weight: np.ndarray,
+    nodes: np.ndarray,
+    eps: float,
+    out: np.ndarray,
+) -> None:
     """The near and singular rules: ``out[t − lo, :, nodes[p, a], :] += weight[p] ψ_pa
     S_ε(x_t − y_p)`` (free kernel only) for the points ``p`` of ``starts[t − lo] :
     starts[t − lo + 1]`` (the pairs ordered by target, threaded over the targets)."""
@@ -279,7 +310,17 @@ def pairs_matrix(x, lo, starts, psi, weight, nodes, eps, out):
 
 
 @nb.njit(parallel=True, **_JIT)
-def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
+def pairs_derivative(
+    x: np.ndarray,
+    f: np.ndarray,
+    lo: int,
+    starts: np.ndarray,
+    psi: np.ndarray,
+    weight: np.ndarray,
+    nodes: np.ndarray,
+    eps: float,
+    out: np.ndarray,
+) -> None:
     """The near and singular rules' part of ``G`` at the nodal density ``f`` (N, 3),
     the pairs ordered by target as for :func:`pairs_matrix`."""
     nd = nodes.shape[1]
@@ -305,7 +346,7 @@ def pairs_derivative(x, f, lo, starts, psi, weight, nodes, eps, out):
         _scatter(out[row], x_index[t : t + 1], _ONE, 1.0, own)
 
 
-def warm():
+def warm() -> None:
     """Compile (or load from numba's cache) every kernel, on a few points."""
     x = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 1.0]])
     y = np.array([[0.5, 0.5, 1.5], [1.5, 0.5, 1.5]])
@@ -335,7 +376,7 @@ def pair_seconds() -> float:
 
 
 @nb.njit(parallel=True, **_JIT)
-def edge_distance(y, P, t):
+def edge_distance(y: np.ndarray, P: np.ndarray, t: np.ndarray) -> np.ndarray:
     """The distance of each point ``y[p]`` to the nearest of its candidate free edges,
     quadratic curves through ``P[p, c]`` (start, middle, end), by Newton's method on
     ``|c(t) − y|²`` from the parameters ``t[p, c]`` (a chord's projection; four

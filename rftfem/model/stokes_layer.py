@@ -35,6 +35,7 @@ images are sums over points of the same shape (``RulePoints``).
 from __future__ import annotations
 
 from math import pi
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -43,6 +44,10 @@ from rftfem.model import stokes_kernels as kernels
 from rftfem.model import stokeslets
 from rftfem.model.layer_rules import NEAR, NEAR_FACTOR, EdgeWeight, ReferenceElement, RulePoints
 from rftfem.model.ranks import gather_rows
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from scipy.sparse.linalg import SuperLU
 
 
 class Layer:
@@ -54,8 +59,8 @@ class Layer:
 
     def __init__(
         self,
-        X,
-        cells,
+        X: np.ndarray,
+        cells: np.ndarray,
         cell: str,
         epsilon: float,
         refine: int = 0,
@@ -125,7 +130,9 @@ class Layer:
         """A reference rule's weights times the reference area and the edge weight."""
         return w * self._reference_jacobian(elem, xi) * self.weight(elem, xi)
 
-    def rule(self, e: int, m: int, apex=None, scale: float = 1.0):
+    def rule(
+        self, e: int, m: int, apex: np.ndarray | None = None, scale: float = 1.0
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Element ``e``'s reference points and weights (on the reference cell):
         ``m × m`` Gauss pieces, or the singular rule about the node at ``apex``."""
         weighted = self.weight.weighted(e)
@@ -195,7 +202,9 @@ class Layer:
 
     # --- the operator ---------------------------------------------------------
 
-    def matrix(self, x: np.ndarray, viscosity: float, wall=None) -> np.ndarray:
+    def matrix(
+        self, x: np.ndarray, viscosity: float, wall: stokeslets.Wall | None = None
+    ) -> np.ndarray:
         """The rows of ``A`` (3 n_rows × 3N) at the positions ``x``: ``u = A f`` (with a
         wall, summed in its frame and turned back: ``stokes_kernels.from_frame``)."""
         x = np.ascontiguousarray(x, dtype=float)
@@ -220,7 +229,9 @@ class Layer:
             A = kernels.from_frame(wall.Q, A)
         return A.reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
-    def position_derivative(self, x, f, viscosity: float, wall=None) -> np.ndarray:
+    def position_derivative(
+        self, x: np.ndarray, f: np.ndarray, viscosity: float, wall: stokeslets.Wall | None = None
+    ) -> np.ndarray:
         """The rows of ``G = ∂(A f)/∂x`` at fixed ``f`` (3 n_rows × 3N)."""
         x = np.ascontiguousarray(x, dtype=float)
         f = np.ascontiguousarray(f, dtype=float).reshape(-1, 3)
@@ -260,7 +271,7 @@ class Layer:
             (self.far.psi.ravel(), (rows, self.far.nodes.ravel())), shape=(len(self.far.weight), n)
         )
 
-    def mass_factors(self):
+    def mass_factors(self) -> tuple[sp.csr_matrix, SuperLU]:
         """``B`` and its sparse LU (kept: ``B`` does not move)."""
         if not hasattr(self, "_mass"):
             from scipy.sparse.linalg import splu
@@ -301,11 +312,11 @@ class LayerResistance:
     def __init__(
         self,
         layer: Layer,
-        x,
+        x: np.ndarray,
         viscosity: float,
-        wall=None,
-        comm=None,
-        interpolation=None,
+        wall: stokeslets.Wall | None = None,
+        comm: MPI.Comm | None = None,
+        interpolation: sp.csr_matrix | None = None,
         kept: "LayerResistance | None" = None,
     ):
         self.x = np.array(x, dtype=float)
@@ -334,7 +345,7 @@ class LayerResistance:
         """Whether this configuration has its own factors."""
         return self.factored is self
 
-    def factorise(self):
+    def factorise(self) -> None:
         """Factorise this configuration's ``A``, its rows gathered on every process (then
         dropped: the factors replace it)."""
         import scipy.linalg as sl
@@ -398,7 +409,7 @@ class LayerResistance:
         F = self._to_shell(self._loads(self.densities(ones, exact=False)))
         return stokeslets.lumped_blocks(F.reshape(n, 3, 3))
 
-    def position_operator(self, forces):
+    def position_operator(self, forces: np.ndarray) -> np.ndarray | stokeslets.RowBlocks:
         """``G = ∂(A f)/∂x_grid`` at the density ``f`` whose loads are ``forces`` (the
         result of a :meth:`solve`)."""
         forces = np.asarray(forces, dtype=float).ravel()
@@ -410,7 +421,9 @@ class LayerResistance:
         G = self.layer.position_derivative(self.grid, f.reshape(-1, 3), self.viscosity, self.wall)
         return G if self.comm is None else stokeslets.RowBlocks(G, self.comm)
 
-    def tangent(self, du: np.ndarray, cv: float, G) -> np.ndarray:
+    def tangent(
+        self, du: np.ndarray, cv: float, G: np.ndarray | stokeslets.RowBlocks
+    ) -> np.ndarray:
         """``dF = Iᵀ B A⁻¹ (c_v I du − G I du)``: the loads' change for a displacement
         change ``du`` (velocities ``c_v du``), ``G`` from :meth:`position_operator`."""
         dg = self._to_grid(np.asarray(du, dtype=float))

@@ -22,10 +22,18 @@ ones (``iterations`` over its limit, or an exact tangent).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.linalg as sl
 
 from rftfem.model import stokeslets
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from rftfem.model.stokes_direct import DirectSums, _Derivative
+    from rftfem.model.stokes_fmm import FmmSums, PositionDerivative
 
 #: the relative residual at which the conjugate gradients of the forces stop
 SOLVE_TOLERANCE = 1e-11
@@ -64,7 +72,13 @@ class MatrixFreeResistance:
     operator ``dx ↦ G dx``); ``cluster_mobility(nodes)`` gives the dense mobility of a
     cluster alone (with the wall's images if the liquid has one)."""
 
-    def __init__(self, x, sums, cluster_mobility, kept: "MatrixFreeResistance | None" = None):
+    def __init__(
+        self,
+        x: np.ndarray,
+        sums: DirectSums | FmmSums,
+        cluster_mobility: Callable[[np.ndarray], np.ndarray],
+        kept: "MatrixFreeResistance | None" = None,
+    ):
         self.x = np.array(x, dtype=float)
         self.n = len(self.x)
         self.sums = sums
@@ -97,7 +111,7 @@ class MatrixFreeResistance:
         """Whether the preconditioner is this configuration's own."""
         return self.factored is self
 
-    def factorise(self):
+    def factorise(self) -> None:
         """The clusters' Cholesky factors at this configuration."""
         self.clusters = [np.arange(self.n)] if self.whole else clusters(self.x, CLUSTER_NODES)
         self._factors = [
@@ -173,11 +187,11 @@ class MatrixFreeResistance:
             self._lumped = stokeslets.lumped_blocks(inverse.reshape(self.n, 3, 3))
         return self._lumped
 
-    def position_operator(self, forces):
+    def position_operator(self, forces: np.ndarray) -> _Derivative | PositionDerivative:
         """``dx ↦ G dx = ∂(M F)/∂x · dx`` at the fixed ``forces``."""
         return self.sums.derivative_operator(np.asarray(forces, dtype=float))
 
-    def tangent(self, du: np.ndarray, cv: float, G) -> np.ndarray:
+    def tangent(self, du: np.ndarray, cv: float, G: _Derivative | PositionDerivative) -> np.ndarray:
         """``dF = M⁻¹ (c_v du − G du)``: with one cluster by the factored configuration's
         factors (exact when fresh; unless ``exact_tangent`` asks for this one's),
         else by conjugate gradients to ``TANGENT_TOLERANCE``."""

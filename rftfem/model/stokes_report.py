@@ -18,11 +18,16 @@ from __future__ import annotations
 
 import os
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.model import layer_rules, stokes_layer
+
+if TYPE_CHECKING:
+    from rftfem.model import stokeslets
+    from rftfem.model.effects.stokes import Stokes
 
 #: a run whose estimate exceeds this warns
 WARN_ABOVE = 0.05
@@ -66,7 +71,9 @@ def _rates() -> tuple[float, float]:
 _MEASURED = None
 
 
-def admit(rows: int, points_a_row: float, processes: int, method: str = "layer"):
+def admit(
+    rows: int, points_a_row: float, processes: int, method: str = "layer"
+) -> tuple[float, float | None]:
     """Refuse a dense Stokes operator that would not fit in the machine's memory or whose
     step would take over LONGEST_STEP, with the numbers and what to change.  ``rows``:
     the grid's nodes (the blobs': the shell's); ``points_a_row``: quadrature points each
@@ -101,7 +108,9 @@ def admit(rows: int, points_a_row: float, processes: int, method: str = "layer")
     return memory, step
 
 
-def update_cost(rows: int, points_a_row: float, processes: int, method: str = "layer"):
+def update_cost(
+    rows: int, points_a_row: float, processes: int, method: str = "layer"
+) -> tuple[float, float]:
     """The seconds of a Newton update that factorises, on this machine's measured
     rates: ``(factorisation, kernels)`` (the matrix and its derivative)."""
     lu, pair = _rates()
@@ -120,7 +129,9 @@ def rigid_motions(X: np.ndarray) -> np.ndarray:
     return out
 
 
-def rigid_resistance(resistance, X: np.ndarray) -> np.ndarray:
+def rigid_resistance(
+    resistance: stokes_layer.LayerResistance | stokeslets.Resistance, X: np.ndarray
+) -> np.ndarray:
     """``R_jk = Σ v_j · F(v_k)`` (6 × 6, symmetrised) of a factorised resistance."""
     V = rigid_motions(X)
     F = resistance.solve(V.reshape(6, -1).T).T  # (6, 3N)
@@ -135,7 +146,7 @@ def relative_change(coarse: np.ndarray, fine: np.ndarray) -> float:
     return float(np.abs(sl.eigh(coarse - fine, fine, eigvals_only=True)).max())
 
 
-def describe(stokes) -> dict:
+def describe(stokes: Stokes) -> dict:
     """The discretisation of a Stokes component: sizes, cost and estimated error."""
     if getattr(stokes, "_description", None) is not None:
         return stokes._description

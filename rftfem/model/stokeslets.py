@@ -24,12 +24,18 @@ gathers them and scatters the forces).
 from __future__ import annotations
 
 from math import factorial, pi, sqrt
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.polynomial import polynomial as P
 from scipy.special import erf
 
 from rftfem.model.ranks import gather_rows
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from mpi4py import MPI
 
 _C = 2.0 / sqrt(pi)
 #: below this ρ the radial functions are summed as series (no cancellation); beyond
@@ -72,7 +78,7 @@ def _series():
 _COEFFS = _series()
 
 
-def radial(rho: np.ndarray):
+def radial(rho: np.ndarray) -> list[np.ndarray]:
     """``(s₁/ρ, s₂/ρ³, (ρ s₁′ − s₁)/ρ³, (ρ s₂′ − 3 s₂)/ρ⁵)`` at ``rho`` (any shape).
 
     With ``r = δρ``: ``a = f₀/δ``, ``b = f₁/δ³``, ``a′/r = f₂/δ³``, ``b′/r = f₃/δ⁵``."""
@@ -108,7 +114,7 @@ def radial(rho: np.ndarray):
     return out
 
 
-def pair_blobs(delta: np.ndarray, rows=slice(None)) -> np.ndarray:
+def pair_blobs(delta: np.ndarray, rows: slice | np.ndarray = slice(None)) -> np.ndarray:
     """``δ_ij = √((δ_i² + δ_j²)/2)`` for the target rows ``rows`` and every source."""
     d2 = np.asarray(delta, dtype=float) ** 2
     return np.sqrt(0.5 * (d2[rows, None] + d2[None, :]))
@@ -149,7 +155,13 @@ def _shift(chunk: slice, lo: int) -> slice:
     return slice(chunk.start + lo, chunk.stop + lo)
 
 
-def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
+def velocity(
+    x: np.ndarray,
+    delta: np.ndarray,
+    viscosity: float,
+    forces: np.ndarray,
+    targets: np.ndarray | None = None,
+) -> np.ndarray:
     """``u_i = Σ_j S_δ(x_i − x_j) F_j/(8πμ)`` at the nodes ``targets`` (default all), ``(·, 3)``."""
     x = np.asarray(x, dtype=float)
     F = np.asarray(forces, dtype=float).reshape(-1, 3)
@@ -163,7 +175,13 @@ def velocity(x, delta, viscosity, forces, targets=None) -> np.ndarray:
     return out / (8 * pi * viscosity)
 
 
-def position_derivative(x, delta, viscosity, forces, rows: slice | None = None) -> np.ndarray:
+def position_derivative(
+    x: np.ndarray,
+    delta: np.ndarray,
+    viscosity: float,
+    forces: np.ndarray,
+    rows: slice | None = None,
+) -> np.ndarray:
     """``G = ∂u/∂x`` at fixed forces (dense ``3N × 3N``, or the rows of the target
     nodes ``rows``): ``du = M dF + G dx``.
 
@@ -213,7 +231,7 @@ class Wall:
     difference between the regularized and the singular free part, a Gaussian
     tail e^(−(h/δ)²) of the body's height in blobs (docs/stokes.md)."""
 
-    def __init__(self, point, normal):
+    def __init__(self, point: Sequence[float] | np.ndarray, normal: Sequence[float] | np.ndarray):
         n = np.asarray(normal, dtype=float)
         n = n / np.linalg.norm(n)
         helper = np.eye(3)[int(np.argmin(np.abs(n)))]
@@ -223,7 +241,7 @@ class Wall:
         self.Q = np.array([e1, np.cross(n, e1), n])
         self.point = np.asarray(point, dtype=float)
 
-    def heights(self, x) -> np.ndarray:
+    def heights(self, x: np.ndarray) -> np.ndarray:
         """Heights of the points ``x`` (N, 3) above the wall (negative: behind it)."""
         return (np.asarray(x, dtype=float) - self.point) @ self.Q[2]
 
@@ -248,19 +266,23 @@ class Wall:
         )
         return k.from_frame(self.Q, W)
 
-    def image_velocity(self, targets, sources, forces):
+    def image_velocity(
+        self, targets: np.ndarray, sources: np.ndarray, forces: np.ndarray
+    ) -> np.ndarray:
         """``Σ_j W(x_i, y_j) F_j`` (without 1/8πμ) at every target, (N_t, 3)."""
         W = self._images(targets, sources)
         return (W.reshape(3 * len(W), -1) @ np.ravel(forces)).reshape(-1, 3)
 
-    def mobility(self, x, viscosity, rows: slice | None = None) -> np.ndarray:
+    def mobility(self, x: np.ndarray, viscosity: float, rows: slice | None = None) -> np.ndarray:
         """The images' part of the dense mobility (3N × 3N, or the rows of ``rows``)."""
         x = np.asarray(x, dtype=float)
         n = len(x)
         lo, hi = _bounds(rows, n)
         return self._images(x[lo:hi], x).reshape(3 * (hi - lo), 3 * n) / (8 * pi * viscosity)
 
-    def position_derivative(self, x, viscosity, forces, rows: slice | None = None) -> np.ndarray:
+    def position_derivative(
+        self, x: np.ndarray, viscosity: float, forces: np.ndarray, rows: slice | None = None
+    ) -> np.ndarray:
         """The images' part of ``G = ∂u/∂x`` at fixed forces (or its rows of ``rows``),
         in closed form (``rftfem.model.stokes_kernels.image_gradient``)."""
         k = _kernels()
@@ -310,7 +332,13 @@ class Resistance:
     distributed by rows."""
 
     def __init__(
-        self, x, delta, viscosity, wall: Wall | None = None, comm=None, rows: slice | None = None
+        self,
+        x: np.ndarray,
+        delta: np.ndarray,
+        viscosity: float,
+        wall: Wall | None = None,
+        comm: MPI.Comm | None = None,
+        rows: slice | None = None,
     ):
         import scipy.linalg as sl
 
@@ -350,7 +378,7 @@ class Resistance:
         ones = np.tile(np.eye(3), (n, 1))
         return lumped_blocks(self.solve(ones).reshape(n, 3, 3))
 
-    def position_operator(self, forces):
+    def position_operator(self, forces: np.ndarray) -> np.ndarray | RowBlocks:
         """``G = ∂(M F)/∂x`` at the fixed ``forces`` (dense, the images' part included;
         under MPI an operator holding this process's rows)."""
         G = position_derivative(self.x, self.delta, self.viscosity, forces, self.rows)
@@ -362,7 +390,7 @@ class Resistance:
 class RowBlocks:
     """A matrix distributed by rows in rank order: ``A @ v`` gathers the rows' products."""
 
-    def __init__(self, local: np.ndarray, comm):
+    def __init__(self, local: np.ndarray, comm: MPI.Comm):
         self.local, self.comm = local, comm
 
     def __matmul__(self, v):

@@ -5,12 +5,17 @@ forms' unknowns ``z`` for assembly into ``w``'s vectors and matrices (directors.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import ufl
 
 from rftfem.model.mapped_forms import MappedForm, step_residual_z
 
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
-def sum_terms(model) -> None:
+
+def sum_terms(model: Model) -> None:
     """Set ``model``'s stored energy, forces ``F(w)`` (every non-inertial effect, and
     per component in ``effects``), inertia, end forces, the step's Jacobian
     ``∂/∂w [(1 − α_f) F + inertia]`` with the mixed-point correction (docs/model.md §5,

@@ -11,10 +11,19 @@ magnetic field too, so dolfinx is imported only where the triads are built.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import ufl
 
 from rftfem.forms import kinematics
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import dolfinx.fem
+
+    from rftfem.model.shell_model import Model
 
 
 def rotate(v: np.ndarray, rot: np.ndarray) -> np.ndarray:
@@ -44,7 +53,7 @@ def in_plane_frame(t: np.ndarray, dn: np.ndarray, fallback: np.ndarray) -> np.nd
 class Triads:
     """The nodal triads of every colour, their reference director and their update."""
 
-    def __init__(self, model, axis: np.ndarray):
+    def __init__(self, model: Model, axis: np.ndarray):
         """``axis``: the unit material axis E₁*; ``model`` gives the spaces, the θ dofs
         of each colour and the colours' indicators."""
         from dolfinx import fem
@@ -115,7 +124,7 @@ class Triads:
             for chi in m.colour_indicators or [1]
         ]
 
-    def update(self, w: np.ndarray, theta_dofs_of: list):
+    def update(self, w: np.ndarray, theta_dofs_of: list) -> None:
         """Rotate every triad by the exact Rodrigues rotation of its θ (read from the
         array of ``w``), then turn ``(a₁, a₂)`` about ``dₙ`` onto the convected
         material axis.
@@ -152,7 +161,7 @@ class Triads:
         local = float(np.abs(np.linalg.norm(d, axis=1) - 1).max()) if len(d) else 0.0
         return self.comm.allreduce(local, op=MPI.MAX)
 
-    def nodal_director(self):
+    def nodal_director(self) -> dolfinx.fem.Function:
         """The nodal directors as one [P2]³ Function (for output).  On a hinged body a
         node on a hinge has one director per side; there the highest colour's is shown."""
         from dolfinx import fem
@@ -174,7 +183,7 @@ class Triads:
             out[nodes] = dn.x.array.reshape(-1, 3)[nodes]
         return self._director_out
 
-    def destroy(self):
+    def destroy(self) -> None:
         self.nodal.destroy()
         self.convected = None
 
@@ -182,7 +191,11 @@ class Triads:
 class NodalProjection:
     """L2 projection onto a [P2]³ space with its mass matrix factorised once (LU)."""
 
-    def __init__(self, V, compile_form):
+    def __init__(
+        self,
+        V: dolfinx.fem.FunctionSpace,
+        compile_form: Callable[[ufl.Form], dolfinx.fem.Form],
+    ):
         from dolfinx import fem
 
         from rftfem import compat, petsc_options
@@ -197,7 +210,7 @@ class NodalProjection:
         self.result = fem.Function(V)
         self.b = compat.petsc_vec(self.result).duplicate()  # ghosted like the result
 
-    def project(self, rhs) -> np.ndarray:
+    def project(self, rhs: dolfinx.fem.Form) -> np.ndarray:
         """Nodal values (owned and ghost), shape (nodes, 3), of the projection whose
         compiled right-hand side is ``rhs``."""
         from petsc4py import PETSc
@@ -213,6 +226,6 @@ class NodalProjection:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         return self.result.x.array.reshape(-1, 3).copy()
 
-    def destroy(self):
+    def destroy(self) -> None:
         for obj in (self.ksp, self.A, self.b):
             obj.destroy()

@@ -24,12 +24,18 @@ import json
 import os
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem import __version__
 from rftfem.errors import SceneError
 from rftfem.outputs.writers import json_default
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from mpi4py import MPI
 
 FOLDER = "checkpoint"
 KEEP = 2
@@ -54,13 +60,13 @@ def _name(step: int) -> str:
     return f"step-{step:08d}"
 
 
-def mesh_digest(model) -> str:
+def mesh_digest(model: Any) -> str:
     """A digest of this process's mesh nodes, in their local order."""
     x = np.ascontiguousarray(model.mesh.geometry.x, dtype=np.float64)
     return hashlib.sha256(x.tobytes()).hexdigest()[:16]
 
 
-def write(out_dir: Path, step: int, arrays: dict, meta: dict, comm) -> Path:
+def write(out_dir: Path, step: int, arrays: dict, meta: dict, comm: MPI.Comm) -> Path:
     """Write one checkpoint atomically; return its folder.  Collective."""
     root = Path(out_dir) / FOLDER
     final = root / _name(step)
@@ -110,7 +116,7 @@ def complete(root: Path) -> list[Path]:
     return sorted(found, key=lambda p: p.name)
 
 
-def latest(out_dir: Path, comm) -> tuple[Path, dict]:
+def latest(out_dir: Path, comm: MPI.Comm) -> tuple[Path, dict]:
     """The last complete checkpoint of a results folder and its meta (rank 0 reads,
     every rank gets it); a one-line SceneError if there is none or it does not fit."""
     where = Path(out_dir)
@@ -148,7 +154,7 @@ def latest(out_dir: Path, comm) -> tuple[Path, dict]:
     return Path(path), meta
 
 
-def read_arrays(path: Path, comm, digest: str, meta: dict) -> dict:
+def read_arrays(path: Path, comm: MPI.Comm, digest: str, meta: dict) -> dict:
     """This process's arrays of a checkpoint, after checking that its mesh is the
     one they were written on."""
     if meta["mesh_digests"][comm.rank] != digest:

@@ -43,6 +43,7 @@ import csv
 import io
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.outputs.quantities import (
@@ -57,6 +58,13 @@ from rftfem.outputs.quantities import (
     rate,
     value_at,
 )
+
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
+
+    from rftfem.outputs.formulas import Objective
 
 DESCRIPTION = """\
 Tabulate run folders of a parameter study (CSV, one row per folder): status and
@@ -176,7 +184,9 @@ def _number(value) -> str:
 
 
 def collect(
-    dirs, quantities: list[tuple[str, Quantity]] = (), notes: list | None = None
+    dirs: Sequence[str | Path],
+    quantities: Sequence[tuple[str, Quantity | Objective]] = (),
+    notes: list | None = None,
 ) -> tuple[list[str], list[list[str]], list[RunFolder]]:
     """The table: header, rows of strings (one per run folder), and the RunFolders.
     ``quantities`` is a list of (column name, Quantity).  Paths that are not run
@@ -249,7 +259,7 @@ def to_csv(header: list[str], rows: list[list[str]]) -> str:
     return buf.getvalue()
 
 
-def parse_option(option: str) -> tuple[str, Quantity]:
+def parse_option(option: str) -> tuple[str, Objective]:
     """``NAME=EXPR`` (or a bare ``EXPR``, named by itself) of ``--quantity``."""
     name, sep, expr = option.partition("=")
     if not sep:
@@ -262,7 +272,7 @@ def parse_option(option: str) -> tuple[str, Quantity]:
     return name, formulas.parse(expr, "--quantity")
 
 
-def summary_line(runs: list[RunFolder], dirs) -> str:
+def summary_line(runs: list[RunFolder], dirs: Sequence[str | Path]) -> str:
     """'3 runs: 2 ok, 1 failed (dir)': folders named for every status but ok."""
     by_status: dict[str, list[str]] = {}
     for d, run in zip(dirs, runs):
@@ -285,7 +295,7 @@ def summary_line(runs: list[RunFolder], dirs) -> str:
 # --- command line ------------------------------------------------------------------
 
 
-def add_arguments(parser):
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     import argparse
 
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
@@ -308,7 +318,7 @@ def add_arguments(parser):
     )
 
 
-def main(args, console) -> int:
+def main(args: argparse.Namespace, console: Any) -> int:
     quantities = [parse_option(q) for q in args.quantities]
     notes = []
     header, rows, runs = collect(args.dirs, quantities, notes)

@@ -20,6 +20,12 @@ from __future__ import annotations
 
 import os
 import sys
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    import pyvista
 
 #: what the set-up scripts install for off-screen rendering (Debian package names)
 RENDER_DEBIAN_PACKAGES = ("libegl1", "libgl1-mesa-dri")
@@ -29,7 +35,7 @@ def _vtk_loaded() -> bool:
     return "vtkmodules.vtkRenderingCore" in sys.modules
 
 
-def import_pyvista():
+def import_pyvista() -> ModuleType:
     """Import and return pyvista, configured for off-screen rendering."""
     if (
         not _vtk_loaded()
@@ -53,7 +59,7 @@ def import_pyvista():
     return pyvista
 
 
-def tessellate(grid, level: int):
+def tessellate(grid: pyvista.UnstructuredGrid, level: int) -> pyvista.PolyData:
     """The surface of ``grid`` with nonlinear cells cut into ``2**level`` pieces per
     edge (VTK's nonlinear subdivision).  pyvista 0.47 on warns unless the surface
     algorithm is named; older versions have no such keyword."""

@@ -17,9 +17,14 @@ global dof order.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem import compat
+
+if TYPE_CHECKING:
+    from dolfinx import fem
 
 #: dolfinx's cell names by number of P2 nodes per cell
 _CELLS = {9: "quadrilateral", 6: "triangle"}
@@ -31,7 +36,7 @@ class FieldMesh:
     ``mesh`` and ``space`` (the [P2]³ space on it) exist on rank 0 only;
     :meth:`gather` fills a Function of ``space`` from a Function of ``V``."""
 
-    def __init__(self, V):
+    def __init__(self, V: fem.FunctionSpace):
         self.V = V
         self.comm = V.mesh.comm
         imap = V.dofmap.index_map
@@ -57,7 +62,7 @@ class FieldMesh:
         order[compat.cell_dofs(self.space).ravel()] = source[nodes.ravel()]
         self._order = order
 
-    def gather(self, f, out) -> None:
+    def gather(self, f: fem.Function, out: fem.Function | None) -> None:
         """Put the values of ``f`` (a Function of ``V``) into ``out`` (a Function of
         ``space``; ``None`` on the other ranks).  Collective."""
         mine = f.x.array[: 3 * self.n_owned].reshape(-1, 3)

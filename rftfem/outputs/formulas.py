@@ -22,11 +22,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.outputs import quantities
 from rftfem.scene import expressions
 from rftfem.scene.overrides import lookup
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*")
 _TIME = re.compile(r"\s*(?:start|end|[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)")
@@ -40,7 +44,7 @@ class Objective:
     formula: expressions.Formula
     quantities: tuple  # of quantities.Quantity and SceneValue
 
-    def evaluate(self, run) -> float:
+    def evaluate(self, run: quantities.RunFolder | str | Path) -> float:
         run = run if isinstance(run, quantities.RunFolder) else quantities.RunFolder(run)
         env = {f"q{i}": q.evaluate(run) for i, q in enumerate(self.quantities)}
         value = float(self.formula.numbers(env))
@@ -57,7 +61,7 @@ class SceneValue:
     text: str
     key: str
 
-    def evaluate(self, run) -> float:
+    def evaluate(self, run: quantities.RunFolder) -> float:
         node = (run.summary or {}).get("scene")
         if node is None:
             raise quantities.Unavailable(f"'{self.text}': {run.dir} has no summary.json")

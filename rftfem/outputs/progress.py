@@ -8,6 +8,13 @@ import os
 import sys
 import time as _time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from typing import TextIO
+
+    from mpi4py import MPI
 
 
 class Progress:
@@ -28,12 +35,12 @@ class Progress:
     def __init__(
         self,
         end: float,
-        comm,
+        comm: MPI.Comm,
         quiet: bool = False,
-        stream=None,
+        stream: TextIO | None = None,
         interval: float | None = None,
         label: str = "t",
-        warn=None,
+        warn: Callable[[str], object] | None = None,
     ):
         self.end, self.label = end, label
         #: where a quiet run's warnings go instead of stderr (the Python API's
@@ -60,12 +67,12 @@ class Progress:
         self.stream.write(text + "\n")
         self.stream.flush()
 
-    def log(self, text: str):
+    def log(self, text: str) -> None:
         """A notice: printed unless quiet."""
         if self.active and not self.quiet:
             self._write(text)
 
-    def warn(self, text: str):
+    def warn(self, text: str) -> None:
         """A warning: printed even when quiet (then on stderr), and kept in
         :attr:`warnings` (summary.json's ``warnings``)."""
         self.warnings.append(text)
@@ -77,13 +84,13 @@ class Progress:
             else:
                 self._write(text)
 
-    def final(self, text: str):
+    def final(self, text: str) -> None:
         """The run's last line: printed unless quiet."""
         if self.active and not self.quiet:
             self.close()
             self._write(text)
 
-    def update(self, t: float, step: int, newton: int, residual: float):
+    def update(self, t: float, step: int, newton: int, residual: float) -> None:
         if not self.active or self.quiet:
             return
         now = _time.perf_counter()
@@ -105,14 +112,14 @@ class Progress:
                 f"residual {residual:.3e}  elapsed {elapsed:.1f} s  eta {eta:.0f} s"
             )
 
-    def close(self):
+    def close(self) -> None:
         if self.bar:
             self.stream.write("\n")
             self.stream.flush()
             self.bar = False
 
 
-def render_in_child(folder: Path, kind: str, comm, progress: Progress) -> None:
+def render_in_child(folder: Path, kind: str, comm: MPI.Comm, progress: Progress) -> None:
     """``output.render``: draw ``folder/render.<kind>`` with ``rftfem render`` in a
     child process of rank 0 (pyvista must not share a process with dolfinx, see
     :mod:`rftfem.outputs.compat_render`). A failed drawing is reported, and the run's

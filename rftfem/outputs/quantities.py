@@ -204,7 +204,7 @@ def parse(text: str) -> Quantity:
     return q
 
 
-def evaluate(expr: str, run_dir) -> float:
+def evaluate(expr: str, run_dir: RunFolder | str | Path) -> float:
     """The value of quantity ``expr`` in the run folder ``run_dir``."""
     return parse(expr).evaluate(run_dir)
 
@@ -242,7 +242,7 @@ def value_at(t: np.ndarray, x: np.ndarray, at: float) -> float:
     return float(x[j - 1] + w * (x[j] - x[j - 1]))
 
 
-def rate(t, x, a: float, b: float) -> float:
+def rate(t: np.ndarray, x: np.ndarray, a: float, b: float) -> float:
     """Mean rate of change over [a, b]: (x(b) - x(a)) / (b - a)."""
     return (value_at(t, x, b) - value_at(t, x, a)) / (b - a)
 
@@ -256,13 +256,13 @@ def _window(t, x, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
     return tw, xw
 
 
-def mean(t, x, a: float, b: float) -> float:
+def mean(t: np.ndarray, x: np.ndarray, a: float, b: float) -> float:
     """Time average of the piecewise-linear x over [a, b] (trapezoid rule)."""
     tw, xw = _window(t, x, a, b)
     return float(np.sum(0.5 * (xw[1:] + xw[:-1]) * np.diff(tw)) / (b - a))
 
 
-def extreme(t, x, a: float, b: float, which: str = "max") -> float:
+def extreme(t: np.ndarray, x: np.ndarray, a: float, b: float, which: str = "max") -> float:
     """Largest (``which="max"``) or smallest value of x over [a, b]."""
     _, xw = _window(t, x, a, b)
     return float(xw.max() if which == "max" else xw.min())
@@ -330,7 +330,7 @@ class RunFolder:
     """A results folder of ``rftfem run``: its summary (None if missing), its status,
     and its time series (read on demand)."""
 
-    def __init__(self, path):
+    def __init__(self, path: str | Path):
         self.dir = Path(path)
         if not self.dir.is_dir():
             raise SceneError(

@@ -96,15 +96,15 @@ def _tick_format(clim) -> str:
 
 
 def render(
-    results,
-    out,
+    results: str | Path,
+    out: str | Path,
     color: str | None = None,
     time: float | None = None,
     view: str = "iso",
     trail: str | None = None,
     fps: float | None = None,
     every: int | None = None,
-    size=(1024, 768),
+    size: tuple[int, int] = (1024, 768),
     scale: float = 1.0,
 ) -> Rendered:
     """Draw the run in ``results`` to ``out`` (.png: one frame; .mp4/.gif: a film),

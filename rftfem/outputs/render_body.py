@@ -68,7 +68,7 @@ def _polylines(n_edges: int, k: int) -> pv.PolyData:
 class BodyDrawing:
     """Surface, cell edges and outline of the body for given nodal displacements."""
 
-    def __init__(self, reference):
+    def __init__(self, reference: pv.UnstructuredGrid):
         self.grid = reference.copy()
         self.grid.clear_data()
         self.reference_points = np.array(reference.points, dtype=float)
@@ -86,18 +86,18 @@ class BodyDrawing:
         self._edges = (*_edge_weights(every, k), _polylines(len(every), k))
         self._outline = (*_edge_weights(boundary, k), _polylines(len(boundary), k))
 
-    def surface(self, displacement, data: dict | None = None) -> pv.PolyData:
+    def surface(self, displacement: np.ndarray, data: dict | None = None) -> pv.PolyData:
         """The deformed surface, with point ``data`` (arrays at the nodes) carried along."""
         self.grid.points = self.reference_points + displacement
         for name, values in (data or {}).items():
             self.grid.point_data[name] = values
         return tessellate(self.grid, self.level)
 
-    def edges(self, displacement) -> pv.PolyData:
+    def edges(self, displacement: np.ndarray) -> pv.PolyData:
         """The cells' edges as curved polylines (the same PolyData, moved, at each call)."""
         return self._moved(self._edges, displacement)
 
-    def outline(self, displacement) -> pv.PolyData:
+    def outline(self, displacement: np.ndarray) -> pv.PolyData:
         """The body's boundary edges."""
         return self._moved(self._outline, displacement)
 

@@ -9,8 +9,12 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    from typing import Any
 
 DESCRIPTION = (
     "Draw a finished (or failed, or running) run from its results folder: the deformed "
@@ -24,7 +28,7 @@ VIEWS = ("iso", "xy", "xz", "yz", "follow")
 FORMATS = (".png", ".mp4", ".gif")
 
 
-def add_arguments(parser: argparse.ArgumentParser):
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "results",
         metavar="RESULTS_DIR",
@@ -116,7 +120,7 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def main(args, console) -> int:
+def main(args: argparse.Namespace, console: Any) -> int:
     results = Path(args.results)
     if not results.is_dir():
         raise SceneError(f"results folder '{results}' not found")
@@ -169,7 +173,9 @@ _MPI_ENV_PREFIXES = (
 )
 
 
-def draw_in_child(results, out, *options: str) -> subprocess.CompletedProcess:
+def draw_in_child(
+    results: str | Path, out: str | Path, *options: str
+) -> subprocess.CompletedProcess:
     """Run ``rftfem render RESULTS --out OUT OPTIONS...`` in a child process.
 
     For scripts that have imported dolfinx (demos, a run's ``output.render``):
@@ -182,7 +188,7 @@ def draw_in_child(results, out, *options: str) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, env=env, stdin=subprocess.DEVNULL, capture_output=True, text=True)
 
 
-def draw_picture_and_film(results, stem: str, *options: str) -> list[Path]:
+def draw_picture_and_film(results: str | Path, stem: str, *options: str) -> list[Path]:
     """``STEM.png`` (last frame) and ``STEM.mp4`` (whole run) in ``results``: what
     each demo leaves for a look. Prints one line per file; a failure is reported,
     not raised (the numbers of a demo matter more than its pictures)."""

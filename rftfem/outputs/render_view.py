@@ -16,6 +16,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,9 @@ from rftfem.outputs.quantities import read_csv
 from rftfem.outputs.rigid_fit import magnified
 
 pv = import_pyvista()
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 #: the largest number of frames a film gets without --every (an MP4 is streamed to
 #: ffmpeg; a GIF is held in memory by its encoder until it is written: fewer)
@@ -273,7 +277,9 @@ class Survey:
     srange: tuple[float, float]  # range of the colour field over the run
 
 
-def survey_frames(run: RunFields, idx, color: str, path) -> Survey:
+def survey_frames(
+    run: RunFields, idx: np.ndarray, color: str, path: tuple[np.ndarray, np.ndarray] | None
+) -> Survey:
     """Box of the frames drawn, and the colour range over the whole run (a still
     picture and a film of the same run share their colours)."""
     lo, hi = run.reference_points.min(axis=0), run.reference_points.max(axis=0)
@@ -299,7 +305,7 @@ def survey_frames(run: RunFields, idx, color: str, path) -> Survey:
     return Survey(lo, hi, max(body_size, 1e-12), (smin, smax))
 
 
-def color_limits(color: str, smin: float, smax: float):
+def color_limits(color: str, smin: float, smax: float) -> tuple[float, float] | None:
     """The colour bar's range for values in [smin, smax] (None without values)."""
     if not math.isfinite(smin):
         return None
@@ -320,7 +326,14 @@ def color_limits(color: str, smin: float, smax: float):
 _USABLE_WIDTH = 0.8
 
 
-def place_camera(plotter, view: str, lo, hi, center=None, size: float | None = None):
+def place_camera(
+    plotter: pv.Plotter,
+    view: str,
+    lo: np.ndarray | None,
+    hi: np.ndarray | None,
+    center: np.ndarray | None = None,
+    size: float | None = None,
+) -> None:
     """Aim the camera along the view's direction so that the box [lo, hi] (or, with
     ``center`` and ``size``, a ball of diameter ``size`` there) fills the picture
     left of the colour bar. Axis views are parallel projections."""
@@ -365,7 +378,7 @@ def place_camera(plotter, view: str, lo, hi, center=None, size: float | None = N
     )
 
 
-def pixel_of(plotter, point) -> tuple[float, float]:
+def pixel_of(plotter: pv.Plotter, point: np.ndarray | Sequence[float]) -> tuple[float, float]:
     """Display coordinates of a world point (column, row counted from the top)."""
     ren = plotter.renderer
     ren.SetWorldPoint(*[float(c) for c in point], 1.0)

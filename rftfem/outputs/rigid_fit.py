@@ -6,7 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def magnified(X: np.ndarray, u: np.ndarray, scale: float):
+def magnified(
+    X: np.ndarray, u: np.ndarray, scale: float
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Points ``X + u`` drawn with their deformation magnified ``scale`` times about
     the best-fit rigid motion (Kabsch: the rotation R and the centroids' shift that
     bring ``X`` closest to ``X + u`` in the least-squares sense): ``rigid + scale ×

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from dolfinx import fem, io
@@ -19,11 +20,18 @@ from rftfem import compat
 from rftfem.errors import SceneError
 from rftfem.scene.selectors import owned_cells
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterable
+    from typing import Any
+
+    from dolfinx.mesh import Mesh
+    from mpi4py import MPI
+
 
 class Probes:
     """Displacement of material points given in reference coordinates."""
 
-    def __init__(self, model, probes: list[dict]):
+    def __init__(self, model: Any, probes: list[dict]):
         self.model = model
         self.names = [p["name"] for p in probes]
         self.points = np.array([p["at"] for p in probes], dtype=float).reshape(-1, 3)
@@ -55,7 +63,7 @@ class BodyLog:
     energy with inertia, the drag power, the field and the magnetic moment, ...),
     then the named entries' reactions (reactions.py).  Every value is global."""
 
-    def __init__(self, model, reactions=None):
+    def __init__(self, model: Any, reactions: Any | None = None):
         self.model, self.reactions = model, reactions
         self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
         self.columns += [c for comp in model.components for c in comp.columns]
@@ -79,18 +87,18 @@ class CsvLog:
     """A CSV file written by rank 0, flushed after every row; ``append``: rows added
     to the file as it is (a restarted run), the header not written again."""
 
-    def __init__(self, path: Path, header: list[str], comm, append: bool = False):
+    def __init__(self, path: Path, header: list[str], comm: MPI.Comm, append: bool = False):
         self.rank = comm.rank
         self.file = open(path, "a" if append else "w", encoding="utf-8") if self.rank == 0 else None
         if not append:
             self.row(header)
 
-    def row(self, values):
+    def row(self, values: Iterable[str | float]) -> None:
         if self.file is not None:
             self.file.write(",".join(_fmt(v) for v in values) + "\n")
             self.file.flush()
 
-    def close(self):
+    def close(self) -> None:
         if self.file is not None:
             self.file.close()
 
@@ -116,7 +124,12 @@ class FieldWriter:
     time step written before."""
 
     def __init__(
-        self, model, path: Path, extra: dict | None = None, main: Path | None = None, warn=None
+        self,
+        model: Any,
+        path: Path,
+        extra: dict | None = None,
+        main: Path | None = None,
+        warn: Callable[[str], object] | None = None,
     ):
         from mpi4py import MPI
 
@@ -140,7 +153,7 @@ class FieldWriter:
             with io.XDMFFile(MPI.COMM_SELF, str(path), "w") as file:
                 file.write_mesh(self.nodes.mesh)
 
-    def write(self, t: float):
+    def write(self, t: float) -> None:
         from mpi4py import MPI
 
         self.model.nodal_director()  # refreshed from the triads (hinged bodies)
@@ -166,21 +179,21 @@ class FieldWriter:
                     "on the current stack for fields"
                 )
 
-    def close(self):
+    def close(self) -> None:
         if self.model.comm.rank == 0:
             declare_double_precision(self.path)
             if self.main is not None:
                 merge_field_segment(self.main, self.path)
 
 
-def write_json(path: Path, data: dict, comm):
+def write_json(path: Path, data: dict, comm: MPI.Comm) -> None:
     if comm.rank == 0:
         tmp = path.with_suffix(".json.tmp")
         tmp.write_text(json.dumps(data, indent=2, default=json_default) + "\n", encoding="utf-8")
         tmp.replace(path)
 
 
-def json_default(obj):
+def json_default(obj: object) -> object:
     """``json.dumps``' default for numpy values and paths."""
     if isinstance(obj, np.generic):
         return obj.item()
@@ -279,7 +292,7 @@ def field_segments(main: Path) -> list[Path]:
     )
 
 
-def merge_field_segment(main: Path, segment: Path):
+def merge_field_segment(main: Path, segment: Path) -> None:
     """Add the time steps of ``segment`` (a restart's field file) to the run's
     ``main`` field file, whose mesh they share; their data stay in the segment's
     own HDF5 file.  A segment already in ``main`` is left out.  Both are declared
@@ -302,7 +315,7 @@ def merge_field_segment(main: Path, segment: Path):
     _write_xdmf(tree, main)
 
 
-def keep_fields_until(main: Path, t: float, at_t: bool = True):
+def keep_fields_until(main: Path, t: float, at_t: bool = True) -> None:
     """Drop the time steps after ``t`` (``at_t``: keep the one at it) from a field
     file, and declare its real arrays double precision (see :func:`merge_field_segment`)."""
     tree = _xdmf_tree(main)
@@ -317,7 +330,7 @@ def keep_fields_until(main: Path, t: float, at_t: bool = True):
     _write_xdmf(tree, main)
 
 
-def write_cell_field(path: Path, mesh, f) -> None:
+def write_cell_field(path: Path, mesh: Mesh, f: fem.Function) -> None:
     """One cellwise (DG0) Function, or one of the mesh's own degree (P1), on the body's
     mesh, in XDMF for ParaView (all ranks write collectively)."""
     with io.XDMFFile(mesh.comm, str(path), "w") as file:

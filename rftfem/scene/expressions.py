@@ -17,10 +17,14 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:  # (UFL is imported when a formula becomes UFL)
+    import ufl
 
 #: function name -> number of arguments (None: two or more)
 FUNCTIONS = {
@@ -64,7 +68,7 @@ class Formula:
     def value(self) -> float:
         return float(self.numbers({}))
 
-    def numbers(self, env: dict):
+    def numbers(self, env: dict) -> float | np.ndarray:
         """The formula's value for ``env`` (variable -> float or numpy array).
 
         A division by zero among floats (``1/t`` at ``t = 0``) is a SceneError naming
@@ -78,7 +82,9 @@ class Formula:
                 f"{' at ' + at if at else ''} ({exc})"
             ) from None
 
-    def ufl(self, env: dict, number=None):
+    def ufl(
+        self, env: dict, number: Callable[[float], ufl.core.expr.Expr] | None = None
+    ) -> ufl.core.expr.Expr | float:
         """The formula as a UFL expression of ``env`` (variable -> UFL expression).
 
         ``number`` (float -> UFL), if given, makes each number of the formula (but
@@ -113,7 +119,7 @@ def substitute(text: str, values: dict) -> str:
     return "".join(out) + text[pos:]
 
 
-def parse(text, key: str, variables: tuple[str, ...]) -> Formula:
+def parse(text: str | float, key: str, variables: tuple[str, ...]) -> Formula:
     """Parse ``text`` (a string, or a number taken as it is) for the scene key ``key``
     whose formulas may use ``variables``."""
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):

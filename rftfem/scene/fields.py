@@ -17,6 +17,7 @@ model is built, where the nodes are known.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,7 @@ class MaterialField(Validator):
             'profile file ({ profile = "file.csv" }, rows X,Y,Z,value)'
         )
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> float | str | dict[str, str]:
         if isinstance(value, dict):
             unknown = sorted(set(value) - {"profile"})
             if unknown or "profile" not in value:
@@ -79,7 +80,7 @@ class MaterialField(Validator):
         )
 
 
-def is_field(value) -> bool:
+def is_field(value: float | str | dict[str, str]) -> bool:
     """Whether a validated material value varies over the body (formula or profile)."""
     return isinstance(value, (str, dict))
 
@@ -92,7 +93,9 @@ def profile_file(scene: dict, name: str) -> Path:
     return Path(folder) / Path(name).expanduser()
 
 
-def field_values(scene: dict, value, at: np.ndarray, key: str) -> np.ndarray:
+def field_values(
+    scene: dict, value: float | str | dict[str, str], at: np.ndarray, key: str
+) -> np.ndarray:
     """A validated material value at the points ``at`` (n, 3): (n,) floats.  A formula
     or profile that is not finite somewhere is a one-line SceneError naming the point."""
     from rftfem.scene.expressions import parse
@@ -125,7 +128,7 @@ def field_values(scene: dict, value, at: np.ndarray, key: str) -> np.ndarray:
     return out
 
 
-def describe(value) -> str:
+def describe(value: float | str | dict[str, str]) -> str:
     """The value as a message names it."""
     if isinstance(value, dict):
         return f"the profile '{value['profile']}'"

@@ -168,7 +168,12 @@ def check_material(shell: dict) -> None:
             check_poisson(*(table[k] for k in ("E1", "E2", "nu12")), f"{where}.nu12")
 
 
-def check_poisson(E1, E2, nu12, key: str) -> None:
+def check_poisson(
+    E1: float | str | dict[str, str],
+    E2: float | str | dict[str, str],
+    nu12: float | str | dict[str, str],
+    key: str,
+) -> None:
     """ν12 ν21 < 1 (ν21 = ν12 E2/E1): the plane-stress stiffness is positive definite;
     numbers only (fields are checked at the nodes, rftfem/model/materials.py)."""
     if any(is_field(v) for v in (E1, E2, nu12)):

@@ -9,6 +9,7 @@ sweep's child runs are given again.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from rftfem.scene.reading import UNSET, unset_text
 
@@ -44,7 +45,7 @@ def as_arguments(texts: list[str]) -> list[str]:
     return out
 
 
-def lookup(scene: dict, key: str, absent=None):
+def lookup(scene: dict, key: str, absent: Any = None) -> Any:
     """The value at the dotted ``key`` (``shell.parts.0.E``: tables by name, arrays by
     index) of a scene's nested dicts and lists, a completed scene's or a raw one's;
     ``absent`` where it has none (an unknown key, an index out of range, a private

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -123,7 +124,7 @@ def _bending_stiffness(model) -> float:
     return max(E * t**3 / (12 * (1 - nu**2)), sys.float_info.min)
 
 
-def groups(scene: dict, model) -> list[tuple[str, float, str]]:
+def groups(scene: dict, model: Any) -> list[tuple[str, float, str]]:
     """``(name, value, meaning)`` of the scene's dimensionless groups (serial or
     collective: every rank returns the same)."""
     time_ = scene["time"]
@@ -246,7 +247,7 @@ def _units_note(value: float) -> str:
     )
 
 
-def format_groups(rows) -> list[str]:
+def format_groups(rows: list[tuple[str, float, str]]) -> list[str]:
     """The groups as aligned lines for ``rftfem check``."""
     width = max((len(name) for name, _, _ in rows), default=0)
     return [f"  {name:<{width}}  {value:<10.3g}  {meaning}" for name, value, meaning in rows]

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any
+from typing import Any, Sequence
 
 from rftfem.errors import SceneError
 from rftfem.scene.validators import (
@@ -219,7 +219,7 @@ class Parameters(Free):
 MAX_STEPS = 1e9
 
 
-def unit_vector(v) -> tuple[float, float, float]:
+def unit_vector(v: Sequence[float]) -> tuple[float, float, float]:
     """``v / |v|`` for a nonzero 3-vector of any finite size (scaled first: no overflow)."""
     scale = max(abs(x) for x in v)
     w = [x / scale for x in v]
@@ -352,7 +352,7 @@ def check_unique(items: list[dict], key: str, path: str, what: str) -> None:
         seen.add(name)
 
 
-def table_iff(entry: dict, path: str, switch: str, key: str, what: str):
+def table_iff(entry: dict, path: str, switch: str, key: str, what: str) -> None:
     """``entry[key]`` is required when ``entry[switch] == "table"`` and refused otherwise."""
     if entry[switch] == "table" and entry[key] is None:
         raise SceneError(
@@ -371,7 +371,7 @@ def table_iff(entry: dict, path: str, switch: str, key: str, what: str):
 TANGENTS = ("mixed-point", "exact")
 
 
-def check_tangent(value, where: str = "solver.tangent") -> str:
+def check_tangent(value: Any, where: str = "solver.tangent") -> str:
     """``value`` if it names a tangent of ``TANGENTS``, else a one-line SceneError."""
     return _check_choice(value, TANGENTS, where)
 
@@ -381,7 +381,7 @@ def check_tangent(value, where: str = "solver.tangent") -> str:
 FACTORIZATIONS = ("auto", "every-iteration", "every-step", "reused")
 
 
-def check_factorization(value, where: str = "solver.factorization") -> str:
+def check_factorization(value: Any, where: str = "solver.factorization") -> str:
     """``value`` if it names a policy of ``FACTORIZATIONS``, else a one-line SceneError."""
     return _check_choice(value, FACTORIZATIONS, where)
 
@@ -391,7 +391,7 @@ def check_factorization(value, where: str = "solver.factorization") -> str:
 MATRIX_TYPES = ("baij", "aij")
 
 
-def check_matrix_type(value, where: str = "solver.mat_type") -> str:
+def check_matrix_type(value: Any, where: str = "solver.mat_type") -> str:
     """``value`` if it names one of ``MATRIX_TYPES``, else a one-line SceneError."""
     return _check_choice(value, MATRIX_TYPES, where)
 

@@ -14,11 +14,16 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.scene.schema import fmt, suggest
+
+if TYPE_CHECKING:  # (dolfinx is imported where a mesh is used)
+    import dolfinx.fem
+    import dolfinx.mesh
 
 #: ``where`` selectors that always exist on a strip (besides region names).
 EDGE_SELECTORS = ("x=0", "x=L", "y=0", "y=W")
@@ -89,7 +94,7 @@ def check_where(value: str, path: str, scene: dict) -> None:
         )
 
 
-def check_on_body(point, path: str, what: str, scene: dict) -> None:
+def check_on_body(point: Sequence[float], path: str, what: str, scene: dict) -> None:
     """A material point of a strip-like body (a probe, a point force) must lie on it,
     at z = 0; points of a gmsh body are checked on the mesh."""
     mesh = scene["mesh"]
@@ -109,7 +114,7 @@ def check_on_body(point, path: str, what: str, scene: dict) -> None:
 # ------------------------------------------------------------------ on a mesh
 
 
-def cells_of(body, names, key: str = "region") -> np.ndarray:
+def cells_of(body: Any, names: list[str], key: str = "region") -> np.ndarray:
     """Local cells of the named regions (``"all"``: every cell, unless a region has that
     name); an unknown name is a SceneError at ``key``."""
     if "all" in names and "all" not in body.regions:
@@ -125,12 +130,12 @@ def cells_of(body, names, key: str = "region") -> np.ndarray:
     return np.unique(ct.indices[np.isin(ct.values, tags)]).astype(np.int32)
 
 
-def mesh_selectors(body) -> list[str]:
+def mesh_selectors(body: Any) -> list[str]:
     """Every selector of a built body."""
     return ["all", *EDGE_SELECTORS, *body.regions, *body.edges, *body.points]
 
 
-def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
+def facets_of(body: Any, where: str, key: str, line: bool = False) -> np.ndarray:
     """Local facets selected by an edge selector or a named curve group; with
     ``line`` (hinges) also ``"x=c"`` / ``"y=c"``: the facets on that line."""
     from dolfinx import mesh as dmesh
@@ -171,7 +176,7 @@ def facets_of(body, where: str, key: str, line: bool = False) -> np.ndarray:
     return facets
 
 
-def vertices_of(body, where: str, key: str) -> np.ndarray:
+def vertices_of(body: Any, where: str, key: str) -> np.ndarray:
     """Local vertices at the coordinates of a named point group (a gmsh physical
     point); each of its points must be a vertex of the body."""
     from dolfinx import mesh as dmesh
@@ -195,7 +200,7 @@ def vertices_of(body, where: str, key: str) -> np.ndarray:
     return np.unique(np.asarray(vertices, dtype=np.int32))
 
 
-def entities_of(body, where: str, key: str):
+def entities_of(body: Any, where: str, key: str) -> tuple[int, np.ndarray]:
     """(dim, local entities) selected by any ``where`` selector: cells for "all" and
     regions, vertices for a named point, facets otherwise."""
     mesh = body.mesh
@@ -219,7 +224,7 @@ def entities_of(body, where: str, key: str):
 OFF_SURFACE = 0.05
 
 
-def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
+def owned_cells(mesh: dolfinx.mesh.Mesh, points: np.ndarray) -> tuple[list, list[bool]]:
     """For each reference point (rows of ``points``): the one process that owns a
     cell containing it gets that local cell, the others None; and whether the point
     lies on the body at all (the same on every process).  A point within
@@ -247,7 +252,7 @@ def owned_cells(mesh, points: np.ndarray) -> tuple[list, list[bool]]:
     return cells, on_body
 
 
-def indicator(mesh, cells: np.ndarray, name: str):
+def indicator(mesh: dolfinx.mesh.Mesh, cells: np.ndarray, name: str) -> dolfinx.fem.Function:
     """A DG0 Function, 1 on the given local cells and 0 elsewhere: a region in a form
     over the plain ``dx`` (one form may hold cell integrals of one tagging only)."""
     from dolfinx import fem

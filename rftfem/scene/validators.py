@@ -13,7 +13,7 @@ import contextvars
 import difflib
 import math
 import re
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 from rftfem.errors import SceneError
 
@@ -120,7 +120,7 @@ class Str(Validator):
         else:
             self.expected = "a string"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> str:
         if not isinstance(value, str):
             raise err(path, self.expected, value)
         if value in self.unavailable:
@@ -167,7 +167,7 @@ class Num(Validator):
     def describe(self, name: str) -> str:
         return self._text(self.name or name)
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> float:
         expected = self._text(self.name or _leaf_name(path))
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise err(path, expected, value)
@@ -194,7 +194,7 @@ class Int(Validator):
         self.lo = lo
         self.expected = "an integer" if lo is None else f"an integer >= {lo}"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> int:
         value = _whole(value)
         if isinstance(value, bool) or not isinstance(value, int):
             raise err(path, self.expected, value)
@@ -206,7 +206,7 @@ class Int(Validator):
 class Bool(Validator):
     expected = "true or false"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> bool:
         if not isinstance(value, bool):
             raise err(path, self.expected, value)
         return value
@@ -231,7 +231,7 @@ class Vec(Validator):
             else f"{n} numbers"
         )
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[float]:
         if not isinstance(value, list) or len(value) != self.n:
             raise err(path, self.expected, value)
         out = []
@@ -265,7 +265,7 @@ MAX_CELLS = 10_000_000
 class Divisions(Validator):
     expected = "[n_length, n_width], two integers >= 1"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[int]:
         given, value = value, [_whole(v) for v in value] if isinstance(value, list) else value
         if (
             not isinstance(value, list)
@@ -288,7 +288,7 @@ class Pairs(Validator):
         self.expected = f"a list of [t, {what}] number pairs with strictly increasing t"
         self.pair = f"a [t, {what}] pair of numbers"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[list[float]]:
         if not isinstance(value, list) or not value:
             raise err(path, self.expected, value)
         out = []
@@ -325,7 +325,7 @@ class Rows(Validator):
         )
         self.row = f"a [{names}] row of {len(columns)} numbers"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[list[float]]:
         if not isinstance(value, list) or len(value) < self.min_rows:
             raise err(path, self.expected, value)
         out = []
@@ -355,7 +355,7 @@ _PARAMETERS: contextvars.ContextVar[dict] = contextvars.ContextVar("parameters",
 
 
 @contextlib.contextmanager
-def scene_parameters(values: dict):
+def scene_parameters(values: dict) -> Iterator[None]:
     """Within this block, formulas may use the names of ``values`` (a scene's
     ``[parameters]``); each is replaced by its number in the validated scene."""
     token = _PARAMETERS.set(dict(values or {}))
@@ -379,7 +379,7 @@ class Formula(Validator):
             else self.number.expected
         )
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> float | str:
         from rftfem.scene.expressions import parse, substitute
 
         if isinstance(value, str):
@@ -404,7 +404,7 @@ class Formulas(Validator):
             f"{', '.join(variables)} (a string)"
         )
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[float | str]:
         if not isinstance(value, list) or len(value) != self.n:
             raise err(path, self.expected, value)
         out = [self.item(v, join(path, i)) for i, v in enumerate(value)]
@@ -417,7 +417,7 @@ class Fix(Validator):
     options = ("ux", "uy", "uz", "rotation", "clamped")
     expected = "a non-empty list of " + one_of(options)
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> list[str]:
         if not isinstance(value, list) or not value:
             raise err(path, self.expected, value)
         for i, v in enumerate(value):
@@ -440,7 +440,7 @@ class Where(Validator):
         if expected:
             self.expected = expected
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> str:
         if not isinstance(value, str) or not value.strip() or value != value.strip():
             raise err(path, self.expected, value)
         return value

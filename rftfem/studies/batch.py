@@ -26,8 +26,12 @@ import sys
 import time
 import traceback
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 
 def run_here(
@@ -35,7 +39,7 @@ def run_here(
     overrides: list[str],
     folder: Path,
     petsc_args: list[str] | None = None,
-    simulate=None,
+    simulate: Callable[..., object] | None = None,
 ) -> int:
     """Run ``scene_file`` with ``overrides`` into ``folder`` in this process (serial);
     its messages go to ``folder/run.log``; return the exit status of ``rftfem run``.

@@ -31,8 +31,15 @@ import re
 import shutil
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    import argparse
+
+    import distributed
+    import distributed.deploy
 
 #: seconds to wait for a Dask scheduler given by address before saying it is unreachable
 CONNECT_TIMEOUT = 8.0
@@ -55,7 +62,11 @@ WORKER_DIED = 137
 
 
 def add_arguments(
-    parser, command: str, runs: str = "runs", jobs_note: str = "", reuse_note: str = ""
+    parser: argparse.ArgumentParser,
+    command: str,
+    runs: str = "runs",
+    jobs_note: str = "",
+    reuse_note: str = "",
 ) -> None:
     """The options that sweep, study and optimize share: ``--set`` and ``--unset`` (for
     every run), ``--out``, ``--jobs``, ``--np``, ``--reuse``, ``--executor`` and its
@@ -134,7 +145,11 @@ class Executor:
     name = "local"
 
     def run(
-        self, scene_file, overrides: list[str], folder: Path, petsc_args: list[str] | None = None
+        self,
+        scene_file: str | Path,
+        overrides: list[str],
+        folder: Path,
+        petsc_args: list[str] | None = None,
     ) -> int:
         raise NotImplementedError
 
@@ -155,7 +170,13 @@ class LocalExecutor(Executor):
         self.launcher = launcher(np)
         self.in_process = (jobs == 1 and np == 1) if in_process is None else in_process
 
-    def run(self, scene_file, overrides, folder, petsc_args=None) -> int:
+    def run(
+        self,
+        scene_file: str | Path,
+        overrides: list[str],
+        folder: Path,
+        petsc_args: list[str] | None = None,
+    ) -> int:
         from rftfem.studies.batch import run_child, run_here
 
         if self.in_process:
@@ -183,10 +204,22 @@ def remote_run(
 class DaskExecutor(Executor):
     """Runs submitted to a Dask cluster: each a task that starts a child run."""
 
-    def __init__(self, client, np: int = 1, cluster=None, name: str = "dask"):
+    def __init__(
+        self,
+        client: distributed.Client,
+        np: int = 1,
+        cluster: distributed.deploy.Cluster | None = None,
+        name: str = "dask",
+    ):
         self.client, self.cluster, self.np, self.name = client, cluster, np, name
 
-    def run(self, scene_file, overrides, folder, petsc_args=None) -> int:
+    def run(
+        self,
+        scene_file: str | Path,
+        overrides: list[str],
+        folder: Path,
+        petsc_args: list[str] | None = None,
+    ) -> int:
         from distributed import KilledWorker
 
         future = self.client.submit(

@@ -24,11 +24,18 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.model.materials import FORM_NAMES, owners
+
+if TYPE_CHECKING:
+    import ufl
+    from petsc4py import PETSc
+
+    from rftfem.studies.sensitivity import _Adjoint
 
 #: the keys whose field can be differentiated (and varied by ``--vary-field``)
 FIELD_KEYS = ("shell.thickness", "shell.E", "shell.nu", "shell.density")
@@ -93,7 +100,9 @@ def check_field_keys(scene: dict, keys: list[str]) -> None:
             )
 
 
-def field_gradients(adj, lam, J_form, keys: list[str]) -> list[FieldGradient]:
+def field_gradients(
+    adj: _Adjoint, lam: PETSc.Vec, J_form: ufl.Form | None, keys: list[str]
+) -> list[FieldGradient]:
     """The gradients of the objective (``J_form`` its UFL form or None; ``lam`` the
     adjoint vector) by each field key, for an ``_Adjoint`` at the converged state."""
     import ufl

@@ -8,17 +8,25 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable
 
 from rftfem.errors import SceneError
 from rftfem.studies.sensitivity import check_request, keep_last_step
 from rftfem.studies.sensitivity import gradient as adjoint_gradient
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+
 __all__ = ["run_with_gradient", "run_with_field_gradients", "gradient", "Gradient"]
 
 
 def run_with_gradient(
-    scene_file, overrides: list[str], folder, keys: list[str], objective: str, petsc_args=None
+    scene_file: str | Path,
+    overrides: list[str],
+    folder: str | Path,
+    keys: list[str],
+    objective: str,
+    petsc_args: list[str] | None = None,
 ) -> tuple[int, float | None, list[float] | None]:
     """Run the static scene (time.scheme resolves to "static") in this process into
     ``folder`` as ``rftfem.studies.batch.run_here`` does (same outputs, exit statuses, messages
@@ -34,13 +42,13 @@ def run_with_gradient(
 
 
 def run_with_field_gradients(
-    scene_file,
+    scene_file: str | Path,
     overrides: list[str],
-    folder,
+    folder: str | Path,
     fields: list[str],
-    objective,
-    petsc_args=None,
-    combine=None,
+    objective: str | list[str],
+    petsc_args: list[str] | None = None,
+    combine: Callable[[list[float]], tuple[float, Sequence[float]]] | None = None,
 ) -> tuple[int, float | None, dict | None]:
     """As ``run_with_gradient`` for field keys (``shell.thickness``, ...,
     rftfem/studies/field_gradients.py): ``(0, J, {key: FieldGradient})``.  Each key's
@@ -154,7 +162,7 @@ class Gradient:
 
 
 def gradient(
-    scene,
+    scene: Any,
     objective: str,
     keys: Iterable[str] = (),
     fields: Iterable[str] = (),

@@ -51,6 +51,7 @@ import math
 import shutil
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.studies import executors
@@ -59,6 +60,11 @@ from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.studies.optimize_evaluations import BudgetSpent, Evaluator, parse_vary
 from rftfem.studies.optimize_report import plot, write_best
 from rftfem.studies.reuse import report
+
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
 
 METHODS = ("cobyla", "nelder-mead", "powell", "l-bfgs-b", "grid")
 DEFAULT_METHOD = "cobyla"
@@ -103,7 +109,7 @@ exit status: 0 optimisation written (also when runs failed), 2 bad option or sce
 # --- the methods -------------------------------------------------------------------
 
 
-def search(method: str, ev: Evaluator, z0, budget: int) -> str:
+def search(method: str, ev: Evaluator, z0: Sequence[float], budget: int) -> str:
     """Run ``method`` from the unit point ``z0``; the reason it stopped."""
     import numpy as np
     from scipy import optimize
@@ -218,7 +224,7 @@ def _value_or_merit(ev: Evaluator, z) -> float:
 # --- command line ------------------------------------------------------------------
 
 
-def add_arguments(parser):
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     import argparse
 
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
@@ -297,7 +303,7 @@ def _method(name: str) -> str:
     return m
 
 
-def main(args, petsc_args: list[str], console) -> int:
+def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
     from rftfem.scene.reading import load_scene, resolved_scheme
 
     if args.vary_field is not None:

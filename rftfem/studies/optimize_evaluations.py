@@ -21,12 +21,24 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.scene import toml_writer
 from rftfem.scene.overrides import lookup
 from rftfem.studies.batch import failure_reason
 from rftfem.studies.reuse import keep_key, key_of, reused, status_of
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from typing import Any
+
+    import numpy as np
+
+    from rftfem.outputs.formulas import Objective
+    from rftfem.outputs.quantities import Quantity
+    from rftfem.studies.executors import Executor
+    from rftfem.studies.objective import Constraint
 
 #: forward-difference step of l-bfgs-b without an adjoint, a fraction of each interval
 FD_STEP = 1e-3
@@ -140,20 +152,20 @@ class Evaluator:
 
     def __init__(
         self,
-        scene_file,
-        overrides,
-        params,
-        objective,
-        constraints,
-        sign,
-        out,
-        budget,
-        jobs,
-        executor,
-        reuse,
-        petsc_args,
-        console,
-        gradients=False,
+        scene_file: str | Path,
+        overrides: Sequence[str],
+        params: list[Parameter],
+        objective: Objective,
+        constraints: list[Constraint],
+        sign: float,
+        out: Path,
+        budget: int,
+        jobs: int,
+        executor: Executor,
+        reuse: bool,
+        petsc_args: Sequence[str],
+        console: Any,
+        gradients: bool = False,
     ):
         self.scene_file, self.overrides, self.params = scene_file, list(overrides), params
         self.objective, self.constraints, self.sign = objective, constraints, sign
@@ -182,21 +194,21 @@ class Evaluator:
         )
         self._csv.flush()
 
-    def close(self):
+    def close(self) -> None:
         self._csv.close()
 
     # --- the runs
 
-    def overrides_of(self, x) -> list[str]:
+    def overrides_of(self, x: Sequence[float]) -> list[str]:
         return [*self.overrides, *[p.override(v) for p, v in zip(self.params, x)]]
 
-    def xs(self, z) -> list[float]:
+    def xs(self, z: np.ndarray | Sequence[float]) -> list[float]:
         return [p.from_unit(v) for p, v in zip(self.params, z)]
 
     def _key(self, x) -> tuple:
         return tuple(float(f"{v:.12g}") for v in x)
 
-    def evaluate(self, zs) -> list[Evaluation]:
+    def evaluate(self, zs: Sequence[np.ndarray | Sequence[float]]) -> list[Evaluation]:
         """The evaluations at the unit points ``zs`` (runs side by side with --jobs);
         BudgetSpent once the budget is used and points are left."""
         todo, results = [], []
@@ -363,13 +375,13 @@ class Evaluator:
 
     # --- what the methods call
 
-    def merit(self, z) -> float:
+    def merit(self, z: np.ndarray | Sequence[float]) -> float:
         return self.evaluate([z])[0].merit
 
-    def merits(self, zs) -> list[float]:
+    def merits(self, zs: Sequence[np.ndarray | Sequence[float]]) -> list[float]:
         return [ev.merit for ev in self.evaluate(zs)]
 
-    def constraint_margins(self, z) -> list[float]:
+    def constraint_margins(self, z: np.ndarray | Sequence[float]) -> list[float]:
         """COBYLA's constraints (≥ 0 when met), relative to each bound; a failed run
         counts as violating them all."""
         ev = self.evaluate([z])[0]
@@ -380,7 +392,7 @@ class Evaluator:
             for c, v in zip(self.constraints, ev.constraints)
         ]
 
-    def merit_and_gradient(self, z):
+    def merit_and_gradient(self, z: np.ndarray | Sequence[float]) -> tuple[float, np.ndarray]:
         """The merit and its gradient in the unit box: the adjoint's when the runs give
         one, else forward differences (their runs side by side with --jobs)."""
         import numpy as np
@@ -406,7 +418,7 @@ def _without_gradient(folder: Path) -> bool:
     return status_of(folder) == "ok" and not (folder / "gradient.json").is_file()
 
 
-def adjoint_quantity(objective):
+def adjoint_quantity(objective: Objective) -> Quantity | None:
     """The one quantity of ``objective`` read from the run, or None if it has several
     (the others may be ``scene(KEY)`` values, whose derivatives are known)."""
     from rftfem.studies.objective import SceneValue

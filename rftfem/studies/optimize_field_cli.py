@@ -7,6 +7,7 @@ import shutil
 import time
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,10 +20,14 @@ from rftfem.studies.optimize_fields import (
     run_quantities,
 )
 
+if TYPE_CHECKING:
+    import argparse
+    from typing import Any
+
 __all__ = ["main"]
 
 
-def main(args, petsc_args, console) -> int:
+def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
     from rftfem.scene.reading import load_scene, resolved_scheme
     from rftfem.studies.sensitivity_request import supports
 

@@ -28,10 +28,17 @@ import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    import argparse
+    from typing import Any
+
+    from rftfem.outputs.formulas import Objective
 
 __all__ = ["FieldDesign", "parse_vary_field", "parse_field_constraint", "optimize_field"]
 
@@ -152,7 +159,14 @@ class _Budget(Exception):
 
 
 def optimize_field(
-    args, design: FieldDesign, objective, constraints, sign, out: Path, petsc_args, console
+    args: argparse.Namespace,
+    design: FieldDesign,
+    objective: Objective,
+    constraints: list[FieldConstraint],
+    sign: float,
+    out: Path,
+    petsc_args: list[str],
+    console: Any,
 ) -> tuple[_Evaluation | None, str, list]:
     """Run the search; the best feasible evaluation, why it stopped, all evaluations."""
     from scipy import optimize
@@ -320,7 +334,7 @@ def _feasible(ev, constraints, first, rtol: float = 1e-6) -> bool:
     return True
 
 
-def run_quantities(objective) -> tuple[list[str], object]:
+def run_quantities(objective: Objective) -> tuple[list[str], object]:
     """The objective's run quantities (texts for the adjoint, e.g. ``tip_uz@end``) and
     ``combine(values) -> (J, [∂J/∂value])``: the formula and its partial derivatives
     (central differences; ``scene(KEY)`` values are read from the scene once)."""

@@ -39,6 +39,11 @@ import json
 import os
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Sequence
+    from typing import Any
 
 #: the file in a run folder that holds the key of the run it holds
 KEY_FILE = "reuse.json"
@@ -93,7 +98,7 @@ def _text(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=repr)
 
 
-def key_of(scene: dict, petsc_args=()) -> dict:
+def key_of(scene: dict, petsc_args: Sequence[str] = ()) -> dict:
     """The key of a run of the completed ``scene`` given ``petsc_args``: its parts
     (``scene``, ``files``, ``petsc``, digests) and ``key``, the digest of them all."""
     files = {name: _digest(path) for name, path in files_read(scene).items()}
@@ -113,7 +118,9 @@ def key_of(scene: dict, petsc_args=()) -> dict:
     return {"key": hashlib.sha256(_text(parts).encode()).hexdigest(), **parts}
 
 
-def unchanged(key: dict, scene_file, overrides, petsc_args=()) -> bool:
+def unchanged(
+    key: dict, scene_file: str | Path, overrides: Sequence[str], petsc_args: Sequence[str] = ()
+) -> bool:
     """Whether the scene file with ``overrides`` (and the files it names) still has
     ``key``; a scene that no longer loads has not."""
     from rftfem.errors import SceneError
@@ -138,7 +145,7 @@ def status_of(folder: Path) -> str | None:
     return summary.get("status") if isinstance(summary, dict) else None
 
 
-def why_not_reused(folder: Path, key: dict, finished=("ok",)) -> str | None:
+def why_not_reused(folder: Path, key: dict, finished: Sequence[str] = ("ok",)) -> str | None:
     """None when ``folder`` holds a finished run (its status one of ``finished``) with
     ``key``; else why not: ``""`` when it holds no finished run (nothing to say), else
     what differs."""
@@ -166,7 +173,9 @@ def why_not_reused(folder: Path, key: dict, finished=("ok",)) -> str | None:
     return (", ".join(what) + " changed since") if what else "its key differs"
 
 
-def reused(folder: Path, key: dict | None, reuse: bool, finished=("ok",)) -> tuple[bool, str]:
+def reused(
+    folder: Path, key: dict | None, reuse: bool, finished: Sequence[str] = ("ok",)
+) -> tuple[bool, str]:
     """Whether ``--reuse`` keeps the run in ``folder`` (a finished run with ``key``), and
     else the note to report (:func:`report`; "" when there is nothing to say)."""
     why = why_not_reused(folder, key, finished) if reuse and key is not None else ""
@@ -176,7 +185,12 @@ def reused(folder: Path, key: dict | None, reuse: bool, finished=("ok",)) -> tup
 
 
 def keep_key(
-    folder: Path, key: dict | None, scene_file, overrides, petsc_args, command: str
+    folder: Path,
+    key: dict | None,
+    scene_file: str | Path,
+    overrides: Sequence[str],
+    petsc_args: Sequence[str],
+    command: str,
 ) -> str:
     """After a run in ``folder`` ended well: write ``key`` there if the scene (and the
     files it names) still has it; else the note to report."""
@@ -189,7 +203,7 @@ def keep_key(
     )
 
 
-def report(notes, console, command: str) -> None:
+def report(notes: Iterable[tuple[str, str]], console: Any, command: str) -> None:
     """One line on stderr per note of :func:`reused` and :func:`keep_key`, with how many
     runs it is and the first one's folder; ``notes`` are (note, folder name) pairs."""
     notes = list(notes)

@@ -63,6 +63,7 @@ with ``last = keep_last_step(sim.model)``; ``check_request(scene, keys, objectiv
 from __future__ import annotations
 
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -82,10 +83,17 @@ from rftfem.studies.sensitivity_request import (  # noqa: F401
     supports,
 )
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+
+    from rftfem.integration.simulation import Simulation
+    from rftfem.model.shell_model import Model
+    from rftfem.studies.field_gradients import FieldGradient
+
 # --- the state the last step converged to -------------------------------------------
 
 
-def keep_last_step(model) -> dict:
+def keep_last_step(model: Model) -> dict:
     """Make ``model`` keep, at every triad update, the converged iterate and the triads
     it is measured in (the update then turns them); returns the dict that holds the
     last ones (``w``, ``triads``)."""
@@ -354,7 +362,14 @@ class _Adjoint:
         return lam
 
 
-def gradient(sim, last: dict, keys: list[Key], objective: Objective, fields=()):
+def gradient(
+    sim: Simulation,
+    last: dict,
+    keys: list[Key],
+    objective: Objective
+    | tuple[Sequence[Objective], Callable[[list[float]], tuple[float, Sequence[float]]]],
+    fields: Sequence[str] = (),
+) -> tuple[float, list[float]] | tuple[float, list[float], list[FieldGradient]]:
     """``(J, [dJ/dkey])`` at the state ``last`` that the run's last step converged to
     (``keep_last_step``), for a finished static Simulation whose solver and model are
     still alive (before ``sim.close()``).  With ``fields`` (field keys, e.g.

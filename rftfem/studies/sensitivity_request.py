@@ -6,8 +6,17 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+
+    import ufl
+    from petsc4py import PETSc
+
+    from rftfem.studies.sensitivity import _Adjoint
 
 #: the material keys and the Model's field each one sets (Model._init_materials)
 MATERIAL_FIELDS = {"E": "E", "nu": "nu", "thickness": "t", "density": "rho"}
@@ -192,7 +201,11 @@ def supports(keys: list[str], objective: str, scene: dict | None = None) -> bool
     )
 
 
-def combined_objective(adj, objectives, combine):
+def combined_objective(
+    adj: _Adjoint,
+    objectives: Sequence[Objective],
+    combine: Callable[[list[float]], tuple[float, Sequence[float]]],
+) -> tuple[float, PETSc.Vec, ufl.Form | None]:
     """``(J, ∂J/∂w, J's form or None)`` of ``J = f(J₁, J₂, ...)`` at the iterate, each
     ``J_i`` by the adjoint ``adj`` (rftfem.studies.sensitivity)."""
     parts = [adj.objective(o) for o in objectives]

@@ -59,6 +59,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.studies import executors
@@ -66,6 +67,13 @@ from rftfem.studies.batch import failure_reason
 from rftfem.studies.executors import check_executor_options, make_executor
 from rftfem.studies.reuse import keep_key, key_of, report, reused
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
+
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
+
+    from rftfem.outputs.formulas import Objective
 
 KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both", "fluid")
 #: which of mesh.divisions each kind refines
@@ -212,7 +220,7 @@ def run_level(
     level: Level,
     scene_file: str,
     overrides: list[str],
-    executor,
+    executor: executors.Executor,
     petsc_args: list[str],
     reuse: bool = False,
 ) -> None:
@@ -261,7 +269,7 @@ def _read_summary(level: Level) -> None:
         level.wall = wall["total"] - (level.compile or 0.0)
 
 
-def evaluate_level(level: Level, quantities) -> None:
+def evaluate_level(level: Level, quantities: Sequence[tuple[str, Objective]]) -> None:
     from rftfem.outputs.quantities import RunFolder
 
     if level.status != "ok":
@@ -279,7 +287,7 @@ def evaluate_level(level: Level, quantities) -> None:
 # --- orders and estimates ---------------------------------------------------------
 
 
-def add_arguments(parser):
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     import argparse
 
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
@@ -339,7 +347,7 @@ def _kinds(options: list[str]) -> list[str]:
     return list(dict.fromkeys(kinds))
 
 
-def main(args, petsc_args: list[str], console) -> int:
+def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
     from rftfem.outputs.collect import parse_option
     from rftfem.scene.overrides import as_arguments
     from rftfem.scene.reading import load_scene, resolved_scheme

@@ -8,6 +8,13 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from rftfem.outputs.formulas import Objective
+    from rftfem.studies.study import Level
 
 #: nominal orders of the time schemes (refinement of dt)
 SCHEME_ORDER = {"backward-euler": 1, "bdf2": 2, "generalized-alpha": 2, "hht": 2}
@@ -71,7 +78,11 @@ def _fmt(x, spec=".6g") -> str:
 
 
 def table_rows(
-    plans, quantities, scheme: str, ratio: float = 2.0, stokes: str | None = None
+    plans: dict[str, list[Level]],
+    quantities: Sequence[tuple[str, Objective]],
+    scheme: str,
+    ratio: float = 2.0,
+    stokes: str | None = None,
 ) -> list[dict]:
     rows = []
     for kind, series in plans.items():

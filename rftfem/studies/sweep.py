@@ -34,10 +34,18 @@ import tomllib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.scene.overrides import lookup
 from rftfem.studies import executors
+
+if TYPE_CHECKING:
+    import argparse
+    from collections.abc import Sequence
+    from typing import Any
+
+    from rftfem.outputs.formulas import Objective
 
 DESCRIPTION = (
     "Run a scene over a grid of values of any keys (every combination of the "
@@ -81,7 +89,7 @@ class Point:
     note: str = ""  # why a finished run was not reused, or not keyed
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = EPILOG
     parser.formatter_class = __import__("argparse").RawDescriptionHelpFormatter
     parser.add_argument("scene", metavar="SCENE.toml", help="the scene file")
@@ -238,7 +246,14 @@ class _Progress:
                 self.last = now
 
 
-def run_point(point: Point, scene_file, executor, petsc_args, reuse: bool, quantities) -> None:
+def run_point(
+    point: Point,
+    scene_file: str | Path,
+    executor: executors.Executor,
+    petsc_args: list[str],
+    reuse: bool,
+    quantities: Sequence[tuple[str, Objective]],
+) -> None:
     from rftfem.studies.batch import failure_reason
     from rftfem.studies.reuse import keep_key, reused
 
@@ -302,7 +317,7 @@ def _cell(value) -> str:
     )
 
 
-def main(args, petsc_args: list[str], console) -> int:
+def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
     from rftfem.outputs.collect import parse_option
     from rftfem.scene.reading import load_scene
     from rftfem.studies import sweep_report

@@ -11,8 +11,12 @@ not numbers are drawn at evenly spaced positions with their values as labels.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rftfem.studies.sweep import Point, Vary
 
 MAX_PANELS = 16
 
@@ -70,7 +74,7 @@ def _lines(plt, points, varies, names, by_values, x, labels):
     return fig
 
 
-def plot(points, varies, names, path: Path, title: str) -> bool:
+def plot(points: list[Point], varies: list[Vary], names: list[str], path: Path, title: str) -> bool:
     """Draw sweep.png; False when there is nothing to draw (no quantities)."""
     if not names or not points:
         return False

@@ -12,6 +12,8 @@ the methods that build on a mesh, never at the top.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rftfem.model.effects.base import LOAD_KIND_DOC, RAMP, TABLE, Effect
 from rftfem.model.effects.boundary import Boundaries, check_reaction_names
 from rftfem.model.effects.contact import Contact
@@ -26,6 +28,9 @@ from rftfem.model.effects.motion import Motions
 from rftfem.model.effects.point_force import PointForce
 from rftfem.model.effects.pressure import Pressure
 from rftfem.model.effects.stokes import Stokes
+
+if TYPE_CHECKING:
+    from rftfem.scene.schema import Kinds
 
 REGISTRY: tuple[type[Effect], ...] = (
     Elasticity,
@@ -49,7 +54,7 @@ def scene_keys() -> dict:
     return {key: node for effect in REGISTRY for key, node in effect.keys.items()}
 
 
-def load_schema():
+def load_schema() -> Kinds:
     """The ``[[load]]`` array: the common keys and each load component's kinds."""
     from rftfem.scene.schema import Kinds, Leaf, Str
 

@@ -18,6 +18,7 @@ import numpy as np
 from rftfem.scene.schema import Leaf, Pairs, Str, table_iff
 
 if TYPE_CHECKING:  # (annotations only: the effects import no dolfinx at the top)
+    import dolfinx.fem
     import ufl
 
     from rftfem.model.shell_model import Model
@@ -79,11 +80,11 @@ class Effect:
         (internal minus external, like :meth:`forces`): a point force is the one case.
         Dead, so they add nothing to the Jacobian."""
 
-    def bcs(self) -> list:
+    def bcs(self) -> list[dolfinx.fem.DirichletBC]:
         """Dirichlet conditions it imposes."""
         return []
 
-    def reaction_dofs(self) -> list:
+    def reaction_dofs(self) -> list[tuple[str, np.ndarray]]:
         """``(name, local mixed-space dofs)`` of its named entries, whose reactions
         body.csv carries (reactions.py)."""
         return []
@@ -132,7 +133,7 @@ class Effect:
         """Its body.csv values at time ``t`` (global, on every rank)."""
         return []
 
-    def fields(self) -> dict:
+    def fields(self) -> dict[str, dolfinx.fem.Function | ufl.core.expr.Expr]:
         """Extra fields.xdmf fields: ``{name: Function or UFL vector expression}``."""
         return {}
 

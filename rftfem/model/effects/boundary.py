@@ -16,12 +16,19 @@ strip, a cylinder or a sphere cut by coordinate planes) that is ``θ¹ = 0`` or
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.model.effects.base import Effect
 from rftfem.scene.schema import Array, Fix, Leaf, Str, Table, Vec, Where, fmt
 from rftfem.scene.selectors import check_where, entities_of
+
+if TYPE_CHECKING:
+    import dolfinx.fem
+
+    from rftfem.model.shell_model import Model
 
 #: the displacement components a scene names, and their index
 DISPLACEMENT_COMPONENTS = {"ux": 0, "uy": 1, "uz": 2}
@@ -85,11 +92,11 @@ class Boundaries(Effect):
     }
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return bool(scene.get("boundary"))
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         for i, item in enumerate(scene["boundary"]):
             check_where(item["where"], f"boundary.{i}.where", scene)
             if item["fix"] is None and item["symmetry"] is None:
@@ -110,7 +117,7 @@ class Boundaries(Effect):
                     f"found {fmt(n)}"
                 )
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         super().__init__(model)
         self._bcs = []
         #: per entry, the local dofs of ``w`` it holds
@@ -213,10 +220,10 @@ class Boundaries(Effect):
                 "nor across it; the director could not be held in the plane"
             )
 
-    def bcs(self):
+    def bcs(self) -> list[dolfinx.fem.DirichletBC]:
         return self._bcs
 
-    def reaction_dofs(self):
+    def reaction_dofs(self) -> list[tuple[str, np.ndarray]]:
         return [
             (bnd["name"], np.concatenate(held) if held else np.empty(0, dtype=np.int64))
             for bnd, held in zip(self.scene["boundary"], self._held)

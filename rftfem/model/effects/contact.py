@@ -16,6 +16,7 @@ the step that ended.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import ufl
@@ -28,6 +29,9 @@ from rftfem.model.effects.base import Effect
 from rftfem.model.effects.contact_keys import SCHEMA, triple
 from rftfem.model.effects.contact_updates import UpdateLimits, cell_thickness
 from rftfem.scene.schema import fmt
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 #: the barrier's reach δ as a share of the thinnest shell thickness
 REACH_OF_THICKNESS = 0.1
@@ -70,11 +74,11 @@ class Contact(UpdateLimits, Effect):
     columns = COLUMNS
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return bool(scene.get("contact"))
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         from rftfem.scene.time_rules import resolved_scheme
 
         for i, plane in enumerate(scene.get("contact") or []):
@@ -101,7 +105,7 @@ class Contact(UpdateLimits, Effect):
                 '"static" load steps or a scheme in time'
             )
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -299,10 +303,10 @@ class Contact(UpdateLimits, Effect):
 
     # --- the effect ----------------------------------------------------------------
 
-    def end_forces(self):
+    def end_forces(self) -> ufl.Form | None:
         return self._work
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         """The step ending at ``t`` starts from the model's last converged state: keep it,
         and the step's 1/Δt (0 where no step is set, as in the initial acceleration)."""
         m = self.model
@@ -316,7 +320,7 @@ class Contact(UpdateLimits, Effect):
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane.stiffness if m.loads_on else 0.0
 
-    def values(self, t):
+    def values(self, t: float) -> list[float]:
         m = self.model
         if self._compiled is None:
             out = self._outputs

@@ -5,6 +5,7 @@ component's, contact.py)."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from rftfem.scene.schema import Array, Leaf, Str, Table, Validator, Vec, err, fmt
 from rftfem.scene.validators import POSITIVE
@@ -15,7 +16,7 @@ class Coefficient(Validator):
 
     expected = "a number >= 0 or [forward, backward, sideways], numbers >= 0"
 
-    def __call__(self, value, path):
+    def __call__(self, value: Any, path: str) -> float | list[float]:
         if isinstance(value, list):
             if len(value) != 3:
                 raise err(path, self.expected, value)
@@ -40,7 +41,7 @@ class Coefficient(Validator):
         return float(value)
 
 
-def triple(mu) -> list[float]:
+def triple(mu: float | list[float]) -> list[float]:
     """A coefficient as [forward, backward, sideways]."""
     return list(mu) if isinstance(mu, list) else [float(mu)] * 3
 

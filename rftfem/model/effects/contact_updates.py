@@ -11,10 +11,15 @@ prediction before Newton starts.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.forms import contact as forms
 from rftfem.model.effects.base import LimitsNewtonStep
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 
 class UpdateLimits(LimitsNewtonStep):
@@ -91,7 +96,7 @@ class UpdateLimits(LimitsNewtonStep):
         return float(np.min(0.5 * speed2[turning] / -along[turning]))
 
 
-def cell_thickness(model):
+def cell_thickness(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """Each cell's nodes of ``Vu`` (cells × nodes) and its thickness (DG0)."""
     from rftfem import compat
 

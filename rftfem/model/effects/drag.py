@@ -8,6 +8,8 @@ of the current shape, which the demos and tests measure.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Sequence
+
 import numpy as np
 import ufl
 
@@ -17,6 +19,9 @@ from rftfem.model.effects import fluid
 from rftfem.model.effects.base import FluidModel
 from rftfem.model.ranks import gather_rows
 
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
+
 
 class Drag(FluidModel):
     name = "drag"
@@ -24,14 +29,14 @@ class Drag(FluidModel):
     columns = ["drag_power"] + fluid.RESULTANT_COLUMNS
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return fluid.model_of(scene) == "rft"
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         fluid.check(scene)
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -108,11 +113,11 @@ class Drag(FluidModel):
             m.dx(metadata={"quadrature_degree": 4}),
         )
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         k = self.model.kinematics()
         return self._term(drag.drag_work, self.model.velocity(k.u), k.du)
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         return fluid.force_scales(self)
 
     def _assembled(self, name, build):
@@ -137,7 +142,7 @@ class Drag(FluidModel):
         forms = self._assembled("force", lambda: self._term(drag.drag_force, self.model.v_n))
         return np.array([self.model.assemble_scalar(f) for f in forms])
 
-    def rotational(self, axis) -> float:
+    def rotational(self, axis: Sequence[float] | np.ndarray) -> float:
         """RFT drag coefficient ``ζ`` of a rigid rotation of the current shape about
         ``axis`` through the centroid: the dissipated power at unit rate,
         ``∫ (C̃ v)·v J dA₀`` with ``v = a × (x − x_c)`` (force·length·time)."""
@@ -171,5 +176,5 @@ class Drag(FluidModel):
         moment = np.array([m.assemble_scalar(f) for f in forms])
         return -np.concatenate([self.force(), moment])
 
-    def values(self, t):
+    def values(self, t: float) -> list[float]:
         return [self.power(), *self.resultant()]

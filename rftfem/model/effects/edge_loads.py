@@ -8,6 +8,8 @@ it keeps its direction as the body moves.  The couple acts on the director
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import ufl
 
@@ -16,6 +18,9 @@ from rftfem.forms import loads
 from rftfem.model.effects.base import Load, loads_of
 from rftfem.scene.schema import Leaf, Vec, Where
 from rftfem.scene.selectors import check_where, facets_of
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 _WHERE = Leaf(
     Where(),
@@ -50,15 +55,15 @@ class EdgeLoads(Load):
     }
 
     @classmethod
-    def names(cls, scene):
+    def names(cls, scene: dict) -> list[str]:
         kinds = {ld["kind"] for _, ld in loads_of(scene, KINDS)}
         return [k for k in ("edge-force", "edge-moment") if k in kinds]
 
     @classmethod
-    def check_entry(cls, load, path, scene):
+    def check_entry(cls, load: dict, path: str, scene: dict) -> None:
         check_where(load["where"], f"{path}.where", scene)
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         """Edge forces and moments, per unit reference length of their edge."""
         from dolfinx import fem
         from dolfinx import mesh as dmesh
@@ -105,14 +110,14 @@ class EdgeLoads(Load):
                 terms.append(loads.edge_moment_work(value, k.d, dd, ds(tag)))
         self._work = -sum(terms[1:], terms[0])
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         return self._work
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         for ld, value, length in self.per_length:
             value.value[:] = np.asarray(ld["value"], dtype=float) / length * self.scale(ld, t)
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         """Each total edge force, and each edge moment over the length."""
         L = self.model.body.length
         return [

@@ -5,14 +5,23 @@ values come from ``[shell]`` and ``[[shell.parts]]`` (cellwise fields of the Mod
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import ufl
 
 from rftfem.forms import elasticity, kinematics
 from rftfem.model.effects.base import Effect
 
+if TYPE_CHECKING:
+    from types import SimpleNamespace
 
-def cell_diameter(mesh):
+    import dolfinx.mesh
+
+    from rftfem.model.shell_model import Model
+
+
+def cell_diameter(mesh: dolfinx.mesh.Mesh) -> ufl.core.expr.Expr:
     """h of the shear and membrane weight t²/h² (forms.elasticity): UFL's
     ``CellDiameter``, the largest distance between a cell's vertices, where UFL can
     compute it (straight cells); on curved cells (a second-order gmsh file) the same
@@ -35,7 +44,9 @@ def cell_diameter(mesh):
     return field
 
 
-def material_law(mat: dict, G1, G2):
+def material_law(
+    mat: dict, G1: ufl.core.expr.Expr, G2: ufl.core.expr.Expr
+) -> elasticity.Isotropic | elasticity.Orthotropic:
     """The plane-stress law of the Model's material fields (forms.elasticity)."""
     if "fibre" in mat:
         return elasticity.Orthotropic(
@@ -48,10 +59,10 @@ class Elasticity(Effect):
     name = "elasticity"
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return True
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         super().__init__(model)
         mat = model.material
         self.h = cell_diameter(model.mesh)
@@ -61,7 +72,9 @@ class Elasticity(Effect):
             self.strains(k), k.G1, k.G2, self.law, mat["t"], model.dx, self.h
         )
 
-    def strains(self, k):
+    def strains(
+        self, k: SimpleNamespace
+    ) -> tuple[ufl.core.expr.Expr, ufl.core.expr.Expr, ufl.core.expr.Expr]:
         """``(ε, κ, γ)`` of the kinematics ``k`` (Model.kinematics_of)."""
         D = kinematics.unit(self.model.D)
         return (
@@ -70,10 +83,10 @@ class Elasticity(Effect):
             kinematics.shear_strain(k.g1, k.g2, k.d, k.G1, k.G2, D),
         )
 
-    def energy(self):
+    def energy(self) -> ufl.Form | None:
         return self._energy
 
-    def tangent_correction(self):
+    def tangent_correction(self) -> ufl.Form | None:
         """The mixed-integration-point term of the Newton tangent (docs/model.md §7.4):
         the membrane and shear strains' linearization defects between the previous
         Newton iterate and the current one (the Model's ``newton_*`` functions)."""
@@ -93,7 +106,7 @@ class Elasticity(Effect):
             self.strains(k), defects, k.G1, k.G2, self.law, mat["t"], m.dx, self.h
         )
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         """The bending force ``D W / L²`` that bends the body by order one (the largest
         modulus, the mean thickness and ν)."""
         m, body = self.model, self.model.body

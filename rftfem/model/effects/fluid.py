@@ -11,12 +11,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.scene.schema import NONNEGATIVE, POSITIVE, Int, Leaf, Str, Table, Vec
+
+if TYPE_CHECKING:
+    from rftfem.model.effects.drag import Drag
+    from rftfem.model.effects.stokes import Stokes
 
 OPERATORS = ("auto", "dense", "direct", "fmm")
 METHODS = ("layer", "blobs")
@@ -275,7 +279,7 @@ def slender_body_drag(viscosity: float, length: float, width: float) -> list[flo
     return [c_perp / w, c_par / w, c_perp / w]
 
 
-def body_extents(x: np.ndarray, axis) -> tuple[float, float]:
+def body_extents(x: np.ndarray, axis: Sequence[float] | np.ndarray) -> tuple[float, float]:
     """The extent of the reference nodes ``x`` along ``axis`` and across it in the
     body's plane (its largest extent normal to the axis)."""
     axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
@@ -291,7 +295,7 @@ def body_extents(x: np.ndarray, axis) -> tuple[float, float]:
     return float(np.ptp(along)), float(np.ptp(across))
 
 
-def force_scales(component) -> list[float]:
+def force_scales(component: Drag | Stokes) -> list[float]:
     """A liquid component's force scale for the Newton tolerances: its drag
     coefficients ``C`` (the slender-body ones of a Stokes flow's viscosity) on the
     whole body moving at the fastest prescribed speed."""

@@ -8,11 +8,18 @@ and, per reference area, its size.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.forms.gravity import body_force_work
 from rftfem.model.effects.base import Load
 from rftfem.scene.schema import NONNEGATIVE, Leaf, Vec
+
+if TYPE_CHECKING:
+    import ufl
+
+    from rftfem.model.shell_model import Model
 
 KIND = "gravity"
 
@@ -42,7 +49,7 @@ class Gravity(Load):
         "(ρ − ρ_f) t g per reference area."
     }
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -63,14 +70,14 @@ class Gravity(Load):
         ]
         self._work = -sum(terms[1:], terms[0])
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         return self._work
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         for (_, ld), g in zip(self.entries, self.accelerations):
             g.value[:] = np.asarray(ld["value"], dtype=float) * self.scale(ld, t)
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         """The largest net weight |ρ − ρ_f| t |g| A over the shell and its parts."""
         m, shell = self.model, self.scene["shell"]
 

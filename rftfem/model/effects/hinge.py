@@ -11,6 +11,7 @@ checks of the ``[[hinge]]`` lines against the body.
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 
 import ufl
 
@@ -21,6 +22,9 @@ from rftfem.model.effects.base import Effect
 from rftfem.scene.mesh_keys import MOMENT_PER_LENGTH_RAD
 from rftfem.scene.schema import NONNEGATIVE, Array, Leaf, Table, Where, err, fmt
 from rftfem.scene.selectors import LINED_KINDS, THREE_LINK_HINGES, hinge_line
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 
 class Hinges(Effect):
@@ -55,7 +59,7 @@ class Hinges(Effect):
     }
 
     @classmethod
-    def names(cls, scene):
+    def names(cls, scene: dict) -> list[str]:
         hinges = scene.get("hinge") or []
         mesh = scene.get("mesh") or {}
         three = mesh.get("kind") == "three-link"
@@ -64,14 +68,14 @@ class Hinges(Effect):
         )
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         """A hinge with a spring (the hinges themselves are the Model's topology)."""
         mesh = scene.get("mesh") or {}
         built_in = mesh.get("kind") == "three-link" and (mesh.get("hinge_stiffness") or 0.0) > 0
         return built_in or any((h.get("stiffness") or 0.0) > 0.0 for h in scene.get("hinge") or [])
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         """[[hinge]] lines: well formed, inside the body, one hinge per line."""
         mesh = scene["mesh"]
         kind = mesh["kind"]
@@ -148,7 +152,7 @@ class Hinges(Effect):
                     )
             hinged.append((axis, c, f"hinge.{i}.where = {fmt(where)}"))
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -171,5 +175,5 @@ class Hinges(Effect):
             if h.stiffness > 0
         )
 
-    def energy(self):
+    def energy(self) -> ufl.Form | None:
         return self._energy

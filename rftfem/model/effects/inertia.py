@@ -6,9 +6,16 @@ order (generalized-alpha or HHT); it adds the kinetic energy to body.csv.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rftfem.forms import inertia
 from rftfem.model.effects.base import Effect
 from rftfem.scene.time_rules import has_density, resolved_scheme
+
+if TYPE_CHECKING:
+    import ufl
+
+    from rftfem.model.shell_model import Model
 
 
 class Inertia(Effect):
@@ -16,10 +23,10 @@ class Inertia(Effect):
     columns = ["kinetic_energy"]
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return has_density(scene) and resolved_scheme(scene) in ("generalized-alpha", "hht")
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         super().__init__(model)
         mat = model.material
         self._work = inertia.inertia_work(
@@ -31,7 +38,7 @@ class Inertia(Effect):
         )
         self._kinetic_form = None
 
-    def inertia(self):
+    def inertia(self) -> ufl.Form | None:
         return self._work
 
     def kinetic_energy(self) -> float:
@@ -43,5 +50,5 @@ class Inertia(Effect):
             )
         return m.assemble_scalar(self._kinetic_form)
 
-    def values(self, t):
+    def values(self, t: float) -> list[float]:
         return [self.kinetic_energy()]

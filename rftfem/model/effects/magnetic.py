@@ -21,6 +21,7 @@ body.csv and the magnetization to fields.xdmf.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import ufl
@@ -45,6 +46,11 @@ from rftfem.scene.schema import (
 )
 from rftfem.scene.selectors import cells_of, check_region_ref
 
+if TYPE_CHECKING:
+    import dolfinx.fem
+
+    from rftfem.model.shell_model import Model
+
 
 class Magnetic(Effect):
     name = "magnetic"
@@ -52,11 +58,11 @@ class Magnetic(Effect):
     columns = ["field_x", "field_y", "field_z", "moment_x", "moment_y", "moment_z"]
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return bool(scene.get("magnetic"))
 
     @classmethod
-    def names(cls, scene):
+    def names(cls, scene: dict) -> list[str]:
         """ "magnetic", then what the scene adds to today's uniform couple: the field's
         kind, its gradient force, magnetization profiles."""
         if not cls.active(scene):
@@ -74,7 +80,7 @@ class Magnetic(Effect):
         return out
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         if not scene["magnetic"]:
             return
         check_field(scene["magnetic"]["field"])
@@ -97,7 +103,7 @@ class Magnetic(Effect):
                         )
         check_unique(scene["magnetic"]["parts"], "region", "magnetic.parts", "region")
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         """The remanent magnetization ``M = m q₀``: with plain numbers stored cellwise
         (DG0 vector); with formulas or profiles a UFL expression ``Σ χ_p M_p(X)`` (χ_p
         the part's cells).  The forms are integrated over the magnetized cells only."""
@@ -221,7 +227,7 @@ class Magnetic(Effect):
             total = chi * Mp if total is None else total + chi * Mp
         return total
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         k, t = self.model.kinematics(), self.model.material["t"]
         if self.uniform:
             dq = ufl.derivative(self.q, self.model.z, k.w_test)
@@ -231,7 +237,7 @@ class Magnetic(Effect):
 
     is_load = True
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         on = 1.0 if self.model.loads_on else 0.0
         if self.uniform:
             self.field.value[:] = on * self.source.at(t)
@@ -239,7 +245,7 @@ class Magnetic(Effect):
             self.switch.value = on
             self.source.set_time(t)
 
-    def loads_at_start(self):
+    def loads_at_start(self) -> list[str]:
         return ["magnetic.field"] if np.any(self.field_at(0.0) != 0.0) else []
 
     def field_at(self, t: float) -> np.ndarray:
@@ -263,7 +269,7 @@ class Magnetic(Effect):
             ]
         return np.array([m.assemble_scalar(f) for f in self._moment_forms])
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         """The largest couple of one part, ``t m B A``, as a force over the length."""
         m = self.model
         end = self.scene["time"]["end"]
@@ -303,10 +309,10 @@ class Magnetic(Effect):
             local = float(np.max(np.abs(m), initial=0.0))
         return self.model.comm.allreduce(local, op=_max())
 
-    def values(self, t):
+    def values(self, t: float) -> list[float]:
         return [*self.field_at(t), *self.moment()]
 
-    def fields(self):
+    def fields(self) -> dict[str, dolfinx.fem.Function | ufl.core.expr.Expr]:
         return {"magnetization": self.magnetization}  # m q, 0 off the parts
 
 

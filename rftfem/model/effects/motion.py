@@ -19,6 +19,7 @@ stores the right-sided ones after it.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -28,6 +29,11 @@ from rftfem.model.effects.boundary import DISPLACEMENT_COMPONENTS, NAME
 from rftfem.model.rates import scheme_velocity
 from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
 from rftfem.scene.selectors import check_where, entities_of
+
+if TYPE_CHECKING:
+    import dolfinx.fem
+
+    from rftfem.model.shell_model import Model
 
 
 class Motions(Effect):
@@ -120,16 +126,16 @@ class Motions(Effect):
     }
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return bool(scene.get("motion"))
 
     @classmethod
-    def check(cls, scene):
+    def check(cls, scene: dict) -> None:
         for i, motion in enumerate(scene["motion"]):
             check_where(motion["where"], f"motion.{i}.where", scene)
             table_iff(motion, f"motion.{i}", "kind", "values", "[t, u] pairs")
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
 
         super().__init__(model)
@@ -168,13 +174,13 @@ class Motions(Effect):
         where[m.u_dofs] = np.arange(len(m.u_dofs))
         return where[mixed_dofs]
 
-    def bcs(self):
+    def bcs(self) -> list[dolfinx.fem.DirichletBC]:
         return [m.bc for m in self.motions]
 
-    def reaction_dofs(self):
+    def reaction_dofs(self) -> list[tuple[str, np.ndarray]]:
         return [(m.spec["name"], m.dofs) for m in self.motions if m.spec["name"] is not None]
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         for motion in self.motions:
             motion.set(t)
 
@@ -182,7 +188,7 @@ class Motions(Effect):
         """The fastest prescribed speed (for the drag's force scale)."""
         return max(m.speed_scale() for m in self.motions)
 
-    def drive_step(self, t, coefficients) -> None:
+    def drive_step(self, t: float | None, coefficients: Any) -> None:
         """The corrections ``model.drive`` that make the velocity ``v_{n+1}`` and the
         blended acceleration ``a_{n+1−α_m}`` of the step ending at ``t`` exact on the
         driven dofs: ``v(t⁻)`` and ``(1 − α_m) a(t⁻) + α_m a_n``, where Newmark's
@@ -204,7 +210,7 @@ class Motions(Effect):
                 (1 - c.alpha_m) * a + c.alpha_m * a_n - (c.ca * du + c.ca_v * v_n + c.ca_a * a_n)
             )
 
-    def drive_state(self, t) -> None:
+    def drive_state(self, t: float) -> None:
         """The stored velocity and acceleration of the driven dofs at ``t``: the
         motion's right-sided derivatives (after a kink, the new slope)."""
         m = self.model
@@ -214,7 +220,7 @@ class Motions(Effect):
             m.a_n.x.array[motion.u_index] = a
 
 
-def reach(scene: dict, direction) -> float:
+def reach(scene: dict, direction: Sequence[float] | np.ndarray) -> float:
     """How far the scene's ``[[motion]]`` entries may move a node along the unit
     ``direction``: each one's largest displacement along it, added (a bound, for the
     Stokes wall's closest gap)."""
@@ -240,7 +246,14 @@ class Motion:
     ``(R(φ) − I)(X − centre)``, ``φ = angular_frequency t + phase``.
     """
 
-    def __init__(self, spec, value, value_dofs, X, bc):
+    def __init__(
+        self,
+        spec: dict,
+        value: dolfinx.fem.Function,
+        value_dofs: np.ndarray,
+        X: np.ndarray,
+        bc: dolfinx.fem.DirichletBC,
+    ):
         """``value_dofs``: the selected dofs of ``value``; ``X``: their reference X (a
         rotation: their reference positions, (n, 3))."""
         self.spec, self.value, self.value_dofs, self.X, self.bc = spec, value, value_dofs, X, bc
@@ -262,7 +275,7 @@ class Motion:
             + np.outer(r @ k, k) * (1 - math.cos(phi))
         )
 
-    def at(self, t: float, X):
+    def at(self, t: float, X: np.ndarray) -> np.ndarray:
         s = self.spec
         if s["kind"] == "rotation":
             return (self._turned(t) - self.arm)[:, self.index]
@@ -285,10 +298,10 @@ class Motion:
         k = np.pi / tau
         return (0.5 * (1 - np.cos(k * t)), 0.5 * k * np.sin(k * t), 0.5 * k**2 * np.cos(k * t))
 
-    def set(self, t: float):
+    def set(self, t: float) -> None:
         self.value.x.array[self.value_dofs] = self.at(t, self.X)
 
-    def rates(self, t: float, side: int):
+    def rates(self, t: float, side: int) -> tuple[np.ndarray, np.ndarray]:
         """``(u̇, ü)`` at time ``t`` on the selected dofs: exact derivatives, taken
         from the left (``side`` −1) or the right (+1) at a corner of a table.  A
         table's acceleration is zero between corners (its impulse at a corner is

@@ -11,12 +11,17 @@ deflections away from it converge (docs/model.md §5.6).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.model.effects.base import Load
 from rftfem.scene.schema import Leaf, Vec, fmt
 from rftfem.scene.selectors import check_on_body, owned_cells
+
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 
 KIND = "point-force"
 
@@ -49,10 +54,10 @@ class PointForce(Load):
     }
 
     @classmethod
-    def check_entry(cls, load, path, scene):
+    def check_entry(cls, load: dict, path: str, scene: dict) -> None:
         check_on_body(load["at"], f"{path}.at", "point", scene)
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
 
         from rftfem import compat
@@ -80,13 +85,13 @@ class PointForce(Load):
             self.weights.append((dofs, phi))
         self.t = 0.0
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         self.t = t
 
-    def add_nodal_forces(self, F):
+    def add_nodal_forces(self, F: np.ndarray) -> None:
         for (_, ld), (dofs, phi) in zip(self.entries, self.weights):
             force = self.scale(ld, self.t) * np.asarray(ld["value"], dtype=float)
             np.add.at(F, dofs, -phi[:, None] * force[None, :])
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         return [float(np.linalg.norm(ld["value"])) for _, ld in self.entries]

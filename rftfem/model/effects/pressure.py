@@ -9,11 +9,18 @@ It turns and stretches with the surface; its load stiffness comes from
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rftfem.errors import SceneError
 from rftfem.forms.pressure import follower_pressure_work
 from rftfem.model.effects.base import Load
 from rftfem.scene.schema import Leaf, Num, Where
 from rftfem.scene.selectors import check_where, entities_of, indicator
+
+if TYPE_CHECKING:
+    import ufl
+
+    from rftfem.model.shell_model import Model
 
 KIND = "pressure"
 
@@ -43,10 +50,10 @@ class Pressure(Load):
     }
 
     @classmethod
-    def check_entry(cls, load, path, scene):
+    def check_entry(cls, load: dict, path: str, scene: dict) -> None:
         check_where(load["where"], f"{path}.where", scene)
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         from dolfinx import fem
         from petsc4py import PETSc
 
@@ -71,13 +78,13 @@ class Pressure(Load):
             terms.append(follower_pressure_work(p * region, k.g1, k.g2, k.G1, k.G2, k.du, dx))
         self._work = -sum(terms[1:], terms[0])
 
-    def forces(self):
+    def forces(self) -> ufl.Form | None:
         return self._work
 
-    def set_time(self, t):
+    def set_time(self, t: float) -> None:
         for (_, ld), value in zip(self.entries, self.pressures):
             value.value = ld["value"] * self.scale(ld, t)
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         """The pressure times the body's area."""
         return [abs(ld["value"]) * self.model.area() for _, ld in self.entries]

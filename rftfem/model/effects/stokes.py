@@ -28,7 +28,7 @@ process only, threaded, and its results are broadcast.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -48,6 +48,8 @@ from rftfem.model.ranks import gather_rows
 from rftfem.model.rates import scheme_velocity
 from rftfem.model.stokes_matrix_free import MatrixFreeResistance
 
+if TYPE_CHECKING:
+    from rftfem.model.shell_model import Model
 #: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
 DENSE_NODES = 5000
@@ -76,18 +78,18 @@ class Stokes(FluidModel, NonlocalEffect):
     columns = ["fluid_power"] + fluid.RESULTANT_COLUMNS
 
     @classmethod
-    def active(cls, scene):
+    def active(cls, scene: dict) -> bool:
         return fluid.model_of(scene) == "stokes"
 
     @classmethod
-    def names(cls, scene):
+    def names(cls, scene: dict) -> list[str]:
         """ "stokes", and "stokes wall" when the liquid has a plane wall (its images):
         what `rftfem check`, ``Scene.check()`` and summary.json list alike."""
         if not cls.active(scene):
             return []
         return ["stokes"] + (["stokes wall"] if scene["fluid"].get("wall") else [])
 
-    def __init__(self, model):
+    def __init__(self, model: Model):
         super().__init__(model)
         #: ``[fluid]`` parsed (fluid.FluidSettings)
         self.settings = given = fluid.settings(self.scene)
@@ -358,7 +360,7 @@ class Stokes(FluidModel, NonlocalEffect):
         (the matrix-free operators; 0 for the factorised ones)."""
         return FLOOR_MARGIN * getattr(self._resistance, "force_error", 0.0)
 
-    def add_nodal_forces(self, F):
+    def add_nodal_forces(self, F: np.ndarray) -> None:
         forces = self.nodal_forces()
         F[self.owned_u] += forces[self.offset : self.offset + self.n_owned]
 
@@ -411,7 +413,7 @@ class Stokes(FluidModel, NonlocalEffect):
 
     # --- outputs ----------------------------------------------------------
 
-    def force_scales(self):
+    def force_scales(self) -> list[float]:
         return fluid.force_scales(self)
 
     def after_step(self, t: float) -> list[str]:
@@ -457,7 +459,7 @@ class Stokes(FluidModel, NonlocalEffect):
         x, v = both[:, :3], both[:, 3:]
         return x, v, self._forces(x, v)
 
-    def values(self, t):
+    def values(self, t: float) -> list[float]:
         x, v, F = self._stored()
         force = -F.sum(axis=0)
         moment = -np.cross(x, F).sum(axis=0)
