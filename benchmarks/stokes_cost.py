@@ -174,7 +174,18 @@ def fast(sizes, direct: bool = False, wall: bool = False) -> int:
             f"{res.history[-1]:6d} {t_gset:10.2f} {t_g:7.3f} {check}",
             flush=True,
         )
-    exponents(rows, ["set-up", "M F", "solve", "G set-up", "G dx"])
+    names = ["set-up", "M F", "solve", "G set-up", "G dx"]
+    # a body of up to WHOLE_UP_TO nodes is one cluster, factorised whole (a direct
+    # solve); larger ones are conjugate gradients on clusters: fitted apart
+    from rftfem.model.stokes_matrix_free import WHOLE_UP_TO
+
+    for label, part in (
+        (f"one cluster (up to {WHOLE_UP_TO} nodes)", [r for r in rows if r[0] <= WHOLE_UP_TO]),
+        ("clusters (conjugate gradients)", [r for r in rows if r[0] > WHOLE_UP_TO]),
+    ):
+        if len(part) > 1:
+            print(label + ":")
+            exponents(part, names)
     return 0
 
 
