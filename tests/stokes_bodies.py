@@ -139,6 +139,28 @@ def write_ellipsoid(path, semi_axes=(1.0, 1.0, 1.0), size: float = 0.3):
         gmsh.finalize()
 
 
+def write_sphere_pair(path, distance: float, size: float = 0.5):
+    """Two unit spheres whose centres are ``distance`` apart on X, at ±distance/2
+    (one group "body": two pieces of one mesh)."""
+    gmsh = _session()
+    try:
+        gmsh.model.add("pair")
+        occ = gmsh.model.occ
+        for x in (-0.5 * distance, 0.5 * distance):
+            occ.addSphere(x, 0, 0, 1.0)
+        occ.synchronize()
+        _group(gmsh, 2, [tag for _, tag in gmsh.model.getEntities(2)], "body")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 2.0 * size)  # (halved by the subdivision)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", 2.0 * size)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.SubdivisionAlgorithm", 1)  # all quadrilaterals
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+
+
 SWIMMING_SHEET = """title = "a short swimming sheet in Stokes flow"
 [mesh]
 kind = "strip"
