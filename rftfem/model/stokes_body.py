@@ -1,5 +1,6 @@
 """The body as the Stokes operators see it: its elements in the global node numbering
-(every process holds them all, in rank order) and each node's spacing (docs/stokes.md).
+(every process holds them all, in rank order), each node's spacing, and the set-up's
+checks of the body against its blobs and the wall (docs/stokes.md).
 
 This is the dolfinx side of the Stokes flow (imported inside the functions: the
 scene's keys, and `rftfem render`, import the effects without dolfinx);
@@ -12,8 +13,62 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rftfem.errors import SceneError
+
 if TYPE_CHECKING:
     from rftfem.model.shell_model import Model
+    from rftfem.model.stokeslets import Wall
+
+#: the closest gap between body and wall, in blobs, under which a run is refused, and
+#: under which it is warned of (the wall's images are singular, the body's own
+#: Stokeslets regularized: the no-slip error on the wall is e^(−(gap/δ)²))
+WALL_GAP_REFUSED, WALL_GAP_WARNED = 1.0, 2.5
+
+
+def point_text(x: np.ndarray) -> str:
+    """A node's position as a message gives it."""
+    return "(" + ", ".join(f"{v:.4g}" for v in x) + ")"
+
+
+def check_blob_size(delta: np.ndarray, extent: float) -> None:
+    """Refuse blobs of half the body's diagonal ``extent`` or more."""
+    largest = float(delta.max())
+    if largest >= 0.5 * extent:
+        raise SceneError(
+            f"fluid.regularization: the blob ({largest:.4g}) is larger than "
+            f"the body (its diagonal is {extent:.4g}); give a blob of about "
+            "the node spacing, or leave the key out"
+        )
+
+
+def wall_gap(wall: Wall, X: np.ndarray, delta: np.ndarray, scene: dict) -> float:
+    """The closest gap between the body at ``X`` and the wall, in blobs ``delta``, with
+    the scene's prescribed motions' reach towards the wall taken off; a body on or
+    behind the plane, or closer than WALL_GAP_REFUSED blobs, is refused."""
+    heights = wall.heights(X)
+    behind = int(np.sum(heights <= 0.0))
+    if behind:
+        raise SceneError(
+            f"fluid.wall: the body crosses the wall: {behind} of its "
+            f"{len(heights)} nodes are on or behind the plane (lowest at "
+            f"{heights.min():.4g} along the normal); the normal points "
+            "towards the body's side"
+        )
+    from rftfem.model.effects import motion
+
+    reach = motion.reach(scene, wall.Q[2])
+    gaps = (heights - reach) / delta
+    gap = float(np.min(gaps))
+    if gap < WALL_GAP_REFUSED:
+        i = int(np.argmin(gaps))
+        raise SceneError(
+            f"fluid.wall: the body comes within {gap:.3g} blobs of the wall "
+            f"(at the node {point_text(X[i])}, {heights[i]:.4g} above it"
+            + (f", {reach:.4g} of which the motions take" if reach else "")
+            + f", blob {delta[i]:.3g}); the wall's images need "
+            f"{WALL_GAP_WARNED} blobs: move the wall away or refine the mesh"
+        )
+    return gap
 
 
 def global_cells(model: Model) -> tuple[np.ndarray, str]:

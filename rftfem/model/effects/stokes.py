@@ -63,14 +63,7 @@ REUSE_ITERATIONS = 10
 #: stalled at 3e-11 and then wandered up to 1.4e-10 while its steps were cut)
 FLOOR_MARGIN = 10.0
 
-#: the closest gap between body and wall, in blobs, under which a run is refused, and
-#: under which it is warned of (the wall's images are singular, the body's own
-#: Stokeslets regularized: the no-slip error on the wall is e^(−(gap/δ)²))
-WALL_GAP_REFUSED, WALL_GAP_WARNED = 1.0, 2.5
-
-
-def _point(x) -> str:
-    return "(" + ", ".join(f"{v:.4g}" for v in x) + ")"
+WALL_GAP_REFUSED, WALL_GAP_WARNED = stokes_body.WALL_GAP_REFUSED, stokes_body.WALL_GAP_WARNED
 
 
 class Stokes(FluidModel, NonlocalEffect):
@@ -111,12 +104,14 @@ class Stokes(FluidModel, NonlocalEffect):
             #: each node's blob size δ (N,); for the layer the liquid's resolution there
             #: (the wall's gap is measured in it)
             self.delta = self._gather(self._node_blobs(given.regularization))
-        self._check_size()
+        stokes_body.check_blob_size(self.delta, self.model.size())
         wall = given.wall
         #: the no-slip plane (``[fluid.wall]``), or None
         self.wall = stokeslets.Wall(*wall) if wall else None
         if self.wall is not None:
-            self._check_wall()
+            #: the closest gap between body and wall in blobs, the prescribed motions'
+            #: reach towards the wall taken off (docs/stokes.md: the images need 2.5)
+            self.wall_gap = stokes_body.wall_gap(self.wall, self.X, self.delta, self.scene)
             #: body.csv's closest gap to the wall in blobs, row by row
             self.columns = [*type(self).columns, "wall_gap_blobs"]
         #: "dense" or "fmm": how the operator is applied
@@ -196,42 +191,6 @@ class Stokes(FluidModel, NonlocalEffect):
 
     def opening_lines(self) -> list[str]:
         return self.check_lines()
-
-    def _check_size(self):
-        extent = self.model.size()
-        largest = float(self.delta.max())
-        if largest >= 0.5 * extent:
-            raise SceneError(
-                f"fluid.regularization: the blob ({largest:.4g}) is larger than "
-                f"the body (its diagonal is {extent:.4g}); give a blob of about "
-                "the node spacing, or leave the key out"
-            )
-
-    def _check_wall(self):
-        heights = self.wall.heights(self.X)
-        behind = int(np.sum(heights <= 0.0))
-        if behind:
-            raise SceneError(
-                f"fluid.wall: the body crosses the wall: {behind} of its "
-                f"{len(heights)} nodes are on or behind the plane (lowest at "
-                f"{heights.min():.4g} along the normal); the normal points "
-                "towards the body's side"
-            )
-        from rftfem.model.effects import motion
-
-        reach = motion.reach(self.scene, self.wall.Q[2])
-        #: the closest gap between body and wall in blobs, the prescribed motions'
-        #: reach towards the wall taken off (docs/stokes.md: the images need 2.5)
-        self.wall_gap = float(np.min((heights - reach) / self.delta))
-        if self.wall_gap < WALL_GAP_REFUSED:
-            i = int(np.argmin((heights - reach) / self.delta))
-            raise SceneError(
-                f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the wall "
-                f"(at the node {_point(self.X[i])}, {heights[i]:.4g} above it"
-                + (f", {reach:.4g} of which the motions take" if reach else "")
-                + f", blob {self.delta[i]:.3g}); the wall's images need "
-                f"{WALL_GAP_WARNED} blobs: move the wall away or refine the mesh"
-            )
 
     def _choose_operator(self, asked: str) -> str:
         """ "dense", "direct" or "fmm" for ``fluid.operator`` (``auto``: the blobs' direct
@@ -434,7 +393,7 @@ class Stokes(FluidModel, NonlocalEffect):
             i = int(np.argmin(gaps))
             raise RunFailed(
                 f"the body came within {gap:.3g} blobs of the wall (the node now "
-                f"at {_point(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
+                f"at {stokes_body.point_text(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
                 "move the wall away or refine the mesh"
             )
         if (
