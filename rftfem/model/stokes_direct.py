@@ -9,12 +9,17 @@ Every target sums every source, threaded over the targets (numba):
 with ``S_δ`` the regularized Stokeslet of the pair blob ``δ_ij² = (δ_i² + δ_j²)/2``
 (``rftfem.model.stokeslets``; ``j = i`` its own blob), ``T_ij = ∂(S_δij(r) F_j)/∂r``,
 and, with a wall, Blake's images ``W`` and their closed-form derivatives in the
-target ``ξ`` and the source ``η`` (``rftfem.model.stokes_kernels``).  The sums are
-exact: no multipole expansion, no near-field correction.  An O(N²) sum costs about
-as many flops as a multipole call's constant at the sizes a run takes (docs/stokes.md
-gives the crossover measured on the project's machine), needs O(N) memory, and
-splits by rows: under ``mpirun`` each process sums its share of the targets and
-the rows are gathered, so every process holds the same product to round-off.
+target ``ξ`` and the source ``η`` (``rftfem.model.stokes_kernels``).  Each sum
+runs in two passes: every pair with the singular Stokeslet (and the images), in
+loops without branches that the compiler vectorises, its ``1/r`` from single
+precision's root refined to double by two Newton steps; then each node's near
+pairs (within ``_STOKESLET_BEYOND`` of the largest blob, found by a k-d tree) add
+the blob's kernel minus the singular one.  Nothing is expanded or cut off: the
+sums are exact to round-off.  An O(N²) sum costs about as many flops as a
+multipole call's constant at the sizes a run takes (docs/stokes.md gives the
+crossover measured on the project's machine), needs O(N) memory, and splits by
+rows: under ``mpirun`` each process sums its share of the targets and the rows
+are gathered, so every process holds the same product to round-off.
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import numba as nb
 import numpy as np
 
 from rftfem.model import stokes_kernels as kernels
+from rftfem.model import stokes_pairs as pairs
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -36,168 +42,213 @@ if TYPE_CHECKING:
 _JIT = dict(cache=True)
 
 
-#: numba's floating-point freedoms for the sums: reassociation (vectorised loops),
-#: fused multiply-adds and signless zeros; never approximate reciprocals or roots
-_FAST = {"reassoc", "contract", "nsz"}
-
-
-@nb.njit(fastmath=_FAST, **_JIT)
-def _image_velocity(R0, R1, R2, h, f0, f1, f2):
-    """Blake's images' velocity ``W f`` at ``R = ξ − Dη``, ``h = η₃`` (the wall's
-    frame; ``stokes_kernels.image_block`` applied to ``f``):
-    ``W f = R (a R·f + b R·Df) + c f + d Df + e (R·Df) e₃ + e f₃ R`` with
-    ``a = −1/R³, b = 6h(R₃ − h)/R⁵, c = −1/R, d = 2h(h − R₃)/R³, e = 2h/R³``."""
-    i1 = 1.0 / sqrt(R0 * R0 + R1 * R1 + R2 * R2)
-    i3 = i1 * i1 * i1
-    i5 = i3 * i1 * i1
-    a, b = -i3, 6.0 * h * (R2 - h) * i5
-    c, d, e = -i1, 2.0 * h * (h - R2) * i3, 2.0 * h * i3
-    s = R0 * f0 + R1 * f1 + R2 * f2
-    q = R0 * f0 + R1 * f1 - R2 * f2
-    m = a * s + b * q + e * f2
-    return (
-        m * R0 + (c + d) * f0,
-        m * R1 + (c + d) * f1,
-        m * R2 + (c - d) * f2 + e * q,
-    )
-
-
-@nb.njit(fastmath=_FAST, **_JIT)
-def _image_direction(R0, R1, R2, h, f0, f1, f2, P0, P1, P2, hp):
-    """The derivative of :func:`_image_velocity` along ``R′ = P``, ``h′ = hp`` (at
-    fixed ``f``), term by term of its coefficients."""
-    i1 = 1.0 / sqrt(R0 * R0 + R1 * R1 + R2 * R2)
-    i2 = i1 * i1
-    i3 = i1 * i2
-    i5 = i3 * i2
-    i7 = i5 * i2
-    rho = R0 * P0 + R1 * P1 + R2 * P2
-    a, b, e = -i3, 6.0 * h * (R2 - h) * i5, 2.0 * h * i3
-    ap = 3.0 * i5 * rho
-    bp = 6.0 * (hp * (R2 - h) + h * (P2 - hp)) * i5 - 30.0 * h * (R2 - h) * i7 * rho
-    cp = i3 * rho
-    dp = 2.0 * (hp * (h - R2) + h * (hp - P2)) * i3 - 6.0 * h * (h - R2) * i5 * rho
-    ep = 2.0 * hp * i3 - 6.0 * h * i5 * rho
-    s = R0 * f0 + R1 * f1 + R2 * f2
-    q = R0 * f0 + R1 * f1 - R2 * f2
-    sp = P0 * f0 + P1 * f1 + P2 * f2
-    qp = P0 * f0 + P1 * f1 - P2 * f2
-    m = a * s + b * q + e * f2
-    mp = ap * s + a * sp + bp * q + b * qp + ep * f2
-    return (
-        mp * R0 + m * P0 + (cp + dp) * f0,
-        mp * R1 + m * P1 + (cp + dp) * f1,
-        mp * R2 + m * P2 + (cp - dp) * f2 + ep * q + e * qp,
-    )
+_FAST = pairs.FAST
 
 
 @nb.njit(parallel=True, fastmath=_FAST, **_JIT)
-def _mobility_product(x, delta, F, lo, hi, wall, out):
-    """``out[t − lo] = Σ_j (S_δ + W) F_j`` for the targets ``lo ≤ t < hi`` (no 1/8πμ);
-    positions and forces in the wall's frame when ``wall``.  Beyond
-    ``_STOKESLET_BEYOND`` pair blobs the blob is the Stokeslet (``radial``'s own
-    switch), summed inline."""
-    n = len(x)
-    beyond = kernels._STOKESLET_BEYOND
-    largest = delta.max()
+def _far_mobility(x0, x1, x2, F0, F1, F2, lo, hi, out):
+    """``out[t − lo] = Σ_j S F_j`` over every pair with the singular Stokeslet ``S``
+    (no 1/8πμ; coordinates and forces by component): a loop without branches,
+    which the compiler vectorises.  :func:`_near_mobility` turns the near pairs
+    into the blob's kernel."""
+    n = len(x0)
     for t in nb.prange(lo, hi):
         u0 = 0.0
         u1 = 0.0
         u2 = 0.0
-        dt2 = delta[t] * delta[t]
-        far2 = beyond * beyond * 0.5 * (dt2 + largest * largest)
         for j in range(n):
-            r0 = x[t, 0] - x[j, 0]
-            r1 = x[t, 1] - x[j, 1]
-            r2 = x[t, 2] - x[j, 2]
-            d2 = r0 * r0 + r1 * r1 + r2 * r2
-            if d2 > far2:
-                a = 1.0 / sqrt(d2)
-                b = a * a * a
-            else:
-                a, b, _, _ = kernels.radial(sqrt(d2), sqrt(0.5 * (dt2 + delta[j] * delta[j])))
-            rF = b * (r0 * F[j, 0] + r1 * F[j, 1] + r2 * F[j, 2])
-            u0 += a * F[j, 0] + rF * r0
-            u1 += a * F[j, 1] + rF * r1
-            u2 += a * F[j, 2] + rF * r2
-            if wall:
-                w0, w1, w2 = _image_velocity(
-                    r0, r1, x[t, 2] + x[j, 2], x[j, 2], F[j, 0], F[j, 1], F[j, 2]
-                )
-                u0 += w0
-                u1 += w1
-                u2 += w2
+            s0, s1, s2 = pairs.stokeslet(
+                x0[t] - x0[j], x1[t] - x1[j], x2[t] - x2[j], F0[j], F1[j], F2[j]
+            )
+            u0 += s0
+            u1 += s1
+            u2 += s2
         out[t - lo, 0] = u0
         out[t - lo, 1] = u1
         out[t - lo, 2] = u2
 
 
 @nb.njit(parallel=True, fastmath=_FAST, **_JIT)
-def _derivative_product(x, delta, F, dx, lo, hi, wall, out):
-    """``out[t − lo] = (G dx)_t`` (no 1/8πμ), the wall's frame when ``wall``.  With
-    ``w = dx_t − dx_j`` the free part is ``T w = a′/r (r·w) F + b′/r (r·F)(r·w) r
-    + b (F·w) r + b (r·F) w`` (``stokes_kernels.free_gradient`` contracted)."""
-    n = len(x)
+def _far_mobility_wall(x0, x1, x2, F0, F1, F2, lo, hi, out):
+    """:func:`_far_mobility` with Blake's images ``W F_j`` added (the wall's frame)."""
+    n = len(x0)
+    for t in nb.prange(lo, hi):
+        u0 = 0.0
+        u1 = 0.0
+        u2 = 0.0
+        for j in range(n):
+            r0, r1 = x0[t] - x0[j], x1[t] - x1[j]
+            s0, s1, s2 = pairs.stokeslet(r0, r1, x2[t] - x2[j], F0[j], F1[j], F2[j])
+            w0, w1, w2 = pairs.image_velocity(r0, r1, x2[t] + x2[j], x2[j], F0[j], F1[j], F2[j])
+            u0 += s0 + w0
+            u1 += s1 + w1
+            u2 += s2 + w2
+        out[t - lo, 0] = u0
+        out[t - lo, 1] = u1
+        out[t - lo, 2] = u2
+
+
+@nb.njit(parallel=True, fastmath=_FAST, **_JIT)
+def _near_mobility(x, delta, F, start, near, lo, hi, out):
+    """Add to ``out[t − lo]`` the blob's kernel minus the singular one over the
+    target's near sources ``near[start[t]:start[t + 1]]`` (``radial``'s own switch:
+    beyond ``_STOKESLET_BEYOND`` pair blobs the two are one)."""
     beyond = kernels._STOKESLET_BEYOND
-    largest = delta.max()
+    for t in nb.prange(lo, hi):
+        u0 = 0.0
+        u1 = 0.0
+        u2 = 0.0
+        dt2 = delta[t] * delta[t]
+        for k in range(start[t], start[t + 1]):
+            j = near[k]
+            r0 = x[t, 0] - x[j, 0]
+            r1 = x[t, 1] - x[j, 1]
+            r2 = x[t, 2] - x[j, 2]
+            d2 = r0 * r0 + r1 * r1 + r2 * r2
+            eps = sqrt(0.5 * (dt2 + delta[j] * delta[j]))
+            if d2 > beyond * beyond * eps * eps:
+                continue
+            a, b, _, _ = kernels.radial(sqrt(d2), eps)
+            s = pairs.singular(d2)
+            a, b = a - s, b - s * s * s
+            rF = b * (r0 * F[j, 0] + r1 * F[j, 1] + r2 * F[j, 2])
+            u0 += a * F[j, 0] + rF * r0
+            u1 += a * F[j, 1] + rF * r1
+            u2 += a * F[j, 2] + rF * r2
+        out[t - lo, 0] += u0
+        out[t - lo, 1] += u1
+        out[t - lo, 2] += u2
+
+
+@nb.njit(parallel=True, fastmath=_FAST, **_JIT)
+def _far_derivative(x0, x1, x2, F0, F1, F2, v0, v1, v2, lo, hi, out):
+    """``out[t − lo] = (G dx)_t`` with the singular Stokeslet, ``v = dx`` (no 1/8πμ;
+    by component): ``Σ_j T_tj (dx_t − dx_j)``, vectorised as :func:`_far_mobility`;
+    :func:`_near_derivative` turns the near pairs into the blob's."""
+    n = len(x0)
+    for t in nb.prange(lo, hi):
+        acc0 = 0.0
+        acc1 = 0.0
+        acc2 = 0.0
+        for j in range(n):
+            s0, s1, s2 = pairs.stokeslet_direction(
+                x0[t] - x0[j],
+                x1[t] - x1[j],
+                x2[t] - x2[j],
+                F0[j],
+                F1[j],
+                F2[j],
+                v0[t] - v0[j],
+                v1[t] - v1[j],
+                v2[t] - v2[j],
+            )
+            acc0 += s0
+            acc1 += s1
+            acc2 += s2
+        out[t - lo, 0] = acc0
+        out[t - lo, 1] = acc1
+        out[t - lo, 2] = acc2
+
+
+@nb.njit(parallel=True, fastmath=_FAST, **_JIT)
+def _far_derivative_wall(x0, x1, x2, F0, F1, F2, v0, v1, v2, lo, hi, out):
+    """:func:`_far_derivative` with the images' derivative in the target ``ξ`` and
+    the source ``η`` added (the wall's frame)."""
+    n = len(x0)
+    for t in nb.prange(lo, hi):
+        acc0 = 0.0
+        acc1 = 0.0
+        acc2 = 0.0
+        for j in range(n):
+            r0, r1, w0, w1 = x0[t] - x0[j], x1[t] - x1[j], v0[t] - v0[j], v1[t] - v1[j]
+            s0, s1, s2 = pairs.stokeslet_direction(
+                r0, r1, x2[t] - x2[j], F0[j], F1[j], F2[j], w0, w1, v2[t] - v2[j]
+            )
+            p0, p1, p2 = pairs.image_direction(
+                r0, r1, x2[t] + x2[j], x2[j], F0[j], F1[j], F2[j], w0, w1, v2[t] + v2[j], v2[j]
+            )
+            acc0 += s0 + p0
+            acc1 += s1 + p1
+            acc2 += s2 + p2
+        out[t - lo, 0] = acc0
+        out[t - lo, 1] = acc1
+        out[t - lo, 2] = acc2
+
+
+@nb.njit(parallel=True, fastmath=_FAST, **_JIT)
+def _near_derivative(x, delta, F, dx, start, near, lo, hi, out):
+    """Add to ``out[t − lo]`` the blob's ``T w`` minus the singular one over the
+    target's near sources (as :func:`_near_mobility`)."""
+    beyond = kernels._STOKESLET_BEYOND
     for t in nb.prange(lo, hi):
         acc0 = 0.0
         acc1 = 0.0
         acc2 = 0.0
         dt2 = delta[t] * delta[t]
-        far2 = beyond * beyond * 0.5 * (dt2 + largest * largest)
-        for j in range(n):
+        for k in range(start[t], start[t + 1]):
+            j = near[k]
             r0 = x[t, 0] - x[j, 0]
             r1 = x[t, 1] - x[j, 1]
             r2 = x[t, 2] - x[j, 2]
             d2 = r0 * r0 + r1 * r1 + r2 * r2
-            if j != t:
-                if d2 > far2:
-                    inv = 1.0 / sqrt(d2)
-                    b = inv * inv * inv
-                    da = -b
-                    db = -3.0 * b * inv * inv
-                else:
-                    _, b, da, db = kernels.radial(sqrt(d2), sqrt(0.5 * (dt2 + delta[j] * delta[j])))
-                w0 = dx[t, 0] - dx[j, 0]
-                w1 = dx[t, 1] - dx[j, 1]
-                w2 = dx[t, 2] - dx[j, 2]
-                rF = r0 * F[j, 0] + r1 * F[j, 1] + r2 * F[j, 2]
-                rw = r0 * w0 + r1 * w1 + r2 * w2
-                Fw = F[j, 0] * w0 + F[j, 1] * w1 + F[j, 2] * w2
-                cr = db * rF * rw + b * Fw
-                acc0 += da * rw * F[j, 0] + cr * r0 + b * rF * w0
-                acc1 += da * rw * F[j, 1] + cr * r1 + b * rF * w1
-                acc2 += da * rw * F[j, 2] + cr * r2 + b * rF * w2
-            if wall:
-                w0, w1, w2 = _image_direction(
-                    r0,
-                    r1,
-                    x[t, 2] + x[j, 2],
-                    x[j, 2],
-                    F[j, 0],
-                    F[j, 1],
-                    F[j, 2],
-                    dx[t, 0] - dx[j, 0],
-                    dx[t, 1] - dx[j, 1],
-                    dx[t, 2] + dx[j, 2],
-                    dx[j, 2],
-                )
-                acc0 += w0
-                acc1 += w1
-                acc2 += w2
-        out[t - lo, 0] = acc0
-        out[t - lo, 1] = acc1
-        out[t - lo, 2] = acc2
+            eps = sqrt(0.5 * (dt2 + delta[j] * delta[j]))
+            if j == t or d2 > beyond * beyond * eps * eps:
+                continue
+            _, b, da, db = kernels.radial(sqrt(d2), eps)
+            inv = pairs.singular(d2)
+            bs = inv * inv * inv
+            b, da, db = b - bs, da + bs, db + 3.0 * bs * inv * inv
+            w0 = dx[t, 0] - dx[j, 0]
+            w1 = dx[t, 1] - dx[j, 1]
+            w2 = dx[t, 2] - dx[j, 2]
+            rF = r0 * F[j, 0] + r1 * F[j, 1] + r2 * F[j, 2]
+            rw = r0 * w0 + r1 * w1 + r2 * w2
+            Fw = F[j, 0] * w0 + F[j, 1] * w1 + F[j, 2] * w2
+            cr = db * rF * rw + b * Fw
+            acc0 += da * rw * F[j, 0] + cr * r0 + b * rF * w0
+            acc1 += da * rw * F[j, 1] + cr * r1 + b * rF * w1
+            acc2 += da * rw * F[j, 2] + cr * r2 + b * rF * w2
+        out[t - lo, 0] += acc0
+        out[t - lo, 1] += acc1
+        out[t - lo, 2] += acc2
+
+
+def near_pairs(x: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each node's near sources as compressed rows ``(start, near)``: itself and every
+    node within ``_STOKESLET_BEYOND`` of the largest blob, where the blob's kernel
+    may differ from the Stokeslet.  Refuses what :func:`pairs.inverse_root` cannot take:
+    nodes 1e-18 apart or a body 1e18 across."""
+    from scipy.spatial import cKDTree
+
+    n = len(x)
+    reach = kernels._STOKESLET_BEYOND * float(delta.max()) * (1.0 + 1e-9)
+    close = cKDTree(x).query_pairs(reach, output_type="ndarray")
+    extent = float(np.ptp(x, axis=0).max()) if n else 0.0
+    gaps = np.einsum("ij,ij->i", *(x[close[:, 0]] - x[close[:, 1]],) * 2)
+    if extent > 1e18 or (len(gaps) and gaps.min() < 1e-36):
+        where = f"a body {extent:.3g} across" if extent > 1e18 else "nodes closer than 1e-18"
+        raise ValueError(f"fluid: {where}: the Stokes sums need distinct nodes within 1e18")
+    rows = np.concatenate([close[:, 0], close[:, 1], np.arange(n)])
+    cols = np.concatenate([close[:, 1], close[:, 0], np.arange(n)])
+    order = np.argsort(rows, kind="stable")
+    start = np.zeros(n + 1, dtype=np.int64)
+    start[1:] = np.cumsum(np.bincount(rows, minlength=n))
+    return start, np.ascontiguousarray(cols[order], dtype=np.int64)
 
 
 def warm() -> None:
     """Compile (or load from numba's cache) both sums on a tiny problem."""
     x = np.array([[0.0, 0.0, 1.0], [0.3, 0.1, 1.2]])
     d, F, out = np.full(2, 0.1), np.ones((2, 3)), np.empty((2, 3))
+    start, near = near_pairs(x, d)
+    c = [np.ascontiguousarray(x[:, k]) for k in range(3)]
+    for far in (_far_mobility, _far_mobility_wall):
+        far(*c, *c, 0, 2, out)
+        _near_mobility(x, d, F, start, near, 0, 2, out)
+    for far in (_far_derivative, _far_derivative_wall):
+        far(*c, *c, *c, 0, 2, out)
+        _near_derivative(x, d, F, F, start, near, 0, 2, out)
     for wall in (False, True):
-        _mobility_product(x, d, F, 0, 2, wall, out)
-        _derivative_product(x, d, F, F, 0, 2, wall, out)
         _mobility_matrix(x, d, wall, np.eye(3), 0, 2, np.empty((2, 3, 2, 3)))
 
 
@@ -225,6 +276,23 @@ class DirectSums:
         self.counts = counts
         self.lo = int(sum(counts[:rank]))
         self.hi = self.lo + counts[rank]
+        self._near = None
+
+    @property
+    def near(self) -> tuple[np.ndarray, np.ndarray]:
+        """The near sources of every node (:func:`near_pairs`), found at the first product."""
+        if self._near is None:
+            self._near = near_pairs(self.x, self.delta)
+        return self._near
+
+    def _sum(self, far, near, *fields):
+        """``far`` (free, wall) over every pair, by component, then ``near``'s
+        correction: the rows ``lo … hi`` gathered, out of the wall's frame, scaled."""
+        out = np.empty((self.hi - self.lo, 3))
+        columns = [np.ascontiguousarray(v[:, k]) for v in (self.x, *fields) for k in range(3)]
+        far[self.wall is not None](*columns, self.lo, self.hi, out)
+        near(self.x, self.delta, *fields, *self.near, self.lo, self.hi, out)
+        return self._gathered(out)
 
     def _in_frame(self, v, points=False):
         v = np.reshape(v, (-1, 3))
@@ -247,11 +315,9 @@ class DirectSums:
 
     def mobility(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` (3N) for forces of length 3N."""
-        out = np.empty((self.hi - self.lo, 3))
-        _mobility_product(
-            self.x, self.delta, self._in_frame(forces), self.lo, self.hi, self.wall is not None, out
+        return self._sum(
+            (_far_mobility, _far_mobility_wall), _near_mobility, self._in_frame(forces)
         )
-        return self._gathered(out)
 
     def derivative(self, forces: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """``G dx`` (3N): ``∂(M F)/∂x · dx`` at the fixed ``forces``."""
@@ -283,11 +349,9 @@ class _Derivative:
 
     def __matmul__(self, dx):
         s = self.sums
-        out = np.empty((s.hi - s.lo, 3))
-        _derivative_product(
-            s.x, s.delta, self.F, s._in_frame(dx), s.lo, s.hi, s.wall is not None, out
+        return s._sum(
+            (_far_derivative, _far_derivative_wall), _near_derivative, self.F, s._in_frame(dx)
         )
-        return s._gathered(out)
 
 
 def DirectResistance(
