@@ -61,11 +61,11 @@ class Body:
     report: object = None
 
 
-from .gmsh_file import read_gmsh  # noqa: E402
-from .strip import build_strip  # noqa: E402
-from .three_link import build_three_link  # noqa: E402
+from .gmsh_file import Recipe, file_recipe, read_gmsh, realize  # noqa: E402
+from .strip import build_strip, strip_recipe  # noqa: E402
+from .three_link import build_three_link, three_link_recipe  # noqa: E402
 
-__all__ = ["Body", "build_strip", "build_three_link", "read_gmsh", "build_body"]
+__all__ = ["Body", "build_strip", "build_three_link", "read_gmsh", "build_body", "body_recipe"]
 
 
 _DEFAULTS = {
@@ -104,6 +104,62 @@ def _regions(raw) -> list:
     return regions
 
 
+def body_recipe(
+    mesh_section: dict,
+    scene_dir: str | os.PathLike[str] | None = None,
+    hinges: Sequence[str] = (),
+) -> Recipe:
+    """The :class:`Recipe` of the scene's ``[mesh]`` table: :func:`build_body` without
+    its ``comm``; errors as there."""
+    import os
+
+    if not isinstance(mesh_section, dict):
+        raise SceneError(f"mesh: expected a table, found {mesh_section!r}")
+    kind = mesh_section.get("kind", "strip")
+    if kind in ("strip", "three-link"):
+        get = lambda key: mesh_section.get(key, _DEFAULTS[kind][key])  # noqa: E731
+        regions = _regions(mesh_section.get("regions", []))
+        grading = float(mesh_section.get("grading") or 1.0)
+        if kind == "strip":
+            return strip_recipe(
+                get("length"),
+                get("width"),
+                get("divisions"),
+                get("cell"),
+                regions,
+                hinges,
+                grading=grading,
+            )
+        return three_link_recipe(
+            get("length"),
+            get("link_width"),
+            get("divisions"),
+            get("cell"),
+            regions,
+            hinges,
+            grading=grading,
+        )
+    if kind == "gmsh":
+        path = mesh_section.get("file")
+        if not isinstance(path, str) or not path:
+            raise SceneError(f'mesh.file: required for kind = "gmsh" (a .msh path), found {path!r}')
+        if float(mesh_section.get("grading") or 1.0) != 1.0:
+            raise SceneError(
+                'mesh.grading: for kind = "strip" or "three-link"; a gmsh '
+                "file brings its own cell sizes (grade them in gmsh)"
+            )
+        if mesh_section.get("regions"):
+            raise SceneError(
+                'mesh.regions: x/y bands are for kind = "strip" or '
+                '"three-link"; with kind = "gmsh" the named physical '
+                "surfaces of the file are the regions"
+            )
+        if scene_dir is not None and not os.path.isabs(path):
+            path = os.path.join(os.fspath(scene_dir), path)
+        return file_recipe(path)
+    raise SceneError(f'mesh.kind: expected "strip", "three-link" or "gmsh", found {kind!r}')
+
+
 def build_body(
     comm: MPI.Comm,
     mesh_section: dict,
@@ -132,52 +188,4 @@ def build_body(
 
     Bad values raise a one-line ``SceneError`` naming the ``mesh.*`` key.
     """
-    import os
-
-    if not isinstance(mesh_section, dict):
-        raise SceneError(f"mesh: expected a table, found {mesh_section!r}")
-    kind = mesh_section.get("kind", "strip")
-    if kind in ("strip", "three-link"):
-        get = lambda key: mesh_section.get(key, _DEFAULTS[kind][key])  # noqa: E731
-        regions = _regions(mesh_section.get("regions", []))
-        grading = float(mesh_section.get("grading") or 1.0)
-        if kind == "strip":
-            return build_strip(
-                comm,
-                get("length"),
-                get("width"),
-                get("divisions"),
-                get("cell"),
-                regions,
-                hinges,
-                grading=grading,
-            )
-        return build_three_link(
-            comm,
-            get("length"),
-            get("link_width"),
-            get("divisions"),
-            get("cell"),
-            regions,
-            hinges,
-            grading=grading,
-        )
-    if kind == "gmsh":
-        path = mesh_section.get("file")
-        if not isinstance(path, str) or not path:
-            raise SceneError(f'mesh.file: required for kind = "gmsh" (a .msh path), found {path!r}')
-        if float(mesh_section.get("grading") or 1.0) != 1.0:
-            raise SceneError(
-                'mesh.grading: for kind = "strip" or "three-link"; a gmsh '
-                "file brings its own cell sizes (grade them in gmsh)"
-            )
-        if mesh_section.get("regions"):
-            raise SceneError(
-                'mesh.regions: x/y bands are for kind = "strip" or '
-                '"three-link"; with kind = "gmsh" the named physical '
-                "surfaces of the file are the regions"
-            )
-        if scene_dir is not None and not os.path.isabs(path):
-            path = os.path.join(os.fspath(scene_dir), path)
-        return read_gmsh(comm, path)
-    raise SceneError(f'mesh.kind: expected "strip", "three-link" or "gmsh", found {kind!r}')
+    return realize(comm, body_recipe(mesh_section, scene_dir, hinges))

@@ -11,7 +11,8 @@ import math
 import os
 import sys
 from contextlib import contextmanager, nullcontext
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -19,6 +20,8 @@ from rftfem.compat import create_meshtags, gmsh_model_to_mesh
 from rftfem.errors import SceneError
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from mpi4py import MPI
 
     from . import Body
@@ -336,6 +339,50 @@ def _extents(comm, mesh) -> tuple[float, float]:
     return out[0], out[1]
 
 
+@dataclass
+class Recipe:
+    """How to make a body in gmsh, before any dolfinx mesh: ``prepare(gmsh)`` fills
+    the current model on rank 0 and returns ``(regions, edges, points, report)``
+    (names → physical tags; named points' coordinates; a gmsh file's
+    :class:`~.surface_checks.SurfaceReport` or None) under the gmsh ``options``.
+    ``extents``: the reference body's (length, width) if known (else measured);
+    ``hinges``: its built-in hinge lines' names.  :func:`realize` makes the Body;
+    :mod:`.bodies` puts several recipes into one mesh."""
+
+    prepare: Callable[[Any], tuple]
+    options: dict[str, float] | None = None
+    extents: tuple[float, float] | None = None
+    hinges: list[str] = field(default_factory=list)
+
+
+def realize(comm: MPI.Comm, recipe: Recipe) -> Body:
+    """Collective: the Body of ``recipe`` (gmsh on rank 0, dolfinx on every rank)."""
+    from . import Body
+
+    mesh, cell_tags, facet_tags, regions, edges, points, report = _model_to_body(
+        comm, recipe.prepare, recipe.options
+    )
+    length, width = recipe.extents or _extents(comm, mesh)
+    return Body(
+        mesh=mesh,
+        cell_tags=cell_tags,
+        facet_tags=facet_tags,
+        regions=regions,
+        edges=edges,
+        points=points,
+        length=length,
+        width=width,
+        hinges=list(recipe.hinges),
+        report=report,
+    )
+
+
+def file_recipe(path: str | os.PathLike[str]) -> Recipe:
+    """The :class:`Recipe` of a gmsh ``.msh`` file (:func:`read_gmsh`)."""
+    path = os.fspath(path)
+    return Recipe(lambda gmsh: _prepare_file(gmsh, path))
+
+
 def read_gmsh(comm: MPI.Comm, path: str | os.PathLike[str]) -> Body:
     """Read a gmsh ``.msh`` surface mesh (2D elements in 3D) into a Body.
 
@@ -362,21 +409,4 @@ def read_gmsh(comm: MPI.Comm, path: str | os.PathLike[str]) -> Body:
     surface, mixed or unsupported cell types) raise a one-line
     ``SceneError("mesh.file: ...")`` on every rank.
     """
-    path = os.fspath(path)
-    mesh, cell_tags, facet_tags, regions, edges, points, report = _model_to_body(
-        comm, lambda gmsh: _prepare_file(gmsh, path)
-    )
-    length, width = _extents(comm, mesh)
-    from . import Body
-
-    return Body(
-        mesh=mesh,
-        cell_tags=cell_tags,
-        facet_tags=facet_tags,
-        regions=regions,
-        edges=edges,
-        points=points,
-        length=length,
-        width=width,
-        report=report,
-    )
+    return realize(comm, file_recipe(path))

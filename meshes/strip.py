@@ -1,6 +1,6 @@
 """Structured strips in the plane Z = 0, built with gmsh as a grid of rectangles.
 
-:func:`build_strip` makes ``[0, L] x [0, W]``; :func:`grid_body` is the grid
+:func:`build_strip` makes ``[0, L] x [0, W]``; :func:`grid_recipe` is the grid
 builder it shares with :mod:`.three_link` (cuts in X and Y at region limits and
 hinge lines, one transfinite surface and one cell tag per rectangle).
 """
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 
-from .gmsh_file import _model_to_body
+from .gmsh_file import Recipe, realize
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -328,8 +328,7 @@ def _prepare_grid(gmsh, xs, nxs, ys, nys, quads, regions, lines, grading=1.0):
     return names, edges
 
 
-def grid_body(
-    comm: MPI.Comm,
+def grid_recipe(
     length: float,
     width: float,
     nx: int,
@@ -340,8 +339,9 @@ def grid_body(
     grading: float = 1.0,
     builtin_lines: Sequence[tuple[str, float, str]] = (),
     builtin_regions: Sequence[Region] = (),
-) -> Body:
-    """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles.
+) -> Recipe:
+    """The body ``[0, length] x [0, width]`` at Z = 0 as a grid of rectangles (its
+    :class:`~.gmsh_file.Recipe`).
 
     Checked arguments except ``regions`` and ``hinges`` (user input, checked
     here). The X cuts (0, L, x hinge lines, region x limits) share ``nx``; the
@@ -349,8 +349,8 @@ def grid_body(
     0 to ``width``; inner limits must be built-in lines). ``builtin_lines``
     ``[(axis, c, name)]`` are named hinge lines that come first (facet tags 5,
     6, ...), ``builtin_regions`` ``[(name, xband, yband)]`` regions that come
-    first and whose names users may not take. Returns a Body whose ``hinges``
-    are the built-in line names.
+    first and whose names users may not take. The Body's ``hinges`` are the
+    built-in line names.
     """
     bands = _check_regions(regions, length, width, [name for name, _, _ in builtin_regions])
     lines = _check_hinges(hinges, length, width, builtin_lines)
@@ -364,24 +364,35 @@ def grid_body(
     nxs = _share(xs, [(0.0, length, nx)])
     nys = _share(ys, ygroups)
 
-    mesh, cell_tags, facet_tags, names, edges = _model_to_body(
-        comm,
-        lambda gmsh: _prepare_grid(
+    def prepare(gmsh):
+        names, edges = _prepare_grid(
             gmsh, xs, nxs, ys, nys, cell == "quadrilateral", all_regions, lines, grading
-        ),
-        options=_OPTIONS,
-    )
-    from . import Body
+        )
+        return names, edges, {}, None
 
-    return Body(
-        mesh=mesh,
-        cell_tags=cell_tags,
-        facet_tags=facet_tags,
-        regions=names,
-        edges=edges,
-        length=length,
-        width=width,
+    return Recipe(
+        prepare,
+        options=_OPTIONS,
+        extents=(length, width),
         hinges=[name for _, _, name in builtin_lines],
+    )
+
+
+def strip_recipe(
+    length: float,
+    width: float,
+    divisions: Sequence[int],
+    cell: str = "quadrilateral",
+    regions: Sequence[Region] = (),
+    hinges: Sequence[str] = (),
+    grading: float = 1.0,
+) -> Recipe:
+    """The :class:`~.gmsh_file.Recipe` of :func:`build_strip` (same arguments but ``comm``)."""
+    length, width = check_size("length", length), check_size("width", width)
+    nx, ny = check_divisions(divisions, "[nx, ny]")
+    check_cell(cell)
+    return grid_recipe(
+        length, width, nx, [(0.0, width, ny)], cell, regions, hinges, grading=grading
     )
 
 
@@ -429,9 +440,4 @@ def build_strip(
     Bad arguments raise ``SceneError`` naming the ``mesh.*`` scene key, or
     ``hinge.N.where`` (``N`` the index in ``hinges``).
     """
-    length, width = check_size("length", length), check_size("width", width)
-    nx, ny = check_divisions(divisions, "[nx, ny]")
-    check_cell(cell)
-    return grid_body(
-        comm, length, width, nx, [(0.0, width, ny)], cell, regions, hinges, grading=grading
-    )
+    return realize(comm, strip_recipe(length, width, divisions, cell, regions, hinges, grading))

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .strip import check_cell, check_divisions, check_size, grid_body
+from .gmsh_file import realize
+from .strip import check_cell, check_divisions, check_size, grid_recipe
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -12,10 +13,40 @@ if TYPE_CHECKING:
     from mpi4py import MPI
 
     from . import Body
+    from .gmsh_file import Recipe
     from .strip import Region
 
 LINKS = ("left", "middle", "right")
 HINGES = ("hinge-left", "hinge-right")
+
+
+def three_link_recipe(
+    length: float,
+    link_width: float,
+    divisions: Sequence[int],
+    cell: str = "quadrilateral",
+    regions: Sequence[Region] = (),
+    hinges: Sequence[str] = (),
+    grading: float = 1.0,
+) -> Recipe:
+    """The :class:`~.gmsh_file.Recipe` of :func:`build_three_link` (same arguments but
+    ``comm``)."""
+    length, w = check_size("length", length), check_size("link_width", link_width)
+    nx, n = check_divisions(divisions, "[nx, n_per_link]")
+    check_cell(cell)
+    y = [0.0, w, 2.0 * w, 3.0 * w]
+    return grid_recipe(
+        length,
+        y[3],
+        nx,
+        [(y[k], y[k + 1], n) for k in range(3)],
+        cell,
+        regions,
+        hinges,
+        grading=grading,
+        builtin_lines=[("y", y[1], HINGES[0]), ("y", y[2], HINGES[1])],
+        builtin_regions=[(LINKS[k], None, (y[k], y[k + 1])) for k in range(3)],
+    )
 
 
 def build_three_link(
@@ -48,20 +79,6 @@ def build_three_link(
     ``mesh.link_width``, ``mesh.divisions``, ``mesh.cell``, ``mesh.regions.N``
     or ``hinge.N.where``.
     """
-    length, w = check_size("length", length), check_size("link_width", link_width)
-    nx, n = check_divisions(divisions, "[nx, n_per_link]")
-    check_cell(cell)
-    y = [0.0, w, 2.0 * w, 3.0 * w]
-    return grid_body(
-        comm,
-        length,
-        y[3],
-        nx,
-        [(y[k], y[k + 1], n) for k in range(3)],
-        cell,
-        regions,
-        hinges,
-        grading=grading,
-        builtin_lines=[("y", y[1], HINGES[0]), ("y", y[2], HINGES[1])],
-        builtin_regions=[(LINKS[k], None, (y[k], y[k + 1])) for k in range(3)],
+    return realize(
+        comm, three_link_recipe(length, link_width, divisions, cell, regions, hinges, grading)
     )

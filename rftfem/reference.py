@@ -100,6 +100,12 @@ def _join(display: str, key: str) -> str:
     return f"{display}.{key}" if display else key
 
 
+def _array_item(path: str) -> str:
+    """An array's heading, ``[[load]]``; in an array's entries TOML's own spelling,
+    ``[[body.parts]]`` (not ``[[[[body]].parts]]``)."""
+    return f"[[{path.replace(']].', '.').lstrip('[')}]]"
+
+
 def walk(schema: Any = None) -> Iterator[tuple[str, Any]]:
     """``(display path, node)`` of every node below ``schema``, depth first in schema
     order: ``mesh``, ``mesh.kind``, ..., ``[[mesh.regions]]``, ``[[mesh.regions]].name``,
@@ -110,7 +116,7 @@ def walk(schema: Any = None) -> Iterator[tuple[str, Any]]:
         for key, sub in table.fields.items():
             path = _join(display, key)
             if isinstance(sub, _schema.Array):
-                item = f"[[{path}]]"
+                item = _array_item(path)
                 yield item, sub
                 yield from visit(sub.item, item)
             elif isinstance(sub, _schema.Table):
@@ -202,10 +208,11 @@ def scene_keys_markdown(schema: Any = None) -> str:
                         item, _schema.Table(fields), f'`{item}` with kind = "{kind}"', text
                     )
             elif isinstance(sub, _schema.Array):
-                item = f"[[{path}]]"
+                item = _array_item(path)
                 table_section(item, sub, f"`{item}`", f"{_status(sub)} {_require_doc(sub, item)}")
             elif isinstance(sub, _schema.Table):
-                table_section(path, sub, f"`[{path}]`", f"{_status(sub)} {_require_doc(sub, path)}")
+                title = f"`{path}`" if display[:2] == "[[" else f"`[{path}]`"  # in an array entry
+                table_section(path, sub, title, f"{_status(sub)} {_require_doc(sub, path)}")
             elif isinstance(sub, _schema.Free):
                 doc = _require_doc(sub, path)
                 sections.append(

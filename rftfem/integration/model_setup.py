@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
@@ -14,20 +15,49 @@ from rftfem.model.shell_model import Model
 from rftfem.outputs.writers import Probes
 from rftfem.scene import scales
 
+if TYPE_CHECKING:
+    from rftfem.meshes import Recipe
+
 
 def build_model(
     scene: dict, comm: MPI.Comm, compile_forms: bool = True, tangent: str | None = None
 ) -> Model:
     """The scene's body (its hinge lines cut into strip meshes) and its Model, with
     the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
-    from rftfem.meshes import build_body
+    from rftfem.meshes import build_body, realize
 
     scene_dir = Path(scene.get("_folder") or Path(scene.get("_path") or "scene.toml").parent)
-    lines = [h["where"] for h in scene.get("hinge") or []]
-    body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
+    if scene["mesh"]["kind"] == "bodies":
+        body = realize(comm, bodies_recipe(scene, scene_dir))
+    else:
+        lines = [h["where"] for h in scene.get("hinge") or []]
+        body = build_body(comm, scene["mesh"], scene_dir, hinges=lines)
     if tangent is None:
         tangent = petsc_options.tangent(scene.get("solver"))
     return Model(scene, body, compile_forms=compile_forms, tangent=tangent)
+
+
+def bodies_recipe(scene: dict, scene_dir: Path) -> Recipe:
+    """The recipe of a scene's [[body]] tables in one mesh, each body's own hinge
+    lines cut in it (rftfem.meshes.bodies)."""
+    from rftfem.meshes import body_recipe
+    from rftfem.meshes.bodies import Placed, bodies_recipe
+
+    def own_lines(name):
+        cut = [h["where"].split(":", 1)[1] for h in scene["hinge"] if h.get("body") == name]
+        return [w for w in cut if w not in ("hinge-left", "hinge-right")]
+
+    return bodies_recipe(
+        [
+            Placed(
+                b["name"],
+                body_recipe(b["mesh"], scene_dir, hinges=own_lines(b["name"])),
+                b["at"],
+                b["turn"],
+            )
+            for b in scene["mesh"]["bodies"]
+        ]
+    )
 
 
 def check(scene: dict, comm: MPI.Comm | None = None) -> list[str]:

@@ -61,14 +61,20 @@ class BodyLog:
     """Whole-body diagnostics, one row per output step (``body.csv``): the centroid
     and the stored energy, then the columns of each active effect (the kinetic
     energy with inertia, the drag power, the field and the magnetic moment, ...),
-    then the named entries' reactions (reactions.py).  Every value is global."""
+    then the named entries' reactions (reactions.py), then with several bodies a
+    block per body (rftfem/model/body_parts.py).  Every value is global."""
 
     def __init__(self, model: Any, reactions: Any | None = None):
+        from rftfem.model.body_parts import PartMeasures, body_parts
+
         self.model, self.reactions = model, reactions
         self.columns = ["centroid_x", "centroid_y", "centroid_z", "elastic_energy"]
         self.columns += [c for comp in model.components for c in comp.columns]
         if reactions:
             self.columns += reactions.columns
+        #: several bodies: a block of columns each (NAME_centroid_x, ...)
+        self.parts = [PartMeasures(model, part) for part in body_parts(model)]
+        self.columns += [c for part in self.parts for c in part.columns]
 
     def header(self) -> list[str]:
         return self.columns
@@ -80,6 +86,8 @@ class BodyLog:
             row += comp.values(t)
         if self.reactions:
             row += list(self.reactions.last.ravel())
+        for part in self.parts:
+            row += part.values()
         return row
 
 

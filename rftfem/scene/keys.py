@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from rftfem.errors import SceneError
 from rftfem.model import effects
+from rftfem.scene.bodies import BODY_KEY
+from rftfem.scene.bodies import SCHEMA as BODIES
 from rftfem.scene.material_keys import PART_MATERIAL, SHELL_MATERIAL, check_material
 from rftfem.scene.mesh_keys import MESH, check_mesh
 from rftfem.scene.schema import (
@@ -52,6 +54,7 @@ SCHEMA = Table(
             "of a run show it.",
         ),
         "mesh": MESH,
+        "body": BODIES,
         "shell": Table(
             {
                 **{k: v for k, v in SHELL_MATERIAL.items() if k != "fibre"},
@@ -254,6 +257,7 @@ SCHEMA = Table(
                                 "body within 5 % of a cell's size of its surface (the nearest "
                                 "point is taken).",
                             ),
+                            "body": BODY_KEY,
                         }
                     ),
                     doc="Material points whose displacement goes to probes.csv.",

@@ -148,13 +148,17 @@ MESH = Table(
     },
     required=True,
     doc="The body in its reference (unloaded) state: the shell's mid-surface, its mesh "
-    "and its named regions and edges.",
+    "and its named regions and edges. A scene of several bodies gives `[[body]]` "
+    "tables instead, each with a mesh table like this one.",
 )
 
 
 def check_mesh(mesh: dict) -> None:
-    """Fill the kind-dependent keys of [mesh] and check its regions."""
+    """Fill the kind-dependent keys of [mesh] and check its regions (the mesh of
+    several bodies is made of [[body]] tables, each checked on its own)."""
     kind = mesh["kind"]
+    if kind == "bodies":
+        return
     three = kind == "three-link"
     if kind == "gmsh" and mesh["file"] is None:
         raise SceneError(

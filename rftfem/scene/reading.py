@@ -47,6 +47,7 @@ from typing import Any, Iterable
 
 from rftfem.errors import SceneError
 from rftfem.model import effects
+from rftfem.scene import bodies
 from rftfem.scene.keys import SCHEMA, cross_check
 from rftfem.scene.schema import (
     Array,
@@ -311,39 +312,51 @@ def complete_scene(
     # the [parameters] first: the formulas that use them are validated with their numbers
     parameters = SCHEMA.fields["parameters"].validate(raw.get("parameters", {}), "parameters")
     with scene_parameters(parameters):
+        has_mesh = "mesh" in raw
+        if not has_mesh and raw.get("body"):  # [[body]] tables stand for [mesh]
+            raw["mesh"] = {}
         scene = validate_table(SCHEMA, raw, "")
+        bodies.expand(scene, has_mesh)
         cross_check(scene)
     scene["time"]["scheme"] = resolved_scheme(scene)
 
     folder = Path(folder).expanduser().resolve()
-    mesh = scene["mesh"]
-    if mesh["kind"] == "gmsh":
-        mesh_file = (folder / Path(mesh["file"]).expanduser()).resolve()
-        if not mesh_file.exists():
-            raise SceneError(
-                f"mesh.file: expected a readable gmsh mesh file, found "
-                f"'{mesh['file']}' which does not exist ({mesh_file})"
-            )
-        if not mesh_file.is_file():
-            raise SceneError(
-                f"mesh.file: expected a readable gmsh mesh file, found "
-                f"'{mesh['file']}' which is not a regular file ({mesh_file})"
-            )
-        try:
-            with open(mesh_file, "rb") as fh:
-                fh.read(1)
-        except OSError as exc:
-            raise SceneError(
-                f"mesh.file: expected a readable gmsh mesh file, found "
-                f"'{mesh['file']}' which cannot be read "
-                f"({exc.strerror or exc})"
-            ) from None
-        mesh["file"] = str(mesh_file)
+    meshes = scene["mesh"]["bodies"] if scene["mesh"]["kind"] == "bodies" else [scene]
+    for i, body in enumerate(meshes):
+        if body["mesh"]["kind"] == "gmsh":
+            key = "mesh.file" if body is scene else f"body.{i}.mesh.file"
+            body["mesh"]["file"] = _mesh_file(body["mesh"]["file"], folder, key)
     scene["_path"] = None if path is None else str(path)
     scene["_folder"] = str(folder)
     scene["_overrides"] = list(overrides)
     scene["_raw"] = kept
     return scene
+
+
+def _mesh_file(given: str, folder: Path, key: str) -> str:
+    """The absolute path of a gmsh mesh file named in the scene (relative to its
+    folder), which must be a readable file; else a SceneError at ``key``."""
+    mesh_file = (folder / Path(given).expanduser()).resolve()
+    if not mesh_file.exists():
+        raise SceneError(
+            f"{key}: expected a readable gmsh mesh file, found "
+            f"'{given}' which does not exist ({mesh_file})"
+        )
+    if not mesh_file.is_file():
+        raise SceneError(
+            f"{key}: expected a readable gmsh mesh file, found "
+            f"'{given}' which is not a regular file ({mesh_file})"
+        )
+    try:
+        with open(mesh_file, "rb") as fh:
+            fh.read(1)
+    except OSError as exc:
+        raise SceneError(
+            f"{key}: expected a readable gmsh mesh file, found "
+            f"'{given}' which cannot be read "
+            f"({exc.strerror or exc})"
+        ) from None
+    return str(mesh_file)
 
 
 def with_overrides(scene: dict, overrides: Iterable[str]) -> dict:

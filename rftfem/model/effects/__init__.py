@@ -56,6 +56,7 @@ def scene_keys() -> dict:
 
 def load_schema() -> Kinds:
     """The ``[[load]]`` array: the common keys and each load component's kinds."""
+    from rftfem.scene.bodies import BODY_KEY
     from rftfem.scene.schema import Kinds, Leaf, Str
 
     kinds = {kind: fields for effect in REGISTRY for kind, fields in effect.load_kinds.items()}
@@ -64,6 +65,7 @@ def load_schema() -> Kinds:
         "kind": Leaf(Str(tuple(kinds)), required=True, doc=LOAD_KIND_DOC),
         "ramp": RAMP,
         "table": TABLE,
+        "body": BODY_KEY,
     }
     return Kinds(
         common,

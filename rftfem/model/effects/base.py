@@ -21,6 +21,7 @@ if TYPE_CHECKING:  # (annotations only: the effects import no dolfinx at the top
     import dolfinx.fem
     import ufl
 
+    from rftfem.model.body_parts import BodyPart
     from rftfem.model.shell_model import Model
 
 
@@ -158,6 +159,11 @@ class FluidModel(Effect):
     def opening_lines(self) -> list[str]:
         """The lines a run prints about it when it starts."""
         return []
+
+    def resultant_on(self, part: BodyPart) -> np.ndarray:
+        """The liquid's force and moment about the origin on one body of several
+        (``rftfem.model.body_parts``), as its whole-body columns give them."""
+        raise NotImplementedError
 
 
 class NonlocalEffect(Effect):

@@ -22,6 +22,7 @@ import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.model.effects.base import Effect
+from rftfem.scene.bodies import BODY_KEY
 from rftfem.scene.schema import Array, Fix, Leaf, Str, Table, Vec, Where, fmt
 from rftfem.scene.selectors import check_where, entities_of
 
@@ -64,6 +65,7 @@ class Boundaries(Effect):
                         "curve), a hinge line, a region or a gmsh physical point (to "
                         "hold a rigid motion); an edge for symmetry.",
                     ),
+                    "body": BODY_KEY,
                     "name": NAME,
                     "fix": Leaf(
                         Fix(),

@@ -20,6 +20,7 @@ from rftfem.model.effects.base import FluidModel
 from rftfem.model.ranks import gather_rows
 
 if TYPE_CHECKING:
+    from rftfem.model.body_parts import BodyPart
     from rftfem.model.shell_model import Model
 
 
@@ -178,3 +179,18 @@ class Drag(FluidModel):
 
     def values(self, t: float) -> list[float]:
         return [self.power(), *self.resultant()]
+
+    def resultant_on(self, part: BodyPart) -> np.ndarray:
+        """:meth:`resultant` over one body's cells."""
+        from rftfem.model.body_parts import restricted
+
+        m, chi = self.model, part.chi
+        x = ufl.SpatialCoordinate(m.mesh) + m.kinematics().u
+        forms = self._assembled(
+            f"resultant {part.name}",
+            lambda: [
+                restricted(f, chi)
+                for f in self._term(drag.drag_force, m.v_n) + self._term(drag.drag_moment, m.v_n, x)
+            ],
+        )
+        return -np.array([m.assemble_scalar(f) for f in forms])

@@ -19,6 +19,7 @@ from rftfem.errors import SceneError
 from rftfem.forms import hinge as hinge_forms
 from rftfem.forms import kinematics
 from rftfem.model.effects.base import Effect
+from rftfem.scene.bodies import BODY_KEY
 from rftfem.scene.mesh_keys import MOMENT_PER_LENGTH_RAD
 from rftfem.scene.schema import NONNEGATIVE, Array, Leaf, Table, Where, err, fmt
 from rftfem.scene.selectors import LINED_KINDS, THREE_LINK_HINGES, hinge_line
@@ -42,6 +43,7 @@ class Hinges(Effect):
                         "body (the mesh is cut there), or a named physical curve of a "
                         "gmsh mesh, straight or curved. One hinge per line.",
                     ),
+                    "body": BODY_KEY,
                     "stiffness": Leaf(
                         NONNEGATIVE,
                         0.0,

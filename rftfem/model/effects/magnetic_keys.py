@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from rftfem.model.magnetic_sources import FIELD_KINDS
 from rftfem.model.magnets import SOURCE_SCHEMA
+from rftfem.scene.bodies import BODY_KEY
 from rftfem.scene.schema import (
     NONNEGATIVE,
     Array,
@@ -33,6 +34,7 @@ SCHEMA = Table(
                         "takes "
                         "one magnetization.",
                     ),
+                    "body": BODY_KEY,
                     "magnetization": Leaf(
                         Formula(REFERENCE, NONNEGATIVE),
                         None,

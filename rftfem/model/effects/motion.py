@@ -27,6 +27,7 @@ from rftfem.errors import SceneError
 from rftfem.model.effects.base import Effect
 from rftfem.model.effects.boundary import DISPLACEMENT_COMPONENTS, NAME
 from rftfem.model.rates import scheme_velocity
+from rftfem.scene.bodies import BODY_KEY
 from rftfem.scene.schema import Array, Leaf, Num, Pairs, Str, Table, Vec, Where, table_iff
 from rftfem.scene.selectors import check_where, entities_of
 
@@ -44,6 +45,7 @@ class Motions(Effect):
             Table(
                 {
                     "where": Leaf(Where(), "all", doc="Where, as for `[[boundary]].where`."),
+                    "body": BODY_KEY,
                     "name": NAME,
                     "component": Leaf(
                         Str(("ux", "uy", "uz")),

@@ -49,6 +49,7 @@ from rftfem.model.rates import scheme_velocity
 from rftfem.model.stokes_matrix_free import MatrixFreeResistance
 
 if TYPE_CHECKING:
+    from rftfem.model.body_parts import BodyPart
     from rftfem.model.shell_model import Model
 #: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
 #: at 5000, a Cholesky factorisation of ~1e12 flops a residual
@@ -417,6 +418,12 @@ class Stokes(FluidModel, NonlocalEffect):
         both = self._gather(np.hstack([self.X[self.offset : self.offset + n] + u, v]))
         x, v = both[:, :3], both[:, 3:]
         return x, v, self._forces(x, v)
+
+    def resultant_on(self, part: BodyPart) -> np.ndarray:
+        """The force and moment of the body's own nodal forces (as :meth:`values`)."""
+        x, _, F = self._stored()
+        mine = self._gather(part.nodes[: self.n_owned, None].astype(float))[:, 0] > 0.5
+        return -np.concatenate([F[mine].sum(axis=0), np.cross(x[mine], F[mine]).sum(axis=0)])
 
     def values(self, t: float) -> list[float]:
         x, v, F = self._stored()

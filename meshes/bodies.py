@@ -1,0 +1,201 @@
+"""Several bodies in one mesh (a scene's ``[[body]]`` tables).
+
+Each body is made from its own :class:`~.gmsh_file.Recipe` in a gmsh model of its
+own, then turned and moved into place (``x ↦ R x + at``, ``R`` the turns about X,
+then Y, then Z) and copied into one model as discrete entities: its nodes, its
+elements and its physical groups, tags shifted past the bodies before it.  The
+dolfinx mesh is then made from that model as from any other, so every effect sees
+one body whose pieces do not touch.
+
+Names are the body's own, prefixed: ``"NAME"`` is the whole body (a region),
+``"NAME:REGION"`` its regions, ``"NAME:EDGE"`` its edges (a strip's ``x=0`` …
+``y=W`` and hinge lines included), ``"NAME:POINT"`` a gmsh file's named points (at
+their placed coordinates).  A proper rotation keeps each cell's normal as its own
+mesh made it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rftfem.errors import SceneError
+
+from .gmsh_file import Recipe
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+#: gmsh's names of the surface cell types, for the refusal of mixed types
+_CELLS = {2: "triangle", 3: "quadrilateral", 9: "6-node triangle", 10: "9-node quadrilateral"}
+#: what separates a body's name from the names in its own mesh
+SEPARATOR = ":"
+
+
+def rotation(turn: Sequence[float]) -> np.ndarray:
+    """``R = R_z R_y R_x`` for the turns ``[about X, about Y, about Z]`` in degrees
+    (about the fixed axes: X first)."""
+    ax, ay, az = (math.radians(float(a)) for a in turn)
+    cx, sx, cy, sy, cz, sz = (
+        math.cos(ax),
+        math.sin(ax),
+        math.cos(ay),
+        math.sin(ay),
+        math.cos(az),
+        math.sin(az),
+    )
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    return Rz @ Ry @ Rx
+
+
+@dataclass
+class Placed:
+    """One body: its name, recipe, and placement (``at``, ``turn`` in degrees)."""
+
+    name: str
+    recipe: Recipe
+    at: Sequence[float] = (0.0, 0.0, 0.0)
+    turn: Sequence[float] = (0.0, 0.0, 0.0)
+
+    def place(self, x: np.ndarray) -> np.ndarray:
+        """Reference points ``(k, 3)`` of the body's own mesh, placed."""
+        return np.asarray(x, dtype=float).reshape(-1, 3) @ rotation(self.turn).T + np.asarray(
+            self.at, dtype=float
+        )
+
+
+class Reports:
+    """The gmsh files' surface reports of several bodies, as one."""
+
+    def __init__(self, reports: dict[str, object]):
+        self.reports = reports
+
+    @property
+    def turned(self) -> int:
+        """Cells turned in all the bodies."""
+        return sum(r.turned for r in self.reports.values())
+
+    def lines(self) -> list[str]:
+        """Each body's lines, named."""
+        return [f"{name}: {line}" for name, r in self.reports.items() for line in r.lines()]
+
+
+def _copy_out(gmsh) -> tuple:
+    """Rank 0: the current model's nodes (tags 1…n in order), surface and curve
+    entities with their elements, and physical groups of dimension 1 and 2."""
+    model = gmsh.model
+    tags, coords, _ = model.mesh.getNodes()
+    order = np.argsort(tags)
+    renumber = {int(t): k + 1 for k, t in enumerate(np.asarray(tags)[order])}
+    x = np.asarray(coords, dtype=float).reshape(-1, 3)[order]
+    groups, entities = [], {}
+    for dim, tag in model.getPhysicalGroups():
+        if dim not in (1, 2):
+            continue
+        members = [int(e) for e in model.getEntitiesForPhysicalGroup(dim, tag)]
+        for e in members:
+            if (dim, e) not in entities:
+                types, _, nodes = model.mesh.getElements(dim, e)
+                entities[(dim, e)] = [
+                    (int(t), np.array([renumber[int(n)] for n in ns], dtype=np.int64))
+                    for t, ns in zip(types, nodes)
+                ]
+        groups.append((dim, int(tag), model.getPhysicalName(dim, tag), members))
+    return x, entities, groups
+
+
+def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
+    """The :class:`~.gmsh_file.Recipe` of several placed bodies in one mesh."""
+
+    def prepare(gmsh):
+        model = gmsh.model
+        combined = model.getCurrent()
+        regions: dict[str, list[int]] = {}
+        edges: dict[str, list[int]] = {}
+        points: dict[str, np.ndarray] = {}
+        reports, cell_type, placed = {}, None, []
+        nodes = elements = shift = 0
+        for k, body in enumerate(bodies):
+            model.add(f"{combined}-{k}")
+            options = body.recipe.options or {}
+            saved = {key: gmsh.option.getNumber(key) for key in options}
+            try:
+                for key, value in options.items():
+                    gmsh.option.setNumber(key, value)
+                own_regions, own_edges, own_points, report = body.recipe.prepare(gmsh)
+                x, entities, groups = _copy_out(gmsh)
+            finally:
+                model.remove()
+                for key, value in saved.items():
+                    gmsh.option.setNumber(key, value)
+                model.setCurrent(combined)
+            types = {t for (dim, _), blocks in entities.items() if dim == 2 for t, _ in blocks}
+            if cell_type is None:
+                cell_type = types
+            elif types != cell_type:
+                raise SceneError(
+                    f"body.{k}.mesh: its {', '.join(_CELLS.get(t, str(t)) for t in types)} "
+                    f"cells differ from body.0's "
+                    f"({', '.join(_CELLS.get(t, str(t)) for t in cell_type)}); "
+                    "every body needs one cell type"
+                )
+            new = {key: model.addDiscreteEntity(key[0]) for key in sorted(entities)}
+            first = next(new[key] for key in sorted(entities) if key[0] == 2)
+            placed.append(body.place(x))
+            model.mesh.addNodes(
+                2, first, list(range(nodes + 1, nodes + len(x) + 1)), placed[-1].ravel()
+            )
+            for key, blocks in entities.items():
+                for t, ns in blocks:
+                    count = len(ns) // model.mesh.getElementProperties(t)[3]
+                    tags = list(range(elements + 1, elements + count + 1))
+                    model.mesh.addElements(key[0], new[key], [t], [tags], [list(ns + nodes)])
+                    elements += count
+            name = body.name
+            for dim, tag, label, members in groups:
+                model.addPhysicalGroup(dim, [new[(dim, e)] for e in members], tag + shift)
+                if label:
+                    model.setPhysicalName(dim, tag + shift, f"{name}{SEPARATOR}{label}")
+            regions[name] = [tag + shift for dim, tag, _, _ in groups if dim == 2]
+            for names, own in ((regions, own_regions), (edges, own_edges)):
+                for label, tags in own.items():
+                    names[f"{name}{SEPARATOR}{label}"] = [t + shift for t in tags]
+            for label, at in own_points.items():
+                points[f"{name}{SEPARATOR}{label}"] = body.place(at)
+            if report is not None:
+                reports[name] = report
+            nodes += len(x)
+            shift += max([tag for _, tag, _, _ in groups], default=0)
+        check_apart(bodies, placed)
+        return regions, edges, points, Reports(reports) if reports else None
+
+    # a body's built-in hinge lines are named edges ("NAME:hinge-left"); the scene
+    # gives them as [[hinge]] entries (rftfem.scene.bodies), so none is built in here
+    return Recipe(prepare)
+
+
+def check_apart(bodies: Sequence[Placed], nodes: Sequence[np.ndarray]) -> None:
+    """Refuse bodies that overlap where they start: a node of one closer to a node of
+    another than half the smaller of their node spacings (each body's smallest
+    distance between two of its own nodes)."""
+    from scipy.spatial import cKDTree
+
+    trees = [cKDTree(x) for x in nodes]
+    spacing = [
+        float(t.query(x, k=2)[0][:, 1].min()) if len(x) > 1 else 0.0 for t, x in zip(trees, nodes)
+    ]
+    for j in range(1, len(bodies)):
+        for i in range(j):
+            gap, _ = trees[i].query(nodes[j], k=1)
+            reach = 0.5 * min(spacing[i], spacing[j])
+            if gap.min() < reach:
+                raise SceneError(
+                    f"body.{j}.at: body '{bodies[j].name}' overlaps body '{bodies[i].name}' "
+                    f"where they start (nodes {gap.min():.3g} apart, closer than half their "
+                    f"node spacing {reach / 0.5:.3g}); move or turn it"
+                )
