@@ -277,3 +277,27 @@ def test_two_bodies_in_stokes_flow_on_two_processes_match_one(tmp_path, cli_run)
     header = (one / "body.csv").read_text().splitlines()[0].split(",")
     assert "rear_fluid_Fx" in header and "front_velocity_z" in header
     assert_tables_agree(one, two, 1e-11, "two bodies in Stokes flow, two processes against one")
+
+
+def test_bodies_that_come_close_are_warned_of_once(tmp_path):
+    """Body b pushed through body a (a prescribed motion along −Y, 2.5 in 1 s; the gap
+    is 2): the run goes on and warns once, at the first step within the thickness
+    (0.1) of a, naming both.  Broke: the pair not remembered (``self.warned`` not
+    added to): two warnings."""
+    text = TWO.replace("end = 0.1", "end = 1.0").replace("dt = 0.1", "dt = 0.05")
+    text += (
+        '[[motion]]\nbody = "b"\ncomponent = "uy"\nkind = "table"\n'
+        "values = [[0.0, 0.0], [1.0, -2.5]]\n"
+    )
+    path = write_scene(tmp_path, text)
+    done = subprocess.run(
+        [sys.executable, "-m", "rftfem", "run", str(path), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    warned = [line for line in (done.stdout + done.stderr).splitlines() if "came within" in line]
+    print(warned)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert len(warned) == 1 and "bodies 'a' and 'b' came within" in warned[0]
+    assert "at t = 0.8 " in warned[0]

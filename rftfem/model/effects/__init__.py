@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from rftfem.model.effects.base import LOAD_KIND_DOC, RAMP, TABLE, Effect
+from rftfem.model.effects.bodies import BodiesApart
 from rftfem.model.effects.boundary import Boundaries, check_reaction_names
 from rftfem.model.effects.contact import Contact
 from rftfem.model.effects.drag import Drag
@@ -44,6 +45,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     Pressure,
     Gravity,
     Contact,
+    BodiesApart,
     Boundaries,
     Motions,
 )
