@@ -25,6 +25,7 @@ from rftfem.model.effects.gravity import Gravity
 from rftfem.model.effects.hinge import Hinges
 from rftfem.model.effects.inertia import Inertia
 from rftfem.model.effects.magnetic import Magnetic
+from rftfem.model.effects.magnetic_interactions import MagneticInteractions
 from rftfem.model.effects.motion import Motions
 from rftfem.model.effects.point_force import PointForce
 from rftfem.model.effects.pressure import Pressure
@@ -40,6 +41,7 @@ REGISTRY: tuple[type[Effect], ...] = (
     Drag,
     Stokes,
     Magnetic,
+    MagneticInteractions,
     EdgeLoads,
     PointForce,
     Pressure,

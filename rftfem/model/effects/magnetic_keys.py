@@ -9,6 +9,7 @@ from rftfem.scene.bodies import BODY_KEY
 from rftfem.scene.schema import (
     NONNEGATIVE,
     Array,
+    Bool,
     Formula,
     Formulas,
     Leaf,
@@ -67,6 +68,14 @@ SCHEMA = Table(
             ),
             min_items=1,
             doc="The magnetized regions of the body.",
+        ),
+        "interactions": Leaf(
+            Bool(),
+            False,
+            doc="Whether the magnetized parts act on each other: every magnetized cell "
+            "is a point dipole of its current moment, and dipoles of different parts "
+            "or bodies attract, repel and turn each other (docs/bodies.md). A part "
+            "does not act on itself.",
         ),
         "field": Table(
             {
