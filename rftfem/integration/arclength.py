@@ -1,5 +1,4 @@
-"""Static path-following by arc length (the part of
-:class:`~rftfem.integration.simulation.Simulation` that owns ``time.scheme = "arc-length"``,
+"""Static path-following by arc length (``time.scheme = "arc-length"``,
 docs/model.md §6.11).
 
 The load factor λ joins the unknowns: the loads' and motions' time functions
@@ -42,6 +41,8 @@ from __future__ import annotations
 
 import math
 import time as _time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -49,6 +50,16 @@ from rftfem import compat
 from rftfem.errors import RunFailed, RunInterrupted
 from rftfem.integration.convergence import ROTATION_RANGE
 from rftfem.integration.step_control import STATIC_TURN
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from rftfem.integration.interrupts import NoStops, StopRequests
+    from rftfem.integration.run_state import RunHooks, RunPosition
+    from rftfem.integration.schemes import Scheme
+    from rftfem.integration.solver import StepSolver
+    from rftfem.model.reactions import Reactions
+    from rftfem.model.shell_model import Model
 
 #: the Newton iterations an arc step should take; Δs grows or shrinks towards it
 DESIRED_ITERATIONS = 5
@@ -69,8 +80,41 @@ MAX_GROWTH = 2.0
 LOAD_DIFFERENCE = 1e-7
 
 
+@dataclass
+class PathState:
+    """Where an arc-length run is on its path (a checkpoint keeps it all)."""
+
+    #: the load factor λ: the time the loads and motions are evaluated at
+    load_factor: float = 0.0
+    #: the next step's arc (None: the first, from Δλ = ``first_increment``)
+    arc: float | None = None
+    #: the first step's length, the scale of every later arc
+    first_arc: float | None = None
+    #: the last step's displacement increment (the path's direction)
+    path_direction: np.ndarray | None = None
+    #: Δλ of the first step: time.dt, halved while it fails
+    first_increment: float = 0.0
+    #: the last converged step's residual norm
+    last_residual: float = math.nan
+
+
 class PathFollowing:
-    """Arc-length methods of a Simulation."""
+    """Steps along the equilibrium path of a static run by arc length, from the
+    state in ``state`` (:class:`PathState`) with the run's model and solver."""
+
+    def __init__(
+        self,
+        model: Model,
+        solver: StepSolver,
+        scheme: Scheme,
+        comm: MPI.Comm,
+        time_: dict,
+        stops: StopRequests | NoStops,
+        reactions: Reactions,
+    ):
+        self.model, self.solver, self.scheme, self.comm = model, solver, scheme, comm
+        self.time_, self.stops, self.reactions = time_, stops, reactions
+        self.state = PathState(first_increment=time_["dt"])
 
     def _path_setup(self):
         """Work vectors and the mask of owned displacement dofs."""
@@ -102,7 +146,7 @@ class PathFollowing:
         """``q = −∂R/∂λ`` at ``x`` into ``self._q`` (forward difference; ``self.solver.b``
         must hold ``R(x, λ)``)."""
         m, s = self.model, self.solver
-        h = LOAD_DIFFERENCE * max(abs(lam), self.scene["time"]["end"])
+        h = LOAD_DIFFERENCE * max(abs(lam), self.time_["end"])
         m.set_time(lam + h)
         s.residual(x, self._r2)
         m.set_time(lam)
@@ -110,14 +154,15 @@ class PathFollowing:
         self._r2.copy(self._q)
         self._q.scale(-1.0 / h)
 
-    def _arc_step(self, arc: float | None, target: float | None = None):
+    def _arc_step(self, pos: RunPosition, arc: float | None, target: float | None = None):
         """One converged step from the last state: along the arc ``arc`` (None: the
-        first, ``Δλ = time.dt``), or to the load factor ``target`` under load control.
-        Returns (λ, arc, Newton iterations, residual); the model holds the converged
-        iterate. Raises _StepFailed with the reason when Newton does not converge."""
-        m, s = self.model, self.solver
+        first, ``Δλ = first_increment``), or to the load factor ``target`` under load
+        control. Returns (λ, arc, Newton iterations, residual); the model holds the
+        converged iterate. Raises _StepFailed with the reason when Newton does not
+        converge."""
+        m, s, st = self.model, self.solver, self.state
         x, b = s.x, s.b
-        lam0 = self.load_factor
+        lam0 = st.load_factor
         compat.petsc_vec(m.w).copy(x)
         start = x.array.copy()
         m.start_newton()
@@ -129,7 +174,7 @@ class PathFollowing:
         db = self._db.array
         size = math.sqrt(self._dot_u(db, db))
         if arc is None and target is None:  # the first step: a load step of time.dt
-            target = lam0 + self.first_increment
+            target = lam0 + st.first_increment
         if target is not None:
             dlam = target - lam0
         else:
@@ -137,11 +182,11 @@ class PathFollowing:
                 raise RunFailed(
                     "arc-length: the loads and motions do not move the body "
                     "(their derivative in the load factor is zero)",
-                    self.t,
-                    self.step,
+                    pos.t,
+                    pos.step,
                 )
             sign = 1.0
-            if self.path_direction is not None and self._dot_u(db, self.path_direction) < 0:
+            if st.path_direction is not None and self._dot_u(db, st.path_direction) < 0:
                 sign = -1.0
             dlam = sign * arc / size
         x.axpy(dlam, self._db)
@@ -201,11 +246,12 @@ class PathFollowing:
     def _path_turn(self) -> float:
         """The angle (rad) between the converged step's displacement increment and the
         last step's (0 at the first step)."""
-        if self.path_direction is None:
+        last = self.state.path_direction
+        if last is None:
             return 0.0
         d = self.model.w.x.array - _u_of(self.model)
-        norms = math.sqrt(self._dot_u(d, d) * self._dot_u(self.path_direction, self.path_direction))
-        cos = self._dot_u(d, self.path_direction) / norms if norms > 0 else 1.0
+        norms = math.sqrt(self._dot_u(d, d) * self._dot_u(last, last))
+        cos = self._dot_u(d, last) / norms if norms > 0 else 1.0
         return math.acos(max(-1.0, min(1.0, cos)))
 
     def _constraint_root(self, D, da, db, arc, it):
@@ -225,53 +271,51 @@ class PathFollowing:
         roots = [(-a2 + sgn * math.sqrt(disc)) / (2.0 * a1) for sgn in (1.0, -1.0)]
         return max(roots, key=lambda r: self._dot_u(e + r * db, D))
 
-    def _run_arc_length(self, logs, progress):
+    def run(self, pos: RunPosition, hooks: RunHooks) -> None:
         """Steps along the path until λ reaches ``time.end`` or ``time.max_steps``."""
-        time_ = self.scene["time"]
+        time_, st, counts = self.time_, self.state, pos.counts
         end, max_steps, max_cuts = time_["end"], time_["max_steps"], time_["max_cuts"]
         self._path_setup()
         try:
-            while self.completed < max_steps and self.load_factor < end * (1 - 1e-12):
-                self.step = self.completed + 1
-                self._path_advance(logs, progress, end, max_cuts)
-                if self.step % time_["output_every"] == 0 or self.load_factor >= end * (1 - 1e-12):
-                    self._write_output(logs, self.t)
-                progress.update(
-                    self.load_factor,
-                    self.step,
-                    self.counts["newton_iterations"],
-                    self.last_residual,
+            while pos.completed < max_steps and st.load_factor < end * (1 - 1e-12):
+                pos.step = pos.completed + 1
+                self._advance(pos, hooks, end, max_cuts)
+                if pos.step % time_["output_every"] == 0 or st.load_factor >= end * (1 - 1e-12):
+                    hooks.output(pos.t)
+                hooks.progress.update(
+                    st.load_factor, pos.step, counts["newton_iterations"], st.last_residual
                 )
-                self.completed = self.step
-                done = self.completed >= max_steps or self.load_factor >= end * (1 - 1e-12)
-                self._checkpoint_if_due(last=done)
+                pos.complete(pos.step)
+                done = pos.completed >= max_steps or st.load_factor >= end * (1 - 1e-12)
+                hooks.checkpoint(last=done)
                 if not done:
-                    self._stop_if_asked(logs)
-            if self.load_factor < end * (1 - 1e-12):
-                if not self.history or self.history[-1][0] != self.t:
-                    self._write_output(logs, self.t)
-                progress.warn(
+                    hooks.stop_if_asked()
+            if st.load_factor < end * (1 - 1e-12):
+                if not hooks.wrote_at(pos.t):
+                    hooks.output(pos.t)
+                hooks.progress.warn(
                     f"arc-length: time.max_steps = {max_steps} steps reached at load "
-                    f"factor {self.load_factor:.6g}, before time.end = {end:g}"
+                    f"factor {st.load_factor:.6g}, before time.end = {end:g}"
                 )
         finally:
             self._path_destroy()
 
-    def _path_advance(self, logs, progress, end, max_cuts):
+    def _advance(self, pos: RunPosition, hooks: RunHooks, end: float, max_cuts: int) -> None:
         """One converged arc step (cut and retried as needed), accepted."""
+        st, counts, progress = self.state, pos.counts, hooks.progress
         cuts = 0
-        arc = self.arc
+        arc = st.arc
         while True:
             wall0 = _time.perf_counter()
             try:
-                lam, arc, its, res = self._arc_step(arc)
+                lam, arc, its, res = self._arc_step(pos, arc)
                 landed = False
-                if lam > end * (1 + 1e-12) and self.load_factor < end:
+                if lam > end * (1 + 1e-12) and st.load_factor < end:
                     # past the end: land on it under load control, else keep the arc step
                     kept = self.model.w.x.array.copy()
                     self.model.restore()
                     try:
-                        lam, _, its2, res = self._arc_step(arc, target=end)
+                        lam, _, its2, res = self._arc_step(pos, arc, target=end)
                         its += its2
                         landed = True
                     except _StepFailed:
@@ -280,41 +324,41 @@ class PathFollowing:
                 turn = self._path_turn()
                 if not landed and turn > PATH_TURN and cuts < max_cuts:
                     # converged, but across a turn of the path it did not follow
-                    self.counts["newton_iterations"] += its
-                    self.counts["rejected_steps"] += 1
+                    counts["newton_iterations"] += its
+                    counts["rejected_steps"] += 1
                     self.model.restore()
                     cuts += 1
                     arc *= 0.5
                     progress.log(
-                        f"step {self.step} at load factor {self.load_factor:.6g}: the "
+                        f"step {pos.step} at load factor {st.load_factor:.6g}: the "
                         f"path turned {turn:.2f} rad > {PATH_TURN} in one step; arc "
                         "halved"
                     )
                     continue
                 break
             except _StepFailed as failed:
-                self.counts["newton_iterations"] += failed.its
+                counts["newton_iterations"] += failed.its
                 self.model.restore()
                 if cuts >= max_cuts:
                     raise RunFailed(
                         f"arc-length step not resolved ({failed.reason}) after "
                         f"{max_cuts} halvings of the arc (time.max_cuts), arc = "
                         f"{(arc or 0.0):.3e}",
-                        self.t,
-                        self.step,
+                        pos.t,
+                        pos.step,
                     ) from None
                 cuts += 1
-                self.counts["dt_cuts"] += 1
+                counts["dt_cuts"] += 1
                 if arc is None:  # the first step: halve its Δλ
-                    self.first_increment *= 0.5
+                    st.first_increment *= 0.5
                 else:
                     arc *= 0.5
                 progress.log(
-                    f"step {self.step} at load factor {self.load_factor:.6g}: "
+                    f"step {pos.step} at load factor {st.load_factor:.6g}: "
                     f"{failed.reason}; arc halved"
                 )
-        self.counts["newton_iterations"] += its
-        self.counts["steps"] += 1
+        counts["newton_iterations"] += its
+        counts["steps"] += 1
         m = self.model
         step_length = math.sqrt(self._dot_u(*(2 * [m.w.x.array - _u_of(m)])))
         direction = m.w.x.array - _u_of(m)
@@ -322,29 +366,27 @@ class PathFollowing:
         if self.reactions:
             self.reactions.compute(self.solver.raw_residual())
         self.solver.store_forces()
-        m.accept(self.scheme, max(lam - self.load_factor, 1e-300), lam)
-        self.path_direction = direction
-        self.t += step_length
-        self.load_factor = lam
-        self.last_residual = res
-        if self.first_arc is None:  # the first step set the arc: its own length
+        m.accept(self.scheme, max(lam - st.load_factor, 1e-300), lam)
+        st.path_direction = direction
+        pos.t += step_length
+        st.load_factor = lam
+        st.last_residual = res
+        if st.first_arc is None:  # the first step set the arc: its own length
             if step_length == 0.0:
                 raise RunFailed(
                     "arc-length: the first step (time.dt) did not move the body: "
                     "the loads and motions do not depend on the load factor",
-                    self.t,
-                    self.step,
+                    pos.t,
+                    pos.step,
                 )
-            arc = self.first_arc = step_length
-        if logs.get("steps") is not None:
-            logs["steps"].row([self.t, step_length, its, res, _time.perf_counter() - wall0, lam])
-        for f in self.observers:
-            f(self)
+            arc = st.first_arc = step_length
+        hooks.step_row([pos.t, step_length, its, res, _time.perf_counter() - wall0], lam)
+        hooks.observe()
         # the next arc: towards DESIRED_ITERATIONS, within the growth bounds
         factor = min(2.0, max(0.5, math.sqrt(DESIRED_ITERATIONS / max(its, 1))))
         if turn > STATIC_TURN:
             factor = min(factor, STATIC_TURN / turn)
-        self.arc = min(arc * factor, MAX_GROWTH * self.first_arc)
+        st.arc = min(arc * factor, MAX_GROWTH * st.first_arc)
 
 
 def _u_of(model) -> np.ndarray:

@@ -1,18 +1,20 @@
-"""A run's outputs and its summary (the part of :class:`~rftfem.integration.simulation.Simulation`
-that owns them, docs/model.md §9): the tables and fields opened (or continued after a
-restart), a row written per output time, and summary.json's content.  The writers
-themselves are output.py's.
+"""A run's outputs and its summary (docs/model.md §9): the tables and fields opened
+(or continued after a restart), a row written per output time, the rows a periodic
+run's steady watch reads, and summary.json's content.  The writers themselves are
+outputs/writers.py's.
 """
 
 from __future__ import annotations
 
 import time as _time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rftfem import __version__, compat
 from rftfem.errors import SceneError
+from rftfem.integration.steady import SteadyWatch
 from rftfem.outputs.writers import (
     CsvLog,
     FieldWriter,
@@ -22,18 +24,80 @@ from rftfem.outputs.writers import (
     merge_field_segment,
 )
 from rftfem.scene.time_rules import STATIC_SCHEMES
+from rftfem.scene.time_rules import scene_period as steady_period
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from mpi4py import MPI
+
+    from rftfem.integration.run_state import RunPosition
+    from rftfem.integration.schemes import Scheme
+    from rftfem.integration.solver import StepSolver
+    from rftfem.model.shell_model import Model
+    from rftfem.outputs.progress import Progress
+    from rftfem.outputs.writers import BodyLog, Probes
+
+
+def make_out_dir(out: Path | None, comm: MPI.Comm) -> None:
+    """Make the output folder on rank 0; a path that cannot be one is a usage error
+    on every rank."""
+    if out is None:
+        return
+    error = None
+    if comm.rank == 0:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            error = (
+                f"--out {out}: expected a folder (or a path where one can be made), found a file"
+            )
+        except OSError as exc:
+            error = f"--out {out}: cannot make this folder ({exc.strerror or exc})"
+    error = comm.bcast(error, root=0)
+    if error:
+        raise SceneError(error)
 
 
 class RunOutputs:
-    """Output and summary methods of a Simulation."""
+    """The run's output rows (``history``: (t, probe values) as written to
+    probes.csv), its tables and fields in ``out_dir`` (``logs``), the steady watch of
+    ``time.until = "periodic"`` with the rows it reads, and the wall seconds spent
+    writing them."""
 
-    def _last_row(self, logs: dict):
-        """An output row at the last converged state, unless its time has one (a run
-        that stops between output times keeps where it got to)."""
-        if self.history and self.history[-1][0] != self.t:
-            self._write_output(logs, self.t)
+    def __init__(
+        self,
+        scene: dict,
+        model: Model,
+        scheme: Scheme,
+        comm: MPI.Comm,
+        probes: Probes,
+        body: BodyLog,
+        out_dir: Path | None,
+    ):
+        self.scene, self.model, self.scheme, self.comm = scene, model, scheme, comm
+        self.probes, self.body, self.out_dir = probes, body, out_dir
+        #: time.until = "periodic": the watch of the period means (steady.py) and the
+        #: output rows (time, probes, body) it reads
+        self.steady = None
+        if scene["time"].get("until", "end") == "periodic":
+            self.steady = SteadyWatch(
+                steady_period(scene),
+                scene["time"]["steady_tolerance"],
+                self.probes.header() + self.body.header(),
+            )
+        self.rows = []
+        self.history = []  # (t, probe values) rows, as written to probes.csv
+        self.logs = {}
+        #: wall seconds spent writing output rows
+        self.wall = 0.0
 
-    def _opening_lines(self) -> list[str]:
+    @property
+    def static_run(self) -> bool:
+        """Whether the run is static (load steps or arc length): its rows carry the load factor."""
+        return self.scheme.name in STATIC_SCHEMES
+
+    def opening_lines(self) -> list[str]:
         """What a run says first: itself, a mesh's turned cells, a Stokes liquid's
         discretisation and cost (as ``rftfem check`` says them)."""
         scene, m = self.scene, self.model
@@ -54,15 +118,17 @@ class RunOutputs:
             lines += m.fluid.opening_lines()
         return lines
 
-    def _open_outputs(self) -> dict:
-        logs = {}
+    def open(self, t: float, resumed_row: bool | None, warn: Callable[[str], object]) -> None:
+        """Open the tables and fields in ``out_dir``; a restart from a checkpoint at
+        ``t`` (``resumed_row``: whether its row there is an output row; None: no
+        restart) continues them."""
         if self.out_dir is None:
-            return logs
-        out, again = self.out_dir, self.resume is not None
+            return
+        logs, out, again = self.logs, self.out_dir, resumed_row is not None
         fields = self.scene.get("output", {}).get("fields", True)
         segment = None
         if again:
-            segment = self._continue_outputs(fields)
+            segment = self._continue(t, resumed_row, fields)
         # static runs end their rows with the load factor (time itself under load
         # control; an arc-length run's time is the path's length)
         lf = ["load_factor"] if self.static_run else []
@@ -81,21 +147,18 @@ class RunOutputs:
         if fields:
             extra = {name: f for comp in self.model.components for name, f in comp.fields().items()}
             main = out / "fields.xdmf"
-            warn = getattr(self, "progress_warn", None)
             logs["fields"] = (
                 FieldWriter(self.model, segment, extra, main=main, warn=warn)
                 if again
                 else FieldWriter(self.model, main, extra, warn=warn)
             )
-        return logs
 
-    def _continue_outputs(self, fields: bool) -> Path | None:
+    def _continue(self, t: float, at_t: bool, fields: bool) -> Path | None:
         """A restart: the tables cut to the checkpoint's time (rows written after it
         go, they are written again), the probe rows kept as history, the field
         files of earlier restarts merged and cut the same way; returns the new
         segment's field file."""
-        out, t = self.out_dir, self.t
-        at_t = self.resume[1]["output_row"]
+        out = self.out_dir
         rows, segment = None, None
         if self.comm.rank == 0:
             try:
@@ -122,16 +185,13 @@ class RunOutputs:
         ]
         return Path(segment) if segment else None
 
-    @property
-    def static_run(self) -> bool:
-        """Whether the run is static (load steps or arc length): its rows carry the load factor."""
-        return self.scheme.name in STATIC_SCHEMES
-
-    def _write_output(self, logs: dict, t: float):
+    def write(self, t: float, at: float) -> None:
+        """An output row at time ``t``, the loads' time ``at`` (an arc-length run's
+        load factor, else ``t``)."""
+        logs = self.logs
         t0 = _time.perf_counter()
         values = self.probes.values()
         self.history.append((t, values))
-        at = self.load_factor if self.scheme.name == "arc-length" else t  # the loads' time
         lf = [at] if self.static_run else []
         body = self.body.values(at) if ("body" in logs or self.steady is not None) else None
         if self.steady is not None:
@@ -142,54 +202,101 @@ class RunOutputs:
             logs["body"].row([t, *body, *lf])
         if "fields" in logs:
             logs["fields"].write(t)
-        self.wall["output"] += _time.perf_counter() - t0
+        self.wall += _time.perf_counter() - t0
 
-    def _summary(self, status: str, wall_start: float | None = None) -> dict:
+    def wrote_at(self, t: float) -> bool:
+        """Whether the last output row is at ``t``."""
+        return bool(self.history) and self.history[-1][0] == t
+
+    def last_row(self, t: float, at: float) -> None:
+        """An output row at the last converged state, unless its time has one (a run
+        that stops between output times keeps where it got to)."""
+        if self.history and self.history[-1][0] != t:
+            self.write(t, at)
+
+    def step_row(self, values: list[float], load_factor: float) -> None:
+        """A row of steps.csv; a static run's ends with its ``load_factor``."""
+        if "steps" in self.logs:
+            self.logs["steps"].row(values + ([load_factor] if self.static_run else []))
+
+    def steady_after_step(self, t: float, step: int, progress: Progress) -> bool:
+        """At the end of a period (time.until = "periodic"): whether the run is steady."""
+        watch = self.steady
+        if watch is None:
+            return False
+        per_period = round(watch.period / self.scene["time"]["dt"])
+        if step % per_period:
+            return False
+        start = t - watch.period * (1 + 1e-9)
+        rows = np.array([r for r in self.rows if r[0] >= start])
+        if len(rows) < 2:
+            return False
+        steady = watch.add_period(rows[:, 0], rows[:, 1:])
+        if steady:
+            progress.log(
+                f"steady after {len(watch.means)} periods (t = {t:.6g}): "
+                f"extrapolated values agree to {watch.tolerance:g}"
+            )
+        self.rows = [r for r in self.rows if r[0] >= t - watch.period * 1e-9]
+        return steady
+
+    def close(self) -> None:
+        """Close the tables and fields (``logs`` keeps which were open)."""
+        for log in self.logs.values():
+            log.close()
+
+    def summary(
+        self,
+        status: str,
+        pos: RunPosition,
+        solver: StepSolver,
+        *,
+        at: float,
+        restarts: list[dict],
+        time_error: dict | None,
+        setup: float,
+        checkpoint: float,
+        total: float,
+    ) -> dict:
+        """summary.json's content: the run at ``pos``, the loads' time ``at``, its
+        restarts, time-error estimate and wall seconds (``setup``, ``checkpoint``
+        and ``total`` are the run's)."""
         scene = {k: v for k, v in self.scene.items() if not k.startswith("_")}
-        total = (
-            (_time.perf_counter() - wall_start if wall_start else 0.0)
-            + self.setup_time
-            + self.wall_before
-        )
-        timings = self.solver.timings
+        timings, model = solver.timings, self.model
         return {
             "status": status,
             "scene": scene,
             "scene_file": self.scene.get("_path"),
             "overrides": list(self.scene.get("_overrides", [])),
-            "active_effects": self.model.active_effects(),
+            "active_effects": model.active_effects(),
             "scheme": self.scheme.name,
             "versions": {"rftfem": __version__, **compat.versions()},
             "mpi_size": self.comm.size,
-            "dofs": self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs,
-            "time_reached": self.t,
-            **(
-                {"load_factor": self.load_factor if self.scheme.name == "arc-length" else self.t}
-                if self.static_run
-                else {}
-            ),
-            "counts": dict(self.counts),
-            **({"restarts": self.restarts} if self.restarts else {}),
+            "dofs": model.W.dofmap.index_map.size_global * model.W.dofmap.index_map_bs,
+            "time_reached": pos.t,
+            **({"load_factor": at} if self.static_run else {}),
+            "counts": dict(pos.counts),
+            **({"restarts": restarts} if restarts else {}),
             **(
                 {"steady": self.steady.result}
                 if self.steady is not None and self.steady.result
                 else {}
             ),
             "factorization": {
-                "policy": self.solver.factors.policy,
-                "made": self.solver.factors.made,
-                "lu": self.solver.lu,
+                "policy": solver.factors.policy,
+                "made": solver.factors.made,
+                "lu": solver.lu,
             },
-            **({"fluid": self.model.fluid.describe()} if self.model.fluid is not None else {}),
-            "director_unit_error": self.model.director_unit_error(),
-            **({"time_error": self._time_error_summary()} if self.time_errors else {}),
+            **({"fluid": model.fluid.describe()} if model.fluid is not None else {}),
+            "director_unit_error": model.director_unit_error(),
+            **({"time_error": time_error} if time_error is not None else {}),
             "wall_s": {
-                "setup": self.setup_time,
-                "compile": self.model.timings["compile"],
-                "assembly": self.solver.assembly_time,
+                "setup": setup,
+                "compile": model.timings["compile"],
+                "assembly": solver.assembly_time,
                 "solve": timings["solve"],
-                "output": self.wall["output"],
-                "checkpoint": self.wall["checkpoint"],
+                "output": self.wall,
+                "checkpoint": checkpoint,
                 "total": total,
             },
         }

@@ -18,13 +18,11 @@ logged and counted.  Outputs are rows per nominal step (every
 from __future__ import annotations
 
 import contextlib
-import math
 import threading
 import time as _time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
 from mpi4py import MPI
 
 from rftfem import petsc_options
@@ -33,55 +31,35 @@ from rftfem.integration.arclength import PathFollowing
 from rftfem.integration.error_control import ErrorControl
 from rftfem.integration.interrupts import NoStops, StopRequests
 from rftfem.integration.model_setup import build_model, quiet_compilers
-from rftfem.integration.restart import Restarts
-from rftfem.integration.run_outputs import RunOutputs
+from rftfem.integration.restart import Checkpoints, checked_checkpoint
+from rftfem.integration.run_outputs import RunOutputs, make_out_dir
+from rftfem.integration.run_state import RunHooks, RunPosition
 from rftfem.integration.schemes import make_scheme
 from rftfem.integration.solver import StepSolver
-from rftfem.integration.steady import SteadyWatch
-from rftfem.integration.step_control import StepControl
+from rftfem.integration.step_control import StepController
 from rftfem.integration.step_watch import StepWatch
 from rftfem.model.effects.base import NonlocalEffect
 from rftfem.model.reactions import Reactions
 from rftfem.outputs.progress import Progress, render_in_child
 from rftfem.outputs.writers import BodyLog, Probes, write_json
 from rftfem.scene import scales
-from rftfem.scene.time_rules import scene_period as steady_period
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
 
 
-def _make_out_dir(out: Path | None, comm):
-    """Make the output folder on rank 0; a path that cannot be one is a usage error
-    on every rank."""
-    if out is None:
-        return
-    error = None
-    if comm.rank == 0:
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except FileExistsError:
-            error = (
-                f"--out {out}: expected a folder (or a path where one can be made), found a file"
-            )
-        except OSError as exc:
-            error = f"--out {out}: cannot make this folder ({exc.strerror or exc})"
-    error = comm.bcast(error, root=0)
-    if error:
-        raise SceneError(error)
-
-
-class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts):
+class Simulation:
     """One run of a scene; ``observers`` are called as ``f(sim)`` after every step.
     With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py);
     with ``restart`` (a results folder), the run goes on from its last checkpoint
     and appends to its outputs (checkpoint.py).
 
-    The class is the run's state and its time loop; its parts are mixins, one
-    module each: one step and its control (step_control.py), error-controlled steps and
-    the time-error indicator (error_control.py), static path-following by arc
-    length (arclength.py), outputs and the summary
-    (run_outputs.py), checkpoints and restart (restart.py)."""
+    The run's position (``pos``: time, steps, counts; run_state.py) and its loop; the
+    parts it composes own their state: the step controller (``steps``,
+    step_control.py), the time-error estimate and error-controlled steps
+    (``errors``, error_control.py), path-following by arc length (``path``, an
+    arc-length run's only; arclength.py), the outputs and summary (``outputs``,
+    run_outputs.py) and the checkpoints (``checkpoints``, restart.py)."""
 
     def __init__(
         self,
@@ -110,9 +88,9 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             if (restart or out_dir) is not None
             else None
         )
-        #: (checkpoint folder, its meta) a restart goes on from, checked before the set-up
-        self.resume = self._checked_checkpoint(restart) if restart is not None else None
-        _make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
+        # the checkpoint a restart goes on from, checked before the set-up
+        resume = checked_checkpoint(restart, scene, self.comm) if restart is not None else None
+        make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
         self.quiet = quiet
         self.observers = list(observers)
         quiet_compilers()
@@ -144,109 +122,213 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
         self.reactions = Reactions(self.model)
         self.body = BodyLog(self.model, self.reactions)
-        #: time.until = "periodic": the watch of the period means (steady.py) and the
-        #: output rows (time, probes, body) it reads
-        self.steady = None
-        if scene["time"].get("until", "end") == "periodic":
-            self.steady = SteadyWatch(
-                steady_period(scene),
-                scene["time"]["steady_tolerance"],
-                self.probes.header() + self.body.header(),
-            )
-        self.rows = []
+        self.outputs = RunOutputs(
+            scene, self.model, self.scheme, self.comm, self.probes, self.body, self.out_dir
+        )
         self.setup_time = _time.perf_counter() - t0
-        self.t = 0.0
-        #: the load factor: the time the loads and motions are evaluated at (t itself,
-        #: except in an arc-length run, whose t is the path's length)
-        self.load_factor = 0.0
-        self.last_residual = math.nan
-        #: arc length (arclength.py): the next step's arc (None: the first, from Δλ =
-        #: ``first_increment``, time.dt halved while it fails), the first arc, and the
-        #: last step's displacement increment (the path's direction)
-        self.arc = self.first_arc = self.path_direction = None
-        self.first_increment = scene["time"]["dt"]
-        self.step = 0
-        self.completed = 0
-        self.counts = {"steps": 0, "newton_iterations": 0, "dt_cuts": 0, "rejected_steps": 0}
-        #: halvings of the nominal step the next one starts with (_advance)
-        self.level = 0
-        #: the largest rotation increment of the last converged step, and how many times
-        #: too long the last failed attempt was (None where it does not show)
-        self.last_turn, self.overreach = 0.0, None
-        #: wall seconds outside the solver: outputs, loads and motions set for a step
-        #: (set_time), the state and triad update after it (accept)
-        self.wall = {"output": 0.0, "loads": 0.0, "update": 0.0, "checkpoint": 0.0}
-        self.history = []  # (t, probe values) rows, as written to probes.csv
-        #: each step's estimated local error (§6.9) in a run in time with fixed steps
-        self.time_errors = []
+        #: where the run is: its time, the step under way, the steps done, the counts
+        self.pos = RunPosition()
+        time_ = scene["time"]
+        #: each step's estimated local error (§6.9), and error-controlled steps
+        self.errors = ErrorControl(self.model, self.scheme, time_)
+        free = not (scene["boundary"] or scene["motion"] or self.model.fluid)
+        self.steps = StepController(
+            self.model,
+            self.solver,
+            self.scheme,
+            time_,
+            self.stops,
+            self.reactions,
+            self.errors,
+            free,
+        )
+        #: an arc-length run's path-following (its load factor, arcs, direction), else None
+        self.path = (
+            PathFollowing(
+                self.model, self.solver, self.scheme, self.comm, time_, self.stops, self.reactions
+            )
+            if self.scheme.name == "arc-length"
+            else None
+        )
         self.model.keep_predictions = self.scheme.has_velocity
-        self.wall_before = 0.0  # wall seconds of the run's earlier parts (restarts)
-        self.restarts = []
-        if self.resume is not None:
-            self._load_checkpoint()
+        self.checkpoints = Checkpoints(
+            scene, self.model, self.solver, self.scheme, self.comm, self.out_dir, resume
+        )
+        if resume is not None:
+            self.checkpoints.load(self.pos, self.steps.state, self._path_state())
 
-    # --- the run -------------------------------------------------------------
+    # --- what callers and observers read --------------------------------------
+
+    @property
+    def t(self) -> float:
+        """The time reached (an arc-length run's path length)."""
+        return self.pos.t
+
+    @property
+    def step(self) -> int:
+        """The step under way, or the last one done."""
+        return self.pos.step
 
     @property
     def completed(self) -> int:
-        """Steps done (``self.step`` may be the one under way)."""
-        return self._completed
+        """Steps done (``step`` may be the one under way)."""
+        return self.pos.completed
 
-    @completed.setter
-    def completed(self, step: int) -> None:
-        # the time they reached goes with them: a second signal may stop the run after
-        # a step has moved ``self.t`` and before it counts as done
-        self._completed, self.completed_time = step, self.t
+    @property
+    def counts(self) -> dict[str, int]:
+        """Steps, Newton iterations, dt cuts and rejected steps so far."""
+        return self.pos.counts
+
+    @property
+    def load_factor(self) -> float:
+        """The time the loads and motions are evaluated at: ``t`` itself, except in an
+        arc-length run, whose ``t`` is the path's length."""
+        return self.path.state.load_factor if self.path is not None else self.pos.t
+
+    @property
+    def arc(self) -> float | None:
+        """An arc-length run's next arc (None: the first step, or no arc length)."""
+        return self.path.state.arc if self.path is not None else None
+
+    @property
+    def first_arc(self) -> float | None:
+        """An arc-length run's first arc (None before it, or no arc length)."""
+        return self.path.state.first_arc if self.path is not None else None
+
+    @property
+    def history(self) -> list:
+        """The (t, probe values) output rows, as written to probes.csv."""
+        return self.outputs.history
+
+    @property
+    def wall(self) -> dict[str, float]:
+        """Wall seconds outside the solver: outputs, loads and motions set for a step,
+        the state and triad update after it, checkpoints."""
+        steps = self.steps.wall
+        return {
+            "output": self.outputs.wall,
+            "loads": steps["loads"],
+            "update": steps["update"],
+            "checkpoint": self.checkpoints.wall,
+        }
+
+    # --- the run -------------------------------------------------------------
 
     def run(self) -> dict:
         with self.stops:
             return self._run()
 
-    def _stop_if_asked(self, logs: dict):
+    def _path_state(self):
+        return self.path.state if self.path is not None else None
+
+    def _loads_time(self, t: float) -> float:
+        """The loads' time of an output at ``t``: an arc-length run's load factor."""
+        return self.path.state.load_factor if self.path is not None else t
+
+    def _observe(self):
+        for f in self.observers:
+            f(self)
+
+    def _output(self, t: float):
+        self.outputs.write(t, self._loads_time(t))
+
+    def _last_row(self):
+        self.outputs.last_row(self.pos.t, self._loads_time(self.pos.t))
+
+    def _checkpoint(self, next_step: float | None = None, last: bool = False):
+        elapsed = _time.perf_counter() - self._wall_start + self.setup_time
+        self.checkpoints.write_if_due(
+            self.pos,
+            self.steps.state,
+            self._path_state(),
+            output_row=self.outputs.wrote_at(self.pos.t),
+            elapsed=elapsed,
+            next_step=next_step,
+            last=last,
+        )
+
+    def _stop_if_asked(self):
         """After a step: if a signal asked any rank to stop, write a last output row
         and stop (interrupts.py)."""
         signum = self.stops.requested()
         if signum:
-            self._last_row(logs)
-            raise RunInterrupted(signum, self.t, self.step)
+            self._last_row()
+            raise RunInterrupted(signum, self.pos.t, self.pos.step)
+
+    def _hooks(self, progress: Progress) -> RunHooks:
+        """What the loops over steps call back into this run."""
+        return RunHooks(
+            progress=progress,
+            step_row=self.outputs.step_row,
+            observe=self._observe,
+            output=self._output,
+            checkpoint=self._checkpoint,
+            stop_if_asked=self._stop_if_asked,
+            steady=lambda: self.outputs.steady_after_step(self.pos.t, self.pos.step, progress),
+            wrote_at=self.outputs.wrote_at,
+        )
+
+    def _summary(self, status: str, wall_start: float | None = None) -> dict:
+        total = (
+            (_time.perf_counter() - wall_start if wall_start else 0.0)
+            + self.setup_time
+            + self.checkpoints.wall_before
+        )
+        return self.outputs.summary(
+            status,
+            self.pos,
+            self.solver,
+            at=self._loads_time(self.pos.t),
+            restarts=self.checkpoints.restarts,
+            time_error=self.errors.summary(),
+            setup=self.setup_time,
+            checkpoint=self.checkpoints.wall,
+            total=total,
+        )
 
     def _run(self) -> dict:
         time_, out = self.scene["time"], self.out_dir
         summary = self._summary("running")
         wall_start = self._wall_start = _time.perf_counter()
-        path = self.scheme.name == "arc-length"
+        path = self.path is not None
         progress = self._open_progress(path)
-        logs = self._open_outputs()
+        resume = self.checkpoints.resume
+        self.outputs.open(
+            self.pos.t, resume[1]["output_row"] if resume is not None else None, progress.warn
+        )
+        hooks = self._hooks(progress)
+        steady = self.outputs.steady
         try:
-            self._start(logs, progress)
+            self._start(progress)
             if path:
-                self._run_arc_length(logs, progress)
+                self.path.run(self.pos, hooks)
             elif time_.get("tolerance") is not None:
-                self._run_adaptive(logs, progress)
+                first = (resume is not None and resume[1].get("next_step")) or time_["dt"]
+                self.errors.run(self.pos, self.steps, hooks, first)
             else:
-                self._run_fixed_steps(logs, progress)
-            if self.steady is not None and not self.steady.result:
-                self.steady.result = {"reached": False}
-            if self.steady is not None and not self.steady.result["reached"]:
+                self.steps.run(self.pos, hooks)
+            if steady is not None and not steady.result:
+                steady.result = {"reached": False}
+            if steady is not None and not steady.result["reached"]:
                 progress.warn(
                     f'time.until = "periodic": not steady to '
                     f"{time_['steady_tolerance']:g} by time.end = {time_['end']:g}"
                 )
             summary = self._summary("ok", wall_start)
-            self._warn_time_error(progress)
+            self.errors.warn_if_too_long(progress)
         except RunFailed as err:
-            self._last_row(logs)
+            self._last_row()
             summary = self._summary("failed", wall_start)
             summary["failure"] = {"time": err.time, "step": err.step, "reason": err.reason}
             raise
         except BaseException as exc:
             if not (isinstance(exc, RunInterrupted) or self.stops.immediate):
                 raise
-            err, summary = self._interrupted(exc, logs, wall_start)
+            err, summary = self._interrupted(exc, wall_start)
             raise err from None
         finally:
-            self._close_run(logs, progress, summary)
-        c = self.counts
+            self._close_run(progress, summary)
+        c = self.pos.counts
         progress.final(
             f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
             f"{c['dt_cuts']} dt cuts"
@@ -270,9 +352,8 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             label="load factor" if path else "t",
             warn=self.warn,
         )
-        self.progress_warn = progress.warn
         StepWatch(self.stops, self.comm, progress).attach(self.solver)
-        for line in self._opening_lines():
+        for line in self.outputs.opening_lines():
             progress.log(line)
         for line in scales.aliasing_warnings(self.scene) + [
             line for comp in self.model.components for line in comp.warnings()
@@ -280,45 +361,23 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             progress.warn("warning: " + line)
         return progress
 
-    def _start(self, logs: dict, progress: Progress):
+    def _start(self, progress: Progress):
         """The state at t = 0 and its output row, or the checkpoint a restart goes on from."""
-        if self.resume is not None:
+        resume = self.checkpoints.resume
+        if resume is not None:
             progress.log(
-                f"restarted at t = {self.t:.6g} (step {self.completed}) from {self.resume[0]}"
+                f"restarted at t = {self.pos.t:.6g} (step {self.pos.completed}) from {resume[0]}"
             )
             return
-        self._initial_equilibrium()
+        self.steps.initial_equilibrium(self.pos)
         compiled = self.model.timings["compile"]
-        self._write_output(logs, 0.0)
+        self._output(0.0)
         # the first row compiles the outputs' forms: that belongs to the set-up
         later = self.model.timings["compile"] - compiled
         self.setup_time += later
-        self.wall["output"] -= later
+        self.outputs.wall -= later
 
-    def _run_fixed_steps(self, logs: dict, progress: Progress):
-        """Steps of time.dt to time.end (or to a steady period), a row every
-        ``output_every`` steps, checkpoints, and a stop between steps if asked."""
-        time_ = self.scene["time"]
-        n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
-        for self.step in range(self.completed + 1, n_steps + 1):
-            self._advance(min(self.step * time_["dt"], time_["end"]), logs.get("steps"), progress)
-            if self.step % time_["output_every"] == 0 or self.step == n_steps:
-                self._write_output(logs, self.t)
-            progress.update(
-                self.t,
-                self.step,
-                self.counts["newton_iterations"],
-                self.solver.snes.getFunctionNorm(),
-            )
-            self.completed = self.step
-            steady = self._steady_after_step(progress)
-            last = steady or self.step == n_steps
-            self._checkpoint_if_due(last=last)
-            if last:
-                break
-            self._stop_if_asked(logs)
-
-    def _interrupted(self, exc: BaseException, logs: dict, wall_start: float):
+    def _interrupted(self, exc: BaseException, wall_start: float):
         """The interrupt (a signal; a second one may surface inside a PETSc callback as
         another error) and the summary of a run it stopped."""
         err = (
@@ -327,10 +386,10 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
             else RunInterrupted(self.stops.signum, immediate=True)
         )
         if err.time is None:  # stopped inside a step: where the last one ended
-            err.time, err.step = self.completed_time, self.completed
-            self.t = err.time  # what the outputs reached (the state may be further)
+            err.time, err.step = self.pos.completed_time, self.pos.completed
+            self.pos.t = err.time  # what the outputs reached (the state may be further)
         if err.dropped:  # a slow step dropped: the last completed step's row
-            self._last_row(logs)
+            self._last_row()
         summary = self._summary("interrupted", wall_start)
         summary["interrupt"] = {
             "signal": err.signal_name,
@@ -341,39 +400,17 @@ class Simulation(StepControl, ErrorControl, PathFollowing, RunOutputs, Restarts)
         }
         return err, summary
 
-    def _close_run(self, logs: dict, progress: Progress, summary: dict):
+    def _close_run(self, progress: Progress, summary: dict):
         """Close the outputs and write summary.json, whatever ended the run; render."""
         self.stops.closing()
         progress.close()
-        for log in logs.values():
-            log.close()
+        self.outputs.close()
         summary["warnings"] = list(progress.warnings)  # every warning the run said
         if self.out_dir is not None:
             write_json(self.out_dir / "summary.json", summary, self.comm)
             render = self.scene.get("output", {}).get("render", "none")
-            if render != "none" and "fields" in logs:
+            if render != "none" and "fields" in self.outputs.logs:
                 render_in_child(self.out_dir, render, self.comm, progress)
-
-    def _steady_after_step(self, progress) -> bool:
-        """At the end of a period (time.until = "periodic"): whether the run is steady."""
-        watch = self.steady
-        if watch is None:
-            return False
-        per_period = round(watch.period / self.scene["time"]["dt"])
-        if self.step % per_period:
-            return False
-        start = self.t - watch.period * (1 + 1e-9)
-        rows = np.array([r for r in self.rows if r[0] >= start])
-        if len(rows) < 2:
-            return False
-        steady = watch.add_period(rows[:, 0], rows[:, 1:])
-        if steady:
-            progress.log(
-                f"steady after {len(watch.means)} periods (t = {self.t:.6g}): "
-                f"extrapolated values agree to {watch.tolerance:g}"
-            )
-        self.rows = [r for r in self.rows if r[0] >= self.t - watch.period * 1e-9]
-        return steady
 
     def close(self) -> None:
         self.solver.destroy()

@@ -1,19 +1,32 @@
-"""One step and its control (the part of :class:`~rftfem.integration.simulation.Simulation` that
-owns them, docs/model.md §6.7-6.8): a Newton solve of a step from its prediction,
-the turn limit that rejects a step whose directors turned too far, the halvings
-after a failed attempt and the doubling back, the start of a run in equilibrium,
-and the advance over one nominal step.  Error-controlled steps are
-error_control.py's.
+"""One step and its control (docs/model.md §6.7-6.8): a Newton solve of a step from
+its prediction, the turn limit that rejects a step whose directors turned too far,
+the halvings after a failed attempt and the doubling back, the start of a run in
+equilibrium, the advance over one nominal step, and the loop over fixed steps.
+Error-controlled steps are error_control.py's.
 """
 
 from __future__ import annotations
 
 import math
 import time as _time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rftfem.errors import RunFailed, RunInterrupted
 from rftfem.integration import impulses
 from rftfem.integration.schemes import BackwardEuler, Static
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from rftfem.integration.error_control import ErrorControl
+    from rftfem.integration.interrupts import NoStops, StopRequests
+    from rftfem.integration.run_state import RunHooks, RunPosition
+    from rftfem.integration.schemes import Scheme
+    from rftfem.integration.solver import StepSolver
+    from rftfem.model.reactions import Reactions
+    from rftfem.model.shell_model import Model
+    from rftfem.outputs.progress import Progress
 
 #: static load steps: the most a sub-step should turn a director (rad).  A converged
 #: load step that turned one further is followed by halved sub-steps, and a cut
@@ -30,13 +43,59 @@ MOST_HALVINGS = 3
 LIMIT_POINT_STIFFNESS = 0.1
 
 
-class StepControl:
-    """Step methods of a Simulation."""
+@dataclass
+class StepState:
+    """The step controller's state (a checkpoint keeps ``level`` and ``last_turn``)."""
 
-    def _attempt(
-        self, t_new: float, dt: float, scheme, limit_rotation: bool = True, error_check=None
+    #: halvings of the nominal step the next one starts with (``advance``)
+    level: int = 0
+    #: the largest rotation increment of the last converged step
+    last_turn: float = 0.0
+    #: how many times too long the last failed attempt was (None where it does not show)
+    overreach: float | None = None
+    #: whether the last attempt converged but its error check rejected it
+    rejected: bool = False
+    #: the tangent's stiffness along the first static load step that moved the body
+    first_stiffness: float | None = None
+
+
+class StepController:
+    """Steps of a run over its ``time`` table: each attempt solved, checked and
+    accepted or restored; the cuts and doublings of a nominal step; the fixed-step
+    loop.  ``free``: nothing holds the body's rigid motions (no support, motion or
+    drag).  Each attempt's local error goes to ``errors`` (error_control.py)."""
+
+    def __init__(
+        self,
+        model: Model,
+        solver: StepSolver,
+        scheme: Scheme,
+        time_: dict,
+        stops: StopRequests | NoStops,
+        reactions: Reactions,
+        errors: ErrorControl,
+        free: bool,
     ):
-        m = self.model
+        self.model, self.solver, self.scheme, self.time_ = model, solver, scheme, time_
+        self.stops, self.reactions, self.errors, self.free = stops, reactions, errors, free
+        self.state = StepState()
+        #: wall seconds outside the solver: the loads and motions set for a step
+        #: (set_time), the state and triad update after it (accept)
+        self.wall = {"loads": 0.0, "update": 0.0}
+
+    def attempt(
+        self,
+        pos: RunPosition,
+        t_new: float,
+        dt: float,
+        scheme: Scheme,
+        limit_rotation: bool = True,
+        error_check: Callable[[], str | None] | None = None,
+    ) -> tuple[bool, int, float, str]:
+        """One step to ``t_new`` under ``scheme``: (converged, Newton iterations,
+        residual, reason); accepted if it converged and passed the turn limit and
+        ``error_check`` (a reason when the step is too long), else restored."""
+        m, st = self.model, self.state
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
         m.set_time(t_new, scheme)
@@ -51,7 +110,7 @@ class StepControl:
         self.wall["loads"] += _time.perf_counter() - t0
         watch = self.solver.watch
         if watch is not None:
-            watch.start(t_new, self.completed + 1)
+            watch.start(t_new, pos.completed + 1)
         try:
             ok, its, res, reason = self.solver.solve()
         finally:  # a signal in a slow step (step_watch.py): back to the last completed one
@@ -66,36 +125,33 @@ class StepControl:
             raise RunInterrupted(self.stops.signum, immediate=True)
         if ok and not math.isfinite(res):
             ok, reason = False, "non-finite residual"
-        limit = self._turn_limit(scheme)
-        #: how many times too long a failed attempt was, where it shows (None: unknown)
-        self.overreach = None
+        limit = self.turn_limit(scheme)
+        st.overreach = None
         if ok:
             # the solver measured it at every update, the converged iterate's last
             turns = self.solver.turns
-            self.last_turn = turns[-1] if turns else m.largest_rotation_increment()
+            st.last_turn = turns[-1] if turns else m.largest_rotation_increment()
         elif self.solver.divergence is not None and self.solver.turns:
             # the first update's turn is the linearized one: it says how far the
             # step reached beyond what Newton can take
-            self.overreach = self.solver.turns[0] / limit
-        if ok and limit_rotation and scheme.has_velocity and self.last_turn > limit:
+            st.overreach = self.solver.turns[0] / limit
+        if ok and limit_rotation and scheme.has_velocity and st.last_turn > limit:
             ok, reason = (
                 False,
-                (f"a director turned {self.last_turn:.3g} rad > time.max_rotation = {limit:g}"),
+                (f"a director turned {st.last_turn:.3g} rad > time.max_rotation = {limit:g}"),
             )
-            self.overreach = self.last_turn / limit
-        self.rejected = False
+            st.overreach = st.last_turn / limit
+        st.rejected = False
         if ok and error_check is not None:
             too_big = error_check()
             if too_big:
-                ok, reason, self.rejected = False, too_big, True
-        self.counts["newton_iterations"] += its
+                ok, reason, st.rejected = False, too_big, True
+        pos.counts["newton_iterations"] += its
         if not ok:
             m.restore()
             return False, its, res, reason
         if m.keep_predictions:  # the step's error estimate (§6.9), for summary.json
-            err = self._local_error()
-            if err is not None:
-                self.time_errors.append(err)
+            self.errors.record()
         if self.reactions:
             self.reactions.compute(self.solver.raw_residual())
         self.solver.store_forces()
@@ -106,38 +162,35 @@ class StepControl:
         self.wall["update"] += _time.perf_counter() - t0
         return True, its, res, reason
 
-    def _turn_limit(self, scheme) -> float:
+    def turn_limit(self, scheme: Scheme) -> float:
         """The turn of a director a step should stay within: ``time.max_rotation`` in
         time, ``STATIC_TURN`` in static load steps."""
-        return self.scene["time"]["max_rotation"] if scheme.has_velocity else STATIC_TURN
+        return self.time_["max_rotation"] if scheme.has_velocity else STATIC_TURN
 
-    def _halvings(self) -> int:
+    def halvings(self) -> int:
         """How many times to halve after the failed attempt: once, or as many times as
         its overreach asks (a turn 5 times too large: 3), at most ``MOST_HALVINGS``."""
-        if self.overreach is None or self.overreach <= 2.0:
+        overreach = self.state.overreach
+        if overreach is None or overreach <= 2.0:
             return 1
-        return min(MOST_HALVINGS, math.ceil(math.log2(self.overreach)))
+        return min(MOST_HALVINGS, math.ceil(math.log2(overreach)))
 
-    def _may_double(self, scheme) -> bool:
+    def _may_double(self, scheme: Scheme) -> bool:
         """Whether a cut sub-step may be doubled: the doubled one would turn the
         directors by no more than 0.9 of the scheme's turn limit."""
-        return 2.0 * self.last_turn <= 0.9 * self._turn_limit(scheme)
+        return 2.0 * self.state.last_turn <= 0.9 * self.turn_limit(scheme)
 
-    def _free(self) -> bool:
-        """No support, no prescribed motion and no drag hold the body's rigid motions."""
-        return not (self.scene["boundary"] or self.scene["motion"] or self.model.fluid)
-
-    def _unresolved_hint(self) -> str:
+    def unresolved_hint(self) -> str:
         """What to change when a step is not resolved and nothing holds the body: without
         mass either its stiffness is singular for every step size."""
-        if self._free() and self.model.inertia_form is None:
+        if self.free and self.model.inertia_form is None:
             return (
                 "; nothing holds this body: without a [[boundary]], a [[motion]], a "
                 "[fluid] or mass its rigid motions are free and every step is singular"
             )
         return ""
 
-    def _initial_equilibrium(self):
+    def initial_equilibrium(self, pos: RunPosition) -> None:
         """The state a run starts in (docs/model.md §6.7), at rest: ``v = a = 0``, or
         with inertia the acceleration the t = 0 forces give it.
 
@@ -155,16 +208,16 @@ class StepControl:
         reference meets it exactly and no update is made.  The forces kept for the
         first step (``F_n``) are those of the start with its t = 0 loads on.
         """
-        m, dt = self.model, self.scene["time"]["dt"]
+        m, dt = self.model, self.time_["dt"]
         in_time = self.scheme.has_velocity
-        loaded = not in_time or self.scene["time"].get("start", "rest") == "equilibrium"
+        loaded = not in_time or self.time_.get("start", "rest") == "equilibrium"
         start = BackwardEuler() if m.fluid else Static()
         # no prediction here to correct: a state that meets the tolerance (the
         # reference state without loads) is the answer
         self.solver.force_iteration(False)
         m.loads_on = loaded
         try:
-            ok, its, res, reason = self._attempt(0.0, dt, start, limit_rotation=False)
+            ok, its, res, reason = self.attempt(pos, 0.0, dt, start, limit_rotation=False)
         finally:
             self.solver.force_iteration()
             m.loads_on = True
@@ -173,7 +226,7 @@ class StepControl:
             hint = (
                 "; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
                 "no load may be on at t = 0"
-                if self._free() and loaded
+                if self.free and loaded
                 else ""
             )
             raise RunFailed(
@@ -232,16 +285,16 @@ class StepControl:
         finally:
             y.destroy()
 
-    def _path_stiffness(self, dt: float) -> None:
+    def _path_stiffness(self) -> None:
         """After the first static load step that moved the body: the tangent's
         stiffness along it, the scale of ``_limit_point_hint``."""
-        if getattr(self, "_first_stiffness", None) is None:
-            self._first_stiffness = self._tangent_along_last_step()
+        if self.state.first_stiffness is None:
+            self.state.first_stiffness = self._tangent_along_last_step()
 
-    def _limit_point_hint(self) -> str:
-        """For a static run whose steps stall: a limit point, if the path's stiffness
-        fell below ``LIMIT_POINT_STIFFNESS`` of its start."""
-        first = getattr(self, "_first_stiffness", None)
+    def _limit_point_hint(self, t: float) -> str:
+        """For a static run whose steps stall at ``t``: a limit point, if the path's
+        stiffness fell below ``LIMIT_POINT_STIFFNESS`` of its start."""
+        first = self.state.first_stiffness
         if self.scheme.has_velocity or self.scheme.name == "arc-length" or not first:
             return ""
         along = self._tangent_along_last_step()
@@ -249,7 +302,7 @@ class StepControl:
         if stiffness is None or stiffness >= LIMIT_POINT_STIFFNESS:
             return ""
         return (
-            f"; a limit point: the loads stall at t = {self.t:.6g} and the tangent's "
+            f"; a limit point: the loads stall at t = {t:.6g} and the tangent's "
             f"stiffness along the last step fell to {stiffness:.2g} of the first's, so "
             f"load control cannot go on; follow the path past it with time.scheme = "
             f'"arc-length"'
@@ -267,62 +320,54 @@ class StepControl:
             '"linear", or a table or field that starts at 0)'
         )
 
-    def _after_step(self, progress):
+    def _after_step(self, pos: RunPosition, progress: Progress) -> None:
         """Each component's look at the accepted state (``after_step``): a state it
         refuses fails the run here (RunFailed, with this time and step), one it
         doubts is warned of."""
         for comp in self.model.components:
             try:
-                lines = comp.after_step(self.t)
+                lines = comp.after_step(pos.t)
             except RunFailed as exc:
                 if exc.time is None:
-                    raise RunFailed(exc.reason, self.t, self.step) from None
+                    raise RunFailed(exc.reason, pos.t, pos.step) from None
                 raise
             for line in lines:
                 progress.warn("warning: " + line)
 
-    def _advance(self, t_end: float, steps_log, progress):
-        """Advance from ``self.t`` to ``t_end`` (one nominal step), cutting as needed.
+    def advance(self, pos: RunPosition, t_end: float, hooks: RunHooks) -> None:
+        """Advance from ``pos.t`` to ``t_end`` (one nominal step), cutting as needed.
 
-        The sub-step starts where the last nominal step left it (``self.level``
+        The sub-step starts where the last nominal step left it (``state.level``
         halvings), so a nominal step too long for Newton is not tried whole again
         at every step; after two good sub-steps it is doubled, if the doubled one
         would not turn the directors too far (``_may_double``)."""
-        max_cuts = self.scene["time"]["max_cuts"]
-        level = min(self.level, max_cuts)
-        dt = (t_end - self.t) / 2**level
+        max_cuts, scheme, progress = self.time_["max_cuts"], self.scheme, hooks.progress
+        level = min(self.state.level, max_cuts)
+        dt = (t_end - pos.t) / 2**level
         good = 0
-        while self.t < t_end - 1e-12 * max(1.0, abs(t_end)):
-            dt = min(dt, t_end - self.t)
+        while pos.t < t_end - 1e-12 * max(1.0, abs(t_end)):
+            dt = min(dt, t_end - pos.t)
             wall0 = _time.perf_counter()
-            ok, its, res, reason = self._attempt(self.t + dt, dt, self.scheme)
+            ok, its, res, reason = self.attempt(pos, pos.t + dt, dt, scheme)
             if ok:
-                self.t += dt
-                self.counts["steps"] += 1
-                if not self.scheme.has_velocity:
-                    self._path_stiffness(dt)
-                if steps_log is not None:
-                    steps_log.row(
-                        [self.t, dt, its, res, _time.perf_counter() - wall0]
-                        + ([self.t] if self.static_run else [])
-                    )
-                for f in self.observers:
-                    f(self)
-                self._after_step(progress)
+                pos.t += dt
+                pos.counts["steps"] += 1
+                if not scheme.has_velocity:
+                    self._path_stiffness()
+                hooks.step_row([pos.t, dt, its, res, _time.perf_counter() - wall0], pos.t)
+                hooks.observe()
+                self._after_step(pos, progress)
                 good += 1
-                if (
-                    not self.scheme.has_velocity
-                    and self.last_turn > STATIC_TURN
-                    and level < max_cuts
-                ):
+                last_turn = self.state.last_turn
+                if not scheme.has_velocity and last_turn > STATIC_TURN and level < max_cuts:
                     # a load step that turned too far: the next ones shorter (no failure)
                     halvings = min(
                         MOST_HALVINGS,
                         max_cuts - level,
-                        math.ceil(math.log2(self.last_turn / STATIC_TURN)),
+                        math.ceil(math.log2(last_turn / STATIC_TURN)),
                     )
                     dt, level, good = dt / 2**halvings, level + halvings, 0
-                elif level > 0 and good >= 2 and self._may_double(self.scheme):
+                elif level > 0 and good >= 2 and self._may_double(scheme):
                     dt, level, good = 2 * dt, level - 1, 0
                 continue
             if level >= max_cuts:
@@ -330,19 +375,41 @@ class StepControl:
                     f"step not resolved ({reason}, {its} Newton iterations, residual "
                     f"{res:.3e}) after {max_cuts} step halvings (time.max_cuts), "
                     f"dt = {dt:.3e}"
-                    + self._unresolved_hint()
-                    + self._limit_point_hint()
-                    + ("" if self.scheme.has_velocity else self._ramp_hint()),
-                    self.t + dt,
-                    self.step,
+                    + self.unresolved_hint()
+                    + self._limit_point_hint(pos.t)
+                    + ("" if scheme.has_velocity else self._ramp_hint()),
+                    pos.t + dt,
+                    pos.step,
                 )
-            halvings = min(self._halvings(), max_cuts - level)
-            self.counts["dt_cuts"] += 1
+            halvings = min(self.halvings(), max_cuts - level)
+            pos.counts["dt_cuts"] += 1
             level, good = level + halvings, 0
             dt /= 2**halvings
             progress.log(
-                f"step {self.step} at t = {self.t:.6g}: {reason} after {its} Newton "
+                f"step {pos.step} at t = {pos.t:.6g}: {reason} after {its} Newton "
                 f"iterations; dt to {dt:.3e}" + (f" ({halvings} halvings)" if halvings > 1 else "")
             )
-        self.level = level
-        self.t = t_end  # exact nominal time, free of round-off from the sub-steps
+        self.state.level = level
+        pos.t = t_end  # exact nominal time, free of round-off from the sub-steps
+
+    def run(self, pos: RunPosition, hooks: RunHooks) -> None:
+        """Steps of time.dt to time.end (or to a steady period), a row every
+        ``output_every`` steps, checkpoints, and a stop between steps if asked."""
+        time_ = self.time_
+        n_steps = max(1, math.ceil(time_["end"] / time_["dt"] - 1e-9))
+        for pos.step in range(pos.completed + 1, n_steps + 1):
+            self.advance(pos, min(pos.step * time_["dt"], time_["end"]), hooks)
+            if pos.step % time_["output_every"] == 0 or pos.step == n_steps:
+                hooks.output(pos.t)
+            hooks.progress.update(
+                pos.t,
+                pos.step,
+                pos.counts["newton_iterations"],
+                self.solver.snes.getFunctionNorm(),
+            )
+            pos.complete(pos.step)
+            last = hooks.steady() or pos.step == n_steps
+            hooks.checkpoint(last=last)
+            if last:
+                break
+            hooks.stop_if_asked()
