@@ -279,12 +279,17 @@ def test_two_bodies_in_stokes_flow_on_two_processes_match_one(tmp_path, cli_run)
     assert_tables_agree(one, two, 1e-11, "two bodies in Stokes flow, two processes against one")
 
 
-def test_bodies_that_come_close_are_warned_of_once(tmp_path):
+@pytest.mark.parametrize("steps", ["fixed", "error-controlled"])
+def test_bodies_that_come_close_are_warned_of_once(tmp_path, steps):
     """Body b pushed through body a (a prescribed motion along −Y, 2.5 in 1 s; the gap
     is 2): the run goes on and warns once, at the first step within the thickness
-    (0.1) of a, naming both.  Broke: the pair not remembered (``self.warned`` not
-    added to): two warnings."""
+    (0.1) of a, naming both; with fixed steps and with steps chosen by the local
+    error.  Broke: the pair not remembered (``self.warned`` not added to): two
+    warnings; the error-controlled loop without the components' look at each
+    accepted state (as it was): none."""
     text = TWO.replace("end = 0.1", "end = 1.0").replace("dt = 0.1", "dt = 0.05")
+    if steps == "error-controlled":
+        text = text.replace("dt = 0.05", "dt = 0.05\ntolerance = 1e-3")
     text += (
         '[[motion]]\nbody = "b"\ncomponent = "uy"\nkind = "table"\n'
         "values = [[0.0, 0.0], [1.0, -2.5]]\n"

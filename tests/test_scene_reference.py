@@ -146,11 +146,11 @@ def _used_keys(data: dict, display: str, free: set[str]):
         path = f"{display}.{key}" if display else key
         if path in free:
             yield path + ".*"
-        elif isinstance(value, dict):
-            yield f"[{path}]"
+        elif isinstance(value, dict):  # a table; in an array's entry named by its path
+            yield path if display.startswith("[[") else f"[{path}]"
             yield from _used_keys(value, path, free)
         elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-            array = f"[[{path}]]"
+            array = scene_reference._array_item(path)  # [[body.parts]] in [[body]]
             yield array
             for item in value:
                 yield from _used_keys(item, array, free)

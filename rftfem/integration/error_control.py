@@ -101,6 +101,7 @@ class ErrorControl:
                     cuts_in_row = 0
                     hooks.step_row([pos.t, step, its, res, _time.perf_counter() - wall0], pos.t)
                     hooks.observe()
+                    steps.after_step(pos, progress)  # the components' look at the state
                     grow = 2.0 if not err else min(2.0, max(0.2, 0.9 * (tol / err) ** exponent))
                     # a step that Newton found hard is not grown: beyond its few iterations
                     # a longer step costs more iterations than it saves steps

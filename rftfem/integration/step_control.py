@@ -320,7 +320,7 @@ class StepController:
             '"linear", or a table or field that starts at 0)'
         )
 
-    def _after_step(self, pos: RunPosition, progress: Progress) -> None:
+    def after_step(self, pos: RunPosition, progress: Progress) -> None:
         """Each component's look at the accepted state (``after_step``): a state it
         refuses fails the run here (RunFailed, with this time and step), one it
         doubts is warned of."""
@@ -356,7 +356,7 @@ class StepController:
                     self._path_stiffness()
                 hooks.step_row([pos.t, dt, its, res, _time.perf_counter() - wall0], pos.t)
                 hooks.observe()
-                self._after_step(pos, progress)
+                self.after_step(pos, progress)
                 good += 1
                 last_turn = self.state.last_turn
                 if not scheme.has_velocity and last_turn > STATIC_TURN and level < max_cuts:

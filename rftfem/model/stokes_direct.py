@@ -276,14 +276,8 @@ class DirectSums:
         self.counts = counts
         self.lo = int(sum(counts[:rank]))
         self.hi = self.lo + counts[rank]
-        self._near = None
-
-    @property
-    def near(self) -> tuple[np.ndarray, np.ndarray]:
-        """The near sources of every node (:func:`near_pairs`), found at the first product."""
-        if self._near is None:
-            self._near = near_pairs(self.x, self.delta)
-        return self._near
+        #: the near sources of every node (:func:`near_pairs`): part of the set-up
+        self.near = near_pairs(self.x, self.delta)
 
     def _sum(self, far, near, *fields):
         """``far`` (free, wall) over every pair, by component, then ``near``'s
