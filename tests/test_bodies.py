@@ -87,7 +87,9 @@ def test_sheets_side_by_side_swim_each_as_one_alone(tmp_path):
         print(f"{name}: its liquid's force off by {np.abs(F - F0).max() / np.abs(F0).max():.1e}")
         assert np.abs(F - F0).max() < 1e-8 * np.abs(F0).max()
     va, vb = ([_column(both, f"{n}_velocity_{c}") for c in "xyz"] for n in "ab")
-    assert abs(va[2]) > 1e-3 and np.allclose(va, vb, rtol=1e-9, atol=1e-12)
+    off = np.abs(np.subtract(va, vb)).max() / np.abs(va).max()
+    print(f"velocities {va} and {vb}: {off:.1e} apart")  # (reached 1e-11, 2e-12)
+    assert abs(va[2]) > 1e-3 and off < 1e-9
     total = np.array(
         [_column(both, f"a_fluid_F{c}") + _column(both, f"b_fluid_F{c}") for c in "xyz"]
     )
