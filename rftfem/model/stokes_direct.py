@@ -227,7 +227,9 @@ def near_pairs(x: np.ndarray, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray
     gaps = np.einsum("ij,ij->i", *(x[close[:, 0]] - x[close[:, 1]],) * 2)
     if extent > 1e18 or (len(gaps) and gaps.min() < 1e-36):
         where = f"a body {extent:.3g} across" if extent > 1e18 else "nodes closer than 1e-18"
-        raise ValueError(f"fluid: {where}: the Stokes sums need distinct nodes within 1e18")
+        from rftfem.errors import SceneError
+
+        raise SceneError(f"fluid: {where}: the Stokes sums need distinct nodes within 1e18")
     rows = np.concatenate([close[:, 0], close[:, 1], np.arange(n)])
     cols = np.concatenate([close[:, 1], close[:, 0], np.arange(n)])
     order = np.argsort(rows, kind="stable")
