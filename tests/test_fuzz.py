@@ -46,6 +46,7 @@ from hypothesis import strategies as st
 
 from rftfem import cli
 from rftfem.scene import toml_writer
+from rftfem.scene.keys import SCHEMA
 
 #: hypothesis's seed: RFTFEM_FUZZ_SEED if set, else a fresh one for this run
 FUZZ_SEED = int(os.environ.get("RFTFEM_FUZZ_SEED") or random.SystemRandom().randrange(2**32))
@@ -72,24 +73,9 @@ def print_seed(request):
 
 
 BASES = {p.stem: tomllib.loads(p.read_text(encoding="utf-8")) for p in sorted(DEMOS.glob("*.toml"))}
-TOP_KEYS = (
-    "title",
-    "mesh",
-    "shell",
-    "time",
-    "fluid",
-    "magnetic",
-    "load",
-    "boundary",
-    "motion",
-    "hinge",
-    "contact",
-    "output",
-    "solver",
-    "parameters",
-    "--set",
-    "scene file",
-)
+# every top key of the scene (read from the schema, so a new key is covered), plus the
+# two sources an error may name instead
+TOP_KEYS = (*SCHEMA.fields, "--set", "scene file")
 EDGE_NUMBERS = [
     0,
     -1,
