@@ -34,7 +34,20 @@ class BodyPart:
 
 
 def body_parts(model: Model) -> list[BodyPart]:
-    """The scene's bodies (none for a scene of one ``[mesh]``)."""
+    """The scene's bodies (none for a scene of one ``[mesh]``), made once per model."""
+    made = model.__dict__.get("_body_parts")
+    if made is not None:
+        return made
+    model.__dict__["_body_parts"] = parts = _made(model)
+    return parts
+
+
+def body_part(model: Model, name: str) -> BodyPart:
+    """The body called ``name``."""
+    return next(p for p in body_parts(model) if p.name == name)
+
+
+def _made(model: Model) -> list[BodyPart]:
     mesh = model.scene["mesh"]
     if mesh["kind"] != "bodies":
         return []
@@ -68,7 +81,8 @@ class PartMeasures:
     """body.csv's block of one body: ``NAME_centroid_*``, ``NAME_velocity_*`` (the
     area-weighted means of the positions and the velocities ``∫ · dA₀ / ∫ dA₀``
     over its cells), ``NAME_elastic_energy`` and, with a liquid, its resultant on
-    the body ``NAME_fluid_*`` (``FluidModel.resultant_on``)."""
+    the body ``NAME_fluid_*`` (``FluidModel.resultant_on``) and, with contact
+    planes, their force on it ``NAME_contact_F*``."""
 
     def __init__(self, model: Model, part: BodyPart):
         self.model, self.part = model, part
@@ -86,6 +100,10 @@ class PartMeasures:
         self.columns.append(f"{name}_elastic_energy")
         if self.fluid is not None:
             self.columns += [f"{name}_{c}" for c in RESULTANT_COLUMNS]
+        #: the contact planes' force on it
+        self.contact = m.get("contact")
+        if self.contact is not None:
+            self.columns += [f"{name}_contact_F{c}" for c in "xyz"]
 
     def values(self) -> list[float]:
         m = self.model
@@ -94,4 +112,6 @@ class PartMeasures:
         row.append(m.assemble_scalar(self._energy))
         if self.fluid is not None:
             row += list(self.fluid.resultant_on(self.part))
+        if self.contact is not None:
+            row += self.contact.resultant_on(self.part)
         return row

@@ -102,6 +102,7 @@ _ENTRIES = {
     "motion": ("where",),
     "output.probes": ("at",),
     "magnetic.parts": ("region",),
+    "contact": (),  # a plane: no selector, on every body unless it names one
 }
 
 

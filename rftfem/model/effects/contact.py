@@ -129,7 +129,7 @@ class Contact(UpdateLimits, Effect):
         self.planes = [self._resolved(entry, thinnest, span) for entry in self.entries]
         faces = self._faces()
         terms = [
-            self._plane_terms(entry, plane, faces)
+            self._on_body(entry, self._plane_terms(entry, plane, faces))
             for entry, plane in zip(self.entries, self.planes)
         ]
         self._work = sum((t["work"] for t in terms[1:]), terms[0]["work"])
@@ -139,13 +139,14 @@ class Contact(UpdateLimits, Effect):
         }
         for plane, t in zip(self.planes, terms):
             if plane.stiffness is None:
-                plane.stiffness = self._reference_pressure(self.size, plane.normal, t["area"]) / (
-                    forms.SLOPE_ON_PLANE * plane.reach
-                )
+                reference = self._reference_pressure(self.size, plane.normal, t["area"], t["chi"])
+                plane.stiffness = reference / (forms.SLOPE_ON_PLANE * plane.reach)
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane.stiffness
         self._compiled = None
         self._nodes = None
+        #: per body (several bodies): the compiled forms of the planes' force on it
+        self._on_part: dict[str, list] = {}
         self._check_start()
 
     def _resolved(self, entry: dict, thinnest: float, span: float) -> Plane:
@@ -209,6 +210,17 @@ class Contact(UpdateLimits, Effect):
             "power": -ufl.dot(traction, v_slip),
         }
 
+    def _on_body(self, entry: dict, terms: dict) -> dict:
+        """A plane's terms on the one body its entry names (``body``), each times that
+        body's indicator ``chi`` (in the returned terms; None: on every body)."""
+        from rftfem.model.body_parts import body_part, restricted
+
+        if entry.get("body") is None:
+            return {**terms, "chi": None}
+        chi = body_part(self.model, entry["body"]).chi
+        on = {name: value * chi for name, value in terms.items() if name != "work"}
+        return {**on, "work": restricted(terms["work"], chi), "chi": chi}
+
     def _friction(self, plane, pressure, v_slip, v_scale, n):
         """The friction traction of one plane's entry (forms.friction_traction), its
         coefficients as constants (a new pair needs no new compiled form)."""
@@ -247,19 +259,21 @@ class Contact(UpdateLimits, Effect):
         periods = [d.period for d in drive_periods(self.scene) if not d.table]
         return min(periods) if periods else float(self.scene["time"]["end"])
 
-    def _reference_pressure(self, size: float, normal: np.ndarray, within) -> float:
+    def _reference_pressure(self, size: float, normal: np.ndarray, within, chi=None) -> float:
         """The pressure the default stiffness rests on the plane: the body's weight
         along the plane's normal under the scene's gravity (net of buoyancy) over the
         area of its lower face within the barrier's reach at the start (``within``, a
         UFL area density), or over its whole area if none is; all of the weight if
         gravity lies in the plane.  Without gravity the pressure D t / L⁴ that bends
-        the body by its thickness."""
+        the body by its thickness.  ``chi``: the indicator of the one body the plane
+        acts on (weight and area are that body's), or None."""
         m = self.model
+        one = 1.0 if chi is None else chi
         gravity = [ld for ld in self.scene.get("load") or [] if ld["kind"] == "gravity"]
         if gravity:
             rho, t = m.material["rho"], m.material["t"]
-            mass = m.assemble_scalar(m.compile(rho * t * self.dx))
-            volume = m.assemble_scalar(m.compile(t * self.dx))
+            mass = m.assemble_scalar(m.compile(rho * t * one * self.dx))
+            volume = m.assemble_scalar(m.compile(t * one * self.dx))
             along = max(
                 abs(mass - ld["fluid_density"] * volume)
                 * abs(float(np.asarray(ld["value"], dtype=float) @ normal))
@@ -272,7 +286,8 @@ class Contact(UpdateLimits, Effect):
             weight = along or whole
             if weight > 0.0:
                 touching = m.assemble_scalar(m.compile(within * self.dx))
-                return weight / (touching if touching > 0.0 else m.area())
+                area = m.area() if chi is None else m.assemble_scalar(m.compile(chi * self.dx))
+                return weight / (touching if touching > 0.0 else area)
         t, E, nu = (m.material_value(k, "shell") for k in ("thickness", "E", "nu"))
         return E * t**3 / (12 * (1 - nu**2)) * t / size**4
 
@@ -282,14 +297,13 @@ class Contact(UpdateLimits, Effect):
         X = m.Vu.tabulate_dof_coordinates()
         D = m.D.x.array.reshape(-1, 3)
         cells, t_cell = cell_thickness(m)
-        faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
-        for i, plane in enumerate(self.planes):
-            g = (faces.reshape(-1, 3) - plane.point) @ plane.normal
+        all_faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
+        for i, (entry, plane) in enumerate(zip(self.entries, self.planes)):
+            faces = all_faces[self._cells_of(entry)].reshape(-1, 3)
+            g = (faces - plane.point) @ plane.normal
             low = float(g.min()) if len(g) else np.inf
             low, where = min(
-                m.comm.allgather(
-                    (low, faces.reshape(-1, 3)[int(np.argmin(g))].tolist() if len(g) else None)
-                ),
+                m.comm.allgather((low, faces[int(np.argmin(g))].tolist() if len(g) else None)),
                 key=lambda pair: pair[0],
             )
             if low < -START_DEPTH * plane.reach:
@@ -300,6 +314,16 @@ class Contact(UpdateLimits, Effect):
                     "the side the body stays on; the lower face is the mid-surface "
                     "less half the thickness along the director)"
                 )
+
+    def _cells_of(self, entry: dict) -> np.ndarray | slice:
+        """The local cells a plane's entry acts on (rows of ``cell_thickness``)."""
+        from rftfem import compat
+        from rftfem.model.body_parts import body_part
+
+        if entry.get("body") is None:
+            return slice(None)
+        chi = body_part(self.model, entry["body"]).chi
+        return chi.x.array[compat.cell_dofs(chi.function_space)[:, 0]] == 1.0
 
     # --- the effect ----------------------------------------------------------------
 
@@ -328,6 +352,15 @@ class Contact(UpdateLimits, Effect):
                 m.compile(out[name] * self.dx) for name in ("area", "energy", "power")
             ]
         return [m.assemble_scalar(f) for f in self._compiled]
+
+    def resultant_on(self, part) -> list[float]:
+        """The planes' force on one of several bodies (body.csv's ``NAME_contact_F*``):
+        ``∫ (p n + f) χ dA₀`` over its cells."""
+        m = self.model
+        if part.name not in self._on_part:
+            force = self._outputs["force"]
+            self._on_part[part.name] = [m.compile(force[i] * part.chi * self.dx) for i in range(3)]
+        return [m.assemble_scalar(f) for f in self._on_part[part.name]]
 
     def _contact_area(self) -> float:
         """The reference area within a barrier's reach (body.csv's ``contact_area``)."""

@@ -54,6 +54,12 @@ SCHEMA = Array(
                 required=True,
                 doc='What the body touches: "plane", an infinite plane.',
             ),
+            "body": Leaf(
+                Str(name=True),
+                None,
+                default_doc="every body",
+                doc="The [[body]] the plane acts on; without it the plane acts on every body.",
+            ),
             "point": Leaf(Vec(), required=True, unit="length", doc="A point of the plane."),
             "normal": Leaf(
                 Vec(nonzero=True),
