@@ -78,6 +78,25 @@ def function_space(
     return _functionspace(mesh, _element(mesh, family, degree, shape))
 
 
+def quadrature_space(
+    mesh: dolfinx.mesh.Mesh, degree: int, shape: tuple[int, ...] = ()
+) -> dolfinx.fem.FunctionSpace:
+    """A space of values at the points of the cell's default quadrature rule of
+    ``degree`` (a form that uses it must integrate with that rule: ``quadrature_degree``
+    ``degree``); dolfinx 0.5 makes the element in UFL, 0.11 in basix."""
+    if _HAS_BASIX_UFL:
+        element = _basix_ufl.quadrature_element(
+            mesh.basix_cell(), value_shape=shape, scheme="default", degree=degree
+        )
+    elif shape:
+        element = ufl.VectorElement(
+            "Quadrature", mesh.ufl_cell(), degree, dim=shape[0], quad_scheme="default"
+        )
+    else:
+        element = ufl.FiniteElement("Quadrature", mesh.ufl_cell(), degree, quad_scheme="default")
+    return _functionspace(mesh, element)
+
+
 def geometry_cells(mesh: dolfinx.mesh.Mesh) -> tuple[np.ndarray, int]:
     """The geometry nodes of every cell as a (num_cells, nodes) array, and the
     geometry's degree (1: straight cells, 2: curved ones from a second-order gmsh

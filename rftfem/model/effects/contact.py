@@ -31,6 +31,7 @@ from rftfem.model.effects.contact_updates import UpdateLimits, cell_thickness
 from rftfem.scene.schema import fmt
 
 if TYPE_CHECKING:
+    from rftfem.model.body_parts import BodyPart
     from rftfem.model.shell_model import Model
 
 #: the barrier's reach δ as a share of the thinnest shell thickness
@@ -353,7 +354,7 @@ class Contact(UpdateLimits, Effect):
             ]
         return [m.assemble_scalar(f) for f in self._compiled]
 
-    def resultant_on(self, part) -> list[float]:
+    def resultant_on(self, part: BodyPart) -> list[float]:
         """The planes' force on one of several bodies (body.csv's ``NAME_contact_F*``):
         ``∫ (p n + f) χ dA₀`` over its cells."""
         m = self.model

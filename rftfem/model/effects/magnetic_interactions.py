@@ -1,22 +1,30 @@
 """The magnetized parts acting on each other (``[magnetic] interactions = true``).
 
-Each magnetized cell ``c`` is a point dipole: its moment ``m_c = ∫_c t F M dA₀`` (the
-magnetization as the material carries it, rftfem/model/effects/magnetic.py) at its
-mean position ``x_c = ∫_c x dA₀ / A_c``.  Dipoles of different groups (a part of a
-body; two bodies, or two parts of one) interact with the energy ``E`` of
+The magnetized volume is a sum of point dipoles, one per point of a quadrature rule
+over each cell (``q × q`` points on a quadrilateral) and through the thickness
+(``L`` Gauss layers ``ζ_l``, weights ``w_l``): the dipole of point ``p`` in layer
+``l`` has the moment ``m = w_p (w_l/2) t F M`` (the magnetization as the material
+carries it, rftfem/model/effects/magnetic.py; ``w_p`` the point's area weight) and
+sits at ``x_l = x + ζ_l (t/2) d``.  One point per cell and one layer is the cell's
+dipole at its mid-surface.  Dipoles of different groups (a part of a body; two
+bodies, or two parts of one) interact with the energy ``E`` of
 rftfem/model/dipoles.py; within one part they do not (the near-singular field of a
-thin sheet on itself is its shape anisotropy, which cell dipoles cannot resolve).
+thin sheet on itself is its shape anisotropy).  ``[magnetic] interaction_points``
+gives ``[q, L]``, or by default :func:`rule` picks them from how close the parts are
+(docs/bodies.md).
 
-With ``G_c = ∂E/∂m_c`` and ``H_c = ∂E/∂x_c`` at the iterate, the work
+With ``G = ∂E/∂m`` and ``H = ∂E/∂x`` at the iterate, held as values at the points,
+the work
 
-    W[G, H̃] = ∫ (G·(t F M) + H̃·x) dA₀,      H̃ = H_c / A_c on cell c,
+    W[G, H̃] = Σ_l ∫ (G_l·(w_l/2) t F M + H̃_l·x_l) dA₀,      H̃ = H / w_p,
 
-has ``δW = δE`` exactly: the residual is ``δW`` with ``G, H̃`` held, mapped from the
-directors ``z`` to the unknowns ``w`` (``Pᵀ``).  The exact tangent is
+integrated with the points' rule, has ``δW = δE`` exactly: the residual is ``δW``
+with ``G, H̃`` held, mapped from the directors ``z`` to the unknowns ``w`` (``Pᵀ``).
+The exact tangent is
 
     Pᵀ [∂²W/∂z² (G, H̃ held) + Lᵀ ∇²E L] P  +  Σ r_z · ∂²z/∂w²,
 
-``L`` the map from a direction of ``z`` to the cells' ``(dm_c, dx_c)``; its
+``L`` the map from a direction of ``z`` to the dipoles' ``(dm, dx)``; its
 transpose is ``δW`` with ``(dG, dH̃)`` in place of ``(G, H̃)``.  It is never
 assembled: the Newton operator applies it by products (a nonlocal effect,
 rftfem/integration/coupled.py), every UFL piece by ``ufl.derivative``, the dense
@@ -73,35 +81,42 @@ class MagneticInteractions(NonlocalEffect):
     def _setup(self) -> None:
         if self._ready:
             return
-        from dolfinx import fem
-
         from rftfem import compat
         from rftfem.model import dipoles
         from rftfem.model.magnetic_sources import MU0_OVER_4PI
 
         m = self.model
         mag = m["magnetic"]
-        mesh = m.mesh
-        k = m.kinematics()
+        given = m.scene["magnetic"].get("interaction_points", "auto")
+        self.points = tuple(given) if given != "auto" else self._auto_rule(mag)
+        q, layers = self.points
+        degree = 2 * q - 1
+        mesh, k = m.mesh, m.kinematics()
         z, z_test = m.z, k.w_test
-        V = compat.function_space(mesh, "DG", 0, (3,))
-        S = compat.function_space(mesh, "DG", 0)
-        psi, q = ufl.TestFunction(V), ufl.TestFunction(S)
-        dx = mag.dx
-        mu = m.material["t"] * (mag.F * mag.M)
-        x = ufl.SpatialCoordinate(mesh) + k.u
-        self.G, self.H, self.dG, self.dH = (fem.Function(V) for _ in range(4))
-        self.dz = fem.Function(m.Z)
+        V = compat.quadrature_space(mesh, degree, (3,))
+        S = compat.quadrature_space(mesh, degree)
+        psi = ufl.TestFunction(V)
+        dx = mag.dx.reconstruct(metadata={"quadrature_degree": degree})
+        zeta, weights = np.polynomial.legendre.leggauss(layers)
+        t = m.material["t"]
+        mu = [float(w) / 2 * t * (mag.F * mag.M) for w in weights]
+        x = [ufl.SpatialCoordinate(mesh) + k.u + float(c) * t / 2 * k.d for c in zeta]
+        self.G, self.H, self.dG, self.dH = ([_function(V) for _ in x] for _ in range(4))
+        self.dz = _function(m.Z)
 
         def work(G, H):
-            return (ufl.dot(G, mu) + ufl.dot(H, x)) * dx
+            return sum((ufl.dot(G[i], mu[i]) + ufl.dot(H[i], x[i])) * dx for i in range(layers))
 
         compile_ = m.compile
+
+        def per_layer(field):
+            return [compile_(ufl.dot(f, psi) * dx) for f in field]
+
         self._forms = {
-            "moments": compile_(ufl.dot(mu, psi) * dx),
-            "positions": compile_(ufl.dot(x, psi) * dx),
-            "d_moments": compile_(ufl.dot(ufl.derivative(mu, z, self.dz), psi) * dx),
-            "d_positions": compile_(ufl.dot(ufl.derivative(x, z, self.dz), psi) * dx),
+            "moments": per_layer(mu),
+            "positions": per_layer(x),
+            "d_moments": per_layer([ufl.derivative(f, z, self.dz) for f in mu]),
+            "d_positions": per_layer([ufl.derivative(f, z, self.dz) for f in x]),
             "residual": compile_(ufl.derivative(work(self.G, self.H), z, z_test)),
             "transposed": compile_(ufl.derivative(work(self.dG, self.dH), z, z_test)),
             "second": compile_(
@@ -109,27 +124,23 @@ class MagneticInteractions(NonlocalEffect):
             ),
         }
         self._V = V
-        self._vec = compat.create_vector(self._forms["moments"], V)
+        self._vec = compat.create_vector(self._forms["moments"][0], V)
         self._zvec = compat.petsc_vec(m.z).duplicate()
         self._wvec = compat.petsc_vec(m.w).duplicate()
-        cells = V.dofmap.index_map.size_local
-        area_vec = compat.create_vector(compile_(q * dx), S)
-        compat.assemble_vector(area_vec, compile_(q * dx))
-        area_vec.ghostUpdate(addv=_add(), mode=_reverse())
-        areas = area_vec.array_r[:cells].copy()
-        self._mine = np.flatnonzero(areas > 0.0)  # this process's magnetized cells
-        self._area = areas[self._mine]
-        self._group = self._groups(mag, cells)[self._mine]
-        groups = gather_rows(self._group[:, None].astype(float), m.comm)[:, 0]
+        weight = _point_values(compile_(ufl.TestFunction(S) * dx), S)
+        self._mine = np.flatnonzero(weight > 0.0)  # this process's magnetized points
+        self._weight = np.tile(weight[self._mine], layers)
+        group = np.tile(self._groups(mag, V)[self._mine], layers)
+        groups = gather_rows(group[:, None].astype(float), m.comm)[:, 0]
         if len(np.unique(groups)) < 2:
             raise SceneError(
                 "magnetic.interactions: the magnetized cells are all of one part; "
                 "interactions act between parts or bodies"
             )
         self._groups_all = groups.astype(np.int64)
-        counts = m.comm.allgather(len(self._mine))
+        counts = m.comm.allgather(len(group))
         self._lo = int(sum(counts[: m.comm.rank]))
-        self._hi = self._lo + len(self._mine)
+        self._hi = self._lo + len(group)
         im = m.W.dofmap.index_map
         local = np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
         self._nodes = compat.local_to_global(im, local)  # rows of a gathered direction
@@ -138,14 +149,14 @@ class MagneticInteractions(NonlocalEffect):
         dipoles.warm()
         self._ready = True
 
-    def _groups(self, mag, cells: int) -> np.ndarray:
-        """Each owned cell's group (by its dof of the DG0 space): its part times the
-        bodies, plus its body."""
+    def _groups(self, mag, V) -> np.ndarray:
+        """The group of each owned point of the quadrature space ``V`` (a block of
+        it): its cell's part times the bodies, plus its body."""
         from rftfem import compat
         from rftfem.scene.selectors import cells_of
 
         m = self.model
-        dofs = compat.cell_dofs(self._V)[:, 0]  # cell → its block of the DG0 space
+        dofs = compat.cell_dofs(V)  # cell → its points (blocks)
         bodies = m.scene["mesh"].get("bodies") or []
         body_of = np.zeros(len(dofs), dtype=np.int64)
         for b, body in enumerate(bodies):
@@ -153,28 +164,63 @@ class MagneticInteractions(NonlocalEffect):
         group = np.full(len(dofs), -1, dtype=np.int64)
         for i, part_cells in mag.part_cells.items():
             group[part_cells] = i * max(len(bodies), 1) + body_of[part_cells]
-        by_dof = np.full(
-            self._V.dofmap.index_map.size_local + self._V.dofmap.index_map.num_ghosts, -1
-        )
-        by_dof[dofs] = group
-        return by_dof[:cells]
+        im = V.dofmap.index_map
+        by_dof = np.full(im.size_local + im.num_ghosts, -1)
+        by_dof[dofs] = group[:, None]
+        return by_dof[: im.size_local]
 
-    # --- the cells' dipoles and the energy's gradient at the iterate --------------
+    def _auto_rule(self, mag) -> tuple[int, int]:
+        """The points per cell and the layers :func:`rule` picks for the reference
+        state: from the cells' size, the thickness and the nearest two cell centres
+        of different groups."""
+        from scipy.spatial import cKDTree
 
-    def _cell_values(self, form) -> np.ndarray:
         from rftfem import compat
 
-        vec = self._vec
-        with vec.localForm() as local:
-            local.set(0.0)
-        compat.assemble_vector(vec, form)
-        vec.ghostUpdate(addv=_add(), mode=_reverse())
-        return vec.array_r.reshape(-1, 3)[self._mine].copy()
+        m = self.model
+        S = compat.quadrature_space(m.mesh, 1)
+        one = ufl.TestFunction(S)
+        dx = mag.dx.reconstruct(metadata={"quadrature_degree": 1})
+        X = ufl.SpatialCoordinate(m.mesh)
+        area = _point_values(m.compile(one * dx), S)
+        mine = area > 0.0
+        centres = np.stack(
+            [_point_values(m.compile(X[i] * one * dx), S)[mine] for i in range(3)], axis=1
+        )
+        centres /= area[mine][:, None]
+        group = self._groups(mag, compat.quadrature_space(m.mesh, 1, (3,)))[mine]
+        rows = gather_rows(np.column_stack([centres, group, area[mine]]), m.comm)
+        nearest = np.inf
+        for g in np.unique(rows[:, 3]):
+            inside = rows[:, 3] == g
+            if inside.all():
+                continue
+            gap, _ = cKDTree(rows[~inside, :3]).query(rows[inside, :3], k=1)
+            nearest = min(nearest, float(gap.min()))
+        size = float(np.sqrt(rows[:, 4].max())) if len(rows) else 0.0
+        return rule(size, m.material_value("thickness", "max"), nearest)
 
-    def _set_cells(self, f, values: np.ndarray) -> None:
-        f.x.array[:] = 0.0
-        f.x.array.reshape(-1, 3)[self._mine] = values
-        f.x.scatter_forward()
+    # --- the dipoles and the energy's gradient at the iterate ----------------------
+
+    def _point_rows(self, forms) -> np.ndarray:
+        """Each layer's vector of the points' values (``forms``, one per layer),
+        this process's magnetized points of every layer stacked."""
+        from rftfem import compat
+
+        vec, out = self._vec, []
+        for form in forms:
+            with vec.localForm() as local:
+                local.set(0.0)
+            compat.assemble_vector(vec, form)
+            vec.ghostUpdate(addv=_add(), mode=_reverse())
+            out.append(vec.array_r.reshape(-1, 3)[self._mine].copy())
+        return np.concatenate(out)
+
+    def _set_points(self, functions, values: np.ndarray) -> None:
+        for f, block in zip(functions, np.split(values, len(functions))):
+            f.x.array[:] = 0.0
+            f.x.array.reshape(-1, 3)[self._mine] = block
+            f.x.scatter_forward()
 
     def _update(self) -> None:
         """The dipoles at the model's iterate, ``G`` and ``H̃`` set, the energy kept."""
@@ -183,8 +229,8 @@ class MagneticInteractions(NonlocalEffect):
         self._setup()
         m = self.model
         m.directors.sync(derivatives=True)
-        moments = self._cell_values(self._forms["moments"])
-        positions = self._cell_values(self._forms["positions"]) / self._area[:, None]
+        moments = self._point_rows(self._forms["moments"])
+        positions = self._point_rows(self._forms["positions"]) / self._weight[:, None]
         self._m = gather_rows(moments, m.comm)
         self._x = gather_rows(positions, m.comm)
         n = self._hi - self._lo
@@ -192,8 +238,9 @@ class MagneticInteractions(NonlocalEffect):
         dipoles.gradient(
             self._m, self._x, self._groups_all, self._lo, self._hi, self._k, G, H, half
         )
-        self._set_cells(self.G, G)
-        self._set_cells(self.H, H / self._area[:, None])
+        self._H = H
+        self._set_points(self.G, G)
+        self._set_points(self.H, H / self._weight[:, None])
         self.energy_value = m.comm.allreduce(float(half.sum()))
 
     def _z_rows(self, *forms) -> np.ndarray:
@@ -234,16 +281,16 @@ class MagneticInteractions(NonlocalEffect):
         m = self.model
         w_local = np.asarray(dx)[self._nodes].ravel()
         self.dz.x.array[:] = m.directors.apply(w_local)
-        dm = gather_rows(self._cell_values(self._forms["d_moments"]), m.comm)
-        dp = self._cell_values(self._forms["d_positions"]) / self._area[:, None]
+        dm = gather_rows(self._point_rows(self._forms["d_moments"]), m.comm)
+        dp = self._point_rows(self._forms["d_positions"]) / self._weight[:, None]
         dp = gather_rows(dp, m.comm)
         n = self._hi - self._lo
         dG, dH = np.empty((n, 3)), np.empty((n, 3))
         dipoles.hessian_product(
             self._m, self._x, self._groups_all, dm, dp, self._lo, self._hi, self._k, dG, dH
         )
-        self._set_cells(self.dG, dG)
-        self._set_cells(self.dH, dH / self._area[:, None])
+        self._set_points(self.dG, dG)
+        self._set_points(self.dH, dH / self._weight[:, None])
         z_rows = self._z_rows(self._forms["transposed"], self._forms["second"])
         wvec = self._wvec
         with wvec.localForm() as local:
@@ -259,9 +306,7 @@ class MagneticInteractions(NonlocalEffect):
 
     def force_scales(self) -> list[float]:
         self._update()
-        H = gather_rows(
-            self.H.x.array.reshape(-1, 3)[self._mine] * self._area[:, None], self.model.comm
-        )
+        H = gather_rows(self._H, self.model.comm)
         return [float(np.linalg.norm(H, axis=1).sum())]
 
     def values(self, t: float) -> list[float]:
@@ -279,3 +324,33 @@ def _reverse():
     from petsc4py import PETSc
 
     return PETSc.ScatterMode.REVERSE
+
+
+def rule(size: float, thickness: float, nearest: float) -> tuple[int, int]:
+    """The Gauss points per cell side ``q`` and through the thickness ``L`` that sum
+    the interactions of magnetized cells of side ``size`` and ``thickness`` whose
+    nearest cell centres of different parts are ``nearest`` apart to about 1e-3
+    (docs/bodies.md: measured on plates a thickness apart against finer sums):
+    the error of ``q`` points falls as ``(size/nearest)^(2q)``, of ``L`` layers as
+    ``(thickness/nearest)^(2L)``."""
+    ratio = size / nearest if nearest > 0.0 else np.inf
+    q = 1 if ratio <= 0.05 else 2 if ratio <= 0.3 else 3 if ratio <= 0.6 else 4
+    ratio = thickness / nearest if nearest > 0.0 else np.inf
+    layers = 1 if ratio <= 0.05 else 2 if ratio <= 0.3 else 3
+    return q, layers
+
+
+def _function(V):
+    from dolfinx import fem
+
+    return fem.Function(V)
+
+
+def _point_values(form, S) -> np.ndarray:
+    """The owned values of an assembled vector of the scalar quadrature space ``S``."""
+    from rftfem import compat
+
+    vec = compat.create_vector(form, S)
+    compat.assemble_vector(vec, form)
+    vec.ghostUpdate(addv=_add(), mode=_reverse())
+    return vec.array_r[: S.dofmap.index_map.size_local].copy()

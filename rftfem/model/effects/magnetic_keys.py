@@ -3,6 +3,8 @@ permanent magnets (their checks across keys are the component's, magnetic.py).""
 
 from __future__ import annotations
 
+from typing import Any
+
 from rftfem.model.magnetic_sources import FIELD_KINDS
 from rftfem.model.magnets import SOURCE_SCHEMA
 from rftfem.scene.bodies import BODY_KEY
@@ -17,8 +19,31 @@ from rftfem.scene.schema import (
     Rows,
     Str,
     Table,
+    Validator,
     Vec,
+    err,
 )
+
+
+class InteractionPoints(Validator):
+    """``"auto"`` or ``[q, L]``: Gauss points per cell side (1-4) and through the
+    thickness (1-3)."""
+
+    expected = '"auto" or [points per cell side 1-4, points through the thickness 1-3]'
+
+    def __call__(self, value: Any, path: str) -> str | list[int]:
+        if value == "auto":
+            return value
+        if (
+            not isinstance(value, list)
+            or len(value) != 2
+            or any(isinstance(v, bool) or not isinstance(v, int) for v in value)
+            or not 1 <= value[0] <= 4
+            or not 1 <= value[1] <= 3
+        ):
+            raise err(path, self.expected, value)
+        return list(value)
+
 
 #: the reference coordinates a part's formulas take
 REFERENCE = ("X", "Y", "Z")
@@ -72,10 +97,19 @@ SCHEMA = Table(
         "interactions": Leaf(
             Bool(),
             False,
-            doc="Whether the magnetized parts act on each other: every magnetized cell "
-            "is a point dipole of its current moment, and dipoles of different parts "
-            "or bodies attract, repel and turn each other (docs/bodies.md). A part "
-            "does not act on itself.",
+            doc="Whether the magnetized parts act on each other: the magnetized volume "
+            "is summed as point dipoles of its current moment (`interaction_points`), "
+            "and dipoles of different parts or bodies attract, repel and turn each "
+            "other (docs/bodies.md). A part does not act on itself.",
+        ),
+        "interaction_points": Leaf(
+            InteractionPoints(),
+            "auto",
+            doc="The dipoles a magnetized cell is summed as: [q, L], q × q Gauss points "
+            "over the cell (1 to 4) and L through the thickness (1 to 3); [1, 1] is one "
+            'dipole per cell at its mid-surface. "auto" picks them at the start from how '
+            "close the parts are to each other for their cells' size and thickness, "
+            "for about 0.1 % (docs/bodies.md).",
         ),
         "field": Table(
             {
