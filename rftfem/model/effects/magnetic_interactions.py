@@ -46,6 +46,13 @@ if TYPE_CHECKING:
     from rftfem.model.shell_model import Model
 
 
+#: "auto" sums the pairs by multipoles from this many dipoles on: below it the compiled
+#: direct sums are faster at the precision the tangent needs (on the project's 2-core
+#: machine, benchmarks/magnetic_interactions_cost.py: the multipoles' gradient at 1e-12
+#: costs 21.7 s for 64 000 dipoles, the direct one 16.4 s)
+FMM_FROM = 100_000
+
+
 class MagneticInteractions(NonlocalEffect):
     name = "magnetic interactions"
     columns = ["magnetic_interaction_energy"]
@@ -82,7 +89,6 @@ class MagneticInteractions(NonlocalEffect):
         if self._ready:
             return
         from rftfem import compat
-        from rftfem.model import dipoles
         from rftfem.model.magnetic_sources import MU0_OVER_4PI
 
         m = self.model
@@ -146,8 +152,19 @@ class MagneticInteractions(NonlocalEffect):
         self._nodes = compat.local_to_global(im, local)  # rows of a gathered direction
         self._n_owned = im.size_local
         self._k = MU0_OVER_4PI
-        dipoles.warm()
+        self._sums = self._chosen_sums(len(groups))
         self._ready = True
+
+    def _chosen_sums(self, count: int):
+        """The module that sums the pairs: the compiled direct sums, or the multipoles
+        (``interaction_sums``; "auto": the multipoles from ``FMM_FROM`` dipoles on)."""
+        from rftfem.model import dipoles, dipoles_fmm
+
+        sums = self.scene["magnetic"].get("interaction_sums", "auto")
+        if sums == "fmm" or (sums == "auto" and count >= FMM_FROM):
+            return dipoles_fmm
+        dipoles.warm()
+        return dipoles
 
     def _groups(self, mag, V) -> np.ndarray:
         """The group of each owned point of the quadrature space ``V`` (a block of
@@ -224,8 +241,6 @@ class MagneticInteractions(NonlocalEffect):
 
     def _update(self) -> None:
         """The dipoles at the model's iterate, ``G`` and ``H̃`` set, the energy kept."""
-        from rftfem.model import dipoles
-
         self._setup()
         m = self.model
         m.directors.sync(derivatives=True)
@@ -235,7 +250,7 @@ class MagneticInteractions(NonlocalEffect):
         self._x = gather_rows(positions, m.comm)
         n = self._hi - self._lo
         G, H, half = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
-        dipoles.gradient(
+        self._sums.gradient(
             self._m, self._x, self._groups_all, self._lo, self._hi, self._k, G, H, half
         )
         self._H = H
@@ -276,8 +291,6 @@ class MagneticInteractions(NonlocalEffect):
         return self._scale * self._curvature
 
     def tangent_product(self, dx: np.ndarray) -> np.ndarray:
-        from rftfem.model import dipoles
-
         m = self.model
         w_local = np.asarray(dx)[self._nodes].ravel()
         self.dz.x.array[:] = m.directors.apply(w_local)
@@ -286,7 +299,7 @@ class MagneticInteractions(NonlocalEffect):
         dp = gather_rows(dp, m.comm)
         n = self._hi - self._lo
         dG, dH = np.empty((n, 3)), np.empty((n, 3))
-        dipoles.hessian_product(
+        self._sums.hessian_product(
             self._m, self._x, self._groups_all, dm, dp, self._lo, self._hi, self._k, dG, dH
         )
         self._set_points(self.dG, dG)

@@ -111,6 +111,14 @@ SCHEMA = Table(
             "close the parts are to each other for their cells' size and thickness, "
             "for about 0.1 % (docs/bodies.md).",
         ),
+        "interaction_sums": Leaf(
+            Str(("auto", "direct", "fmm")),
+            "auto",
+            doc='How the pairs of dipoles are summed: "direct", compiled sums over every '
+            'pair (exact tangent); "fmm", fast multipoles (fmm3dpy), the tangent by a '
+            'central difference of the forces. "auto": direct below 100 000 dipoles, '
+            "where it is the faster (docs/bodies.md).",
+        ),
         "field": Table(
             {
                 "kind": Leaf(
