@@ -109,6 +109,18 @@ def _copy_out(gmsh) -> tuple:
     return x, entities, groups
 
 
+def _cells(model, entities) -> list[tuple[np.ndarray, int]]:
+    """A copied body's surface cells: blocks of (nodes per cell as rows, corners)."""
+    out = []
+    for (dim, _), blocks in entities.items():
+        if dim != 2:
+            continue
+        for t, ns in blocks:
+            properties = model.mesh.getElementProperties(t)
+            out.append((ns.reshape(-1, properties[3]) - 1, int(properties[5])))  # 1-based
+    return out
+
+
 def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
     """The :class:`~.gmsh_file.Recipe` of several placed bodies in one mesh."""
 
@@ -118,7 +130,7 @@ def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
         regions: dict[str, list[int]] = {}
         edges: dict[str, list[int]] = {}
         points: dict[str, np.ndarray] = {}
-        reports, cell_type, placed = {}, None, []
+        reports, cell_type, placed, samples = {}, None, [], []
         nodes = elements = shift = 0
         for k, body in enumerate(bodies):
             model.add(f"{combined}-{k}")
@@ -147,6 +159,7 @@ def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
             new = {key: model.addDiscreteEntity(key[0]) for key in sorted(entities)}
             first = next(new[key] for key in sorted(entities) if key[0] == 2)
             placed.append(body.place(x))
+            samples.append(surface_samples(placed[-1], _cells(model, entities)))
             model.mesh.addNodes(
                 2, first, list(range(nodes + 1, nodes + len(x) + 1)), placed[-1].ravel()
             )
@@ -171,7 +184,7 @@ def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
                 reports[name] = report
             nodes += len(x)
             shift += max([tag for _, tag, _, _ in groups], default=0)
-        check_apart(bodies, placed)
+        check_apart(bodies, samples)
         return regions, edges, points, Reports(reports) if reports else None
 
     # a body's built-in hinge lines are named edges ("NAME:hinge-left"); the scene
@@ -179,23 +192,50 @@ def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
     return Recipe(prepare)
 
 
-def check_apart(bodies: Sequence[Placed], nodes: Sequence[np.ndarray]) -> None:
-    """Refuse bodies that overlap where they start: a node of one closer to a node of
-    another than half the smaller of their node spacings (each body's smallest
-    distance between two of its own nodes)."""
+def surface_samples(x: np.ndarray, cells: Sequence[tuple[np.ndarray, int]]):
+    """Points spread over a body's cells, for telling how close two bodies are: every
+    node, and a 4 × 4 grid in each cell (bilinear in a quadrilateral's corners, the
+    grid's part inside a triangle), with the spacing they stand for (each cell's
+    longest side over 4).  ``cells``: blocks of (nodes per cell as rows, corners)."""
+    points, spacing = [x], [np.full(len(x), np.inf)]
+    grid = (np.arange(4) + 0.5) / 4.0
+    u, v = (a.ravel() for a in np.meshgrid(grid, grid))
+    for rows, corners in cells:
+        c = x[rows[:, :corners]]  # cells × corners × 3
+        sides = np.linalg.norm(c - np.roll(c, -1, axis=1), axis=2).max(axis=1)
+        if corners == 4:
+            w = np.stack([(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v], axis=1)
+        else:  # a triangle
+            inside = u + v < 1.0
+            w = np.stack([1 - u[inside] - v[inside], u[inside], v[inside]], axis=1)
+        points.append(np.einsum("pk,ckd->cpd", w, c).reshape(-1, 3))
+        spacing.append(np.repeat(sides / 4.0, len(w)))
+    spacing = np.concatenate(spacing)
+    points = np.concatenate(points)
+    # a node stands for the finest cell around it
+    finite = np.isfinite(spacing)
+    spacing[~finite] = spacing[finite].min() if finite.any() else 0.0
+    return points, spacing
+
+
+def check_apart(bodies: Sequence[Placed], samples: Sequence[tuple[np.ndarray, np.ndarray]]) -> None:
+    """Refuse bodies that overlap where they start: two of their surface samples
+    (:func:`surface_samples`) closer than the spacing either stands for, which two
+    surfaces that cross or coincide always have; surfaces merely close (two strips
+    side by side, a fraction of a cell apart) pass."""
     from scipy.spatial import cKDTree
 
-    trees = [cKDTree(x) for x in nodes]
-    spacing = [
-        float(t.query(x, k=2)[0][:, 1].min()) if len(x) > 1 else 0.0 for t, x in zip(trees, nodes)
-    ]
+    trees = [cKDTree(points) for points, _ in samples]
     for j in range(1, len(bodies)):
         for i in range(j):
-            gap, _ = trees[i].query(nodes[j], k=1)
-            reach = 0.5 * min(spacing[i], spacing[j])
-            if gap.min() < reach:
+            gap, nearest = trees[i].query(samples[j][0], k=1)
+            reach = np.maximum(samples[j][1], samples[i][1][nearest])
+            k = int(np.argmin(gap - reach))
+            if gap[k] < reach[k]:
+                at = ", ".join(f"{c:.4g}" for c in samples[j][0][k])
                 raise SceneError(
                     f"body.{j}.at: body '{bodies[j].name}' overlaps body '{bodies[i].name}' "
-                    f"where they start (nodes {gap.min():.3g} apart, closer than half their "
-                    f"node spacing {reach / 0.5:.3g}); move or turn it"
+                    f"where they start (their surfaces meet near ({at}): {gap[k]:.3g} "
+                    f"apart, within a quarter cell {reach[k]:.3g}); move or turn it, or "
+                    "refine the cells there"
                 )

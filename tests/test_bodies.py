@@ -231,6 +231,33 @@ def test_bad_bodies_are_refused_in_one_line(tmp_path, extra, message):
     assert "\n" not in str(caught.value)
 
 
+@pytest.mark.parametrize(
+    "at,turn,overlaps",
+    [
+        ([0.5, 0.0, 0.0], [0.0, 0.0, 0.0], True),  # one on the other, shifted
+        # b upright (turned about X) through a along the line y = 0.5, where neither
+        # has a node within 0.87 of the other's (their cells are 1 × 1)
+        ([0.5, 0.5, -0.5], [90.0, 0.0, 0.0], True),
+        ([0.0, 1.3, 0.0], [0.0, 0.0, 0.0], False),  # side by side, 0.3 apart
+    ],
+    ids=["on top", "crossing", "side by side"],
+)
+def test_bodies_that_overlap_where_they_start_are_refused(tmp_path, at, turn, overlaps):
+    """Bodies whose surfaces cross or coincide at the start are refused in one line;
+    bodies 0.3 apart side by side (cells 1 × 1) are not.  Broke: the check before
+    (nodes closer than half their spacing): the crossing pair passed, the pair side
+    by side was refused."""
+    from rftfem.scene.reading import load_scene as load
+
+    text = TWO.replace("at = [0.0, 3.0, 0.0]", f"at = {at}\nturn = {turn}")
+    scene = load(write_scene(tmp_path, text))
+    if overlaps:
+        with pytest.raises(SceneError, match=r"^body\.1\.at: body 'b' overlaps body 'a'"):
+            Simulation(scene, out_dir=None, quiet=True)
+    else:
+        Simulation(scene, out_dir=None, quiet=True)
+
+
 def test_overlapping_bodies_and_a_body_key_without_bodies(tmp_path):
     """Bodies that start overlapping and a ``body`` key in a one-body scene are
     refused by the command line in one line with exit status 2.  Broke: the overlap
