@@ -192,7 +192,9 @@ def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
     return Recipe(prepare)
 
 
-def surface_samples(x: np.ndarray, cells: Sequence[tuple[np.ndarray, int]]):
+def surface_samples(
+    x: np.ndarray, cells: Sequence[tuple[np.ndarray, int]]
+) -> tuple[np.ndarray, np.ndarray]:
     """Points spread over a body's cells, for telling how close two bodies are: every
     node, and a 4 × 4 grid in each cell (bilinear in a quadrilateral's corners, the
     grid's part inside a triangle), with the spacing they stand for (each cell's

@@ -343,6 +343,9 @@ def _free_pair(folder, scheme: str, steps: int, after_first: bool = False):
 
     E_int = col("magnetic_interaction_energy")
     total = col("kinetic_energy") + col("elastic_energy") + E_int
+    # the bodies' blocks add up to the whole (body.csv's NAME_kinetic_energy)
+    kinetic = col("a_kinetic_energy") + col("b_kinetic_energy")
+    assert np.abs(kinetic - col("kinetic_energy")).max() < 1e-12 * col("kinetic_energy").max()
     since = total[1:] if after_first else total
     drift = np.abs(since - since[0]).max() / abs(E_int[0])
     moved = abs(col("a_centroid_x")[-1] - col("a_centroid_x")[0])

@@ -14,6 +14,7 @@ from dolfinx import fem
 from petsc4py import PETSc
 
 from rftfem import compat
+from rftfem.forms import inertia
 from rftfem.model.effects.base import FluidModel
 from rftfem.model.effects.fluid import RESULTANT_COLUMNS
 from rftfem.scene.selectors import cells_of
@@ -80,9 +81,10 @@ def restricted(form: ufl.Form, chi: fem.Function) -> ufl.Form:
 class PartMeasures:
     """body.csv's block of one body: ``NAME_centroid_*``, ``NAME_velocity_*`` (the
     area-weighted means of the positions and the velocities ``∫ · dA₀ / ∫ dA₀``
-    over its cells), ``NAME_elastic_energy`` and, with a liquid, its resultant on
-    the body ``NAME_fluid_*`` (``FluidModel.resultant_on``) and, with contact
-    planes, their force on it ``NAME_contact_F*``."""
+    over its cells), ``NAME_elastic_energy``, with inertia ``NAME_kinetic_energy``,
+    with a liquid its resultant on the body ``NAME_fluid_*``
+    (``FluidModel.resultant_on``) and, with contact planes, their force on it
+    ``NAME_contact_F*``."""
 
     def __init__(self, model: Model, part: BodyPart):
         self.model, self.part = model, part
@@ -98,6 +100,12 @@ class PartMeasures:
         self.columns = [f"{name}_centroid_{c}" for c in "xyz"]
         self.columns += [f"{name}_velocity_{c}" for c in "xyz"]
         self.columns.append(f"{name}_elastic_energy")
+        #: with inertia, its kinetic energy
+        self._kinetic = None
+        if m.get("inertia") is not None:
+            rho, t = m.material["rho"], m.material["t"]
+            self._kinetic = m.compile(inertia.kinetic_energy(rho * chi, t, m.v_n, m.dx))
+            self.columns.append(f"{name}_kinetic_energy")
         if self.fluid is not None:
             self.columns += [f"{name}_{c}" for c in RESULTANT_COLUMNS]
         #: the contact planes' force on it
@@ -110,6 +118,8 @@ class PartMeasures:
         row = [m.assemble_scalar(f) / self._area for f in self._position]
         row += [m.assemble_scalar(f) / self._area for f in self._velocity]
         row.append(m.assemble_scalar(self._energy))
+        if self._kinetic is not None:
+            row.append(m.assemble_scalar(self._kinetic))
         if self.fluid is not None:
             row += list(self.fluid.resultant_on(self.part))
         if self.contact is not None:
