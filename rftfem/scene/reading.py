@@ -62,7 +62,7 @@ from rftfem.scene.schema import (
 )
 from rftfem.scene.selectors import hinge_line
 from rftfem.scene.time_rules import resolved_scheme
-from rftfem.scene.validators import scene_parameters
+from rftfem.scene.validators import fmt, scene_parameters
 
 __all__ = [
     "load_scene",
@@ -337,12 +337,19 @@ def _mesh_file(given: str, folder: Path, key: str) -> str:
     """The absolute path of a gmsh mesh file named in the scene (relative to its
     folder), which must be a readable file; else a SceneError at ``key``."""
     mesh_file = (folder / Path(given).expanduser()).resolve()
-    if not mesh_file.exists():
+    try:
+        found, regular = mesh_file.exists(), mesh_file.is_file()
+    except OSError as exc:  # a name too long for the file system, a looping link...
+        raise SceneError(
+            f"{key}: expected a readable gmsh mesh file, found "
+            f"{fmt(given)} which cannot be looked up ({exc.strerror or exc})"
+        ) from None
+    if not found:
         raise SceneError(
             f"{key}: expected a readable gmsh mesh file, found "
             f"'{given}' which does not exist ({mesh_file})"
         )
-    if not mesh_file.is_file():
+    if not regular:
         raise SceneError(
             f"{key}: expected a readable gmsh mesh file, found "
             f"'{given}' which is not a regular file ({mesh_file})"

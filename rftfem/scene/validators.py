@@ -17,7 +17,10 @@ from typing import Any, Iterable, Iterator
 
 from rftfem.errors import SceneError
 
-_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_-]*$")
+#: names become column headers and file names (an optimisation's designs): a length a
+#: file system always takes
+NAME_LENGTH = 64
+_NAME_RE = re.compile(rf"^[A-Za-z_][A-Za-z0-9_-]{{0,{NAME_LENGTH - 1}}}$")
 
 # --------------------------------------------------------------------------- text
 
@@ -116,7 +119,10 @@ class Str(Validator):
         if choices:
             self.expected = one_of(choices)
         elif name:
-            self.expected = "a name (letters, digits, '_' or '-', not starting with a digit)"
+            self.expected = (
+                "a name (letters, digits, '_' or '-', not starting with a digit, "
+                f"at most {NAME_LENGTH} characters)"
+            )
         else:
             self.expected = "a string"
 
