@@ -4,6 +4,7 @@ and hinge lines, the Model with its effects, and the lines on the mesh and the l
 
 from __future__ import annotations
 
+import gc
 import logging
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,12 +20,41 @@ if TYPE_CHECKING:
     from rftfem.meshes import Recipe
 
 
+#: models built in this process since the last full garbage collection; past
+#: COLLECT_EVERY, the next build collects first (see :func:`_release_finished_models`)
+_built = 0
+COLLECT_EVERY = 16
+
+
+def _release_finished_models() -> None:
+    """Free the models of finished runs before a process builds many more.
+
+    A model holds about 20 MPI communicators (its meshes', index maps' and PETSc
+    objects' duplicates), released only when Python frees the model, and a
+    finished run's objects refer to each other, so only the cyclic garbage
+    collector frees them: in a long-lived process with many objects (an in-process
+    sweep, an optimisation, a test suite) it may not run for hundreds of models.
+    MPICH gives a process 2048 communicators; past them a duplication fails and the
+    process aborts (exit 15) or crashes inside dolfinx's dof map construction (the
+    current stack's suite did both, ~1300 tests into one process).  A full
+    collection every COLLECT_EVERY models (0.1-0.3 s) keeps at most that many
+    finished models alive.  Every process builds the same models, so under mpirun
+    the ranks collect at the same point."""
+    global _built
+    _built += 1
+    if _built > COLLECT_EVERY:
+        gc.collect()
+        _built = 1
+
+
 def build_model(
     scene: dict, comm: MPI.Comm, compile_forms: bool = True, tangent: str | None = None
 ) -> Model:
     """The scene's body (its hinge lines cut into strip meshes) and its Model, with
     the Newton tangent ``tangent`` (default: the scene's ``solver.tangent``)."""
     from rftfem.meshes import build_body, realize
+
+    _release_finished_models()
 
     scene_dir = Path(scene.get("_folder") or Path(scene.get("_path") or "scene.toml").parent)
     if scene["mesh"]["kind"] == "bodies":
