@@ -182,3 +182,32 @@ value = [0.0, 0.0, 1.0e-3]
 name = "tip"
 at = [10.0, 0.5, 0.0]
 """
+
+
+#: how many MPI communicators the end-of-session count tries to make at most (MPICH
+#: gives a process 2048; Open MPI far more)
+COMMUNICATOR_PROBE = 4096
+
+
+def free_communicators(limit: int = COMMUNICATOR_PROBE) -> int:
+    """How many more MPI communicators this process can make (up to ``limit``): each
+    model holds about 20 until Python frees it (tests/test_long_processes.py)."""
+    from mpi4py import MPI
+
+    made = []
+    try:
+        while len(made) < limit:
+            made.append(MPI.COMM_SELF.Dup())
+    except MPI.Exception:
+        pass
+    for comm in made:
+        comm.Free()
+    return len(made)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """The communicators left at the end of the session, so a suite that creeps
+    towards MPICH's limit is seen before it aborts."""
+    free = free_communicators()
+    more = "" if free < COMMUNICATOR_PROBE else " or more"
+    terminalreporter.write_line(f"MPI communicators this process could still make: {free}{more}")
