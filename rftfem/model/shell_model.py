@@ -80,10 +80,11 @@ class Model(StepStart, BodyMeasures):
         self.block = 3 + 2 * self.n_colours
         self.W = compat.function_space(self.mesh, "Lagrange", 2, (self.block,))
         self.Vu = compat.function_space(self.mesh, "Lagrange", 2, (3,))
-        self.u_dofs = self._block_dofs(range(3))
+        _check_node_numbering(self.W, self.Vu)
+        self.u_dofs = _block_dofs(self, range(3))
         #: per colour, its rotation dofs of ``w`` in (θ¹, θ²) pairs, node by node
         self.theta_dofs_of = [
-            self._block_dofs((3 + 2 * c, 4 + 2 * c)) for c in range(self.n_colours)
+            _block_dofs(self, (3 + 2 * c, 4 + 2 * c)) for c in range(self.n_colours)
         ]
         #: every rotation dof of ``w``, in (θ¹, θ²) pairs
         self.theta_dofs = np.concatenate(self.theta_dofs_of)
@@ -145,25 +146,6 @@ class Model(StepStart, BodyMeasures):
         self.bcs = [bc for comp in self.components for bc in comp.bcs()]
         self.bcs += hinges.inactive_rotation_bcs(self)
         self.has_moving_bcs = any(comp.moving for comp in self.components)
-
-    def _block_dofs(self, fields) -> np.ndarray:
-        """The local dofs of ``w`` that hold ``fields`` (positions in a node's block),
-        node by node in the order of ``Vu``'s nodes.  The two spaces number their nodes
-        alike (same mesh, same scalar element); checked on the first call."""
-        if not getattr(self, "_nodes_checked", False):
-            x_w, x_u = (V.tabulate_dof_coordinates() for V in (self.W, self.Vu))
-            size = float(np.abs(x_u).max()) if x_u.size else 0.0
-            same = (
-                self.W.dofmap.index_map.size_local == self.Vu.dofmap.index_map.size_local
-                and x_w.shape == x_u.shape
-                and np.allclose(x_w, x_u, rtol=0.0, atol=1e-9 * size)
-            )
-            if not same:
-                raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
-            self._nodes_checked = True
-        im = self.Vu.dofmap.index_map
-        nodes = np.arange(im.size_local + im.num_ghosts)
-        return (self.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
 
     def displacement_space(self, i: int) -> fem.FunctionSpace:
         """The sub-space of ``w`` holding the displacement component ``i`` (0: x)."""
@@ -356,3 +338,25 @@ class Model(StepStart, BodyMeasures):
         for form in (self.forces_form, self.inertia_form, self.end_form, self.jacobian_form):
             if form is not None:
                 form.destroy()
+
+
+def _check_node_numbering(W: fem.FunctionSpace, Vu: fem.FunctionSpace) -> None:
+    """The unknowns' space ``W`` and the displacement's ``Vu`` number their nodes
+    alike (same mesh, same scalar element), which :func:`_block_dofs` relies on."""
+    x_w, x_u = (V.tabulate_dof_coordinates() for V in (W, Vu))
+    size = float(np.abs(x_u).max()) if x_u.size else 0.0
+    same = (
+        W.dofmap.index_map.size_local == Vu.dofmap.index_map.size_local
+        and x_w.shape == x_u.shape
+        and np.allclose(x_w, x_u, rtol=0.0, atol=1e-9 * size)
+    )
+    if not same:
+        raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
+
+
+def _block_dofs(model: Model, fields: Any) -> np.ndarray:
+    """The local dofs of ``model.w`` that hold ``fields`` (positions in a node's
+    block), node by node in the order of ``Vu``'s nodes."""
+    im = model.Vu.dofmap.index_map
+    nodes = np.arange(im.size_local + im.num_ghosts)
+    return (model.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
