@@ -1,6 +1,6 @@
 """Several bodies in one mesh (a scene's ``[[body]]`` tables).
 
-Each body is made from its own :class:`~.gmsh_file.Recipe` in a gmsh model of its
+Each body is made from its own :class:`~.gmsh_session.Recipe` in a gmsh model of its
 own, then turned and moved into place (``x ↦ R x + at``, ``R`` the turns about X,
 then Y, then Z) and copied into one model as discrete entities: its nodes, its
 elements and its physical groups, tags shifted past the bodies before it.  The
@@ -18,13 +18,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rftfem.errors import SceneError
 
-from .gmsh_file import Recipe
+from .gmsh_session import Recipe
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -121,71 +121,111 @@ def _cells(model, entities) -> list[tuple[np.ndarray, int]]:
     return out
 
 
-def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
-    """The :class:`~.gmsh_file.Recipe` of several placed bodies in one mesh."""
+def _made_alone(gmsh: Any, body: Placed, alone: str, combined: str) -> tuple:
+    """Rank 0: ``body``'s recipe prepared in a gmsh model ``alone`` of its own under its
+    options, copied out (:func:`_copy_out`) and removed, ``combined`` current again and
+    the options restored.  Returns ``(names, x, entities, groups)``, ``names`` the
+    recipe's ``(regions, edges, points, report)``."""
+    model = gmsh.model
+    model.add(alone)
+    options = body.recipe.options or {}
+    saved = {key: gmsh.option.getNumber(key) for key in options}
+    try:
+        for key, value in options.items():
+            gmsh.option.setNumber(key, value)
+        own_regions, own_edges, own_points, report = body.recipe.prepare(gmsh)
+        x, entities, groups = _copy_out(gmsh)
+    finally:
+        model.remove()
+        for key, value in saved.items():
+            gmsh.option.setNumber(key, value)
+        model.setCurrent(combined)
+    return (own_regions, own_edges, own_points, report), x, entities, groups
 
-    def prepare(gmsh):
-        model = gmsh.model
-        combined = model.getCurrent()
-        regions: dict[str, list[int]] = {}
-        edges: dict[str, list[int]] = {}
-        points: dict[str, np.ndarray] = {}
-        reports, cell_type, placed, samples = {}, None, [], []
-        nodes = elements = shift = 0
-        for k, body in enumerate(bodies):
-            model.add(f"{combined}-{k}")
-            options = body.recipe.options or {}
-            saved = {key: gmsh.option.getNumber(key) for key in options}
-            try:
-                for key, value in options.items():
-                    gmsh.option.setNumber(key, value)
-                own_regions, own_edges, own_points, report = body.recipe.prepare(gmsh)
-                x, entities, groups = _copy_out(gmsh)
-            finally:
-                model.remove()
-                for key, value in saved.items():
-                    gmsh.option.setNumber(key, value)
-                model.setCurrent(combined)
-            types = {t for (dim, _), blocks in entities.items() if dim == 2 for t, _ in blocks}
-            if cell_type is None:
-                cell_type = types
-            elif types != cell_type:
-                raise SceneError(
-                    f"body.{k}.mesh: its {', '.join(_CELLS.get(t, str(t)) for t in types)} "
-                    f"cells differ from body.0's "
-                    f"({', '.join(_CELLS.get(t, str(t)) for t in cell_type)}); "
-                    "every body needs one cell type"
-                )
-            new = {key: model.addDiscreteEntity(key[0]) for key in sorted(entities)}
-            first = next(new[key] for key in sorted(entities) if key[0] == 2)
-            placed.append(body.place(x))
-            samples.append(surface_samples(placed[-1], _cells(model, entities)))
-            model.mesh.addNodes(
-                2, first, list(range(nodes + 1, nodes + len(x) + 1)), placed[-1].ravel()
-            )
-            for key, blocks in entities.items():
-                for t, ns in blocks:
-                    count = len(ns) // model.mesh.getElementProperties(t)[3]
-                    tags = list(range(elements + 1, elements + count + 1))
-                    model.mesh.addElements(key[0], new[key], [t], [tags], [list(ns + nodes)])
-                    elements += count
-            name = body.name
-            for dim, tag, label, members in groups:
-                model.addPhysicalGroup(dim, [new[(dim, e)] for e in members], tag + shift)
-                if label:
-                    model.setPhysicalName(dim, tag + shift, f"{name}{SEPARATOR}{label}")
-            regions[name] = [tag + shift for dim, tag, _, _ in groups if dim == 2]
-            for names, own in ((regions, own_regions), (edges, own_edges)):
-                for label, tags in own.items():
-                    names[f"{name}{SEPARATOR}{label}"] = [t + shift for t in tags]
-            for label, at in own_points.items():
-                points[f"{name}{SEPARATOR}{label}"] = body.place(at)
-            if report is not None:
-                reports[name] = report
-            nodes += len(x)
-            shift += max([tag for _, tag, _, _ in groups], default=0)
-        check_apart(bodies, samples)
-        return regions, edges, points, Reports(reports) if reports else None
+
+def _one_cell_type(k: int, entities: dict, cell_type: set[int] | None) -> set[int]:
+    """The surface cell types of body ``k``'s ``entities``, refused unless they are
+    ``cell_type``, body 0's (None for body 0 itself)."""
+    types = {t for (dim, _), blocks in entities.items() if dim == 2 for t, _ in blocks}
+    if cell_type is None:
+        return types
+    if types != cell_type:
+        raise SceneError(
+            f"body.{k}.mesh: its {', '.join(_CELLS.get(t, str(t)) for t in types)} "
+            f"cells differ from body.0's "
+            f"({', '.join(_CELLS.get(t, str(t)) for t in cell_type)}); "
+            "every body needs one cell type"
+        )
+    return cell_type
+
+
+def _copy_in(
+    model: Any, body: Placed, x: np.ndarray, entities: dict, nodes: int, elements: int
+) -> tuple[dict, tuple[np.ndarray, np.ndarray], int]:
+    """Rank 0: a copied body's entities added to the current model as discrete ones,
+    its nodes placed and numbered after ``nodes``, its elements after ``elements``.
+    Returns the new entities (by the body's own), its surface samples
+    (:func:`surface_samples`) and the number of elements now in the model."""
+    new = {key: model.addDiscreteEntity(key[0]) for key in sorted(entities)}
+    first = next(new[key] for key in sorted(entities) if key[0] == 2)
+    placed = body.place(x)
+    samples = surface_samples(placed, _cells(model, entities))
+    model.mesh.addNodes(2, first, list(range(nodes + 1, nodes + len(x) + 1)), placed.ravel())
+    for key, blocks in entities.items():
+        for t, ns in blocks:
+            count = len(ns) // model.mesh.getElementProperties(t)[3]
+            tags = list(range(elements + 1, elements + count + 1))
+            model.mesh.addElements(key[0], new[key], [t], [tags], [list(ns + nodes)])
+            elements += count
+    return new, samples, elements
+
+
+def _add_groups(model: Any, name: str, groups: list, new: dict, shift: int) -> None:
+    """Rank 0: a copied body's physical groups, tags shifted by ``shift``, on its new
+    entities; the named ones prefixed with ``name``."""
+    for dim, tag, label, members in groups:
+        model.addPhysicalGroup(dim, [new[(dim, e)] for e in members], tag + shift)
+        if label:
+            model.setPhysicalName(dim, tag + shift, f"{name}{SEPARATOR}{label}")
+
+
+def _prepare_bodies(gmsh: Any, bodies: Sequence[Placed]) -> tuple:
+    """Rank 0: every body made alone and copied into the current model, then checked
+    apart; returns the :class:`~.gmsh_session.Recipe`'s names of them all."""
+    model = gmsh.model
+    combined = model.getCurrent()
+    regions: dict[str, list[int]] = {}
+    edges: dict[str, list[int]] = {}
+    points: dict[str, np.ndarray] = {}
+    reports, cell_type, samples = {}, None, []
+    nodes = elements = shift = 0
+    for k, body in enumerate(bodies):
+        made, x, entities, groups = _made_alone(gmsh, body, f"{combined}-{k}", combined)
+        own_regions, own_edges, own_points, report = made
+        cell_type = _one_cell_type(k, entities, cell_type)
+        new, sample, elements = _copy_in(model, body, x, entities, nodes, elements)
+        samples.append(sample)
+        name = body.name
+        _add_groups(model, name, groups, new, shift)
+        regions[name] = [tag + shift for dim, tag, _, _ in groups if dim == 2]
+        for names, own in ((regions, own_regions), (edges, own_edges)):
+            for label, tags in own.items():
+                names[f"{name}{SEPARATOR}{label}"] = [t + shift for t in tags]
+        for label, at in own_points.items():
+            points[f"{name}{SEPARATOR}{label}"] = body.place(at)
+        if report is not None:
+            reports[name] = report
+        nodes += len(x)
+        shift += max([tag for _, tag, _, _ in groups], default=0)
+    check_apart(bodies, samples)
+    return regions, edges, points, Reports(reports) if reports else None
+
+
+def bodies_recipe(bodies: Sequence[Placed]) -> Recipe:
+    """The :class:`~.gmsh_session.Recipe` of several placed bodies in one mesh."""
+
+    def prepare(gmsh: Any) -> tuple:
+        return _prepare_bodies(gmsh, bodies)
 
     # a body's built-in hinge lines are named edges ("NAME:hinge-left"); the scene
     # gives them as [[hinge]] entries (rftfem.scene.bodies), so none is built in here

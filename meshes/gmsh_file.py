@@ -1,27 +1,22 @@
 """Read a user's gmsh ``.msh`` surface mesh into a :class:`~rftfem.meshes.Body`.
 
-Also home of the gmsh plumbing shared with :mod:`.strip`: a rank-0 gmsh
-session that leaves someone else's gmsh as it found it, and the collective
-step that turns the rank-0 gmsh model into a distributed dolfinx mesh.
+The gmsh plumbing every builder shares (the rank-0 session, :class:`Recipe` and
+:func:`realize`, the collective step to a dolfinx mesh) is :mod:`.gmsh_session`'s;
+its two names are imported here too.
 """
 
 from __future__ import annotations
 
-import math
 import os
-import sys
-from contextlib import contextmanager, nullcontext
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rftfem.compat import create_meshtags, gmsh_model_to_mesh
 from rftfem.errors import SceneError
 
-if TYPE_CHECKING:
-    from collections.abc import Callable
+from .gmsh_session import Recipe, realize
 
+if TYPE_CHECKING:
     from mpi4py import MPI
 
     from . import Body
@@ -36,154 +31,6 @@ _SURFACE_TYPES = {
 }
 
 
-# --- gmsh session (rank 0) ---------------------------------------------------
-
-
-def _import_gmsh():
-    # TODO(compat): importing gmsh 4.8 sets SIGINT to SIG_DFL (Ctrl-C would kill
-    # the run without cleanup or outputs); put Python's handler back.
-    import signal
-    import threading
-
-    main = threading.current_thread() is threading.main_thread()
-    handler = signal.getsignal(signal.SIGINT) if main else None
-    import gmsh
-
-    if main and handler is not None and signal.getsignal(signal.SIGINT) is not handler:
-        signal.signal(signal.SIGINT, handler)
-    return gmsh
-
-
-def _gmsh_is_initialized(gmsh) -> bool | None:
-    """Whether gmsh is initialized, or None where that cannot be asked safely."""
-    # TODO(compat): gmsh >= 4.9 has isInitialized(); gmsh 4.8 (Debian 12) does
-    # not, and any call into an uninitialized gmsh 4.8 may exit the process with
-    # status 1 (its error handler reads options that only initialize() sets): it
-    # did, in about one launch of two in some sequences, with nothing printed.
-    if hasattr(gmsh, "isInitialized"):
-        return bool(gmsh.isInitialized())
-    return None
-
-
-@contextmanager
-def _stderr_silenced():
-    """File descriptor 2 to /dev/null for the block (messages printed by C++)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _gmsh_initialize(gmsh) -> None:
-    # TODO(compat): gmsh >= 4.11 takes interruptible= (True replaces Python's
-    # SIGINT handler, so Ctrl-C would kill the run without cleanup); 4.8 does not.
-    import inspect
-
-    kwargs = {"readConfigFiles": False}
-    if "interruptible" in inspect.signature(gmsh.initialize).parameters:
-        kwargs["interruptible"] = False
-    gmsh.initialize(**kwargs)
-
-
-class _GmshSession:
-    """A fresh, current gmsh model for the ``with`` block; everything restored after.
-
-    Initializes gmsh only if nobody has (and then finalizes it on exit);
-    otherwise leaves it initialized, removes only its own model, restores the
-    previously current model and every option it set (``options``, plus a
-    silent terminal).  With gmsh 4.8, which cannot be asked whether it is
-    initialized, initialize() is called every time (a no-op when it is) and gmsh
-    is left initialized.
-    """
-
-    _count = 0
-
-    def __init__(self, options: dict[str, float] | None = None):
-        self.options = {"General.Terminal": 0.0, **(options or {})}
-
-    def __enter__(self):
-        gmsh = _import_gmsh()
-        self.gmsh = gmsh
-        known = _gmsh_is_initialized(gmsh)
-        if known is None:
-            # gmsh 4.8: initialize() on an initialized gmsh changes nothing but a warning
-            # on stderr ("already initialized", silenced), so it is called every time
-            # and gmsh is never finalized here (whoever else initialized it keeps their
-            # models; whoever finalized it gets it back)
-            self.started = False
-            with _stderr_silenced():
-                _gmsh_initialize(gmsh)
-        else:
-            self.started = not known
-            if self.started:
-                _gmsh_initialize(gmsh)
-        self.saved = {k: gmsh.option.getNumber(k) for k in self.options}
-        for k, v in self.options.items():
-            gmsh.option.setNumber(k, v)
-        self.previous = gmsh.model.getCurrent()
-        _GmshSession._count += 1
-        self.name = f"rftfem-{os.getpid()}-{_GmshSession._count}"
-        gmsh.model.add(self.name)
-        return gmsh
-
-    def __exit__(self, *exc):
-        gmsh = self.gmsh
-        try:
-            if self.name in gmsh.model.list():
-                gmsh.model.setCurrent(self.name)
-                gmsh.model.remove()
-        finally:
-            if self.started:
-                gmsh.finalize()
-            else:
-                for k, v in self.saved.items():
-                    gmsh.option.setNumber(k, v)
-                if self.previous in gmsh.model.list():
-                    gmsh.model.setCurrent(self.previous)
-        return False
-
-
-def _model_to_body(comm, prepare, options=None):
-    """Collective: ``prepare(gmsh)`` on rank 0, then the dolfinx mesh on all ranks.
-
-    ``prepare`` fills the current (fresh) gmsh model and returns a tuple of
-    names (``(regions, edges)``, a file's also its points); a :class:`SceneError`
-    it raises is raised on every rank (no rank is left waiting). Returns
-    ``(mesh, cell_tags, facet_tags, *names)``.
-    """
-    root = comm.rank == 0
-    with _GmshSession(options) if root else nullcontext() as gmsh:
-        result = None
-        if root:
-            try:
-                result = ("ok", prepare(gmsh))
-            except SceneError as e:
-                result = ("scene", str(e))
-            except Exception as e:  # a bug or a gmsh failure: still tell every rank
-                result = ("error", f"{type(e).__name__}: {e}")
-        status, payload = comm.bcast(result, root=0)
-        if status == "scene":
-            raise SceneError(payload)
-        if status == "error":
-            raise RuntimeError(f"building the mesh with gmsh failed: {payload}")
-        mesh, cell_tags, facet_tags = gmsh_model_to_mesh(gmsh.model if root else None, comm, 0, 3)
-    if facet_tags is None:  # dolfinx >= 0.10 gives None when no curve is tagged
-        facet_tags = _empty_meshtags(mesh, mesh.topology.dim - 1)
-    return (mesh, cell_tags, facet_tags, *payload)
-
-
-def _empty_meshtags(mesh, dim):
-    # TODO(compat): compat.gmsh_model_to_mesh could return these itself.
-    mesh.topology.create_entities(dim)
-    empty = np.empty(0, dtype=np.int32)
-    return create_meshtags(mesh, dim, empty, empty)
-
-
 # --- reading a .msh file -------------------------------------------------------
 
 
@@ -195,8 +42,8 @@ def _fail(path: str, what: str):
     raise SceneError(f"mesh.file: {what} ('{path}')")
 
 
-def _prepare_file(gmsh, path: str):
-    """Rank 0: load ``path`` into the current model, check it, return names."""
+def _merge(gmsh: Any, path: str) -> None:
+    """Rank 0: ``path`` merged into the current model, if it is a readable ``.msh`` file."""
     if not path.lower().endswith(".msh"):
         # other extensions may be run by gmsh as .geo scripts: scenes are data
         _fail(path, "expected a gmsh mesh file ending in .msh")
@@ -206,9 +53,11 @@ def _prepare_file(gmsh, path: str):
         gmsh.merge(path)
     except Exception as e:
         _fail(path, f"gmsh cannot read it as a mesh: {_one_line(e)}")
-    model = gmsh.model
 
-    groups = model.getPhysicalGroups()
+
+def _physical_surfaces(model: Any, path: str, groups: list) -> list:
+    """The tags of the physical surfaces among ``groups``; refused without them, with
+    physical volumes or without 2D elements."""
     if any(dim == 3 for dim, _ in groups):
         _fail(path, "has physical volumes; expected a surface mesh (2D elements in 3D)")
     if len(model.mesh.getElementTypes(2)) == 0:
@@ -220,7 +69,12 @@ def _prepare_file(gmsh, path: str):
             "has no physical surface; name the surfaces that make the body "
             '(Physical Surface("name") = {...})',
         )
+    return surfaces
 
+
+def _named_regions(model: Any, path: str, surfaces: list) -> tuple[dict, dict, set]:
+    """``(regions, owner, types)``: names → physical surface tags, each surface entity's
+    physical surface, and the element types of the entities; each entity in one."""
     regions: dict[str, list[int]] = {}
     owner: dict[int, int] = {}  # surface entity -> physical surface
     types: set[int] = set()
@@ -240,6 +94,12 @@ def _prepare_file(gmsh, path: str):
             regions.setdefault(name, []).append(int(tag))
     if not regions:
         _fail(path, "has no named physical surface")
+    return regions, owner, types
+
+
+def _check_cell_types(model: Any, path: str, owner: dict, types: set) -> None:
+    """Refuse unsupported or mixed 2D element types, and physical surfaces without
+    elements."""
     bad = sorted(types - set(_SURFACE_TYPES))
     if bad:
         names = ", ".join(model.mesh.getElementProperties(t)[0] for t in bad)
@@ -254,14 +114,10 @@ def _prepare_file(gmsh, path: str):
     if not any(len(model.mesh.getElements(2, e)[0]) for e in owner):
         _fail(path, "its physical surfaces hold no elements")
 
-    # Surfaces in no physical surface: drop them (and their mesh) here, so that
-    # every dolfinx version builds the same mesh from the tagged cells.
-    untagged = [(2, t) for _, t in model.getEntities(2) if t not in owner]
-    if untagged:
-        model.removeEntities(untagged, recursive=False)
-    report = _check_cells(model, path, types.pop(), sorted(owner))
-    model.mesh.renumberNodes()  # dolfinx wants node tags 1..N
 
+def _edges_and_points(model: Any, path: str, groups: list, owner: dict) -> tuple[dict, dict]:
+    """``(edges, points)``: named physical curves → tags, named physical points → their
+    coordinates (each a node of the body's cells)."""
     edges: dict[str, list[int]] = {}
     points: dict[str, np.ndarray] = {}
     on_body = None  # the nodes of the body's cells, once a point needs them
@@ -286,6 +142,27 @@ def _prepare_file(gmsh, path: str):
                 points[name] = np.vstack(
                     [points.get(name, np.empty((0, 3))), np.asarray(xyz).reshape(-1, 3)]
                 )
+    return edges, points
+
+
+def _prepare_file(gmsh: Any, path: str) -> tuple:
+    """Rank 0: load ``path`` into the current model, check it, return names."""
+    _merge(gmsh, path)
+    model = gmsh.model
+
+    groups = model.getPhysicalGroups()
+    surfaces = _physical_surfaces(model, path, groups)
+    regions, owner, types = _named_regions(model, path, surfaces)
+    _check_cell_types(model, path, owner, types)
+
+    # Surfaces in no physical surface: drop them (and their mesh) here, so that
+    # every dolfinx version builds the same mesh from the tagged cells.
+    untagged = [(2, t) for _, t in model.getEntities(2) if t not in owner]
+    if untagged:
+        model.removeEntities(untagged, recursive=False)
+    report = _check_cells(model, path, types.pop(), sorted(owner))
+    model.mesh.renumberNodes()  # dolfinx wants node tags 1..N
+    edges, points = _edges_and_points(model, path, groups, owner)
     return regions, edges, points, report
 
 
@@ -325,56 +202,6 @@ def _check_cells(model, path: str, cell_type: int, entities: list[int]):
             model.mesh.addNodes(2, int(e), inside, coords)
             model.mesh.addElements(2, int(e), [cell_type], [tags[mine]], [nodes[mine].ravel()])
     return report
-
-
-def _extents(comm, mesh) -> tuple[float, float]:
-    from mpi4py import MPI
-
-    x = mesh.geometry.x
-    out = []
-    for k in (0, 1):
-        lo = float(x[:, k].min()) if x.shape[0] else math.inf
-        hi = float(x[:, k].max()) if x.shape[0] else -math.inf
-        out.append(comm.allreduce(hi, op=MPI.MAX) - comm.allreduce(lo, op=MPI.MIN))
-    return out[0], out[1]
-
-
-@dataclass
-class Recipe:
-    """How to make a body in gmsh, before any dolfinx mesh: ``prepare(gmsh)`` fills
-    the current model on rank 0 and returns ``(regions, edges, points, report)``
-    (names → physical tags; named points' coordinates; a gmsh file's
-    :class:`~.surface_checks.SurfaceReport` or None) under the gmsh ``options``.
-    ``extents``: the reference body's (length, width) if known (else measured);
-    ``hinges``: its built-in hinge lines' names.  :func:`realize` makes the Body;
-    :mod:`.bodies` puts several recipes into one mesh."""
-
-    prepare: Callable[[Any], tuple]
-    options: dict[str, float] | None = None
-    extents: tuple[float, float] | None = None
-    hinges: list[str] = field(default_factory=list)
-
-
-def realize(comm: MPI.Comm, recipe: Recipe) -> Body:
-    """Collective: the Body of ``recipe`` (gmsh on rank 0, dolfinx on every rank)."""
-    from . import Body
-
-    mesh, cell_tags, facet_tags, regions, edges, points, report = _model_to_body(
-        comm, recipe.prepare, recipe.options
-    )
-    length, width = recipe.extents or _extents(comm, mesh)
-    return Body(
-        mesh=mesh,
-        cell_tags=cell_tags,
-        facet_tags=facet_tags,
-        regions=regions,
-        edges=edges,
-        points=points,
-        length=length,
-        width=width,
-        hinges=list(recipe.hinges),
-        report=report,
-    )
 
 
 def file_recipe(path: str | os.PathLike[str]) -> Recipe:
