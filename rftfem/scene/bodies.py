@@ -16,7 +16,7 @@ messages a one-body scene gives, under the entry's own key.
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -146,6 +146,23 @@ def expand(scene: dict, has_mesh: bool) -> None:
         raise SceneError(
             "mesh: a scene gives one body by [mesh] or several by [[body]] tables, not both"
         )
+    _check_bodies(bodies)
+    if scene["shell"]["parts"]:
+        raise SceneError(
+            "shell.parts: with [[body]] tables a region's values go in that body's [[body.parts]]"
+        )
+    hinges, built_in = _body_hinges(scene, bodies, names)
+    own = {b["name"]: {"mesh": b["mesh"], "hinge": hinges[b["name"]]} for b in bodies}
+    placed = {b["name"]: _placement(b) for b in bodies}
+    _place_entries(scene, names, own, placed)
+    scene["hinge"] += built_in
+    scene["shell"]["parts"] = _parts(scene, bodies)
+    scene["mesh"] = _combined_mesh(bodies)
+
+
+def _check_bodies(bodies: list[dict]) -> None:
+    """The [[body]] tables' names (unique, without the separator) and each one's mesh,
+    under its own key."""
     check_unique(bodies, "name", "body", "body")
     for i, body in enumerate(bodies):
         if SEPARATOR in body["name"]:
@@ -156,13 +173,14 @@ def expand(scene: dict, has_mesh: bool) -> None:
             check_mesh(body["mesh"])
         except SceneError as error:
             raise _mesh_error(error, i) from None
-    if scene["shell"]["parts"]:
-        raise SceneError(
-            "shell.parts: with [[body]] tables a region's values go in that body's [[body.parts]]"
-        )
-    hinges, built_in = _body_hinges(scene, bodies, names)
-    own = {b["name"]: {"mesh": b["mesh"], "hinge": hinges[b["name"]]} for b in bodies}
-    placed = {b["name"]: _placement(b) for b in bodies}
+
+
+def _place_entries(
+    scene: dict, names: list[str], own: dict[str, dict], placed: dict[str, Callable]
+) -> None:
+    """Each entry that selects on a body: checked against that body's own mesh
+    (``own``), then its ``at`` placed and its ``where`` or ``region`` prefixed with
+    the body's name."""
     for path, keys in _ENTRIES.items():
         for i, entry in enumerate(_entries(scene, path)):
             here = f"{path}.{i}"
@@ -180,9 +198,11 @@ def expand(scene: dict, has_mesh: bool) -> None:
             elif key == "where":
                 check_where(entry["where"], f"{here}.where", own[name])
                 entry["where"] = _prefixed(name, entry["where"])
-    scene["hinge"] += built_in
-    scene["shell"]["parts"] = _parts(scene, bodies)
-    scene["mesh"] = {
+
+
+def _combined_mesh(bodies: list[dict]) -> dict:
+    """The [mesh] table of the bodies' one mesh (``kind = "bodies"``)."""
+    return {
         "kind": "bodies",
         "bodies": bodies,
         "length": None,

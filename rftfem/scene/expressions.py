@@ -6,48 +6,26 @@ parentheses, the functions ``sin cos tan asin acos atan atan2 exp log sqrt abs
 min max``, the constant ``pi`` and the variables the key allows (``X, Y, Z`` the
 reference coordinates, ``x, y, z`` the current ones, ``t`` the time).
 
-:func:`parse` turns the text into a :class:`Formula` (a small tree), or raises a
-one-line :class:`~rftfem.errors.SceneError` naming the key and the place in the
-text.  A formula becomes UFL (:meth:`Formula.ufl`, for forms) or numbers
+:func:`parse` turns the text into a :class:`Formula` (a small tree, by the grammar
+of :mod:`rftfem.scene.formula_grammar`), or raises a one-line
+:class:`~rftfem.errors.SceneError` naming the key and the place in the text.  A
+formula becomes UFL (:meth:`Formula.ufl`, for forms) or numbers
 (:meth:`Formula.numbers`, numpy arrays or floats) from the same tree.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.scene.formula_grammar import CONSTANTS, FUNCTIONS, TOKEN, Parser
 
 if TYPE_CHECKING:  # (UFL is imported when a formula becomes UFL)
     import ufl
-
-#: function name -> number of arguments (None: two or more)
-FUNCTIONS = {
-    "sin": 1,
-    "cos": 1,
-    "tan": 1,
-    "asin": 1,
-    "acos": 1,
-    "atan": 1,
-    "atan2": 2,
-    "exp": 1,
-    "log": 1,
-    "sqrt": 1,
-    "abs": 1,
-    "min": None,
-    "max": None,
-}
-CONSTANTS = {"pi": math.pi}
-
-_TOKEN = re.compile(
-    r"\s*(?:(?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
-    r"|(?P<op>[-+*/^(),]))"
-)
 
 
 @dataclass(frozen=True)
@@ -106,7 +84,7 @@ def substitute(text: str, values: dict) -> str:
     if not values:
         return text
     out, pos = [], 0
-    matches = list(_TOKEN.finditer(text))
+    matches = list(TOKEN.finditer(text))
     for n, m in enumerate(matches):
         if m.end() == m.start():
             break
@@ -129,7 +107,7 @@ def parse(text: str | float, key: str, variables: tuple[str, ...]) -> Formula:
         if not math.isfinite(value):
             raise SceneError(f"{key}: expected a finite number, found {text!r}")
         return Formula(repr(value), ("num", value), frozenset(), key)
-    parser = _Parser(text, key, variables)
+    parser = Parser(text, key, variables)
     tree = parser.expression()
     if parser.peek() is not None:
         parser.fail(f"unexpected '{parser.peek()[1]}'")
@@ -210,121 +188,6 @@ def _show(tree) -> str:
     if kind == "call":
         return f"{tree[1]}({', '.join(_show(a) for a in tree[2])})"
     return f"({_show(tree[2])} {tree[1]} {_show(tree[3])})"
-
-
-class _Parser:
-    def __init__(self, text: str, key: str, variables):
-        self.text, self.key, self.variables = text, key, tuple(variables)
-        self.tokens, self.used = [], set()
-        pos = 0
-        while pos < len(text):
-            m = _TOKEN.match(text, pos)
-            if not m or m.end() == pos:
-                if text[pos:].strip() == "":
-                    break
-                bad = text[pos:].lstrip()[0]
-                where = len(text) - len(text[pos:].lstrip())
-                self._raise(f"unexpected character '{bad}'", where)
-            kind = m.lastgroup
-            start = m.start(kind)
-            self.tokens.append((kind, m.group(kind), start))
-            pos = m.end()
-        self.i = 0
-
-    def _raise(self, what: str, where: int):
-        allowed = ", ".join(self.variables) if self.variables else "none"
-        raise SceneError(
-            f"{self.key}: {what} at position {where + 1} in formula "
-            f"'{self.text}' (variables allowed here: {allowed})"
-        )
-
-    def fail(self, what: str):
-        tok = self.peek()
-        self._raise(what, tok[2] if tok else len(self.text))
-
-    def peek(self):
-        return self.tokens[self.i] if self.i < len(self.tokens) else None
-
-    def take(self, op: str | None = None):
-        tok = self.peek()
-        if tok is None:
-            self._raise("unexpected end" + (f" (expected '{op}')" if op else ""), len(self.text))
-        if op is not None and tok[1] != op:
-            self.fail(f"expected '{op}', found '{tok[1]}'")
-        self.i += 1
-        return tok
-
-    def expression(self):
-        tree = self.term()
-        while self.peek() and self.peek()[1] in "+-" and self.peek()[0] == "op":
-            op = self.take()[1]
-            tree = ("bin", op, tree, self.term())
-        return tree
-
-    def term(self):
-        tree = self.unary()
-        while self.peek() and self.peek()[1] in ("*", "/"):
-            op = self.take()[1]
-            if self.peek() and self.peek()[1] == "*":
-                self.fail("'**' is not a power here: write '^'")
-            tree = ("bin", op, tree, self.unary())
-        return tree
-
-    def unary(self):
-        tok = self.peek()
-        if tok and tok[0] == "op" and tok[1] in "+-":
-            self.take()
-            inner = self.unary()
-            return ("neg", inner) if tok[1] == "-" else inner
-        return self.power()
-
-    def power(self):
-        base = self.atom()
-        if self.peek() and self.peek()[1] == "^":
-            self.take()
-            return ("bin", "^", base, self.unary())
-        return base
-
-    def atom(self):
-        tok = self.peek()
-        if tok is None:
-            self._raise("unexpected end (expected a number, a name or '(')", len(self.text))
-        kind, text, where = tok
-        if kind == "num":
-            self.take()
-            return ("num", float(text))
-        if kind == "name":
-            self.take()
-            if self.peek() and self.peek()[1] == "(":
-                if text not in FUNCTIONS:
-                    self._raise(f"unknown function '{text}' (known: {', '.join(FUNCTIONS)})", where)
-                self.take("(")
-                args = [self.expression()]
-                while self.peek() and self.peek()[1] == ",":
-                    self.take(",")
-                    args.append(self.expression())
-                self.take(")")
-                n = FUNCTIONS[text]
-                if (n is not None and len(args) != n) or (n is None and len(args) < 2):
-                    want = f"{n} argument{'s' if n != 1 else ''}" if n else "two or more arguments"
-                    self._raise(f"{text}() takes {want}, found {len(args)}", where)
-                return ("call", text, tuple(args))
-            if text in CONSTANTS:
-                return ("num", CONSTANTS[text])
-            if text in self.variables:
-                self.used.add(text)
-                return ("var", text)
-            if text in FUNCTIONS:
-                self._raise(f"function '{text}' without its arguments", where)
-            if text in ("X", "Y", "Z", "x", "y", "z", "t"):
-                self._raise(f"variable '{text}' is not allowed here", where)
-            self._raise(f"unknown name '{text}'", where)
-        if text == "(":
-            self.take("(")
-            tree = self.expression()
-            self.take(")")
-            return tree
-        self._raise(f"unexpected '{text}'", where)
 
 
 _NUMPY = {

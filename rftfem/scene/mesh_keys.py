@@ -168,23 +168,7 @@ def check_mesh(mesh: dict) -> None:
     if kind != "gmsh":
         mesh["file"] = None  # only read for gmsh meshes (lets --set mesh.kind=strip work)
     if three:
-        if mesh["width"] is not None:
-            raise SceneError(
-                "mesh.width: expected no mesh.width with mesh.kind = "
-                '"three-link" (set mesh.link_width: the body is 3 * link_width '
-                f"wide), found mesh.width = {fmt(mesh['width'])}"
-            )
-        if mesh["link_width"] is None:
-            mesh["link_width"] = 0.5
-        if mesh["hinge_stiffness"] is None:
-            mesh["hinge_stiffness"] = 0.0
-        mesh["width"] = 3.0 * mesh["link_width"]
-        if not math.isfinite(mesh["width"]):
-            raise err(
-                "mesh.link_width",
-                "a number whose triple (the body's width) is finite",
-                mesh["link_width"],
-            )
+        _fill_three_link(mesh)
     else:
         if mesh["width"] is None:
             mesh["width"] = 1.0
@@ -198,45 +182,77 @@ def check_mesh(mesh: dict) -> None:
         "y": (mesh["width"], "3 * mesh.link_width" if three else "mesh.width"),
     }
     for i, region in enumerate(regions):
-        name = region["name"]
-        if three and name in THREE_LINK_REGIONS + THREE_LINK_HINGES:
-            raise SceneError(
-                f"mesh.regions.{i}.name: expected a name other than the "
-                "three-link mesh's built-in regions and hinge lines "
-                f"{', '.join(THREE_LINK_REGIONS + THREE_LINK_HINGES)}, "
-                f"found '{name}'"
+        _check_region(region, i, kind, extent)
+
+
+def _fill_three_link(mesh: dict) -> None:
+    """A three-link mesh's defaults: its link width and hinge stiffness, and the
+    width of its three links (which [mesh] may not set)."""
+    if mesh["width"] is not None:
+        raise SceneError(
+            "mesh.width: expected no mesh.width with mesh.kind = "
+            '"three-link" (set mesh.link_width: the body is 3 * link_width '
+            f"wide), found mesh.width = {fmt(mesh['width'])}"
+        )
+    if mesh["link_width"] is None:
+        mesh["link_width"] = 0.5
+    if mesh["hinge_stiffness"] is None:
+        mesh["hinge_stiffness"] = 0.0
+    mesh["width"] = 3.0 * mesh["link_width"]
+    if not math.isfinite(mesh["width"]):
+        raise err(
+            "mesh.link_width",
+            "a number whose triple (the body's width) is finite",
+            mesh["link_width"],
+        )
+
+
+def _check_region(region: dict, i: int, kind: str, extent: dict[str, tuple[float, str]]) -> None:
+    """Region ``i`` of [mesh]: a name of its own and bands inside the body
+    (``extent``: each axis's size and the key that sets it)."""
+    name = region["name"]
+    if kind == "three-link" and name in THREE_LINK_REGIONS + THREE_LINK_HINGES:
+        raise SceneError(
+            f"mesh.regions.{i}.name: expected a name other than the "
+            "three-link mesh's built-in regions and hinge lines "
+            f"{', '.join(THREE_LINK_REGIONS + THREE_LINK_HINGES)}, "
+            f"found '{name}'"
+        )
+    if name in SPECIAL_SELECTORS:
+        raise SceneError(
+            f"mesh.regions.{i}.name: expected a name other than the "
+            f"selectors {', '.join(SPECIAL_SELECTORS)}, found '{name}'"
+        )
+    if region["x"] is None and region["y"] is None:
+        raise SceneError(
+            f"mesh.regions.{i}: expected x = [a, b] and/or y = [a, b], "
+            f"found neither in region '{name}'"
+        )
+    for axis in ("x", "y"):
+        band = region[axis]
+        if band is None:
+            continue
+        _check_band(band, f"mesh.regions.{i}.{axis}", kind, *extent[axis])
+
+
+def _check_band(band: list[float], path: str, kind: str, size: float, size_key: str) -> None:
+    """A region's band [a, b]: not empty, and inside the body's ``size`` along its
+    axis on a strip or three-link mesh."""
+    a, b = band
+    if a >= b:
+        raise SceneError(
+            f"{path}: expected an interval [a, b] with a < b, found "
+            f"{fmt(band)} (the region selects nothing)"
+        )
+    tol = 1e-9 * size
+    if kind in LINED_KINDS and (a < -tol or b > size + tol):
+        nothing = b <= 0.0 or a >= size
+        raise SceneError(
+            f"{path}: expected an interval [a, b] with 0 <= a < b <= "
+            f"{size_key} = {fmt(size)}, found {fmt(band)}"
+            + (
+                " (the region selects nothing)"
+                if nothing
+                else f" (the region reaches outside the {BODY_NAME[kind]})"
             )
-        if name in SPECIAL_SELECTORS:
-            raise SceneError(
-                f"mesh.regions.{i}.name: expected a name other than the "
-                f"selectors {', '.join(SPECIAL_SELECTORS)}, found '{name}'"
-            )
-        if region["x"] is None and region["y"] is None:
-            raise SceneError(
-                f"mesh.regions.{i}: expected x = [a, b] and/or y = [a, b], "
-                f"found neither in region '{name}'"
-            )
-        for axis in ("x", "y"):
-            band = region[axis]
-            if band is None:
-                continue
-            a, b = band
-            path = f"mesh.regions.{i}.{axis}"
-            if a >= b:
-                raise SceneError(
-                    f"{path}: expected an interval [a, b] with a < b, found "
-                    f"{fmt(band)} (the region selects nothing)"
-                )
-            size, size_key = extent[axis]
-            tol = 1e-9 * size
-            if kind in LINED_KINDS and (a < -tol or b > size + tol):
-                nothing = b <= 0.0 or a >= size
-                raise SceneError(
-                    f"{path}: expected an interval [a, b] with 0 <= a < b <= "
-                    f"{size_key} = {fmt(size)}, found {fmt(band)}"
-                    + (
-                        " (the region selects nothing)"
-                        if nothing
-                        else f" (the region reaches outside the {BODY_NAME[kind]})"
-                    )
-                )
+        )

@@ -2,7 +2,8 @@
 
 The keys are the user-facing contract documented in docs/scenes.md, whose "Scene
 keys" part is generated from :data:`SCHEMA` (``python -m rftfem.reference``).
-This module reads the file (or text, or a dict) and applies ``--set``; the
+This module reads the file (or text, or a dict) and applies ``--set`` (one
+dotted key set or removed: :mod:`rftfem.scene.dotted_keys`); the
 tables ``title``, ``[shell]``, ``[time]``, ``[output]`` and ``[solver]`` and the
 checks across them are in :mod:`rftfem.scene.keys` (``[mesh]`` in
 :mod:`rftfem.scene.mesh_keys`). Every effect component
@@ -40,26 +41,17 @@ nothing in them is evaluated.
 from __future__ import annotations
 
 import os
-import re
 import tomllib
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Iterable
 
 from rftfem.errors import SceneError
 from rftfem.model import effects
 from rftfem.scene import bodies
+from rftfem.scene.dotted_keys import UNSET as UNSET  # (rftfem.scene.overrides reads it here)
+from rftfem.scene.dotted_keys import apply_override, set_key, unset_key, unset_text
 from rftfem.scene.keys import SCHEMA, cross_check
-from rftfem.scene.schema import (
-    Array,
-    Free,
-    Leaf,
-    Table,
-    err,
-    join,
-    section,
-    suggest,
-    validate_table,
-)
+from rftfem.scene.schema import validate_table
 from rftfem.scene.selectors import hinge_line
 from rftfem.scene.time_rules import resolved_scheme
 from rftfem.scene.validators import fmt, scene_parameters
@@ -79,181 +71,6 @@ __all__ = [
     "hinge_line",
     "SCHEMA",
 ]
-
-_BARE_WORD_RE = re.compile(r"""^[A-Za-z_./~][^\s"'\[\]{},#]*$""")
-
-
-#: an override text that removes its key (``--unset KEY``) rather than setting it:
-#: overrides travel as texts (summary.json, a sweep's child runs, a restart)
-UNSET = "--unset "
-#: the value set_key takes to remove a key
-_REMOVE = object()
-
-
-def unset_text(key: str) -> str:
-    """The override text of ``--unset KEY``."""
-    return UNSET + key.strip()
-
-
-def apply_override(data: dict, text: str) -> None:
-    """Apply one ``--set a.b.c=VALUE`` to the raw scene ``data`` (in place), or one
-    ``--unset a.b.c`` (the text ``unset_text`` makes): the key is removed, and its
-    default, or nothing, takes its place.
-
-    VALUE is read as a TOML value; if it is not one but is a bare word
-    (``triangle``, ``x=L``, ``plate.msh``) it is taken as a string. Arrays of
-    tables are addressed by index (``load.0.value``). A path that is not in the
-    schema, or an index out of range, raises SceneError naming the path. Missing
-    tables on the way are created (``--set fluid.drag=[1,1,2]``).
-    """
-    if text.startswith(UNSET):
-        unset_key(data, text[len(UNSET) :].strip())
-        return
-    key, sep, raw_value = text.partition("=")
-    key = key.strip()
-    if not sep or not key:
-        raise SceneError(f"--set: expected KEY=VALUE (e.g. time.dt=0.005), found '{text}'")
-    set_key(data, key, _parse_value(key, raw_value.strip()))
-
-
-def unset_key(data: dict, key: str) -> list:
-    """Remove the dotted ``key`` from the raw scene ``data`` (in place): a key of a
-    table, or an entry of an array of tables (``load.1``; the later entries move
-    up).  The path must be one the schema has; a key the scene does not set is left
-    as it is.  Returns ``[the value removed]``, or ``[]``."""
-    if not key:
-        raise SceneError("--unset: expected a dotted key path like fluid.drag, found ''")
-    removed = []
-    try:
-        set_key(data, key, _REMOVE, removed)
-    except SceneError as exc:
-        text = str(exc)
-        raise SceneError(
-            "--unset" + text[len("--set") :] if text.startswith("--set") else text
-        ) from None
-    return removed
-
-
-def set_key(data: dict, key: str, value: Any, _removed: list | None = None) -> None:
-    """Set the dotted ``key`` of the raw scene ``data`` to the Python ``value`` (in
-    place), as ``--set`` does once it has read its value; errors name ``--set`` so
-    that the Python API's messages are the command line's."""
-    parts = key.split(".")
-    if any(not p for p in parts):
-        raise SceneError(
-            f"--set {key}: expected a dotted key path like shell.thickness, "
-            f"found an empty component"
-        )
-
-    spec: Any = SCHEMA
-    node: Any = data
-    path = ""
-    for n, part in enumerate(parts):
-        last = n == len(parts) - 1
-        here = join(path, part)
-        if isinstance(spec, Table):
-            if part not in spec.fields:
-                raise SceneError(
-                    f"--set: unknown key '{here}'"
-                    + (
-                        suggest(part, spec.fields, path + "." if path else "")
-                        or f" (valid keys{' in ' + section(path) if path else ''}:"
-                        f" {', '.join(spec.fields)})"
-                    )
-                )
-            sub = spec.fields[part]
-            if last:
-                if value is _REMOVE:
-                    if part in node:
-                        _removed.append(node.pop(part))
-                else:
-                    node[part] = value
-                return
-            if isinstance(sub, Leaf):
-                if value is _REMOVE:
-                    raise SceneError(
-                        f"--unset {key}: '{here}' is a value: unset it whole, not one component"
-                    )
-                _set_component(node, part, parts[n + 1 :], key, here, value)
-                return
-            if part not in node:
-                if value is _REMOVE:
-                    return  # nothing on the way, nothing to remove
-                node[part] = [] if isinstance(sub, Array) else {}
-            child = node[part]
-            if isinstance(sub, Array):
-                if not isinstance(child, list):
-                    raise err(here, f"an array of tables [[{here}]]", child)
-            elif not isinstance(child, dict):
-                raise err(here, f"a table {section(here)}", child)
-            spec, node, path = sub, child, here
-        elif isinstance(spec, Array):
-            if not re.fullmatch(r"\d+", part):
-                raise SceneError(
-                    f"--set {key}: expected an index into [[{path}]] after '{path}', found '{part}'"
-                )
-            index = int(part)
-            if index >= len(node):
-                raise SceneError(
-                    f"--set {key}: index {index} out of range, the scene has "
-                    f"{len(node)} [[{path}]] entr{'y' if len(node) == 1 else 'ies'}"
-                )
-            if last:
-                if value is _REMOVE:
-                    _removed.append(node.pop(index))
-                else:
-                    node[index] = value
-                return
-            if not isinstance(node[index], dict):
-                raise err(here, "a table", node[index])
-            spec, node, path = spec.item, node[index], here
-        elif isinstance(spec, Free):
-            if not last:
-                raise SceneError(f"--set {key}: '{here}' is a PETSc option, not a table")
-            if value is _REMOVE:
-                if part in node:
-                    _removed.append(node.pop(part))
-            else:
-                node[part] = value
-            return
-
-
-def _set_component(node: dict, part: str, rest: list[str], key: str, here: str, value: Any) -> None:
-    """``--set load.0.value.2=3``: one component of the vector at ``here`` (the same
-    addresses as ``rftfem optimize --vary`` and the quantities' ``scene(KEY)``)."""
-    if len(rest) != 1 or not re.fullmatch(r"\d+", rest[0]):
-        raise SceneError(
-            f"--set {key}: '{here}' is a value, not a table, so '{key}' does not exist"
-        )
-    vector = node.get(part)
-    if not isinstance(vector, list):
-        raise SceneError(
-            f"--set {key}: '{here}' is "
-            + ("not set in the scene" if vector is None else f"{vector!r}, not a vector")
-            + f", so it has no component {rest[0]}; set the whole value"
-        )
-    index = int(rest[0])
-    if index >= len(vector):
-        raise SceneError(
-            f"--set {key}: index {index} out of range, '{here}' has {len(vector)} components"
-        )
-    vector[index] = value
-
-
-def _parse_value(key: str, text: str) -> Any:
-    if "\n" not in text and "\r" not in text:
-        try:
-            parsed = tomllib.loads("v = " + text)
-        except tomllib.TOMLDecodeError:
-            parsed = None
-        if parsed is not None and list(parsed) == ["v"]:
-            return parsed["v"]
-    if _BARE_WORD_RE.match(text):
-        return text
-    raise SceneError(
-        f"--set {key}: expected a TOML value (a number, true/false, "
-        f"\"string\", [array] or bare word), found '{text}'"
-    )
 
 
 def read_scene_file(path: str | os.PathLike) -> dict:

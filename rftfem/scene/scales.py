@@ -132,73 +132,117 @@ def groups(scene: dict, model: Any) -> list[tuple[str, float, str]]:
     width = model.area() / L
     t = model.material_value("thickness", "shell")
     D = _bending_stiffness(model)
+    out = [("L/t", L / t, _slenderness_note(L / t))]
+    drives = drive_periods(scene)
+    period = min((d.period for d in drives if not d.table), default=None)
+    out += _step_groups(drives, time_)
+    out += _magnetic_groups(model, time_, L, t, D)
+    out += _fluid_groups(model, period, L, D)
+    out += _deflection_groups(model, L, D, width)
+    out += _material_groups(model)
+    out += _contact_groups(model, time_, L, t)
+    return out
+
+
+def _slenderness_note(ratio: float) -> str:
+    """The meaning of L/t, with a warning below 5."""
     slender = "slenderness: length over thickness"
-    if L / t < 5:
+    if ratio < 5:
         slender += (
             "; below 5 the body is no thin shell: the thickness's units may be off (µm for mm?)"
         )
-    out = [("L/t", L / t, slender)]
-    drives = drive_periods(scene)
-    period = min((d.period for d in drives if not d.table), default=None)
-    if drives and time_.get("scheme") != "arc-length":
-        d = min(drives, key=lambda d: d.period)
-        out.append(
-            (
-                "steps per drive period",
-                d.period / time_["dt"],
-                f"{d.key}; fewer than 4 alias the drive",
-            )
+    return slender
+
+
+def _step_groups(drives: list[Drive], time_: dict) -> list[tuple[str, float, str]]:
+    """Steps per period of the fastest drive (none for arc-length or no drive)."""
+    if not (drives and time_.get("scheme") != "arc-length"):
+        return []
+    d = min(drives, key=lambda d: d.period)
+    return [
+        (
+            "steps per drive period",
+            d.period / time_["dt"],
+            f"{d.key}; fewer than 4 alias the drive",
         )
+    ]
+
+
+def _magnetic_groups(
+    model: Any, time_: dict, L: float, t: float, D: float
+) -> list[tuple[str, float, str]]:
+    """The magneto-elastic number of the field at time.end (none without a field)."""
     magnetic = model.get("magnetic")
-    if magnetic is not None:
-        end = time_["end"]
-        B = (
-            magnetic.source.scale(end)
-            if magnetic.uniform
-            else magnetic.source.scale(model.Vu.tabulate_dof_coordinates(), end, model.comm)
+    if magnetic is None:
+        return []
+    end = time_["end"]
+    B = (
+        magnetic.source.scale(end)
+        if magnetic.uniform
+        else magnetic.source.scale(model.Vu.tabulate_dof_coordinates(), end, model.comm)
+    )
+    m = max(magnetic._largest_magnetization(i) for i in range(len(magnetic.parts)))
+    return [
+        (
+            "magneto-elastic number",
+            t * m * B * L**2 / D,
+            "t m B L² / D: the field's couple against bending over the length "
+            "(about 1 bends the body by a radian)",
         )
-        m = max(magnetic._largest_magnetization(i) for i in range(len(magnetic.parts)))
-        out.append(
-            (
-                "magneto-elastic number",
-                t * m * B * L**2 / D,
-                "t m B L² / D: the field's couple against bending over the length "
-                "(about 1 bends the body by a radian)",
-            )
-        )
+    ]
+
+
+def _fluid_groups(
+    model: Any, period: float | None, L: float, D: float
+) -> list[tuple[str, float, str]]:
+    """The fluid's relaxation time (over the drive period) and the sperm number."""
     fluid = model.fluid
-    if fluid is not None:
-        C = max(fluid.C)  # (Stokes flow: the slender-body drag of its viscosity)
-        tau = C * L**4 / D
+    if fluid is None:
+        return []
+    C = max(fluid.C)  # (Stokes flow: the slender-body drag of its viscosity)
+    tau = C * L**4 / D
+    out = [
+        (
+            "relaxation time / drive period" if period else "relaxation time",
+            tau / period if period else tau,
+            "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
+            + (_units_note(tau / period) if period else " (time units; no periodic drive)"),
+        )
+    ]
+    if period:
+        sperm = (2 * math.pi * tau / period) ** 0.25
         out.append(
             (
-                "relaxation time / drive period" if period else "relaxation time",
-                tau / period if period else tau,
-                "C L⁴ / D, the time the fluid lets a bend of the body's length relax"
-                + (_units_note(tau / period) if period else " (time units; no periodic drive)"),
+                "sperm number",
+                sperm,
+                "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
+                "fluid confines the bending near the driven end" + _units_note(sperm),
             )
         )
-        if period:
-            sperm = (2 * math.pi * tau / period) ** 0.25
-            out.append(
-                (
-                    "sperm number",
-                    sperm,
-                    "L (C ω / D)^¼: below 1 the body moves rigidly, above 3 the "
-                    "fluid confines the bending near the driven end" + _units_note(sperm),
-                )
-            )
+    return out
+
+
+def _deflection_groups(
+    model: Any, L: float, D: float, width: float
+) -> list[tuple[str, float, str]]:
+    """The cantilever deflection of the loads' largest force over the length."""
     force = max(
         (f for comp in model.components for f in comp.force_scales() if comp.is_load), default=0.0
     )
-    if force > 0.0:
-        deflection = force * L**2 / (3 * D * width)
-        note = "P L² / (3 D W) of the loads' largest force P: a cantilever's tip"
-        if deflection < 1e-5:
-            note += "; so small that the units of E or of the loads may be off"
-        elif deflection > 1e3:
-            note += "; so large that the units of E or of the loads may be off"
-        out.append(("deflection / length", deflection, note))
+    if not force > 0.0:
+        return []
+    deflection = force * L**2 / (3 * D * width)
+    note = "P L² / (3 D W) of the loads' largest force P: a cantilever's tip"
+    if deflection < 1e-5:
+        note += "; so small that the units of E or of the loads may be off"
+    elif deflection > 1e3:
+        note += "; so large that the units of E or of the loads may be off"
+    return [("deflection / length", deflection, note)]
+
+
+def _material_groups(model: Any) -> list[tuple[str, float, str]]:
+    """The spread of each material value that varies over the body."""
+    out = []
     for key, (lo, hi, mean) in getattr(model, "material_ranges", {}).items():
         if hi > lo:  # a field, or parts that differ
             out.append(
@@ -208,6 +252,12 @@ def groups(scene: dict, model: Any) -> list[tuple[str, float, str]]:
                     f"over the body: {lo:.4g} … {hi:.4g}, mean over its nodes {mean:.4g}",
                 )
             )
+    return out
+
+
+def _contact_groups(model: Any, time_: dict, L: float, t: float) -> list[tuple[str, float, str]]:
+    """Each contact plane's reach over the thickness and creep over the length."""
+    out = []
     contact = model.get("contact")
     for i, plane in enumerate(contact.planes if contact is not None else []):
         out.append(

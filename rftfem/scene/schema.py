@@ -19,6 +19,14 @@ import re
 from typing import Any, Sequence
 
 from rftfem.errors import SceneError
+
+# rftfem's own [solver] keys, read from here too (rftfem.petsc_options)
+from rftfem.scene.solver_keys import FACTORIZATIONS as FACTORIZATIONS
+from rftfem.scene.solver_keys import MATRIX_TYPES as MATRIX_TYPES
+from rftfem.scene.solver_keys import TANGENTS as TANGENTS
+from rftfem.scene.solver_keys import check_factorization as check_factorization
+from rftfem.scene.solver_keys import check_matrix_type as check_matrix_type
+from rftfem.scene.solver_keys import check_tangent as check_tangent
 from rftfem.scene.validators import (
     NONNEGATIVE,
     POSITIVE,
@@ -364,41 +372,3 @@ def table_iff(entry: dict, path: str, switch: str, key: str, what: str) -> None:
             f'{path}.{key}: only used with {switch} = "table", found '
             f"{path}.{switch} = {fmt(entry[switch])}"
         )
-
-
-#: rftfem's own key of ``[solver]`` (not given to PETSc): the Newton tangent
-#: (docs/model.md §7.4), the default first
-TANGENTS = ("mixed-point", "exact")
-
-
-def check_tangent(value: Any, where: str = "solver.tangent") -> str:
-    """``value`` if it names a tangent of ``TANGENTS``, else a one-line SceneError."""
-    return _check_choice(value, TANGENTS, where)
-
-
-#: rftfem's other key of ``[solver]``: when the tangent's LU factorisation is made
-#: (docs/model.md §7.7), the default first
-FACTORIZATIONS = ("auto", "every-iteration", "every-step", "reused")
-
-
-def check_factorization(value: Any, where: str = "solver.factorization") -> str:
-    """``value`` if it names a policy of ``FACTORIZATIONS``, else a one-line SceneError."""
-    return _check_choice(value, FACTORIZATIONS, where)
-
-
-#: the tangent's PETSc matrix types (``[solver] mat_type``): node blocks (the default)
-#: or single entries, for a preconditioner that takes no block matrix (hypre)
-MATRIX_TYPES = ("baij", "aij")
-
-
-def check_matrix_type(value: Any, where: str = "solver.mat_type") -> str:
-    """``value`` if it names one of ``MATRIX_TYPES``, else a one-line SceneError."""
-    return _check_choice(value, MATRIX_TYPES, where)
-
-
-def _check_choice(value, choices, where: str) -> str:
-    if value not in choices:
-        raise SceneError(
-            f"{where}: expected one of {', '.join(map(repr, choices))}, found {value!r}"
-        )
-    return value

@@ -1,9 +1,10 @@
-"""Checks of single scene values, and the wording of every scene error.
+"""Checks of single scene values, each with the wording of its errors.
 
 A validator is a callable ``(value, path) -> normalised value`` with an
 ``expected`` text; it raises :class:`~rftfem.errors.SceneError` as
 ``PATH: expected WHAT, found VALUE`` (:func:`err`).  :mod:`rftfem.scene.schema` builds
-the scene's tables from them.
+the scene's tables from them.  The wording itself is :mod:`rftfem.scene.messages`,
+the tables over time :mod:`rftfem.scene.rows`; both are read from here too.
 """
 
 from __future__ import annotations
@@ -13,76 +14,19 @@ import contextvars
 import difflib
 import math
 import re
-from typing import Any, Iterable, Iterator
+from typing import Any, Iterator
 
 from rftfem.errors import SceneError
+from rftfem.scene.messages import Validator, err, fmt, join, one_of
+from rftfem.scene.messages import found as found
+from rftfem.scene.messages import suggest as suggest
+from rftfem.scene.rows import Pairs as Pairs
+from rftfem.scene.rows import Rows as Rows
 
 #: names become column headers and file names (an optimisation's designs): a length a
 #: file system always takes
 NAME_LENGTH = 64
 _NAME_RE = re.compile(rf"^[A-Za-z_][A-Za-z0-9_-]{{0,{NAME_LENGTH - 1}}}$")
-
-# --------------------------------------------------------------------------- text
-
-
-def fmt(value: Any, limit: int = 60) -> str:
-    """Short TOML-like rendering of a value for messages."""
-    if isinstance(value, bool):
-        text = "true" if value else "false"
-    elif isinstance(value, float):
-        text = repr(value)
-        if text.endswith(".0") and "e" not in text:
-            text = text[:-2]
-    elif isinstance(value, int):
-        text = str(value)
-    elif isinstance(value, str):
-        text = '"' + value.replace("\n", "\\n") + '"'
-    elif isinstance(value, list):
-        text = "[" + ", ".join(fmt(v, limit) for v in value) + "]"
-    elif isinstance(value, dict):
-        text = "{" + ", ".join(f"{k} = {fmt(v, limit)}" for k, v in value.items()) + "}"
-    elif value is None:
-        text = "nothing"
-    else:
-        text = str(value)
-    if len(text) > limit:
-        text = text[: limit - 3] + "..."
-    return text
-
-
-def found(value: Any) -> str:
-    """'the string "abc"', 'the boolean true', '-0.1', 'a table', ..."""
-    if isinstance(value, bool):
-        return "the boolean " + fmt(value)
-    if isinstance(value, str):
-        return "the string " + fmt(value)
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-        return f"an array of {len(value)} table(s)"
-    if isinstance(value, (int, float, list)):
-        return fmt(value)
-    return f"a {type(value).__name__.replace('datetime', 'date-time')} value {fmt(value)}"
-
-
-def one_of(options: Iterable[str]) -> str:
-    opts = [f'"{o}"' for o in options]
-    if len(opts) <= 2:
-        return " or ".join(opts)
-    return ", ".join(opts[:-1]) + " or " + opts[-1]
-
-
-def suggest(word: str, options: Iterable[str], prefix: str = "") -> str:
-    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
-    return f" (did you mean '{prefix}{close[0]}'?)" if close else ""
-
-
-def err(path: str, expected: str, value: Any, extra: str = "") -> SceneError:
-    return SceneError(f"{path}: expected {expected}, found {found(value)}{extra}")
-
-
-def join(path: str, key: str | int) -> str:
-    return f"{path}.{key}" if path else str(key)
 
 
 def _leaf_name(path: str) -> str:
@@ -90,22 +34,6 @@ def _leaf_name(path: str) -> str:
         if not part.isdigit():
             return part
     return path
-
-
-# --------------------------------------------------------------------- validators
-# A validator is a callable (value, path) -> normalised value with an ``expected``
-# text used for "missing required key" messages.
-
-
-class Validator:
-    expected = "a value"
-
-    def __call__(self, value: Any, path: str) -> Any:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def describe(self, name: str) -> str:
-        """The accepted values of a key called ``name`` (for the scene reference)."""
-        return self.expected
 
 
 class Str(Validator):
@@ -285,75 +213,6 @@ class Divisions(Validator):
                 f"more than the {MAX_CELLS:.0e} a run can be made of (a typo?)"
             )
         return list(value)
-
-
-class Pairs(Validator):
-    """A piecewise-linear table: [[t, value], ...] with strictly increasing t."""
-
-    def __init__(self, what: str):
-        self.expected = f"a list of [t, {what}] number pairs with strictly increasing t"
-        self.pair = f"a [t, {what}] pair of numbers"
-
-    def __call__(self, value: Any, path: str) -> list[list[float]]:
-        if not isinstance(value, list) or not value:
-            raise err(path, self.expected, value)
-        out = []
-        for i, pair in enumerate(value):
-            if (
-                not isinstance(pair, list)
-                or len(pair) != 2
-                or any(
-                    isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                    for v in pair
-                )
-            ):
-                raise err(join(path, i), self.pair, pair)
-            t, s = float(pair[0]), float(pair[1])
-            if out and t <= out[-1][0]:
-                raise SceneError(
-                    f"{path}: expected strictly increasing times, found "
-                    f"t = {fmt(t)} after t = {fmt(out[-1][0])} (entry {i})"
-                )
-            out.append([t, s])
-        return out
-
-
-class Rows(Validator):
-    """A table of rows [t, v1, ..., vk] of finite numbers with strictly increasing t
-    (``min_rows`` of them at least)."""
-
-    def __init__(self, columns: tuple[str, ...], min_rows: int = 1):
-        self.columns, self.min_rows = columns, min_rows
-        names = ", ".join(columns)
-        self.expected = (
-            f"a list of [{names}] rows of numbers with strictly increasing "
-            f"{columns[0]}" + (f", {min_rows} rows at least" if min_rows > 1 else "")
-        )
-        self.row = f"a [{names}] row of {len(columns)} numbers"
-
-    def __call__(self, value: Any, path: str) -> list[list[float]]:
-        if not isinstance(value, list) or len(value) < self.min_rows:
-            raise err(path, self.expected, value)
-        out = []
-        for i, row in enumerate(value):
-            if (
-                not isinstance(row, list)
-                or len(row) != len(self.columns)
-                or any(
-                    isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
-                    for v in row
-                )
-            ):
-                raise err(join(path, i), self.row, row)
-            row = [float(v) for v in row]
-            if out and row[0] <= out[-1][0]:
-                raise SceneError(
-                    f"{path}: expected strictly increasing {self.columns[0]}, "
-                    f"found {self.columns[0]} = {fmt(row[0])} after "
-                    f"{fmt(out[-1][0])} (row {i})"
-                )
-            out.append(row)
-        return out
 
 
 #: the scene's [parameters] while its formulas are validated (``scene_parameters``)
