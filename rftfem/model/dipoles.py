@@ -82,6 +82,57 @@ def gradient(
         energy[i - lo] = scale * half
 
 
+@nb.njit(inline="always", **_JIT)
+def _add_pair_product(
+    a: np.ndarray,
+    da: np.ndarray,
+    b: np.ndarray,
+    db: np.ndarray,
+    r: np.ndarray,
+    dr: np.ndarray,
+    out_g: np.ndarray,
+    out_h: np.ndarray,
+) -> None:
+    """Add a pair's derivatives of ``∂e/∂a`` and of ``∂e/∂x_i = −∂e/∂r`` along
+    ``(da, db, dr)`` to ``out_g`` and ``out_h``, without ``k``."""
+    rho2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    i1 = 1.0 / sqrt(rho2)
+    i2 = i1 * i1
+    i5 = i2 * i2 * i1
+    i3 = i2 * i1
+    i7 = i5 * i2
+    i9 = i7 * i2
+    sa = a[0] * r[0] + a[1] * r[1] + a[2] * r[2]
+    sb = b[0] * r[0] + b[1] * r[1] + b[2] * r[2]
+    p = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    q = r[0] * dr[0] + r[1] * dr[1] + r[2] * dr[2]
+    dp = da[0] * b[0] + da[1] * b[1] + da[2] * b[2] + a[0] * db[0] + a[1] * db[1]
+    dp += a[2] * db[2]
+    dsa = da[0] * r[0] + da[1] * r[1] + da[2] * r[2] + a[0] * dr[0] + a[1] * dr[1]
+    dsa += a[2] * dr[2]
+    dsb = db[0] * r[0] + db[1] * r[1] + db[2] * r[2] + b[0] * dr[0] + b[1] * dr[1]
+    dsb += b[2] * dr[2]
+    for c in range(3):
+        # d(∂e/∂a) = db/ρ³ − 3 b q/ρ⁵ − 3 ds_b r/ρ⁵ − 3 s_b dr/ρ⁵ + 15 s_b r q/ρ⁷
+        out_g[c] += (
+            db[c] * i3
+            - 3.0 * b[c] * q * i5
+            - 3.0 * (dsb * r[c] + sb * dr[c]) * i5
+            + 15.0 * sb * r[c] * q * i7
+        )
+        # d(∂e/∂r), then ∂/∂x_i = −∂/∂r
+        d_gr = (
+            -3.0 * (dp * r[c] + p * dr[c]) * i5
+            + 15.0 * p * r[c] * q * i7
+            - 3.0 * (dsb * a[c] + sb * da[c] + dsa * b[c] + sa * db[c]) * i5
+            + 15.0 * (sb * a[c] + sa * b[c]) * q * i7
+            + 15.0 * (dsa * sb + sa * dsb) * r[c] * i7
+            + 15.0 * sa * sb * dr[c] * i7
+            - 105.0 * sa * sb * r[c] * q * i9
+        )
+        out_h[c] -= d_gr
+
+
 @nb.njit(parallel=True, **_JIT)
 def hessian_product(
     m: np.ndarray,
@@ -111,42 +162,7 @@ def hessian_product(
             for c in range(3):
                 r[c] = x[j, c] - x[i, c]
                 dr[c] = dx[j, c] - dx[i, c]
-            rho2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
-            i1 = 1.0 / sqrt(rho2)
-            i2 = i1 * i1
-            i5 = i2 * i2 * i1
-            i3 = i2 * i1
-            i7 = i5 * i2
-            i9 = i7 * i2
-            sa = a[0] * r[0] + a[1] * r[1] + a[2] * r[2]
-            sb = b[0] * r[0] + b[1] * r[1] + b[2] * r[2]
-            p = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-            q = r[0] * dr[0] + r[1] * dr[1] + r[2] * dr[2]
-            dp = da[0] * b[0] + da[1] * b[1] + da[2] * b[2] + a[0] * db[0] + a[1] * db[1]
-            dp += a[2] * db[2]
-            dsa = da[0] * r[0] + da[1] * r[1] + da[2] * r[2] + a[0] * dr[0] + a[1] * dr[1]
-            dsa += a[2] * dr[2]
-            dsb = db[0] * r[0] + db[1] * r[1] + db[2] * r[2] + b[0] * dr[0] + b[1] * dr[1]
-            dsb += b[2] * dr[2]
-            for c in range(3):
-                # d(∂e/∂a) = db/ρ³ − 3 b q/ρ⁵ − 3 ds_b r/ρ⁵ − 3 s_b dr/ρ⁵ + 15 s_b r q/ρ⁷
-                out_g[c] += (
-                    db[c] * i3
-                    - 3.0 * b[c] * q * i5
-                    - 3.0 * (dsb * r[c] + sb * dr[c]) * i5
-                    + 15.0 * sb * r[c] * q * i7
-                )
-                # d(∂e/∂r), then ∂/∂x_i = −∂/∂r
-                d_gr = (
-                    -3.0 * (dp * r[c] + p * dr[c]) * i5
-                    + 15.0 * p * r[c] * q * i7
-                    - 3.0 * (dsb * a[c] + sb * da[c] + dsa * b[c] + sa * db[c]) * i5
-                    + 15.0 * (sb * a[c] + sa * b[c]) * q * i7
-                    + 15.0 * (dsa * sb + sa * dsb) * r[c] * i7
-                    + 15.0 * sa * sb * dr[c] * i7
-                    - 105.0 * sa * sb * r[c] * q * i9
-                )
-                out_h[c] -= d_gr
+            _add_pair_product(a, da, b, db, r, dr, out_g, out_h)
         for c in range(3):
             dG[i - lo, c] = scale * out_g[c]
             dH[i - lo, c] = scale * out_h[c]

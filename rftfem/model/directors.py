@@ -125,7 +125,6 @@ class DirectorMap:
 
     def __init__(self, model: Model):
         from dolfinx import fem
-        from petsc4py import PETSc
 
         from rftfem import compat
 
@@ -147,8 +146,17 @@ class DirectorMap:
         self.q_w = [dofs.reshape(-1, 2) for dofs in m.theta_dofs_of]
 
         # P (rows: owned z dofs, columns: w dofs) and G's pattern, in CSR of global indices
-        first = im.local_range[0]
-        g = first + np.arange(self.owned)
+        g = im.local_range[0] + np.arange(self.owned)
+        self._init_P(g, c)
+        self._init_G(g, c)
+        self._B = None  # the last map's derivatives, per colour (nodes, 3, 2)
+        self._last = None  # (w, triads, with B) of the last sync
+
+    def _init_P(self, g: np.ndarray, c: int) -> None:
+        """``P``'s pattern (per node: u rows on u, each colour's d rows on its θ pair),
+        with its u rows' values 1; ``g`` the owned nodes' global numbers."""
+        from petsc4py import PETSc
+
         pattern = [[i] for i in range(3)]  # each z row's w columns, within a node
         for k in range(c):
             pattern += [[3 + 2 * k, 4 + 2 * k]] * 3
@@ -163,7 +171,7 @@ class DirectorMap:
         self.P = PETSc.Mat().createAIJ(
             (size_z, size_w),
             bsize=(self.bz, self.bw),
-            comm=m.comm,
+            comm=self.model.comm,
             csr=(self._P_indptr, self._P_cols, np.zeros(len(self._P_cols))),
         )
         self.P.assemble()
@@ -171,6 +179,11 @@ class DirectorMap:
         # the u rows: value 1, always
         per_node = len(local_cols)
         self._P_values.reshape(self.owned, per_node)[:, :3] = 1.0
+
+    def _init_G(self, g: np.ndarray, c: int) -> None:
+        """``G``'s pattern: per colour, 2x2 on each owned node's θ pair."""
+        from petsc4py import PETSc
+
         # G: per colour, 2x2 on the node's θ pair; every w row present (empty rows too)
         g_counts = np.zeros(self.bw, dtype=np.int64)
         g_counts[3:] = 2
@@ -179,14 +192,13 @@ class DirectorMap:
         )
         pair_cols = np.concatenate([[3 + 2 * k, 4 + 2 * k] * 2 for k in range(c)])
         self._G_cols = (self.bw * g[:, None] + pair_cols[None, :]).ravel().astype(PETSc.IntType)
+        size_w = (self.owned * self.bw, PETSc.DETERMINE)
         self.G = PETSc.Mat().createAIJ(
             (size_w, size_w),
-            comm=m.comm,
+            comm=self.model.comm,
             csr=(self._G_indptr, self._G_cols, np.zeros(len(self._G_cols))),
         )
         self.G.assemble()
-        self._B = None  # the last map's derivatives, per colour (nodes, 3, 2)
-        self._last = None  # (w, triads, with B) of the last sync
 
     def frames(self, colour: int) -> tuple[np.ndarray, ...]:
         """``(a₁, a₂, dₙ)`` of a colour, as (nodes, 3) arrays."""

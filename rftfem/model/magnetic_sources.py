@@ -57,33 +57,9 @@ def check_field(field: dict) -> None:
     """Checks of ``[magnetic.field]`` after the schema: the keys of its kind only, the
     rotating protocol's defaults filled in, what each kind requires."""
     kind = field["kind"]
-    for other, keys in FIELD_KINDS.items():
-        for key in keys:
-            if other != kind and key not in FIELD_KINDS[kind] and field[key] is not None:
-                users = [k for k, ks in FIELD_KINDS.items() if key in ks]
-                raise SceneError(
-                    f"magnetic.field.{key}: only used with kind = "
-                    + " or ".join(f'"{k}"' for k in users)
-                    + f", found kind = {fmt(kind)}"
-                )
+    _check_kind_keys(field, kind)
     if kind == "rotating":
-        for key, value in _ROTATING_DEFAULTS.items():
-            if field[key] is None:
-                field[key] = list(value) if isinstance(value, list) else value
-        if field["frequency"] != 0.0:  # a rotating field needs an axis across it
-            b, a = unit_vector(field["direction"]), unit_vector(field["rotation_axis"])
-            cross = (
-                b[1] * a[2] - b[2] * a[1],
-                b[2] * a[0] - b[0] * a[2],
-                b[0] * a[1] - b[1] * a[0],
-            )
-            if math.hypot(*cross) <= 1e-9:
-                raise SceneError(
-                    f"magnetic.field.rotation_axis: expected an axis not parallel to "
-                    f"magnetic.field.direction = {fmt(field['direction'])} (the field "
-                    f"would not rotate at frequency = {fmt(field['frequency'])}), found "
-                    f"{fmt(field['rotation_axis'])}"
-                )
+        _check_rotating(field)
     elif kind == "expression" and field["B"] is None:
         raise SceneError(
             "missing required key 'magnetic.field.B' (three numbers or "
@@ -113,6 +89,40 @@ def check_field(field: dict) -> None:
                 "magnetic.field: a dipole takes one of 'position' (fixed) and "
                 "'path' (rows [t, x, y, z]), found "
                 + ("both" if field["position"] is not None else "neither")
+            )
+
+
+def _check_kind_keys(field: dict, kind: str) -> None:
+    """No key of another kind of ``[magnetic.field]`` is given."""
+    for other, keys in FIELD_KINDS.items():
+        for key in keys:
+            if other != kind and key not in FIELD_KINDS[kind] and field[key] is not None:
+                users = [k for k, ks in FIELD_KINDS.items() if key in ks]
+                raise SceneError(
+                    f"magnetic.field.{key}: only used with kind = "
+                    + " or ".join(f'"{k}"' for k in users)
+                    + f", found kind = {fmt(kind)}"
+                )
+
+
+def _check_rotating(field: dict) -> None:
+    """The rotating protocol's defaults filled in; a rotating field's axis across it."""
+    for key, value in _ROTATING_DEFAULTS.items():
+        if field[key] is None:
+            field[key] = list(value) if isinstance(value, list) else value
+    if field["frequency"] != 0.0:  # a rotating field needs an axis across it
+        b, a = unit_vector(field["direction"]), unit_vector(field["rotation_axis"])
+        cross = (
+            b[1] * a[2] - b[2] * a[1],
+            b[2] * a[0] - b[0] * a[2],
+            b[0] * a[1] - b[1] * a[0],
+        )
+        if math.hypot(*cross) <= 1e-9:
+            raise SceneError(
+                f"magnetic.field.rotation_axis: expected an axis not parallel to "
+                f"magnetic.field.direction = {fmt(field['direction'])} (the field "
+                f"would not rotate at frequency = {fmt(field['frequency'])}), found "
+                f"{fmt(field['rotation_axis'])}"
             )
 
 

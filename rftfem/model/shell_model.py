@@ -37,6 +37,7 @@ from rftfem.forms import hinge, kinematics
 from rftfem.model import effects, hinges, terms
 from rftfem.model.directors import DirectorMap
 from rftfem.model.dirichlet import DirichletSpaces
+from rftfem.model.dof_layout import block_dofs, check_node_numbering
 from rftfem.model.effects.base import FluidModel
 from rftfem.model.mapped_forms import MappedForm
 from rftfem.model.measures import BodyMeasures
@@ -76,15 +77,23 @@ class Model(StepStart, BodyMeasures):
             self.mesh, self.hinges
         )
 
+        self._init_unknowns()
+        self._init_directors(scene, tangent)
+        self._init_materials()
+        self._init_scheme(scene)
+        self._init_effects(scene)
+
+    def _init_unknowns(self) -> None:
+        """The unknowns ``w`` and their dofs, and the state of the last step."""
         # unknowns: u, then one θ per colour, node by node; the state of the last step
         self.block = 3 + 2 * self.n_colours
         self.W = compat.function_space(self.mesh, "Lagrange", 2, (self.block,))
         self.Vu = compat.function_space(self.mesh, "Lagrange", 2, (3,))
-        _check_node_numbering(self.W, self.Vu)
-        self.u_dofs = _block_dofs(self, range(3))
+        check_node_numbering(self.W, self.Vu)
+        self.u_dofs = block_dofs(self, range(3))
         #: per colour, its rotation dofs of ``w`` in (θ¹, θ²) pairs, node by node
         self.theta_dofs_of = [
-            _block_dofs(self, (3 + 2 * c, 4 + 2 * c)) for c in range(self.n_colours)
+            block_dofs(self, (3 + 2 * c, 4 + 2 * c)) for c in range(self.n_colours)
         ]
         #: every rotation dof of ``w``, in (θ¹, θ²) pairs
         self.theta_dofs = np.concatenate(self.theta_dofs_of)
@@ -101,6 +110,8 @@ class Model(StepStart, BodyMeasures):
         self.prediction = None
         self.keep_predictions = False
 
+    def _init_directors(self, scene: dict, tangent: str) -> None:
+        """The nodal triads, the directors the forms see and the Newton iterates."""
         # the nodal triads (a1, a2, dn) of each colour and the reference director D
         self.triad = Triads(self, np.array(unit_vector(scene["shell"]["axis"])))
         self.triads, self.D = self.triad.frames, self.triad.D
@@ -123,7 +134,8 @@ class Model(StepStart, BodyMeasures):
         #: load steps); set by the Simulation from its scheme (docs/model.md §7.4)
         self.first_tangent_converged = False
 
-        self._init_materials()
+    def _init_scheme(self, scene: dict) -> None:
+        """The time scheme's coefficients and the prescribed motions' corrections."""
         #: the time scheme's coefficients of velocity and acceleration (integration/schemes.py)
         self.coef = {
             k: fem.Constant(self.mesh, PETSc.ScalarType(0.0))
@@ -132,13 +144,10 @@ class Model(StepStart, BodyMeasures):
         self.coefficients = None  # the last ones set (timeint.Coefficients)
         #: prescribed motions in a second-order scheme: corrections to the velocity and
         #: acceleration that make them the motion's own on the driven dofs (motion.py)
-        self.drive = None
-        if effects.Motions.active(scene) and effects.Inertia.active(scene):
-            self.drive = (
-                fem.Function(self.Vu, name="v_drive"),
-                fem.Function(self.Vu, name="a_drive"),
-            )
+        self.drive = _motion_drive(scene, self.Vu)
 
+    def _init_effects(self, scene: dict) -> None:
+        """The active effects, their sum and their Dirichlet conditions."""
         # the effects, then their sum; Dirichlet values are kept per component space
         self.dirichlet = DirichletSpaces()
         self.components = [cls(self) for cls in effects.REGISTRY if cls.active(scene)]
@@ -340,23 +349,12 @@ class Model(StepStart, BodyMeasures):
                 form.destroy()
 
 
-def _check_node_numbering(W: fem.FunctionSpace, Vu: fem.FunctionSpace) -> None:
-    """The unknowns' space ``W`` and the displacement's ``Vu`` number their nodes
-    alike (same mesh, same scalar element), which :func:`_block_dofs` relies on."""
-    x_w, x_u = (V.tabulate_dof_coordinates() for V in (W, Vu))
-    size = float(np.abs(x_u).max()) if x_u.size else 0.0
-    same = (
-        W.dofmap.index_map.size_local == Vu.dofmap.index_map.size_local
-        and x_w.shape == x_u.shape
-        and np.allclose(x_w, x_u, rtol=0.0, atol=1e-9 * size)
-    )
-    if not same:
-        raise RuntimeError("the unknowns' nodes are not numbered as the displacement's")
-
-
-def _block_dofs(model: Model, fields: Any) -> np.ndarray:
-    """The local dofs of ``model.w`` that hold ``fields`` (positions in a node's
-    block), node by node in the order of ``Vu``'s nodes."""
-    im = model.Vu.dofmap.index_map
-    nodes = np.arange(im.size_local + im.num_ghosts)
-    return (model.block * nodes[:, None] + np.asarray(fields)[None, :]).ravel()
+def _motion_drive(scene: dict, Vu: fem.FunctionSpace) -> tuple[fem.Function, fem.Function] | None:
+    """The driven dofs' velocity and acceleration corrections ``(v_drive, a_drive)``
+    where prescribed motions meet inertia, else None."""
+    if effects.Motions.active(scene) and effects.Inertia.active(scene):
+        return (
+            fem.Function(Vu, name="v_drive"),
+            fem.Function(Vu, name="a_drive"),
+        )
+    return None

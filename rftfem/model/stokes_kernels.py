@@ -15,7 +15,7 @@ and at a fixed density, with ``F_p = w_p Σ_a ψ_pa f_a`` and ``T = ∂(K F_p)``
 The free kernel is ``S_ε(r) F = a F + b (r·F) r`` with ``r = x_t − y_p`` (ε = 0:
 the Stokeslet, ``a = 1/r``, ``b = 1/r³``; ε > 0: the Gaussian blob of
 ``rftfem.model.stokeslets``); the wall's is Blake's image system written out in
-closed form in the wall's frame (``image_block``, ``image_gradient``).  With a
+closed form in the wall's frame (``rftfem.model.stokes_images``).  With a
 wall everything is summed in its frame (the free kernel is the same in any) and
 each 3 × 3 block of the rows is turned back once at the end (``from_frame``), not
 once per point.  Nothing here
@@ -33,11 +33,12 @@ from math import erf, exp, sqrt
 import numba as nb
 import numpy as np
 
-from rftfem.model import stokeslets
+from rftfem.model import blob_radial
+from rftfem.model.stokes_images import image_block, image_gradient
 
-# the blob's radial functions below ρ = 0.3 as series (stokeslets.radial's own)
-_S0, _S1, _S2, _S3 = (np.array(c) for c in stokeslets._COEFFS)
-_SERIES_BELOW, _STOKESLET_BEYOND = stokeslets._SERIES_BELOW, stokeslets._STOKESLET_BEYOND
+# the blob's radial functions below ρ = 0.3 as series (blob_radial.radial's own)
+_S0, _S1, _S2, _S3 = (np.array(c) for c in blob_radial._COEFFS)
+_SERIES_BELOW, _STOKESLET_BEYOND = blob_radial._SERIES_BELOW, blob_radial._STOKESLET_BEYOND
 _C = 2.0 / sqrt(np.pi)
 _JIT = dict(cache=True)
 
@@ -99,88 +100,6 @@ def free_gradient(r: np.ndarray, F: np.ndarray, eps: float, out: np.ndarray) -> 
 
 #: a single node's coefficient (:func:`_scatter` of a target's own block)
 _ONE = np.ones(1)
-
-
-@nb.njit(**_JIT)
-def image_block(xi: np.ndarray, eta: np.ndarray, out: np.ndarray) -> None:
-    """Blake's image block ``W`` (3 × 3, set) in the wall's frame: ``u = W f`` at
-    ``xi`` for a force ``f`` at ``eta`` (heights ``xi[2]``, ``eta[2]`` > 0),
-
-        W_ik = −δ_ik/R − R_i R_k/R³ + 2h [h (δ_ik/R³ − 3 R_i R_k/R⁵) D_k + δ_i3 R_k D_k/R³
-               − (δ_ik R₃ D_k + R_i δ_k3 D_3)/R³ + 3 R_i R₃ R_k D_k/R⁵],
-
-    ``R = xi − D eta``, ``h = eta[2]``, ``D = diag(1, 1, −1)`` (stokeslets.Wall)."""
-    R = (xi[0] - eta[0], xi[1] - eta[1], xi[2] + eta[2])  # (no array: none allocated)
-    h = eta[2]
-    n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
-    i1 = 1.0 / sqrt(n2)
-    i3 = i1 / n2
-    i5 = i3 / n2
-    # W_ik = R_i R_k (a + b D_k) + δ_ik (c + d D_k) + δ_i3 e R_k D_k + δ_k3 e R_i
-    a, b = -i3, 6 * h * (R[2] - h) * i5
-    c, d, e = -i1, 2 * h * (h - R[2]) * i3, 2 * h * i3
-    for k in range(3):
-        Dk = 1.0 if k < 2 else -1.0
-        ab = a + b * Dk
-        for i in range(3):
-            out[i, k] = R[i] * R[k] * ab
-        out[k, k] += c + d * Dk
-        out[2, k] += e * R[k] * Dk
-    for i in range(3):
-        out[i, 2] += e * R[i]
-
-
-@nb.njit(**_JIT)
-def image_gradient(
-    xi: np.ndarray, eta: np.ndarray, f: np.ndarray, d_xi: np.ndarray, d_eta: np.ndarray
-) -> None:
-    """The images' velocity ``W f`` (``f`` fixed, the wall's frame) differentiated:
-    ``d_xi = ∂(W f)/∂xi``, ``d_eta = ∂(W f)/∂eta`` (3 × 3 each, set), in closed form
-    (``∂R/∂xi = I``, ``∂R/∂eta = −D``, ``∂h/∂eta = e₃``)."""
-    R = (xi[0] - eta[0], xi[1] - eta[1], xi[2] + eta[2])
-    g = (f[0], f[1], -f[2])
-    h = eta[2]
-    n2 = R[0] * R[0] + R[1] * R[1] + R[2] * R[2]
-    n = sqrt(n2)
-    i1 = 1.0 / n
-    i3 = i1 / n2
-    i5 = i3 / n2
-    i7 = i5 / n2
-    R3, g3 = R[2], g[2]
-    s = R[0] * f[0] + R[1] * f[1] + R[2] * f[2]
-    q = R[0] * g[0] + R[1] * g[1] + R[2] * g[2]
-    for i in range(3):
-        dh = 2 * (
-            h * g[i] * i3
-            - 3 * h * R[i] * q * i5
-            - g[i] * R3 * i3
-            - R[i] * g3 * i3
-            + 3 * R[i] * R3 * q * i5
-        ) + 2 * h * (g[i] * i3 - 3 * R[i] * q * i5)
-        if i == 2:
-            dh += 2 * q * i3
-        for m in range(3):
-            dim = 1.0 if i == m else 0.0
-            dm3 = 1.0 if m == 2 else 0.0
-            di3 = 1.0 if i == 2 else 0.0
-            v = f[i] * R[m] * i3 - dim * s * i3 - R[i] * f[m] * i3 + 3 * R[i] * s * R[m] * i5
-            w = (
-                -3 * h * g[i] * R[m] * i5
-                - 3 * h * (dim * q * i5 + R[i] * g[m] * i5 - 5 * R[i] * q * R[m] * i7)
-                + di3 * (g[m] * i3 - 3 * q * R[m] * i5)
-                - g[i] * (dm3 * i3 - 3 * R3 * R[m] * i5)
-                - g3 * (dim * i3 - 3 * R[i] * R[m] * i5)
-                + 3
-                * (
-                    dim * R3 * q * i5
-                    + R[i] * dm3 * q * i5
-                    + R[i] * R3 * g[m] * i5
-                    - 5 * R[i] * R3 * q * R[m] * i7
-                )
-            )
-            d_xi[i, m] = v + 2 * h * w
-        d_eta[i, 0], d_eta[i, 1] = -d_xi[i, 0], -d_xi[i, 1]
-        d_eta[i, 2] = d_xi[i, 2] + dh
 
 
 @nb.njit(**_JIT)

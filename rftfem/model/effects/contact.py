@@ -27,7 +27,13 @@ from rftfem.forms.hinge import panel_director
 from rftfem.forms.kinematics import area_ratio, unit
 from rftfem.model.effects.base import Effect
 from rftfem.model.effects.contact_keys import SCHEMA, triple
-from rftfem.model.effects.contact_updates import UpdateLimits, cell_thickness
+from rftfem.model.effects.contact_start import (  # noqa: F401 (START_DEPTH, as before)
+    START_DEPTH,
+    check_start,
+    reference_pressure,
+    time_scale,
+)
+from rftfem.model.effects.contact_updates import UpdateLimits
 from rftfem.scene.schema import fmt
 
 if TYPE_CHECKING:
@@ -41,8 +47,6 @@ SLIP_OF_SPEED = 1.0e-3
 #: the creep a drive period (or the run) allows, as a share of the body's size, above
 #: which a run warns that static friction is not modelled
 CREEP_WARNING = 0.05
-#: how far below the plane (a share of δ) a node's lower face may start: round-off
-START_DEPTH = 1.0e-3
 COLUMNS = [
     "contact_Fx",
     "contact_Fy",
@@ -126,7 +130,7 @@ class Contact(UpdateLimits, Effect):
         self.dx = m.dx(metadata={"quadrature_degree": 4})
         #: the body's diagonal (reference)
         self.size = m.size()
-        thinnest, span = m.material_value("thickness", "min"), self._time_scale()
+        thinnest, span = m.material_value("thickness", "min"), time_scale(self.scene)
         self.planes = [self._resolved(entry, thinnest, span) for entry in self.entries]
         faces = self._faces()
         terms = [
@@ -140,7 +144,9 @@ class Contact(UpdateLimits, Effect):
         }
         for plane, t in zip(self.planes, terms):
             if plane.stiffness is None:
-                reference = self._reference_pressure(self.size, plane.normal, t["area"], t["chi"])
+                reference = reference_pressure(
+                    m, self.dx, self.size, plane.normal, t["area"], t["chi"]
+                )
                 plane.stiffness = reference / (forms.SLOPE_ON_PLANE * plane.reach)
         for kappa, plane in zip(self.stiffnesses, self.planes):
             kappa.value = plane.stiffness
@@ -148,7 +154,7 @@ class Contact(UpdateLimits, Effect):
         self._nodes = None
         #: per body (several bodies): the compiled forms of the planes' force on it
         self._on_part: dict[str, list] = {}
-        self._check_start()
+        check_start(m, self.entries, self.planes)
 
     def _resolved(self, entry: dict, thinnest: float, span: float) -> Plane:
         """A ``[[contact]]`` entry with the defaults made from the body: the reach from
@@ -250,82 +256,6 @@ class Contact(UpdateLimits, Effect):
         mu = [fem.Constant(m.mesh, PETSc.ScalarType(c)) for c in (kinetic, static)]
         return forms.friction_traction(pressure, v_slip, v_scale, mu[0], mu[1])
 
-    # --- scales and the start ---------------------------------------------------
-
-    def _time_scale(self) -> float:
-        """The scene's shortest periodic drive (a travelling wave, a rotating field, a
-        field periodic in t), else ``time.end``: the default slip velocity's time."""
-        from rftfem.scene.scales import drive_periods
-
-        periods = [d.period for d in drive_periods(self.scene) if not d.table]
-        return min(periods) if periods else float(self.scene["time"]["end"])
-
-    def _reference_pressure(self, size: float, normal: np.ndarray, within, chi=None) -> float:
-        """The pressure the default stiffness rests on the plane: the body's weight
-        along the plane's normal under the scene's gravity (net of buoyancy) over the
-        area of its lower face within the barrier's reach at the start (``within``, a
-        UFL area density), or over its whole area if none is; all of the weight if
-        gravity lies in the plane.  Without gravity the pressure D t / L⁴ that bends
-        the body by its thickness.  ``chi``: the indicator of the one body the plane
-        acts on (weight and area are that body's), or None."""
-        m = self.model
-        one = 1.0 if chi is None else chi
-        gravity = [ld for ld in self.scene.get("load") or [] if ld["kind"] == "gravity"]
-        if gravity:
-            rho, t = m.material["rho"], m.material["t"]
-            mass = m.assemble_scalar(m.compile(rho * t * one * self.dx))
-            volume = m.assemble_scalar(m.compile(t * one * self.dx))
-            along = max(
-                abs(mass - ld["fluid_density"] * volume)
-                * abs(float(np.asarray(ld["value"], dtype=float) @ normal))
-                for ld in gravity
-            )
-            whole = max(
-                abs(mass - ld["fluid_density"] * volume) * float(np.linalg.norm(ld["value"]))
-                for ld in gravity
-            )
-            weight = along or whole
-            if weight > 0.0:
-                touching = m.assemble_scalar(m.compile(within * self.dx))
-                area = m.area() if chi is None else m.assemble_scalar(m.compile(chi * self.dx))
-                return weight / (touching if touching > 0.0 else area)
-        t, E, nu = (m.material_value(k, "shell") for k in ("thickness", "E", "nu"))
-        return E * t**3 / (12 * (1 - nu**2)) * t / size**4
-
-    def _check_start(self):
-        """No node's lower face may start below a plane (beyond round-off)."""
-        m = self.model
-        X = m.Vu.tabulate_dof_coordinates()
-        D = m.D.x.array.reshape(-1, 3)
-        cells, t_cell = cell_thickness(m)
-        all_faces = X[cells] - 0.5 * t_cell[:, None, None] * D[cells]
-        for i, (entry, plane) in enumerate(zip(self.entries, self.planes)):
-            faces = all_faces[self._cells_of(entry)].reshape(-1, 3)
-            g = (faces - plane.point) @ plane.normal
-            low = float(g.min()) if len(g) else np.inf
-            low, where = min(
-                m.comm.allgather((low, faces[int(np.argmin(g))].tolist() if len(g) else None)),
-                key=lambda pair: pair[0],
-            )
-            if low < -START_DEPTH * plane.reach:
-                at = ", ".join(f"{c:.4g}" for c in where)
-                raise SceneError(
-                    f"contact.{i}: the body starts through the plane: its lower "
-                    f"face is {-low:.4g} below it at ({at}) (the normal points to "
-                    "the side the body stays on; the lower face is the mid-surface "
-                    "less half the thickness along the director)"
-                )
-
-    def _cells_of(self, entry: dict) -> np.ndarray | slice:
-        """The local cells a plane's entry acts on (rows of ``cell_thickness``)."""
-        from rftfem import compat
-        from rftfem.model.body_parts import body_part
-
-        if entry.get("body") is None:
-            return slice(None)
-        chi = body_part(self.model, entry["body"]).chi
-        return chi.x.array[compat.cell_dofs(chi.function_space)[:, 0]] == 1.0
-
     # --- the effect ----------------------------------------------------------------
 
     def end_forces(self) -> ufl.Form | None:
@@ -370,7 +300,7 @@ class Contact(UpdateLimits, Effect):
     def warnings(self) -> list[str]:
         """A slip velocity so large that a sticking body creeps more than 5 % of its size
         in a drive period (or the run) does not model sticking: a warning."""
-        size, span = self.size, self._time_scale()
+        size, span = self.size, time_scale(self.scene)
         return [
             f"contact.{i}.slip_velocity = {plane.slip_velocity:.3g}: a body that "
             f"sticks may creep {plane.slip_velocity * span / size:.2g} of its size "

@@ -84,18 +84,9 @@ class Hinges(Effect):
         lined = kind in LINED_KINDS
         three = kind == "three-link"
         extent = {"x": mesh["length"], "y": mesh["width"]}
-        hinged: list[tuple[str, float, str]] = []  # (axis, c, description) of each hinge line
-        if three:
-            w = mesh["link_width"]
-            hinged += [
-                ("y", w, f"the built-in hinge-left at y = {fmt(w)}"),
-                ("y", 2.0 * w, f"the built-in hinge-right at y = {fmt(2.0 * w)}"),
-            ]
+        # (axis, c, description) of each hinge line
+        hinged = _built_in_lines(mesh["link_width"]) if three else []
         named: dict[str, int] = {}  # gmsh physical curve names
-        builtin_hint = (
-            "; the three-link mesh hinges it already: set mesh.hinge_stiffness for "
-            "its built-in hinges"
-        )
         for i, hinge in enumerate(scene["hinge"]):
             where = hinge["where"]
             path = f"hinge.{i}.where"
@@ -103,7 +94,7 @@ class Hinges(Effect):
                 w = mesh["link_width"] * (1.0 if where == "hinge-left" else 2.0)
                 raise SceneError(
                     f"{path}: two hinges on one line ({fmt(where)} and the built-in "
-                    f"{where} at y = {fmt(w)}){builtin_hint}"
+                    f"{where} at y = {fmt(w)}){_BUILT_IN_HINT}"
                 )
             on_boundary = (
                 f"{path}: {fmt(where)} lies on the body's boundary; a hinge joins two sides"
@@ -116,42 +107,12 @@ class Hinges(Effect):
                 )
             line = hinge_line(where)
             if line is None:
-                if lined or re.match(r"^[xy]\s*=", where):
-                    raise err(
-                        path,
-                        'a hinge line "x=c" or "y=c" with c a number (like "y=0.5")'
-                        + ("" if lined else " or a physical curve name"),
-                        where,
-                    )
-                if where in named:  # a gmsh physical curve, checked against the file later
-                    raise SceneError(
-                        f"{path}: two hinges on one line ({fmt(where)} and "
-                        f"hinge.{named[where]}.where = {fmt(where)})"
-                    )
+                _check_named_curve(path, where, lined, named)
                 named[where] = i
                 continue
             axis, c = line
-            tol = 0.0
-            if lined:
-                size = extent[axis]
-                tol = 1e-9 * size
-                if c < -tol or c > size + tol:
-                    raise SceneError(
-                        f"{path}: {fmt(where)} is not a line of the mesh: the body "
-                        f"spans {axis} in [0, {fmt(size)}]"
-                    )
-                if c <= tol or c >= size - tol:
-                    raise SceneError(on_boundary + f" (expected {axis}=c with 0 < c < {fmt(size)})")
-            for other_axis, other, text in hinged:
-                if other_axis == axis and abs(c - other) <= tol:
-                    raise SceneError(
-                        f"{path}: two hinges on one line ({fmt(where)} and {text})"
-                        + (
-                            builtin_hint
-                            if text.startswith("the built-in")
-                            else "; expected one [[hinge]] per line"
-                        )
-                    )
+            tol = _check_inside(path, where, axis, c, extent[axis], on_boundary) if lined else 0.0
+            _check_one_per_line(path, where, axis, c, tol, hinged)
             hinged.append((axis, c, f"hinge.{i}.where = {fmt(where)}"))
 
     def __init__(self, model: Model):
@@ -179,3 +140,66 @@ class Hinges(Effect):
 
     def energy(self) -> ufl.Form | None:
         return self._energy
+
+
+#: what a second hinge on a three-link mesh's built-in line is told
+_BUILT_IN_HINT = (
+    "; the three-link mesh hinges it already: set mesh.hinge_stiffness for its built-in hinges"
+)
+
+
+def _built_in_lines(w: float) -> list[tuple[str, float, str]]:
+    """The three-link mesh's two hinge lines (links of width ``w``), as ``check`` lists them."""
+    return [
+        ("y", w, f"the built-in hinge-left at y = {fmt(w)}"),
+        ("y", 2.0 * w, f"the built-in hinge-right at y = {fmt(2.0 * w)}"),
+    ]
+
+
+def _check_named_curve(path: str, where: str, lined: bool, named: dict[str, int]) -> None:
+    """A ``where`` that is no line ``x=c``/``y=c``: a gmsh physical curve's name, once
+    (checked against the file later), on a mesh that has such curves."""
+    if lined or re.match(r"^[xy]\s*=", where):
+        raise err(
+            path,
+            'a hinge line "x=c" or "y=c" with c a number (like "y=0.5")'
+            + ("" if lined else " or a physical curve name"),
+            where,
+        )
+    if where in named:  # a gmsh physical curve, checked against the file later
+        raise SceneError(
+            f"{path}: two hinges on one line ({fmt(where)} and "
+            f"hinge.{named[where]}.where = {fmt(where)})"
+        )
+
+
+def _check_inside(
+    path: str, where: str, axis: str, c: float, size: float, on_boundary: str
+) -> float:
+    """The line ``axis = c`` strictly inside a body spanning ``[0, size]`` along ``axis``;
+    the tolerance of that test, ``1e-9 size``."""
+    tol = 1e-9 * size
+    if c < -tol or c > size + tol:
+        raise SceneError(
+            f"{path}: {fmt(where)} is not a line of the mesh: the body "
+            f"spans {axis} in [0, {fmt(size)}]"
+        )
+    if c <= tol or c >= size - tol:
+        raise SceneError(on_boundary + f" (expected {axis}=c with 0 < c < {fmt(size)})")
+    return tol
+
+
+def _check_one_per_line(
+    path: str, where: str, axis: str, c: float, tol: float, hinged: list[tuple[str, float, str]]
+) -> None:
+    """No earlier hinge (``hinged``) lies on the line ``axis = c`` (within ``tol``)."""
+    for other_axis, other, text in hinged:
+        if other_axis == axis and abs(c - other) <= tol:
+            raise SceneError(
+                f"{path}: two hinges on one line ({fmt(where)} and {text})"
+                + (
+                    _BUILT_IN_HINT
+                    if text.startswith("the built-in")
+                    else "; expected one [[hinge]] per line"
+                )
+            )

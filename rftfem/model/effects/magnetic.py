@@ -30,13 +30,17 @@ from rftfem.errors import SceneError
 from rftfem.forms import kinematics, magnetic
 from rftfem.model.effects.base import Effect
 from rftfem.model.effects.magnetic_keys import REFERENCE, SCHEMA
+from rftfem.model.effects.magnetization import (
+    cellwise_remanence,
+    magnetized_measure,
+    remanence_expression,
+    varies,
+)
 from rftfem.model.magnetic_sources import (
     NonuniformField,
     UniformField,
     check_field,
-    constant_maker,
     is_uniform,
-    profile_values,
     read_profile,
 )
 from rftfem.model.magnets import SourcedField, check_sources
@@ -47,7 +51,10 @@ from rftfem.scene.schema import (
 from rftfem.scene.selectors import cells_of, check_region_ref
 
 if TYPE_CHECKING:
+    from types import SimpleNamespace
+
     import dolfinx.fem
+    import dolfinx.mesh
 
     from rftfem.model.shell_model import Model
 
@@ -75,7 +82,7 @@ class Magnetic(Effect):
         out += [f"magnetic source: {s['kind']}" for s in mag.get("source") or []]
         if not is_uniform(mag["field"]) or mag.get("source"):
             out.append("magnetic gradient force")
-        if any(_varies(part) for part in mag["parts"]):
+        if any(varies(part) for part in mag["parts"]):
             out.append("magnetization profile")
         return out
 
@@ -107,14 +114,26 @@ class Magnetic(Effect):
         """The remanent magnetization ``M = m q₀``: with plain numbers stored cellwise
         (DG0 vector); with formulas or profiles a UFL expression ``Σ χ_p M_p(X)`` (χ_p
         the part's cells).  The forms are integrated over the magnetized cells only."""
-        from dolfinx import fem
-        from petsc4py import PETSc
-
-        from rftfem import compat
-
         super().__init__(model)
         mag, mesh = self.scene["magnetic"], model.mesh
         self.parts = mag["parts"]
+        self.part_cells = owner = self._cells_of_parts()
+        plain = not any(varies(part) for part in self.parts)
+        if plain:
+            self.remanence, on = cellwise_remanence(mesh, self.parts, owner)
+            M = self.remanence
+        else:
+            M, self.profile_fields = remanence_expression(mesh, self.scene, self.parts, owner)
+            on = list(owner.values())
+        self.dx = magnetized_measure(mesh, on)
+        k = model.kinematics()
+        self._magnetization_terms(k, M, plain)
+        self._moment_forms = None
+        self._applied_field(mag, mesh, k)
+
+    def _cells_of_parts(self) -> dict[int, np.ndarray]:
+        """Each part's cells, by its index; a cell in two parts is a SceneError."""
+        model = self.model
         owner = {}
         for i, part in enumerate(self.parts):
             cells = cells_of(model.body, [part["region"]], f"magnetic.parts.{i}.region")
@@ -125,33 +144,11 @@ class Magnetic(Effect):
                         f"magnetic.parts.{j}.region; a cell has one magnetization"
                     )
             owner[i] = cells
-        self.part_cells = owner
-        plain = not any(_varies(part) for part in self.parts)
-        if plain:
-            # today's forms, to the last bit: M cellwise, parts switched off (0, e.g. in
-            # a sweep) left out of the measure, q = F q₀ with q₀ = M/|M|
-            V = compat.function_space(mesh, "DG", 0, (3,))
-            self.remanence = fem.Function(V, name="remanent_magnetization")
-            dofs = compat.cell_dofs(V)[:, 0]
-            for i, part in enumerate(self.parts):
-                q0 = np.asarray(part["direction"], dtype=float)
-                self.remanence.x.array.reshape(-1, 3)[dofs[owner[i]]] = (
-                    part["magnetization"] * q0 / np.linalg.norm(q0)
-                )
-            self.remanence.x.scatter_forward()
-            on = [owner[i] for i, part in enumerate(self.parts) if part["magnetization"] > 0]
-            M = self.remanence
-        else:
-            M = self._remanence_expression(mesh)
-            on = list(owner.values())
-        cells = np.unique(np.concatenate(on or [np.empty(0, np.int32)])).astype(np.int32)
-        tags = compat.create_meshtags(
-            mesh, mesh.topology.dim, cells, np.ones(len(cells), dtype=np.int32)
-        )
-        self.dx = ufl.Measure(
-            "dx", domain=mesh, subdomain_data=tags, metadata={"quadrature_degree": 4}
-        )(1)
-        k = model.kinematics()
+        return owner
+
+    def _magnetization_terms(self, k: SimpleNamespace, M: ufl.core.expr.Expr, plain: bool) -> None:
+        """``M``, ``m = |M|``, the deformation gradient ``F``, the carried direction ``q``,
+        the magnetization ``F M`` as the material carries it and the area ratio ``J``."""
         self.M = M
         self.m = ufl.sqrt(ufl.dot(M, M))
         self.F = kinematics.deformation_gradient(
@@ -164,7 +161,14 @@ class Magnetic(Effect):
         )
         self.magnetization = magnetic.magnetization(self.F, M)
         self.J = kinematics.area_ratio(k.g1, k.g2, k.G1, k.G2)
-        self._moment_forms = None
+
+    def _applied_field(self, mag: dict, mesh: dolfinx.mesh.Mesh, k: SimpleNamespace) -> None:
+        """The applied field: ``b(t)`` as a Constant, or ``B(x, t)`` in UFL at the current
+        position (the magnets start outside the body)."""
+        from dolfinx import fem
+        from petsc4py import PETSc
+
+        model = self.model
         field, sources = mag["field"], mag.get("source") or []
         # magnets make the field nonuniform: B_field (uniform or not) + Σ B_magnet
         self.uniform = is_uniform(field) and not sources
@@ -180,52 +184,6 @@ class Magnetic(Effect):
             self.field = self.switch * self.source.ufl(mesh, x)
             nodes = model.Vu.tabulate_dof_coordinates()
             self.source.check_outside(nodes, _largest_cell(mesh, model.comm), model.comm)
-
-    def _remanence_expression(self, mesh):
-        """``Σ χ_p M_p(X)``: each part's magnetization (numbers, formulas of the reference
-        coordinates, or its profile interpolated to P1) on its cells."""
-        from dolfinx import fem
-
-        from rftfem import compat
-
-        X = ufl.SpatialCoordinate(mesh)
-        env = {"X": X[0], "Y": X[1], "Z": X[2]}
-        self.profile_fields = {}
-        number = constant_maker(mesh)
-        chi_space = compat.function_space(mesh, "DG", 0)
-        chi_dofs = compat.cell_dofs(chi_space)[:, 0]
-        total = None
-        for i, part in enumerate(self.parts):
-            where = f"magnetic.parts.{i}"
-            chi = fem.Function(chi_space, name=f"part_{i}")
-            chi.x.array[chi_dofs[self.part_cells[i]]] = 1.0
-            chi.x.scatter_forward()
-            if part["profile"] is not None:
-                path = (
-                    Path(self.scene.get("_folder") or Path(self.scene["_path"]).parent)
-                    / Path(part["profile"]).expanduser()
-                )
-                points, values = read_profile(path, f"{where}.profile")
-                V1 = compat.function_space(mesh, "Lagrange", 1, (3,))
-                Mp = fem.Function(V1, name=f"profile_{i}")
-                nodes = np.unique(compat.cell_dofs(V1)[self.part_cells[i]])
-                at = V1.tabulate_dof_coordinates()[nodes]
-                Mp.x.array.reshape(-1, 3)[nodes] = profile_values(
-                    points, values, at, f"{where}.profile"
-                )
-                Mp.x.scatter_forward()
-                #: a profile's P1 field and grid points, for gradients by its values
-                self.profile_fields[i] = (Mp, points)
-            else:
-                m = _ufl_of(part["magnetization"], f"{where}.magnetization", env, number)
-                d = [
-                    _ufl_of(v, f"{where}.direction.{c}", env, number)
-                    for c, v in enumerate(part["direction"])
-                ]
-                d = ufl.as_vector(d)
-                Mp = m * d / ufl.sqrt(ufl.dot(d, d))
-            total = chi * Mp if total is None else total + chi * Mp
-        return total
 
     def forces(self) -> ufl.Form | None:
         k, t = self.model.kinematics(), self.model.material["t"]
@@ -288,7 +246,7 @@ class Magnetic(Effect):
 
     def _largest_magnetization(self, i: int) -> float:
         part = self.parts[i]
-        if not _varies(part):
+        if not varies(part):
             return part["magnetization"]
         # sampled at the part's P2 nodes (formulas) or the profile's points
         from rftfem import compat
@@ -314,22 +272,6 @@ class Magnetic(Effect):
 
     def fields(self) -> dict[str, dolfinx.fem.Function | ufl.core.expr.Expr]:
         return {"magnetization": self.magnetization}  # m q, 0 off the parts
-
-
-def _varies(part: dict) -> bool:
-    """Whether a part's magnetization varies over it (formulas or a profile file)."""
-    return (
-        part["profile"] is not None
-        or isinstance(part["magnetization"], str)
-        or any(isinstance(v, str) for v in part["direction"])
-    )
-
-
-def _ufl_of(value, key: str, env: dict, number):
-    """A number or formula of the reference coordinates as UFL, its numbers Constants."""
-    if isinstance(value, str):
-        return parse(value, key, REFERENCE).ufl(env, number)
-    return number(float(value))
 
 
 def _largest_cell(mesh, comm) -> float:

@@ -40,9 +40,13 @@ import ufl
 
 from rftfem.errors import SceneError
 from rftfem.model.effects.base import NonlocalEffect
+from rftfem.model.effects.interaction_rule import rule, rule_of_cells  # noqa: F401 (rule, as before)
 from rftfem.model.ranks import gather_rows
 
 if TYPE_CHECKING:
+    from dolfinx.fem import FunctionSpace
+
+    from rftfem.model.effects.magnetic import Magnetic
     from rftfem.model.shell_model import Model
 
 
@@ -95,6 +99,24 @@ class MagneticInteractions(NonlocalEffect):
         mag = m["magnetic"]
         given = m.scene["magnetic"].get("interaction_points", "auto")
         self.points = tuple(given) if given != "auto" else self._auto_rule(mag)
+        V, S, dx = self._compile_forms(mag)
+        groups = self._gather_points(mag, V, S, dx)
+        im = m.W.dofmap.index_map
+        local = np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
+        self._nodes = compat.local_to_global(im, local)  # rows of a gathered direction
+        self._n_owned = im.size_local
+        self._k = MU0_OVER_4PI
+        self._sums = self._chosen_sums(len(groups))
+        self._ready = True
+
+    def _compile_forms(self, mag: Magnetic) -> tuple[FunctionSpace, FunctionSpace, ufl.Measure]:
+        """The quadrature spaces of the points (vector ``V``, scalar ``S``), their
+        measure, and the compiled forms: the dipoles' moments and positions, their
+        derivatives along ``dz``, the work's residual, its transpose and its second
+        derivative."""
+        from rftfem import compat
+
+        m = self.model
         q, layers = self.points
         degree = 2 * q - 1
         mesh, k = m.mesh, m.kinematics()
@@ -133,7 +155,16 @@ class MagneticInteractions(NonlocalEffect):
         self._vec = compat.create_vector(self._forms["moments"][0], V)
         self._zvec = compat.petsc_vec(m.z).duplicate()
         self._wvec = compat.petsc_vec(m.w).duplicate()
-        weight = _point_values(compile_(ufl.TestFunction(S) * dx), S)
+        return V, S, dx
+
+    def _gather_points(
+        self, mag: Magnetic, V: FunctionSpace, S: FunctionSpace, dx: ufl.Measure
+    ) -> np.ndarray:
+        """This process's magnetized points (their weights and groups, its rows
+        ``lo:hi`` of the gathered dipoles) and every process's points' groups."""
+        m = self.model
+        layers = self.points[1]
+        weight = _point_values(m.compile(ufl.TestFunction(S) * dx), S)
         self._mine = np.flatnonzero(weight > 0.0)  # this process's magnetized points
         self._weight = np.tile(weight[self._mine], layers)
         group = np.tile(self._groups(mag, V)[self._mine], layers)
@@ -147,13 +178,7 @@ class MagneticInteractions(NonlocalEffect):
         counts = m.comm.allgather(len(group))
         self._lo = int(sum(counts[: m.comm.rank]))
         self._hi = self._lo + len(group)
-        im = m.W.dofmap.index_map
-        local = np.arange(im.size_local + im.num_ghosts, dtype=np.int32)
-        self._nodes = compat.local_to_global(im, local)  # rows of a gathered direction
-        self._n_owned = im.size_local
-        self._k = MU0_OVER_4PI
-        self._sums = self._chosen_sums(len(groups))
-        self._ready = True
+        return groups
 
     def _chosen_sums(self, count: int):
         """The module that sums the pairs: the compiled direct sums, or the multipoles
@@ -190,8 +215,6 @@ class MagneticInteractions(NonlocalEffect):
         """The points per cell and the layers :func:`rule` picks for the reference
         state: from the cells' size, the thickness and the nearest two cell centres
         of different groups."""
-        from scipy.spatial import cKDTree
-
         from rftfem import compat
 
         m = self.model
@@ -207,15 +230,7 @@ class MagneticInteractions(NonlocalEffect):
         centres /= area[mine][:, None]
         group = self._groups(mag, compat.quadrature_space(m.mesh, 1, (3,)))[mine]
         rows = gather_rows(np.column_stack([centres, group, area[mine]]), m.comm)
-        nearest = np.inf
-        for g in np.unique(rows[:, 3]):
-            inside = rows[:, 3] == g
-            if inside.all():
-                continue
-            gap, _ = cKDTree(rows[~inside, :3]).query(rows[inside, :3], k=1)
-            nearest = min(nearest, float(gap.min()))
-        size = float(np.sqrt(rows[:, 4].max())) if len(rows) else 0.0
-        return rule(size, m.material_value("thickness", "max"), nearest)
+        return rule_of_cells(rows, m.material_value("thickness", "max"))
 
     # --- the dipoles and the energy's gradient at the iterate ----------------------
 
@@ -337,20 +352,6 @@ def _reverse():
     from petsc4py import PETSc
 
     return PETSc.ScatterMode.REVERSE
-
-
-def rule(size: float, thickness: float, nearest: float) -> tuple[int, int]:
-    """The Gauss points per cell side ``q`` and through the thickness ``L`` that sum
-    the interactions of magnetized cells of side ``size`` and ``thickness`` whose
-    nearest cell centres of different parts are ``nearest`` apart to about 1e-3
-    (docs/bodies.md: measured on plates a thickness apart against finer sums):
-    the error of ``q`` points falls as ``(size/nearest)^(2q)``, of ``L`` layers as
-    ``(thickness/nearest)^(2L)``."""
-    ratio = size / nearest if nearest > 0.0 else np.inf
-    q = 1 if ratio <= 0.05 else 2 if ratio <= 0.3 else 3 if ratio <= 0.6 else 4
-    ratio = thickness / nearest if nearest > 0.0 else np.inf
-    layers = 1 if ratio <= 0.05 else 2 if ratio <= 0.3 else 3
-    return q, layers
 
 
 def _function(V):

@@ -17,7 +17,9 @@ operator is nonlocal, so it is not a UFL form: the residual takes it through
 exact in the positions too (``dF = M⁻¹ (c_v du − G du)``, ``G`` the derivative of the
 velocities at fixed forces), applied matrix-free by the solver
 (``rftfem.integration.coupled``) around a preconditioner made of the sparse tangent
-plus the lumped blocks of the resistance (a local drag).
+plus the lumped blocks of the resistance (a local drag).  Which operator, and the
+resistance of one configuration, are ``stokes_operators``'s; the wall's gap checks
+``stokes_wall``'s.
 
 Every process holds the whole body's nodes (gathered in rank order); each
 evaluates the kernel for its share of the rows (the matrix's rows, gathered, and the
@@ -32,17 +34,8 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from rftfem.errors import SceneError
-from rftfem.model import (
-    layer_rules,
-    stokes_body,
-    stokes_direct,
-    stokes_fmm,
-    stokes_layer,
-    stokes_report,
-    stokeslets,
-)
-from rftfem.model.effects import fluid
+from rftfem.model import layer_rules, stokes_body, stokes_layer, stokes_report, stokeslets
+from rftfem.model.effects import fluid, stokes_operators, stokes_wall
 from rftfem.model.effects.base import FluidModel, NonlocalEffect
 from rftfem.model.ranks import gather_rows
 from rftfem.model.rates import scheme_velocity
@@ -51,9 +44,8 @@ from rftfem.model.stokes_matrix_free import MatrixFreeResistance
 if TYPE_CHECKING:
     from rftfem.model.body_parts import BodyPart
     from rftfem.model.shell_model import Model
-#: the most nodes the dense operator is meant for: two 3N × 3N matrices of 1.7 GB
-#: at 5000, a Cholesky factorisation of ~1e12 flops a residual
-DENSE_NODES = 5000
+#: the most nodes the dense operator is meant for (``stokes_operators``)
+DENSE_NODES = stokes_operators.DENSE_NODES
 
 
 #: the layer's Newton tangents keep the liquid's factors and derivative while GMRES
@@ -116,7 +108,7 @@ class Stokes(FluidModel, NonlocalEffect):
             #: body.csv's closest gap to the wall in blobs, row by row
             self.columns = [*type(self).columns, "wall_gap_blobs"]
         #: "dense" or "fmm": how the operator is applied
-        self.operator = self._choose_operator(given.operator)
+        self.operator = stokes_operators.choose_operator(given.operator, len(self.X), self.method)
         if self.method == "blobs" and self.operator == "dense":  # refused if too large
             stokes_report.admit(len(self.X), len(self.X), comm.size, "blobs")
         length, width = fluid.body_extents(self.X, self.scene["shell"]["axis"])
@@ -152,27 +144,11 @@ class Stokes(FluidModel, NonlocalEffect):
         spacing = self._gather(self._node_blobs(None))
         #: ε, the blob size (a length of its own); 0, the default: the Stokeslet itself
         self.epsilon = 0.0 if eps is None else float(eps)
-        grid, grid_cells, self.interpolation = layer_rules.refined(self.X, cells, cell, self.refine)
-        # refused before its rules are made if too large (16 far points an element)
-        stokes_report.admit(
-            len(grid), 16 * len(grid_cells) + stokes_report.SPECIAL_POINTS, m.comm.size
+        #: the integrated layer on the force grid (its rows: this process's share), and
+        #: the grid's interpolation from the shell's nodes
+        self.layer, self.interpolation = stokes_operators.grid_layer(
+            self.X, cells, cell, self.refine, self.epsilon, m.comm
         )
-        size, rank = m.comm.size, m.comm.rank  # the grid's rows shared out evenly
-        counts = [len(grid) // size + (r < len(grid) % size) for r in range(size)]
-        start = int(sum(counts[:rank]))
-        #: the integrated layer on the force grid (its rows: this process's share)
-        self.layer = stokes_layer.Layer(
-            grid, grid_cells, cell, self.epsilon, rows=slice(start, start + counts[rank])
-        )
-        smallest = float(self.layer.size.min())
-        if self.epsilon > 0.5 * smallest:
-            raise SceneError(
-                f"fluid.regularization: ε = {self.epsilon:.4g} is over half the force grid's "
-                f"smallest element ({smallest:.4g}); collocation then blurs the layer and its "
-                "matrix is ill-conditioned: leave the key out (ε = 0, the most accurate) or "
-                f"give at most {0.5 * smallest:.3g}"
-                + (" (fluid.refine shrinks the grid)" if self.refine else "")
-            )
         self.delta = np.maximum(self.epsilon, spacing / 2**self.refine)
 
     def _serial_layer(self, level: int) -> stokes_layer.Layer:
@@ -193,42 +169,15 @@ class Stokes(FluidModel, NonlocalEffect):
     def opening_lines(self) -> list[str]:
         return self.check_lines()
 
-    def _choose_operator(self, asked: str) -> str:
-        """ "dense", "direct" or "fmm" for ``fluid.operator`` (``auto``: the blobs' direct
-        sums above DENSE_NODES nodes, dense below and for the layer)."""
-        if asked == "auto":
-            big = len(self.X) > DENSE_NODES and self.method == "blobs"
-            return "direct" if big else "dense"
-        if asked == "fmm" and not stokes_fmm.available():
-            raise SceneError(
-                'fluid.operator = "fmm": the fast multipole library (fmm3dpy) '
-                'is not installed; run the README\'s set-up, or use operator = "direct"'
-            )
-        return asked
-
     def warnings(self) -> list[str]:
         """A body too large for the dense operator (docs/stokes.md, Cost); a wall
         closer than WALL_GAP_WARNED blobs."""
-        out = []
-        if self.wall is not None and self.wall_gap < WALL_GAP_WARNED:
-            out.append(
-                f"fluid.wall: the body comes within {self.wall_gap:.3g} blobs of the "
-                f"wall (with the motions' reach); under {WALL_GAP_WARNED} the "
-                f"images leak and the speeds near the wall are off: move the wall "
-                f"away or refine the mesh"
-            )
+        out = stokes_wall.set_up_warnings(self.wall_gap) if self.wall is not None else []
         if self.method == "layer":
             out += stokes_report.warnings(self.describe())
             out += stokes_body.free_edge_warnings(self.cell, self.shell_cells)
         n = len(self.X) if self.method == "blobs" else len(self.layer.X)
-        if n <= DENSE_NODES or self.operator in ("direct", "fmm"):
-            return out
-        gigabytes = 2 * (3 * n) ** 2 * 8 / 1e9
-        return out + [
-            f'fluid.model = "stokes": {n} nodes make a dense operator of '
-            f"{gigabytes:.1f} GB, factorised at every residual; the Stokes flow is "
-            f"meant for up to {DENSE_NODES} nodes in this version"
-        ]
+        return out + stokes_operators.dense_warnings(n, self.operator)
 
     # --- state ------------------------------------------------------------
 
@@ -258,42 +207,11 @@ class Stokes(FluidModel, NonlocalEffect):
                 # the body has reached the wall: no flow state exists; a residual of
                 # NaN makes the step fail and be cut (the solver says it is not finite)
                 self._resistance = stokes_body.Crossed(x)
-            elif self.method == "layer":
-                self._resistance = stokes_layer.LayerResistance(
-                    self.layer,
-                    x,
-                    self.viscosity,
-                    self.wall,
-                    comm=self.model.comm,
-                    interpolation=self.interpolation,
-                    kept=self._factored if self.keep_factors else None,
-                )
-                self._factored = self._resistance.factored
-            elif self.operator == "direct":
-                self._resistance = stokes_direct.DirectResistance(
-                    x,
-                    self.delta,
-                    self.viscosity,
-                    self.wall,
-                    self.model.comm,
-                    kept=self._factored if self.keep_factors else None,
-                )
-                self._factored = self._resistance.factored
-            elif self.operator == "fmm":
-                self._resistance = stokes_fmm.OnFirst(
-                    self.model.comm,
-                    x,
-                    lambda: stokes_fmm.FastResistance(x, self.delta, self.viscosity),
-                )
             else:
-                self._resistance = stokeslets.Resistance(
-                    x,
-                    self.delta,
-                    self.viscosity,
-                    self.wall,
-                    comm=self.model.comm,
-                    rows=slice(self.offset, self.offset + self.n_owned),
-                )
+                kept = self._factored if self.keep_factors else None
+                self._resistance = stokes_operators.new_resistance(self, x, kept)
+                if self.method == "layer" or self.operator == "direct":
+                    self._factored = self._resistance.factored
         return self._resistance
 
     def nodal_forces(self) -> np.ndarray:
@@ -387,28 +305,12 @@ class Stokes(FluidModel, NonlocalEffect):
         u = m.u_n.x.array.reshape(-1, 3)[:n]
         x = self._gather(self.X[self.offset : self.offset + n] + u)
         gaps = self.wall.heights(x) / self.delta
-        gap = float(gaps.min())
-        if gap < WALL_GAP_REFUSED:
-            from rftfem.errors import RunFailed
-
-            i = int(np.argmin(gaps))
-            raise RunFailed(
-                f"the body came within {gap:.3g} blobs of the wall (the node now "
-                f"at {stokes_body.point_text(x[i])}); the wall's images need {WALL_GAP_WARNED}: "
-                "move the wall away or refine the mesh"
-            )
-        if (
-            gap < WALL_GAP_WARNED
-            and self.wall_gap >= WALL_GAP_WARNED
-            and not getattr(self, "_gap_warned", False)
-        ):
+        # warned of once, if the set-up's check did not already
+        warn = self.wall_gap >= WALL_GAP_WARNED and not getattr(self, "_gap_warned", False)
+        lines = stokes_wall.check_step(x, gaps, t, warn)
+        if lines:
             self._gap_warned = True
-            return [
-                f"fluid.wall: at t = {t:.6g} the body came within {gap:.3g} blobs of the "
-                f"wall; under {WALL_GAP_WARNED} the images leak (body.csv: "
-                "wall_gap_blobs)"
-            ]
-        return []
+        return lines
 
     def _stored(self):
         """Positions, velocities and forces of the last converged state (``u_n``, ``v_n``)."""
