@@ -46,9 +46,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rftfem import compat
-from rftfem.errors import RunFailed, RunInterrupted
-from rftfem.integration.convergence import ROTATION_RANGE
+from rftfem.errors import RunFailed
+from rftfem.integration.arc_newton import LOAD_DIFFERENCE as LOAD_DIFFERENCE
+from rftfem.integration.arc_newton import MOST_ITERATIONS as MOST_ITERATIONS
+from rftfem.integration.arc_newton import BorderedNewton, _StepFailed
 from rftfem.integration.step_control import STATIC_TURN
 
 if TYPE_CHECKING:
@@ -60,13 +61,10 @@ if TYPE_CHECKING:
     from rftfem.integration.solver import StepSolver
     from rftfem.model.reactions import Reactions
     from rftfem.model.shell_model import Model
+    from rftfem.outputs.progress import Progress
 
 #: the Newton iterations an arc step should take; Δs grows or shrinks towards it
 DESIRED_ITERATIONS = 5
-#: an arc step not converged after this many updates (or snes_max_it, if fewer) is
-#: cut: a shorter arc is cheaper than more updates far from the path (on the truss's
-#: sharp turns, steps that had not converged in 12 updates oscillated to 25)
-MOST_ITERATIONS = 12
 #: the most the path may turn in one arc step (rad): the angle between a converged
 #: step's displacement increment and the last one's.  A step that turned further
 #: crossed a bend of the path it did not follow and is retried with half the arc
@@ -76,8 +74,6 @@ PATH_TURN = 0.35
 #: time.dt) sets how finely the path is followed (with 8, the pull-out's first arc,
 #: taken from its soft start, crossed the snap in one step)
 MAX_GROWTH = 2.0
-#: the step of the forward difference of the loads in λ, relative to max(|λ|, end)
-LOAD_DIFFERENCE = 1e-7
 
 
 @dataclass
@@ -98,9 +94,10 @@ class PathState:
     last_residual: float = math.nan
 
 
-class PathFollowing:
+class PathFollowing(BorderedNewton):
     """Steps along the equilibrium path of a static run by arc length, from the
-    state in ``state`` (:class:`PathState`) with the run's model and solver."""
+    state in ``state`` (:class:`PathState`) with the run's model and solver (each
+    step's Newton solve: arc_newton.py)."""
 
     def __init__(
         self,
@@ -116,133 +113,6 @@ class PathFollowing:
         self.time_, self.stops, self.reactions = time_, stops, reactions
         self.state = PathState(first_increment=time_["dt"])
 
-    def _path_setup(self):
-        """Work vectors and the mask of owned displacement dofs."""
-        s, m = self.solver, self.model
-        self._da, self._db, self._q, self._r2 = (s.x.duplicate() for _ in range(4))
-        n = m.W.dofmap.index_map.size_local * m.W.dofmap.index_map_bs
-        self._u_owned = np.asarray(m.u_dofs)[np.asarray(m.u_dofs) < n]
-
-    def _path_destroy(self):
-        for v in (getattr(self, name, None) for name in ("_da", "_db", "_q", "_r2")):
-            if v is not None:
-                v.destroy()
-
-    def _dot_u(self, a: np.ndarray, b: np.ndarray) -> float:
-        i = self._u_owned
-        return self.comm.allreduce(float(np.dot(a[i], b[i])))
-
-    def _solve(self, rhs, out):
-        t0 = _time.perf_counter()
-        ksp = self.solver.snes.getKSP()
-        ksp.setOperators(self.solver.A, self.solver.A)
-        ksp.solve(rhs, out)
-        self.solver.timings["solve"] += _time.perf_counter() - t0
-        reason = ksp.getConvergedReason()
-        if reason < 0:
-            raise _StepFailed(f"the linear solve failed ({reason})")
-
-    def _load_derivative(self, x, lam: float):
-        """``q = −∂R/∂λ`` at ``x`` into ``self._q`` (forward difference; ``self.solver.b``
-        must hold ``R(x, λ)``)."""
-        m, s = self.model, self.solver
-        h = LOAD_DIFFERENCE * max(abs(lam), self.time_["end"])
-        m.set_time(lam + h)
-        s.residual(x, self._r2)
-        m.set_time(lam)
-        self._r2.axpy(-1.0, s.b)
-        self._r2.copy(self._q)
-        self._q.scale(-1.0 / h)
-
-    def _arc_step(self, pos: RunPosition, arc: float | None, target: float | None = None):
-        """One converged step from the last state: along the arc ``arc`` (None: the
-        first, ``Δλ = first_increment``), or to the load factor ``target`` under load
-        control. Returns (λ, arc, Newton iterations, residual); the model holds the
-        converged iterate. Raises _StepFailed with the reason when Newton does not
-        converge."""
-        m, s, st = self.model, self.solver, self.state
-        x, b = s.x, s.b
-        lam0 = st.load_factor
-        compat.petsc_vec(m.w).copy(x)
-        start = x.array.copy()
-        m.start_newton()
-        m.set_time(lam0)
-        s.residual(x, b)
-        s.jacobian(x)
-        self._load_derivative(x, lam0)
-        self._solve(self._q, self._db)
-        db = self._db.array
-        size = math.sqrt(self._dot_u(db, db))
-        if arc is None and target is None:  # the first step: a load step of time.dt
-            target = lam0 + st.first_increment
-        if target is not None:
-            dlam = target - lam0
-        else:
-            if size == 0.0:
-                raise RunFailed(
-                    "arc-length: the loads and motions do not move the body "
-                    "(their derivative in the load factor is zero)",
-                    pos.t,
-                    pos.step,
-                )
-            sign = 1.0
-            if st.path_direction is not None and self._dot_u(db, st.path_direction) < 0:
-                sign = -1.0
-            dlam = sign * arc / size
-        x.axpy(dlam, self._db)
-        lam = lam0 + dlam
-        rtol, atol, stol, max_it = s.snes.getTolerances()
-        max_it = min(max_it, MOST_ITERATIONS)
-        first = None
-        update = xnorm = last = 0.0  # the last update's length, the iterate's, its residual
-        for it in range(1, max_it + 1):
-            m.set_time(lam)
-            s.residual(x, b)
-            fnorm = b.norm()
-            if not math.isfinite(fnorm):
-                raise _StepFailed("the residual is not finite", it - 1, fnorm)
-            first = fnorm if first is None else first
-            if it > 1 and (
-                fnorm < atol
-                or fnorm <= rtol * first
-                or update < stol * xnorm
-                or (fnorm <= s.floor() and fnorm > 0.5 * last)
-            ):
-                return lam, arc, it - 1, fnorm
-            last = fnorm
-            s.jacobian(x)
-            b.scale(-1.0)
-            self._solve(b, self._da)
-            b.scale(-1.0)
-            self._load_derivative(x, lam)
-            self._solve(self._q, self._db)
-            da, db = self._da.array, self._db.array
-            if target is not None:
-                dl = 0.0
-            else:
-                dl = self._constraint_root(x.array - start, da, db, arc, it)
-            x.axpy(1.0, self._da)
-            x.axpy(dl, self._db)
-            lam += dl
-            update = (
-                self._da.norm() ** 2
-                + 2 * dl * self._da.dot(self._db)
-                + dl**2 * self._db.norm() ** 2
-            ) ** 0.5
-            xnorm = x.norm()
-            s.sync(x)
-            turn = m.largest_rotation_increment()
-            if turn >= ROTATION_RANGE:
-                raise _StepFailed(
-                    f"Newton diverged: a rotation increment reached {turn:.3g} "
-                    f"rad >= pi at update {it}",
-                    it,
-                    fnorm,
-                )
-            if self.stops.immediate:
-                raise RunInterrupted(self.stops.signum, immediate=True)
-        raise _StepFailed(f"no convergence in {max_it} Newton iterations", max_it, fnorm)
-
     def _path_turn(self) -> float:
         """The angle (rad) between the converged step's displacement increment and the
         last step's (0 at the first step)."""
@@ -253,23 +123,6 @@ class PathFollowing:
         norms = math.sqrt(self._dot_u(d, d) * self._dot_u(last, last))
         cos = self._dot_u(d, last) / norms if norms > 0 else 1.0
         return math.acos(max(-1.0, min(1.0, cos)))
-
-    def _constraint_root(self, D, da, db, arc, it):
-        """δλ with ‖D + δa + δλ δb‖_u = arc, the root turning the increment least."""
-        e = D + da
-        a1 = self._dot_u(db, db)
-        a2 = 2.0 * self._dot_u(db, e)
-        a3 = self._dot_u(e, e) - arc**2
-        disc = a2 * a2 - 4.0 * a1 * a3
-        if a1 == 0.0 or disc < 0.0:
-            raise _StepFailed(
-                "the arc-length constraint has no real root (the arc is too "
-                "long for the path's curvature here)",
-                it,
-                math.nan,
-            )
-        roots = [(-a2 + sgn * math.sqrt(disc)) / (2.0 * a1) for sgn in (1.0, -1.0)]
-        return max(roots, key=lambda r: self._dot_u(e + r * db, D))
 
     def run(self, pos: RunPosition, hooks: RunHooks) -> None:
         """Steps along the path until λ reaches ``time.end`` or ``time.max_steps``."""
@@ -302,25 +155,23 @@ class PathFollowing:
 
     def _advance(self, pos: RunPosition, hooks: RunHooks, end: float, max_cuts: int) -> None:
         """One converged arc step (cut and retried as needed), accepted."""
-        st, counts, progress = self.state, pos.counts, hooks.progress
+        lam, arc, its, res, wall0 = self._resolved_step(pos, hooks.progress, end, max_cuts)
+        self._accept(pos, hooks, lam, arc, its, res, wall0)
+
+    def _resolved_step(
+        self, pos: RunPosition, progress: Progress, end: float, max_cuts: int
+    ) -> tuple[float, float | None, int, float, float]:
+        """A converged arc step, its arc halved after a failure or a turn of the path
+        (at most ``max_cuts`` times): (λ, arc, Newton iterations, residual, the wall
+        time its last try began)."""
+        st, counts = self.state, pos.counts
         cuts = 0
         arc = st.arc
         while True:
             wall0 = _time.perf_counter()
             try:
                 lam, arc, its, res = self._arc_step(pos, arc)
-                landed = False
-                if lam > end * (1 + 1e-12) and st.load_factor < end:
-                    # past the end: land on it under load control, else keep the arc step
-                    kept = self.model.w.x.array.copy()
-                    self.model.restore()
-                    try:
-                        lam, _, its2, res = self._arc_step(pos, arc, target=end)
-                        its += its2
-                        landed = True
-                    except _StepFailed:
-                        self.model.w.x.array[:] = kept
-                        self.model.set_time(lam)
+                lam, its, res, landed = self._land_on_end(pos, arc, lam, its, res, end)
                 turn = self._path_turn()
                 if not landed and turn > PATH_TURN and cuts < max_cuts:
                     # converged, but across a turn of the path it did not follow
@@ -335,7 +186,7 @@ class PathFollowing:
                         "halved"
                     )
                     continue
-                break
+                return lam, arc, its, res, wall0
             except _StepFailed as failed:
                 counts["newton_iterations"] += failed.its
                 self.model.restore()
@@ -357,6 +208,45 @@ class PathFollowing:
                     f"step {pos.step} at load factor {st.load_factor:.6g}: "
                     f"{failed.reason}; arc halved"
                 )
+
+    def _land_on_end(
+        self,
+        pos: RunPosition,
+        arc: float | None,
+        lam: float,
+        its: int,
+        res: float,
+        end: float,
+    ) -> tuple[float, int, float, bool]:
+        """A converged arc step to ``lam`` past ``end``: replaced by a load-controlled
+        one to ``end`` if that converges, else kept.  Returns (λ, Newton iterations,
+        residual, whether it landed on the end)."""
+        if not (lam > end * (1 + 1e-12) and self.state.load_factor < end):
+            return lam, its, res, False
+        # past the end: land on it under load control, else keep the arc step
+        kept = self.model.w.x.array.copy()
+        self.model.restore()
+        try:
+            lam_end, _, its2, res_end = self._arc_step(pos, arc, target=end)
+        except _StepFailed:
+            self.model.w.x.array[:] = kept
+            self.model.set_time(lam)
+            return lam, its, res, False
+        return lam_end, its + its2, res_end, True
+
+    def _accept(
+        self,
+        pos: RunPosition,
+        hooks: RunHooks,
+        lam: float,
+        arc: float | None,
+        its: int,
+        res: float,
+        wall0: float,
+    ) -> None:
+        """The converged step kept: counted, the state and path moved on, its row; the
+        next arc from its Newton iterations and turn."""
+        st, counts = self.state, pos.counts
         counts["newton_iterations"] += its
         counts["steps"] += 1
         m = self.model
@@ -394,9 +284,3 @@ def _u_of(model) -> np.ndarray:
     out = np.zeros_like(model.w.x.array)
     out[model.u_dofs] = model.u_n.x.array
     return out
-
-
-class _StepFailed(Exception):
-    def __init__(self, reason: str, its: int = 0, residual: float = math.nan):
-        super().__init__(reason)
-        self.reason, self.its, self.residual = reason, its, residual

@@ -59,44 +59,63 @@ class NewtonTest:
         if self.watch is not None:
             self.watch.newton(it, fnorm)
         rtol, atol, stol, _ = snes.getTolerances()
-        if it == 0:
-            self._fnorms, self._snorms = [fnorm], []
-        else:
-            self._fnorms.append(fnorm)
-            self._snorms.append(snorm)
-            self.turns.append(self.model.largest_rotation_increment())
+        self._record_update(it, snorm, fnorm)
         if not math.isfinite(fnorm):
             return R.DIVERGED_FNORM_NAN
         if fnorm < atol and (it or not self._forced):
             return R.CONVERGED_FNORM_ABS
         if it == 0:
             return R.CONVERGED_ITERATING
-        if self.turns[-1] >= ROTATION_RANGE:
-            self.divergence = (
-                f"Newton diverged: a rotation increment reached "
-                f"{self.turns[-1]:.3g} rad >= pi at update {it}"
-            )
-            return R.DIVERGED_DTOL
-        if it >= 2 and 0.0 < RESIDUAL_GROWTH * max(self._fnorms[:2]) < fnorm:
-            self.divergence = (
-                f"Newton diverged: the residual grew to {fnorm:.3e} at update "
-                f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start"
-            )
+        divergence = self._diverged(it, fnorm)
+        if divergence is not None:
+            self.divergence = divergence
             return R.DIVERGED_DTOL
         if fnorm <= rtol * self._fnorms[0]:
             return R.CONVERGED_FNORM_RELATIVE
         if self.shortened:  # a shortened update is no measure of the distance left
             self.shortened = False
             return R.CONVERGED_ITERATING
-        if snorm < stol * xnorm:
+        if snorm < stol * xnorm or self._contracted(it, snorm, stol * xnorm):
             return R.CONVERGED_SNORM_RELATIVE
-        if it >= 2 and self._snorms[-2] > 0.0:
-            theta = snorm / self._snorms[-2]
-            if theta < CONTRACTION and theta / (1.0 - theta) * snorm < stol * xnorm:
-                return R.CONVERGED_SNORM_RELATIVE
         if it >= 2 and fnorm <= self.floor() and fnorm > 0.5 * self._fnorms[-2]:
             return R.CONVERGED_FNORM_ABS
         return R.CONVERGED_ITERATING
+
+    def _record_update(self, it: int, snorm: float, fnorm: float) -> None:
+        """Keep the iterate's residual, and after an update its length and the largest
+        rotation increment it reached."""
+        if it == 0:
+            self._fnorms, self._snorms = [fnorm], []
+        else:
+            self._fnorms.append(fnorm)
+            self._snorms.append(snorm)
+            self.turns.append(self.model.largest_rotation_increment())
+
+    def _diverged(self, it: int, fnorm: float) -> str | None:
+        """Why the iterate after update ``it`` has diverged (its rotation increment
+        reached ``ROTATION_RANGE``, or its residual grew ``RESIDUAL_GROWTH``-fold), or
+        None."""
+        if self.turns[-1] >= ROTATION_RANGE:
+            return (
+                f"Newton diverged: a rotation increment reached "
+                f"{self.turns[-1]:.3g} rad >= pi at update {it}"
+            )
+        if it >= 2 and 0.0 < RESIDUAL_GROWTH * max(self._fnorms[:2]) < fnorm:
+            return (
+                f"Newton diverged: the residual grew to {fnorm:.3e} at update "
+                f"{it}, {fnorm / max(self._fnorms[:2]):.1e} times its start"
+            )
+        return None
+
+    def _contracted(self, it: int, snorm: float, step_tolerance: float) -> bool:
+        """Whether the last two updates shrank by a ratio θ < ``CONTRACTION`` and the
+        distance left they estimate, θ/(1 − θ) times the last, is below
+        ``step_tolerance`` (``stol ‖x‖``)."""
+        if it >= 2 and self._snorms[-2] > 0.0:
+            theta = snorm / self._snorms[-2]
+            if theta < CONTRACTION and theta / (1.0 - theta) * snorm < step_tolerance:
+                return True
+        return False
 
     def floor(self) -> float:
         """The residual below which a stall is round-off or solver noise: the elastic

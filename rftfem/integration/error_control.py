@@ -63,102 +63,167 @@ class ErrorControl:
         retried at that size (counted in ``rejected_steps``), a Newton failure or a
         too-large turn at half (``dt_cuts``).  Steps are clipped to land on every
         output time (``output_every`` × ``dt``)."""
-        time_, counts, progress = self.time_, pos.counts, hooks.progress
-        tol, end = time_["tolerance"], time_["end"]
+        time_, end = self.time_, self.time_["end"]
         self.model.keep_predictions = True
-        dt_min, dt_max = time_["dt_min"], time_["dt_max"]
         spacing = time_["dt"] * time_["output_every"]
-        exponent = 1.0 / (self.scheme.order + 1)
-        h, cuts_in_row, n_out = first_step, 0, max(1, math.ceil(end / spacing - 1e-9))
-        state = {}
+        h, n_out = first_step, max(1, math.ceil(end / spacing - 1e-9))
+        for k in range(1, n_out + 1):
+            t_out = min(k * spacing, end)
+            if t_out <= pos.t + 1e-12 * max(1.0, abs(t_out)):
+                continue  # written before the restart
+            h = self._steps_to(t_out, h, pos, steps, hooks)
+            pos.t = t_out
+            hooks.output(pos.t)
+            hooks.checkpoint(h, last=k == n_out)
+            if k < n_out:
+                hooks.stop_if_asked()
 
-        def check():
+    def _steps_to(
+        self, t_out: float, h: float, pos: RunPosition, steps: StepController, hooks: RunHooks
+    ) -> float:
+        """Steps from ``pos.t`` to the output time ``t_out``, the first no longer than
+        ``h``; returns the next step's length.  Cuts in a row are counted from 0: every
+        interval starts after an accepted step."""
+        time_, counts, progress = self.time_, pos.counts, hooks.progress
+        tol, dt_min, dt_max = time_["tolerance"], time_["dt_min"], time_["dt_max"]
+        exponent = 1.0 / (self.scheme.order + 1)
+        cuts_in_row = 0
+        while pos.t < t_out - 1e-12 * max(1.0, abs(t_out)):
+            # what is left before the output in equal steps no longer than h: no
+            # sliver, and no jump in the step (BDF2 weights the ratio of steps)
+            left = t_out - pos.t
+            step = left / math.ceil(left / min(h, dt_max) - 1e-9)
+            wall0 = _time.perf_counter()
+            ok, its, res, reason, err = self._attempt(pos, steps, step)
+            if ok:
+                cuts_in_row = 0
+                h = self._accepted(pos, steps, hooks, step, h, its, res, err, wall0)
+                if pos.t < t_out - 1e-12 * max(1.0, abs(t_out)):
+                    hooks.checkpoint(h)  # else after the output time's row (run)
+                    hooks.stop_if_asked()
+                continue
+            if steps.state.rejected:
+                counts["rejected_steps"] += 1
+                h = step * min(0.9, max(0.2, 0.9 * (tol / err) ** exponent))
+            else:
+                cuts_in_row += 1
+                h = self._cut(pos, steps, progress, step, cuts_in_row, its, res, reason)
+            if h < dt_min * (1 - 1e-12):
+                raise RunFailed(
+                    f"step not resolved ({reason}) with dt = {step:.3e}: the next "
+                    f"try would be below time.dt_min = {dt_min:g}",
+                    pos.t + step,
+                    counts["steps"] + 1,
+                )
+        return h
+
+    def _attempt(
+        self, pos: RunPosition, steps: StepController, step: float
+    ) -> tuple[bool, int, float, str, float | None]:
+        """One attempt of ``step`` from ``pos.t``, rejected when its local error is over
+        ``time.tolerance``: (converged, Newton iterations, residual, reason, local error
+        or None)."""
+        tol = self.time_["tolerance"]
+        state: dict[str, float | None] = {"err": None}
+
+        def check() -> str | None:
             err = self.local_error()
             state["err"] = err
             if err is not None and err > tol:
                 return f"local error {err:.3g} > time.tolerance = {tol:g}"
             return None
 
-        for k in range(1, n_out + 1):
-            t_out = min(k * spacing, end)
-            if t_out <= pos.t + 1e-12 * max(1.0, abs(t_out)):
-                continue  # written before the restart
-            while pos.t < t_out - 1e-12 * max(1.0, abs(t_out)):
-                # what is left before the output in equal steps no longer than h: no
-                # sliver, and no jump in the step (BDF2 weights the ratio of steps)
-                left = t_out - pos.t
-                step = left / math.ceil(left / min(h, dt_max) - 1e-9)
-                wall0 = _time.perf_counter()
-                state["err"] = None
-                ok, its, res, reason = steps.attempt(
-                    pos, pos.t + step, step, self.scheme, error_check=check
-                )
-                err = state["err"]
-                if ok:
-                    pos.t += step
-                    pos.step = counts["steps"] = counts["steps"] + 1
-                    pos.complete(pos.step)
-                    cuts_in_row = 0
-                    hooks.step_row([pos.t, step, its, res, _time.perf_counter() - wall0], pos.t)
-                    hooks.observe()
-                    steps.after_step(pos, progress)  # the components' look at the state
-                    grow = 2.0 if not err else min(2.0, max(0.2, 0.9 * (tol / err) ** exponent))
-                    # a step that Newton found hard is not grown: beyond its few iterations
-                    # a longer step costs more iterations than it saves steps
-                    if its > NEWTON_GROWTH_LIMIT:
-                        grow = min(grow, 1.0)
-                    # nor one whose directors would turn past time.max_rotation
-                    last_turn = steps.state.last_turn
-                    if self.scheme.has_velocity and last_turn > 0.0:
-                        limit = steps.turn_limit(self.scheme)
-                        grow = min(grow, max(0.5, 0.9 * limit / last_turn))
-                    # a step cut short to land on an output says nothing against h
-                    clipped = step < h * (1 - 1e-9)
-                    h = min(dt_max, max(dt_min, max(h, step * grow) if clipped else step * grow))
-                    progress.update(
-                        pos.t,
-                        pos.step,
-                        counts["newton_iterations"],
-                        steps.solver.snes.getFunctionNorm(),
-                    )
-                    if pos.t < t_out - 1e-12 * max(1.0, abs(t_out)):
-                        hooks.checkpoint(h)  # else after the output row below
-                        hooks.stop_if_asked()
-                    continue
-                if steps.state.rejected:
-                    counts["rejected_steps"] += 1
-                    h = step * min(0.9, max(0.2, 0.9 * (tol / err) ** exponent))
-                else:
-                    cuts_in_row += 1
-                    counts["dt_cuts"] += 1
-                    if cuts_in_row > time_["max_cuts"]:
-                        raise RunFailed(
-                            f"step not resolved ({reason}, {its} Newton iterations, "
-                            f"residual {res:.3e}) after {time_['max_cuts']} step "
-                            f"halvings in a row (time.max_cuts), dt = {step:.3e}"
-                            + steps.unresolved_hint(),
-                            pos.t + step,
-                            counts["steps"] + 1,
-                        )
-                    halvings = steps.halvings()
-                    h = step / 2**halvings
-                    progress.log(
-                        f"step {counts['steps'] + 1} at t = {pos.t:.6g}: {reason} "
-                        f"after {its} Newton iterations; dt to {h:.3e}"
-                        + (f" ({halvings} halvings)" if halvings > 1 else "")
-                    )
-                if h < dt_min * (1 - 1e-12):
-                    raise RunFailed(
-                        f"step not resolved ({reason}) with dt = {step:.3e}: the next "
-                        f"try would be below time.dt_min = {dt_min:g}",
-                        pos.t + step,
-                        counts["steps"] + 1,
-                    )
-            pos.t = t_out
-            hooks.output(pos.t)
-            hooks.checkpoint(h, last=k == n_out)
-            if k < n_out:
-                hooks.stop_if_asked()
+        ok, its, res, reason = steps.attempt(
+            pos, pos.t + step, step, self.scheme, error_check=check
+        )
+        return ok, its, res, reason, state["err"]
+
+    def _accepted(
+        self,
+        pos: RunPosition,
+        steps: StepController,
+        hooks: RunHooks,
+        step: float,
+        h: float,
+        its: int,
+        res: float,
+        err: float | None,
+        wall0: float,
+    ) -> float:
+        """The accepted ``step`` (begun at wall time ``wall0``) counted, its row, the
+        observers' and the components' look; returns the next step's length."""
+        counts, progress = pos.counts, hooks.progress
+        pos.t += step
+        pos.step = counts["steps"] = counts["steps"] + 1
+        pos.complete(pos.step)
+        hooks.step_row([pos.t, step, its, res, _time.perf_counter() - wall0], pos.t)
+        hooks.observe()
+        steps.after_step(pos, progress)  # the components' look at the state
+        h = self._next_length(steps, step, h, its, err)
+        progress.update(
+            pos.t,
+            pos.step,
+            counts["newton_iterations"],
+            steps.solver.snes.getFunctionNorm(),
+        )
+        return h
+
+    def _next_length(
+        self, steps: StepController, step: float, h: float, its: int, err: float | None
+    ) -> float:
+        """The step after an accepted ``step`` of ``its`` Newton iterations and local
+        error ``err``, ``h`` the length it was allowed."""
+        time_, tol = self.time_, self.time_["tolerance"]
+        exponent = 1.0 / (self.scheme.order + 1)
+        grow = 2.0 if not err else min(2.0, max(0.2, 0.9 * (tol / err) ** exponent))
+        # a step that Newton found hard is not grown: beyond its few iterations
+        # a longer step costs more iterations than it saves steps
+        if its > NEWTON_GROWTH_LIMIT:
+            grow = min(grow, 1.0)
+        # nor one whose directors would turn past time.max_rotation
+        last_turn = steps.state.last_turn
+        if self.scheme.has_velocity and last_turn > 0.0:
+            limit = steps.turn_limit(self.scheme)
+            grow = min(grow, max(0.5, 0.9 * limit / last_turn))
+        # a step cut short to land on an output says nothing against h
+        clipped = step < h * (1 - 1e-9)
+        return min(
+            time_["dt_max"],
+            max(time_["dt_min"], max(h, step * grow) if clipped else step * grow),
+        )
+
+    def _cut(
+        self,
+        pos: RunPosition,
+        steps: StepController,
+        progress: Progress,
+        step: float,
+        cuts_in_row: int,
+        its: int,
+        res: float,
+        reason: str,
+    ) -> float:
+        """After a failed attempt of ``step`` (the ``cuts_in_row``-th in a row): the
+        cut counted and logged, or the run failed past ``time.max_cuts``; returns the
+        shorter step."""
+        time_, counts = self.time_, pos.counts
+        counts["dt_cuts"] += 1
+        if cuts_in_row > time_["max_cuts"]:
+            raise RunFailed(
+                f"step not resolved ({reason}, {its} Newton iterations, "
+                f"residual {res:.3e}) after {time_['max_cuts']} step "
+                f"halvings in a row (time.max_cuts), dt = {step:.3e}" + steps.unresolved_hint(),
+                pos.t + step,
+                counts["steps"] + 1,
+            )
+        halvings = steps.halvings()
+        h = step / 2**halvings
+        progress.log(
+            f"step {counts['steps'] + 1} at t = {pos.t:.6g}: {reason} "
+            f"after {its} Newton iterations; dt to {h:.3e}"
+            + (f" ({halvings} halvings)" if halvings > 1 else "")
+        )
+        return h
 
     def summary(self) -> dict | None:
         """Largest and mean estimated local error of the steps, or None (no estimate)."""

@@ -29,6 +29,8 @@ import numpy as np
 from mpi4py import MPI
 
 if TYPE_CHECKING:
+    from petsc4py import PETSc
+
     from rftfem.integration.solver import StepSolver
     from rftfem.model.shell_model import Model
 
@@ -77,29 +79,11 @@ def initial_acceleration(model: Model, solver: StepSolver) -> None:
     (docs/model.md §6.7).  The model's loads and time must be set to t = 0."""
     from petsc4py import PETSc
 
-    from rftfem import compat, petsc_options
-    from rftfem.integration.schemes import Coefficients
+    from rftfem import compat
 
     comm = model.comm
-    F = compat.create_vector(model.forces_form, model.W)
-    solver.assemble_forces(F)
-    if model.end_form is not None:  # the contact forces at t = 0
-        F_end = F.duplicate()
-        with F_end.localForm() as local:
-            local.set(0.0)
-        compat.assemble_vector(F_end, model.end_form)
-        F_end.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        F.axpy(1.0, F_end)
-        F_end.destroy()
-    # the mass matrix: the step's Jacobian with c_a = 1 and the forces weighted by 1 − α_f = 0
-    saved = model.coefficients
-    model.set_coefficients(Coefficients(ca=1.0, alpha_f=1.0, end_weight=0.0))
-    M = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(solver.options))
-    model.start_newton()
-    model.tangent_at_iterate()
-    compat.assemble_matrix(M, model.jacobian_form, model.bcs)
-    M.assemble()
-    model.set_coefficients(saved)
+    F = _forces_at_start(model, solver)
+    M = _mass_matrix(model, solver)
     diag = M.getDiagonal()
     scale = diag.norm(PETSc.NormType.NORM_INFINITY)
     massless = np.flatnonzero(np.abs(diag.array) <= 1e-12 * scale)
@@ -127,6 +111,44 @@ def initial_acceleration(model: Model, solver: StepSolver) -> None:
     finally:
         for obj in (ksp, M, F, a, diag):
             obj.destroy()
+
+
+def _forces_at_start(model: Model, solver: StepSolver) -> PETSc.Vec:
+    """A new vector of the non-inertial forces ``F(u₀, t = 0)``, the contact forces
+    among them."""
+    from petsc4py import PETSc
+
+    from rftfem import compat
+
+    F = compat.create_vector(model.forces_form, model.W)
+    solver.assemble_forces(F)
+    if model.end_form is not None:  # the contact forces at t = 0
+        F_end = F.duplicate()
+        with F_end.localForm() as local:
+            local.set(0.0)
+        compat.assemble_vector(F_end, model.end_form)
+        F_end.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        F.axpy(1.0, F_end)
+        F_end.destroy()
+    return F
+
+
+def _mass_matrix(model: Model, solver: StepSolver) -> PETSc.Mat:
+    """A new assembled mass matrix ``M`` at the model's state (its Dirichlet rows
+    those of the step's Jacobian); the model's coefficients are left as they were."""
+    from rftfem import compat, petsc_options
+    from rftfem.integration.schemes import Coefficients
+
+    # the mass matrix: the step's Jacobian with c_a = 1 and the forces weighted by 1 − α_f = 0
+    saved = model.coefficients
+    model.set_coefficients(Coefficients(ca=1.0, alpha_f=1.0, end_weight=0.0))
+    M = compat.create_matrix(model.jacobian_form, petsc_options.matrix_type(solver.options))
+    model.start_newton()
+    model.tangent_at_iterate()
+    compat.assemble_matrix(M, model.jacobian_form, model.bcs)
+    M.assemble()
+    model.set_coefficients(saved)
+    return M
 
 
 def frictional_acceleration(model: Model, solver: StepSolver, dt: float) -> None:

@@ -33,22 +33,23 @@ from rftfem.integration.interrupts import NoStops, StopRequests
 from rftfem.integration.model_setup import build_model, quiet_compilers
 from rftfem.integration.restart import Checkpoints, checked_checkpoint
 from rftfem.integration.run_outputs import RunOutputs, make_out_dir
+from rftfem.integration.run_report import RunReport
 from rftfem.integration.run_state import RunHooks, RunPosition
+from rftfem.integration.run_view import RunView
 from rftfem.integration.schemes import make_scheme
 from rftfem.integration.solver import StepSolver
 from rftfem.integration.step_control import StepController
-from rftfem.integration.step_watch import StepWatch
 from rftfem.model.effects.base import NonlocalEffect
 from rftfem.model.reactions import Reactions
-from rftfem.outputs.progress import Progress, render_in_child
-from rftfem.outputs.writers import BodyLog, Probes, write_json
-from rftfem.scene import scales
+from rftfem.outputs.writers import BodyLog, Probes
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterable
 
+    from rftfem.outputs.progress import Progress
 
-class Simulation:
+
+class Simulation(RunView, RunReport):
     """One run of a scene; ``observers`` are called as ``f(sim)`` after every step.
     With ``signals``, SIGINT and SIGTERM stop the run after its step (interrupts.py);
     with ``restart`` (a results folder), the run goes on from its last checkpoint
@@ -59,7 +60,8 @@ class Simulation:
     step_control.py), the time-error estimate and error-controlled steps
     (``errors``, error_control.py), path-following by arc length (``path``, an
     arc-length run's only; arclength.py), the outputs and summary (``outputs``,
-    run_outputs.py) and the checkpoints (``checkpoints``, restart.py)."""
+    run_outputs.py) and the checkpoints (``checkpoints``, restart.py).  What callers
+    read of it is run_view.py's, what it says run_report.py's."""
 
     def __init__(
         self,
@@ -78,16 +80,7 @@ class Simulation:
         self.warn = warn
         self.comm = comm or MPI.COMM_WORLD
         self.stops = StopRequests(self.comm) if signals else NoStops()
-        if restart is not None and out_dir is not None and Path(out_dir) != Path(restart):
-            raise SceneError(
-                f"--out {out_dir}: a restart appends to the folder it continues "
-                f"({restart}); leave --out out or give that folder"
-            )
-        self.out_dir = (
-            Path(restart if restart is not None else out_dir)
-            if (restart or out_dir) is not None
-            else None
-        )
+        self.out_dir = _results_folder(out_dir, restart)
         # the checkpoint a restart goes on from, checked before the set-up
         resume = checked_checkpoint(restart, scene, self.comm) if restart is not None else None
         make_out_dir(self.out_dir, self.comm)  # before the costly set-up: fail early
@@ -95,6 +88,13 @@ class Simulation:
         self.observers = list(observers)
         quiet_compilers()
         t0 = _time.perf_counter()
+        self._build(scene, quiet, petsc_args)
+        self.setup_time = _time.perf_counter() - t0
+        self._compose(scene, resume)
+
+    def _build(self, scene: dict, quiet: bool, petsc_args: list[str] | None) -> None:
+        """The costly set-up: the model (its forms compiled), the scheme, the step
+        solver and the outputs."""
         with _compile_notice(quiet or self.comm.rank != 0):
             self.model = build_model(
                 scene, self.comm, tangent=petsc_options.tangent(scene.get("solver"), petsc_args)
@@ -104,6 +104,17 @@ class Simulation:
         # time steps start Newton's tangent on the converged stress resultants; static
         # load steps on their start's own (docs/model.md §7.4)
         self.model.first_tangent_converged = self.scheme.has_velocity
+        self._make_solver(scene, petsc_args)
+        #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
+        self.reactions = Reactions(self.model)
+        self.body = BodyLog(self.model, self.reactions)
+        self.outputs = RunOutputs(
+            scene, self.model, self.scheme, self.comm, self.probes, self.body, self.out_dir
+        )
+
+    def _make_solver(self, scene: dict, petsc_args: list[str] | None) -> None:
+        """The PETSc options (``options``) and the step solver (``solver``): the
+        factorisation, the LU package and its fallback chosen for the model's size."""
         unknowns = self.model.W.dofmap.index_map.size_global * self.model.W.dofmap.index_map_bs
         solver = scene.get("solver")
         factorization = petsc_options.factorization(solver, petsc_args, unknowns)
@@ -119,13 +130,11 @@ class Simulation:
         self.solver = StepSolver(
             self.model, self.options, factorization, lu_fallback="mumps" if fallback else None
         )
-        #: the named [[boundary]] and [[motion]] entries' reactions, set after each step
-        self.reactions = Reactions(self.model)
-        self.body = BodyLog(self.model, self.reactions)
-        self.outputs = RunOutputs(
-            scene, self.model, self.scheme, self.comm, self.probes, self.body, self.out_dir
-        )
-        self.setup_time = _time.perf_counter() - t0
+
+    def _compose(self, scene: dict, resume: tuple[Path, dict] | None) -> None:
+        """The parts the run composes (its position, the step controller, the error
+        control, the path-following, the checkpoints), from a restart's checkpoint if
+        ``resume``."""
         #: where the run is: its time, the step under way, the steps done, the counts
         self.pos = RunPosition()
         time_ = scene["time"]
@@ -157,61 +166,6 @@ class Simulation:
         if resume is not None:
             self.checkpoints.load(self.pos, self.steps.state, self._path_state())
 
-    # --- what callers and observers read --------------------------------------
-
-    @property
-    def t(self) -> float:
-        """The time reached (an arc-length run's path length)."""
-        return self.pos.t
-
-    @property
-    def step(self) -> int:
-        """The step under way, or the last one done."""
-        return self.pos.step
-
-    @property
-    def completed(self) -> int:
-        """Steps done (``step`` may be the one under way)."""
-        return self.pos.completed
-
-    @property
-    def counts(self) -> dict[str, int]:
-        """Steps, Newton iterations, dt cuts and rejected steps so far."""
-        return self.pos.counts
-
-    @property
-    def load_factor(self) -> float:
-        """The time the loads and motions are evaluated at: ``t`` itself, except in an
-        arc-length run, whose ``t`` is the path's length."""
-        return self.path.state.load_factor if self.path is not None else self.pos.t
-
-    @property
-    def arc(self) -> float | None:
-        """An arc-length run's next arc (None: the first step, or no arc length)."""
-        return self.path.state.arc if self.path is not None else None
-
-    @property
-    def first_arc(self) -> float | None:
-        """An arc-length run's first arc (None before it, or no arc length)."""
-        return self.path.state.first_arc if self.path is not None else None
-
-    @property
-    def history(self) -> list:
-        """The (t, probe values) output rows, as written to probes.csv."""
-        return self.outputs.history
-
-    @property
-    def wall(self) -> dict[str, float]:
-        """Wall seconds outside the solver: outputs, loads and motions set for a step,
-        the state and triad update after it, checkpoints."""
-        steps = self.steps.wall
-        return {
-            "output": self.outputs.wall,
-            "loads": steps["loads"],
-            "update": steps["update"],
-            "checkpoint": self.checkpoints.wall,
-        }
-
     # --- the run -------------------------------------------------------------
 
     def run(self) -> dict:
@@ -220,10 +174,6 @@ class Simulation:
 
     def _path_state(self):
         return self.path.state if self.path is not None else None
-
-    def _loads_time(self, t: float) -> float:
-        """The loads' time of an output at ``t``: an arc-length run's load factor."""
-        return self.path.state.load_factor if self.path is not None else t
 
     def _observe(self):
         for f in self.observers:
@@ -268,26 +218,8 @@ class Simulation:
             wrote_at=self.outputs.wrote_at,
         )
 
-    def _summary(self, status: str, wall_start: float | None = None) -> dict:
-        total = (
-            (_time.perf_counter() - wall_start if wall_start else 0.0)
-            + self.setup_time
-            + self.checkpoints.wall_before
-        )
-        return self.outputs.summary(
-            status,
-            self.pos,
-            self.solver,
-            at=self._loads_time(self.pos.t),
-            restarts=self.checkpoints.restarts,
-            time_error=self.errors.summary(),
-            setup=self.setup_time,
-            checkpoint=self.checkpoints.wall,
-            total=total,
-        )
-
     def _run(self) -> dict:
-        time_, out = self.scene["time"], self.out_dir
+        time_ = self.scene["time"]
         summary = self._summary("running")
         wall_start = self._wall_start = _time.perf_counter()
         path = self.path is not None
@@ -328,38 +260,8 @@ class Simulation:
             raise err from None
         finally:
             self._close_run(progress, summary)
-        c = self.pos.counts
-        progress.final(
-            f"done: {c['steps']} steps, {c['newton_iterations']} Newton iterations, "
-            f"{c['dt_cuts']} dt cuts"
-            + (
-                f", {c['rejected_steps']} steps rejected "
-                + ("for turning the path too far" if path else "by the error control")
-                if c["rejected_steps"]
-                else ""
-            )
-            + f", {summary['wall_s']['total']:.1f} s"
-            + (f"; outputs in {out}" if out is not None else "")
-        )
+        self._report_done(progress, summary)
         return summary
-
-    def _open_progress(self, path: bool) -> Progress:
-        """The progress line, the watch of slow steps, the opening lines and warnings."""
-        progress = Progress(
-            self.scene["time"]["end"],
-            self.comm,
-            self.quiet,
-            label="load factor" if path else "t",
-            warn=self.warn,
-        )
-        StepWatch(self.stops, self.comm, progress).attach(self.solver)
-        for line in self.outputs.opening_lines():
-            progress.log(line)
-        for line in scales.aliasing_warnings(self.scene) + [
-            line for comp in self.model.components for line in comp.warnings()
-        ]:
-            progress.warn("warning: " + line)
-        return progress
 
     def _start(self, progress: Progress):
         """The state at t = 0 and its output row, or the checkpoint a restart goes on from."""
@@ -376,41 +278,6 @@ class Simulation:
         later = self.model.timings["compile"] - compiled
         self.setup_time += later
         self.outputs.wall -= later
-
-    def _interrupted(self, exc: BaseException, wall_start: float):
-        """The interrupt (a signal; a second one may surface inside a PETSc callback as
-        another error) and the summary of a run it stopped."""
-        err = (
-            exc
-            if isinstance(exc, RunInterrupted)
-            else RunInterrupted(self.stops.signum, immediate=True)
-        )
-        if err.time is None:  # stopped inside a step: where the last one ended
-            err.time, err.step = self.pos.completed_time, self.pos.completed
-            self.pos.t = err.time  # what the outputs reached (the state may be further)
-        if err.dropped:  # a slow step dropped: the last completed step's row
-            self._last_row()
-        summary = self._summary("interrupted", wall_start)
-        summary["interrupt"] = {
-            "signal": err.signal_name,
-            "time": err.time,
-            "step": err.step,
-            "immediate": err.immediate,
-            "dropped_step": err.dropped,
-        }
-        return err, summary
-
-    def _close_run(self, progress: Progress, summary: dict):
-        """Close the outputs and write summary.json, whatever ended the run; render."""
-        self.stops.closing()
-        progress.close()
-        self.outputs.close()
-        summary["warnings"] = list(progress.warnings)  # every warning the run said
-        if self.out_dir is not None:
-            write_json(self.out_dir / "summary.json", summary, self.comm)
-            render = self.scene.get("output", {}).get("render", "none")
-            if render != "none" and "fields" in self.outputs.logs:
-                render_in_child(self.out_dir, render, self.comm, progress)
 
     def close(self) -> None:
         self.solver.destroy()
@@ -437,6 +304,21 @@ def run(
         return sim.run()
     finally:
         sim.close()
+
+
+def _results_folder(out_dir: Path | None, restart: Path | None) -> Path | None:
+    """The folder a run writes to: ``out_dir``, or the one a ``restart`` continues (a
+    SceneError for another ``out_dir``), or None."""
+    if restart is not None and out_dir is not None and Path(out_dir) != Path(restart):
+        raise SceneError(
+            f"--out {out_dir}: a restart appends to the folder it continues "
+            f"({restart}); leave --out out or give that folder"
+        )
+    return (
+        Path(restart if restart is not None else out_dir)
+        if (restart or out_dir) is not None
+        else None
+    )
 
 
 #: seconds the set-up may take before the run says it is compiling forms (a set-up

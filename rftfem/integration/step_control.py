@@ -1,8 +1,8 @@
 """One step and its control (docs/model.md §6.7-6.8): a Newton solve of a step from
 its prediction, the turn limit that rejects a step whose directors turned too far,
-the halvings after a failed attempt and the doubling back, the start of a run in
-equilibrium, the advance over one nominal step, and the loop over fixed steps.
-Error-controlled steps are error_control.py's.
+the halvings after a failed attempt and the doubling back, the advance over one
+nominal step, and the loop over fixed steps.  The start of a run in equilibrium is
+initial_state.py's, error-controlled steps are error_control.py's.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from rftfem.errors import RunFailed, RunInterrupted
 from rftfem.integration import impulses
-from rftfem.integration.schemes import BackwardEuler, Static
+from rftfem.integration.initial_state import InitialState
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -59,11 +59,12 @@ class StepState:
     first_stiffness: float | None = None
 
 
-class StepController:
+class StepController(InitialState):
     """Steps of a run over its ``time`` table: each attempt solved, checked and
     accepted or restored; the cuts and doublings of a nominal step; the fixed-step
     loop.  ``free``: nothing holds the body's rigid motions (no support, motion or
-    drag).  Each attempt's local error goes to ``errors`` (error_control.py)."""
+    drag).  Each attempt's local error goes to ``errors`` (error_control.py); the state
+    a run starts in is initial_state.py's."""
 
     def __init__(
         self,
@@ -95,7 +96,19 @@ class StepController:
         """One step to ``t_new`` under ``scheme``: (converged, Newton iterations,
         residual, reason); accepted if it converged and passed the turn limit and
         ``error_check`` (a reason when the step is too long), else restored."""
-        m, st = self.model, self.state
+        self._prepare(scheme, dt, t_new)
+        ok, its, res, reason = self._watched_solve(pos, t_new)
+        ok, reason = self._judge(ok, res, reason, scheme, limit_rotation, error_check)
+        pos.counts["newton_iterations"] += its
+        if not ok:
+            self.model.restore()
+            return False, its, res, reason
+        self._accept(scheme, dt, t_new)
+        return True, its, res, reason
+
+    def _prepare(self, scheme: Scheme, dt: float, t_new: float) -> None:
+        """The step's coefficients, loads and motions at ``t_new`` and its prediction."""
+        m = self.model
         t0 = _time.perf_counter()
         m.set_coefficients(scheme.coefficients(dt))
         m.set_time(t_new, scheme)
@@ -108,6 +121,10 @@ class StepController:
         # residuals grow 5000-fold, so there the step starts from the last state
         m.predict(dt, extrapolate=scheme.has_velocity or m.n_colours == 1)
         self.wall["loads"] += _time.perf_counter() - t0
+
+    def _watched_solve(self, pos: RunPosition, t_new: float) -> tuple[bool, int, float, str]:
+        """Newton's solve of the step to ``t_new`` under the watch of slow steps: a
+        signal in it drops the step (back to the last completed one) or stops the run."""
         watch = self.solver.watch
         if watch is not None:
             watch.start(t_new, pos.completed + 1)
@@ -116,13 +133,27 @@ class StepController:
         finally:  # a signal in a slow step (step_watch.py): back to the last completed one
             dropped = watch is not None and watch.dropped is not None
             if dropped:
-                m.restore()
+                self.model.restore()
         if dropped:  # (PETSc gave its callback's exception back, or its own error)
             raise watch.dropped
         if self.stops.immediate:
             # a second signal inside a residual or Jacobian: PETSc turned it into a failed
             # solve (and may have left a vector locked); stop, do not cut
             raise RunInterrupted(self.stops.signum, immediate=True)
+        return ok, its, res, reason
+
+    def _judge(
+        self,
+        ok: bool,
+        res: float,
+        reason: str,
+        scheme: Scheme,
+        limit_rotation: bool,
+        error_check: Callable[[], str | None] | None,
+    ) -> tuple[bool, str]:
+        """Whether the solved step is accepted, and why not: a non-finite residual, a
+        turn past the limit (its overreach kept for ``halvings``), ``error_check``."""
+        m, st = self.model, self.state
         if ok and not math.isfinite(res):
             ok, reason = False, "non-finite residual"
         limit = self.turn_limit(scheme)
@@ -146,10 +177,12 @@ class StepController:
             too_big = error_check()
             if too_big:
                 ok, reason, st.rejected = False, too_big, True
-        pos.counts["newton_iterations"] += its
-        if not ok:
-            m.restore()
-            return False, its, res, reason
+        return ok, reason
+
+    def _accept(self, scheme: Scheme, dt: float, t_new: float) -> None:
+        """The converged step kept: its error estimate, reactions and forces, the state
+        and triad updated, a corner of the motions handed on."""
+        m = self.model
         if m.keep_predictions:  # the step's error estimate (§6.9), for summary.json
             self.errors.record()
         if self.reactions:
@@ -160,7 +193,6 @@ class StepController:
         if m.drive and scheme.has_inertia:
             impulses.corner(m, self.solver, t_new)
         self.wall["update"] += _time.perf_counter() - t0
-        return True, its, res, reason
 
     def turn_limit(self, scheme: Scheme) -> float:
         """The turn of a director a step should stay within: ``time.max_rotation`` in
@@ -189,75 +221,6 @@ class StepController:
                 "[fluid] or mass its rigid motions are free and every step is singular"
             )
         return ""
-
-    def initial_equilibrium(self, pos: RunPosition) -> None:
-        """The state a run starts in (docs/model.md §6.7), at rest: ``v = a = 0``, or
-        with inertia the acceleration the t = 0 forces give it.
-
-        A run in time starts in its initial state: the reference, or the shape the
-        t = 0 motions impose with the rest of the body in elastic equilibrium.  The
-        loads (``[[load]]``, the magnetic field) are off in that solve, so a load
-        already on at t = 0 moves the body from the first step on, not before it.
-        Static runs, and runs in time with ``time.start = "equilibrium"``, start in
-        static equilibrium with the t = 0 loads instead (a pre-loaded body released).
-
-        With drag the body may be free (no Dirichlet condition on its rigid motions),
-        and a static solve would be singular.  The t = 0 solve then carries the drag
-        of reaching that state from the reference in one step ``dt`` (backward Euler),
-        which lets the fluid hold the body; without loads and motions at t = 0 the
-        reference meets it exactly and no update is made.  The forces kept for the
-        first step (``F_n``) are those of the start with its t = 0 loads on.
-        """
-        m, dt = self.model, self.time_["dt"]
-        in_time = self.scheme.has_velocity
-        loaded = not in_time or self.time_.get("start", "rest") == "equilibrium"
-        start = BackwardEuler() if m.fluid else Static()
-        # no prediction here to correct: a state that meets the tolerance (the
-        # reference state without loads) is the answer
-        self.solver.force_iteration(False)
-        m.loads_on = loaded
-        try:
-            ok, its, res, reason = self.attempt(pos, 0.0, dt, start, limit_rotation=False)
-        finally:
-            self.solver.force_iteration()
-            m.loads_on = True
-        if not ok:
-            what = "the t = 0 loads and motions" if loaded else "the t = 0 motions"
-            hint = (
-                "; nothing holds this body (no [[boundary]], [[motion]] or [fluid]), so "
-                "no load may be on at t = 0"
-                if self.free and loaded
-                else ""
-            )
-            raise RunFailed(
-                f"no static equilibrium with {what} ({reason})"
-                + hint
-                + (self._ramp_hint() if loaded else ""),
-                0.0,
-                0,
-            )
-        m.v_n.x.array[:] = 0.0
-        m.a_n.x.array[:] = 0.0
-        m.increments = []  # reaching t = 0 is no rate to go on at
-        # the loads at t = 0 on, the body at rest: the forces of the start
-        m.set_coefficients(Static().coefficients(dt))
-        m.set_time(0.0)
-        self.solver.forget_forces()
-        if self.reactions and not loaded:
-            self.reactions.compute(self.solver.raw_residual())
-        if self.scheme.has_inertia:
-            try:
-                impulses.initial_acceleration(m, self.solver)
-                if any(c.holds_at_rest() for c in m.components):
-                    impulses.frictional_acceleration(m, self.solver, dt)
-            except RuntimeError as exc:
-                raise RunFailed(f"no initial acceleration: {exc}", 0.0, 0) from None
-        if m.drive and self.scheme.has_inertia:
-            # the driven dofs move off at the motion's own rate, the body with them
-            m.set_coefficients(self.scheme.coefficients(dt))
-            impulses.corner(m, self.solver, 0.0, start=True)
-        m.set_coefficients(Static().coefficients(dt))
-        self.solver.store_forces()
 
     def _tangent_along_last_step(self) -> float | None:
         """The tangent's stiffness along the last accepted increment ``Δw`` at the
