@@ -19,11 +19,12 @@ import copy
 import os
 import warnings
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from rftfem.errors import RunFailed, RunInterrupted, RunWarning, SceneError
 from rftfem.scene import toml_writer
 from rftfem.scene.overrides import lookup
+from rftfem.scene.python_changes import apply_changes, key_path
 from rftfem.scene.reading import (
     complete_scene,
     parse_scene_text,
@@ -41,64 +42,6 @@ if TYPE_CHECKING:  # (the run's Result and the MPI communicator are loaded when 
 __all__ = ["Scene", "load_scene", "scene_from_dict", "scene_from_toml", "run"]
 
 _ABSENT = object()  # what lookup gives for a key the scene has no place for
-
-
-def _override_text(key: str, value: Any) -> str:
-    """``key=value`` as it would be typed after ``--set`` (for summary.json)."""
-    try:
-        return f"{key}={toml_writer.value(value)}"
-    except (TypeError, ValueError):
-        return f"{key}={value!r}"
-
-
-def _change(raw: dict, changes: Mapping[str, Any], what: str = "Scene.update") -> list[str]:
-    """Make ``changes`` (dotted keys to values) in the raw table; their override texts.
-    A value None removes the key, as ``--unset`` does (TOML has no null)."""
-    if not isinstance(changes, Mapping):
-        raise SceneError(
-            f"{what}: expected a dict of dotted keys to values "
-            f"({{'time.dt': 0.01}}), found {type(changes).__name__}"
-        )
-    texts = []
-    for key, value in changes.items():
-        _split(key)
-        try:
-            if value is None:
-                unset_key(raw, key)
-                texts.append(unset_text(key))
-            else:
-                value = _plain(copy.deepcopy(value))
-                set_key(raw, key, value)
-                texts.append(_override_text(key, value))
-        except SceneError as exc:
-            raise SceneError(_python_form(str(exc), key)) from None
-    return texts
-
-
-def _python_form(message: str, key: str) -> str:
-    """A --set/--unset message as Python's: ``scene["KEY"]: ...``."""
-    for prefix in (f"--set {key}: ", f"--unset {key}: ", "--set: ", "--unset: "):
-        if message.startswith(prefix):
-            return f'scene["{key}"]: ' + message[len(prefix) :]
-    return message
-
-
-def _plain(value: Any) -> Any:
-    """Tuples and numpy arrays as lists, numpy scalars as Python numbers: the values a
-    TOML scene holds (``scene["mesh.divisions"] = (20, 4)``)."""
-    if isinstance(value, tuple) or type(value).__module__ == "numpy":
-        value = value.tolist() if hasattr(value, "tolist") else list(value)
-    if isinstance(value, list):
-        return [_plain(v) for v in value]
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    return value
-
-
-def _split(key: str) -> list[str]:
-    if not isinstance(key, str) or not key or any(not p for p in key.split(".")):
-        raise SceneError(f"expected a dotted key path like shell.thickness, found {key!r}")
-    return key.split(".")
 
 
 class Scene:
@@ -127,7 +70,7 @@ class Scene:
     # --- reading ---------------------------------------------------------------
 
     def __getitem__(self, key: str) -> Any:
-        _split(key)
+        key_path(key)
         node = lookup(self._scene, key, absent=_ABSENT)  # None in a table it does not have
         if node is _ABSENT:
             # let the schema name what is wrong (unknown key, index out of range)
@@ -215,7 +158,7 @@ class Scene:
         return default
 
     def _remove(self, key: str) -> list:
-        _split(key)
+        key_path(key)
         raw = copy.deepcopy(self._raw)
         removed = unset_key(raw, key)
         if removed:
@@ -232,7 +175,7 @@ class Scene:
                 "Scene.update takes a dict of dotted keys: scene.update({'time.dt': 0.01})"
             )
         raw = copy.deepcopy(self._raw)
-        texts = _change(raw, {} if changes is None else changes)
+        texts = apply_changes(raw, {} if changes is None else changes)
         overrides = [*self._overrides, *texts]
         scene = complete_scene(raw, self._folder, self._path, overrides)
         self._raw, self._scene, self._overrides = raw, scene, overrides
@@ -286,7 +229,7 @@ def load_scene(path: str | os.PathLike, set: Mapping[str, Any] | None = None) ->
     """Read the scene file ``path``, with the changes ``set`` (dotted keys to
     values, as ``--set``), and validate it as ``rftfem run`` does."""
     raw = read_scene_file(path)
-    texts = _change(raw, {} if set is None else set, "load_scene(set=...)")
+    texts = apply_changes(raw, {} if set is None else set, "load_scene(set=...)")
     path = Path(path).expanduser().resolve()
     return Scene(raw, path.parent, path, texts)
 
@@ -342,11 +285,35 @@ def run(
     run after its step, with its summary written ("interrupted") and every file
     closed, and raise :class:`RunInterrupted` (its ``folder`` too); a second signal
     stops it at once."""
-    import sys
-
     from rftfem.result import Result
 
     scene = _scene_of(scene)
+    run_simulation = _simulation_run()
+    if out is None:
+        out = restart if restart is not None else default_out(scene)
+    petsc = _petsc_options(petsc)
+    try:
+        run_simulation(
+            scene.completed(),
+            out_dir=Path(out),
+            quiet=bool(quiet),
+            petsc_args=list(petsc or []),
+            comm=comm,
+            signals=True,
+            restart=None if restart is None else Path(restart),
+            warn=_warn_at_caller if quiet else None,
+        )
+    except (RunFailed, RunInterrupted) as exc:
+        exc.folder = Path(out)
+        raise
+    return Result(out)
+
+
+def _simulation_run() -> Callable[..., Any]:
+    """The simulation's ``run``, imported after pyvista where it can be, keeping the
+    caller's ``warnings.showwarning``."""
+    import sys
+
     if "dolfinx" not in sys.modules:
         # pyvista first, so that Result.fields and .render work in this process
         # afterwards (rftfem/outputs/compat_render.py); without pyvista, they draw elsewhere
@@ -360,34 +327,28 @@ def run(
     # the reference stack's ffcx, when first imported, sends every warning to logging,
     # past the caller's warnings.catch_warnings (pytest.warns): undo that
     warnings.showwarning = shown
+    return run_simulation
 
-    if out is None:
-        out = restart if restart is not None else default_out(scene)
+
+def _petsc_options(
+    petsc: Iterable[str] | Mapping[str, Any] | None,
+) -> Iterable[str] | None:
+    """``petsc`` as command-line options: a dict's keys with one dash, each followed by
+    its value unless that is None or ""."""
     if isinstance(petsc, Mapping):
         args = []
         for k, v in petsc.items():
             args += [f"-{str(k).lstrip('-')}"] + ([] if v is None or v == "" else [str(v)])
         petsc = args
+    return petsc
 
-    def warn(text: str):
-        # issued at the line that called rftfem.run (the first frame outside rftfem)
-        frame, level = sys._getframe(1), 2
-        while frame is not None and frame.f_globals.get("__name__", "").startswith("rftfem."):
-            frame, level = frame.f_back, level + 1
-        warnings.warn(text, RunWarning, stacklevel=level)
 
-    try:
-        run_simulation(
-            scene.completed(),
-            out_dir=Path(out),
-            quiet=bool(quiet),
-            petsc_args=list(petsc or []),
-            comm=comm,
-            signals=True,
-            restart=None if restart is None else Path(restart),
-            warn=warn if quiet else None,
-        )
-    except (RunFailed, RunInterrupted) as exc:
-        exc.folder = Path(out)
-        raise
-    return Result(out)
+def _warn_at_caller(text: str) -> None:
+    """A run's warning as a :class:`RunWarning`, issued at the line that called
+    rftfem.run (the first frame outside rftfem)."""
+    import sys
+
+    frame, level = sys._getframe(1), 2
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("rftfem."):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(text, RunWarning, stacklevel=level)

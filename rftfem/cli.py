@@ -18,17 +18,18 @@ every rank returns the same status.
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem import __version__
 from rftfem.errors import RunFailed, RunInterrupted, SceneError
 
+if TYPE_CHECKING:
+    from rftfem.outputs.console import Console
+
 _PETSC_OPTION = re.compile(r"^-[A-Za-z]")
-# Environment variables set by the common MPI launchers (Open MPI, MPICH/Hydra, PMIx, Slurm).
-_MPI_ENV = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK", "MPI_LOCALNRANKS")
 
 
 class _UsageError(Exception):
@@ -41,8 +42,6 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _build_parser() -> _Parser:
-    from rftfem.scene.overrides import add_override_arguments
-
     parser = _Parser(
         prog="rftfem",
         description="Large-rotation shells in viscous fluid (RFT drag, magnetic couples) "
@@ -53,6 +52,15 @@ def _build_parser() -> _Parser:
     sub = parser.add_subparsers(
         dest="command", metavar="COMMAND", required=True, parser_class=_Parser
     )
+    _add_run_command(sub)
+    _add_check_command(sub)
+    _add_commands_with_own_options(sub)
+    return parser
+
+
+def _add_run_command(sub: argparse._SubParsersAction) -> None:
+    """``rftfem run``: the scene, its output folder, overrides, quiet and restart."""
+    from rftfem.scene.overrides import add_override_arguments
 
     run = sub.add_parser(
         "run",
@@ -86,6 +94,11 @@ def _build_parser() -> _Parser:
         "may differ only in time.end and how the run is watched",
     )
 
+
+def _add_check_command(sub: argparse._SubParsersAction) -> None:
+    """``rftfem check``: the scene and its overrides."""
+    from rftfem.scene.overrides import add_override_arguments
+
     check = sub.add_parser(
         "check",
         help="validate a scene and print its active effects",
@@ -97,54 +110,41 @@ def _build_parser() -> _Parser:
     check.add_argument("scene", metavar="SCENE.toml", help="the scene file")
     add_override_arguments(check)
 
+
+def _add_commands_with_own_options(sub: argparse._SubParsersAction) -> None:
+    """``render``, ``collect``, ``study``, ``sweep`` and ``optimize``: each module adds
+    its own options to its command."""
     # render and collect own their options (light modules: pyvista and the
     # simulation are imported only when the command runs)
     from rftfem.outputs import collect, render_cli
     from rftfem.studies import optimize, study, sweep
 
-    render_cli.add_arguments(
-        sub.add_parser(
+    for module, name, help_text, epilog in (
+        (
+            render_cli,
             "render",
-            help="draw a finished run as a picture (PNG) or a film (MP4, GIF)",
-            allow_abbrev=False,
-            description=render_cli.DESCRIPTION,
-            epilog="exit status: 0 ok, 2 bad option or results folder",
-        )
-    )
-    collect.add_arguments(
-        sub.add_parser(
+            "draw a finished run as a picture (PNG) or a film (MP4, GIF)",
+            "exit status: 0 ok, 2 bad option or results folder",
+        ),
+        (
+            collect,
             "collect",
-            help="one table row per run folder of a parameter study",
-            allow_abbrev=False,
-            description=collect.DESCRIPTION,
-            epilog="exit status: 0 ok, 2 bad option or folder",
+            "one table row per run folder of a parameter study",
+            "exit status: 0 ok, 2 bad option or folder",
+        ),
+        (study, "study", "what accuracy costs: a scene at successive refinements", None),
+        (sweep, "sweep", "a scene over a grid of values of any keys, by any executor", None),
+        (optimize, "optimize", "search scene parameters for the best value of a quantity", None),
+    ):
+        module.add_arguments(
+            sub.add_parser(
+                name,
+                help=help_text,
+                allow_abbrev=False,
+                description=module.DESCRIPTION,
+                epilog=epilog,
+            )
         )
-    )
-    study.add_arguments(
-        sub.add_parser(
-            "study",
-            help="what accuracy costs: a scene at successive refinements",
-            allow_abbrev=False,
-            description=study.DESCRIPTION,
-        )
-    )
-    sweep.add_arguments(
-        sub.add_parser(
-            "sweep",
-            help="a scene over a grid of values of any keys, by any executor",
-            allow_abbrev=False,
-            description=sweep.DESCRIPTION,
-        )
-    )
-    optimize.add_arguments(
-        sub.add_parser(
-            "optimize",
-            help="search scene parameters for the best value of a quantity",
-            allow_abbrev=False,
-            description=optimize.DESCRIPTION,
-        )
-    )
-    return parser
 
 
 def _split_petsc(argv: list[str]) -> tuple[list[str], list[str]]:
@@ -201,53 +201,11 @@ def _glue_values(argv: list[str]) -> list[str]:
     return out
 
 
-def _mpi_comm():
-    """COMM_WORLD if this process runs under an MPI launcher (or mpi4py is loaded)."""
-    if "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _MPI_ENV):
-        return None
-    try:
-        from mpi4py import MPI
-    except ImportError:
-        return None
-    return MPI.COMM_WORLD
-
-
-class _Console:
-    """Prints on rank 0 only."""
-
-    def __init__(self):
-        self.comm = _mpi_comm()
-
-    def refresh(self):
-        if self.comm is None:
-            self.comm = _mpi_comm()
-
-    @property
-    def rank(self) -> int:
-        return 0 if self.comm is None else self.comm.rank
-
-    def out(self, text: str):
-        if self.rank == 0:
-            print(text, flush=True)
-
-    def err(self, text: str):
-        if self.rank == 0:
-            print(" ".join(text.split()), file=sys.stderr, flush=True)
-
-    def agree(self, status: int) -> int:
-        """The same exit status on every rank (the largest)."""
-        if self.comm is None or self.comm.size == 1:
-            return status
-        from mpi4py import MPI
-
-        return int(self.comm.allreduce(status, op=MPI.MAX))
-
-
 def _default_out(scene_file: str) -> Path:
     return Path("results") / Path(scene_file).stem
 
 
-def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
+def _cmd_run(args, petsc_args: list[str], console: Console) -> int:
     from rftfem.scene.reading import load_scene
 
     out_dir = (
@@ -286,7 +244,7 @@ def _cmd_run(args, petsc_args: list[str], console: _Console) -> int:
     return console.agree(status)
 
 
-def _cmd_check(args, console: _Console) -> int:
+def _cmd_check(args, console: Console) -> int:
     from rftfem.scene import scales
     from rftfem.scene.reading import active_effects, load_scene
 
@@ -328,7 +286,7 @@ def _cmd_check(args, console: _Console) -> int:
     return console.agree(0)
 
 
-def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
+def _cmd_tool(args, petsc_args: list[str], console: Console) -> int:
     """``render`` and ``collect``: post-processing of results folders (serial)."""
     if petsc_args:
         console.err(f"rftfem {args.command}: error: unrecognized arguments: {' '.join(petsc_args)}")
@@ -344,7 +302,7 @@ def _cmd_tool(args, petsc_args: list[str], console: _Console) -> int:
         return SceneError.exit_status
 
 
-def _cmd_many(args, petsc_args: list[str], console: _Console) -> int:
+def _cmd_many(args, petsc_args: list[str], console: Console) -> int:
     """``study``, ``sweep`` and ``optimize``: many runs of a scene (PETSc options go to
     each)."""
     if args.command == "study":
@@ -362,8 +320,10 @@ def _cmd_many(args, petsc_args: list[str], console: _Console) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``rftfem`` and ``python -m rftfem``; returns the exit status."""
+    from rftfem.outputs.console import Console
+
     argv = list(sys.argv[1:] if argv is None else argv)
-    console = _Console()
+    console = Console()
     rest, petsc_args = _split_petsc(argv)
     rest = _glue_values(rest)
     try:

@@ -193,16 +193,7 @@ def collect(
     folders are left out, and a quantity a run has no data for (a window past its
     last row) is an empty cell; each is said in ``notes`` (a list to append to)."""
     notes = [] if notes is None else notes
-    runs, kept = [], []
-    for d in dirs:
-        try:
-            runs.append(RunFolder(d))
-            kept.append(d)
-        except SceneError as exc:
-            notes.append(f"skipped {exc}")
-    if not runs:
-        raise SceneError("no run folders among the paths given (" + "; ".join(notes) + ")")
-    dirs = kept
+    dirs, runs = _run_folders(dirs, notes)
     keys = differing_keys(runs)
     steady = steady_columns(runs)
     fixed = [*LEAD_COLUMNS, *keys, "overrides", *COUNT_COLUMNS, *steady]
@@ -216,30 +207,7 @@ def collect(
     header = [*fixed, *names]
     rows = []
     for d, run in zip(dirs, runs):
-        s = run.summary or {}
-        flat = {k: _cell(v) for k, v in _flatten(s.get("scene", {})).items()}
-        flat["scene_file"] = _cell(s.get("scene_file"))
-        failure = s.get("failure") or {}
-        counts, wall = s.get("counts") or {}, s.get("wall_s") or {}
-        row = [str(d), run.status, str(failure.get("reason", "") or "")]
-        row += [flat.get(k, "") for k in keys]
-        row.append(";".join(s.get("overrides", []) or []))
-        row += [
-            _number(counts.get("steps")),
-            _number(counts.get("newton_iterations")),
-            _number(counts.get("dt_cuts")),
-            _number(s.get("time_reached")),
-            _number(wall.get("total")),
-            _number(s.get("dofs")),
-            _number(s.get("mpi_size")),
-        ]
-        found = s.get("steady") or {}
-        row += [
-            _cell(found.get("reached"))
-            if c == "steady.reached"
-            else _number((found.get("values") or {}).get(c[len("steady.") :]))
-            for c in steady
-        ]
+        row = _summary_cells(d, run, keys, steady)
         for _, q in quantities:
             try:
                 row.append(repr(q.evaluate(run)))
@@ -249,6 +217,52 @@ def collect(
                 row.append("")
         rows.append(row)
     return header, rows, runs
+
+
+def _run_folders(
+    dirs: Sequence[str | Path], notes: list
+) -> tuple[list[str | Path], list[RunFolder]]:
+    """The run folders among ``dirs`` (paths and RunFolders); the rest said in ``notes``."""
+    runs, kept = [], []
+    for d in dirs:
+        try:
+            runs.append(RunFolder(d))
+            kept.append(d)
+        except SceneError as exc:
+            notes.append(f"skipped {exc}")
+    if not runs:
+        raise SceneError("no run folders among the paths given (" + "; ".join(notes) + ")")
+    return kept, runs
+
+
+def _summary_cells(d: str | Path, run: RunFolder, keys: list[str], steady: list[str]) -> list[str]:
+    """A run's row up to its quantities: folder, status, failure, the distinguishing
+    keys, overrides, counts and steady values (from summary.json)."""
+    s = run.summary or {}
+    flat = {k: _cell(v) for k, v in _flatten(s.get("scene", {})).items()}
+    flat["scene_file"] = _cell(s.get("scene_file"))
+    failure = s.get("failure") or {}
+    counts, wall = s.get("counts") or {}, s.get("wall_s") or {}
+    row = [str(d), run.status, str(failure.get("reason", "") or "")]
+    row += [flat.get(k, "") for k in keys]
+    row.append(";".join(s.get("overrides", []) or []))
+    row += [
+        _number(counts.get("steps")),
+        _number(counts.get("newton_iterations")),
+        _number(counts.get("dt_cuts")),
+        _number(s.get("time_reached")),
+        _number(wall.get("total")),
+        _number(s.get("dofs")),
+        _number(s.get("mpi_size")),
+    ]
+    found = s.get("steady") or {}
+    row += [
+        _cell(found.get("reached"))
+        if c == "steady.reached"
+        else _number((found.get("values") or {}).get(c[len("steady.") :]))
+        for c in steady
+    ]
+    return row
 
 
 def to_csv(header: list[str], rows: list[list[str]]) -> str:

@@ -99,45 +99,7 @@ def parse(text: str, what: str = "--objective") -> Objective:
     """Parse an objective (module docstring); a one-line SceneError naming ``what``."""
     if not isinstance(text, str) or not text.strip():
         raise SceneError(f"{what}: expected a formula of quantities, found '{text}'")
-    pieces, found, pos = [], [], 0
-    while pos < len(text):
-        m = _NAME.search(text, pos)
-        if m is None:
-            break
-        name, end = m.group(), m.end()
-        rest = text[end:]
-        after = end + len(rest) - len(rest.lstrip())
-        span = None
-        if name == "scene" and after < len(text) and text[after] == "(":
-            span = (m.start(), _closing(text, after, what))
-            key = text[after + 1 : span[1] - 1].strip()
-            if not re.fullmatch(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*", key):
-                raise SceneError(
-                    f"{what} '{text}': expected a dotted scene key in scene(...), found '{key}'"
-                )
-            found.append(SceneValue(text[span[0] : span[1]], key))
-            pieces.append((span, f"q{len(found) - 1}"))
-            pos = span[1]
-            continue
-        if after < len(text) and text[after] == "(" and _is_quantity_call(name, text, after):
-            span = (m.start(), _closing(text, after, what))
-        elif after < len(text) and text[after] == "@":
-            t = _TIME.match(text, after + 1)
-            if t is None:
-                raise SceneError(
-                    f"{what} '{text}': expected a time (a number, 'start' or 'end') after '{name}@'"
-                )
-            span = (m.start(), t.end())
-        if span is None:
-            pos = end
-            continue
-        piece = text[span[0] : span[1]]
-        try:
-            found.append(quantities.parse(piece))
-        except SceneError as exc:
-            raise SceneError(f"{what}: {exc}") from None
-        pieces.append((span, f"q{len(found) - 1}"))
-        pos = span[1]
+    pieces, found = _operands(text, what)
     if not found and _NAME.fullmatch(text.strip()):
         try:  # a bare column: the quantity language says what it lacks ('@')
             quantities.parse(text.strip())
@@ -159,6 +121,62 @@ def parse(text: str, what: str = "--objective") -> Objective:
     except SceneError as exc:
         raise SceneError(f"{what} '{text}': {_plain(str(exc))}") from None
     return Objective(text, formula, tuple(found))
+
+
+def _operands(
+    text: str, what: str
+) -> tuple[list[tuple[tuple[int, int], str]], list[quantities.Quantity | SceneValue]]:
+    """The quantities and scene values of a formula, in order, with the span of each in
+    ``text`` and the name (``q0``, ``q1``, ...) it has in the arithmetic."""
+    pieces, found, pos = [], [], 0
+    while pos < len(text):
+        m = _NAME.search(text, pos)
+        if m is None:
+            break
+        name, end = m.group(), m.end()
+        rest = text[end:]
+        after = end + len(rest) - len(rest.lstrip())
+        if name == "scene" and after < len(text) and text[after] == "(":
+            span = (m.start(), _closing(text, after, what))
+            found.append(_scene_value(text, span, after, what))
+        else:
+            span = _quantity_span(text, m, after, what)
+            if span is None:
+                pos = end
+                continue
+            try:
+                found.append(quantities.parse(text[span[0] : span[1]]))
+            except SceneError as exc:
+                raise SceneError(f"{what}: {exc}") from None
+        pieces.append((span, f"q{len(found) - 1}"))
+        pos = span[1]
+    return pieces, found
+
+
+def _scene_value(text: str, span: tuple[int, int], open_at: int, what: str) -> SceneValue:
+    """``scene(KEY)`` at ``span`` of ``text``, its '(' at ``open_at``."""
+    key = text[open_at + 1 : span[1] - 1].strip()
+    if not re.fullmatch(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*", key):
+        raise SceneError(
+            f"{what} '{text}': expected a dotted scene key in scene(...), found '{key}'"
+        )
+    return SceneValue(text[span[0] : span[1]], key)
+
+
+def _quantity_span(text: str, m: re.Match, after: int, what: str) -> tuple[int, int] | None:
+    """Where the quantity that starts with the name ``m`` ends (a call or ``NAME@TIME``);
+    None if the name is not a quantity's (a function or a variable of the formula)."""
+    name = m.group()
+    if after < len(text) and text[after] == "(" and _is_quantity_call(name, text, after):
+        return (m.start(), _closing(text, after, what))
+    if after < len(text) and text[after] == "@":
+        t = _TIME.match(text, after + 1)
+        if t is None:
+            raise SceneError(
+                f"{what} '{text}': expected a time (a number, 'start' or 'end') after '{name}@'"
+            )
+        return (m.start(), t.end())
+    return None
 
 
 def _plain(message: str) -> str:

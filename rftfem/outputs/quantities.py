@@ -29,13 +29,12 @@ caller may excuse in a run that did not finish (:class:`NotSteady` in any run).
 
 API: ``evaluate(expr, run_dir)``; ``parse(expr).evaluate(run)``; ``RunFolder(run_dir)``
 (summary, status, series); ``read_csv(path)`` (the complete rows, also of a log being
-written); on rows ``value_at``, ``rate``, ``mean``, ``extreme``.
+written; these two from :mod:`rftfem.outputs.run_folder`); on rows ``value_at``,
+``rate``, ``mean``, ``extreme``.
 """
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import re
 from dataclasses import dataclass
@@ -44,22 +43,18 @@ from pathlib import Path
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.outputs.run_folder import (  # noqa: F401  (importable from here as before)
+    RUN_FILES,
+    SERIES_FILES,
+    STALE_SUMMARY_S,
+    RunFolder,
+    Unavailable,
+    read_csv,
+)
 
-#: files of a run that hold time series (searched in this order)
-SERIES_FILES = ("probes.csv", "body.csv")
-#: files whose presence marks a folder as a run folder (without summary.json)
-RUN_FILES = ("probes.csv", "steps.csv", "body.csv")
 FUNCTIONS = ("rate", "mean", "max", "min", "spin", "steady")
 #: spin(): the axis and the plane coordinates (p, q) that measure the angle atan2(q, p)
 SPIN_AXES = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}
-#: seconds by which a CSV file may be newer than summary.json in a finished run
-STALE_SUMMARY_S = 1.0
-
-
-class Unavailable(SceneError):
-    """The run has no data for this quantity (no such file, no rows, or the time is
-    past its last row): an empty cell of ``rftfem collect`` in a run that did not
-    finish, an error otherwise."""
 
 
 class NotSteady(Unavailable):
@@ -125,83 +120,101 @@ class Quantity:
         return extreme(t, x, a, b, self.func)
 
 
-def parse(text: str) -> Quantity:
-    """Parse a quantity expression (grammar in the module docstring); SceneError if bad."""
-    toks = _tokens(text)
-    pos = 0
+class _Reader:
+    """The tokens of a quantity expression, read from the left."""
 
-    def take(kind=None, value=None, what="") -> str:
-        nonlocal pos
-        if pos >= len(toks):
-            raise SceneError(f"quantity '{text}': expected {what} at the end")
-        k, v = toks[pos]
+    def __init__(self, text: str):
+        self.text, self.toks, self.pos = text, _tokens(text), 0
+
+    def more(self) -> bool:
+        return self.pos < len(self.toks)
+
+    def next_is(self, value: str) -> bool:
+        return self.more() and self.toks[self.pos][1] == value
+
+    def take(self, kind: str | None = None, value: str | None = None, what: str = "") -> str:
+        if not self.more():
+            raise SceneError(f"quantity '{self.text}': expected {what} at the end")
+        k, v = self.toks[self.pos]
         if (kind and k != kind) or (value and v != value):
-            raise SceneError(f"quantity '{text}': expected {what}, found '{v}'")
-        pos += 1
+            raise SceneError(f"quantity '{self.text}': expected {what}, found '{v}'")
+        self.pos += 1
         return v
 
-    def time_value() -> float | str:
-        k, v = toks[pos] if pos < len(toks) else ("", "")
+    def time_value(self) -> float | str:
+        k, v = self.toks[self.pos] if self.more() else ("", "")
         if k == "num" or v in ("start", "end"):
-            take(what="a time")
+            self.take(what="a time")
             return float(v) if k == "num" else v
-        return take("num", what="a time (a number, 'start' or 'end')")
+        return self.take("num", what="a time (a number, 'start' or 'end')")
 
-    if not toks:
+    def end(self) -> None:
+        """SceneError if anything follows the expression."""
+        if self.more():
+            found = self.toks[self.pos][1]
+            raise SceneError(f"quantity '{self.text}': unexpected '{found}' after the expression")
+
+
+def parse(text: str) -> Quantity:
+    """Parse a quantity expression (grammar in the module docstring); SceneError if bad."""
+    r = _Reader(text)
+    if not r.toks:
         raise SceneError("quantity '': empty expression")
-    head = take("name", what="a column name or one of " + ", ".join(FUNCTIONS))
-    if pos < len(toks) and toks[pos][1] == "(":
+    head = r.take("name", what="a column name or one of " + ", ".join(FUNCTIONS))
+    if r.next_is("("):
         if head not in FUNCTIONS:
             raise SceneError(
                 f"quantity '{text}': unknown function '{head}' (known: {', '.join(FUNCTIONS)})"
             )
-        take(value="(", what="'('")
-        other = axis = ""
-        if head == "spin":
-            column = take("name", what="a probe name")
-            take(value=",", what="',' and the second probe")
-            other = take("name", what="a probe name")
-            take(value=",", what="',' and an axis (x, y or z)")
-            axis = take("name", what="an axis (x, y or z)")
-            if axis not in SPIN_AXES:
-                raise SceneError(f"quantity '{text}': expected an axis x, y or z, found '{axis}'")
-        else:
-            column = take(
-                "name",
-                what="a column name"
-                if head != "steady"
-                else "a steady value's name (e.g. centroid_x_rate)",
-            )
+        r.take(value="(", what="'('")
         if head == "steady":
-            take(value=")", what="')' (steady() takes a name and no times)")
-            if pos < len(toks):
-                raise SceneError(
-                    f"quantity '{text}': unexpected '{toks[pos][1]}' after the expression"
-                )
-            return Quantity(text, head, column)
-        bounds = []
-        while pos < len(toks) and toks[pos][1] == "," and len(bounds) < 2:
-            take(value=",", what="','")
-            bounds.append(time_value())
-        take(value=")", what="')'" if len(bounds) < 2 else "')' (at most two times)")
-        a, b = [*bounds, "start", "end"][:2] if len(bounds) != 1 else (bounds[0], "end")
-        q = Quantity(text, head, column, a, b, other, axis)
-    elif head in FUNCTIONS and pos >= len(toks):
+            return _steady_call(r)
+        q = _function_call(r, head)
+    elif head in FUNCTIONS and not r.more():
         raise SceneError(f"quantity '{text}': expected '(' after '{head}'")
     else:
-        take(
+        r.take(
             value="@",
             what=f"'@' and a time (e.g. tip_uz@end) or a function ({', '.join(FUNCTIONS)})",
         )
-        q = Quantity(text, "at", head, time_value(), "end")
-    if pos < len(toks):
-        raise SceneError(f"quantity '{text}': unexpected '{toks[pos][1]}' after the expression")
+        q = Quantity(text, "at", head, r.time_value(), "end")
+    r.end()
     for bound in (q.a, q.b):
         if isinstance(bound, float) and not math.isfinite(bound):
             raise SceneError(f"quantity '{text}': times must be finite")
     if isinstance(q.a, float) and isinstance(q.b, float) and q.func != "at" and not q.b > q.a:
         raise SceneError(f"quantity '{text}': the window needs A < B")
     return q
+
+
+def _steady_call(r: _Reader) -> Quantity:
+    """``steady(NAME)`` after its '(': a name and no times."""
+    column = r.take("name", what="a steady value's name (e.g. centroid_x_rate)")
+    r.take(value=")", what="')' (steady() takes a name and no times)")
+    r.end()
+    return Quantity(r.text, "steady", column)
+
+
+def _function_call(r: _Reader, head: str) -> Quantity:
+    """``FUNC(COLUMN[, A[, B]])`` or ``spin(PROBE, PROBE, AXIS[, A[, B]])`` after its '('."""
+    other = axis = ""
+    if head == "spin":
+        column = r.take("name", what="a probe name")
+        r.take(value=",", what="',' and the second probe")
+        other = r.take("name", what="a probe name")
+        r.take(value=",", what="',' and an axis (x, y or z)")
+        axis = r.take("name", what="an axis (x, y or z)")
+        if axis not in SPIN_AXES:
+            raise SceneError(f"quantity '{r.text}': expected an axis x, y or z, found '{axis}'")
+    else:
+        column = r.take("name", what="a column name")
+    bounds = []
+    while r.next_is(",") and len(bounds) < 2:
+        r.take(value=",", what="','")
+        bounds.append(r.time_value())
+    r.take(value=")", what="')'" if len(bounds) < 2 else "')' (at most two times)")
+    a, b = [*bounds, "start", "end"][:2] if len(bounds) != 1 else (bounds[0], "end")
+    return Quantity(r.text, head, column, a, b, other, axis)
 
 
 def evaluate(expr: str, run_dir: RunFolder | str | Path) -> float:
@@ -321,116 +334,3 @@ def steady_value(run: "RunFolder", name: str, text: str = "") -> float:
             f"was steady (after {found.get('periods')} periods)"
         )
     return float(values[name])
-
-
-# --- run folders -------------------------------------------------------------------
-
-
-class RunFolder:
-    """A results folder of ``rftfem run``: its summary (None if missing), its status,
-    and its time series (read on demand)."""
-
-    def __init__(self, path: str | Path):
-        self.dir = Path(path)
-        if not self.dir.is_dir():
-            raise SceneError(
-                f"{self.dir}: no such folder"
-                if not self.dir.exists()
-                else f"{self.dir}: not a folder"
-            )
-        summary_file = self.dir / "summary.json"
-        self.summary = None
-        if summary_file.is_file():
-            try:
-                self.summary = json.loads(summary_file.read_text(encoding="utf-8"))
-            except (ValueError, UnicodeDecodeError) as exc:
-                raise SceneError(f"{summary_file}: not valid JSON ({exc})") from None
-            if not isinstance(self.summary, dict) or "status" not in self.summary:
-                raise SceneError(f"{summary_file}: not a summary of rftfem run (no status)")
-        elif not any((self.dir / f).is_file() for f in RUN_FILES):
-            raise SceneError(
-                f"{self.dir}: not a run folder (no summary.json, {', '.join(RUN_FILES)})"
-            )
-        #: summary.json of an older run: a newer one writes (or wrote) the CSV files
-        self.stale = self.summary is not None and self._stale_summary()
-        if self.stale:
-            self.summary = None
-        self._tables: dict[str, tuple[list[str], np.ndarray] | None] = {}
-
-    @property
-    def status(self) -> str:
-        if self.stale or (self.summary is not None and self.summary["status"] == "running"):
-            return "running-or-interrupted"
-        if self.summary is None:
-            return "missing-summary"
-        return str(self.summary["status"])
-
-    def _stale_summary(self) -> bool:
-        written = (self.dir / "summary.json").stat().st_mtime
-        return any(
-            (self.dir / f).is_file() and (self.dir / f).stat().st_mtime > written + STALE_SUMMARY_S
-            for f in RUN_FILES
-        )
-
-    def _table(self, name: str):
-        if name not in self._tables:
-            path = self.dir / name
-            if not path.is_file():
-                self._tables[name] = None
-            else:
-                self._tables[name] = read_csv(path)
-        return self._tables[name]
-
-    def columns(self) -> dict[str, list[str]]:
-        """The columns of each series file present (without ``time``)."""
-        return {
-            name: [c for c in table[0] if c != "time"]
-            for name in SERIES_FILES
-            if (table := self._table(name)) is not None
-        }
-
-    def file_of(self, column: str) -> str | None:
-        for name, cols in self.columns().items():
-            if column in cols:
-                return name
-        return None
-
-    def series(self, column: str, text: str = "") -> tuple[np.ndarray, np.ndarray]:
-        """(time, values) of ``column``; SceneError naming the valid columns if unknown,
-        Unavailable when the run has no series file at all."""
-        columns = self.columns()
-        name = self.file_of(column)
-        if name is None:
-            if not columns:
-                raise Unavailable(
-                    f"quantity '{text}': {self.dir} has no {' or '.join(SERIES_FILES)}"
-                )
-            # probes.csv and body.csv of a static run both end with load_factor
-            valid = ", ".join(dict.fromkeys(c for cols in columns.values() for c in cols))
-            raise SceneError(
-                f"quantity '{text}': unknown column '{column}' in {self.dir} (valid: {valid})"
-            )
-        header, data = self._table(name)
-        return data[:, header.index("time")], data[:, header.index(column)]
-
-
-def read_csv(path: Path) -> tuple[list[str], np.ndarray]:
-    """Header and rows (floats) of a run's CSV file.  Rows that are not complete
-    (a run killed while writing) are left out; rows must be in time order."""
-    with open(path, encoding="utf-8", newline="") as f:
-        reader = csv.reader(f)
-        header = next(reader, None)
-        if not header or "time" not in header:
-            raise SceneError(f"{path}: no header with a 'time' column")
-        rows = []
-        for row in reader:
-            try:
-                values = [float(v) for v in row]
-            except ValueError:
-                continue
-            if len(values) == len(header):
-                rows.append(values)
-    data = np.array(rows, dtype=float).reshape(-1, len(header))
-    if len(data) > 1 and np.any(np.diff(data[:, header.index("time")]) <= 0):
-        raise SceneError(f"{path}: times are not increasing")
-    return header, data

@@ -10,7 +10,8 @@ A film is drawn with a fixed camera that sees the body at every frame (a first
 pass over the frames finds their bounds and the colour range), or with
 ``view="follow"`` with a camera that keeps its distance and direction and moves
 with the centroid. Reading the run, that survey and the camera are in
-:mod:`rftfem.outputs.render_view`; this module draws and writes.
+:mod:`rftfem.outputs.render_view`, what moves from frame to frame in
+:mod:`rftfem.outputs.render_picture`; this module draws and writes.
 
 Import order matters (see :mod:`rftfem.outputs.compat_render`):
 this module imports pyvista, and must be imported before dolfinx in a process
@@ -29,7 +30,11 @@ import numpy as np
 
 from rftfem.errors import SceneError
 from rftfem.outputs.compat_render import import_pyvista
-from rftfem.outputs.render_body import BodyDrawing
+from rftfem.outputs.render_picture import (  # noqa: F401  (_arrows, TRAIL_COLOR: as before)
+    TRAIL_COLOR,
+    Picture,
+    _arrows,
+)
 from rftfem.outputs.render_view import (
     MAX_FILM_FRAMES,
     MAX_GIF_FRAMES,
@@ -37,7 +42,6 @@ from rftfem.outputs.render_view import (
     Survey,
     color_fields,
     color_limits,
-    color_values,
     film_plan,
     pixel_of,
     place_camera,
@@ -47,14 +51,9 @@ from rftfem.outputs.render_view import (
 pv = import_pyvista()
 
 BACKGROUND = "white"
-#: some ambient light, so that faces seen edge-on or from behind keep their colour
-_LIGHTING = {"ambient": 0.3, "diffuse": 0.75, "specular": 0.1}
 REFERENCE_COLOR = "#b0b0b0"
-#: the trail of the centroid or a probe, drawn over the body
-TRAIL_COLOR = "#d62728"
 #: a no-slip wall of the scene ([fluid.wall]), drawn translucent under the body
 WALL_COLOR = "#8c7b6b"
-_LABELS = {"displacement": "u (magnitude)", "magnetization": "m along axis"}
 
 
 @dataclass
@@ -87,14 +86,6 @@ class Rendered:
         )
 
 
-def _tick_format(clim) -> str:
-    """Enough significant digits that the colour bar's labels differ."""
-    lo, hi = clim
-    span, scale = hi - lo, max(abs(lo), abs(hi))
-    digits = 3 if span <= 0 else max(3, min(7, math.ceil(math.log10(scale / span)) + 3))
-    return f"%.{digits}g"
-
-
 def render(
     results: str | Path,
     out: str | Path,
@@ -122,14 +113,7 @@ def render(
         raise SceneError(
             f"--color {color}: not a field of this run (choose from {', '.join(color_fields(run))})"
         )
-    if trail is None and view == "follow":
-        trail = "centroid" if (run.folder / "body.csv").is_file() else None
-    path = run.path_of(trail) if trail and trail != "none" else None
-    if path is not None and scale != 1.0 and run.held:
-        # a held body's displacement is magnified about the reference, the trail too;
-        # a free body's trail is drawn true (its rigid motion is not magnified)
-        path = (path[0], path[1][:1] + scale * (path[1] - path[1][:1]))
-
+    path = _trail_path(run, trail, view)
     if film:
         most = MAX_GIF_FRAMES if out.suffix.lower() == ".gif" else MAX_FILM_FRAMES
         idx, fps = film_plan(len(run.times), every, fps, most)
@@ -137,13 +121,7 @@ def render(
         idx, fps = np.array([len(run.times) - 1 if time is None else run.nearest(time)]), None
     survey = survey_frames(run, idx, color, path)
     clim = color_limits(color, *survey.srange)
-
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with open(out, "wb"):
-            pass
-    except OSError as exc:
-        raise SceneError(f"--out {out}: cannot write here ({exc.strerror or exc})") from None
+    _claim(out)
 
     # Films are drawn without multisampling: on a machine without a GPU (Mesa's
     # software rasterizer) the 8 samples of a still picture double a frame's cost
@@ -160,12 +138,38 @@ def render(
         plotter.close()
 
 
+def _trail_path(
+    run: RunFields, trail: str | None, view: str
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(times, positions) of the trail drawn (the centroid's by default with ``view``
+    "follow"), as the body is drawn magnified; None for no trail."""
+    if trail is None and view == "follow":
+        trail = "centroid" if (run.folder / "body.csv").is_file() else None
+    path = run.path_of(trail) if trail and trail != "none" else None
+    if path is not None and run.scale != 1.0 and run.held:
+        # a held body's displacement is magnified about the reference, the trail too;
+        # a free body's trail is drawn true (its rigid motion is not magnified)
+        path = (path[0], path[1][:1] + run.scale * (path[1] - path[1][:1]))
+    return path
+
+
+def _claim(out: Path) -> None:
+    """Make ``out``'s folder and an empty ``out``: a folder it cannot be written in is a
+    one-line error before anything is drawn."""
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open(out, "wb"):
+            pass
+    except OSError as exc:
+        raise SceneError(f"--out {out}: cannot write here ({exc.strerror or exc})") from None
+
+
 def _draw(
     plotter, run, out, film, idx, fps, color, clim, view, survey: Survey, path, size
 ) -> Rendered:
     stamp = _add_setting(plotter, run, survey)
     first = run.frame(idx[0])
-    picture = _Picture(plotter, run, color, clim, survey, path, first)
+    picture = Picture(plotter, run, color, clim, survey, path, first)
     follow = view == "follow"
 
     def aim(points):
@@ -234,118 +238,6 @@ def _add_setting(plotter, run, survey: Survey):
     return stamp
 
 
-class _Picture:
-    """What moves: the body (coloured or plain, its cells' edges and outline), the
-    magnetization's arrows and the trail, drawn at the ``first`` frame and moved to
-    each next by :meth:`show`."""
-
-    def __init__(self, plotter, run, color, clim, survey: Survey, path, first):
-        self.plotter, self.run, self.color, self.path = plotter, run, color, path
-        self.drawing = drawing = BodyDrawing(run.reference)
-        s = color_values(color, first, run)
-        self.body = drawing.surface(run.shown(first), None if s is None else {color: s})
-        if s is None:
-            surface = plotter.add_mesh(self.body, color="#4a7fb5", smooth_shading=True, **_LIGHTING)
-            edge_color = "#2a4f75"
-        else:
-            cmap = "coolwarm" if clim and clim[0] < 0 < clim[1] else "viridis"
-            surface = plotter.add_mesh(
-                self.body,
-                scalars=color,
-                clim=clim,
-                cmap=cmap,
-                smooth_shading=True,
-                **_LIGHTING,
-                scalar_bar_args={
-                    "title": _LABELS.get(color, color),
-                    "color": "black",
-                    "fmt": _tick_format(clim),
-                    "vertical": True,
-                    "position_x": 0.86,
-                    "position_y": 0.25,
-                    "height": 0.5,
-                    "width": 0.06,
-                },
-            )
-            edge_color = "#303030"
-        # the cells' edges, curved as the cells are (the surface pushed back a little in
-        # depth so that the lines on it are not hidden), and the body's outline as lines:
-        # visible also where the surface is seen edge-on (a flat sheet's wave from the side)
-        surface.mapper.SetResolveCoincidentTopologyToPolygonOffset()
-        surface.mapper.SetRelativeCoincidentTopologyPolygonOffsetParameters(2.0, 2.0)
-        plotter.add_mesh(drawing.edges(run.shown(first)), color=edge_color, line_width=1)
-        plotter.add_mesh(drawing.outline(run.shown(first)), color="#202020", line_width=2)
-        self.arrows = None
-        if color == "magnetization":  # arrows on the magnetized points only, as long as |m|
-            strength = np.linalg.norm(first["magnetization"], axis=1)
-            self.magnetized = strength > 0.0
-            # the strongest magnetization's arrow is 5 % of the body's size
-            self.arrow_length = 0.05 * survey.body_size / max(float(strength.max()), 1e-300)
-            self.arrows = plotter.add_mesh(
-                _arrows(
-                    run.points(first), first["magnetization"], self.magnetized, self.arrow_length
-                ),
-                color="black",
-            )
-        self.trail = self.here = None
-        if path is not None:
-            self._add_trail(path[1][:1])
-        plotter.show_axes()
-
-    def _add_trail(self, start):
-        plotter = self.plotter
-        self.trail, self.here = pv.PolyData(start.copy()), pv.PolyData(start.copy())
-        _on_top(
-            plotter,
-            [
-                plotter.add_mesh(self.trail, color=TRAIL_COLOR, line_width=4),
-                plotter.add_mesh(
-                    pv.PolyData(start.copy()),
-                    color="white",
-                    point_size=11,
-                    render_points_as_spheres=True,
-                ),
-                plotter.add_mesh(
-                    pv.PolyData(start.copy()),
-                    color=TRAIL_COLOR,
-                    point_size=7,
-                    render_points_as_spheres=True,
-                ),
-                plotter.add_mesh(
-                    self.here, color=TRAIL_COLOR, point_size=11, render_points_as_spheres=True
-                ),
-            ],
-        )
-
-    def show(self, frame, t: float):
-        """Move everything to ``frame`` (at time ``t``)."""
-        run, color = self.run, self.color
-        s = color_values(color, frame, run)
-        u = run.shown(frame)
-        moved = self.drawing.surface(u, None if s is None else {color: s})
-        self.body.points = moved.points
-        if s is not None:
-            self.body.point_data[color] = moved.point_data[color]
-        self.drawing.edges(u)
-        self.drawing.outline(u)
-        if self.arrows is not None:
-            self.plotter.remove_actor(self.arrows, render=False)
-            self.arrows = self.plotter.add_mesh(
-                _arrows(
-                    run.points(frame), frame["magnetization"], self.magnetized, self.arrow_length
-                ),
-                color="black",
-                render=False,
-            )
-        if self.trail is not None:
-            path = self.path
-            keep = path[0] <= t + 1e-12 * max(1.0, abs(t))
-            pts = path[1][keep] if keep.any() else path[1][:1]
-            line = pv.lines_from_points(pts) if len(pts) > 1 else pv.PolyData(pts)
-            self.trail.copy_from(line)
-            self.here.points = pts[-1:]
-
-
 def _magnified(run) -> str:
     if run.scale == 1.0:
         return ""
@@ -389,32 +281,6 @@ def _across(normal) -> np.ndarray:
     other = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     v = np.cross(normal, other)
     return v / np.linalg.norm(v)
-
-
-def _arrows(points, vectors, where, length: float):
-    """Arrows along ``vectors`` at the selected points, ``length`` times as long as
-    the vectors."""
-    cloud = pv.PolyData(np.asarray(points)[where])
-    cloud["m"] = np.asarray(vectors)[where]
-    return cloud.glyph(orient="m", scale="m", factor=length)
-
-
-def _on_top(plotter, actors):
-    """Move ``actors`` to a layer drawn over the body with the same camera: a trail
-    runs through the body (a centroid lies inside a sheet), and would be hidden."""
-    from vtkmodules.vtkRenderingCore import vtkRenderer
-
-    overlay = vtkRenderer()
-    overlay.SetLayer(1)
-    overlay.SetActiveCamera(plotter.renderer.GetActiveCamera())
-    overlay.InteractiveOff()
-    window = plotter.ren_win
-    window.SetNumberOfLayers(max(2, window.GetNumberOfLayers()))
-    window.AddRenderer(overlay)
-    for actor in actors:
-        plotter.renderer.RemoveActor(actor)
-        overlay.AddActor(actor)
-    plotter._rftfem_overlay = overlay  # keep it alive with the plotter
 
 
 def _centroid(points) -> np.ndarray:

@@ -29,6 +29,15 @@ FORMATS = (".png", ".mp4", ".gif")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``rftfem render``'s arguments, in the order its help lists them."""
+    _add_file_arguments(parser)
+    _add_picture_options(parser)
+    _add_film_options(parser)
+    _add_drawing_options(parser)
+
+
+def _add_file_arguments(parser: argparse.ArgumentParser) -> None:
+    """The results folder, and the picture or film to write."""
     parser.add_argument(
         "results",
         metavar="RESULTS_DIR",
@@ -41,6 +50,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="picture or film to write: .png, .mp4 or .gif (default: RESULTS_DIR/render.png)",
     )
+
+
+def _add_picture_options(parser: argparse.ArgumentParser) -> None:
+    """What a picture shows: the colour, the time, the view and the trail."""
     parser.add_argument(
         "--color",
         metavar="FIELD",
@@ -72,6 +85,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "up to the frame's time, or none (default: the centroid with "
         "--view follow, none otherwise)",
     )
+
+
+def _add_film_options(parser: argparse.ArgumentParser) -> None:
+    """A film's frame rate and frames."""
     parser.add_argument(
         "--fps",
         metavar="N",
@@ -87,6 +104,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="film: use every Nth output frame (default: at most 360 frames in "
         "an MP4, 120 in a GIF)",
     )
+
+
+def _add_drawing_options(parser: argparse.ArgumentParser) -> None:
+    """How the body is drawn: magnified, and the picture's size."""
     parser.add_argument(
         "--scale",
         metavar="S",

@@ -24,6 +24,7 @@ from rftfem.errors import SceneError
 from rftfem.outputs.compat_render import import_pyvista
 from rftfem.outputs.quantities import read_csv
 from rftfem.outputs.rigid_fit import magnified
+from rftfem.outputs.xdmf_repair import readable
 
 pv = import_pyvista()
 
@@ -45,9 +46,6 @@ _VIEWS = {
 
 
 # ------------------------------------------------------------------ the run
-
-_XINCLUDE = 'xmlns:xi="http://www.w3.org/2001/XInclude"'
-_BAD_XINCLUDE = 'xmlns:xi="https://www.w3.org/2001/XInclude"'
 
 
 class RunFields:
@@ -96,38 +94,12 @@ class RunFields:
         self.reference_points = np.array(self.reference.points, dtype=float)
 
     def _readable(self, xdmf: Path) -> Path:
-        """``xdmf``, or a repaired copy of it in a temporary folder.
-
-        rftfem repairs its field file when a run closes it; a run that stopped
-        before that (killed outright) or an older rftfem's file can need:
-
-        - the XInclude namespace: some dolfinx versions write it ``https://...``;
-          XML parsers know only ``http://www.w3.org/2001/XInclude``, leave every
-          time step without its mesh, and VTK's reader then crashes;
-        - ``Precision="8"`` on the real arrays, without which VTK reads the
-          doubles as float32.
-
-        The copy's data paths point at the original HDF5 files.
-        """
-        import re
-
-        text = xdmf.read_text(encoding="utf-8", errors="replace")
-        undeclared = re.compile(
-            r'<DataItem(?![^>]*Precision=)(?![^>]*NumberType="(?:U?Int|Char))'
-            r'([^>]*Format="HDF"[^>]*)>'
-        )
-        if _BAD_XINCLUDE not in text and not undeclared.search(text):
-            return xdmf
-        import tempfile
-
-        self._tmp = tempfile.TemporaryDirectory(prefix="rftfem-render-")
-        text = text.replace(_BAD_XINCLUDE, _XINCLUDE)
-        text = undeclared.sub(r'<DataItem\1 Precision="8">', text)
-        folder = str(xdmf.parent.resolve())
-        text = re.sub(r">\s*(fields(?:-\d+)?\.h5):", lambda m: f">{folder}/{m.group(1)}:", text)
-        copy = Path(self._tmp.name) / "fields.xdmf"
-        copy.write_text(text, encoding="utf-8")
-        return copy
+        """``xdmf``, or a repaired copy of it (:func:`rftfem.outputs.xdmf_repair.readable`),
+        kept while this object lives."""
+        path, folder = readable(xdmf)
+        if folder is not None:
+            self._tmp = folder
+        return path
 
     def frame(self, i: int) -> dict[str, np.ndarray]:
         """The point fields of frame ``i`` (float arrays of shape (n_points, 3))."""
