@@ -29,11 +29,11 @@ from __future__ import annotations
 
 import re
 import shutil
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
+from rftfem.studies.slurm import SLURM_KEYS, slurm_cluster, slurm_options
 
 if TYPE_CHECKING:
     import argparse
@@ -43,20 +43,6 @@ if TYPE_CHECKING:
 
 #: seconds to wait for a Dask scheduler given by address before saying it is unreachable
 CONNECT_TIMEOUT = 8.0
-#: the options of ``--slurm KEY=VALUE`` and their dask-jobqueue names
-SLURM_KEYS = {
-    "queue": "queue",
-    "account": "account",
-    "walltime": "walltime",
-    "memory": "memory",
-    "cores": "cores",
-    "job_extra": "job_extra_directives",
-    "prologue": "job_script_prologue",
-    "interface": "interface",
-    "local_directory": "local_directory",
-    "log_directory": "log_directory",
-}
-SLURM_DEFAULTS = {"memory": "4GB", "walltime": "01:00:00"}
 #: exit status of a run whose worker died twice (not one of rftfem run's own)
 WORKER_DIED = 137
 
@@ -76,6 +62,14 @@ def add_arguments(
     from rftfem.scene.overrides import add_override_arguments
 
     add_override_arguments(parser)
+    _add_run_options(parser, command, runs, jobs_note, reuse_note)
+    _add_executor_options(parser)
+
+
+def _add_run_options(
+    parser: argparse.ArgumentParser, command: str, runs: str, jobs_note: str, reuse_note: str
+) -> None:
+    """``--out``, ``--jobs``, ``--np`` and ``--reuse``."""
     parser.add_argument(
         "--out",
         metavar="DIR",
@@ -104,6 +98,10 @@ def add_arguments(
         "content (the completed scene, the files it names, the PETSc "
         f"options); run only the others{reuse_note}",
     )
+
+
+def _add_executor_options(parser: argparse.ArgumentParser) -> None:
+    """``--executor`` and the options of ``--executor slurm``."""
     parser.add_argument(
         "--executor",
         metavar="E",
@@ -269,52 +267,6 @@ def _dask():
     return distributed
 
 
-def slurm_options(options: list[str], config: Path | None) -> dict:
-    """The SLURMCluster keyword arguments of ``--slurm`` and ``--executor-config``."""
-    values: dict = dict(SLURM_DEFAULTS)
-    extra: list[str] = []
-    if config is not None:
-        import tomllib
-
-        try:
-            table = tomllib.loads(Path(config).read_text(encoding="utf-8")).get("slurm", {})
-        except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise SceneError(
-                f"--executor-config {config}: cannot be read as TOML ({' '.join(str(exc).split())})"
-            ) from None
-        if not isinstance(table, dict):
-            raise SceneError(f"--executor-config {config}: [slurm] must be a table")
-        for key, value in table.items():
-            if key not in SLURM_KEYS:
-                raise SceneError(
-                    f"--executor-config {config}: unknown [slurm] key '{key}' "
-                    f"(known: {', '.join(SLURM_KEYS)})"
-                )
-            if key == "job_extra":
-                extra += [str(v) for v in (value if isinstance(value, list) else [value])]
-            else:
-                values[key] = value
-    for text in options:
-        key, sep, value = text.partition("=")
-        if not sep or key not in SLURM_KEYS:
-            raise SceneError(
-                f"--slurm {text}: expected KEY=VALUE with KEY one of {', '.join(SLURM_KEYS)}"
-            )
-        if key == "job_extra":
-            extra.append(value)
-        else:
-            values[key] = value
-    kwargs = {SLURM_KEYS[k]: v for k, v in values.items()}
-    if "cores" in kwargs:
-        try:
-            kwargs["cores"] = int(kwargs["cores"])
-        except (TypeError, ValueError):
-            raise SceneError(f"--slurm cores={kwargs['cores']}: expected a whole number") from None
-    if extra:
-        kwargs["job_extra_directives"] = extra
-    return kwargs
-
-
 def make_executor(
     spec: str,
     jobs: int = 1,
@@ -335,59 +287,63 @@ def make_executor(
     if spec == "local":
         return LocalExecutor(jobs, np, in_process)
     if spec == "dask":
-        distributed = _dask()
-        import logging
-
-        cluster = distributed.LocalCluster(
-            n_workers=jobs,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        )
-        return DaskExecutor(distributed.Client(cluster), np, cluster)
+        return _local_cluster(jobs, np)
     match = re.fullmatch(r"dask://([^:/\s]+):(\d+)", spec)
     if match:
-        distributed = _dask()
-        address = f"tcp://{match.group(1)}:{match.group(2)}"
-        try:
-            client = distributed.Client(address, timeout=CONNECT_TIMEOUT)
-        except (OSError, TimeoutError) as exc:
-            raise SceneError(
-                f"--executor {spec}: no Dask scheduler answers at {address} "
-                f"within {CONNECT_TIMEOUT:g} s ({exc.__class__.__name__})"
-            ) from None
-        return DaskExecutor(client, np, None, name=spec)
+        return _scheduler(spec, f"tcp://{match.group(1)}:{match.group(2)}", np)
     if spec == "slurm":
-        _dask()
-        try:
-            from dask_jobqueue import SLURMCluster
-        except ImportError as exc:
-            raise SceneError(
-                f"--executor slurm: dask-jobqueue is not installed here ({exc})"
-            ) from None
-        kwargs = slurm_options(list(slurm), config)
-        kwargs.setdefault("cores", max(1, np))
-        kwargs.setdefault("processes", 1)
-        kwargs.setdefault("python", sys.executable)
-        try:
-            cluster = SLURMCluster(**kwargs)
-        except (TypeError, ValueError) as exc:
-            raise SceneError(f"--slurm: {' '.join(str(exc).split())}") from None
-        if print_job_script:
-            print(cluster.job_script())
-            cluster.close()
-            return None
-        if shutil.which(cluster.job_cls.submit_command.split()[0]) is None:
-            cluster.close()
-            raise SceneError(
-                "--executor slurm: sbatch is not on PATH (not a SLURM login "
-                "node); --print-job-script shows the job script"
-            )
-        cluster.scale(jobs=jobs)
-        distributed = _dask()
-        return DaskExecutor(distributed.Client(cluster), np, cluster, name="slurm")
+        return _slurm(jobs, np, slurm, config, print_job_script)
     raise SceneError(f"--executor {spec}: expected local, dask, dask://HOST:PORT or slurm")
+
+
+def _local_cluster(jobs: int, np: int) -> DaskExecutor:
+    """``--executor dask``: a LocalCluster of ``jobs`` single-threaded workers."""
+    distributed = _dask()
+    import logging
+
+    cluster = distributed.LocalCluster(
+        n_workers=jobs,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.ERROR,
+    )
+    return DaskExecutor(distributed.Client(cluster), np, cluster)
+
+
+def _scheduler(spec: str, address: str, np: int) -> DaskExecutor:
+    """``--executor dask://HOST:PORT``: the running scheduler at ``address``."""
+    distributed = _dask()
+    try:
+        client = distributed.Client(address, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as exc:
+        raise SceneError(
+            f"--executor {spec}: no Dask scheduler answers at {address} "
+            f"within {CONNECT_TIMEOUT:g} s ({exc.__class__.__name__})"
+        ) from None
+    return DaskExecutor(client, np, None, name=spec)
+
+
+def _slurm(
+    jobs: int, np: int, slurm: list[str], config: Path | None, print_job_script: bool
+) -> DaskExecutor | None:
+    """``--executor slurm``: ``jobs`` batch jobs of a SLURMCluster (None after
+    ``--print-job-script``, which prints the job script instead)."""
+    _dask()
+    cluster = slurm_cluster(slurm, config, np)
+    if print_job_script:
+        print(cluster.job_script())
+        cluster.close()
+        return None
+    if shutil.which(cluster.job_cls.submit_command.split()[0]) is None:
+        cluster.close()
+        raise SceneError(
+            "--executor slurm: sbatch is not on PATH (not a SLURM login "
+            "node); --print-job-script shows the job script"
+        )
+    cluster.scale(jobs=jobs)
+    distributed = _dask()
+    return DaskExecutor(distributed.Client(cluster), np, cluster, name="slurm")
 
 
 def check_executor_options(jobs: int, np: int, executor: str, what: str = "runs") -> None:

@@ -8,7 +8,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, NoReturn
 
 from rftfem.errors import SceneError
 from rftfem.studies.sensitivity import check_request, keep_last_step
@@ -179,7 +179,6 @@ def gradient(
     import pandas as pd
 
     from rftfem.api import _scene_of, default_out
-    from rftfem.errors import RunFailed
 
     scene, keys, fields = _scene_of(scene), list(keys), list(fields)
     out = Path(out) if out is not None else default_out(scene)
@@ -197,17 +196,39 @@ def gradient(
         if scene.path is None:
             source.unlink(missing_ok=True)
     if status != 0:
-        log = (out / "run.log").read_text(encoding="utf-8", errors="replace")
-        line = next(
-            (ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
-            f"the run ended with exit status {status}",
-        )
-        text = line.removeprefix("rftfem: ").removeprefix("error: ")
-        if status == SceneError.exit_status:
-            raise SceneError(text)
-        exc = RunFailed(text)
-        exc.folder = out
-        raise exc
+        _raise_failure(out, status)
+    tables = _cell_tables(result)
+    return Gradient(
+        float(result["value"]),
+        pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
+        tables,
+        out,
+    )
+
+
+def _raise_failure(out: Path, status: int) -> NoReturn:
+    """The failed run's last ``rftfem:`` line of out/run.log as a SceneError (a bad
+    scene) or a RunFailed with its ``folder``."""
+    from rftfem.errors import RunFailed
+
+    log = (out / "run.log").read_text(encoding="utf-8", errors="replace")
+    line = next(
+        (ln for ln in reversed(log.splitlines()) if ln.startswith("rftfem: ")),
+        f"the run ended with exit status {status}",
+    )
+    text = line.removeprefix("rftfem: ").removeprefix("error: ")
+    if status == SceneError.exit_status:
+        raise SceneError(text)
+    exc = RunFailed(text)
+    exc.folder = out
+    raise exc
+
+
+def _cell_tables(result: dict) -> dict:
+    """Each cellwise field gradient as a DataFrame of x, y, z and d/dKEY (the cells
+    this process owns)."""
+    import pandas as pd
+
     tables = {}
     for key, g in (result.get("fields") or {}).items():
         if g.cells is None:
@@ -217,9 +238,4 @@ def gradient(
         tables[key] = pd.DataFrame(
             {"x": x[:n, 0], "y": x[:n, 1], "z": x[:n, 2], f"d/d{key}": g.cells.x.array[:n]}
         )
-    return Gradient(
-        float(result["value"]),
-        pd.Series(dict(zip(keys, result.get("gradient") or [])), dtype=float),
-        tables,
-        out,
-    )
+    return tables

@@ -2,20 +2,19 @@
 their unit box, one run folder per evaluation, its objective and constraints, the
 penalties, optimize.csv.
 
-:class:`Parameter` is one ``--vary KEY=LO:HI[:log]``, mapped to [0, 1] (linearly,
-or linearly in its logarithm); :class:`Evaluator` runs the points a method asks
-for (in this process, or as child runs side by side), scores them and writes a
-row of optimize.csv as each ends.  The score a method minimises (``merit``) is
-the signed objective plus a constraint's penalty, or for a failed run a value
-worse than any seen.
+:class:`Parameter` (rftfem/studies/optimize_parameters.py) is one ``--vary
+KEY=LO:HI[:log]``, mapped to [0, 1] (linearly, or linearly in its logarithm);
+:class:`Evaluator` runs the points a method asks for (in this process, or as child
+runs side by side), scores them and writes a row of optimize.csv as each ends.  The
+score a method minimises (``merit``) is the signed objective plus a constraint's
+penalty, or for a failed run a value worse than any seen.  The adjoint's gradients
+are read by rftfem/studies/optimize_gradients.py.
 """
 
 from __future__ import annotations
 
 import csv
-import json
 import math
-import re
 import shutil
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -24,9 +23,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
-from rftfem.scene import toml_writer
-from rftfem.scene.overrides import lookup
 from rftfem.studies.batch import failure_reason
+from rftfem.studies.optimize_gradients import adjoint_quantity, read_gradient, without_gradient
+from rftfem.studies.optimize_parameters import Parameter, parse_vary
 from rftfem.studies.reuse import keep_key, key_of, reused, status_of
 
 if TYPE_CHECKING:
@@ -36,7 +35,6 @@ if TYPE_CHECKING:
     import numpy as np
 
     from rftfem.outputs.formulas import Objective
-    from rftfem.outputs.quantities import Quantity
     from rftfem.studies.executors import Executor
     from rftfem.studies.objective import Constraint
 
@@ -46,85 +44,6 @@ FD_STEP = 1e-3
 
 class BudgetSpent(Exception):
     """The budget of runs is used up: the method stops with the best so far."""
-
-
-# --- the parameters ----------------------------------------------------------------
-
-
-@dataclass
-class Parameter:
-    """One ``--vary KEY=LO:HI[:log]``: the key, its interval and its scene value."""
-
-    key: str
-    lo: float
-    hi: float
-    log: bool
-    set_key: str  # the key of --set (the vector's for a component)
-    index: int | None  # the component, or None
-    vector: list | None  # the scene's vector (for a component)
-    start: float
-
-    def from_unit(self, z: float) -> float:
-        z = min(1.0, max(0.0, float(z)))
-        if z == self.to_unit(self.start):  # the scene's own value, not a round trip
-            return self.start
-        if self.log:
-            return math.exp(math.log(self.lo) + z * (math.log(self.hi) - math.log(self.lo)))
-        return self.lo + z * (self.hi - self.lo)
-
-    def to_unit(self, x: float) -> float:
-        if self.log:
-            return (math.log(x) - math.log(self.lo)) / (math.log(self.hi) - math.log(self.lo))
-        return (x - self.lo) / (self.hi - self.lo)
-
-    def dx_dz(self, x: float) -> float:
-        return x * (math.log(self.hi) - math.log(self.lo)) if self.log else self.hi - self.lo
-
-    def override(self, x: float) -> str:
-        if self.index is None:
-            return f"{self.set_key}={toml_writer.value(x)}"
-        vec = list(self.vector)
-        vec[self.index] = x
-        return f"{self.set_key}={toml_writer.value(vec)}"
-
-
-def parse_vary(text: str, scene: dict) -> Parameter:
-    """``KEY=LO:HI[:log]`` against the loaded scene (its value is the start)."""
-    key, sep, rng = text.partition("=")
-    key = key.strip()
-    bits = [b.strip() for b in rng.split(":")]
-    if not sep or not key or len(bits) not in (2, 3) or (len(bits) == 3 and bits[2] != "log"):
-        raise SceneError(
-            f"--vary '{text}': expected KEY=LO:HI or KEY=LO:HI:log (e.g. shell.E=1e5:1e7:log)"
-        )
-    try:
-        lo, hi = float(bits[0]), float(bits[1])
-    except ValueError:
-        raise SceneError(
-            f"--vary '{text}': expected numbers LO and HI, found '{bits[0]}' and '{bits[1]}'"
-        ) from None
-    log = len(bits) == 3
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise SceneError(f"--vary '{text}': expected finite LO < HI, found {lo:g} and {hi:g}")
-    if log and lo <= 0:
-        raise SceneError(f"--vary '{text}': a log scale needs LO > 0, found {lo:g}")
-    head, _, last = key.rpartition(".")
-    value, set_key, index, vector = lookup(scene, key), key, None, None
-    if (
-        isinstance(lookup(scene, head), list)
-        and re.fullmatch(r"\d+", last)
-        and not isinstance(value, dict)
-    ):
-        vector, set_key, index = list(lookup(scene, head)), head, int(last)
-    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
-        raise SceneError(
-            f"--vary {key}: expected a key with a number value, found "
-            f"{toml_writer.value(value) if not isinstance(value, dict) else 'a table'}"
-        )
-    start = float(value) if value is not None and lo <= value <= hi else None
-    p = Parameter(key, lo, hi, log, set_key, index, vector, math.nan)
-    p.start = start if start is not None else p.from_unit(0.5)
-    return p
 
 
 # --- the evaluations ---------------------------------------------------------------
@@ -247,7 +166,7 @@ class Evaluator:
         t0 = time.perf_counter()
         key = self._key_of(overrides)
         kept, ev.note = reused(ev.folder, key, self.reuse, FINISHED)
-        if kept and self.gradients and _without_gradient(ev.folder):
+        if kept and self.gradients and without_gradient(ev.folder):
             kept, ev.note = False, ""
         if kept:
             ev.reused, status = True, 0
@@ -313,7 +232,7 @@ class Evaluator:
         # any other SceneError (an unknown column) is a bad option: it ends the loop
         ev.status = "ok"
         if self.gradients:
-            ev.gradient = _read_gradient(run, self.objective, self.params)
+            ev.gradient = read_gradient(run, self.objective, self.params)
 
     def _score(self, ev: Evaluation) -> None:
         ok = [
@@ -411,49 +330,6 @@ class Evaluator:
 #: the statuses of a run that --reuse reads again: a failed run too (the methods are
 #: deterministic, so an interrupted optimisation goes on where it stopped)
 FINISHED = ("ok", "failed")
-
-
-def _without_gradient(folder: Path) -> bool:
-    """A finished run without the gradient.json that an adjoint search needs."""
-    return status_of(folder) == "ok" and not (folder / "gradient.json").is_file()
-
-
-def adjoint_quantity(objective: Objective) -> Quantity | None:
-    """The one quantity of ``objective`` read from the run, or None if it has several
-    (the others may be ``scene(KEY)`` values, whose derivatives are known)."""
-    from rftfem.studies.objective import SceneValue
-
-    read = [q for q in objective.quantities if not isinstance(q, SceneValue)]
-    return read[0] if len(read) == 1 else None
-
-
-def _read_gradient(run, objective, params) -> list | None:
-    """d objective / d parameter: the run quantity's derivative from gradient.json (the
-    adjoint's), a ``scene(KEY)``'s 1 for its own key, through the formula by the chain
-    rule (its partial derivatives by central differences)."""
-    from rftfem.studies.objective import SceneValue
-
-    try:
-        data = json.loads((run.dir / "gradient.json").read_text(encoding="utf-8"))
-        dq_run = [float(data["gradient"][p.key]) for p in params]
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    env = {f"q{i}": q.evaluate(run) for i, q in enumerate(objective.quantities)}
-    total = [0.0] * len(params)
-    for i, q in enumerate(objective.quantities):
-        name, v = f"q{i}", env[f"q{i}"]
-        h = 1e-6 * max(abs(v), 1e-300)
-        up, down = dict(env, **{name: v + h}), dict(env, **{name: v - h})
-        dfdq = (float(objective.formula.numbers(up)) - float(objective.formula.numbers(down))) / (
-            2 * h
-        )
-        dq = (
-            [1.0 if q.key == p.key else 0.0 for p in params]
-            if isinstance(q, SceneValue)
-            else dq_run
-        )
-        total = [t + dfdq * d for t, d in zip(total, dq)]
-    return total
 
 
 def _num(v, fmt: str = ".10g") -> str:

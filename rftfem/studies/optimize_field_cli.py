@@ -24,13 +24,43 @@ if TYPE_CHECKING:
     import argparse
     from typing import Any
 
+    from rftfem.outputs.formulas import Objective
+    from rftfem.studies.optimize_field_design import FieldConstraint, FieldDesign
+
 __all__ = ["main"]
 
 
 def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
-    from rftfem.scene.reading import load_scene, resolved_scheme
-    from rftfem.studies.sensitivity_request import supports
+    method, constraints = _method_and_constraints(args)
+    args.method = method
+    objective, design = _objective_and_design(args, console)
+    out = _out_folder(args)
+    sign = -1.0 if args.maximize else 1.0
+    console.out(
+        f"rftfem optimize: {method} over the "
+        f"{len(design.start)} values of {design.key} in [{design.lo:g}, {design.hi:g}] "
+        f"({'maximise' if sign < 0 else 'minimise'} {args.objective}"
+        + "".join(f"; {c.text}" for c in constraints)
+        + f"; at most {args.budget} runs; gradients by the adjoint) in {out}"
+    )
+    t0 = time.perf_counter()
+    best, why, evaluations = optimize_field(
+        args, design, objective, constraints, sign, out, petsc_args, console
+    )
+    console.out(
+        f"rftfem optimize: {why}; {len(evaluations)} runs in {time.perf_counter() - t0:.0f} s"
+    )
+    drawn = _plot(design, evaluations, best, sign, out / "optimize.png", args.objective)
+    if best is None:
+        console.err(f"rftfem optimize: no run met the constraints; optimize.csv in {out}")
+        return 0
+    _write_and_report_best(args, design, best, evaluations[0], out, drawn, console)
+    return 0
 
+
+def _method_and_constraints(args: argparse.Namespace) -> tuple[str, list[FieldConstraint]]:
+    """The options a field search takes checked; its method (l-bfgs-b, or slsqp with
+    constraints) and the mass and volume constraints."""
     if args.vary:
         raise SceneError("--vary-field: not with --vary (one search over a field's values)")
     if args.objective is None:
@@ -59,7 +89,15 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
             "--constraint: l-bfgs-b takes bounds only; with --vary-field and a "
             "constraint the method is slsqp (the default)"
         )
-    args.method = method
+    return method, constraints
+
+
+def _objective_and_design(args: argparse.Namespace, console: Any) -> tuple[Objective, FieldDesign]:
+    """The static scene's objective (quantities the adjoint differentiates) and the
+    field's grid; a formula's sampling is noted."""
+    from rftfem.scene.reading import load_scene, resolved_scheme
+    from rftfem.studies.sensitivity_request import supports
+
     scene = load_scene(args.scene, args.overrides)
     if resolved_scheme(scene) != "static":
         raise SceneError(
@@ -80,6 +118,11 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
             f"{len(design.start)} grid points, linear between them: the search "
             "starts from that profile, not from the formula itself"
         )
+    return objective, design
+
+
+def _out_folder(args: argparse.Namespace) -> Path:
+    """DIR made, without the evaluations of an earlier search."""
     out = (
         args.out if args.out is not None else Path("results") / f"optimize-{Path(args.scene).stem}"
     )
@@ -89,28 +132,21 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
         raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
     for old in out.glob("eval-[0-9]*"):
         shutil.rmtree(old, ignore_errors=True)
-    sign = -1.0 if args.maximize else 1.0
-    console.out(
-        f"rftfem optimize: {method} over the "
-        f"{len(design.start)} values of {design.key} in [{design.lo:g}, {design.hi:g}] "
-        f"({'maximise' if sign < 0 else 'minimise'} {args.objective}"
-        + "".join(f"; {c.text}" for c in constraints)
-        + f"; at most {args.budget} runs; gradients by the adjoint) in {out}"
-    )
-    t0 = time.perf_counter()
-    best, why, evaluations = optimize_field(
-        args, design, objective, constraints, sign, out, petsc_args, console
-    )
-    console.out(
-        f"rftfem optimize: {why}; {len(evaluations)} runs in {time.perf_counter() - t0:.0f} s"
-    )
-    drawn = _plot(design, evaluations, best, sign, out / "optimize.png", args.objective)
-    if best is None:
-        console.err(f"rftfem optimize: no run met the constraints; optimize.csv in {out}")
-        return 0
+    return out
+
+
+def _write_and_report_best(
+    args: argparse.Namespace,
+    design: FieldDesign,
+    best: Any,
+    start: Any,
+    out: Path,
+    drawn: bool,
+    console: Any,
+) -> None:
+    """best-KEY.csv and best.toml, and the lines that say them."""
     design.write(best.values, out / f"best-{design.name}.csv")
     _write_best(args, design, best, out)
-    start = evaluations[0]
     console.out(
         f"best: {best.folder.name}, objective {best.objective:.8g} (start "
         f"{start.objective:.8g}); mass {best.totals['mass']:.6g}, volume "
@@ -121,7 +157,6 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
         + (", optimize.png" if drawn else "")
         + f" in {out}"
     )
-    return 0
 
 
 def _write_best(args, design, best, out: Path) -> None:

@@ -23,8 +23,6 @@ reading it), optimize.png (objective and the best field along X).
 from __future__ import annotations
 
 import csv
-import math
-import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,9 +31,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rftfem.errors import SceneError
+from rftfem.studies.optimize_field_design import (
+    FieldConstraint,
+    FieldDesign,
+    parse_field_constraint,
+    parse_vary_field,
+)
 
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Callable
     from typing import Any
 
     from rftfem.outputs.formulas import Objective
@@ -44,101 +49,6 @@ __all__ = ["FieldDesign", "parse_vary_field", "parse_field_constraint", "optimiz
 
 #: relative change of the merit at which the methods stop
 F_TOLERANCE = 1e-7
-
-
-@dataclass
-class FieldDesign:
-    """One ``--vary-field KEY=LO:HI``: the grid, the start values and the bounds."""
-
-    key: str
-    lo: float
-    hi: float
-    points: np.ndarray
-    start: np.ndarray
-
-    @property
-    def name(self) -> str:
-        return self.key.split(".")[-1]
-
-    def write(self, values: np.ndarray, path: Path) -> None:
-        rows = "\n".join(
-            f"{p[0]!r},{p[1]!r},{p[2]!r},{float(v)!r}" for p, v in zip(self.points.tolist(), values)
-        )
-        path.write_text(f"X,Y,Z,{self.name}\n{rows}\n", encoding="utf-8")
-
-
-@dataclass
-class FieldConstraint:
-    text: str
-    name: str  # mass or volume
-    sense: str  # <=, >= or =
-    bound: float | None  # None: the start's value
-
-
-def parse_vary_field(text: str, scene: dict) -> FieldDesign:
-    from rftfem.scene.fields import field_values, profile_file
-    from rftfem.scene.profiles import read_profile
-    from rftfem.studies.field_gradients import FIELD_KEYS
-
-    key, sep, rng = text.partition("=")
-    key = key.strip()
-    bits = [b.strip() for b in rng.split(":")]
-    if not sep or len(bits) != 2:
-        raise SceneError(
-            f"--vary-field '{text}': expected KEY=LO:HI (e.g. shell.thickness=0.05:0.2)"
-        )
-    if (
-        key not in FIELD_KEYS
-        or key in ("shell.E", "shell.nu")
-        and scene["shell"]["material"] == "orthotropic"
-    ):
-        raise SceneError(
-            f"--vary-field '{text}': expected one of {', '.join(FIELD_KEYS)} "
-            "(E and nu of an isotropic shell)"
-        )
-    try:
-        lo, hi = float(bits[0]), float(bits[1])
-    except ValueError:
-        raise SceneError(f"--vary-field '{text}': expected numbers LO and HI") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-        raise SceneError(f"--vary-field '{text}': expected finite LO < HI")
-    value = scene["shell"][key.split(".")[-1]]
-    if isinstance(value, dict):
-        points, values = read_profile(
-            profile_file(scene, value["profile"]), f"{key}.profile", columns=1, names="value"
-        )
-        start = values[:, 0]
-    else:
-        mesh = scene["mesh"]
-        if mesh["kind"] != "strip":
-            raise SceneError(
-                f"--vary-field {key}: the mesh is not a strip; give {key} as a "
-                'profile ({ profile = "file.csv" }): its grid values are the '
-                "design's variables"
-            )
-        nx, ny = mesh["divisions"]
-        X, Y = np.linspace(0.0, mesh["length"], nx + 1), np.linspace(0.0, mesh["width"], ny + 1)
-        points = np.array([[x, y, 0.0] for y in Y for x in X])
-        start = field_values(scene, value, points, key)
-    return FieldDesign(key, lo, hi, points, np.clip(start, lo, hi))
-
-
-def parse_field_constraint(text: str) -> FieldConstraint:
-    m = re.fullmatch(r"\s*(mass|volume)\s*(<=|>=|==|=)\s*(\S+)\s*", text)
-    if m is None:
-        raise SceneError(
-            f"--constraint '{text}': with --vary-field expected mass or volume, "
-            "=, <= or >=, and a number or 'start' (e.g. 'mass=start')"
-        )
-    bound = None
-    if m[3] != "start":
-        try:
-            bound = float(m[3])
-        except ValueError:
-            raise SceneError(
-                f"--constraint '{text}': expected a number or 'start' after '{m[2]}'"
-            ) from None
-    return FieldConstraint(text, m[1], "=" if m[2] in ("=", "==") else m[2], bound)
 
 
 @dataclass
@@ -158,6 +68,121 @@ class _Budget(Exception):
     pass
 
 
+class _Runs:
+    """The evaluations of a field search: a static run with the gradient by every grid
+    value at each point the method asks for (once), a row of optimize.csv and a line
+    each."""
+
+    def __init__(
+        self,
+        args: argparse.Namespace,
+        design: FieldDesign,
+        texts: list[str],
+        combine: object,
+        constraints: list[FieldConstraint],
+        out: Path,
+        petsc_args: list[str],
+        console: Any,
+    ) -> None:
+        self.args, self.design, self.texts, self.combine = args, design, texts, combine
+        self.constraints, self.out, self.petsc_args = constraints, out, petsc_args
+        self.console = console
+        self.evaluations: list[_Evaluation] = []
+        self.cache: dict[bytes, _Evaluation] = {}
+        self.span = design.hi - design.lo
+        self.handle = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
+        self.writer = csv.writer(self.handle, lineterminator="\n")
+        self.writer.writerow(
+            [
+                "evaluation",
+                "folder",
+                "status",
+                "objective",
+                "mass",
+                "volume",
+                "gradient_norm",
+                "wall_s",
+                "failure",
+            ]
+        )
+
+    def __call__(self, z: np.ndarray) -> _Evaluation:
+        """The evaluation at the unit point ``z``, run if it is new; _Budget once the
+        budget is spent."""
+        values = self.design.lo + self.span * np.clip(np.asarray(z, float), 0.0, 1.0)
+        tag = np.round(values, 12).tobytes()
+        if tag in self.cache:
+            return self.cache[tag]
+        if len(self.evaluations) >= self.args.budget:
+            raise _Budget
+        ev = _Evaluation(
+            len(self.evaluations) + 1, self.out / f"eval-{len(self.evaluations) + 1:04d}", values
+        )
+        self.evaluations.append(ev)
+        self.cache[tag] = ev
+        self._run(ev)
+        self._write(ev)
+        return ev
+
+    def _run(self, ev: _Evaluation) -> None:
+        """The run of the scene whose key reads the evaluation's KEY.csv, and its
+        objective, gradient, mass and volume."""
+        from rftfem.studies.gradient_runs import run_with_field_gradients
+
+        design = self.design
+        ev.folder.mkdir(parents=True, exist_ok=True)
+        csv_file = (ev.folder / f"{design.name}.csv").resolve()
+        design.write(ev.values, csv_file)
+        t0 = time.perf_counter()
+        status, J, grads = run_with_field_gradients(
+            self.args.scene,
+            [*self.args.overrides, f'{design.key}="{csv_file}"'],
+            ev.folder,
+            [design.key],
+            self.texts,
+            self.petsc_args,
+            self.combine,
+        )
+        ev.wall = time.perf_counter() - t0
+        if status == 0:
+            g = grads[design.key]
+            ev.status, ev.totals = "ok", dict(g.extra)
+            ev.objective, ev.gradient = J, g.profile[1]
+            if self.constraints and not _feasible(ev, self.constraints, self.evaluations[0]):
+                ev.status = "infeasible"  # asked for by the method on its way
+        else:
+            ev.failure = f"exit status {status} (see {ev.folder.name}/run.log)"
+
+    def _write(self, ev: _Evaluation) -> None:
+        """The evaluation's row of optimize.csv and its line."""
+        self.writer.writerow(
+            [
+                ev.index,
+                ev.folder.name,
+                ev.status,
+                _num(ev.objective),
+                _num(ev.totals.get("mass")),
+                _num(ev.totals.get("volume")),
+                _num(None if ev.gradient is None else float(np.linalg.norm(ev.gradient))),
+                f"{ev.wall:.3f}",
+                ev.failure,
+            ]
+        )
+        self.handle.flush()
+        self.console.out(
+            f"  {ev.folder.name}: {ev.status}"
+            + (
+                f"  objective {ev.objective:.8g}  mass {ev.totals['mass']:.6g}  "
+                f"volume {ev.totals['volume']:.6g}"
+                if ev.objective is not None
+                else f"; {ev.failure}"
+            )
+        )
+
+    def close(self) -> None:
+        self.handle.close()
+
+
 def optimize_field(
     args: argparse.Namespace,
     design: FieldDesign,
@@ -171,119 +196,15 @@ def optimize_field(
     """Run the search; the best feasible evaluation, why it stopped, all evaluations."""
     from scipy import optimize
 
-    from rftfem.studies.gradient_runs import run_with_field_gradients
-
     texts, combine = run_quantities(objective)
-    evaluations: list[_Evaluation] = []
-    cache: dict[bytes, _Evaluation] = {}
-    span = design.hi - design.lo
-    handle = open(out / "optimize.csv", "w", encoding="utf-8", newline="")
-    writer = csv.writer(handle, lineterminator="\n")
-    writer.writerow(
-        [
-            "evaluation",
-            "folder",
-            "status",
-            "objective",
-            "mass",
-            "volume",
-            "gradient_norm",
-            "wall_s",
-            "failure",
-        ]
-    )
-
-    def run(z) -> _Evaluation:
-        values = design.lo + span * np.clip(np.asarray(z, float), 0.0, 1.0)
-        tag = np.round(values, 12).tobytes()
-        if tag in cache:
-            return cache[tag]
-        if len(evaluations) >= args.budget:
-            raise _Budget
-        ev = _Evaluation(len(evaluations) + 1, out / f"eval-{len(evaluations) + 1:04d}", values)
-        evaluations.append(ev)
-        cache[tag] = ev
-        ev.folder.mkdir(parents=True, exist_ok=True)
-        csv_file = (ev.folder / f"{design.name}.csv").resolve()
-        design.write(values, csv_file)
-        t0 = time.perf_counter()
-        status, J, grads = run_with_field_gradients(
-            args.scene,
-            [*args.overrides, f'{design.key}="{csv_file}"'],
-            ev.folder,
-            [design.key],
-            texts,
-            petsc_args,
-            combine,
-        )
-        ev.wall = time.perf_counter() - t0
-        if status == 0:
-            g = grads[design.key]
-            ev.status, ev.totals = "ok", dict(g.extra)
-            ev.objective, ev.gradient = J, g.profile[1]
-            if constraints and not _feasible(ev, constraints, evaluations[0]):
-                ev.status = "infeasible"  # asked for by the method on its way
-        else:
-            ev.failure = f"exit status {status} (see {ev.folder.name}/run.log)"
-        writer.writerow(
-            [
-                ev.index,
-                ev.folder.name,
-                ev.status,
-                _num(ev.objective),
-                _num(ev.totals.get("mass")),
-                _num(ev.totals.get("volume")),
-                _num(None if ev.gradient is None else float(np.linalg.norm(ev.gradient))),
-                f"{ev.wall:.3f}",
-                ev.failure,
-            ]
-        )
-        handle.flush()
-        console.out(
-            f"  {ev.folder.name}: {ev.status}"
-            + (
-                f"  objective {ev.objective:.8g}  mass {ev.totals['mass']:.6g}  "
-                f"volume {ev.totals['volume']:.6g}"
-                if ev.objective is not None
-                else f"; {ev.failure}"
-            )
-        )
-        return ev
-
-    z0 = (design.start - design.lo) / span
-    first = run(z0)
+    runs = _Runs(args, design, texts, combine, constraints, out, petsc_args, console)
+    z0 = (design.start - design.lo) / runs.span
+    first = runs(z0)
     if first.objective is None:
-        handle.close()
-        return None, "the start failed", evaluations
-    scale = max(abs(first.objective), 1e-300)
-
-    def merit(z):
-        ev = run(z)
-        if ev.objective is None:  # a failed run: worse than any seen, the search steps back
-            worst = max(sign * e.objective for e in evaluations if e.objective is not None) / scale
-            return worst + max(abs(worst), 1.0), np.zeros(len(z))
-        return sign * ev.objective / scale, sign * ev.gradient * span / scale
-
-    cons = []
-    for c in constraints:
-        start = first.totals[c.name]
-        bound = start if c.bound is None else c.bound
-        slope = _linear_slope(first, c.name, span)  # linear: value(z0) + slope·(z − z0)
-        if not np.any(slope):
-            handle.close()
-            raise SceneError(
-                f"--constraint '{c.text}': the body's {c.name} does not depend "
-                f"on {design.key}" + (" (its density is 0)" if c.name == "mass" else "")
-            )
-
-        def fun(z, c=c, bound=bound, start=start, slope=slope):
-            value = start + slope @ (np.asarray(z) - z0)
-            return (bound - value if c.sense == "<=" else value - bound) / max(abs(bound), 1e-300)
-
-        def jac(z, c=c, bound=bound, slope=slope):
-            return (-slope if c.sense == "<=" else slope) / max(abs(bound), 1e-300)
-
-        cons.append({"type": "eq" if c.sense == "=" else "ineq", "fun": fun, "jac": jac})
+        runs.close()
+        return None, "the start failed", runs.evaluations
+    merit = _merit(runs, sign, max(abs(first.objective), 1e-300))
+    cons = _constraint_functions(runs, first, z0)
     method = "SLSQP" if args.method == "slsqp" else "L-BFGS-B"
     bounds = [(0.0, 1.0)] * len(z0)
     try:
@@ -309,10 +230,54 @@ def optimize_field(
         why = f"{method}: {res.message}"
     except _Budget:
         why = f"{method}: the budget of {args.budget} runs is spent"
-    handle.close()
-    feasible = [e for e in evaluations if e.status == "ok"]
+    runs.close()
+    feasible = [e for e in runs.evaluations if e.status == "ok"]
     best = min(feasible, key=lambda e: sign * e.objective) if feasible else None
-    return best, why, evaluations
+    return best, why, runs.evaluations
+
+
+def _merit(
+    runs: _Runs, sign: float, scale: float
+) -> Callable[[np.ndarray], tuple[float, np.ndarray]]:
+    """What the method minimises, with its gradient in the unit box: the signed
+    objective over the start's size."""
+
+    def merit(z):
+        ev = runs(z)
+        if ev.objective is None:  # a failed run: worse than any seen, the search steps back
+            worst = (
+                max(sign * e.objective for e in runs.evaluations if e.objective is not None) / scale
+            )
+            return worst + max(abs(worst), 1.0), np.zeros(len(z))
+        return sign * ev.objective / scale, sign * ev.gradient * runs.span / scale
+
+    return merit
+
+
+def _constraint_functions(runs: _Runs, first: _Evaluation, z0: np.ndarray) -> list[dict]:
+    """SLSQP's constraints (relative to each bound, a number or the start's value),
+    linear in the values; a total that does not depend on the field is a SceneError."""
+    cons = []
+    for c in runs.constraints:
+        start = first.totals[c.name]
+        bound = start if c.bound is None else c.bound
+        slope = _linear_slope(first, c.name, runs.span)  # linear: value(z0) + slope·(z − z0)
+        if not np.any(slope):
+            runs.close()
+            raise SceneError(
+                f"--constraint '{c.text}': the body's {c.name} does not depend "
+                f"on {runs.design.key}" + (" (its density is 0)" if c.name == "mass" else "")
+            )
+
+        def fun(z, c=c, bound=bound, start=start, slope=slope):
+            value = start + slope @ (np.asarray(z) - z0)
+            return (bound - value if c.sense == "<=" else value - bound) / max(abs(bound), 1e-300)
+
+        def jac(z, c=c, bound=bound, slope=slope):
+            return (-slope if c.sense == "<=" else slope) / max(abs(bound), 1e-300)
+
+        cons.append({"type": "eq" if c.sense == "=" else "ineq", "fun": fun, "jac": jac})
+    return cons
 
 
 def _linear_slope(ev: _Evaluation, name: str, span: float) -> np.ndarray:

@@ -5,9 +5,13 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rftfem.scene import toml_writer
 from rftfem.studies.optimize_evaluations import Evaluation, Evaluator
+
+if TYPE_CHECKING:
+    from typing import Any
 
 
 def write_best(ev: Evaluator, best: Evaluation, path: Path, command: str) -> None:
@@ -55,7 +59,25 @@ def plot(ev: Evaluator, path: Path, title: str) -> bool:
         return False
     n = len(ev.params)
     fig, axes = plt.subplots(1 + n, 1, figsize=(7, 2.6 + 1.6 * n), sharex=True, squeeze=False)
-    ax = axes[0][0]
+    _plot_objective(axes[0][0], ev, title)
+    for j, p in enumerate(ev.params):
+        ax = axes[1 + j][0]
+        ax.plot([e.index for e in evs], [e.x[j] for e in evs], ".-", color="C2", lw=0.8)
+        ax.set_ylabel(p.key, fontsize=8)
+        if p.log:
+            ax.set_yscale("log")
+        ax.grid(True, alpha=0.3)
+    axes[-1][0].set_xlabel("evaluation")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
+def _plot_objective(ax: Any, ev: Evaluator, title: str) -> None:
+    """The objectives of the feasible and infeasible evaluations, the best so far as a
+    line and the failed runs as dotted verticals."""
+    evs = ev.evaluations
     ok = [e for e in evs if e.objective is not None]
     feasible = [e for e in ok if e.status == "ok"]
     if feasible:
@@ -101,18 +123,6 @@ def plot(ev: Evaluator, path: Path, title: str) -> bool:
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(True, alpha=0.3)
-    for j, p in enumerate(ev.params):
-        ax = axes[1 + j][0]
-        ax.plot([e.index for e in evs], [e.x[j] for e in evs], ".-", color="C2", lw=0.8)
-        ax.set_ylabel(p.key, fontsize=8)
-        if p.log:
-            ax.set_yscale("log")
-        ax.grid(True, alpha=0.3)
-    axes[-1][0].set_xlabel("evaluation")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return True
 
 
 __all__ = ["write_best", "plot"]

@@ -52,20 +52,17 @@ and the levels after it still run.
 
 from __future__ import annotations
 
-import json
 import math
-import shutil
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
 from rftfem.studies import executors
-from rftfem.studies.batch import failure_reason
 from rftfem.studies.executors import check_executor_options, make_executor
-from rftfem.studies.reuse import keep_key, key_of, report, reused
+from rftfem.studies.reuse import key_of, report
+from rftfem.studies.study_levels import Level, evaluate_level, plan, run_level
 from rftfem.studies.study_report import SCHEME_ORDER, analyse, markdown, plot, table_rows, write_csv
 
 if TYPE_CHECKING:
@@ -76,8 +73,6 @@ if TYPE_CHECKING:
     from rftfem.outputs.formulas import Objective
 
 KINDS = ("dt", "mesh", "mesh.x", "mesh.y", "both", "fluid")
-#: which of mesh.divisions each kind refines
-_DIVIDED = {"mesh": (0, 1), "both": (0, 1), "mesh.x": (0,), "mesh.y": (1,)}
 
 DESCRIPTION = """\
 Run a scene at successive refinements (dt halved, mesh divisions doubled, or
@@ -99,189 +94,6 @@ examples:
   rftfem study demos/bidirectional_strip.toml --refine dt --levels 3 --jobs 2 \\
       --quantity 'speed=rate(centroid_z, 1.1, 2.1)'
 exit status: 0 study written (also with failed levels), 2 bad option or scene"""
-
-
-@dataclass
-class Level:
-    """One run of the study."""
-
-    kind: str  # "dt", "mesh", "both" (level 0: "base")
-    k: int
-    overrides: list[str]
-    folder: Path
-    dt: float = math.nan
-    divisions: list[int] | None = None
-    fluid_refine: int | None = None  # the Stokes layer's fluid.refine, when it is refined
-    status: str = "not run"
-    failure: str = ""
-    dofs: int | None = None
-    steps: int | None = None
-    newton: int | None = None
-    cuts: int | None = None
-    wall: float | None = None
-    compile: float | None = None
-    values: dict = field(default_factory=dict)  # quantity name -> float or None
-    exit_status: int = 0
-    key: dict | None = None  # what --reuse compares (rftfem/studies/reuse.py)
-    note: str = ""  # why a finished run was not reused, or not keyed
-
-
-# --- the levels ---------------------------------------------------------------------
-
-
-def _toml(value) -> str:
-    if isinstance(value, list):
-        return "[" + ",".join(_toml(v) for v in value) + "]"
-    return repr(value)
-
-
-def plan(
-    scene: dict, kinds: list[str], levels: int, out: Path, factor: float = 2.0
-) -> dict[str, list[Level]]:
-    """The levels of each kind (level 0 is the same object in every kind), each
-    ``factor`` times finer than the one before (divisions rounded to whole cells)."""
-    time_ = scene["time"]
-    dt0, every0 = float(time_["dt"]), int(time_.get("output_every", 1))
-    mesh = scene.get("mesh") or {}
-    div0 = mesh.get("divisions") if mesh.get("kind", "strip") != "gmsh" else None
-    if any(k in _DIVIDED for k in kinds) and not div0:
-        raise SceneError(
-            "--refine mesh: the scene's [mesh] has no divisions to double "
-            "(a mesh read from a file is refined in gmsh, not here)"
-        )
-    if scene["time"]["scheme"] == "static" and any(k in ("dt", "both") for k in kinds):
-        raise SceneError(
-            "--refine dt: the scene is static (time.scheme resolves to "
-            '"static"): its steps are load steps with no time error to refine'
-        )
-    if any(k in ("dt", "both") for k in kinds) and not float(factor).is_integer():
-        raise SceneError(
-            f"--factor {factor:g} with --refine dt: the levels would write "
-            "their rows at different times (time.output_every is scaled by "
-            "the factor); use a whole factor for dt"
-        )
-    fluid = scene.get("fluid") or {}
-    refine0 = int(fluid.get("refine") or 0)
-    if "fluid" in kinds:
-        if fluid.get("model") != "stokes" or fluid.get("method", "layer") != "layer":
-            raise SceneError(
-                "--refine fluid: the scene's liquid is not the Stokes layer "
-                '(fluid.model = "stokes", fluid.method = "layer"): nothing of '
-                "its own to refine"
-            )
-        if factor != 2.0:
-            raise SceneError(
-                f"--factor {factor:g} with --refine fluid: each fluid.refine "
-                "level halves the force grid; use the factor 2"
-            )
-    base = Level(
-        "base",
-        0,
-        [],
-        out / "level-0",
-        dt=dt0,
-        divisions=list(div0) if div0 else None,
-        fluid_refine=refine0 if "fluid" in kinds else None,
-    )
-    plans = {}
-    for kind in kinds:
-        series = [base]
-        for k in range(1, levels):
-            sets, f = [], factor**k
-            dt, div = dt0, base.divisions
-            if kind in ("dt", "both"):
-                dt = dt0 / f
-                sets += [f"time.dt={dt!r}", f"time.output_every={every0 * round(f)}"]
-            if kind in _DIVIDED:
-                div = [
-                    max(1, round(n * f)) if i in _DIVIDED[kind] else n for i, n in enumerate(div0)
-                ]
-                sets.append(f"mesh.divisions={_toml(div)}")
-            refine = None
-            if kind == "fluid":  # the liquid's own grid, the shell untouched
-                refine = refine0 + k
-                sets.append(f"fluid.refine={refine}")
-            series.append(
-                Level(
-                    kind,
-                    k,
-                    sets,
-                    out / f"{kind}-{k}",
-                    dt=dt,
-                    divisions=div,
-                    fluid_refine=refine if kind == "fluid" else base.fluid_refine,
-                )
-            )
-        plans[kind] = series
-    return plans
-
-
-def run_level(
-    level: Level,
-    scene_file: str,
-    overrides: list[str],
-    executor: executors.Executor,
-    petsc_args: list[str],
-    reuse: bool = False,
-) -> None:
-    """Run one level (a fresh folder) and read its summary into ``level``; with
-    ``reuse``, a finished run of the same content (``level.key``,
-    rftfem/studies/reuse.py) is read instead.  The run is the ``executor``'s
-    (rftfem/studies/executors.py: in this process, a child ``rftfem run``, or a Dask
-    worker's)."""
-    overrides = [*overrides, *level.overrides]
-    kept, level.note = reused(level.folder, level.key, reuse)
-    if kept:
-        level.status = "reused"
-    else:
-        if level.folder.exists():
-            shutil.rmtree(level.folder)
-        level.folder.mkdir(parents=True)
-        level.exit_status = executor.run(scene_file, overrides, level.folder, petsc_args)
-        if level.exit_status == 0:
-            level.note = (
-                keep_key(level.folder, level.key, scene_file, overrides, petsc_args, "study")
-                or level.note
-            )
-    _read_summary(level)
-
-
-def _read_summary(level: Level) -> None:
-    status = level.exit_status
-    try:
-        summary = json.loads((level.folder / "summary.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        summary = None
-    if summary is None:
-        level.status = "failed"
-        level.failure = failure_reason(level.folder / "run.log", status)
-        return
-    level.status = summary.get("status", "failed") if status == 0 else "failed"
-    failure = summary.get("failure") or {}
-    level.failure = str(failure.get("reason", "")) if level.status != "ok" else ""
-    if status != 0 and not level.failure:
-        level.failure = f"exit status {status}"
-    counts, wall = summary.get("counts") or {}, summary.get("wall_s") or {}
-    level.dofs, level.steps = summary.get("dofs"), counts.get("steps")
-    level.newton, level.cuts = counts.get("newton_iterations"), counts.get("dt_cuts")
-    level.compile = wall.get("compile")
-    if wall.get("total") is not None:
-        level.wall = wall["total"] - (level.compile or 0.0)
-
-
-def evaluate_level(level: Level, quantities: Sequence[tuple[str, Objective]]) -> None:
-    from rftfem.outputs.quantities import RunFolder
-
-    if level.status != "ok":
-        level.values = {name: None for name, _ in quantities}
-        return
-    run = RunFolder(level.folder)
-    for name, q in quantities:
-        try:
-            level.values[name] = q.evaluate(run)
-        except SceneError as exc:
-            level.values[name] = None
-            level.status, level.failure = "failed", f"quantity {name}: {exc}"
 
 
 # --- orders and estimates ---------------------------------------------------------
@@ -348,35 +160,12 @@ def _kinds(options: list[str]) -> list[str]:
 
 
 def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
-    from rftfem.outputs.collect import parse_option
-    from rftfem.scene.overrides import as_arguments
-    from rftfem.scene.reading import load_scene, resolved_scheme
-
-    if not args.quantities:
-        raise SceneError(
-            "--quantity: give at least one quantity to converge (e.g. --quantity 'tip=tip_uz@end')"
-        )
-    quantities = [parse_option(q) for q in args.quantities]
-    names = [n for n, _ in quantities]
-    if len(set(names)) < len(names):
-        raise SceneError("--quantity: a name is given twice")
-    kinds = _kinds(args.refine)
-    if not (args.factor > 1.0 and math.isfinite(args.factor)):
-        raise SceneError(f"--factor: expected a number > 1, found {args.factor:g}")
-    if args.levels < 2:
-        raise SceneError(f"--levels: expected at least 2, found {args.levels}")
-    check_executor_options(args.jobs, args.np, args.executor, "levels")
-    scene = load_scene(args.scene, args.overrides)
-    scene["time"]["scheme"] = resolved_scheme(scene)
+    quantities, kinds = _options(args)
+    scene = _scene(args)
     out = args.out if args.out is not None else Path("results") / f"study-{Path(args.scene).stem}"
     plans = plan(scene, kinds, args.levels, out, args.factor)
     levels = list({id(lv): lv for series in plans.values() for lv in series}.values())
-    # every level's scene must be valid before anything runs; its key for --reuse
-    for lv in levels:
-        try:
-            lv.key = key_of(load_scene(args.scene, [*args.overrides, *lv.overrides]), petsc_args)
-        except SceneError as exc:
-            raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
+    _check_levels(levels, args, petsc_args)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -400,8 +189,65 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
         f"(refining {', '.join(kinds)}; {args.levels} levels) in {out}"
     )
     t0 = time.perf_counter()
+    _run_levels(levels, args, executor, petsc_args, quantities, console, in_process)
+    rows = table_rows(plans, quantities, scene["time"]["scheme"], args.factor, _stokes(scene))
+    _write_study(rows, _command(args, kinds, petsc_args), levels, out, console, t0)
+    return 0
 
-    def one(lv: Level):
+
+def _options(args: argparse.Namespace) -> tuple[list[tuple[str, Objective]], list[str]]:
+    """The quantities and kinds of the command line, and its numbers checked."""
+    from rftfem.outputs.collect import parse_option
+
+    if not args.quantities:
+        raise SceneError(
+            "--quantity: give at least one quantity to converge (e.g. --quantity 'tip=tip_uz@end')"
+        )
+    quantities = [parse_option(q) for q in args.quantities]
+    names = [n for n, _ in quantities]
+    if len(set(names)) < len(names):
+        raise SceneError("--quantity: a name is given twice")
+    kinds = _kinds(args.refine)
+    if not (args.factor > 1.0 and math.isfinite(args.factor)):
+        raise SceneError(f"--factor: expected a number > 1, found {args.factor:g}")
+    if args.levels < 2:
+        raise SceneError(f"--levels: expected at least 2, found {args.levels}")
+    check_executor_options(args.jobs, args.np, args.executor, "levels")
+    return quantities, kinds
+
+
+def _scene(args: argparse.Namespace) -> dict:
+    """The scene with its overrides, its time scheme resolved."""
+    from rftfem.scene.reading import load_scene, resolved_scheme
+
+    scene = load_scene(args.scene, args.overrides)
+    scene["time"]["scheme"] = resolved_scheme(scene)
+    return scene
+
+
+def _check_levels(levels: list[Level], args: argparse.Namespace, petsc_args: list[str]) -> None:
+    """Every level's scene must be valid before anything runs; its key for --reuse."""
+    from rftfem.scene.reading import load_scene
+
+    for lv in levels:
+        try:
+            lv.key = key_of(load_scene(args.scene, [*args.overrides, *lv.overrides]), petsc_args)
+        except SceneError as exc:
+            raise SceneError(f"level {lv.k} of --refine {lv.kind}: {exc}") from None
+
+
+def _run_levels(
+    levels: list[Level],
+    args: argparse.Namespace,
+    executor: executors.Executor,
+    petsc_args: list[str],
+    quantities: Sequence[tuple[str, Objective]],
+    console: Any,
+    in_process: bool,
+) -> None:
+    """Run and evaluate every level, a line each; the executor is closed after."""
+
+    def one(lv: Level) -> None:
         run_level(lv, args.scene, args.overrides, executor, petsc_args, args.reuse)
         evaluate_level(lv, quantities)
         what = f"dt {lv.dt:.4g}" + (f", divisions {lv.divisions}" if lv.divisions else "")
@@ -421,22 +267,23 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
                 list(pool.map(one, levels))
     finally:
         executor.close()
+
+
+def _stokes(scene: dict) -> str | None:
+    """The Stokes method (it sets the mesh kinds' nominal order), None for another liquid."""
     fluid = scene.get("fluid") or {}
-    stokes = fluid.get("method", "layer") if fluid.get("model") == "stokes" else None
-    rows = table_rows(plans, quantities, scene["time"]["scheme"], args.factor, stokes)
-    command = " ".join(
-        [
-            "rftfem study",
-            _quote(args.scene),
-            *[f"--refine {k}" for k in kinds],
-            f"--levels {args.levels}",
-            *([f"--factor {args.factor:g}"] if args.factor != 2.0 else []),
-            *[f"--quantity {_quote(q)}" for q in args.quantities],
-            *map(_quote, as_arguments(args.overrides)),
-        ]
-        + ([f"--np {args.np}"] if args.np > 1 else [])
-        + petsc_args
-    )
+    return fluid.get("method", "layer") if fluid.get("model") == "stokes" else None
+
+
+def _write_study(
+    rows: list[dict],
+    command: str,
+    levels: list[Level],
+    out: Path,
+    console: Any,
+    t0: float,
+) -> None:
+    """study.csv, study.md and study.png, the tables on the console and the count."""
     write_csv(rows, out / "study.csv")
     md = markdown(rows, command)
     (out / "study.md").write_text(md + "\n", encoding="utf-8")
@@ -450,7 +297,25 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
         + (", study.png" if drawn else "")
         + f" in {out}"
     )
-    return 0
+
+
+def _command(args: argparse.Namespace, kinds: list[str], petsc_args: list[str]) -> str:
+    """The command line that makes this study again, for study.md."""
+    from rftfem.scene.overrides import as_arguments
+
+    return " ".join(
+        [
+            "rftfem study",
+            _quote(args.scene),
+            *[f"--refine {k}" for k in kinds],
+            f"--levels {args.levels}",
+            *([f"--factor {args.factor:g}"] if args.factor != 2.0 else []),
+            *[f"--quantity {_quote(q)}" for q in args.quantities],
+            *map(_quote, as_arguments(args.overrides)),
+        ]
+        + ([f"--np {args.np}"] if args.np > 1 else [])
+        + petsc_args
+    )
 
 
 def _quote(arg: str) -> str:

@@ -30,19 +30,18 @@ import shutil
 import sys
 import threading
 import time
-import tomllib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rftfem.errors import SceneError
-from rftfem.scene.overrides import lookup
 from rftfem.studies import executors
+from rftfem.studies.sweep_vary import Vary, parse_vary
 
 if TYPE_CHECKING:
     import argparse
-    from collections.abc import Sequence
+    from collections.abc import Callable, Sequence
     from typing import Any
 
     from rftfem.outputs.formulas import Objective
@@ -63,13 +62,6 @@ exit status: 0 the sweep ran (failed runs are rows of sweep.csv), 2 bad option o
 
 #: most combinations a sweep may have (a typo in N should not start a million runs)
 MAX_RUNS = 10_000
-_RANGE = re.compile(r"^([^:]+):([^:]+):([^:]+)(?::(log|lin))?$")
-
-
-@dataclass
-class Vary:
-    key: str
-    values: list
 
 
 @dataclass
@@ -115,82 +107,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 # ------------------------------------------------------------------ the grid
-
-
-def _toml_value(text: str, what: str):
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        if re.fullmatch(r"[A-Za-z_][\w.\-]*", text):
-            return text  # a bare word, as --set takes it
-        raise SceneError(
-            f"{what}: '{text}' is not a value (a number, true/false, \"text\" or [array])"
-        ) from None
-
-
-def parse_vary(text: str, scene: dict) -> Vary:
-    """``KEY=v1,v2`` or ``KEY=LO:HI:N[:log]`` against the loaded ``scene`` (the key's
-    present value tells a numeric key from another)."""
-    key, sep, spec = text.partition("=")
-    key, spec = key.strip(), spec.strip()
-    what = f"--vary {text}"
-    if not sep or not key or not spec:
-        raise SceneError(f"{what}: expected KEY=v1,v2,... or KEY=LO:HI:N[:log]")
-    match = _RANGE.match(spec)
-    if match and "[" not in spec:
-        lo_text, hi_text, n_text, scale = match.groups()
-        current = lookup(scene, key)
-        if isinstance(current, bool) or not isinstance(current, (int, float)):
-            found = "absent" if current is None else repr(current)
-            raise SceneError(
-                f"{what}: a range LO:HI:N needs a numeric key; {key} is "
-                f"{found} in the scene (give its values as a list)"
-            )
-        try:
-            lo, hi = float(lo_text), float(hi_text)
-            n = int(n_text)
-        except ValueError:
-            raise SceneError(f"{what}: expected numbers LO:HI and a whole number N") from None
-        if n < 2 or not (math.isfinite(lo) and math.isfinite(hi)) or lo == hi:
-            raise SceneError(f"{what}: expected N >= 2 and finite LO != HI")
-        if scale == "log":
-            if lo <= 0 or hi <= 0:
-                raise SceneError(f"{what}: a log range needs LO and HI > 0")
-            values = [
-                math.exp(math.log(lo) + k * (math.log(hi) - math.log(lo)) / (n - 1))
-                for k in range(n)
-            ]
-        else:
-            values = [lo + k * (hi - lo) / (n - 1) for k in range(n)]
-        values[0], values[-1] = lo, hi
-        if isinstance(current, int) and all(float(v).is_integer() for v in values):
-            values = [int(v) for v in values]
-        return Vary(key, values)
-    values = [_toml_value(v.strip(), what) for v in _split_list(spec)]
-    if not values:
-        raise SceneError(f"{what}: no values")
-    return Vary(key, values)
-
-
-def _split_list(spec: str) -> list[str]:
-    """Split on the commas outside brackets and quotes."""
-    parts, depth, quote, cur = [], 0, None, ""
-    for ch in spec:
-        if quote:
-            quote = None if ch == quote else quote
-        elif ch in "\"'":
-            quote = ch
-        elif ch == "[":
-            depth += 1
-        elif ch == "]":
-            depth -= 1
-        elif ch == "," and depth == 0:
-            parts.append(cur)
-            cur = ""
-            continue
-        cur += ch
-    parts.append(cur)
-    return [p for p in (p.strip() for p in parts) if p]
 
 
 def _text(value) -> str:
@@ -318,14 +234,44 @@ def _cell(value) -> str:
 
 
 def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
-    from rftfem.outputs.collect import parse_option
-    from rftfem.scene.reading import load_scene
-    from rftfem.studies import sweep_report
-    from rftfem.studies.reuse import key_of, report
-
     if not args.vary:
         raise SceneError("--vary: give at least one key to vary (e.g. --vary shell.E=1e5,2e5)")
     executors.check_executor_options(args.jobs, args.np, args.executor, "runs")
+    varies, quantities, out, points = _combinations(args, petsc_args)
+    names = [n for n, _ in quantities]
+    executor = executors.make_executor(
+        args.executor, args.jobs, args.np, args.slurm, args.executor_config, args.print_job_script
+    )
+    if executor is None:  # --print-job-script
+        return 0
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        executor.close()
+        raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
+    console.out(
+        f"rftfem sweep: {len(points)} runs of {args.scene} in {out}, executor {executor.describe()}"
+    )
+    progress = _Progress(len(points), console)
+
+    def table() -> None:
+        write_csv(points, varies, names, out / "sweep.csv")
+
+    t0 = time.perf_counter()
+    _run_points(points, args, executor, petsc_args, quantities, progress, table)
+    _report(points, varies, names, out, args, console, t0)
+    return 0
+
+
+def _combinations(
+    args: argparse.Namespace, petsc_args: list[str]
+) -> tuple[list[Vary], list[tuple[str, Objective]], Path, list[Point]]:
+    """The varied keys, the quantities, the folder and every combination, each a
+    valid scene (with its key for --reuse) before anything runs."""
+    from rftfem.outputs.collect import parse_option
+    from rftfem.scene.reading import load_scene
+    from rftfem.studies.reuse import key_of
+
     scene = load_scene(args.scene, args.overrides)
     varies = [parse_vary(v, scene) for v in args.vary]
     keys = [v.key for v in varies]
@@ -345,30 +291,29 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
             p.key = key_of(load_scene(args.scene, p.overrides), petsc_args)
         except SceneError as exc:
             raise SceneError(f"run {p.folder.name}: {exc}") from None
-    executor = executors.make_executor(
-        args.executor, args.jobs, args.np, args.slurm, args.executor_config, args.print_job_script
-    )
-    if executor is None:  # --print-job-script
-        return 0
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        executor.close()
-        raise SceneError(f"--out {out}: {exc.strerror or exc}") from None
-    console.out(
-        f"rftfem sweep: {len(points)} runs of {args.scene} in {out}, executor {executor.describe()}"
-    )
-    progress = _Progress(len(points), console)
+    return varies, quantities, out, points
 
-    def one(p: Point):
+
+def _run_points(
+    points: list[Point],
+    args: argparse.Namespace,
+    executor: executors.Executor,
+    petsc_args: list[str],
+    quantities: Sequence[tuple[str, Objective]],
+    progress: _Progress,
+    table: Callable[[], None],
+) -> None:
+    """Run every point, ``table`` (sweep.csv) written after each; the executor is
+    closed after."""
+
+    def one(p: Point) -> None:
         try:
             run_point(p, args.scene, executor, petsc_args, args.reuse, quantities)
         except Exception as exc:  # the engine failed this run: a row, not a crash
             p.status, p.reason = "failed", f"{exc.__class__.__name__}: {exc}"[:300]
         progress.finished(p)
-        write_csv(points, varies, names, out / "sweep.csv")  # what is known so far
+        table()  # what is known so far
 
-    t0 = time.perf_counter()
     try:
         local_here = isinstance(executor, executors.LocalExecutor) and executor.in_process
         if local_here:  # gmsh and PETSc want the main thread
@@ -379,20 +324,24 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
                 list(pool.map(one, points))
     finally:
         executor.close()
-        write_csv(points, varies, names, out / "sweep.csv")
-    drawn = sweep_report.plot(points, varies, names, out / "sweep.png", args.scene)
-    from rftfem.scene.overrides import as_arguments
+        table()
 
-    command = " ".join(
-        [
-            "rftfem sweep",
-            shlex.quote(args.scene),
-            *[f"--vary {shlex.quote(v)}" for v in args.vary],
-            *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
-            *map(shlex.quote, as_arguments(args.overrides)),
-        ]
-    )
-    (out / "command.txt").write_text(command + "\n", encoding="utf-8")
+
+def _report(
+    points: list[Point],
+    varies: list[Vary],
+    names: list[str],
+    out: Path,
+    args: argparse.Namespace,
+    console: Any,
+    t0: float,
+) -> None:
+    """sweep.png, command.txt and what the console is told of the runs."""
+    from rftfem.studies import sweep_report
+    from rftfem.studies.reuse import report
+
+    drawn = sweep_report.plot(points, varies, names, out / "sweep.png", args.scene)
+    (out / "command.txt").write_text(_command(args) + "\n", encoding="utf-8")
     failed = sum(p.status == "failed" for p in points)
     report([(p.note, p.folder.name) for p in points], console, "sweep")
     missing = [p for p in points if p.status.endswith("quantity missing")]
@@ -408,7 +357,21 @@ def main(args: argparse.Namespace, petsc_args: list[str], console: Any) -> int:
         + (", sweep.png" if drawn else "")
         + f" in {out}"
     )
-    return 0
+
+
+def _command(args: argparse.Namespace) -> str:
+    """The command line that makes this sweep again, for command.txt."""
+    from rftfem.scene.overrides import as_arguments
+
+    return " ".join(
+        [
+            "rftfem sweep",
+            shlex.quote(args.scene),
+            *[f"--vary {shlex.quote(v)}" for v in args.vary],
+            *[f"--quantity {shlex.quote(q)}" for q in args.quantities],
+            *map(shlex.quote, as_arguments(args.overrides)),
+        ]
+    )
 
 
 __all__ = ["main", "add_arguments", "parse_vary", "grid", "Vary", "Point", "DESCRIPTION"]
