@@ -43,7 +43,7 @@ from rftfem.integration.simulation import Simulation
 from rftfem.scene.reading import load_scene
 
 #: flag sets compared: the JIT's own default first, then rftfem's earlier default,
-#: then the vectorised ones; the one in use (rftfem/compat.py) is marked
+#: then the vectorised ones; the one in use (rftfem/compat/compilation.py) is marked
 FLAG_SETS = [
     ["-O2", "-g0"],
     ["-O2", "-g0", "-fno-math-errno"],

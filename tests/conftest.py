@@ -114,7 +114,7 @@ def run_command(cmd, **kwargs):
     restart launched right after another run: one launch in two there). Traced
     with strace to gmsh 4.8 (Debian 12): asked whether it was initialized, an
     uninitialized gmsh may call exit(1) while rftfem had its stderr silenced;
-    meshes/gmsh_file.py no longer asks it. Such a launch is still repeated
+    meshes/gmsh_session.py no longer asks it. Such a launch is still repeated
     once, with a warning in pytest's summary, in case another cause remains;
     a second one fails the test.
     """

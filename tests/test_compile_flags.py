@@ -1,4 +1,4 @@
-"""The C compiler flags of rftfem's forms (rftfem/compat.py, docs/running.md):
+"""The C compiler flags of rftfem's forms (rftfem/compat/compilation.py, docs/running.md):
 vector instructions only where the CPU has them, the environment's flags
 replacing the defaults, and every form compiled with them."""
 

@@ -199,7 +199,7 @@ def test_drag_residual_vanishes_at_rest(tmp_path):
     model.w.x.array[model.u_dofs] += 1e-3
     moved = norm()
     # zero but for round-off: the compiler may reassociate (u - u_n) with the
-    # scheme's other terms (rftfem/compat.py's flags)
+    # scheme's other terms (rftfem/compat/compilation.py's flags)
     assert moved > 0.0 and rest <= 1e-13 * moved
 
 
