@@ -58,7 +58,13 @@ from rftfem.compat.spaces import (
     interpolation_points,
     quadrature_space,
 )
-from rftfem.compat.stack import SNES_NOT_FINITE, has_mumps, petsc_unlimited, versions
+from rftfem.compat.stack import (
+    SNES_NOT_FINITE,
+    has_mumps,
+    has_scalapack,
+    petsc_unlimited,
+    versions,
+)
 from rftfem.compat.xdmf import repair_xdmf_namespace
 
 __all__ = [
@@ -93,5 +99,6 @@ __all__ = [
     "versions",
     "petsc_unlimited",
     "has_mumps",
+    "has_scalapack",
     "repair_xdmf_namespace",
 ]

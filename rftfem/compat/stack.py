@@ -34,3 +34,8 @@ def petsc_unlimited() -> int:
 
 def has_mumps() -> bool:
     return bool(PETSc.Sys.hasExternalPackage("mumps"))
+
+
+def has_scalapack() -> bool:
+    """Whether PETSc can factorise distributed dense matrices (``MATSCALAPACK``)."""
+    return bool(PETSc.Sys.hasExternalPackage("scalapack"))

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from rftfem.model import stokeslets
+from rftfem.model import dense_factors, stokeslets
 from rftfem.model.ranks import gather_rows
 
 if TYPE_CHECKING:
@@ -30,8 +30,8 @@ class LayerResistance:
     :meth:`tangent`), ``I`` the force grid's interpolation (``layer_rules.refined``).
 
     ``A`` is not symmetric (collocation), so it is LU-factorised.  Under MPI each
-    process evaluates its ``layer.rows``; to factorise, the rows are gathered and
-    every process factorises the same matrix; GMRES on kept factors multiplies by
+    process evaluates its ``layer.rows`` and the processes factorise together
+    (ScaLAPACK, ``rftfem.model.dense_factors``); GMRES on kept factors multiplies by
     the rows where they are (only vectors are gathered); the position derivative
     stays distributed.
 
@@ -69,7 +69,7 @@ class LayerResistance:
         if kept is None:
             self.factorise()
         else:
-            self._lu, self.factored = kept._lu, kept.factored
+            self._factors, self.factored = kept._factors, kept.factored
         self._mass = layer.mass_factors()[0]
         self._solved = []  # (loads, densities) of the last solves, for the derivative
 
@@ -79,12 +79,9 @@ class LayerResistance:
         return self.factored is self
 
     def factorise(self) -> None:
-        """Factorise this configuration's ``A``, its rows gathered on every process (then
-        dropped: the factors replace it)."""
-        import scipy.linalg as sl
-
-        A = gather_rows(self.A, self.comm)
-        self._lu = sl.lu_factor(A, overwrite_a=True, check_finite=False)
+        """Factorise this configuration's ``A`` (LU; under MPI the processes together,
+        ``rftfem.model.dense_factors``), then drop it: the factors replace it."""
+        self._factors = dense_factors.factorise(self.A, self.comm)
         self.A, self.factored, self.iterations = None, self, 0
 
     def _to_grid(self, v: np.ndarray) -> np.ndarray:
@@ -98,17 +95,15 @@ class LayerResistance:
     def densities(self, rhs: np.ndarray, exact: bool = True) -> np.ndarray:
         """``A⁻¹ rhs`` for grid velocities: the density's values at the grid nodes (with
         ``exact`` False and kept factors: theirs, an approximation)."""
-        import scipy.linalg as sl
-
         if self.fresh or not exact:
-            return sl.lu_solve(self._lu, rhs, check_finite=False)
+            return self._factors.solve(rhs)
         columns = rhs.reshape(len(rhs), -1)
         out = np.empty_like(columns)
         for k in range(columns.shape[1]):
             out[:, k], its = _gmres(
                 self._product,
                 columns[:, k],
-                lambda r: sl.lu_solve(self._lu, r, check_finite=False),
+                self._factors.solve,
                 KEPT_RTOL,
                 KEPT_MOST,
             )

@@ -235,9 +235,8 @@ class DirectSums:
 
     def matrix(self, nodes: np.ndarray) -> np.ndarray:
         """The dense mobility of the ``nodes`` alone (3k × 3k, the wall's images in);
-        the whole body's is made by rows on every process and gathered."""
-        from rftfem.model.ranks import gather_rows
-
+        of the whole body under ``comm``, this process's rows of it (its share of
+        the targets), which the processes factorise together."""
         x, d = self.x[nodes], self.delta[nodes]
         Q = np.eye(3) if self.wall is None else self.wall.Q
         whole = self.comm is not None and len(nodes) == self.n
@@ -246,7 +245,7 @@ class DirectSums:
         _mobility_matrix(x, d, self.wall is not None, Q, lo, hi, out)
         out = out.reshape(3 * (hi - lo), -1)
         out *= self.scale
-        return gather_rows(out, self.comm) if whole else out
+        return out
 
     def derivative_operator(self, forces: np.ndarray) -> "_Derivative":
         """``dx ↦ G dx`` at the fixed ``forces``, applied with ``@``."""

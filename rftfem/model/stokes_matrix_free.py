@@ -25,9 +25,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg as sl
 
-from rftfem.model import stokeslets
+from rftfem.model import dense_factors, stokeslets
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -70,7 +69,8 @@ class MatrixFreeResistance:
 
     ``sums`` gives ``mobility(F)`` (``M F``, 3N) and ``derivative_operator(F)`` (an
     operator ``dx ↦ G dx``); ``cluster_mobility(nodes)`` gives the dense mobility of a
-    cluster alone (with the wall's images if the liquid has one)."""
+    cluster alone (with the wall's images if the liquid has one; of the whole body,
+    this process's rows of it under the ``sums``' ``comm``)."""
 
     def __init__(
         self,
@@ -112,11 +112,16 @@ class MatrixFreeResistance:
         return self.factored is self
 
     def factorise(self) -> None:
-        """The clusters' Cholesky factors at this configuration."""
+        """The clusters' Cholesky factors at this configuration (one cluster: the
+        whole mobility's, by the processes together under MPI)."""
         self.clusters = [np.arange(self.n)] if self.whole else clusters(self.x, CLUSTER_NODES)
+        comm = getattr(self.sums, "comm", None) if self.whole else None
         self._factors = [
-            sl.cho_factor(
-                self._cluster_mobility(c), lower=True, overwrite_a=True, check_finite=False
+            dense_factors.factorise(
+                self._cluster_mobility(c),
+                comm,
+                symmetric=True,
+                remake=lambda c=c: self._cluster_mobility(c),
             )
             for c in self.clusters
         ]
@@ -130,7 +135,7 @@ class MatrixFreeResistance:
         v = np.reshape(v, (-1, 3))
         out = np.empty_like(v)
         for c, f in zip(self.clusters, self._factors):
-            out[c] = sl.cho_solve(f, v[c].ravel(), check_finite=False).reshape(-1, 3)
+            out[c] = f.solve(v[c].ravel()).reshape(-1, 3)
         return out.ravel()
 
     def solve(

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rftfem.errors import SceneError
-from rftfem.model import layer_rules, stokes_layer
+from rftfem.model import dense_factors, layer_rules, stokes_layer
 
 if TYPE_CHECKING:
     from rftfem.model import stokeslets
@@ -79,9 +79,14 @@ def admit(
     the grid's nodes (the blobs': the shell's); ``points_a_row``: quadrature points each
     row sums over (the layer)."""
     n3 = 3 * rows
-    # on every process the matrix (and the layer's kept factors), the derivative's
-    # share of rows
-    memory = 8 * n3 * n3 * ((2 if method == "layer" else 1) + 1 / processes)
+    if dense_factors.shared(processes):
+        # each process's share of: its rows, their copy handed to ScaLAPACK, the
+        # factors, the layer's kept factors, the derivative's rows
+        memory = 8 * n3 * n3 * (5 if method == "layer" else 4) / processes
+    else:
+        # on every process the matrix (and the layer's kept factors), the
+        # derivative's share of rows
+        memory = 8 * n3 * n3 * ((2 if method == "layer" else 1) + 1 / processes)
     have = machine_memory()
     change = (
         "a coarser mesh"
@@ -115,6 +120,8 @@ def update_cost(
     rates: ``(factorisation, kernels)`` (the matrix and its derivative)."""
     lu, pair = _rates()
     factor = (2 / 3 if method == "layer" else 1 / 3) * (3 * rows) ** 3 / lu
+    if dense_factors.shared(processes):
+        factor /= processes  # (ScaLAPACK: 1.7 to 1.8 times faster on two processes)
     return factor, 2.5 * rows * points_a_row * pair / processes
 
 

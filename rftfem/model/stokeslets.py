@@ -251,9 +251,9 @@ class Resistance:
     Cholesky of the symmetric positive definite ``M`` (LU if round-off breaks it);
     with a ``wall``, ``M`` includes its images.  Under MPI (``comm`` of more than
     one process) each process evaluates the kernel on its ``rows`` (a slice of
-    target nodes, the slices in rank order covering all), the rows are gathered
-    and every process factorises the same matrix; the position derivative stays
-    distributed by rows."""
+    target nodes, the slices in rank order covering all) and the processes
+    factorise together (``rftfem.model.dense_factors``); the position derivative
+    stays distributed by rows."""
 
     def __init__(
         self,
@@ -264,35 +264,27 @@ class Resistance:
         comm: MPI.Comm | None = None,
         rows: slice | None = None,
     ):
-        import scipy.linalg as sl
+        from rftfem.model import dense_factors
 
         self.x = np.array(x, dtype=float)
         self.delta, self.viscosity, self.wall = delta, viscosity, wall
         parallel = comm is not None and comm.size > 1
         self.comm = comm if parallel else None
         self.rows = rows if parallel else None
-        try:
-            self._cho = sl.cho_factor(
-                self._matrix(), lower=True, overwrite_a=True, check_finite=False
-            )
-            self._lu = None
-        except np.linalg.LinAlgError:
-            self._cho = None
-            self._lu = sl.lu_factor(self._matrix(), check_finite=False)
+        self._factors = dense_factors.factorise(
+            self._matrix(), self.comm, symmetric=True, remake=self._matrix
+        )
 
     def _matrix(self) -> np.ndarray:
+        """This process's rows of ``M`` (all of them on one process)."""
         M = mobility(self.x, self.delta, self.viscosity, self.rows)
         if self.wall is not None:
             M += self.wall.mobility(self.x, self.viscosity, self.rows)
-        return gather_rows(M, self.comm)
+        return M
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``M⁻¹ rhs`` (``rhs`` of length 3N, or 3N × k)."""
-        import scipy.linalg as sl
-
-        if self._cho is not None:
-            return sl.cho_solve(self._cho, rhs, check_finite=False)
-        return sl.lu_solve(self._lu, rhs, check_finite=False)
+        return self._factors.solve(rhs)
 
     def lumped(self) -> np.ndarray:
         """The nodal blocks ``Σ_j (M⁻¹)_ij`` (N × 3 × 3, symmetrised, eigenvalues
