@@ -166,14 +166,16 @@ def test_position_derivative_taylor_order_two():
     )
 
 
-@pytest.mark.parametrize("operator", ["fmm", "direct", "direct-wall"])
+@pytest.mark.parametrize("operator", ["fmm", "fmm-wall", "direct", "direct-wall"])
 def test_fast_operator_matches_the_dense_one(monkeypatch, operator):
     """The matrix-free operators against the dense one on a wavy plate of 400 nodes
     with free-edge blobs, four clusters in the preconditioner: M F (reached 3e-15
-    fmm, 1e-15 direct, 3e-15 with a tilted wall), M⁻¹ v by the conjugate gradients
-    (2e-11), G dx (6e-14, 2e-15, 3e-15), the lumped blocks (1e-10).  Broke: the fmm
-    correction's cutoff at 3 blobs gives M F 4e-6; the direct sums' image
-    derivative without its ``h′`` terms (``hp = 0``) gives G dx 0.05 with the wall."""
+    fmm, 4e-15 fmm with a tilted wall, 1e-15 direct, 3e-15 direct with the
+    wall), M⁻¹ v by the conjugate gradients (2e-11), G dx (6e-14, 6e-14,
+    2e-15, 3e-15), the lumped blocks (1e-10).  Broke: the fmm correction's cutoff at
+    3 blobs gives M F 4e-6; the direct sums' image derivative without its ``h′``
+    terms (``hp = 0``) gives G dx 0.05 with the wall; the fmm images' doublet
+    height terms dropped (``dh = 0``) gives G dx 0.013."""
     from rftfem.model import stokes_direct, stokes_fmm, stokes_matrix_free
 
     monkeypatch.setattr(stokes_matrix_free, "CLUSTER_NODES", 100)
@@ -188,8 +190,8 @@ def test_fast_operator_matches_the_dense_one(monkeypatch, operator):
     rng = np.random.default_rng(0)
     F, dx = rng.standard_normal(x.size), rng.standard_normal(x.size)
     wall = stokeslets.Wall([0.0, 0.0, -0.4], [0.1, -0.05, 1.0]) if "wall" in operator else None
-    if operator == "fmm":
-        fast = stokes_fmm.FastResistance(x, delta, 0.7)
+    if operator.startswith("fmm"):
+        fast = stokes_fmm.FastResistance(x, delta, 0.7, wall)
     else:
         fast = stokes_direct.DirectResistance(x, delta, 0.7, wall)
     dense = stokeslets.Resistance(x, delta, 0.7, wall)
@@ -213,6 +215,32 @@ def test_fast_operator_matches_the_dense_one(monkeypatch, operator):
     assert errors["solve"] < 2e-10 and errors["lumped"] < 1e-9
 
 
+def test_fmm_images_taylor_order_two():
+    """The wall's images by fast multipoles (``stokes_fmm_wall.FmmImages``, at the
+    shipped precision): their velocity moved with every node, less the targets'
+    gradient and the sources' motion, falls as ε² (orders 2.00; reached the
+    dense images' to 1e-15 in test_fast_operator_matches_the_dense_one).  Broke: the
+    potential dipole's position term dropped: order 1.0."""
+    from rftfem.model import stokes_fmm
+    from rftfem.model.stokes_fmm_wall import FmmImages
+
+    rng = np.random.default_rng(2)
+    x = rng.random((80, 3)) * [2.0, 1.0, 0.4] + [0.0, 0.0, 0.3]
+    F, dx = rng.standard_normal((80, 3)), rng.standard_normal((80, 3))
+    wall = stokeslets.Wall([0.1, 0.0, -0.2], [0.1, 0.2, 1.0])
+
+    def images(y):
+        return FmmImages(y, wall, stokes_fmm.FMM_PRECISION)
+
+    base = images(x)
+    u0 = base.velocity(F)
+    du = np.einsum("nka,nk->na", base.gradient(F), dx) + base.source_motion(F, dx)
+    rem = [np.linalg.norm(images(x + h * dx).velocity(F) - u0 - h * du) for h in (4e-3, 2e-3, 1e-3)]
+    orders = np.log2(np.array(rem[:-1]) / np.array(rem[1:]))
+    print(f"fmm images: remainders {rem}, orders {orders}")
+    assert orders.min() > 1.9, orders
+
+
 @pytest.mark.parametrize("wall", [False, True], ids=["free", "wall"])
 def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch, wall):
     """A coarse stiff disk translated edgewise and turned by a couple, three steps:
@@ -220,7 +248,8 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch, wal
     of 80 nodes), ``"direct"`` (the whole body one cluster: its factors kept across
     Newton iterations and steps) and ``"direct"`` on clusters of 80 equal the dense
     run's to 5e-11 (reached 1.6e-12, 9e-15, 3.7e-12), and so with a tilted wall
-    below it (reached 6.4e-12, 2.8e-12; the conjugate gradients stop at 1e-11),
+    below it (reached 6.4e-12, 2.8e-12, and 1.2e-12 by fast multipoles with the
+    images; the conjugate gradients stop at 1e-11),
     Newton to round-off in each.  Broke: the direct sums' rows turned back from the
     wall's frame by ``Qᵀ`` instead of ``Q``: 5e-3; the conjugate gradients on kept
     factors stopped after one iteration: 3.4e-9."""
@@ -232,7 +261,7 @@ def test_fast_operator_in_a_run_matches_the_dense_one(tmp_path, monkeypatch, wal
     if wall:
         extra += "[fluid.wall]\npoint = [0.0, 0.0, -1.0]\nnormal = [0.1, 0.05, 1.0]\n"
     runs = {}
-    variants = ["dense", "direct", "direct clusters"] + ([] if wall else ["fmm"])
+    variants = ["dense", "direct", "direct clusters", "fmm"]
     for variant in variants:
         operator = variant.split()[0]
         whole = 0 if variant.endswith("clusters") else stokes_matrix_free.WHOLE_UP_TO
@@ -474,9 +503,10 @@ def test_layer_position_derivative_taylor_order_two(tmp_path, meshes, extra):
         (False, "dense", "layer refined"),
         (False, "dense", "blobs"),
         (False, "fmm", "blobs"),
+        (True, "fmm", "blobs"),
         (True, "direct", "blobs"),
     ],
-    ids=["free", "wall", "refined", "blobs", "fmm", "direct-wall"],
+    ids=["free", "wall", "refined", "blobs", "fmm", "fmm-wall", "direct-wall"],
 )
 def test_coupled_residual_taylor_order_two(tmp_path, wall, operator, method):
     """|R(w + εδ) − R(w) − ε J δ| falls as ε² for the step's whole residual (shell,

@@ -16,10 +16,11 @@
   ``magnet_fields`` (permanent magnets and their closed-form fields),
   ``dipoles``, ``dipoles_fmm`` (interactions between magnetized parts);
 - the Stokes flow (not UFL): ``stokeslets`` and ``blob_radial`` (the regularized
-  kernel), ``stokes_body`` (the body as the operators see it), the integrated
-  layer (``stokes_layer``, ``layer_rules``, ``edge_weight``, ``layer_resistance``,
-  ``stokes_kernels``, ``stokes_images``), the direct sums (``stokes_direct``,
-  ``stokes_direct_derivative``, ``stokes_pairs``), the matrix-free path
+  kernel; ``stokes_rows`` its dense rows compiled), ``stokes_body`` (the body as
+  the operators see it), the integrated layer (``stokes_layer``, ``layer_rules``,
+  ``edge_weight``, ``layer_resistance``, ``stokes_kernels``, ``stokes_images``),
+  the direct sums (``stokes_direct``, ``stokes_direct_derivative``,
+  ``stokes_pairs``), the matrix-free path
   (``stokes_fmm``, ``stokes_matrix_free``), ``dense_factors`` (the dense
   operators' factors, ScaLAPACK's under MPI) and ``stokes_report`` (its cost and
   error).

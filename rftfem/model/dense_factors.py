@@ -100,6 +100,9 @@ class ScalapackFactors:
         counts = comm.allgather(rows.shape[0])
         if sum(counts) != n:
             raise ValueError(f"dense factors: the rows make {sum(counts)} × {n}, not square")
+        # PETSc's own even rows: its conversion to ScaLAPACK's block-cyclic layout is
+        # 3 to 5 times faster from them than from any other split (measured at 9075)
+        rows = _even_rows(rows, counts, comm)
         pcomm = PETSc.Comm(comm)
         self.kind = "cholesky" if symmetric else "lu"
         try:
@@ -143,3 +146,25 @@ class ScalapackFactors:
         out = np.empty(len(rhs))
         self.comm.Allgatherv(self._x.getArray(readonly=True), [out, self._x_counts])
         return out
+
+
+def _even_rows(rows: np.ndarray, counts: list[int], comm: MPI.Comm) -> np.ndarray:
+    """The matrix whose rows are shared out as ``counts`` (this process's ``rows``)
+    shared out evenly instead, the first ``n mod size`` processes one row more."""
+    n, size = sum(counts), comm.size
+    even = [n // size + (r < n % size) for r in range(size)]
+    if even == counts:
+        return rows
+    start = np.concatenate([[0], np.cumsum(counts)])
+    target = np.concatenate([[0], np.cumsum(even)])
+    me = comm.rank
+
+    def overlap(a, b):  # rows of process a's share now that process b gets
+        return max(0, min(start[a + 1], target[b + 1]) - max(start[a], target[b]))
+
+    width = rows.shape[1]
+    sent = [overlap(me, r) * width for r in range(size)]
+    received = [overlap(r, me) * width for r in range(size)]
+    out = np.empty((even[me], width))
+    comm.Alltoallv([np.ascontiguousarray(rows, dtype=float), sent], [out, received])
+    return out

@@ -166,6 +166,9 @@ def warm() -> None:
         _near_derivative(x, d, F, F, start, near, 0, 2, out)
     for wall in (False, True):
         _mobility_matrix(x, d, wall, np.eye(3), 0, 2, np.empty((2, 3, 2, 3)))
+    from rftfem.model import stokes_rows
+
+    stokes_rows.derivative_rows(x, d, 1.0, F)
 
 
 class DirectSums:

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from rftfem.model import stokes_matrix_free, stokeslets
+from rftfem.model import stokes_matrix_free, stokes_rows, stokeslets
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -67,24 +67,39 @@ def _block_matrix(rows, cols, blocks, n) -> sp.csr_matrix:
 
 
 def FastResistance(
-    x: np.ndarray, delta: np.ndarray, viscosity: float
+    x: np.ndarray, delta: np.ndarray, viscosity: float, wall: stokeslets.Wall | None = None
 ) -> stokes_matrix_free.MatrixFreeResistance:
-    """The matrix-free resistance whose products are fast multipoles (:class:`FmmSums`)."""
-    sums = FmmSums(x, delta, viscosity)
-    return stokes_matrix_free.MatrixFreeResistance(
-        sums.x, sums, lambda c: stokeslets.mobility(sums.x[c], sums.delta[c], sums.viscosity)
-    )
+    """The matrix-free resistance whose products are fast multipoles (:class:`FmmSums`),
+    its clusters' mobilities compiled (the wall's images in)."""
+    sums = FmmSums(x, delta, viscosity, wall)
+
+    def cluster_mobility(c):
+        M = stokes_rows.mobility_rows(sums.x[c], sums.delta[c], sums.viscosity)
+        return M if wall is None else M + wall.mobility(sums.x[c], sums.viscosity)
+
+    return stokes_matrix_free.MatrixFreeResistance(sums.x, sums, cluster_mobility)
 
 
 class FmmSums:
     """``M F`` and ``G dx`` by fast multipoles plus the near blobs' sparse correction,
-    at the positions ``x`` with blobs ``delta`` (no wall)."""
+    at the positions ``x`` with blobs ``delta``; with a plane ``wall``, its images
+    by fast multipoles too (``rftfem.model.stokes_fmm_wall``)."""
 
-    def __init__(self, x: np.ndarray, delta: np.ndarray, viscosity: float):
+    def __init__(
+        self,
+        x: np.ndarray,
+        delta: np.ndarray,
+        viscosity: float,
+        wall: stokeslets.Wall | None = None,
+    ):
+        from rftfem.model.stokes_fmm_wall import FmmImages
+
         self.x = np.array(x, dtype=float)
         self.delta = np.asarray(delta, dtype=float)
         self.viscosity = float(viscosity)
         self.n = len(self.x)
+        #: the wall's images (None: no wall)
+        self.images = None if wall is None else FmmImages(self.x, wall, FMM_PRECISION)
         self._sources = np.ascontiguousarray(self.x.T)
         self._near_pairs()
         self.correction = self._near_blocks()
@@ -134,8 +149,10 @@ class FmmSums:
 
     def mobility(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` for forces of length 3N."""
-        out = self._fmm(stoklet=forces).pot.reshape(3, self.n).T.ravel() / self.viscosity
-        return out + self.correction @ forces
+        u = self._fmm(stoklet=forces).pot.reshape(3, self.n).T
+        if self.images is not None:
+            u = u + self.images.velocity(forces)
+        return u.ravel() / self.viscosity + self.correction @ forces
 
     def derivative_operator(self, forces: np.ndarray) -> "PositionDerivative":
         """``dx ↦ G dx = ∂(M F)/∂x · dx`` at the fixed ``forces``."""
@@ -149,7 +166,10 @@ class PositionDerivative:
         self.res, self.F = res, F
         out = res._fmm(stoklet=F, ifppreg=3)
         #: ∂u_a/∂x_k at every node, (N, k, a)
-        self.gradient = np.moveaxis(out.grad.reshape(3, 3, res.n), -1, 0) / res.viscosity
+        gradient = np.moveaxis(out.grad.reshape(3, 3, res.n), -1, 0)
+        if res.images is not None:
+            gradient = gradient + res.images.gradient(F)
+        self.gradient = gradient / res.viscosity
         self.near = self._near_derivative()
 
     def _near_derivative(self) -> sp.csr_matrix:
@@ -178,8 +198,10 @@ class PositionDerivative:
         res = self.res
         d = np.reshape(dx, (-1, 3))
         target = np.einsum("nka,nk->na", self.gradient, d)
-        doublet = res._fmm(doublet=self.F, doubvec=d).pot.reshape(3, res.n).T
-        return (target + 0.5 * doublet / res.viscosity).ravel() + self.near @ np.ravel(dx)
+        sources = 0.5 * res._fmm(doublet=self.F, doubvec=d).pot.reshape(3, res.n).T
+        if res.images is not None:
+            sources = sources + res.images.source_motion(self.F, d)
+        return (target + sources / res.viscosity).ravel() + self.near @ np.ravel(dx)
 
 
 class OnFirst:

@@ -276,8 +276,10 @@ class Resistance:
         )
 
     def _matrix(self) -> np.ndarray:
-        """This process's rows of ``M`` (all of them on one process)."""
-        M = mobility(self.x, self.delta, self.viscosity, self.rows)
+        """This process's rows of ``M`` (all of them on one process), compiled."""
+        from rftfem.model import stokes_rows
+
+        M = stokes_rows.mobility_rows(self.x, self.delta, self.viscosity, self.rows)
         if self.wall is not None:
             M += self.wall.mobility(self.x, self.viscosity, self.rows)
         return M
@@ -297,7 +299,9 @@ class Resistance:
     def position_operator(self, forces: np.ndarray) -> np.ndarray | RowBlocks:
         """``G = ∂(M F)/∂x`` at the fixed ``forces`` (dense, the images' part included;
         under MPI an operator holding this process's rows)."""
-        G = position_derivative(self.x, self.delta, self.viscosity, forces, self.rows)
+        from rftfem.model import stokes_rows
+
+        G = stokes_rows.derivative_rows(self.x, self.delta, self.viscosity, forces, self.rows)
         if self.wall is not None:
             G += self.wall.position_derivative(self.x, self.viscosity, forces, self.rows)
         return G if self.comm is None else RowBlocks(G, self.comm)

@@ -45,11 +45,6 @@ def _check_stokes(fluid: dict) -> None:
         )
     if fluid.get("viscosity") is None:
         raise SceneError('fluid.viscosity: required with fluid.model = "stokes"')
-    if fluid.get("operator") == "fmm" and fluid.get("wall") is not None:
-        raise SceneError(
-            'fluid.operator: "fmm" has no wall images; use operator = '
-            '"direct" (matrix-free, with the images) or "dense" with fluid.wall'
-        )
     operator = fluid.get("operator")
     if operator in ("direct", "fmm") and fluid.get("method", "layer") == "layer":
         raise SceneError(
@@ -216,9 +211,10 @@ SCHEMA = Table(
             'for N nodes); "direct" is matrix-free (method "blobs"): compiled '
             "direct sums of the kernel, with the wall's images, shared out by rows "
             "under mpirun, inside preconditioned conjugate gradients, memory O(N); "
-            '"fmm" is matrix-free by fast multipoles (fmm3dpy; no wall, one '
-            'process; for bodies beyond some 400 000 nodes); "auto" is dense up '
-            "to 5000 nodes, direct above (docs/stokes.md §Cost and scale).",
+            '"fmm" is matrix-free by fast multipoles (fmm3dpy; the wall\'s images '
+            "as multipole sources too; run on the first process, threaded; for "
+            'bodies beyond some 400 000 nodes); "auto" is dense up to 5000 nodes, '
+            "direct above (docs/stokes.md §Cost and scale).",
         ),
         "factors": Leaf(
             Str(FACTORS),

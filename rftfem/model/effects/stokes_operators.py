@@ -105,7 +105,9 @@ def new_resistance(
         )
     if stokes.operator == "fmm":
         return stokes_fmm.OnFirst(
-            comm, x, lambda: stokes_fmm.FastResistance(x, stokes.delta, stokes.viscosity)
+            comm,
+            x,
+            lambda: stokes_fmm.FastResistance(x, stokes.delta, stokes.viscosity, stokes.wall),
         )
     return stokeslets.Resistance(
         x,
