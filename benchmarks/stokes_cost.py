@@ -3,14 +3,15 @@
 For a flat square plate of N nodes (a uniform grid, the blob its spacing) it
 times the three pieces of a Newton iteration with ``[fluid] model = "stokes"``
 (rftfem/model/stokeslets.py): building the 3N × 3N mobility and its Cholesky
-factorisation (every residual at new positions), the position derivative G
+factorisation (every residual at new positions; under mpirun each process its
+rows, the processes factorising together), the position derivative G
 (every tangent), and one tangent product (every GMRES iteration). Printed: the
 seconds of each per N, and the exponent of a power law fitted over the sizes.
 
 With ``--fast`` it times the matrix-free operator instead (``[fluid] operator =
 "fmm"``, rftfem/model/stokes_fmm.py; with ``--direct`` the compiled direct sums of
-``operator = "direct"``, rftfem/model/stokes_direct.py, and ``--wall`` adds a plane
-wall below the plate to them): setting it up at new positions (near pairs and the
+``operator = "direct"``, rftfem/model/stokes_direct.py; ``--wall`` adds a plane
+wall below the plate to either): setting it up at new positions (near pairs and the
 clusters' Cholesky factors), one product M F (one fast multipole call), one solve
 M⁻¹ v by preconditioned conjugate gradients (a residual; its iterations printed),
 and the position derivative (set up once per tangent, then one product per GMRES
@@ -76,7 +77,7 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--direct", action="store_true", help="the matrix-free direct sums (operator = direct)"
     )
-    parser.add_argument("--wall", action="store_true", help="with --direct: a wall below")
+    parser.add_argument("--wall", action="store_true", help="with --fast or --direct: a wall below")
     args = parser.parse_args(argv)
     if args.fast or args.direct:
         sizes = args.nodes or [500, 1000, 2000, 5000, 10000, 20000]
@@ -130,7 +131,7 @@ def exponents(rows, names):
 
 def fast(sizes, direct: bool = False, wall: bool = False) -> int:
     """The matrix-free operator's pieces per N (the plate's free edges keep half blobs):
-    fast multipoles, or the direct sums (with a wall 0.3 below the plate if ``wall``)."""
+    fast multipoles or the direct sums, with a wall 0.3 below the plate if ``wall``."""
     from rftfem.model import stokes_direct, stokes_fmm
 
     plane = stokeslets.Wall([0.0, 0.0, -0.3], [0.0, 0.0, 1.0]) if wall else None
@@ -154,7 +155,7 @@ def fast(sizes, direct: bool = False, wall: bool = False) -> int:
         if direct:
             res = stokes_direct.DirectResistance(x, delta, 1.0, plane)
         else:
-            res = stokes_fmm.FastResistance(x, delta, 1.0)
+            res = stokes_fmm.FastResistance(x, delta, 1.0, plane)
         t_setup = time.perf_counter() - t0
         t_apply = best(lambda: res.apply(v), repeat=1)
         t0 = time.perf_counter()

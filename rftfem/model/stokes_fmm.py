@@ -149,9 +149,10 @@ class FmmSums:
 
     def mobility(self, forces: np.ndarray) -> np.ndarray:
         """``M F`` for forces of length 3N."""
-        u = self._fmm(stoklet=forces).pot.reshape(3, self.n).T
-        if self.images is not None:
-            u = u + self.images.velocity(forces)
+        if self.images is None:
+            u = self._fmm(stoklet=forces).pot.reshape(3, self.n).T
+        else:  # the free Stokeslets and their images in one multipole call
+            u = self.images.velocity(forces, free=True)
         return u.ravel() / self.viscosity + self.correction @ forces
 
     def derivative_operator(self, forces: np.ndarray) -> "PositionDerivative":
@@ -164,11 +165,12 @@ class PositionDerivative:
 
     def __init__(self, res: FmmSums, F: np.ndarray):
         self.res, self.F = res, F
-        out = res._fmm(stoklet=F, ifppreg=3)
+        if res.images is None:
+            out = res._fmm(stoklet=F, ifppreg=3)
+            gradient = np.moveaxis(out.grad.reshape(3, 3, res.n), -1, 0)
+        else:
+            gradient = res.images.gradient(F, free=True)
         #: ∂u_a/∂x_k at every node, (N, k, a)
-        gradient = np.moveaxis(out.grad.reshape(3, 3, res.n), -1, 0)
-        if res.images is not None:
-            gradient = gradient + res.images.gradient(F)
         self.gradient = gradient / res.viscosity
         self.near = self._near_derivative()
 
@@ -198,9 +200,10 @@ class PositionDerivative:
         res = self.res
         d = np.reshape(dx, (-1, 3))
         target = np.einsum("nka,nk->na", self.gradient, d)
-        sources = 0.5 * res._fmm(doublet=self.F, doubvec=d).pot.reshape(3, res.n).T
-        if res.images is not None:
-            sources = sources + res.images.source_motion(self.F, d)
+        if res.images is None:
+            sources = 0.5 * res._fmm(doublet=self.F, doubvec=d).pot.reshape(3, res.n).T
+        else:
+            sources = res.images.source_motion(self.F, d, free=True)
         return (target + sources / res.viscosity).ravel() + self.near @ np.ravel(dx)
 
 

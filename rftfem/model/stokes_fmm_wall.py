@@ -47,38 +47,42 @@ def _columns(v: np.ndarray) -> np.ndarray:
 
 class FmmImages:
     """The images of the forces at ``x`` (N, 3, global) in ``wall``, by fast
-    multipoles to ``precision``; velocities and gradients times μ, global axes."""
+    multipoles to ``precision``; velocities and gradients times μ, global axes.
+    With ``free`` each call adds the free Stokeslets' part (the singular sums of
+    ``rftfem.model.stokes_fmm``) in the same multipole call.
+
+    The Stokes sums are evaluated at their sources (the nodes among them, with no
+    strength if need be): fmm3d's Stokes method with separate targets costs about
+    twice as much here.  The Laplace sums take the nodes as targets (cheaper)."""
 
     def __init__(self, x: np.ndarray, wall: Wall, precision: float):
         self.Q, self.precision = wall.Q, precision
         #: the nodes in the wall's frame, their heights and their images
         self.y = stokes_kernels.to_frame(wall.Q, wall.point, x)
         self.h = self.y[:, 2].copy()
-        self.star = _columns(self.y * _MIRROR)
-        self.targets = _columns(self.y)
+        self.star = self.y * _MIRROR
         self.n = len(self.y)
 
     def _to_frame(self, v):
         return stokes_kernels.to_frame(self.Q, None, np.reshape(v, (-1, 3)))
 
-    def _stokes(self, gradient=False, nd=1, twice=False, **sources):
-        """fmm3d's Stokes sums of ``sources`` at the images (at each image ``twice``:
-        two sets of strengths at the same points) on the nodes: the velocity
-        (nd, 3, N), or with ``gradient`` its gradient (nd, k, a, N)."""
+    def _stokes(self, copies=1, gradient=False, nd=1, **sources):
+        """fmm3d's Stokes sums of ``sources`` given at the nodes and then at the images
+        ``copies`` times over (strengths (…, (1 + copies) N, 3)), on the nodes: the
+        velocity (nd, 3, N), or with ``gradient`` its gradient (nd, k, a, N)."""
         import fmm3dpy
 
-        star = np.concatenate([self.star, self.star], axis=1) if twice else self.star
+        points = np.concatenate([self.y] + [self.star] * copies)
         out = fmm3dpy.stfmm3d(
             eps=self.precision,
-            sources=np.ascontiguousarray(star),
-            targets=self.targets,
-            ifppregtarg=3 if gradient else 1,
+            sources=_columns(points),
+            ifppreg=3 if gradient else 1,
             nd=nd,
             **{k: _columns(v) for k, v in sources.items()},
         )
         if gradient:
-            return np.reshape(out.gradtarg, (nd, 3, 3, self.n))
-        return np.reshape(out.pottarg, (nd, 3, self.n))
+            return np.reshape(out.grad, (nd, 3, 3, -1))[..., : self.n]
+        return np.reshape(out.pot, (nd, 3, -1))[..., : self.n]
 
     def _laplace(self, dipoles, nd=1):
         """fmm3d's Laplace dipole sums at the images on the nodes: their gradients
@@ -87,51 +91,59 @@ class FmmImages:
 
         out = fmm3dpy.lfmm3d(
             eps=self.precision,
-            sources=self.star,
+            sources=_columns(self.star),
             dipvec=_columns(dipoles),
-            targets=self.targets,
+            targets=_columns(self.y),
             pgt=3,
             nd=nd,
         )
         hessians = _hessians(np.reshape(out.hesstarg, (nd, 6, self.n)))
         return np.reshape(out.gradtarg, (nd, 3, self.n)), hessians
 
-    def _sources(self, F):
-        """The images' Stokeslets, doublets and potential dipoles of the forces F (frame)."""
-        DF = F * _MIRROR
-        return -F, self.h[:, None] * _E3, DF, (self.h**2)[:, None] * DF
+    def _sources(self, F, free):
+        """The Stokeslets (the nodes' if ``free``, the images') and the images'
+        doublets and potential dipoles of the forces F (frame)."""
+        DF, zero = F * _MIRROR, np.zeros_like(F)
+        stokeslets = np.concatenate([F if free else zero, -F])
+        sigma = np.concatenate([zero, self.h[:, None] * _E3])
+        return stokeslets, sigma, np.concatenate([zero, DF]), (self.h**2)[:, None] * DF
 
-    def velocity(self, forces: np.ndarray) -> np.ndarray:
+    def velocity(self, forces: np.ndarray, free: bool = False) -> np.ndarray:
         """The images' velocity (times μ) at every node, (N, 3)."""
-        stokeslet, sigma, v, dipole = self._sources(self._to_frame(forces))
+        stokeslet, sigma, v, dipole = self._sources(self._to_frame(forces), free)
         u = self._stokes(stoklet=stokeslet, doublet=sigma, doubvec=v)[0].T
         return (u + self._laplace(dipole)[0][0].T) @ self.Q
 
-    def gradient(self, forces: np.ndarray) -> np.ndarray:
+    def gradient(self, forces: np.ndarray, free: bool = False) -> np.ndarray:
         """``∂u_a/∂x_k`` of the images' velocity (times μ) at every node, (N, k, a)."""
-        stokeslet, sigma, v, dipole = self._sources(self._to_frame(forces))
-        g = self._stokes(True, stoklet=stokeslet, doublet=sigma, doubvec=v)[0]
+        stokeslet, sigma, v, dipole = self._sources(self._to_frame(forces), free)
+        g = self._stokes(gradient=True, stoklet=stokeslet, doublet=sigma, doubvec=v)[0]
         g = np.moveaxis(g, -1, 0) + self._laplace(dipole)[1][0]
         return np.einsum("ki,nkl,lj->nij", self.Q, g, self.Q)
 
-    def source_motion(self, forces: np.ndarray, dx: np.ndarray) -> np.ndarray:
+    def source_motion(self, forces: np.ndarray, dx: np.ndarray, free: bool = False) -> np.ndarray:
         """The images' velocity change (times μ) at every node when the sources move
         by ``dx`` (N, 3) at fixed forces and targets, (N, 3)."""
         F, dy = self._to_frame(forces), self._to_frame(dx)
         DF, w, dh, h = F * _MIRROR, dy * _MIRROR, dy[:, 2:], self.h[:, None]
-        # doublets at fixed strength: the Stokeslet's motion, the doublet's height
+        # doublets at fixed strength: the free Stokeslets' motion (∂_y S = 4π doublet),
+        # the images' Stokeslets' motion, the doublets' height
         u = self._stokes(
-            twice=True,
-            doublet=np.concatenate([-0.5 * F, dh * _E3]),
-            doubvec=np.concatenate([w, DF]),
+            copies=2,
+            doublet=np.concatenate([0.5 * F if free else 0 * F, -0.5 * F, dh * _E3]),
+            doubvec=np.concatenate([dy, w, DF]),
         )[0].T
         # the potential dipole: its height (one density), its position (three)
         dipoles = np.stack([2 * h * dh * DF] + [h**2 * w[:, [b]] * DF for b in range(3)])
         gradients, hessians = self._laplace(dipoles, nd=4)
         u += gradients[0].T - np.einsum("bnba->na", hessians[1:])
         # the doublet's position: three densities of doublets, their gradients
+        zero = np.zeros((3, self.n, 3))
         sigma = np.stack([h * w[:, [b]] * _E3 for b in range(3)])
-        g = self._stokes(True, 3, doublet=sigma, doubvec=np.stack([DF] * 3))
+        vectors = np.concatenate([zero, np.stack([DF] * 3)], axis=1)
+        g = self._stokes(
+            gradient=True, nd=3, doublet=np.concatenate([zero, sigma], axis=1), doubvec=vectors
+        )
         u -= np.einsum("bban->na", g)  # Σ_b ∂_b U_b: g[b, k, a, n] at k = b
         return u @ self.Q
 

@@ -7,7 +7,8 @@ The mid-surface is a single layer of regularized Stokeslets.  Two discretisation
   element cut ``2^refine`` times (``rftfem.model.stokes_layer``), the kernel
   integrated over each element, no slip at the grid's nodes, consistent nodal loads;
 - ``"blobs"``: point forces at the displacement nodes with blobs of the spacing
-  (``rftfem.model.stokeslets``; the matrix-free ``operator = "fmm"`` needs them).
+  (``rftfem.model.stokeslets``; the matrix-free operators ``"direct"`` and
+  ``"fmm"`` need them).
 
 Either way a step's nodal loads are a resistance applied to the nodes' velocities
 ``v(u)`` of the time scheme, ``F = R(x) v(u)``, ``x = X + u``: the force the body
@@ -22,10 +23,11 @@ resistance of one configuration, are ``stokes_operators``'s; the wall's gap chec
 ``stokes_wall``'s.
 
 Every process holds the whole body's nodes (gathered in rank order); each
-evaluates the kernel for its share of the rows (the matrix's rows, gathered, and the
-position derivative's, kept) and makes the same dense factorisation; each adds
-the forces of the nodes it owns.  The matrix-free operator runs on the first
-process only, threaded, and its results are broadcast.
+evaluates the kernel for its share of the rows (the matrix's and the position
+derivative's, kept) and the processes factorise the matrix together
+(``rftfem.model.dense_factors``); each adds the forces of the nodes it owns.  The
+direct sums are shared out by rows too; the fast multipoles run on the first
+process only, threaded, and their results are broadcast.
 """
 
 from __future__ import annotations
