@@ -21,7 +21,7 @@
   ``edge_weight``, ``layer_resistance``, ``stokes_kernels``, ``stokes_images``),
   the direct sums (``stokes_direct``, ``stokes_direct_derivative``,
   ``stokes_pairs``), the matrix-free path
-  (``stokes_fmm``, ``stokes_matrix_free``), ``dense_factors`` (the dense
+  (``stokes_fmm`` with ``stokes_fmm_wall``, ``stokes_matrix_free``), ``dense_factors`` (the dense
   operators' factors, ScaLAPACK's under MPI) and ``stokes_report`` (its cost and
   error).
 """
