@@ -42,6 +42,7 @@ from rftfem.model import dense_factors
 from matrices import matrix
 
 comm = MPI.COMM_WORLD
+dense_factors.SHARED_FROM_ROWS = 0  # (a small matrix: shared all the same)
 for kind, symmetric in (("spd", True), ("indefinite", True), ("general", False)):
     A = matrix(kind)
     n = len(A)

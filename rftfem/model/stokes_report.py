@@ -79,7 +79,7 @@ def admit(
     the grid's nodes (the blobs': the shell's); ``points_a_row``: quadrature points each
     row sums over (the layer)."""
     n3 = 3 * rows
-    if dense_factors.shared(processes):
+    if dense_factors.shared(processes, n3):
         # each process's share of: its rows, their copy handed to ScaLAPACK, the
         # factors, the layer's kept factors, the derivative's rows
         memory = 8 * n3 * n3 * (5 if method == "layer" else 4) / processes
@@ -120,7 +120,7 @@ def update_cost(
     rates: ``(factorisation, kernels)`` (the matrix and its derivative)."""
     lu, pair = _rates()
     factor = (2 / 3 if method == "layer" else 1 / 3) * (3 * rows) ** 3 / lu
-    if dense_factors.shared(processes):
+    if dense_factors.shared(processes, 3 * rows):
         factor /= processes  # (ScaLAPACK: 1.7 to 1.8 times faster on two processes)
     return factor, 2.5 * rows * points_a_row * pair / processes
 
