@@ -19,12 +19,9 @@ import numpy as np
 
 from rftfem.model import stokes_kernels as kernels
 from rftfem.model.stokes_direct import _mobility_matrix
+from rftfem.model.stokeslets import _bounds
 
 _JIT = dict(cache=True)
-
-
-def _bounds(rows: slice | None, n: int) -> tuple[int, int]:
-    return (0, n) if rows is None else (rows.start, rows.stop)
 
 
 def mobility_rows(
