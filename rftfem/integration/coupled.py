@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from petsc4py import PETSc
 
+from rftfem.integration.weak_callbacks import WeakContext
 from rftfem.model.ranks import gather_rows
 
 if TYPE_CHECKING:
@@ -48,7 +49,7 @@ class CoupledTangent:
         self.unknowns = [np.asarray(c.unknowns) for c in components]
         self.lumped = [np.zeros((self.n_owned, len(k), len(k))) for k in self.unknowns]
         sizes = A.getSizes()
-        self.J = PETSc.Mat().createPython(sizes, self, comm=A.getComm())
+        self.J = PETSc.Mat().createPython(sizes, WeakContext(self), comm=A.getComm())
         self.J.setUp()
 
     def update(self, exact: bool = False) -> None:

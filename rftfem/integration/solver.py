@@ -26,6 +26,7 @@ from rftfem.integration import coupled
 from rftfem.integration.assembly import StepAssembly
 from rftfem.integration.convergence import NewtonTest
 from rftfem.integration.factorization import Factorization
+from rftfem.integration.weak_callbacks import weak_method
 from rftfem.model.effects.base import LimitsNewtonStep
 
 if TYPE_CHECKING:
@@ -106,9 +107,11 @@ class StepSolver(StepAssembly, NewtonTest):
         petsc_options.apply(options)
         self.snes = PETSc.SNES().create(model.comm)
         self.snes.setOptionsPrefix(petsc_options.PREFIX)
-        self.snes.setFunction(self._residual, self.b)
-        self.snes.setJacobian(self._jacobian, self.coupled.J if self.coupled else self.A, self.A)
-        self.snes.setConvergenceTest(self._converged)
+        # (weak: the SNES would otherwise keep this solver and its model alive)
+        self.snes.setFunction(weak_method(self._residual), self.b)
+        J = self.coupled.J if self.coupled else self.A
+        self.snes.setJacobian(weak_method(self._jacobian), J, self.A)
+        self.snes.setConvergenceTest(weak_method(self._converged))
 
     def _set_snes_options(self) -> None:
         """The SNES and its KSP read the options (a SceneError for one PETSc rejects);
@@ -122,7 +125,7 @@ class StepSolver(StepAssembly, NewtonTest):
                 f"line: {petsc_options.petsc_message(exc)}"
             ) from None
         if self._step_limits:  # after setFromOptions, which makes the line search anew
-            self.snes.setLineSearchPreCheck(self._limit_update)
+            self.snes.setLineSearchPreCheck(weak_method(self._limit_update))
 
     def destroy(self) -> None:
         petsc_options.clear(self.options)

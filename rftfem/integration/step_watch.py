@@ -25,6 +25,7 @@ import time as _time
 from typing import TYPE_CHECKING
 
 from rftfem.errors import RunInterrupted
+from rftfem.integration.weak_callbacks import weak_method
 
 if TYPE_CHECKING:
     from mpi4py import MPI
@@ -72,7 +73,7 @@ class StepWatch:
         calls :meth:`krylov`."""
         solver.watch = self
         if solver.coupled is not None:
-            solver.snes.getKSP().setMonitor(lambda ksp, its, rnorm: self.krylov(its, rnorm))
+            solver.snes.getKSP().setMonitor(weak_method(self._krylov_monitor))
 
     def start(self, t: float, step: int) -> None:
         """A step's attempt begins (toward time ``t``)."""
@@ -85,6 +86,9 @@ class StepWatch:
     def newton(self, it: int, residual: float) -> None:
         self.newton_its, self.krylov_its, self.residual = it, 0, residual
         self._check()
+
+    def _krylov_monitor(self, ksp, it: int, residual: float) -> None:
+        self.krylov(it, residual)
 
     def krylov(self, it: int, residual: float) -> None:
         self.krylov_its = it
