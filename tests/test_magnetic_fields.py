@@ -253,6 +253,31 @@ def test_dipole_force_and_couple_on_a_small_plate(plate_model, source, distance)
     assert et < 13 * (PLATE_A / distance) ** 2
 
 
+@pytest.mark.parametrize("distance", [0.7, 4.5e61, 1e110, 1e200])
+def test_a_far_dipole_gives_a_small_field_not_nan(distance):
+    """The source's own field (numpy: scales, probes) at a distance d along a tilted
+    direction: the closed form within 1e-15 where d³ is a float (the fuzzer put a
+    magnet's path 4.5e61 away, where the old ``r⁵`` overflowed to inf/inf), exactly 0
+    beyond, and no floating-point warning.  Broke: the old 3 r (r·m)/r⁵ − m/r³ → nan
+    and an overflow warning at 4.5e61 and beyond."""
+    import warnings
+
+    from rftfem.model.magnetic_sources import dipole_field as source_field
+
+    m_s = np.array([0.3, -0.5, 1.2])
+    n = np.array([0.6, 0.0, 0.8])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        B = source_field(distance * n[None, :], m_s)[0]
+    exact = 1e-7 * (3 * n * (n @ m_s) - m_s) / distance**3 if distance < 5e102 else 0.0
+    print(f"d = {distance:.3g}: B = {B}, exact {exact}")
+    assert np.all(np.isfinite(B))
+    if distance < 5e102:
+        assert np.abs(B - exact).max() < 1e-15 * np.abs(exact).max()
+    else:
+        assert np.all(B == 0.0)
+
+
 # ------------------------------------------------------------------ gradient force
 
 GRADIENT_PLATE = """

@@ -17,6 +17,7 @@ over the body, for scales and messages.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -104,7 +105,25 @@ def build(model: Model) -> tuple[dict, dict]:
     if shell.get("material") == "orthotropic":
         fields["fibre"] = _fibre(model)
         _check_poisson_field(model)
+    _check_stiffness_finite(ranges)
     return fields, ranges
+
+
+def _check_stiffness_finite(ranges: dict) -> None:
+    """The largest modulus and thickness give a finite bending stiffness ``E t³``
+    (docs/model.md §3.3): past double precision's 1.8e308 the tangent holds inf and
+    Newton fails without naming the cause."""
+    E = max(ranges[k][1] for k in ("E", "E1", "E2") if k in ranges)
+    t = ranges["thickness"][1]
+    try:
+        stiffness = E * t**3  # (floats: ** raises where * gives inf)
+    except OverflowError:
+        stiffness = math.inf
+    if not math.isfinite(stiffness):
+        raise SceneError(
+            f"shell: the bending stiffness E t³ overflows double precision (E up to "
+            f"{E:.4g}, thickness up to {t:.4g}); check the units of E and thickness"
+        )
 
 
 def nodal_values(model: Model, key: str, V: dolfinx.fem.FunctionSpace) -> np.ndarray:
