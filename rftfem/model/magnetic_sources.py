@@ -292,7 +292,8 @@ class NonuniformField:
         if not self.dipole:
             return
         p = self.position(0.0)
-        near = float(np.linalg.norm(nodes - p, axis=1).min()) if len(nodes) else math.inf
+        with np.errstate(over="ignore"):  # a magnet 1e154 away: inf, and outside
+            near = float(np.linalg.norm(nodes - p, axis=1).min()) if len(nodes) else math.inf
         near = comm.allreduce(near, op=_min_op())
         if near < 0.5 * size:
             key = "path" if self.field["path"] is not None else "position"
